@@ -1,0 +1,7 @@
+"""``choreo scan``, ``choreo servo``, ``choreo emulate``."""
+
+from __future__ import annotations
+
+
+def register(subparsers) -> None:
+    pass

@@ -1,0 +1,54 @@
+"""The whole exception tree of choreo.
+
+Bad arguments to a function are plain ``ValueError`` (naming the field and its valid range).
+Everything a user can run into at the edges is a ``ChoreoError``; the CLI prints its message as
+one line and exits 1.
+"""
+
+from __future__ import annotations
+
+
+class ChoreoError(Exception):
+    """Base of every error choreo reports to a user."""
+
+
+# --- the bus -----------------------------------------------------------------------------------
+class BusError(ChoreoError):
+    """Something went wrong talking to the servo bus."""
+
+
+class PortError(BusError):
+    """The serial port could not be opened or was lost."""
+
+
+class BusTimeoutError(BusError, TimeoutError):
+    """A servo did not answer in time (after all retries)."""
+
+
+class ProtocolError(BusError):
+    """Bytes arrived that are not the expected reply (bad checksum, wrong length, wrong id)."""
+
+
+class ServoFault(BusError):
+    """A servo reports or shows a fault: over-temperature, voltage out of range, stall."""
+
+
+# --- files, plans, previews, playback ----------------------------------------------------------
+class SourceError(ChoreoError):
+    """One or more problems in robot or motion files; each message starts ``path:line:col:``."""
+
+    def __init__(self, problems: list[str] | str):
+        self.problems = [problems] if isinstance(problems, str) else list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+class PlanningError(ChoreoError):
+    """A motion cannot be planned within the robot's limits."""
+
+
+class PreviewError(ChoreoError):
+    """Simulation or rendering failed, or a check found a problem."""
+
+
+class PlaybackAborted(ChoreoError):
+    """Playback stopped for safety (fault, lost servo, position error)."""

@@ -1,0 +1,68 @@
+"""Servo model specifications and the defaults derived from them (one table, overridable).
+
+Source: ``shared/docs/servo-models.md``. Velocity limit for planning = 80 % of no-load speed;
+acceleration and jerk have no vendor figure (3000 °/s², 30000 °/s³ as a starting point).
+MuJoCo actuator: forcerange = ± stall torque, damping = stall / no-load speed,
+kp = stall / 0.105 rad (saturates at ~6° of error), armature 0.005 kg·m².
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+UNITS_PER_DEG = 1000 / 240  # 0.24° per position unit
+DEG_PER_UNIT = 240 / 1000
+POSITION_RANGE_UNITS = (0, 1000)
+KGCM_TO_NM = 0.0981
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    name: str
+    stall_torque_nm: float
+    no_load_speed_deg_s: float
+    vin_range_mv: tuple[int, int]  # rated supply
+    answers_wait_read: bool = True  # cmd 8 MOVE_TIME_WAIT_READ
+    answers_dis_read: bool = True  # cmd 48 DIS_READ
+    acc_limit_deg_s2: float = 3000.0
+    jerk_limit_deg_s3: float = 30000.0
+    armature_kg_m2: float = 0.005
+
+    @property
+    def vel_limit_deg_s(self) -> float:
+        return 0.8 * self.no_load_speed_deg_s
+
+    @property
+    def damping_nm_s_rad(self) -> float:
+        return self.stall_torque_nm / math.radians(self.no_load_speed_deg_s)
+
+    @property
+    def kp_nm_rad(self) -> float:
+        return self.stall_torque_nm / 0.105
+
+
+SERVO_MODELS: dict[str, ServoModel] = {
+    m.name: m
+    for m in (
+        ServoModel("LX-16A", 17 * KGCM_TO_NM, 60 / 0.16, (6000, 8400),
+                   answers_wait_read=False, answers_dis_read=False),
+        ServoModel("LX-224HV", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
+        ServoModel("LX-824HV", 17 * KGCM_TO_NM, 60 / 0.20, (9000, 12600)),
+        ServoModel("HTD-35H", 35 * KGCM_TO_NM, 60 / 0.18, (9000, 12600)),
+        # Not confirmed by the vendor: treated as LX-224HV-like until measured.
+        ServoModel("LX-224", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
+        ServoModel("LX-225", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
+        ServoModel("LX-15D", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
+    )
+}
+
+
+def servo_model(name: str) -> ServoModel:
+    """The model called ``name``; ``ValueError`` listing the known models otherwise."""
+    try:
+        return SERVO_MODELS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown servo model {name!r}; known models: {', '.join(SERVO_MODELS)}"
+        ) from None
