@@ -1,0 +1,7 @@
+"""``choreo plan``."""
+
+from __future__ import annotations
+
+
+def register(subparsers) -> None:
+    pass
