@@ -299,6 +299,21 @@ class PacketDecoder:
         del self._buffer[:count]
 
 
+def parse_ids(text: str) -> tuple[int, ...]:
+    """Servo IDs from ``"1-6,9,12-14"``, sorted and unique; ``ValueError`` saying what is valid."""
+    ids: set[int] = set()
+    for part in text.replace(" ", "").split(","):
+        low, _, high = part.partition("-")
+        try:
+            first, last = int(low), int(high or low)
+        except ValueError:
+            raise ValueError(f"servo IDs must look like '1-6,9', got {text!r}") from None
+        if not 0 <= first <= last <= MAX_SERVO_ID:
+            raise ValueError(f"servo IDs must be in 0..{MAX_SERVO_ID} with low <= high, got {part!r}")
+        ids.update(range(first, last + 1))
+    return tuple(sorted(ids))
+
+
 def _command_or_int(value: int) -> int:
     try:
         return Command(value)

@@ -19,6 +19,7 @@ from choreo.protocol import (
     encode_packet,
     encode_reply,
     encode_request,
+    parse_ids,
 )
 
 C = Command
@@ -194,3 +195,11 @@ def test_a_corrupted_byte_never_passes(packet, index, flip):
 
 def test_encode_packet_frames_raw_params():
     assert encode_packet(1, 28) == bytes.fromhex("55 55 01 03 1C DF")
+
+
+def test_parse_ids():
+    assert parse_ids("1-3, 9,2") == (1, 2, 3, 9)
+    assert parse_ids("253") == (253,)
+    for bad, message in [("0-254", "0..253"), ("5-2", "low <= high"), ("a", "look like")]:
+        with pytest.raises(ValueError, match=message):
+            parse_ids(bad)
