@@ -6,10 +6,16 @@ in the robot's joint order) and where it was written, so later stages can point 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Mapping
 
-from .robot import Robot, SourceLocation
+import yaml
+
+from .errors import SourceError
+from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
+from .yamlsource import (Entry, Node, Problems, Reader, SourceLocation, describe, did_you_mean,
+                         fmt, parse_yaml_file)
 
 
 @dataclass(frozen=True)
@@ -33,3 +39,310 @@ class Motion:
     description: str = ""
     speed: float = 1.0  # time scale: 2.0 plays twice as fast
     repeat: int = 1  # times to play; the planner wraps seamlessly from the last keyframe to the first
+
+
+# --- reading motion files ----------------------------------------------------------------------
+
+MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "keyframes")
+KEYFRAME_KEYS = ("pose", "t", "after", "hold", "stop", "velocity")
+INCLUDE_KEYS = ("include", "mirror", "t", "after")
+HOME_POSE = "home"
+
+
+@dataclass(frozen=True)
+class _Step:
+    """A keyframe as written, before partial poses are filled in: only the joints it names."""
+
+    angles_deg: Mapping[str, float]
+    where: SourceLocation
+    t_s: float | None
+    after_s: float | None
+    hold_s: float
+    stop: bool
+    velocity_scale: float
+    label: str
+    t_where: SourceLocation | None  # where its t was written, while it still has one
+
+
+@dataclass(frozen=True)
+class _Include:
+    """One link of an include chain: the file and the include entry that brought it in."""
+
+    path: Path
+    entry: SourceLocation | None  # None for the motion file itself
+
+
+def load_motion(path: str | Path) -> Motion:
+    """Read a motion file and its robot; expand includes; fill partial poses.
+
+    Every problem of the file, its includes and its robot is reported at once in one
+    ``SourceError`` whose messages start ``path:line:col:``.
+    """
+    path = Path(path)
+    problems = Problems()
+    motion = _read_motion(Reader(path, problems), parse_yaml_file(path))
+    if motion is None or problems.messages:
+        raise SourceError(problems.messages)
+    return motion
+
+
+def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
+    fields = _motion_fields(reader, root)
+    if fields is None:
+        return None
+    robot = _load_robot_of(reader, fields["robot"]) if "robot" in fields else None
+    name = reader.string(fields["name"].value, "name") if "name" in fields else reader.path.stem
+    description = reader.string(fields["description"].value, "description") \
+        if "description" in fields else ""
+    speed = reader.number(fields["speed"].value, "speed", low=0, low_open=True) \
+        if "speed" in fields else 1.0
+    repeat = reader.integer(fields["repeat"].value, "repeat", low=1) if "repeat" in fields else 1
+    if robot is None or "keyframes" not in fields:
+        return None
+    chain = (_Include(reader.path, None),)
+    steps = _read_steps(reader, fields["keyframes"], robot, chain)
+    if None in (name, description, speed, repeat) or reader.problems.messages:
+        return None
+    return Motion(name=name, path=reader.path, robot=robot, keyframes=_fill_poses(robot, steps),
+                  description=description, speed=speed, repeat=repeat)
+
+
+def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None:
+    if root is None:
+        reader.problems.add(SourceLocation(reader.path, 1, 1),
+                            "the file is empty; a motion needs robot and keyframes")
+        return None
+    return reader.fields(root, "the motion file", MOTION_KEYS, required=("robot", "keyframes"))
+
+
+def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
+    robot_path = _find_robot_of(reader, entry)
+    if robot_path is None:
+        return None
+    try:
+        return load_robot(robot_path)
+    except SourceError as error:
+        reader.report(entry.value, f"robot {robot_path} has problems (listed after this line); "
+                                   f"fix them first")
+        reader.problems.extend(error.problems)
+        return None
+
+
+def _find_robot_of(reader: Reader, entry: Entry) -> Path | None:
+    ref = reader.string(entry.value, "robot")
+    if ref is None:
+        return None
+    try:
+        return find_robot_file(ref, relative_to=reader.path)
+    except LookupError as error:
+        reader.report(entry.value, str(error))
+        return None
+
+
+def _read_steps(reader: Reader, entry: Entry, robot: Robot,
+                chain: tuple[_Include, ...]) -> list[_Step]:
+    items = reader.sequence(entry.value, "keyframes")
+    if items is None:
+        return []
+    if not items:
+        reader.report(entry.key_node, "keyframes: the motion has no keyframes; give at least one")
+    steps: list[_Step] = []
+    for item in items:
+        if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
+            steps.extend(_read_include(reader, item, robot, chain))
+        else:
+            step = _read_keyframe(reader, item, robot)
+            steps += [step] if step is not None else []
+    _check_times(reader, steps)
+    return steps
+
+
+def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
+    fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS, required=("pose",))
+    if fields is None or "pose" not in fields:
+        return None
+    pose = _read_pose(reader, fields["pose"].value, robot)
+    timing = _read_timing(reader, fields)
+    hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
+    stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
+    velocity = reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True) \
+        if "velocity" in fields else 1.0
+    if hold_s and stop is False:
+        reader.report(fields["stop"].value, f"stop: false contradicts hold {fmt(hold_s)}: a hold "
+                                            f"always comes to rest; remove stop: false")
+    if pose is None or timing is None or hold_s is None or velocity is None or \
+            "stop" in fields and stop is None:
+        return None
+    angles, label = pose
+    t_where = reader.where(fields["t"].value) if "t" in fields else None
+    return _Step(angles, reader.where(item), *timing, hold_s=hold_s, stop=bool(stop or hold_s),
+                 velocity_scale=velocity, label=label, t_where=t_where)
+
+
+def _read_timing(reader: Reader, fields: dict[str, Entry]) -> tuple[float | None, float | None] | None:
+    """(t_s, after_s) of a keyframe or include entry; None if refused (reported)."""
+    if "t" in fields and "after" in fields:
+        later = max(fields["t"], fields["after"], key=lambda e: e.key_node.start_mark.index)
+        reader.report(later.key_node, "give at most one of t (arrival time from the motion "
+                                      "start) and after (delay after the previous keyframe); "
+                                      "remove one")
+        return None
+    t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
+    after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
+    if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
+        return None
+    return t_s, after_s
+
+
+def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float], str] | None:
+    """A pose name or a (partial) ``joint: degrees`` mapping, with its label."""
+    if isinstance(node, yaml.ScalarNode) and node.tag.endswith(":str"):
+        if node.value in robot.poses:
+            return dict(robot.poses[node.value]), node.value
+        reader.report(node, f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
+                            f"robot {robot.name!r} has poses {', '.join(robot.poses)}, or give "
+                            f"joint angles as {{joint: degrees}}")
+        return None
+    if not isinstance(node, yaml.MappingNode):
+        reader.report(node, f"pose must be a pose name ({', '.join(robot.poses)}) or a mapping "
+                            f"joint: degrees, got {describe(node)}")
+        return None
+    angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
+    if angles is None or None in angles.values():
+        return None
+    return angles, ""
+
+
+def _read_include(reader: Reader, item: Node, robot: Robot,
+                  chain: tuple[_Include, ...]) -> list[_Step]:
+    fields = reader.fields(item, "an include entry", INCLUDE_KEYS, required=("include",))
+    relative = reader.string(fields["include"].value, "include")
+    mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
+    timing = _read_timing(reader, fields)
+    if relative is None or mirror is None or timing is None:
+        return []
+    path = reader.path.parent / relative
+    link = _Include(path, reader.where(fields["include"].value))
+    if any(path.resolve() == earlier.path.resolve() for earlier in chain):
+        files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
+        reader.report(fields["include"].value, f"include cycle: {files}; a motion cannot "
+                                               f"include itself, directly or through others")
+        return []
+    if not path.is_file():
+        reader.report(fields["include"].value, f"include: {path} does not exist (paths are "
+                                               f"relative to this file's folder)")
+        return []
+    t_where = reader.where(fields["t"].value) if "t" in fields else None
+    steps = _block(reader, _read_included(reader.problems, robot, (*chain, link)), timing, t_where)
+    if mirror:
+        steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
+    return steps
+
+
+def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]) -> list[_Step]:
+    """The steps of an included file, whose robot must be ``robot``; no speed or repeat."""
+    link = chain[-1]
+    reader = Reader(link.path, problems)
+    try:
+        fields = _motion_fields(reader, parse_yaml_file(link.path))
+    except SourceError as error:
+        problems.extend(error.problems)
+        return []
+    if fields is None:
+        return []
+    for key in ("name", "description"):
+        if key in fields:
+            reader.string(fields[key].value, key)
+    for key in ("speed", "repeat"):
+        if key in fields:
+            reader.report(fields[key].key_node, f"{key} is not allowed in an included file "
+                                                f"(included at {link.entry}): the including "
+                                                f"motion's {key} applies; remove it")
+    robot_path = _find_robot_of(reader, fields["robot"]) if "robot" in fields else None
+    if robot_path is not None and robot_path.resolve() != robot.path.resolve():
+        reader.report(fields["robot"].value,
+                      f"an included file must use the including motion's robot "
+                      f"{robot.name!r} ({robot.path}), not {robot_path} (included at {link.entry})")
+        return []
+    if robot_path is None or "keyframes" not in fields:
+        return []
+    return _read_steps(reader, fields["keyframes"], robot, chain)
+
+
+def _block(reader: Reader, steps: list[_Step], timing: tuple[float | None, float | None],
+           t_where: SourceLocation | None) -> list[_Step]:
+    """Included steps as a block: its t values become after delays (keeping their spacing), and
+    the include entry's timing, if any, replaces the first step's (``t_where``: its t's place).
+
+    The included file's time starts when the keyframe before the include is left; an untimed
+    first step is the origin of its t values.
+    """
+    block: list[_Step] = []
+    arrival_s: float | None = 0.0  # the previous step's time in the included file, if known
+    for index, step in enumerate(steps):
+        if index == 0:
+            arrival_s = step.t_s if step.t_s is not None else step.after_s or 0.0
+            own = step.t_s if step.t_s is not None else step.after_s
+            t_s, after_s = timing if timing != (None, None) else (None, own)
+            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where))
+            continue
+        previous = steps[index - 1]
+        if step.t_s is None:
+            arrival_s = None if arrival_s is None or step.after_s is None else \
+                arrival_s + previous.hold_s + step.after_s
+            block.append(step)
+        elif arrival_s is None:
+            reader.problems.add(step.t_where, "t in an included file becomes an after delay, so "
+                                              f"the keyframe before it ({previous.where}) needs a "
+                                              "t or after too; give it one, or use after here")
+        else:
+            after_s = step.t_s - arrival_s - previous.hold_s
+            block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
+            arrival_s = step.t_s
+    return block
+
+
+def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot,
+                  steps: list[_Step]) -> list[_Step]:
+    """Steps mirrored with the robot's mirror pairs; mirrored angles must be inside the limits."""
+    if not robot.mirror_pairs:
+        reader.report(mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' "
+                                   f"to {robot.path}")
+        return steps
+    mirrored: list[_Step] = []
+    for step in steps:
+        angles = mirror_pose(robot, step.angles_deg)
+        for name, angle in angles.items():
+            limits = robot.joint(name).limits
+            if not limits.min_deg <= angle <= limits.max_deg:
+                reader.report(mirror_node, f"mirror: the keyframe at {step.where} mirrored puts "
+                                           f"{name} at {fmt(angle)}°, outside its limits "
+                                           f"{fmt(limits.min_deg)}..{fmt(limits.max_deg)}°")
+        mirrored.append(replace(step, angles_deg=angles, label=""))
+    return mirrored
+
+
+def _check_times(reader: Reader, steps: list[_Step]) -> None:
+    """t values increase along the file, counting the holds and after delays in between."""
+    leave_s = 0.0  # the earliest time the previous keyframe can be left
+    for index, step in enumerate(steps):
+        if step.t_s is not None and index > 0 and step.t_s <= leave_s:
+            reader.problems.add(step.t_where, f"t {fmt(step.t_s)} goes backwards: the keyframe "
+                                              f"before it ({steps[index - 1].where}) cannot be "
+                                              f"left before {fmt(leave_s)} s; t values must "
+                                              f"increase along the file")
+        arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
+        leave_s = max(arrival_s, leave_s) + step.hold_s
+
+
+def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
+    """Full target vectors: a joint not named keeps its previous target (home at first)."""
+    current = dict(robot.poses[HOME_POSE])
+    keyframes = []
+    for step in steps:
+        current.update(step.angles_deg)
+        keyframes.append(Keyframe(
+            targets_deg=tuple(current[name] for name in robot.joint_names), where=step.where,
+            t_s=step.t_s, after_s=step.after_s, hold_s=step.hold_s, stop=step.stop,
+            velocity_scale=step.velocity_scale, label=step.label))
+    return tuple(keyframes)
