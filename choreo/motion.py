@@ -81,7 +81,7 @@ def load_motion(path: str | Path) -> Motion:
     path = Path(path)
     problems = Problems()
     motion = _read_motion(Reader(path, problems), parse_yaml_file(path))
-    if motion is None or problems.messages:
+    if motion is None or problems:
         raise SourceError(problems.messages)
     return motion
 
@@ -101,7 +101,7 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         return None
     chain = (_Include(reader.path, None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
-    if None in (name, description, speed, repeat) or reader.problems.messages:
+    if None in (name, description, speed, repeat) or reader.problems:
         return None
     return Motion(name=name, path=reader.path, robot=robot, keyframes=_fill_poses(robot, steps),
                   description=description, speed=speed, repeat=repeat)
@@ -200,7 +200,7 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
         if node.value in robot.poses:
             return dict(robot.poses[node.value]), node.value
         reader.report(node, f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
-                            f"robot {robot.name!r} has poses {', '.join(robot.poses)}, or give "
+                            f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
                             f"joint angles as {{joint: degrees}}")
         return None
     if not isinstance(node, yaml.MappingNode):

@@ -137,7 +137,7 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
     """
     base = relative_to.parent if relative_to is not None else Path()
     if is_robot_path(ref):
-        path = base / ref
+        path = Path(os.path.normpath(base / ref))  # "parts/../models/x" reads badly in messages
         path = path / ROBOT_FILE if path.is_dir() else path
         if not path.is_file():
             raise LookupError(f"robot file {str(ref)!r} not found (looked for {path})")
@@ -184,7 +184,7 @@ def load_robot(path_or_name: str | Path, *, relative_to: Path | None = None) -> 
         raise SourceError(str(error)) from None
     problems = Problems()
     robot = _read_robot(Reader(path, problems), parse_yaml_file(path))
-    if robot is None or problems.messages:
+    if robot is None or problems:
         raise SourceError(problems.messages)
     return robot
 
@@ -219,7 +219,7 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     mjcf_path = _model_file(reader, fields.get("mjcf"), f"{folder_name}.xml", "the MuJoCo model")
     scene_path = _model_file(reader, fields.get("scene"), "scene.xml", "the scene")
     free_floating = _check_mujoco(reader, mjcf_path, scene_path, sources, fields, poses)
-    if reader.problems.messages:
+    if reader.problems:
         return None
     return Robot(name=name, path=reader.path, joints=tuple(s.joint for s in sources), poses=poses,
                  mirror_pairs=mirror, bus=bus, mjcf_path=mjcf_path, scene_path=scene_path,
@@ -555,8 +555,8 @@ def _check_hinge(reader: Reader, model: mujoco.MjModel, file: str, joint_id: int
         low, high = model.jnt_range[joint_id]
         if max(abs(low - wanted[0]), abs(high - wanted[1])) > RANGE_TOLERANCE_RAD:
             reader.report(source.fields["min"].value,
-                          f"{what} has range {low:.4f} {high:.4f} rad ({fmt(math.degrees(low))}.."
-                          f"{fmt(math.degrees(high))}°) but the robot file says "
+                          f"{what} has range {low:.4f} {high:.4f} rad ({math.degrees(low):.1f}.."
+                          f"{math.degrees(high):.1f}°) but the robot file says "
                           f"{fmt(joint.limits.min_deg)}..{fmt(joint.limits.max_deg)}°; make them "
                           f"agree within {RANGE_TOLERANCE_RAD} rad, e.g. {wanted_words}")
 

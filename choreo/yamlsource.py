@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -43,22 +44,36 @@ class Entry:
 
 
 class Problems:
-    """Messages ``path:line:col: what is wrong and what would be valid``, collected in order."""
+    """Messages ``path:line:col: what is wrong and what would be valid``, collected."""
 
     def __init__(self) -> None:
-        self.messages: list[str] = []
+        self._lines: list[str] = []
 
     def add(self, where: SourceLocation, message: str) -> None:
-        line = f"{where}: {message}"
-        if line not in self.messages:  # a bad default is read once per joint: say it once
-            self.messages.append(line)
+        self.extend([f"{where}: {message}"])
 
-    def extend(self, messages: Iterable[str]) -> None:
-        self.messages.extend(messages)
+    def extend(self, lines: Iterable[str]) -> None:
+        for line in lines:
+            if line not in self._lines:  # a bad default is read once per joint: say it once
+                self._lines.append(line)
 
-    def raise_if_any(self) -> None:
-        if self.messages:
-            raise SourceError(self.messages)
+    @property
+    def messages(self) -> list[str]:
+        """Grouped by file (in the order files were first reported), by line:col within one."""
+        files: dict[str, int] = {}
+
+        def place(line: str) -> tuple[int, int, int]:
+            match = _PREFIX.match(line)
+            path, row, col = match.groups() if match else ("", "0", "0")
+            return files.setdefault(path, len(files)), int(row), int(col)
+
+        return sorted(self._lines, key=place)
+
+    def __bool__(self) -> bool:
+        return bool(self._lines)
+
+
+_PREFIX = re.compile(r"^(.+?):(\d+):(\d+): ")
 
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
