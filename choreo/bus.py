@@ -1,0 +1,411 @@
+"""``ServoBus``: one half-duplex LX servo bus behind any pyserial URL.
+
+The only module that opens serial ports. One lock is held across each request and its reply;
+stale input is flushed before every request; each read has a timeout and bounded retries; a reply
+is accepted only with the expected servo id, command and length, so the echo of a request (itself
+a valid packet) is never taken for its reply. ``sim://`` opens the built-in emulator.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import threading
+from dataclasses import dataclass
+from typing import Iterable
+
+import serial
+
+from . import emulator
+from .errors import BusTimeoutError, PortError, ProtocolError
+from .protocol import (
+    BROADCAST_ID,
+    SPECS,
+    Command,
+    ErrorMask,
+    PacketDecoder,
+    decode_reply,
+    encode_request,
+)
+
+log = logging.getLogger(__name__)
+
+BAUDRATE = 115200
+MAX_READS_PER_ATTEMPT = 4  # bounds the wait when unexpected packets keep arriving
+
+
+class EchoMode(enum.Enum):
+    NONE = "none"  # the adapter does not echo (vendor BusLinker, Raspberry Pi HATs)
+    DISCARD = "discard"  # one-wire wiring: every request comes back first; it is read and checked
+    AUTO = "auto"  # skip the echo of a request if it shows up
+
+
+@dataclass(frozen=True)
+class MoveTime:
+    pos_units: int
+    time_ms: int
+
+
+@dataclass(frozen=True)
+class AngleLimits:
+    min_units: int
+    max_units: int
+
+
+@dataclass(frozen=True)
+class VinLimits:
+    min_mv: int
+    max_mv: int
+
+
+@dataclass(frozen=True)
+class MotorMode:
+    motor: bool  # False: servo (position) mode
+    speed: int  # -1000..1000 duty in motor mode
+
+
+@dataclass(frozen=True)
+class ServoStatus:
+    """What ``choreo scan`` shows: facts every model answers."""
+
+    servo_id: int
+    pos_units: int
+    vin_mv: int
+    temp_c: int
+
+
+@dataclass(frozen=True)
+class ServoInfo:
+    """Every readable parameter of one servo; None where this model does not answer."""
+
+    servo_id: int
+    pos_units: int
+    move: MoveTime
+    staged_move: MoveTime | None
+    offset_units: int
+    angle_limits: AngleLimits
+    vin_limits: VinLimits
+    temp_limit_c: int
+    temp_c: int
+    vin_mv: int
+    mode: MotorMode
+    loaded: bool
+    led_on: bool
+    led_errors: ErrorMask
+    distance: int | None
+
+
+class ServoBus:
+    """A servo bus on ``port`` (a pyserial URL such as ``/dev/ttyUSB0`` or ``sim://?ids=1-6``, or
+    an already open serial object). Use as a context manager so the port is always released."""
+
+    def __init__(
+        self,
+        port: str | serial.SerialBase,
+        *,
+        timeout_s: float = 0.05,
+        retries: int = 2,
+        echo: EchoMode | str = EchoMode.AUTO,
+    ):
+        if timeout_s <= 0:
+            raise ValueError(f"timeout_s must be > 0, got {timeout_s}")
+        if retries < 0:
+            raise ValueError(f"retries must be >= 0, got {retries}")
+        self.timeout_s = timeout_s
+        self.retries = retries
+        self.echo = EchoMode(echo)
+        self._lock = threading.RLock()
+        self._decoder = PacketDecoder()
+        self._echo_owed = 0  # bytes of echo still to come back from writes (DISCARD mode)
+        self.port = _open(port, timeout_s) if isinstance(port, str) else port
+        self.name = port if isinstance(port, str) else getattr(port, "name", None) or repr(port)
+
+    # --- lifetime ------------------------------------------------------------------------------
+    def close(self) -> None:
+        with self._lock:
+            self.port.close()
+
+    def __enter__(self) -> ServoBus:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # --- transactions --------------------------------------------------------------------------
+    def send(self, command: Command, servo_id: int, /, **fields: int) -> None:
+        """Send a write command (no reply exists for writes)."""
+        spec = SPECS[Command(command)]
+        if spec.is_read:
+            raise ValueError(f"{spec.command.name} is a read: use request()")
+        packet = encode_request(spec.command, servo_id, **fields)
+        with self._lock:
+            self.port.write(packet)
+            if self.echo is EchoMode.DISCARD:
+                self._echo_owed += len(packet)  # read back before the next request, not now
+
+    def request(
+        self,
+        command: Command,
+        servo_id: int,
+        /,
+        *,
+        retries: int | None = None,
+        timeout_s: float | None = None,
+    ) -> dict[str, int]:
+        """Send a read command and return its reply's fields, retrying on silence or garbage."""
+        spec = SPECS[Command(command)]
+        if not spec.is_read:
+            raise ValueError(f"{spec.command.name} has no reply: use send()")
+        if servo_id == BROADCAST_ID and spec.command != Command.ID_READ:
+            raise ValueError(f"only ID_READ is answered on broadcast, not {spec.command.name}")
+        attempts = 1 + (self.retries if retries is None else retries)
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        packet = encode_request(spec.command, servo_id)
+        with self._lock:
+            bad_before = self._decoder.bad_checksums
+            for attempt in range(attempts):
+                fields = self._exchange(packet, spec.command, servo_id, timeout_s)
+                if fields is not None:
+                    return fields
+                log.debug("servo %d: no valid %s reply (try %d/%d)", servo_id,
+                          spec.command.name, attempt + 1, attempts)
+            garbled = self._decoder.bad_checksums - bad_before
+        who = "no servo" if servo_id == BROADCAST_ID else f"servo {servo_id}"
+        if garbled:
+            raise ProtocolError(
+                f"{who}: {garbled} replies to {spec.command.name} failed the checksum in "
+                f"{attempts} tries: two servos may share ID {servo_id} (run `choreo scan`), "
+                "or the wiring is noisy"
+            )
+        raise BusTimeoutError(
+            f"{who} answered {spec.command.name} on {self.name} "
+            f"({attempts} tries, {timeout_s * 1000:.0f} ms each): check power and wiring, "
+            "or run `choreo scan`"
+        )
+
+    def _exchange(self, packet: bytes, command: Command, servo_id: int, timeout_s: float):
+        """One attempt: flush, write, read until the expected reply or a timeout."""
+        port = self.port
+        port.timeout = timeout_s
+        if self._echo_owed:
+            port.read(self._echo_owed)  # the echoes of earlier writes, so they aren't flushed mid-way
+            self._echo_owed = 0
+        port.reset_input_buffer()
+        self._decoder.reset()
+        port.write(packet)
+        if self.echo is EchoMode.DISCARD:
+            echo = port.read(len(packet))
+            if echo != packet:
+                raise ProtocolError(
+                    f"{self.name}: expected the echo of the request, got {echo.hex(' ') or 'nothing'}:"
+                    " is the bus really wired one-wire? try echo mode 'none' or 'auto'"
+                )
+        wanted = SPECS[command].reply_len + 3
+        for _ in range(MAX_READS_PER_ATTEMPT):
+            data = port.read(wanted)
+            for reply in self._decoder.feed(data):
+                if self._is_reply(reply, packet, command, servo_id):
+                    return decode_reply(command, reply)
+            if len(data) < wanted:
+                return None  # the read timed out
+        return None
+
+    def _is_reply(self, reply, request: bytes, command: Command, servo_id: int) -> bool:
+        if reply.encode() == request:
+            return False  # the echo of our own request
+        expected_len = SPECS[command].reply_len
+        is_match = (
+            reply.command == command
+            and len(reply.params) + 3 == expected_len
+            and (servo_id == BROADCAST_ID or reply.servo_id == servo_id)
+        )
+        if not is_match:
+            log.debug("skipping unexpected packet %s", reply)
+        return is_match
+
+    # --- typed commands ------------------------------------------------------------------------
+    def move(self, servo_id: int, pos_units: int, time_ms: int) -> None:
+        """MOVE_TIME_WRITE: move now, linearly, to ``pos_units`` over ``time_ms``."""
+        self.send(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+
+    def stage_move(self, servo_id: int, pos_units: int, time_ms: int) -> None:
+        """MOVE_TIME_WAIT_WRITE: store a move that the next MOVE_START runs."""
+        self.send(Command.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+
+    def start(self, servo_id: int = BROADCAST_ID) -> None:
+        """MOVE_START: run the staged move (every servo at once on broadcast)."""
+        self.send(Command.MOVE_START, servo_id)
+
+    def stop(self, servo_id: int = BROADCAST_ID) -> None:
+        """MOVE_STOP: hold the current angle (servo mode only)."""
+        self.send(Command.MOVE_STOP, servo_id)
+
+    def load(self, servo_id: int = BROADCAST_ID) -> None:
+        self.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, loaded=1)
+
+    def unload(self, servo_id: int = BROADCAST_ID) -> None:
+        """Torque off: the servo can be turned by hand."""
+        self.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, loaded=0)
+
+    def set_id(self, servo_id: int, new_id: int) -> None:
+        """ID_WRITE, saved in the servo. Never broadcast: it would renumber every servo."""
+        if servo_id == BROADCAST_ID:
+            raise ValueError(
+                "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
+                "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
+            )
+        self.send(Command.ID_WRITE, servo_id, new_id=new_id)
+
+    def adjust_offset(self, servo_id: int, offset_units: int) -> None:
+        """ANGLE_OFFSET_ADJUST: applied at once, lost at power-off unless saved."""
+        self.send(Command.ANGLE_OFFSET_ADJUST, servo_id, offset_units=offset_units)
+
+    def save_offset(self, servo_id: int) -> None:
+        self.send(Command.ANGLE_OFFSET_WRITE, servo_id)
+
+    def set_angle_limits(self, servo_id: int, min_units: int, max_units: int) -> None:
+        self.send(Command.ANGLE_LIMIT_WRITE, servo_id, min_units=min_units, max_units=max_units)
+
+    def set_vin_limits(self, servo_id: int, min_mv: int, max_mv: int) -> None:
+        self.send(Command.VIN_LIMIT_WRITE, servo_id, min_mv=min_mv, max_mv=max_mv)
+
+    def set_temp_limit(self, servo_id: int, temp_c: int) -> None:
+        self.send(Command.TEMP_MAX_LIMIT_WRITE, servo_id, temp_c=temp_c)
+
+    def set_motor_mode(self, servo_id: int, speed: int) -> None:
+        """Continuous rotation at a duty of ``speed`` (-1000..1000); not saved."""
+        self.send(Command.OR_MOTOR_MODE_WRITE, servo_id, mode=1, reserved=0, speed=speed)
+
+    def set_servo_mode(self, servo_id: int) -> None:
+        self.send(Command.OR_MOTOR_MODE_WRITE, servo_id, mode=0, reserved=0, speed=0)
+
+    def set_led(self, servo_id: int, on: bool) -> None:
+        self.send(Command.LED_CTRL_WRITE, servo_id, led_off=0 if on else 1)
+
+    def set_led_errors(self, servo_id: int, mask: ErrorMask | int) -> None:
+        """Which faults make the LED flash."""
+        self.send(Command.LED_ERROR_WRITE, servo_id, mask=int(mask))
+
+    def read_position(self, servo_id: int) -> int:
+        """Position in units; may be negative or above 1000 near the ends of travel."""
+        return self.request(Command.POS_READ, servo_id)["pos_units"]
+
+    def read_move(self, servo_id: int) -> MoveTime:
+        return MoveTime(**self.request(Command.MOVE_TIME_READ, servo_id))
+
+    def read_staged_move(self, servo_id: int) -> MoveTime:
+        """MOVE_TIME_WAIT_READ; LX-16A servos never answer it."""
+        return MoveTime(**self.request(Command.MOVE_TIME_WAIT_READ, servo_id))
+
+    def read_id(self, servo_id: int = BROADCAST_ID) -> int:
+        """ID_READ; on broadcast only safe with a single servo on the bus."""
+        return self.request(Command.ID_READ, servo_id)["servo_id"]
+
+    def read_offset(self, servo_id: int) -> int:
+        return self.request(Command.ANGLE_OFFSET_READ, servo_id)["offset_units"]
+
+    def read_angle_limits(self, servo_id: int) -> AngleLimits:
+        return AngleLimits(**self.request(Command.ANGLE_LIMIT_READ, servo_id))
+
+    def read_vin_limits(self, servo_id: int) -> VinLimits:
+        return VinLimits(**self.request(Command.VIN_LIMIT_READ, servo_id))
+
+    def read_temp_limit(self, servo_id: int) -> int:
+        return self.request(Command.TEMP_MAX_LIMIT_READ, servo_id)["temp_c"]
+
+    def read_temperature(self, servo_id: int) -> int:
+        return self.request(Command.TEMP_READ, servo_id)["temp_c"]
+
+    def read_vin(self, servo_id: int) -> int:
+        return self.request(Command.VIN_READ, servo_id)["vin_mv"]
+
+    def read_mode(self, servo_id: int) -> MotorMode:
+        fields = self.request(Command.OR_MOTOR_MODE_READ, servo_id)
+        return MotorMode(motor=fields["mode"] == 1, speed=fields["speed"])
+
+    def read_loaded(self, servo_id: int) -> bool:
+        return self.request(Command.LOAD_OR_UNLOAD_READ, servo_id)["loaded"] == 1
+
+    def read_led(self, servo_id: int) -> bool:
+        """True when the LED is on (the wire says 0 for on)."""
+        return self.request(Command.LED_CTRL_READ, servo_id)["led_off"] == 0
+
+    def read_led_errors(self, servo_id: int) -> ErrorMask:
+        return ErrorMask(self.request(Command.LED_ERROR_READ, servo_id)["mask"] & 7)
+
+    def read_distance(self, servo_id: int) -> int:
+        """DIS_READ: rotation distance, 4096 pulses per turn; only some models answer."""
+        return self.request(Command.DIS_READ, servo_id)["distance"]
+
+    # --- several commands ----------------------------------------------------------------------
+    def ping(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> bool:
+        """Whether a servo answers ID_READ at ``servo_id``."""
+        try:
+            self.request(Command.ID_READ, servo_id, retries=retries, timeout_s=timeout_s)
+        except (BusTimeoutError, ProtocolError):
+            return False
+        return True
+
+    def scan(self, ids: Iterable[int] = range(BROADCAST_ID), *, timeout_s: float = 0.02) -> list[int]:
+        """The IDs that answer, in order. Each absent ID costs ``timeout_s``."""
+        return [i for i in ids if self.ping(i, timeout_s=timeout_s, retries=1)]
+
+    def read_status(self, servo_id: int) -> ServoStatus:
+        return ServoStatus(
+            servo_id,
+            self.read_position(servo_id),
+            self.read_vin(servo_id),
+            self.read_temperature(servo_id),
+        )
+
+    def read_info(self, servo_id: int) -> ServoInfo:
+        """Every readable parameter; commands this model ignores give None (one short try)."""
+        return ServoInfo(
+            servo_id=servo_id,
+            pos_units=self.read_position(servo_id),
+            move=self.read_move(servo_id),
+            staged_move=_maybe(MoveTime, self._try_request(Command.MOVE_TIME_WAIT_READ, servo_id)),
+            offset_units=self.read_offset(servo_id),
+            angle_limits=self.read_angle_limits(servo_id),
+            vin_limits=self.read_vin_limits(servo_id),
+            temp_limit_c=self.read_temp_limit(servo_id),
+            temp_c=self.read_temperature(servo_id),
+            vin_mv=self.read_vin(servo_id),
+            mode=self.read_mode(servo_id),
+            loaded=self.read_loaded(servo_id),
+            led_on=self.read_led(servo_id),
+            led_errors=self.read_led_errors(servo_id),
+            distance=_maybe(int, self._try_request(Command.DIS_READ, servo_id), "distance"),
+        )
+
+    def _try_request(self, command: Command, servo_id: int) -> dict[str, int] | None:
+        """One try of a read that some models ignore."""
+        try:
+            return self.request(command, servo_id, retries=0)
+        except BusTimeoutError:
+            return None
+
+
+def _maybe(make, fields: dict[str, int] | None, key: str | None = None):
+    if fields is None:
+        return None
+    return make(fields[key]) if key else make(**fields)
+
+
+def _open(url: str, timeout_s: float) -> serial.SerialBase:
+    emulator.register_url_handler()
+    try:
+        return serial.serial_for_url(
+            url,
+            baudrate=BAUDRATE,
+            bytesize=serial.EIGHTBITS,
+            parity=serial.PARITY_NONE,
+            stopbits=serial.STOPBITS_ONE,
+            timeout=timeout_s,
+            exclusive=True,
+        )
+    except (serial.SerialException, ValueError, OSError) as error:
+        raise PortError(
+            f"cannot open {url}: {error}. Is another program using it? "
+            "List ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
+        ) from error

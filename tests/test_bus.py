@@ -1,0 +1,199 @@
+"""ServoBus against the emulator: every read with echo on and off, retries, faults, refusals."""
+
+from __future__ import annotations
+
+import pytest
+import serial
+
+from choreo.bus import AngleLimits, EchoMode, MotorMode, MoveTime, ServoBus, VinLimits
+from choreo.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
+from choreo.errors import BusTimeoutError, PortError, ProtocolError
+from choreo.protocol import BROADCAST_ID, Command, ErrorMask
+
+
+def make_bus(ids=(1, 2, 3), *, echo=False, mode=EchoMode.AUTO, model="LX-224HV", **kwargs):
+    emulator = BusEmulator(ids, model=model, clock=VirtualClock(), echo=echo)
+    return ServoBus(SimSerial.from_emulator(emulator), echo=mode, **kwargs), emulator
+
+
+ECHO_SETUPS = [(False, EchoMode.NONE), (False, EchoMode.AUTO), (True, EchoMode.AUTO),
+               (True, EchoMode.DISCARD)]
+
+
+@pytest.fixture(params=ECHO_SETUPS, ids=lambda p: f"echo={int(p[0])}-{p[1].value}")
+def bus_and_emulator(request):
+    echo, mode = request.param
+    return make_bus(echo=echo, mode=mode)
+
+
+def test_every_read_command(bus_and_emulator):
+    bus, emulator = bus_and_emulator
+    bus.set_angle_limits(2, 100, 900)
+    bus.set_vin_limits(2, 5000, 12000)
+    bus.set_temp_limit(2, 70)
+    bus.adjust_offset(2, -10)
+    bus.set_led(2, False)
+    bus.set_led_errors(2, ErrorMask.OVER_TEMPERATURE | ErrorMask.STALLED)
+    bus.stage_move(2, 300, 500)
+    bus.move(2, 700, 200)
+    emulator.servo(2).temperature_c = 41
+    emulator.servo(2).vin_mv = 11100
+    emulator.clock.advance(1.0)
+
+    assert bus.read_position(2) == 700
+    assert bus.read_move(2) == MoveTime(700, 200)
+    assert bus.read_staged_move(2) == MoveTime(300, 500)
+    assert bus.read_id(2) == 2
+    assert bus.read_offset(2) == -10
+    assert bus.read_angle_limits(2) == AngleLimits(100, 900)
+    assert bus.read_vin_limits(2) == VinLimits(5000, 12000)
+    assert bus.read_temp_limit(2) == 70
+    assert bus.read_temperature(2) == 41
+    assert bus.read_vin(2) == 11100
+    assert bus.read_mode(2) == MotorMode(motor=False, speed=0)
+    assert bus.read_loaded(2) is True  # a move loads the servo
+    assert bus.read_led(2) is False
+    assert bus.read_led_errors(2) == ErrorMask.OVER_TEMPERATURE | ErrorMask.STALLED
+    assert isinstance(bus.read_distance(2), int)
+    bus.set_motor_mode(2, -300)
+    assert bus.read_mode(2) == MotorMode(motor=True, speed=-300)
+    bus.unload(2)
+    assert bus.read_loaded(2) is False
+
+
+def test_scan_finds_every_servo_and_only_them(bus_and_emulator):
+    bus, _ = bus_and_emulator
+    assert bus.scan(range(0, 10)) == [1, 2, 3]
+
+
+def test_staged_moves_start_together_on_broadcast():
+    bus, emulator = make_bus()
+    for servo_id, pos in ((1, 200), (2, 400), (3, 600)):
+        bus.stage_move(servo_id, pos, 300)
+    bus.port.flush()
+    emulator.clock.advance(0.002)
+    bus.start()
+    bus.port.flush()
+    starts = [m for m in emulator.log.moves if m.command == Command.MOVE_START]
+    assert {m.servo_id for m in starts} == {1, 2, 3}
+    assert len({m.time_s for m in starts}) == 1
+    emulator.clock.advance(0.5)
+    assert [bus.read_position(i) for i in (1, 2, 3)] == [200, 400, 600]
+
+
+def test_dropped_replies_are_retried():
+    bus, emulator = make_bus(retries=2)
+    emulator.servo(1).reply_faults = ReplyFaults(drop_next=2)
+    assert bus.read_position(1) == 500
+
+
+def test_corrupted_replies_are_retried():
+    bus, emulator = make_bus(retries=2)
+    emulator.servo(1).reply_faults = ReplyFaults(corrupt_next=2)
+    assert bus.read_vin(1) > 0
+
+
+def test_exhausted_retries_raise_a_timeout_naming_the_servo():
+    bus, emulator = make_bus(retries=1)
+    emulator.servo(3).reply_faults = ReplyFaults(drop_next=2)
+    with pytest.raises(BusTimeoutError, match=r"servo 3 answered POS_READ .*2 tries, 50 ms each.*choreo scan"):
+        bus.read_position(3)
+    assert isinstance(BusTimeoutError("x"), TimeoutError)
+    assert bus.read_position(3) == 500  # the bus is usable again
+
+
+def test_absent_servo_times_out_after_every_try_in_virtual_time():
+    bus, emulator = make_bus(retries=2, timeout_s=0.05)
+    before = emulator.clock.now()
+    with pytest.raises(BusTimeoutError, match="servo 9"):
+        bus.read_temperature(9)
+    assert emulator.clock.now() - before == pytest.approx(3 * 0.05, abs=0.005)
+
+
+def test_persistent_corruption_is_a_protocol_error():
+    bus, emulator = make_bus(retries=1)
+    emulator.servo(2).reply_faults = ReplyFaults(corrupt_probability=1.0)
+    with pytest.raises(ProtocolError, match="servo 2: 2 replies to VIN_READ failed the checksum"):
+        bus.read_vin(2)
+
+
+def test_duplicate_ids_garble_replies_and_say_so():
+    emulator = BusEmulator([ServoSpec(1), ServoSpec(1)], clock=VirtualClock())
+    bus = ServoBus(SimSerial.from_emulator(emulator), retries=0)
+    with pytest.raises(ProtocolError, match="two servos may share ID 1"):
+        bus.read_position(1)
+
+
+def test_late_reply_of_a_timed_out_read_is_not_taken_for_the_next_reply():
+    # A reply that arrives after the read gave up must be flushed, not read as the next answer.
+    bus, emulator = make_bus(retries=0, timeout_s=0.05)
+    emulator.turnaround_s = 0.06  # later than the timeout
+    with pytest.raises(BusTimeoutError):
+        bus.read_position(1)
+    emulator.turnaround_s = 0.0006
+    emulator.clock.advance(0.1)  # the late POS_READ reply is now in the input buffer
+    assert bus.read_vin(1) == emulator.servo(1).vin_mv
+
+
+def test_echo_is_never_taken_for_a_reply():
+    # With echo on and the servo silent, the echoed request (a valid packet) must not count.
+    bus, emulator = make_bus(echo=True, mode=EchoMode.AUTO, retries=0)
+    emulator.servo(1).connected = False
+    with pytest.raises(BusTimeoutError):
+        bus.read_id(1)
+
+
+def test_discard_mode_without_echo_says_what_to_try():
+    bus, _ = make_bus(echo=False, mode=EchoMode.DISCARD, retries=0)
+    with pytest.raises(ProtocolError, match="expected the echo of the request.*echo mode"):
+        bus.read_position(1)
+
+
+def test_broadcast_rules():
+    bus, _ = make_bus(ids=(7,))
+    assert bus.read_id() == 7  # broadcast ID_READ with one servo: its real ID
+    with pytest.raises(ValueError, match="only ID_READ is answered on broadcast"):
+        bus.request(Command.POS_READ, BROADCAST_ID)
+    with pytest.raises(ValueError, match="refusing to broadcast ID_WRITE"):
+        bus.set_id(BROADCAST_ID, 3)
+
+
+def test_set_id_renumbers_one_servo():
+    bus, emulator = make_bus()
+    bus.set_id(2, 12)
+    assert bus.scan(range(0, 16)) == [1, 3, 12]
+
+
+def test_out_of_range_arguments_are_value_errors():
+    bus, _ = make_bus()
+    with pytest.raises(ValueError, match="pos_units must be in 0..1000, got 1200"):
+        bus.move(1, 1200, 100)
+    with pytest.raises(ValueError, match="has no reply"):
+        bus.request(Command.MOVE_STOP, 1)
+
+
+def test_lx16a_does_not_answer_wait_read_and_info_says_so():
+    bus, _ = make_bus(model="LX-16A")
+    info = bus.read_info(1)
+    assert info.staged_move is None and info.distance is None
+    assert info.pos_units == 500 and info.angle_limits == AngleLimits(0, 1000)
+
+
+def test_open_by_url_and_exclusive_access():
+    with ServoBus("sim://?ids=4-5&clock=virtual") as bus:
+        assert bus.scan(range(0, 8)) == [4, 5]
+
+
+def test_unopenable_port_is_a_port_error():
+    with pytest.raises(PortError, match="cannot open /dev/does-not-exist.*sim://"):
+        ServoBus("/dev/does-not-exist")
+    with pytest.raises(PortError, match="unknown option"):
+        ServoBus("sim://?idz=1")
+
+
+def test_a_real_serial_loop_echoes_and_times_out():
+    # pyserial's loop:// is a wire that only echoes: every read must time out, not return the echo.
+    with ServoBus(serial.serial_for_url("loop://", timeout=0.01), retries=0, timeout_s=0.01) as bus:
+        with pytest.raises(BusTimeoutError):
+            bus.read_position(1)
