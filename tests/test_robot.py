@@ -1,0 +1,261 @@
+"""Robot files: loading, finding by name, every class of mistake reported at its place, mirroring.
+
+Fixtures: tests/data/models/tiny (a good three-joint robot) and tests/data/bad_robots/<case>
+(each with one kind of mistake, reusing tiny's MJCF unless the case is about the MJCF).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from choreo.errors import SourceError
+from choreo.robot import load_robot, mirror_pose, mirror_targets
+
+DATA = Path(__file__).parent / "data"
+TINY = DATA / "models" / "tiny" / "robot.yaml"
+BAD = DATA / "bad_robots"
+
+
+def problems_of(path: Path) -> list[str]:
+    with pytest.raises(SourceError) as caught:
+        load_robot(path)
+    return caught.value.problems
+
+
+def only_problem(case: str) -> tuple[Path, str]:
+    path = BAD / case / "robot.yaml"
+    [message] = problems_of(path)
+    return path, message
+
+
+# --- a good robot --------------------------------------------------------------------------------
+
+
+def test_tiny_robot_is_read_with_defaults_and_overrides():
+    robot = load_robot(TINY)
+    assert robot.name == "tiny"
+    assert robot.joint_names == ("yaw", "left", "right")  # file order is vector order
+    assert [j.servo_id for j in robot.joints] == [1, 2, 3]
+    assert {j.servo_model for j in robot.joints} == {"LX-16A"}  # from defaults
+    yaw, left, right = robot.joints
+    assert (yaw.zero_units, yaw.direction) == (500, 1)  # format defaults
+    assert (left.zero_units, left.direction) == (625, -1)
+    assert (left.limits.min_deg, left.limits.max_deg) == (-60, 120)
+    # LX-16A: 80 % of 375 deg/s (servo-models.md: 300 deg/s), 3000 deg/s², 30000 deg/s³
+    assert (yaw.limits.vel_deg_s, yaw.limits.acc_deg_s2, yaw.limits.jerk_deg_s3) == \
+        pytest.approx((300, 3000, 30000))
+    assert right.limits.vel_deg_s == 200  # overridden in the file
+    assert left.to_units(120) == pytest.approx(125)  # 625 - 120 * 1000/240
+    assert robot.pose_vector("wave") == (30, 90, 0)
+    assert dict(robot.poses["home"]) == {"yaw": 0, "left": 0, "right": 0}
+    assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == \
+        [("left", "right", -1), ("yaw", "yaw", -1)]
+    assert (robot.bus.port, robot.bus.baudrate, robot.bus.timeout_s) == (None, 115200, 0.05)
+    assert robot.mjcf_path.name == "tiny.xml" and robot.scene_path.name == "scene.xml"
+    assert robot.free_floating is False
+
+
+def test_poses_cannot_be_changed_through_the_robot():
+    robot = load_robot(TINY)
+    with pytest.raises(TypeError):
+        robot.poses["home"]["yaw"] = 5
+
+
+# --- finding a robot by name ---------------------------------------------------------------------
+
+
+def test_name_is_found_walking_up_from_the_naming_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the working directory must not matter
+    robot = load_robot("tiny", relative_to=DATA / "motions" / "wave.yaml")
+    assert robot.path.resolve() == TINY.resolve()
+
+
+def test_name_is_found_through_choreo_models(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CHOREO_MODELS", str(DATA / "models"))
+    assert load_robot("tiny").path.resolve() == TINY.resolve()
+
+
+def test_path_is_relative_to_the_naming_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    robot = load_robot("../models/tiny", relative_to=DATA / "motions" / "wave.yaml")
+    assert robot.path.resolve() == TINY.resolve()
+
+
+def test_shipped_robot_found_by_name_from_anywhere(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("CHOREO_MODELS", raising=False)
+    hexapod = load_robot("hexapod18")  # from the repository's models/
+    assert hexapod.path == Path(__file__).resolve().parents[1] / "models/hexapod18/robot.yaml"
+    assert hexapod.free_floating is True and len(hexapod.joints) == 18
+
+
+def test_unknown_name_lists_the_known_robots(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SourceError) as caught:
+        load_robot("tinny", relative_to=DATA / "motions" / "wave.yaml")
+    message = str(caught.value)
+    assert message.startswith("unknown robot 'tinny' (did you mean 'tiny'?); known robots: ")
+    assert "tiny" in message.split("known robots: ")[1]
+    assert str((DATA / "models").resolve()) in message  # says where it looked
+
+
+# --- one test per class of mistake ---------------------------------------------------------------
+
+
+def test_duplicate_servo_id():
+    path, message = only_problem("duplicate_id")
+    assert message == (f"{path}:9:14: joint 'left': servo id 2 is already used by joint 'yaw' "
+                       f"(line 8); each joint needs its own id 0..253")
+
+
+def test_missing_home_pose():
+    path, message = only_problem("missing_home")
+    assert message.startswith(f"{path}:11:1: poses: the 'home' pose is missing "
+                              f"(did you mean 'hom'?); it is required")
+
+
+def test_limit_outside_servo_travel_says_the_reachable_range():
+    path, message = only_problem("outside_travel")
+    assert message == (f"{path}:14:10: joint 'right': max 130° is outside the servo's travel: it "
+                       f"needs servo position 1166.7, outside 0..1000 (0..240°); with zero 625 "
+                       f"and direction 1 this joint can reach -150..90°")
+
+
+def test_unknown_servo_model_lists_the_known_ones():
+    path, message = only_problem("unknown_servo")
+    assert message == (f"{path}:6:10: defaults: servo: unknown servo model 'LX16A' (did you mean "
+                       f"'LX-16A'?); known models: LX-16A, LX-224HV, LX-824HV, HTD-35H, LX-224, "
+                       f"LX-225, LX-15D")
+
+
+def test_velocity_above_the_servos_no_load_speed():
+    path, message = only_problem("too_fast")
+    assert message == (f"{path}:8:45: joint 'yaw': velocity 400 deg/s is above the LX-16A's "
+                       f"no-load speed of 375 deg/s; give at most 375 (the default is 300)")
+
+
+def test_mirror_pair_naming_an_unknown_joint():
+    path, message = only_problem("mirror_unknown_joint")
+    assert message == (f"{path}:14:25: mirror: right: unknown joint 'rigth' (did you mean "
+                       f"'right'?); the robot's joints are yaw, left, right")
+
+
+def test_malformed_yaml_is_a_message_not_a_traceback():
+    path, message = only_problem("malformed")
+    assert message.startswith(f"{path}:5:6: not valid YAML: expected ',' or '}}'")
+
+
+def test_mjcf_range_disagreeing_with_the_robot_file():
+    path, message = only_problem("mjcf_range")
+    assert message.startswith(f"{path}:10:34: joint 'right': MJCF joint 'right' in tiny.xml has "
+                              f"range -1.9199 1.0472 rad (-110.0..60.0°) but the robot file says "
+                              f"-100..60°")
+    assert message.endswith('e.g. range="-1.7453 1.0472"')
+
+
+def test_mjcf_home_keyframe_disagreeing_with_the_home_pose():
+    path, message = only_problem("mjcf_home")
+    assert message.startswith(f"{path}:12:3: pose 'home': yaw is 10° (0.1745 rad) but the 'home' "
+                              f"keyframe in tiny.xml has 0.0000 rad")
+
+
+def test_actuated_mjcf_joint_that_no_joint_maps():
+    path, message = only_problem("unmapped_actuator")
+    assert message == (f"{path}:7:1: tiny.xml: actuator 'right' drives joint 'right', which no "
+                       f"joint here maps; add a joint with mjcf_joint: right, or remove the "
+                       f"actuator")
+
+
+def test_mjcf_joint_that_does_not_exist():
+    path = BAD / "unknown_mjcf_joint" / "robot.yaml"
+    first, second = problems_of(path)
+    assert first == (f"{path}:7:1: tiny.xml: actuator 'left' drives joint 'left', which no joint "
+                     f"here maps; add a joint with mjcf_joint: left, or remove the actuator")
+    assert second == (f"{path}:9:75: joint 'left': tiny.xml has no joint 'lef' (did you mean "
+                      f"'left'?); its joints are yaw, left, right")
+
+
+def test_mjcf_that_does_not_compile_points_at_the_xml_line():
+    [message] = problems_of(BAD / "mjcf_compile_error" / "robot.yaml")
+    xml = BAD / "mjcf_compile_error" / "broken.xml"
+    assert message.startswith(f"{xml}:5:1: MuJoCo cannot compile this model: ")
+    assert "unrecognized attribute: 'rnge'" in message
+
+
+def test_pose_problems_each_reported():
+    path = BAD / "pose_problems" / "robot.yaml"
+    assert problems_of(path) == [
+        f"{path}:13:3: pose 'reach' does not give right; every pose names every joint",
+        f"{path}:14:16: pose 'twist': yaw 100° is outside its limits -90..90°",
+        f"{path}:15:3: pose 'shrug' does not give left; every pose names every joint",
+        f"{path}:15:19: pose 'shrug': unknown joint 'lft' (did you mean 'left'?); the robot's "
+        f"joints are yaw, left, right",
+    ]
+
+
+def test_name_must_equal_the_folder():
+    path, message = only_problem("name_mismatch")
+    assert message.startswith(f"{path}:2:7: name 'tiny' must equal the robot's folder name "
+                              f"'name_mismatch'")
+
+
+def test_every_problem_of_a_file_is_reported_at_once():
+    path = BAD / "several_problems" / "robot.yaml"
+    assert problems_of(path) == [
+        f"{path}:6:13: bus: baudrate must be a whole number >= 1, got 'fast'",
+        f"{path}:7:9: bus: echo 'discrad' is not one of none, discard, auto "
+        f"(did you mean 'discard'?)",
+        f"{path}:10:3: unknown key 'colour' in defaults; valid keys: servo, zero, direction, "
+        f"min, max, velocity, acceleration, jerk, mjcf_joint",
+        f"{path}:12:13: joint 'yaw': id must be in 0..253, got 254",
+        f"{path}:13:39: joint 'left': direction must be 1 or -1, got 2",
+        f"{path}:14:34: joint 'right': min 60° must be below max -110°",
+        f"{path}:18:38: mirror: sign must be 1 or -1, got 0",
+    ]
+
+
+def test_missing_robot_file_is_a_source_error(tmp_path):
+    missing = tmp_path / "robot.yaml"
+    with pytest.raises(SourceError, match="robot file '.*robot.yaml' not found"):
+        load_robot(missing)
+
+
+def test_missing_mjcf_file(tmp_path):
+    folder = tmp_path / "lonely"
+    folder.mkdir()
+    (folder / "robot.yaml").write_text(TINY.read_text().replace("name: tiny", "name: lonely"))
+    messages = problems_of(folder / "robot.yaml")
+    assert messages == [
+        f"{folder / 'robot.yaml'}:1:1: the MuJoCo model {folder / 'lonely.xml'} does not exist; "
+        f"add it beside robot.yaml",
+        f"{folder / 'robot.yaml'}:1:1: the scene {folder / 'scene.xml'} does not exist; "
+        f"add it beside robot.yaml",
+    ]
+
+
+# --- mirroring -----------------------------------------------------------------------------------
+
+
+def test_mirror_swaps_pairs_with_their_sign_and_negates_self_pairs():
+    robot = load_robot(TINY)
+    # pairs: left<->right with sign -1, yaw with itself, sign -1
+    assert mirror_targets(robot, (10.0, 20.0, -30.0)) == (-10.0, 30.0, -20.0)
+
+
+def test_mirroring_twice_gives_the_pose_back():
+    robot = load_robot(TINY)
+    targets = (12.5, 100.0, -45.0)
+    assert mirror_targets(robot, mirror_targets(robot, targets)) == targets
+
+
+def test_mirror_of_a_partial_pose_moves_only_the_partner():
+    robot = load_robot(TINY)
+    assert mirror_pose(robot, {"left": 90}) == {"right": -90}
+
+
+def test_mirror_targets_needs_one_value_per_joint():
+    with pytest.raises(ValueError, match="robot 'tiny' has 3 joints"):
+        mirror_targets(load_robot(TINY), (1.0, 2.0))

@@ -1,0 +1,102 @@
+"""The JSON Schemas shipped for editors agree with the loader and with the files we ship."""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+
+import jsonschema
+import pytest
+import yaml
+
+from choreo import motion, robot
+from choreo.servos import SERVO_MODELS
+
+DATA = Path(__file__).parent / "data"
+REPO = Path(__file__).resolve().parents[1]
+
+
+def schema(name: str) -> dict:
+    text = (resources.files("choreo") / "schema" / f"{name}.schema.json").read_text()
+    return json.loads(text)
+
+
+def validator(name: str) -> jsonschema.Draft202012Validator:
+    return jsonschema.Draft202012Validator(schema(name))
+
+
+def errors(name: str, path: Path) -> list[str]:
+    return [error.message for error in validator(name).iter_errors(yaml.safe_load(path.read_text()))]
+
+
+@pytest.mark.parametrize("name", ["motion", "robot"])
+def test_schemas_are_valid_draft_2020_12(name):
+    assert schema(name)["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    jsonschema.Draft202012Validator.check_schema(schema(name))
+
+
+def test_schema_keys_are_the_loaders_keys():
+    motion_schema, robot_schema = schema("motion"), schema("robot")
+    defs = motion_schema["$defs"]
+    timing_keys = set(defs["timing"]["properties"])
+    assert set(motion_schema["properties"]) == set(motion.MOTION_KEYS)
+    assert set(defs["poseKeyframe"]["properties"]) | timing_keys == set(motion.KEYFRAME_KEYS)
+    assert set(defs["includeEntry"]["properties"]) | timing_keys == set(motion.INCLUDE_KEYS)
+    assert set(robot_schema["properties"]) == set(robot.ROBOT_KEYS)
+    assert set(robot_schema["$defs"]["jointSettings"]["properties"]) == set(robot.DEFAULT_KEYS)
+    joint = robot_schema["properties"]["joints"]["additionalProperties"]
+    assert set(joint["properties"]) | set(robot.DEFAULT_KEYS) == set(robot.JOINT_KEYS)
+    assert set(robot_schema["properties"]["bus"]["properties"]) == set(robot.BUS_KEYS)
+
+
+def test_servo_models_in_the_schema_are_the_servo_table():
+    servo = schema("robot")["$defs"]["jointSettings"]["properties"]["servo"]
+    assert servo["enum"] == list(SERVO_MODELS)
+
+
+GOOD_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml")) + sorted((DATA / "motions").glob("*.yaml"))
+GOOD_ROBOTS = sorted((REPO / "models").glob("*/robot.yaml")) + [DATA / "models/tiny/robot.yaml"]
+
+
+def test_there_are_shipped_motions_to_check():
+    assert any(path.is_relative_to(REPO / "motions") for path in GOOD_MOTIONS)
+
+
+@pytest.mark.parametrize("path", GOOD_MOTIONS, ids=lambda p: p.name)
+def test_schema_accepts_good_motions(path):
+    assert errors("motion", path) == []
+
+
+@pytest.mark.parametrize("path", GOOD_ROBOTS, ids=lambda p: p.parent.name)
+def test_schema_accepts_good_robots(path):
+    assert errors("robot", path) == []
+
+
+# The mistakes of shape; the others (unknown joints, limits, timing, includes, the MJCF) need the
+# robot and are for `choreo validate`.
+@pytest.mark.parametrize("name, words", [
+    ("unknown_key.yaml", "'hodl' was unexpected"),
+    ("t_and_after.yaml", "should not be valid under {'required': ['t', 'after']}"),
+    ("wrong_type.yaml", "'soon' is not of type 'number'"),
+    ("several_problems.yaml", "0 is less than or equal to the minimum of 0"),
+    ("empty.yaml", "None is not of type 'object'"),
+])
+def test_schema_rejects_bad_motions(name, words):
+    assert any(words in message for message in errors("motion", DATA / "bad_motions" / name))
+
+
+@pytest.mark.parametrize("case, words", [
+    ("missing_home", "'home' is a required property"),
+    ("unknown_servo", "'LX16A' is not one of"),
+    ("several_problems", "'discrad' is not one of"),
+])
+def test_schema_rejects_bad_robots(case, words):
+    path = DATA / "bad_robots" / case / "robot.yaml"
+    assert any(words in message for message in errors("robot", path))
+
+
+def test_schema_rejects_an_include_entry_with_keyframe_options():
+    document = {"robot": "tiny", "keyframes": [{"include": "part.yaml", "hold": 1.0}]}
+    messages = [e.message for e in validator("motion").iter_errors(document)]
+    assert any("'hold' was unexpected" in message for message in messages)
