@@ -175,7 +175,8 @@ def test_include_cycle_names_the_chain():
 
 def test_malformed_yaml_is_a_message_not_a_traceback():
     path, message = only_problem("malformed.yaml")
-    assert message.startswith(f"{path}:4:4: not valid YAML: expected <block end>")
+    assert message.startswith(f"{path}:4:4: not valid YAML: ")
+    assert message.endswith("(while parsing a block collection at line 3)")
 
 
 def test_empty_file():
