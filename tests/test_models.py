@@ -1,9 +1,9 @@
 """Every robot in models/ and every motion in motions/, checked in MuJoCo.
 
-Each model folder: the scene compiles and steps 1 s holding ``home`` without warnings, the
-``home`` keyframe is robot.yaml's home pose, home holds (a free-floating robot stays up), nothing
-touches in home except feet on the floor, and mirroring a pose with robot.yaml's mirror pairs
-mirrors the model. Each motion: no self-collision at its keyframes or on the straight joint-space
+Each model folder: the scene compiles and steps 1 s holding ``home`` without warnings; the
+``home`` keyframe (and any other named after a pose) is robot.yaml's pose; home holds (a
+free-floating robot stays up); nothing touches in home except feet on the floor; and mirroring a
+pose with robot.yaml's mirror pairs mirrors the model. Each motion: no self-collision at its keyframes or on the straight joint-space
 paths between them (and no floor contact for a fixed-base robot).
 """
 
@@ -129,15 +129,19 @@ def test_scene_steps_one_second_at_home_without_warnings(model_dir):
 
 
 @pytest.mark.parametrize("model_dir", MODEL_DIRS, ids=lambda d: d.name)
-def test_home_keyframe_is_the_robot_files_home_pose(model_dir):
+def test_keyframes_named_after_poses_hold_those_poses(model_dir):
+    """``home`` must exist; any other keyframe named after a robot.yaml pose must match it too."""
     model = scene_model(model_dir)
-    key = model.key("home")
-    home = robot_file(model_dir)["poses"]["home"]
-    for joint, mjcf_joint in mjcf_joint_of(model_dir).items():
-        wanted = math.radians(home[joint])
-        assert key.qpos[model.jnt_qposadr[model.joint(mjcf_joint).id]] == pytest.approx(
-            wanted, abs=1e-3), joint
-        assert key.ctrl[model.actuator(mjcf_joint).id] == pytest.approx(wanted, abs=1e-3), joint
+    poses = robot_file(model_dir)["poses"]
+    keys = [model.key(k) for k in range(model.nkey) if model.key(k).name in poses]
+    assert "home" in [key.name for key in keys]
+    for key in keys:
+        for joint, mjcf_joint in mjcf_joint_of(model_dir).items():
+            wanted = math.radians(poses[key.name][joint])
+            assert key.qpos[model.jnt_qposadr[model.joint(mjcf_joint).id]] == pytest.approx(
+                wanted, abs=1e-3), (key.name, joint)
+            assert key.ctrl[model.actuator(mjcf_joint).id] == pytest.approx(
+                wanted, abs=1e-3), (key.name, joint)
 
 
 @pytest.mark.parametrize("model_dir", MODEL_DIRS, ids=lambda d: d.name)
