@@ -110,11 +110,11 @@ class SimSerial(SerialBase):
         self.is_open = True
 
     def close(self) -> None:
+        # Not io.RawIOBase.close(): it would flush() a port that is already closed.
         if self.is_open:
             self.is_open = False
             with self._wakeup:
                 self._wakeup.notify_all()
-        super().close()
 
     def _reconfigure_port(self, *args, **kwargs) -> None:
         """Line settings don't matter to the emulated wire."""
