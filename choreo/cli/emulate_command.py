@@ -2,6 +2,71 @@
 
 from __future__ import annotations
 
+import argparse
+import signal
+
+from ..clock import RealClock
+from ..emulator import BusEmulator, parse_servo_specs
+from ..emulator.bus import DEFAULT_TURNAROUND_S
+from ..emulator.pty import PtyBridge
+from ..servos import SERVO_MODELS
+
 
 def register(subparsers) -> None:
-    pass
+    parser = subparsers.add_parser(
+        "emulate",
+        help="emulate a bus of servos on a pseudo-terminal",
+        description="Emulate servos on a pseudo-terminal that any program can open like a USB "
+        "adapter (any baud setting works). Runs until Ctrl-C or SIGTERM.",
+    )
+    parser.add_argument("--pty", required=True, metavar="PATH",
+                        help="create a symlink at PATH to the pseudo-terminal")
+    parser.add_argument("--servos", default="1-6", type=_servo_list, metavar="IDS",
+                        help="servo IDs, e.g. 1-6,9,12-14; a group may name its model: "
+                        "1-6,7:LX-224HV (default 1-6)")
+    parser.add_argument("--model", default="LX-16A", choices=sorted(SERVO_MODELS),
+                        help="servo model (default LX-16A)")
+    parser.add_argument("--echo", action="store_true",
+                        help="echo the host's bytes back, like one-wire DIY wiring")
+    parser.add_argument("--state", metavar="FILE",
+                        help="keep the servos' EEPROM (IDs, offsets, limits) in this JSON file")
+    parser.add_argument("--turnaround-ms", type=float, default=DEFAULT_TURNAROUND_S * 1000,
+                        metavar="X", help="delay before a servo answers (default 0.6)")
+    parser.set_defaults(handler=run)
+
+
+def _servo_list(text: str) -> tuple[str, list]:
+    try:
+        return text, parse_servo_specs(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def run(args) -> int:
+    servos_text, specs = args.servos
+    emulator = BusEmulator(
+        specs,
+        model=args.model,
+        clock=RealClock(),
+        turnaround_s=args.turnaround_ms / 1000,
+        echo=args.echo,
+        state_path=args.state,
+    )
+    with PtyBridge(emulator, args.pty) as bridge:
+        previous = {
+            signum: signal.signal(signum, lambda *_: bridge.stop())
+            for signum in (signal.SIGINT, signal.SIGTERM)
+        }
+        try:
+            print(
+                f"emulating servos {servos_text} ({args.model}) on {args.pty} -> "
+                f"{bridge.slave_name}; Ctrl-C to stop",
+                flush=True,
+            )
+            bridge.serve_forever()
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+    if args.state:
+        emulator.save_state()
+    return 0
