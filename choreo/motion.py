@@ -179,7 +179,8 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
                  velocity_scale=velocity, label=label, t_where=t_where)
 
 
-def _read_timing(reader: Reader, fields: dict[str, Entry]) -> tuple[float | None, float | None] | None:
+def _read_timing(reader: Reader,
+                 fields: dict[str, Entry]) -> tuple[float | None, float | None] | None:
     """(t_s, after_s) of a keyframe or include entry; None if refused (reported)."""
     if "t" in fields and "after" in fields:
         later = max(fields["t"], fields["after"], key=lambda e: e.key_node.start_mark.index)

@@ -160,8 +160,9 @@ ROBOT_KEYS = ("name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mi
 JOINT_KEYS = ("id", "servo", "zero", "direction", "min", "max", "velocity", "acceleration",
               "jerk", "mjcf_joint")
 DEFAULT_KEYS = JOINT_KEYS[1:]  # every joint needs its own id
+MAX_SERVO_ID = 253  # 254 is the broadcast id
 REQUIRED_JOINT_KEYS = {
-    "id": f"its servo id, 0..{253}",
+    "id": f"its servo id, 0..{MAX_SERVO_ID}",
     "servo": "the servo model; give it here or under defaults",
     "min": "the lower joint limit in degrees",
     "max": "the upper joint limit in degrees",
@@ -169,7 +170,7 @@ REQUIRED_JOINT_KEYS = {
 BUS_KEYS = ("port", "baudrate", "timeout_ms", "retries", "echo")
 ECHO_MODES = ("none", "discard", "auto")
 MIRROR_KEYS = ("left", "right", "sign")
-MAX_SERVO_ID = 253  # 254 is the broadcast id
+RATE_KEYS = ("velocity", "acceleration", "jerk")
 TRAVEL_SLACK_UNITS = 1e-6  # float noise when a limit lands exactly on 0 or 1000
 
 
@@ -209,8 +210,9 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
         return None
     name = _read_name(reader, fields["name"]) if "name" in fields else None
     bus = _read_bus(reader, fields["bus"]) if "bus" in fields else BusSettings()
-    defaults = reader.fields(fields["defaults"].value, "defaults", DEFAULT_KEYS) or {} \
-        if "defaults" in fields else {}
+    defaults = {}
+    if "defaults" in fields:
+        defaults = reader.fields(fields["defaults"].value, "defaults", DEFAULT_KEYS) or {}
     sources = _read_joints(reader, fields["joints"], defaults) if "joints" in fields else []
     joints = {source.name: source.joint for source in sources}
     poses = _read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
@@ -261,10 +263,11 @@ def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> li
             continue
         first = used_ids.setdefault(source.joint.servo_id, source)
         if first is not source:
+            first_line = first.key_node.start_mark.line + 1
             reader.report(source.fields["id"].value,
                           f"joint {source.name!r}: servo id {source.joint.servo_id} is already "
-                          f"used by joint {first.name!r} (line {first.key_node.start_mark.line + 1}); "
-                          f"each joint needs its own id 0..{MAX_SERVO_ID}")
+                          f"used by joint {first.name!r} (line {first_line}); each joint needs "
+                          f"its own id 0..{MAX_SERVO_ID}")
     if isinstance(entry.value, yaml.MappingNode) and not entry.value.value:
         reader.report(entry.key_node, "joints: the robot has no joints; name at least one")
     return sources
@@ -300,20 +303,20 @@ def _joint_from_fields(reader: Reader, name: str, fields: dict[str, Entry],
     low, high = number("min", None), number("max", None)
     mjcf_joint = reader.string(fields["mjcf_joint"].value, labels["mjcf_joint"]) \
         if "mjcf_joint" in fields else name
-    if model is None:
+    rates = {key: number(key, None, low=0, low_open=True) for key in RATE_KEYS}
+    if None in (servo_id, model, zero, direction, low, high, mjcf_joint) or any(
+            rates[key] is None for key in RATE_KEYS if key in fields):
         return None
-    velocity = number("velocity", model.vel_limit_deg_s, low=0, low_open=True)
-    acceleration = number("acceleration", model.acc_limit_deg_s2, low=0, low_open=True)
-    jerk = number("jerk", model.jerk_limit_deg_s3, low=0, low_open=True)
-    values = (servo_id, zero, direction, low, high, mjcf_joint, velocity, acceleration, jerk)
-    if any(value is None for value in values):
-        return None
-    travel_ok = _check_travel(reader, name, fields, low, high, zero, direction)
-    if not (_check_speed(reader, name, fields, velocity, model) and travel_ok):
+    # rates are > 0 when given; the servo model's defaults otherwise
+    limits = JointLimits(low, high, rates["velocity"] or model.vel_limit_deg_s,
+                         rates["acceleration"] or model.acc_limit_deg_s2,
+                         rates["jerk"] or model.jerk_limit_deg_s3)
+    checks = [_check_travel(reader, name, fields, low, high, zero, direction),
+              _check_speed(reader, name, fields, limits.vel_deg_s, model)]
+    if not all(checks):
         return None
     return Joint(name=name, servo_id=servo_id, servo_model=model.name, zero_units=zero,
-                 direction=direction, limits=JointLimits(low, high, velocity, acceleration, jerk),
-                 mjcf_joint=mjcf_joint)
+                 direction=direction, limits=limits, mjcf_joint=mjcf_joint)
 
 
 def _read_servo_model(reader: Reader, node: Node, what: str) -> ServoModel | None:
@@ -343,7 +346,7 @@ def _check_travel(reader: Reader, name: str, fields: dict[str, Entry], low: floa
         reader.report(fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below "
                                            f"max {fmt(high)}°")
         return False
-    reach = sorted(((0 - zero) * direction * DEG_PER_UNIT, (1000 - zero) * direction * DEG_PER_UNIT))
+    reach = sorted((position - zero) * direction * DEG_PER_UNIT for position in (0, 1000))
     ok = True
     for key, angle in (("min", low), ("max", high)):
         units = zero + direction * angle * UNITS_PER_DEG
@@ -390,8 +393,9 @@ def read_angles(reader: Reader, node: Node, what: str,
         joint = joints[entry.key]
         if angle is not None and joint is not None and not (
                 joint.limits.min_deg <= angle <= joint.limits.max_deg):
+            low, high = joint.limits.min_deg, joint.limits.max_deg
             reader.report(entry.value, f"{what}: {entry.key} {fmt(angle)}° is outside its limits "
-                                       f"{fmt(joint.limits.min_deg)}..{fmt(joint.limits.max_deg)}°")
+                                       f"{fmt(low)}..{fmt(high)}°")
             angle = None
         angles[entry.key] = angle
     return angles

@@ -266,7 +266,8 @@ def test_validate_prints_every_problem_and_exits_1(capsys):
 
 # --- the shipped robots and motions (models/, motions/) ------------------------------------------
 
-SHIPPED = sorted((REPO / "models").glob("*/robot.yaml")) + sorted((REPO / "motions").glob("*/*.yaml"))
+SHIPPED = sorted((REPO / "models").glob("*/robot.yaml")) + \
+    sorted((REPO / "motions").glob("*/*.yaml"))
 
 
 def test_shipped_files_exist():

@@ -27,7 +27,8 @@ def validator(name: str) -> jsonschema.Draft202012Validator:
 
 
 def errors(name: str, path: Path) -> list[str]:
-    return [error.message for error in validator(name).iter_errors(yaml.safe_load(path.read_text()))]
+    document = yaml.safe_load(path.read_text())
+    return [error.message for error in validator(name).iter_errors(document)]
 
 
 @pytest.mark.parametrize("name", ["motion", "robot"])
@@ -55,7 +56,8 @@ def test_servo_models_in_the_schema_are_the_servo_table():
     assert servo["enum"] == list(SERVO_MODELS)
 
 
-GOOD_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml")) + sorted((DATA / "motions").glob("*.yaml"))
+GOOD_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml")) + \
+    sorted((DATA / "motions").glob("*.yaml"))
 GOOD_ROBOTS = sorted((REPO / "models").glob("*/robot.yaml")) + [DATA / "models/tiny/robot.yaml"]
 
 
