@@ -216,7 +216,8 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
 
 def _read_include(reader: Reader, item: Node, robot: Robot,
                   chain: tuple[_Include, ...]) -> list[_Step]:
-    fields = reader.fields(item, "an include entry", INCLUDE_KEYS, required=("include",))
+    what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
+    fields = reader.fields(item, what, INCLUDE_KEYS, required=("include",))
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
     timing = _read_timing(reader, fields)

@@ -6,6 +6,7 @@ with one kind of mistake; parts/ holds the files they include).
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -211,6 +212,30 @@ def test_included_t_after_an_untimed_keyframe_cannot_become_a_delay():
     assert message == (f"{part}:6:8: t in an included file becomes an after delay, so the "
                        f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
                        f"or use after here")
+
+
+def test_no_keyframes():
+    path, message = only_problem("no_keyframes.yaml")
+    assert message == f"{path}:2:1: keyframes: the motion has no keyframes; give at least one"
+
+
+def test_include_entry_takes_no_keyframe_options():
+    path, message = only_problem("include_with_hold.yaml")
+    assert message == (f"{path}:4:5: unknown key 'hold' in an include entry (pose, hold, stop and "
+                       f"velocity go in the included keyframes); valid keys: include, mirror, t, "
+                       f"after")
+
+
+def test_mirrored_include_needs_mirror_pairs(tmp_path):
+    robot_folder = tmp_path / "models" / "tiny"
+    shutil.copytree(DATA / "models" / "tiny", robot_folder)
+    robot_file = robot_folder / "robot.yaml"
+    robot_file.write_text(robot_file.read_text().split("mirror:")[0])
+    (tmp_path / "part.yaml").write_text("robot: tiny\nkeyframes:\n  - pose: wave\n")
+    motion = tmp_path / "m.yaml"
+    motion.write_text("robot: tiny\nkeyframes:\n  - include: part.yaml\n    mirror: true\n")
+    assert problems_of(motion) == [
+        f"{motion}:4:13: robot 'tiny' has no mirror pairs; add 'mirror:' to {robot_file}"]
 
 
 def test_missing_file(tmp_path):
