@@ -1,0 +1,70 @@
+"""Preview a motion in MuJoCo: what the servos will really do with the ticks they receive,
+checked for problems and rendered offscreen.
+
+    rollout = simulate_motion(motion)          # plan -> segment -> simulate the tick stream
+    results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
+    render_preview(rollout, "out.mp4", results=results)
+
+The package is the only place besides the robot loader that imports ``mujoco``.
+"""
+
+from __future__ import annotations
+
+from ..motion import Motion
+from .checks import (
+    CheckKind,
+    CheckResult,
+    CheckThresholds,
+    Severity,
+    has_errors,
+    run_checks,
+)
+from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
+from .report import JointSummary, joint_summaries, preview_report
+from .servo import ActuatorParams, TickLike, actuator_params
+from .sim import Rollout, SimSettings, simulate
+
+__all__ = [
+    "ActuatorParams",
+    "CheckKind",
+    "CheckResult",
+    "CheckThresholds",
+    "JointSummary",
+    "RenderResult",
+    "RenderSettings",
+    "Rollout",
+    "Severity",
+    "SimSettings",
+    "TickLike",
+    "actuator_params",
+    "check_motion_physics",
+    "frame_times",
+    "has_errors",
+    "joint_summaries",
+    "preview_report",
+    "render_frames",
+    "render_preview",
+    "run_checks",
+    "simulate",
+    "simulate_motion",
+]
+
+
+def simulate_motion(motion: Motion, settings: SimSettings = SimSettings()) -> Rollout:
+    """Plan ``motion``, compile it into ticks and play them to the simulated robot, starting
+    at rest at the motion's first pose."""
+    from ..planner import plan_motion
+    from ..segments import segment
+
+    trajectory = plan_motion(motion).trajectory
+    ticks = segment(trajectory, motion.robot).ticks
+    return simulate(motion.robot, ticks, motion.keyframes[0].targets_deg,
+                    keyframe_times_s=trajectory.keyframe_times_s, settings=settings)
+
+
+def check_motion_physics(motion: Motion,
+                         thresholds: CheckThresholds = CheckThresholds()) -> list[str]:
+    """One line per problem the physics preview finds (``choreo validate`` shows them),
+    each starting with its severity."""
+    results = run_checks(simulate_motion(motion), thresholds)
+    return [f"{motion.path}: {r.severity.value}: {r.message}" for r in results]

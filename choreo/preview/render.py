@@ -1,0 +1,290 @@
+"""Offscreen rendering of a rollout: mp4, gif, or a png contact sheet.
+
+Frames replay the recorded states (``Rollout.qpos``); the camera keeps the robot framed (it
+follows a free-floating robot's body) and every frame carries the time, the keyframe index and the
+problems the checks found at that moment.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator, Sequence
+
+import mujoco
+import numpy as np
+
+from ..errors import PreviewError
+from .checks import CheckKind, CheckResult
+from .gl import context_class, offscreen_backend
+from .sim import Rollout, free_root_body, load_model
+
+log = logging.getLogger(__name__)
+
+FORMATS = (".mp4", ".gif", ".png")
+DEFAULT_FPS = {".mp4": 30.0, ".gif": 25.0, ".png": 30.0}
+SHEET_COLUMNS = 4
+PROBLEM_SHOWN_S = 0.5  # a problem shorter than this stays on screen this long
+CAMERA_SMOOTHING_S = 0.3  # time constant of the camera following a free-floating body
+SHORT_NAMES = {
+    CheckKind.SELF_COLLISION: "collision",
+    CheckKind.FLOOR_CONTACT: "floor",
+    CheckKind.JOINT_LIMIT: "limit",
+    CheckKind.SATURATION: "stall",
+    CheckKind.TRACKING_ERROR: "tracking",
+    CheckKind.FALL: "fall",
+}
+
+ProgressCallback = Callable[[int, int], None]  # (frames done, frames in all)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    width: int = 640
+    height: int = 480
+    fps: float | None = None  # None: 30 for mp4, 25 for gif
+    sheet_frames: int = 12  # png contact sheet: this many frames across the motion
+    # False: no shadows, reflections or anti-aliasing, which cost Mesa's software renderer 3-5x
+    high_quality: bool = False
+
+    def __post_init__(self) -> None:
+        if self.width < 16 or self.height < 16:
+            raise ValueError(f"image size must be at least 16x16, got {self.width}x{self.height}")
+        if self.fps is not None and not (math.isfinite(self.fps) and self.fps > 0):
+            raise ValueError(f"fps must be > 0, got {self.fps!r}")
+        if self.sheet_frames < 1:
+            raise ValueError(f"sheet_frames must be >= 1, got {self.sheet_frames}")
+
+
+@dataclass(frozen=True)
+class RenderResult:
+    path: Path
+    frames: int
+    backend: str  # egl or osmesa
+
+
+def frame_times(duration_s: float, fps: float) -> np.ndarray:
+    """Frame k shows time k/fps, for every k with k/fps <= duration_s."""
+    return np.arange(int(math.floor(duration_s * fps + 1e-9)) + 1) / fps
+
+
+def render_preview(rollout: Rollout, path: str | Path, settings: RenderSettings = RenderSettings(),
+                   results: Sequence[CheckResult] = (),
+                   on_frame: ProgressCallback | None = None) -> RenderResult:
+    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(f"cannot render to {path.name}: the file must end in "
+                         f"{', '.join(FORMATS)}")
+    if suffix == ".mp4" and (settings.width % 2 or settings.height % 2):
+        raise ValueError(f"mp4 needs an even width and height, got "
+                         f"{settings.width}x{settings.height}")
+    fps = settings.fps or DEFAULT_FPS[suffix]
+    if suffix == ".png":
+        times = np.linspace(0.0, rollout.duration_s, settings.sheet_frames)
+    else:
+        times = frame_times(rollout.duration_s, fps)
+    backend = offscreen_backend()
+    frames = render_frames(rollout, times, settings, results, backend, on_frame)
+    if suffix == ".mp4":
+        _write_mp4(path, frames, fps, settings)
+    elif suffix == ".gif":
+        _write_gif(path, frames, fps)
+    else:
+        _write_sheet(path, frames, len(times))
+    return RenderResult(path, len(times), backend)
+
+
+def render_frames(rollout: Rollout, times_s: np.ndarray, settings: RenderSettings,
+                  results: Sequence[CheckResult] = (), backend: str | None = None,
+                  on_frame: ProgressCallback | None = None) -> Iterator[np.ndarray]:
+    """The frames (height, width, 3) uint8 at ``times_s``, one at a time."""
+    model = load_model(rollout.robot)
+    data = mujoco.MjData(model)
+    steps = np.clip(np.searchsorted(rollout.times_s, times_s - 1e-9), 0, len(rollout.times_s) - 1)
+    cameras = track_camera(model, rollout, steps)
+    with FrameRenderer(model, settings.width, settings.height, backend or offscreen_backend(),
+                       settings.high_quality) as renderer:
+        for k, step in enumerate(steps):
+            data.qpos[:] = rollout.qpos[step]
+            mujoco.mj_forward(model, data)
+            t = float(times_s[k])
+            yield renderer.render(data, cameras[k], _status_lines(rollout, t),
+                                  _problem_lines(results, t))
+            if on_frame is not None:
+                on_frame(k + 1, len(steps))
+
+
+def _status_lines(rollout: Rollout, t: float) -> tuple[str, str]:
+    names, values = ["time"], [f"{t:.2f} s"]
+    keyframes = rollout.keyframe_times_s
+    if keyframes:
+        reached = int(np.searchsorted(keyframes, t + 1e-9, side="right"))
+        names.append("keyframe")
+        values.append(f"{max(reached, 1)} / {len(keyframes)}")
+    return "\n".join(names), "\n".join(values)
+
+
+def _problem_lines(results: Sequence[CheckResult], t: float) -> tuple[str, str]:
+    shown = [r for r in results
+             if r.time_s <= t + 1e-9 <= r.time_s + max(r.duration_s, PROBLEM_SHOWN_S)]
+    kinds = [f"{r.severity.value} {SHORT_NAMES[r.kind]}" for r in shown]
+    where = [r.joint or " / ".join(r.bodies) for r in shown]
+    return "\n".join(kinds), "\n".join(where)
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    lookat: tuple[float, float, float]
+    distance: float
+    azimuth: float
+    elevation: float
+
+
+def track_camera(model: mujoco.MjModel, rollout: Rollout,
+                 steps: np.ndarray) -> list[CameraPose]:
+    """A camera that keeps the whole robot in view: fixed on a fixed robot's working volume,
+    following (smoothly) a free-floating robot's body."""
+    data = mujoco.MjData(model)
+    robot_geoms = np.flatnonzero(model.geom_bodyid != 0)
+    root = free_root_body(model)
+    low, high, reach = np.full(3, np.inf), np.full(3, -np.inf), 0.0
+    anchors = np.empty((len(steps), 3))
+    for k, step in enumerate(steps):
+        data.qpos[:] = rollout.qpos[step]
+        mujoco.mj_kinematics(model, data)
+        points = data.geom_xpos[robot_geoms]
+        radius = model.geom_rbound[robot_geoms][:, None]
+        low = np.minimum(low, (points - radius).min(axis=0))
+        high = np.maximum(high, (points + radius).max(axis=0))
+        if root is not None:
+            anchors[k] = data.xpos[root]
+            reach = max(reach, float(np.max(np.linalg.norm(points - anchors[k], axis=1)
+                                            + radius[:, 0])))
+    if root is None:
+        centre = (low + high) / 2
+        anchors[:] = centre
+        reach = float(np.linalg.norm(high - low)) / 2
+    else:
+        anchors = _smooth(anchors, rollout.times_s[steps], CAMERA_SMOOTHING_S)
+    half_fov = math.radians(model.vis.global_.fovy) / 2
+    distance = 0.9 * reach / math.sin(half_fov)  # the box's corners are rarely all in view
+    azimuth, elevation = float(model.vis.global_.azimuth), float(model.vis.global_.elevation)
+    return [CameraPose(tuple(a), distance, azimuth, elevation) for a in anchors]
+
+
+def _smooth(points: np.ndarray, times: np.ndarray, time_constant_s: float) -> np.ndarray:
+    """Exponential low-pass along time, so the camera glides instead of shaking with the body."""
+    out = points.copy()
+    for k in range(1, len(points)):
+        alpha = 1.0 - math.exp(-max(times[k] - times[k - 1], 0.0) / time_constant_s)
+        out[k] = out[k - 1] + alpha * (points[k] - out[k - 1])
+    return out
+
+
+class FrameRenderer:
+    """An offscreen GL context and MuJoCo render context for one model and image size."""
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, backend: str,
+                 high_quality: bool = False):
+        self._model = model
+        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        if not high_quality:
+            model.vis.quality.offsamples = 0
+        try:
+            self._gl = context_class(backend)(width, height)
+            self._gl.make_current()
+        except PreviewError:
+            raise
+        except Exception as error:  # the GL libraries raise their own types
+            raise PreviewError(f"cannot create an offscreen {backend} context: {error}") from None
+        font = (mujoco.mjtFontScale.mjFONTSCALE_100 if height < 400
+                else mujoco.mjtFontScale.mjFONTSCALE_150)
+        self._context = mujoco.MjrContext(model, font)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
+        if not high_quality:
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._option = mujoco.MjvOption()
+        self._perturb = mujoco.MjvPerturb()
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self._viewport = mujoco.MjrRect(0, 0, width, height)
+        self._pixels = np.empty((height, width, 3), dtype=np.uint8)
+
+    def render(self, data: mujoco.MjData, camera: CameraPose, status: tuple[str, str],
+               problems: tuple[str, str]) -> np.ndarray:
+        self._gl.make_current()
+        self._camera.lookat[:] = camera.lookat
+        self._camera.distance = camera.distance
+        self._camera.azimuth = camera.azimuth
+        self._camera.elevation = camera.elevation
+        mujoco.mjv_updateScene(self._model, data, self._option, self._perturb, self._camera,
+                               mujoco.mjtCatBit.mjCAT_ALL, self._scene)
+        mujoco.mjr_render(self._viewport, self._scene, self._context)
+        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT,
+                           self._viewport, *status, self._context)
+        if problems[0]:
+            mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT,
+                               self._viewport, *problems, self._context)
+        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._context)
+        return np.flipud(self._pixels).copy()
+
+    def close(self) -> None:
+        if self._context is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._context = None
+            self._gl.free()
+
+    def __enter__(self) -> FrameRenderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _write_mp4(path: Path, frames: Iterator[np.ndarray], fps: float,
+               settings: RenderSettings) -> None:
+    import imageio_ffmpeg
+
+    writer = imageio_ffmpeg.write_frames(
+        str(path), (settings.width, settings.height), fps=fps, codec="libx264",
+        pix_fmt_in="rgb24", pix_fmt_out="yuv420p", macro_block_size=1, quality=None,
+        ffmpeg_log_level="error", output_params=["-preset", "veryfast", "-crf", "23"])
+    writer.send(None)
+    try:
+        for frame in frames:
+            writer.send(np.ascontiguousarray(frame))
+    finally:
+        writer.close()
+
+
+def _write_gif(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
+    from PIL import Image
+
+    images = [Image.fromarray(frame).quantize(colors=256) for frame in frames]
+    images[0].save(path, save_all=True, append_images=images[1:], loop=0,
+                   duration=round(1000 / fps))
+
+
+def _write_sheet(path: Path, frames: Iterator[np.ndarray], count: int) -> None:
+    from PIL import Image
+
+    tiles = list(frames)
+    height, width, _ = tiles[0].shape
+    columns = min(SHEET_COLUMNS, count)
+    rows = math.ceil(count / columns)
+    gap = 4
+    sheet = np.full((rows * height + (rows - 1) * gap, columns * width + (columns - 1) * gap, 3),
+                    255, dtype=np.uint8)
+    for k, tile in enumerate(tiles):
+        row, column = divmod(k, columns)
+        top, left = row * (height + gap), column * (width + gap)
+        sheet[top:top + height, left:left + width] = tile
+    Image.fromarray(sheet).save(path)

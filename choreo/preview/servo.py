@@ -1,0 +1,205 @@
+"""What the servos do with the ticks they receive: their own linear moves, and the actuator model.
+
+Plain numpy, no MuJoCo: the simulation asks a ``ServoBank`` for every servo's set-point at each
+physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``):
+
+- a staged move (position, time) is a preset; every tick's broadcast START runs each servo's
+  preset, so a servo that was not re-staged re-runs its previous one;
+- a move is linear and starts from where the servo *is* (its measured position), not from where
+  it was told to be, so lag under load carries into the next move;
+- the servo caps its speed at the motor's no-load speed (a time too short just means full speed).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Mapping, Protocol, Sequence
+
+import numpy as np
+
+from ..robot import Joint, Robot
+from ..servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
+
+MAX_MOVE_TIME_MS = 30000  # the protocol's MOVE_TIME field range is 0..30000 ms
+INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
+
+
+class TickLike(Protocol):
+    """A tick as ``choreo.segments.Tick`` defines it: at ``start_ms`` every servo starts a
+    linear move to ``targets_units`` (every joint, robot joint order) over ``duration_ms``;
+    ``staged`` says which servos were sent a new preset for it."""
+
+    start_ms: int
+    duration_ms: int
+    targets_units: tuple[int, ...]
+    staged: tuple[bool, ...]
+
+
+@dataclass(frozen=True)
+class ActuatorParams:
+    """One joint's servo as MuJoCo sees it (SI units), plus its speed cap."""
+
+    stall_torque_nm: float
+    kp_nm_rad: float
+    damping_nm_s_rad: float
+    armature_kg_m2: float
+    no_load_speed_deg_s: float
+
+
+ACTUATOR_FIELDS = tuple(f.name for f in fields(ActuatorParams))
+
+
+def actuator_params(robot: Robot,
+                    overrides: Mapping[str, Mapping[str, float]] | None = None,
+                    ) -> tuple[ActuatorParams, ...]:
+    """Every joint's actuator model from its servo model, with per-joint ``overrides``
+    (joint name -> {field of ``ActuatorParams``: value}) applied on top."""
+    overrides = dict(overrides or {})
+    unknown = sorted(set(overrides) - set(robot.joint_names))
+    if unknown:
+        raise ValueError(f"actuator overrides name unknown joints {', '.join(unknown)}; "
+                         f"joints of {robot.name}: {', '.join(robot.joint_names)}")
+    return tuple(_params_for(joint, overrides.get(joint.name, {})) for joint in robot.joints)
+
+
+def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
+    model = servo_model(joint.servo_model)
+    values = {
+        "stall_torque_nm": model.stall_torque_nm,
+        "kp_nm_rad": model.kp_nm_rad,
+        "damping_nm_s_rad": model.damping_nm_s_rad,
+        "armature_kg_m2": model.armature_kg_m2,
+        "no_load_speed_deg_s": model.no_load_speed_deg_s,
+    }
+    for key, value in override.items():
+        if key not in values:
+            raise ValueError(f"unknown actuator field {key!r} for joint {joint.name}; "
+                             f"valid fields: {', '.join(ACTUATOR_FIELDS)}")
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"actuator field {key} of joint {joint.name} must be a number > 0, "
+                             f"got {value!r}")
+        values[key] = float(value)
+    return ActuatorParams(**values)
+
+
+@dataclass(frozen=True)
+class UnitsToDeg:
+    """``Joint.to_deg`` for all joints at once: the map is affine, deg = scale * units + offset."""
+
+    scale: np.ndarray  # (n_joints,)
+    offset: np.ndarray  # (n_joints,)
+
+    @classmethod
+    def for_joints(cls, joints: Sequence[Joint]) -> UnitsToDeg:
+        offset = np.array([j.to_deg(0.0) for j in joints])
+        scale = np.array([j.to_deg(1.0) for j in joints]) - offset
+        return cls(scale, offset)
+
+    def deg(self, units: np.ndarray) -> np.ndarray:
+        return units * self.scale + self.offset
+
+    def units(self, deg: np.ndarray) -> np.ndarray:
+        return (deg - self.offset) / self.scale
+
+
+@dataclass(frozen=True)
+class CommandStream:
+    """The tick list as arrays, checked: what goes out on the bus, in time order."""
+
+    start_s: np.ndarray  # (n_ticks,)
+    duration_s: np.ndarray  # (n_ticks,)
+    targets_units: np.ndarray  # (n_ticks, n_joints)
+    staged: np.ndarray  # (n_ticks, n_joints) bool
+
+    @classmethod
+    def from_ticks(cls, ticks: Sequence[TickLike], n_joints: int) -> CommandStream:
+        if not ticks:
+            raise ValueError("no ticks to simulate: the tick list is empty")
+        low, high = POSITION_RANGE_UNITS
+        previous_start = -math.inf
+        for index, tick in enumerate(ticks):
+            where = f"tick {index} (start {tick.start_ms} ms)"
+            if len(tick.targets_units) != n_joints or len(tick.staged) != n_joints:
+                raise ValueError(f"{where}: needs {n_joints} targets and staged flags (one per "
+                                 f"joint), got {len(tick.targets_units)} and {len(tick.staged)}")
+            if tick.start_ms < previous_start:
+                raise ValueError(f"{where}: ticks must be in time order "
+                                 f"(the previous one starts at {previous_start} ms)")
+            if not 0 <= tick.duration_ms <= MAX_MOVE_TIME_MS:
+                raise ValueError(f"{where}: duration {tick.duration_ms} ms is outside "
+                                 f"0..{MAX_MOVE_TIME_MS}")
+            bad = [u for u in tick.targets_units if not low <= u <= high]
+            if bad:
+                raise ValueError(f"{where}: servo positions {bad} are outside {low}..{high}")
+            previous_start = tick.start_ms
+        return cls(
+            start_s=np.array([t.start_ms for t in ticks], dtype=float) / 1000.0,
+            duration_s=np.array([t.duration_ms for t in ticks], dtype=float) / 1000.0,
+            targets_units=np.array([t.targets_units for t in ticks], dtype=float),
+            staged=np.array([t.staged for t in ticks], dtype=bool),
+        )
+
+    @property
+    def end_s(self) -> float:
+        """When the last commanded move is due to finish."""
+        return float(np.max(self.start_s + self.duration_s))
+
+
+class ServoBank:
+    """Every servo's preset and current linear move; ``setpoint_units`` is where each one's
+    own interpolation is at a given time."""
+
+    def __init__(self, initial_units: np.ndarray, max_speed_units_s: np.ndarray | None):
+        n = len(initial_units)
+        self._preset_units = np.full(n, np.nan)
+        self._preset_duration_s = np.zeros(n)
+        self._from_units = np.array(initial_units, dtype=float)
+        self._to_units = self._from_units.copy()
+        self._start_s = np.zeros(n)
+        self._duration_s = np.full(n, INSTANT_S)
+        self._max_speed_units_s = max_speed_units_s
+
+    def start(self, stream: CommandStream, tick: int, now_s: float,
+              position_units: np.ndarray) -> None:
+        """Tick ``tick``'s presets arrive and its START runs every servo that has a preset."""
+        staged = stream.staged[tick]
+        self._preset_units[staged] = stream.targets_units[tick, staged]
+        self._preset_duration_s[staged] = stream.duration_s[tick]
+        runs = ~np.isnan(self._preset_units)
+        self._from_units[runs] = position_units[runs]
+        self._to_units[runs] = self._preset_units[runs]
+        self._start_s[runs] = now_s
+        duration = self._preset_duration_s.copy()
+        if self._max_speed_units_s is not None:
+            fastest = np.abs(self._to_units - self._from_units) / self._max_speed_units_s
+            duration = np.maximum(duration, fastest)
+        # a zero-time move (possible only without a speed cap) jumps at once
+        self._duration_s[runs] = np.maximum(duration[runs], INSTANT_S)
+
+    def setpoint_units(self, now_s: float | np.ndarray) -> np.ndarray:
+        """Set-points at one time (n_joints,) or at an array of times (n_times, n_joints)."""
+        elapsed = np.asarray(now_s, dtype=float)[..., None] - self._start_s
+        progress = np.clip(elapsed / self._duration_s, 0.0, 1.0)
+        return self._from_units + (self._to_units - self._from_units) * progress
+
+
+def max_speed_units_s(params: Sequence[ActuatorParams]) -> np.ndarray:
+    """Each servo's no-load speed in position units per second."""
+    return np.array([p.no_load_speed_deg_s / DEG_PER_UNIT for p in params], dtype=float)
+
+
+def commanded_path_units(stream: CommandStream, initial_units: np.ndarray,
+                         times_s: np.ndarray) -> np.ndarray:
+    """Where a servo with no load, no lag and no speed cap would be at ``times_s``: the path the
+    tick list asks for, as the reference for tracking errors. Shape (len(times_s), n_joints)."""
+    bank = ServoBank(initial_units, max_speed_units_s=None)
+    path = np.empty((len(times_s), len(initial_units)))
+    boundaries = np.searchsorted(times_s, stream.start_s, side="left")
+    path[: boundaries[0]] = initial_units
+    for tick, begin in enumerate(boundaries):
+        start_s = stream.start_s[tick]
+        bank.start(stream, tick, start_s, bank.setpoint_units(start_s))
+        end = boundaries[tick + 1] if tick + 1 < len(boundaries) else len(times_s)
+        path[begin:end] = bank.setpoint_units(times_s[begin:end])
+    return path
