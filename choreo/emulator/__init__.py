@@ -14,14 +14,13 @@ import serial
 from .bus import (
     BusEmulator,
     ReceivedPacket,
-    ReplyFate,
     SentReply,
     ServoSpec,
     WireLog,
     parse_servo_specs,
 )
 from .protocol_sim import SimSerial, emulator_from_url
-from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFaults
+from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFate, ReplyFaults
 
 __all__ = [
     "BusEmulator",

@@ -24,7 +24,6 @@ EEPROM write, like the servo's own EEPROM.
 
 from __future__ import annotations
 
-import enum
 import heapq
 import json
 import logging
@@ -34,7 +33,7 @@ import random
 import tempfile
 import threading
 from collections import deque
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -42,7 +41,7 @@ from ..clock import Clock, RealClock
 from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, MAX_SERVO_ID, Packet, PacketDecoder, checksum
 from ..servos import servo_model
-from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFaults
+from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFate
 
 logger = logging.getLogger(__name__)
 
@@ -82,13 +81,6 @@ def parse_servo_specs(text: str) -> list[ServoSpec]:
             raise ValueError(f"bad servo IDs {group!r}: IDs go from 0 to {MAX_SERVO_ID}, low to high")
         specs.extend(ServoSpec(servo_id, model or None) for servo_id in range(low, high + 1))
     return specs
-
-
-class ReplyFate(enum.Enum):
-    SENT = "sent"
-    DROPPED = "dropped"  # injected: never sent
-    CORRUPTED = "corrupted"  # injected: one bit flipped
-    COLLIDED = "collided"  # several servos answered at once
 
 
 @dataclass(frozen=True)
@@ -144,7 +136,7 @@ class BusEmulator:
         specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
         self.clock = clock if clock is not None else RealClock()
         self.turnaround_s = turnaround_s
-        self.echo = echo
+        self._echo = echo
         self._log = WireLog(log_limit)
         self.state_path = Path(state_path) if state_path is not None else None
         self._lock = threading.RLock()
@@ -167,6 +159,17 @@ class BusEmulator:
             )
             for spec, (_, model_name), eeprom in zip(specs, self._layout, self._eeproms)
         )
+
+    @property
+    def echo(self) -> bool:
+        """True: the host receives its own bytes as they cross the wire (one-wire DIY wiring)."""
+        return self._echo
+
+    @echo.setter
+    def echo(self, echo: bool) -> None:
+        with self._lock:
+            self.catch_up()
+            self._echo = echo
 
     @property
     def log(self) -> WireLog:
@@ -285,7 +288,7 @@ class BusEmulator:
                 self._deliver_host_byte(*self._tx.popleft())
 
     def _deliver_host_byte(self, time_s: float, byte: int) -> None:
-        if self.echo:
+        if self._echo:
             self._schedule(time_s, bytes((byte,)))
         for packet in self._decoder.feed(bytes((byte,))):
             self._handle(packet, time_s)
@@ -338,18 +341,8 @@ class BusEmulator:
         self._log.replies.append(SentReply(last_byte_s, servo_ids, data, fate))
 
     def _apply_reply_faults(self, servo: EmulatedServo, data: bytes) -> tuple[ReplyFate, bytes]:
-        faults = servo.reply_faults
-        if faults.drop_next:
-            servo.reply_faults = replace(faults, drop_next=faults.drop_next - 1)
-            return ReplyFate.DROPPED, data
-        if faults.drop_probability and self._rng.random() < faults.drop_probability:
-            return ReplyFate.DROPPED, data
-        if faults.corrupt_next:
-            servo.reply_faults = replace(faults, corrupt_next=faults.corrupt_next - 1)
-            return ReplyFate.CORRUPTED, self._flip_a_bit(data)
-        if faults.corrupt_probability and self._rng.random() < faults.corrupt_probability:
-            return ReplyFate.CORRUPTED, self._flip_a_bit(data)
-        return ReplyFate.SENT, data
+        fate = servo.take_reply_fault(self._rng.random)
+        return fate, self._flip_a_bit(data) if fate is ReplyFate.CORRUPTED else data
 
     def _flip_a_bit(self, data: bytes) -> bytes:
         # A flipped bit after CMD (parameters or checksum) always breaks the checksum, and the

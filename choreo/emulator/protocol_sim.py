@@ -112,6 +112,7 @@ class SimSerial(SerialBase):
     def close(self) -> None:
         # Not io.RawIOBase.close(): it would flush() a port that is already closed.
         if self.is_open:
+            self.emulator.catch_up()  # what has crossed the wire by now has been acted on
             self.is_open = False
             with self._wakeup:
                 self._wakeup.notify_all()
@@ -144,8 +145,10 @@ class SimSerial(SerialBase):
         return len(data)
 
     def flush(self) -> None:
+        """Wait until the wire has sent everything; the servos have then acted on it."""
         emulator = self._open_emulator()
         emulator.clock.sleep_until(emulator.wire_free_s)
+        emulator.catch_up()
 
     def read(self, size: int = 1) -> bytes:
         emulator = self._open_emulator()

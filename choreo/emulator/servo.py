@@ -31,6 +31,7 @@ servo's behaviour is undocumented:
 
 from __future__ import annotations
 
+import enum
 import logging
 import math
 from dataclasses import dataclass, fields, replace
@@ -100,6 +101,13 @@ class Eeprom:
                 raise ValueError(
                     f"{low} must be less than {high}, got {getattr(self, low)} >= {getattr(self, high)}"
                 )
+
+
+class ReplyFate(enum.Enum):
+    SENT = "sent"
+    DROPPED = "dropped"  # injected: never sent
+    CORRUPTED = "corrupted"  # injected: one bit flipped
+    COLLIDED = "collided"  # several servos answered at once
 
 
 @dataclass(frozen=True)
@@ -180,8 +188,8 @@ class EmulatedServo:
         self.model = model
         self._eeprom = eeprom
         self.start_gap_s = start_gap_s
-        self.connected = True  # False: the servo hears nothing and answers nothing (loose wire)
-        self.reply_faults = ReplyFaults()
+        self._connected = True
+        self._reply_faults = ReplyFaults()
         self._now = now
         self._offset_units = eeprom.offset_units
         self._vin_mv = round(sum(model.vin_range_mv) / 2)
@@ -213,12 +221,14 @@ class EmulatedServo:
     @property
     def position_units(self) -> float:
         """What POS_READ reports (before rounding): output minus offset, wrapped."""
-        return self._reading_at(self._now())
+        now = self._now()
+        return self._reading_at(now)
 
     @property
     def output_units(self) -> float:
         """Where the horn really is (no offset, not wrapped)."""
-        return self._motion.output_at(self._now())
+        now = self._now()  # first: it may deliver packets that change the motion
+        return self._motion.output_at(now)
 
     @property
     def offset_units(self) -> int:
@@ -240,6 +250,44 @@ class EmulatedServo:
     def moving(self) -> bool:
         now = self._now()
         return self._motion.velocity_units_s != 0.0 and now < self._motion.end_s
+
+    @property
+    def connected(self) -> bool:
+        """False: the servo hears nothing and answers nothing (a loose wire), keeping its state."""
+        self._now()
+        return self._connected
+
+    @connected.setter
+    def connected(self, connected: bool) -> None:
+        self._now()
+        self._connected = connected
+
+    @property
+    def reply_faults(self) -> ReplyFaults:
+        """Faults to inject into this servo's replies from now on."""
+        self._now()
+        return self._reply_faults
+
+    @reply_faults.setter
+    def reply_faults(self, faults: ReplyFaults) -> None:
+        self._now()
+        self._reply_faults = faults
+
+    def take_reply_fault(self, draw: Callable[[], float]) -> ReplyFate:
+        """Bus side: the fate of the reply being sent (SENT, DROPPED or CORRUPTED); ``draw``
+        gives a uniform random number in [0, 1) from the bus's seeded generator."""
+        faults = self._reply_faults
+        if faults.drop_next:
+            self._reply_faults = replace(faults, drop_next=faults.drop_next - 1)
+            return ReplyFate.DROPPED
+        if faults.drop_probability and draw() < faults.drop_probability:
+            return ReplyFate.DROPPED
+        if faults.corrupt_next:
+            self._reply_faults = replace(faults, corrupt_next=faults.corrupt_next - 1)
+            return ReplyFate.CORRUPTED
+        if faults.corrupt_probability and draw() < faults.corrupt_probability:
+            return ReplyFate.CORRUPTED
+        return ReplyFate.SENT
 
     @property
     def faults(self) -> ErrorMask:
@@ -295,7 +343,7 @@ class EmulatedServo:
 
     # --- the bus side ----------------------------------------------------------------------
     def hears(self, packet: Packet) -> bool:
-        return self.connected and packet.servo_id in (self._eeprom.servo_id, BROADCAST_ID)
+        return self._connected and packet.servo_id in (self._eeprom.servo_id, BROADCAST_ID)
 
     def handle(self, packet: Packet, at_s: float) -> Outcome:
         """Execute ``packet`` (already known to be heard) whose last byte arrived at ``at_s``."""

@@ -1,0 +1,32 @@
+"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts."""
+
+from __future__ import annotations
+
+from typing import Iterable
+
+import numpy as np
+
+from .servo import MoveStart
+
+
+def executed_units(moves: Iterable[MoveStart], servo_id: int, start_units: float,
+                   times_s: np.ndarray) -> np.ndarray:
+    """Position (POS_READ units) of one servo at ``times_s``, from its logged linear moves.
+
+    A move runs from ``from_units`` to ``to_units`` over ``duration_s``; a later move starts from
+    wherever the servo then is (the log records that), so the path is piecewise linear.
+    """
+    own = sorted((m for m in moves if m.servo_id == servo_id), key=lambda m: m.time_s)
+    times_s = np.asarray(times_s, dtype=float)
+    if not own:
+        return np.full(times_s.shape, float(start_units))
+    starts = np.array([m.time_s for m in own])
+    index = np.searchsorted(starts, times_s, side="right") - 1
+    before = index < 0
+    index = np.clip(index, 0, None)
+    begin = np.array([m.from_units for m in own])[index]
+    end = np.array([m.to_units for m in own])[index]
+    duration = np.array([m.duration_s for m in own])[index]
+    fraction = np.where(duration > 0, (times_s - starts[index]) / np.where(duration > 0, duration, 1), 1.0)
+    path = begin + (end - begin) * np.clip(fraction, 0.0, 1.0)
+    return np.where(before, float(start_units), path)

@@ -1,0 +1,623 @@
+"""The servo emulator driven by raw packets on a virtual clock.
+
+Golden reply bytes come from the verified packets of shared/docs/protocol.md; speeds and times
+from shared/docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 s).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from choreo.clock import VirtualClock
+from choreo.errors import ChoreoError
+from choreo.emulator import BusEmulator, ReplyFate, ReplyFaults, ServoSpec, SimSerial
+from choreo.protocol import (
+    BROADCAST_ID,
+    Command as C,
+    PacketDecoder,
+    decode_reply,
+    encode_packet,
+    encode_request,
+)
+
+BYTE_S = 10 / 115200
+TURNAROUND_S = 0.0006
+LX16A_FULL_SWING_S = 0.16 * 240 / 60  # 1000 units = 240° at 0.16 s per 60°
+TIMEOUT_S = 0.05
+
+
+def hexbytes(text: str) -> bytes:
+    return bytes.fromhex(text)
+
+
+class Bus:
+    """A virtual-clock emulator with its port and small request helpers."""
+
+    def __init__(self, servos=(1,), **options):
+        self.clock = VirtualClock()
+        self.emulator = BusEmulator(servos, clock=self.clock, **options)
+        self.port = SimSerial.from_emulator(self.emulator, timeout=TIMEOUT_S)
+
+    def send(self, command, servo_id, **fields) -> None:
+        self.port.write(encode_request(command, servo_id, **fields))
+        self.port.flush()
+
+    def raw_reply(self, command, servo_id, reply_len=None, **fields) -> bytes:
+        self.port.reset_input_buffer()
+        self.port.write(encode_request(command, servo_id, **fields))
+        return self.port.read(reply_len or 16)
+
+    def read(self, command, servo_id=1) -> dict[str, int] | None:
+        packets = PacketDecoder().feed(self.raw_reply(command, servo_id))
+        if not packets:
+            return None
+        (packet,) = packets
+        return decode_reply(command, packet)
+
+    def position(self, servo_id=1) -> int:
+        return self.read(C.POS_READ, servo_id)["pos_units"]
+
+    def wait(self, seconds: float) -> None:
+        self.clock.advance(seconds)
+
+
+@pytest.fixture
+def bus() -> Bus:
+    return Bus()
+
+
+# --- every read command -------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "command, reply",
+    [
+        (C.ID_READ, "55 55 01 04 0E 01 EB"),
+        (C.ANGLE_LIMIT_READ, "55 55 01 07 15 00 00 E8 03 F7"),
+        (C.VIN_LIMIT_READ, "55 55 01 07 17 94 11 B0 36 55"),
+        (C.TEMP_MAX_LIMIT_READ, "55 55 01 04 19 55 8C"),
+        (C.POS_READ, "55 55 01 05 1C F4 01 E8"),
+        (C.LED_CTRL_READ, "55 55 01 04 22 00 D8"),
+        (C.LED_ERROR_READ, "55 55 01 04 24 07 CF"),
+        (C.OR_MOTOR_MODE_READ, "55 55 01 07 1E 00 00 00 00 D9"),
+        (C.LOAD_OR_UNLOAD_READ, "55 55 01 04 20 00 DA"),
+        (C.ANGLE_OFFSET_READ, "55 55 01 04 13 00 E7"),
+    ],
+)
+def test_factory_servo_answers_reads_with_the_documented_bytes(bus, command, reply):
+    assert bus.raw_reply(command, 1) == hexbytes(reply)
+
+
+def test_temperature_and_vin_reads_report_what_the_test_set(bus):
+    servo = bus.emulator.servo(1)
+    servo.temperature_c = 31
+    servo.vin_mv = 7400
+    assert bus.raw_reply(C.TEMP_READ, 1) == hexbytes("55 55 01 04 1A 1F C1")
+    assert bus.raw_reply(C.VIN_READ, 1) == hexbytes("55 55 01 05 1B E8 1C DA")
+
+
+def test_move_time_read_reports_the_last_commanded_move(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=500, time_ms=1000)
+    assert bus.raw_reply(C.MOVE_TIME_READ, 1) == hexbytes("55 55 01 07 02 F4 01 E8 03 15")
+
+
+def test_wait_read_reports_the_preset_on_models_that_answer_it():
+    bus = Bus([ServoSpec(2, "LX-224HV")])
+    bus.send(C.MOVE_TIME_WAIT_WRITE, 2, pos_units=300, time_ms=500)
+    assert bus.raw_reply(C.MOVE_TIME_WAIT_READ, 2) == hexbytes("55 55 02 07 08 2C 01 F4 01 CC")
+
+
+def test_motor_mode_read_reports_mode_and_speed(bus):
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=-500)
+    assert bus.raw_reply(C.OR_MOTOR_MODE_READ, 1) == hexbytes("55 55 01 07 1E 01 00 0C FE CE")
+
+
+def test_lx16a_does_not_answer_wait_read_or_distance_read(bus):
+    bus.send(C.MOVE_TIME_WAIT_WRITE, 1, pos_units=300, time_ms=500)
+    assert bus.raw_reply(C.MOVE_TIME_WAIT_READ, 1) == b""
+    assert bus.raw_reply(C.DIS_READ, 1) == b""
+    assert bus.position() == 500  # it is there; it just doesn't answer those two
+
+
+def test_distance_read_counts_travel_both_ways_at_4096_pulses_per_turn():
+    bus = Bus([ServoSpec(1, "LX-224HV")])
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=0)
+    bus.wait(1.0)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=0)
+    bus.wait(1.0)
+    # 500 + 1000 units = 360° = exactly one turn
+    assert bus.read(C.DIS_READ) == {"distance": 4096}
+
+
+# --- wire timing --------------------------------------------------------------------------------
+def test_read_reply_completes_after_request_turnaround_and_reply_bytes(bus):
+    bus.port.write(encode_request(C.POS_READ, 1))
+    assert bus.clock.now() == 0.0  # writing is buffered: no time passes
+    assert bus.port.read(8) == hexbytes("55 55 01 05 1C F4 01 E8")
+    assert bus.clock.now() == pytest.approx(6 * BYTE_S + TURNAROUND_S + 8 * BYTE_S, abs=1e-12)
+
+
+def test_reply_bytes_arrive_one_byte_time_apart(bus):
+    bus.port.write(encode_request(C.POS_READ, 1))
+    assert bus.port.read(1) == b"\x55"
+    assert bus.clock.now() == pytest.approx(6 * BYTE_S + TURNAROUND_S + BYTE_S, abs=1e-12)
+    assert bus.port.in_waiting == 0
+    bus.wait(3 * BYTE_S)
+    assert bus.port.in_waiting == 3
+
+
+def test_turnaround_is_configurable():
+    bus = Bus(turnaround_s=0.005)
+    bus.port.write(encode_request(C.POS_READ, 1))
+    bus.port.read(8)
+    assert bus.clock.now() == pytest.approx(14 * BYTE_S + 0.005, abs=1e-12)
+
+
+def test_timeout_advances_the_virtual_clock_by_exactly_the_timeout(bus):
+    bus.port.write(encode_request(C.POS_READ, 7))  # nobody has ID 7
+    assert bus.port.read(8) == b""
+    assert bus.clock.now() == TIMEOUT_S
+
+
+def test_flush_advances_to_when_the_wire_is_free_and_writes_queue(bus):
+    bus.port.write(encode_request(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=1000))
+    bus.port.write(encode_request(C.MOVE_STOP, 1))
+    assert bus.port.out_waiting == 16
+    bus.port.flush()
+    assert bus.clock.now() == pytest.approx(16 * BYTE_S, abs=1e-12)
+    assert bus.port.out_waiting == 0
+    arrivals = [entry.time_s for entry in bus.emulator.log.packets]
+    assert arrivals == pytest.approx([10 * BYTE_S, 16 * BYTE_S], abs=1e-12)
+
+
+def test_a_servo_acts_only_when_the_last_byte_has_arrived(bus):
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    packet = encode_request(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=0)
+    start = bus.clock.now()
+    bus.port.write(packet)
+    bus.clock.sleep_until(start + 9.5 * BYTE_S)
+    assert bus.emulator.servo(1).position_units == 500
+    bus.clock.sleep_until(start + 10 * BYTE_S)
+    (move,) = bus.emulator.log.moves
+    assert move.time_s == pytest.approx(start + 10 * BYTE_S, abs=1e-12)
+
+
+def test_reset_output_buffer_drops_bytes_not_yet_on_the_wire(bus):
+    bus.port.write(encode_request(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=0))
+    bus.wait(3.5 * BYTE_S)  # the 4th byte is on the wire
+    bus.port.reset_output_buffer()
+    assert bus.port.out_waiting == 1
+    bus.port.write(encode_request(C.POS_READ, 1))
+    assert bus.port.read(8) == hexbytes("55 55 01 05 1C F4 01 E8")  # the torn packet was ignored
+    assert [p.packet.command for p in bus.emulator.log.packets] == [C.POS_READ]
+
+
+def test_reset_input_buffer_drops_arrived_bytes_but_a_late_reply_still_arrives(bus):
+    bus.port.write(encode_request(C.POS_READ, 1))
+    bus.port.read(3)
+    bus.port.reset_input_buffer()
+    assert bus.port.read(8) == hexbytes("05 1C F4 01 E8")  # the tail was still on its way
+
+
+# --- echo ---------------------------------------------------------------------------------------
+def test_echo_returns_the_request_bytes_before_the_reply():
+    bus = Bus(echo=True)
+    request = encode_request(C.POS_READ, 1)
+    bus.port.write(request)
+    assert bus.port.read(6) == request
+    assert bus.clock.now() == pytest.approx(6 * BYTE_S, abs=1e-12)
+    assert bus.port.read(8) == hexbytes("55 55 01 05 1C F4 01 E8")
+
+
+def test_no_echo_by_default_and_echo_can_be_switched(bus):
+    bus.send(C.MOVE_STOP, 1)
+    assert bus.port.in_waiting == 0
+    bus.emulator.echo = True
+    bus.send(C.MOVE_STOP, 1)
+    assert bus.port.read(6) == encode_request(C.MOVE_STOP, 1)
+
+
+# --- broadcast ----------------------------------------------------------------------------------
+def test_broadcast_writes_reach_every_servo_without_reply():
+    bus = Bus([1, 2, 3])
+    bus.send(C.MOVE_TIME_WRITE, BROADCAST_ID, pos_units=0, time_ms=0)
+    bus.wait(TIMEOUT_S)
+    assert bus.port.in_waiting == 0
+    bus.wait(1.0)
+    assert [bus.position(i) for i in (1, 2, 3)] == [0, 0, 0]
+
+
+def test_broadcast_reads_get_no_reply_except_id_read():
+    bus = Bus([5])
+    assert bus.raw_reply(C.POS_READ, BROADCAST_ID) == b""
+    assert bus.raw_reply(C.TEMP_READ, BROADCAST_ID) == b""
+    assert bus.raw_reply(C.ID_READ, BROADCAST_ID) == hexbytes("55 55 05 04 0E 05 E3")
+
+
+def test_broadcast_id_write_renumbers_every_servo():
+    bus = Bus([1, 2])
+    bus.send(C.ID_WRITE, BROADCAST_ID, new_id=9)
+    assert [s.servo_id for s in bus.emulator.servos] == [9, 9]
+
+
+def test_id_write_renumbers_one_servo(bus):
+    bus.send(C.ID_WRITE, 1, new_id=5)
+    assert bus.raw_reply(C.ID_READ, 5) == hexbytes("55 55 05 04 0E 05 E3")
+    assert bus.raw_reply(C.POS_READ, 1) == b""
+
+
+# --- collisions ---------------------------------------------------------------------------------
+def test_duplicate_ids_garble_each_others_replies_into_checksum_errors():
+    bus = Bus([1, 1])  # same ID, same state: identical replies still collide
+    data = bus.raw_reply(C.POS_READ, 1)
+    assert len(data) == 8
+    decoder = PacketDecoder()
+    assert decoder.feed(data) == []
+    assert decoder.bad_checksums == 1
+    (reply,) = bus.emulator.log.replies
+    assert reply.fate is ReplyFate.COLLIDED and reply.servo_ids == (1, 1)
+
+
+def test_broadcast_id_read_with_several_servos_is_garbage():
+    bus = Bus([1, 2, 3])
+    data = bus.raw_reply(C.ID_READ, BROADCAST_ID)
+    assert data and PacketDecoder().feed(data) == []
+
+
+# --- moves --------------------------------------------------------------------------------------
+def test_move_is_linear_at_uniform_speed(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=700, time_ms=1000)
+    start = bus.emulator.log.moves[-1].time_s
+    bus.clock.sleep_until(start + 0.25)
+    assert bus.emulator.servo(1).position_units == pytest.approx(550)
+    bus.clock.sleep_until(start + 0.75)
+    assert bus.emulator.servo(1).position_units == pytest.approx(650)
+    bus.clock.sleep_until(start + 2.0)
+    assert bus.position() == 700
+
+
+def test_move_time_is_capped_by_the_model_top_speed(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=0)
+    bus.wait(1.0)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=100)  # faster than the motor can
+    move = bus.emulator.log.moves[-1]
+    assert move.duration_s == pytest.approx(LX16A_FULL_SWING_S)
+    bus.clock.sleep_until(move.time_s + LX16A_FULL_SWING_S / 2)
+    assert bus.emulator.servo(1).position_units == pytest.approx(500)
+
+
+def test_slower_models_take_longer_for_the_same_swing():
+    bus = Bus([ServoSpec(1, "LX-824HV", position_units=0)])
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=0)
+    assert bus.emulator.log.moves[-1].duration_s == pytest.approx(0.20 * 240 / 60)
+
+
+def test_a_new_move_restarts_from_where_the_servo_is(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=1000)
+    bus.wait(0.5)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=0, time_ms=1000)
+    second = bus.emulator.log.moves[-1]
+    assert second.from_units == pytest.approx(750, abs=1)
+    bus.clock.sleep_until(second.time_s + 0.5)
+    assert bus.emulator.servo(1).position_units == pytest.approx(second.from_units / 2)
+
+
+def test_targets_are_clamped_to_the_angle_limits(bus):
+    bus.send(C.ANGLE_LIMIT_WRITE, 1, min_units=100, max_units=900)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=0)
+    bus.wait(1.0)
+    assert bus.position() == 900
+    assert bus.read(C.MOVE_TIME_READ) == {"pos_units": 900, "time_ms": 0}
+    bus.port.write(encode_packet(1, C.MOVE_TIME_WRITE, bytes.fromhex("0000 0000")))
+    bus.wait(1.0)
+    assert bus.position() == 100
+
+
+def test_positions_beyond_1000_on_the_wire_are_clamped(bus):
+    bus.port.write(encode_packet(1, C.MOVE_TIME_WRITE, (1200).to_bytes(2, "little") + b"\0\0"))
+    bus.wait(1.0)
+    assert bus.position() == 1000
+
+
+def test_writes_out_of_range_are_ignored(bus):
+    bus.port.write(encode_packet(1, C.ANGLE_LIMIT_WRITE, bytes.fromhex("8403 6400")))  # 900 > 100
+    bus.port.write(encode_packet(1, C.TEMP_MAX_LIMIT_WRITE, bytes((40,))))  # below 50
+    bus.port.write(encode_packet(1, C.ANGLE_OFFSET_ADJUST, (-126).to_bytes(1, "little", signed=True)))
+    assert bus.read(C.ANGLE_LIMIT_READ) == {"min_units": 0, "max_units": 1000}
+    assert bus.read(C.TEMP_MAX_LIMIT_READ) == {"temp_c": 85}
+    assert bus.read(C.ANGLE_OFFSET_READ) == {"offset_units": 0}
+
+
+# --- staged moves -------------------------------------------------------------------------------
+def test_staged_move_waits_for_start_by_own_id(bus):
+    bus.send(C.MOVE_TIME_WAIT_WRITE, 1, pos_units=300, time_ms=0)
+    bus.wait(0.5)
+    assert bus.position() == 500
+    bus.send(C.MOVE_START, 1)
+    bus.wait(0.5)
+    assert bus.position() == 300
+    assert bus.emulator.log.moves[-1].command is C.MOVE_START
+
+
+def test_broadcast_start_starts_every_staged_servo_at_the_same_instant():
+    bus = Bus([1, 2, 3])
+    for servo_id, pos_units in ((1, 100), (2, 200), (3, 300)):
+        bus.port.write(encode_request(C.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=pos_units, time_ms=200))
+    bus.port.flush()
+    bus.wait(0.001)  # protocol.md: leave >= 1 ms before START
+    bus.send(C.MOVE_START, BROADCAST_ID)
+    moves = list(bus.emulator.log.moves)
+    assert [m.servo_id for m in moves] == [1, 2, 3]
+    assert len({m.time_s for m in moves}) == 1
+    bus.wait(1.0)
+    assert [bus.position(i) for i in (1, 2, 3)] == [100, 200, 300]
+
+
+def test_preset_survives_start_so_start_again_reruns_it(bus):
+    bus.send(C.MOVE_TIME_WAIT_WRITE, 1, pos_units=300, time_ms=0)
+    bus.wait(0.01)
+    bus.send(C.MOVE_START, 1)
+    bus.wait(0.5)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=800, time_ms=0)
+    bus.wait(0.5)
+    assert bus.position() == 800
+    bus.send(C.MOVE_START, BROADCAST_ID)
+    bus.wait(0.5)
+    assert bus.position() == 300
+
+
+def test_start_without_a_preset_is_ignored(bus):
+    bus.send(C.MOVE_START, 1)
+    bus.send(C.MOVE_START, BROADCAST_ID)
+    bus.wait(0.5)
+    assert len(bus.emulator.log.moves) == 0
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+
+
+def test_start_right_after_the_preset_is_missed_unless_the_gap_is_disabled():
+    for start_gap_s, expected in ((0.001, 500), (0.0, 300)):
+        bus = Bus(start_gap_s=start_gap_s)
+        bus.port.write(encode_request(C.MOVE_TIME_WAIT_WRITE, 1, pos_units=300, time_ms=0))
+        bus.port.write(encode_request(C.MOVE_START, 1))  # back to back: no gap
+        bus.wait(0.5)
+        assert bus.position() == expected
+
+
+# --- stop, load, motor mode ---------------------------------------------------------------------
+def test_move_stop_freezes_the_servo_where_it_is(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=1000)
+    bus.wait(0.2)
+    bus.send(C.MOVE_STOP, 1)
+    stopped_at = bus.emulator.servo(1).position_units
+    assert stopped_at == pytest.approx(600, abs=1)
+    bus.wait(1.0)
+    assert bus.emulator.servo(1).position_units == stopped_at
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+
+
+def test_servo_powers_up_unloaded_and_load_unload_work(bus):
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, BROADCAST_ID, loaded=0)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+
+
+def test_unload_mid_move_stops_and_a_move_reloads(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=1000)
+    bus.wait(0.5)
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=0)
+    bus.wait(0.5)
+    assert bus.position() == 750
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=700, time_ms=0)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+    bus.wait(0.5)
+    assert bus.position() == 700
+
+
+def test_move_by_hand_only_when_unloaded(bus):
+    servo = bus.emulator.servo(1)
+    servo.move_by_hand(-12)
+    assert bus.raw_reply(C.POS_READ, 1) == hexbytes("55 55 01 05 1C F4 FF EA")
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    with pytest.raises(ValueError, match="unload it"):
+        servo.move_by_hand(300)
+    with pytest.raises(ValueError, match="pos_units"):
+        bus.emulator.servo(1).move_by_hand(2000)
+
+
+def test_motor_mode_turns_at_a_speed_proportional_to_duty_and_wraps(bus):
+    top_units_s = 375 * 1000 / 240
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=400)
+    start = bus.emulator.log.packets[-1].time_s
+    bus.clock.sleep_until(start + 1.0)
+    output = bus.emulator.servo(1).output_units
+    assert output == pytest.approx(500 + 0.4 * top_units_s)  # 1125
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+    bus.clock.sleep_until(start + 2.0)  # output 1750: one turn (1500 counts) past 250
+    assert bus.emulator.servo(1).position_units == pytest.approx(250)
+
+
+def test_move_stop_does_not_stop_motor_mode_but_speed_zero_does(bus):
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=-200)
+    bus.send(C.MOVE_STOP, 1)
+    before = bus.emulator.servo(1).output_units
+    bus.wait(0.1)
+    assert bus.emulator.servo(1).output_units < before
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=0)
+    stopped = bus.emulator.servo(1).output_units
+    bus.wait(0.1)
+    assert bus.emulator.servo(1).output_units == stopped
+
+
+def test_moves_are_ignored_in_motor_mode_and_servo_mode_holds_again(bus):
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=0)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=100, time_ms=0)
+    bus.wait(0.5)
+    assert bus.position() == 500
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=0, reserved=0, speed=0)
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=100, time_ms=0)
+    bus.wait(0.5)
+    assert bus.position() == 100
+
+
+# --- offsets ------------------------------------------------------------------------------------
+def test_offset_adjust_moves_the_output_at_once_and_reads_stay_in_the_command_frame(bus):
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    bus.send(C.ANGLE_OFFSET_ADJUST, 1, offset_units=-10)
+    assert bus.raw_reply(C.ANGLE_OFFSET_READ, 1) == hexbytes("55 55 01 04 13 F6 F1")
+    bus.wait(0.1)
+    servo = bus.emulator.servo(1)
+    assert servo.output_units == pytest.approx(490)
+    assert bus.position() == 500
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=200, time_ms=0)
+    bus.wait(0.5)
+    assert servo.output_units == pytest.approx(190)
+
+
+def test_offset_on_an_unloaded_servo_shifts_the_reading_only(bus):
+    bus.send(C.ANGLE_OFFSET_ADJUST, 1, offset_units=25)
+    assert bus.emulator.servo(1).output_units == 500
+    assert bus.position() == 475
+
+
+def test_offset_is_saved_only_by_offset_write(bus):
+    bus.send(C.ANGLE_OFFSET_ADJUST, 1, offset_units=-10)
+    assert bus.emulator.servo(1).eeprom.offset_units == 0
+    bus.send(C.ANGLE_OFFSET_WRITE, 1)
+    assert bus.emulator.servo(1).eeprom.offset_units == -10
+
+
+# --- EEPROM persistence -------------------------------------------------------------------------
+def test_eeprom_values_persist_across_a_restart_and_unsaved_ones_do_not(tmp_path):
+    state = tmp_path / "bus.json"
+    bus = Bus([1, 2], state_path=state)
+    bus.send(C.ID_WRITE, 2, new_id=7)
+    bus.send(C.ANGLE_OFFSET_ADJUST, 1, offset_units=12)
+    bus.send(C.ANGLE_OFFSET_WRITE, 1)
+    bus.send(C.ANGLE_OFFSET_ADJUST, 1, offset_units=-30)  # not saved
+    bus.send(C.ANGLE_LIMIT_WRITE, 1, min_units=100, max_units=900)
+    bus.send(C.VIN_LIMIT_WRITE, 1, min_mv=5000, max_mv=9000)
+    bus.send(C.TEMP_MAX_LIMIT_WRITE, 1, temp_c=70)
+    bus.send(C.LED_CTRL_WRITE, 1, led_off=1)
+    bus.send(C.LED_ERROR_WRITE, 1, mask=3)
+    bus.send(C.OR_MOTOR_MODE_WRITE, 1, mode=1, reserved=0, speed=300)  # not saved
+    assert [p.name for p in tmp_path.iterdir()] == ["bus.json"]  # written atomically, no leftovers
+
+    again = Bus([1, 2], state_path=state)
+    assert again.read(C.ANGLE_OFFSET_READ, 1) == {"offset_units": 12}
+    assert again.read(C.ANGLE_LIMIT_READ, 1) == {"min_units": 100, "max_units": 900}
+    assert again.read(C.VIN_LIMIT_READ, 1) == {"min_mv": 5000, "max_mv": 9000}
+    assert again.read(C.TEMP_MAX_LIMIT_READ, 1) == {"temp_c": 70}
+    assert again.read(C.LED_CTRL_READ, 1) == {"led_off": 1}
+    assert again.read(C.LED_ERROR_READ, 1) == {"mask": 3}
+    assert again.read(C.OR_MOTOR_MODE_READ, 1) == {"mode": 0, "reserved": 0, "speed": 0}
+    assert again.read(C.ID_READ, 7) == {"servo_id": 7}
+    assert again.read(C.ID_READ, 2) is None
+
+
+def test_a_state_file_for_other_servos_is_refused(tmp_path):
+    state = tmp_path / "bus.json"
+    Bus([1, 2], state_path=state).send(C.ID_WRITE, 1, new_id=3)
+    with pytest.raises(ChoreoError, match="same servos or delete the file"):
+        BusEmulator([1, 2, 3], clock=VirtualClock(), state_path=state)
+
+
+def test_a_corrupt_state_file_is_reported_with_its_path(tmp_path):
+    state = tmp_path / "bus.json"
+    state.write_text("{not json")
+    with pytest.raises(ChoreoError, match="bus.json"):
+        BusEmulator([1], clock=VirtualClock(), state_path=state)
+
+
+# --- faults -------------------------------------------------------------------------------------
+def test_over_temperature_unloads_and_resumes_once_cooled(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=1000, time_ms=1000)
+    bus.wait(0.2)
+    servo = bus.emulator.servo(1)
+    servo.temperature_c = 86  # TEMP_MAX is 85
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+    assert servo.led_flashing
+    stopped = bus.position()
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)  # refused while hot
+    bus.wait(0.5)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+    assert bus.position() == stopped
+    servo.temperature_c = 60
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+    assert not servo.led_flashing
+
+
+def test_vin_outside_the_limits_unloads_and_stays_unloaded(bus):
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    servo = bus.emulator.servo(1)
+    servo.vin_mv = 4400  # factory minimum 4500
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=100, time_ms=0)  # refused
+    bus.wait(0.5)
+    assert bus.position() == 500
+    servo.vin_mv = 7400
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 1}
+
+
+def test_narrowing_the_vin_limits_below_the_supply_unloads(bus):
+    bus.send(C.LOAD_OR_UNLOAD_WRITE, 1, loaded=1)
+    bus.emulator.servo(1).vin_mv = 8000
+    bus.send(C.VIN_LIMIT_WRITE, 1, min_mv=6000, max_mv=7500)
+    assert bus.read(C.LOAD_OR_UNLOAD_READ) == {"loaded": 0}
+
+
+def test_dropped_replies_time_out_then_the_servo_answers_again(bus):
+    servo = bus.emulator.servo(1)
+    servo.reply_faults = ReplyFaults(drop_next=2)
+    assert bus.raw_reply(C.POS_READ, 1) == b""
+    assert bus.raw_reply(C.POS_READ, 1) == b""
+    assert bus.position() == 500
+    assert [r.fate for r in bus.emulator.log.replies] == [
+        ReplyFate.DROPPED, ReplyFate.DROPPED, ReplyFate.SENT
+    ]
+
+
+def test_corrupted_replies_fail_the_checksum(bus):
+    bus.emulator.servo(1).reply_faults = ReplyFaults(corrupt_next=1)
+    data = bus.raw_reply(C.POS_READ, 1)
+    decoder = PacketDecoder()
+    assert len(data) == 8 and decoder.feed(data) == [] and decoder.bad_checksums == 1
+    assert bus.position() == 500
+
+
+def test_random_reply_faults_are_reproducible_from_the_seed():
+    def fates(seed):
+        bus = Bus(seed=seed)
+        bus.emulator.servo(1).reply_faults = ReplyFaults(drop_probability=0.3, corrupt_probability=0.3)
+        for _ in range(60):
+            bus.raw_reply(C.POS_READ, 1)
+        return [r.fate for r in bus.emulator.log.replies]
+
+    first = fates(seed=4)
+    assert first == fates(seed=4)
+    assert first != fates(seed=5)
+    assert {ReplyFate.SENT, ReplyFate.DROPPED, ReplyFate.CORRUPTED} == set(first)
+
+
+def test_a_vanished_servo_hears_nothing_until_it_comes_back(bus):
+    servo = bus.emulator.servo(1)
+    servo.connected = False
+    assert bus.raw_reply(C.POS_READ, 1) == b""
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=100, time_ms=0)
+    bus.wait(0.5)
+    servo.connected = True
+    assert bus.position() == 500
+
+
+# --- the wire log -------------------------------------------------------------------------------
+def test_log_records_packets_with_arrival_times_and_moves(bus):
+    bus.send(C.MOVE_TIME_WRITE, 1, pos_units=600, time_ms=400)
+    bus.wait(0.02)
+    bus.send(C.MOVE_STOP, 1)
+    log = bus.emulator.log
+    write, stop = log.packets
+    assert write.packet.command is C.MOVE_TIME_WRITE and stop.packet.command is C.MOVE_STOP
+    assert stop.time_s - write.time_s == pytest.approx(0.02 + 6 * BYTE_S)
+    (move,) = log.moves
+    assert (move.servo_id, move.from_units, move.to_units, move.duration_s) == (1, 500, 600, 0.4)
