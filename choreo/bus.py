@@ -131,6 +131,17 @@ class ServoBus:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def drain(self) -> None:
+        """Wait until every byte written so far has left the host."""
+        with self._lock:
+            self.port.flush()
+
+    def discard_output(self) -> None:
+        """Drop bytes written but not yet sent (before an emergency stop)."""
+        with self._lock:
+            self.port.reset_output_buffer()
+            self._echo_owed = 0  # what was dropped will not echo; the input is flushed anyway
+
     # --- transactions --------------------------------------------------------------------------
     def send(self, command: Command, servo_id: int, /, **fields: int) -> None:
         """Send a write command (no reply exists for writes)."""

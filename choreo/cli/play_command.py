@@ -1,0 +1,182 @@
+"""``choreo play``: preflight, approach, stream, report."""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import dataclasses
+import signal
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from ..bus import ServoBus
+from ..clock import RealClock
+from ..emulator import BusEmulator, ServoSpec, SimSerial
+from ..motion import Motion, load_motion
+from ..player import (
+    ExitMode,
+    Outcome,
+    Performance,
+    Player,
+    PlayOptions,
+    PlayReport,
+    packet_schedule,
+    path_errors_deg,
+    preflight,
+    prepare,
+)
+from ..robot import Robot
+from .bus_commands import add_port_arguments
+
+EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
+
+
+def register(subparsers) -> None:
+    play = subparsers.add_parser(
+        "play", help="play a motion on the servos (default: the built-in emulated bus)",
+        description="Check every servo, approach the first pose slowly, then stream the motion: "
+                    "each tick is staged on the servos and started by one broadcast MOVE_START. "
+                    "Ctrl-C stops the servos at once.")
+    play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    add_port_arguments(play)
+    play.add_argument("--speed", type=positive_float, help="time scale: 2 plays twice as fast")
+    play.add_argument("--loop", type=positive_int, metavar="N",
+                      help="play the motion N times (overrides the file's repeat)")
+    play.add_argument("--dry-run", action="store_true",
+                      help="plan everything, open no port, print the packet schedule")
+    play.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
+                      help="how far the servos' linear moves may leave the smooth plan (default 0.5°)")
+    play.add_argument("--stretch", action="store_true",
+                      help="move keyframes later where the limits can't meet their times")
+    play.add_argument("--exit", choices=[m.value for m in ExitMode], default="hold",
+                      help="after the motion or a stop: hold (default), go to the exit pose, unload")
+    play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
+    play.set_defaults(handler=run_play)
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return int(text)
+
+
+def run_play(args: argparse.Namespace) -> int:
+    motion = load_motion(args.motion)
+    if args.loop:
+        motion = dataclasses.replace(motion, repeat=args.loop)
+    robot = motion.robot
+    if args.exit_pose not in robot.poses:
+        print(f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
+              f"poses: {', '.join(robot.poses)}", file=sys.stderr)
+        return 2
+    if args.dry_run:
+        return dry_run(args, motion)
+    signal.signal(signal.SIGTERM, _interrupt)
+    emulator = None
+    port = args.port
+    if port is None:
+        emulator = built_in_emulator(robot)
+        port = SimSerial.from_emulator(emulator)
+        print(f"no --port given: playing on the built-in emulated bus ({len(robot.joints)} "
+              f"servos of {robot.name} at its home pose)", file=sys.stderr)
+    options = PlayOptions(exit_mode=ExitMode(args.exit), exit_pose=args.exit_pose)
+    with ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries, echo=args.echo) as bus:
+        start_pose, limits = preflight(bus, robot)
+        performance = prepare(motion, start_pose, speed=args.speed, stretch=args.stretch,
+                              tolerance_deg=args.tolerance)
+        report = _play_with_progress(bus, robot, limits, options, performance, start_pose)
+        errors = None
+        if emulator is not None:
+            start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
+            errors = path_errors_deg(performance, robot, emulator, report, start_units)
+    _print_report(report, robot, errors)
+    return EXIT_CODES[report.outcome]
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def built_in_emulator(robot: Robot) -> BusEmulator:
+    """The robot's servos on an emulated bus, standing at its home pose."""
+    home = robot.pose_vector("home")
+    specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+             for j, a in zip(robot.joints, home)]
+    return BusEmulator(specs, clock=RealClock())
+
+
+def _play_with_progress(bus, robot, limits, options, performance: Performance, start_pose) -> PlayReport:
+    keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
+    console = Console(stderr=True)
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"),
+               TimeElapsedColumn())
+    # No auto-refresh: its thread would take the GIL at random moments and make STARTs late.
+    # The player calls ``update`` right after a START, in the time set aside for the bus.
+    with Progress(*columns, console=console, auto_refresh=False) as progress:
+        task = progress.add_task("approach", total=len(performance.ticks), status="")
+        last_refresh = [0.0]
+
+        def update(p) -> None:
+            keyframe = bisect.bisect_right(keyframes, p.time_s)
+            stage = "approach" if p.time_s < performance.approach_s else f"keyframe {keyframe}/{len(keyframes)}"
+            progress.update(task, completed=p.tick, description=stage,
+                            status=f"{p.time_s:6.2f}/{p.duration_s:.2f} s  bus {p.bus_use:4.0%}")
+            if p.time_s - last_refresh[0] >= 0.1 or p.tick == p.ticks:
+                last_refresh[0] = p.time_s
+                progress.refresh()
+
+        player = Player(bus, robot, RealClock(), limits, options, on_progress=update)
+        report = player.play(performance.ticks, start_pose)
+        player.leave(report.outcome)
+    return report
+
+
+def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
+    console = Console()
+    verdict = {Outcome.COMPLETED: "[green]completed[/]", Outcome.INTERRUPTED: "[yellow]stopped[/]",
+               Outcome.ABORTED: "[red]aborted[/]"}[report.outcome]
+    console.print(f"{verdict} {report.reason}".rstrip())
+    console.print(
+        f"ticks {report.ticks_played}/{report.ticks_total}, re-targeted {report.retargeted}; "
+        f"START lateness p50 {report.lateness_percentile_ms(50):.2f} ms, "
+        f"p99 {report.lateness_percentile_ms(99):.2f} ms, max {max(report.lateness_ms, default=0):.2f} ms; "
+        f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
+        f"bus use {report.bus_use:.0%}")
+    table = Table(title="servo health")
+    for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):
+        table.add_column(column, justify="right")
+    for index, h in enumerate(report.health):
+        temps = f"{h.temp_c_min}..{h.temp_c_max}" if h.temp_c_min is not None else "-"
+        vins = f"{h.vin_mv_min / 1000:.2f}..{h.vin_mv_max / 1000:.2f}" if h.vin_mv_min else "-"
+        pos = f"{h.position_error_deg_max:.2f}" if h.position_error_deg_max is not None else "-"
+        path = f"{path_errors[index]:.2f}" if path_errors else "-"
+        table.add_row(h.joint, str(h.servo_id), temps, vins, pos, path)
+    console.print(table)
+
+
+def dry_run(args: argparse.Namespace, motion: Motion) -> int:
+    robot = motion.robot
+    start = robot.pose_vector("home")
+    performance = prepare(motion, start, speed=args.speed, stretch=args.stretch,
+                          tolerance_deg=args.tolerance)
+    print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
+    for packet in packet_schedule(performance.ticks, robot):
+        print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
+    total = sum(len(p.packet) for p in packet_schedule(performance.ticks, robot))
+    print(f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
+          f"{total} bytes" if performance.ticks else "nothing to play")
+    return 0

@@ -1,0 +1,519 @@
+"""Play ticks on the servos: preflight, streaming on an absolute clock, health, stop.
+
+Each tick k: at its deadline one broadcast MOVE_START makes every servo begin its staged move at
+the same instant; right after, tick k+1 is staged (MOVE_TIME_WAIT_WRITE) on each servo whose
+target changes. Deadlines are absolute from one start time, so nothing drifts. Spare bus time
+before the next START goes to health reads (position, VIN, temperature, rotating over the
+servos), each with a timeout that ends before that START. If the host falls a whole tick behind,
+the servos are re-targeted to where the plan is now instead of replaying stale ticks.
+
+Every exit path stops the servos (broadcast MOVE_STOP) unless the motion completed, then leaves
+them as configured: holding (torque on), at an exit pose, or unloaded.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .bus import ServoBus
+from .clock import Clock
+from .emulator import BusEmulator
+from .emulator.trace import executed_units
+from .errors import BusError, BusTimeoutError, ChoreoError, PlaybackAborted
+from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
+from .motion import Motion
+from .planner import Trajectory, plan_approach, plan_motion
+from .robot import Joint, Robot
+from .segments import Tick, TickPlan, segment
+
+log = logging.getLogger(__name__)
+
+START_BYTES = SPECS[Command.MOVE_START].request_len + 3
+STAGE_BYTES = SPECS[Command.MOVE_TIME_WAIT_WRITE].request_len + 3
+READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].reply_len + 3
+
+
+class ExitMode(enum.Enum):
+    HOLD = "hold"  # stay where stopped, torque on
+    POSE = "pose"  # move slowly to the exit pose
+    UNLOAD = "unload"  # torque off (the robot may sag or fall)
+
+
+class Outcome(enum.Enum):
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"  # Ctrl-C / SIGTERM
+    ABORTED = "aborted"  # a health check failed
+
+
+class Reading(enum.Enum):
+    """A health read: its command and reply field."""
+
+    POSITION = (Command.POS_READ, "pos_units")
+    VIN = (Command.VIN_READ, "vin_mv")
+    TEMPERATURE = (Command.TEMP_READ, "temp_c")
+
+
+@dataclass(frozen=True)
+class PlayOptions:
+    exit_mode: ExitMode = ExitMode.HOLD
+    exit_pose: str = "home"
+    lead_s: float = 0.01  # spare time between staging the first tick and its START
+    health_timeout_s: float = 0.02  # per health read; reads happen only when they fit
+    start_guard_s: float = 0.002  # bus time kept free before every START
+    max_missed_reads: int = 3  # consecutive unanswered reads before a servo counts as lost
+    max_position_error_deg: float = 15.0
+    temp_margin_c: int = 5  # abort this far below the servo's own temperature limit
+
+
+@dataclass(frozen=True)
+class ServoLimits:
+    """What preflight read from a servo: the bounds the health checks enforce."""
+
+    min_vin_mv: int
+    max_vin_mv: int
+    max_temp_c: int
+
+
+@dataclass
+class ServoHealth:
+    """Extremes of what the health reads saw on one servo (None: never read)."""
+
+    joint: str
+    servo_id: int
+    temp_c_min: int | None = None
+    temp_c_max: int | None = None
+    vin_mv_min: int | None = None
+    vin_mv_max: int | None = None
+    position_error_deg_max: float | None = None
+    reads: int = 0
+    missed_reads: int = 0  # in a row, reset by an answer
+
+    def record(self, name: str, value: float) -> None:
+        low, high = getattr(self, f"{name}_min", None), getattr(self, f"{name}_max")
+        if hasattr(self, f"{name}_min"):
+            setattr(self, f"{name}_min", value if low is None else min(low, value))
+        setattr(self, f"{name}_max", value if high is None else max(high, value))
+
+
+@dataclass(frozen=True)
+class Progress:
+    time_s: float
+    duration_s: float
+    tick: int
+    ticks: int
+    bus_use: float
+
+
+@dataclass(frozen=True)
+class PlayReport:
+    outcome: Outcome
+    reason: str
+    ticks_played: int
+    ticks_total: int
+    retargeted: int
+    lateness_ms: tuple[float, ...]  # per START, against its deadline
+    bytes_sent: int
+    planned_s: float
+    elapsed_s: float
+    health: tuple[ServoHealth, ...]
+    start_time_s: float  # clock time of the first START's deadline
+
+    @property
+    def bus_use(self) -> float:
+        return self.bytes_sent * BYTE_TIME_S / self.elapsed_s if self.elapsed_s > 0 else 0.0
+
+    def lateness_percentile_ms(self, q: float) -> float:
+        return float(np.percentile(self.lateness_ms, q)) if self.lateness_ms else 0.0
+
+    @property
+    def end_error_ms(self) -> float:
+        return (self.elapsed_s - self.planned_s) * 1000
+
+
+# --- preflight ---------------------------------------------------------------------------------
+def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str, ServoLimits]]:
+    """Check that every servo answers and is fit to move; load torque.
+
+    Returns the measured pose (degrees, joint order) and each joint's servo limits. Raises a
+    ChoreoError listing every problem; nothing has moved then.
+    """
+    missing = [j for j in robot.joints if not bus.ping(j.servo_id, retries=2)]
+    if missing:
+        names = ", ".join(f"{j.name} (ID {j.servo_id})" for j in missing)
+        raise ChoreoError(f"{len(missing)} servo(s) did not answer: {names}; check power and "
+                          "wiring, or run `choreo scan` to see which IDs answer")
+    problems, pose, limits = [], [], {}
+    for joint in robot.joints:
+        position, servo_limits, joint_problems = _inspect(bus, joint)
+        pose.append(joint.to_deg(position))
+        limits[joint.name] = servo_limits
+        problems += joint_problems
+    if problems:
+        raise ChoreoError("refusing to play:\n  " + "\n  ".join(problems))
+    for joint in robot.joints:
+        bus.load(joint.servo_id)
+    return tuple(pose), limits
+
+
+def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
+    sid, who = joint.servo_id, f"{joint.name} (ID {joint.servo_id})"
+    position = bus.read_position(sid)
+    vin, vin_limits = bus.read_vin(sid), bus.read_vin_limits(sid)
+    temp, temp_limit = bus.read_temperature(sid), bus.read_temp_limit(sid)
+    angle_limits = bus.read_angle_limits(sid)
+    problems = []
+    if not vin_limits.min_mv <= vin <= vin_limits.max_mv:
+        problems.append(f"{who}: supply {vin} mV is outside the servo's limits "
+                        f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply")
+    if temp >= temp_limit:
+        problems.append(f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; "
+                        "let it cool down")
+    low, high = sorted((joint.to_units(joint.limits.min_deg), joint.to_units(joint.limits.max_deg)))
+    if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
+        problems.append(
+            f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
+            f" are narrower than the robot file's {round(low)}..{round(high)} units "
+            f"({joint.limits.min_deg:g}..{joint.limits.max_deg:g}°); widen them with "
+            "`choreo servo limits` or narrow the joint limits in the robot file")
+    return position, ServoLimits(vin_limits.min_mv, vin_limits.max_mv, temp_limit), problems
+
+
+# --- the packets of a tick ---------------------------------------------------------------------
+def staged_moves(tick: Tick, robot: Robot, *, all_servos: bool = False):
+    """(joint, pos_units, time_ms) for each servo that must be staged for ``tick``."""
+    for joint, target, staged in zip(robot.joints, tick.targets_units, tick.staged):
+        if staged or all_servos:
+            yield joint, target, tick.duration_ms
+
+
+@dataclass(frozen=True)
+class ScheduledPacket:
+    time_ms: int  # when it is sent, from the first START
+    packet: bytes
+    description: str
+
+
+def packet_schedule(ticks: Sequence[Tick], robot: Robot) -> list[ScheduledPacket]:
+    """Every packet the player sends for ``ticks`` (without health reads), in order: the dry run."""
+    schedule = []
+
+    def stage(tick: Tick, at_ms: int, all_servos: bool) -> None:
+        for joint, pos, time_ms in staged_moves(tick, robot, all_servos=all_servos):
+            packet = encode_request(Command.MOVE_TIME_WAIT_WRITE, joint.servo_id,
+                                    pos_units=pos, time_ms=time_ms)
+            schedule.append(ScheduledPacket(at_ms, packet, f"stage {joint.name} -> {pos} in {time_ms} ms"))
+
+    if ticks:
+        stage(ticks[0], ticks[0].start_ms, all_servos=True)
+    for k, tick in enumerate(ticks):
+        if k == 0 or any(tick.staged):  # a tick that changes no target needs no START
+            schedule.append(ScheduledPacket(tick.start_ms, encode_request(Command.MOVE_START, BROADCAST_ID),
+                                            f"START tick {k} ({tick.duration_ms} ms)"))
+        if k + 1 < len(ticks):
+            stage(ticks[k + 1], tick.start_ms, all_servos=False)
+    return schedule
+
+
+# --- playing -----------------------------------------------------------------------------------
+class Player:
+    """Streams ticks to the servos of ``robot`` on ``bus`` with deadlines from ``clock``."""
+
+    def __init__(self, bus: ServoBus, robot: Robot, clock: Clock, limits: dict[str, ServoLimits],
+                 options: PlayOptions = PlayOptions(),
+                 on_progress: Callable[[Progress], None] | None = None):
+        self.bus, self.robot, self.clock, self.options = bus, robot, clock, options
+        self.limits = limits
+        self.on_progress = on_progress
+        self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
+        # Positions are checked most often; each round also reads one servo's VIN and temperature.
+        n = len(robot.joints)
+        self._rotation = [item for c in range(n) for item in
+                          [(i, Reading.POSITION) for i in range(n)]
+                          + [(c, Reading.VIN), (c, Reading.TEMPERATURE)]]
+        self._next_read = 0
+        self._suspect: int | None = None  # a joint whose last read went unanswered: read it next
+
+    def play(self, ticks: Sequence[Tick], start_pose_deg: Sequence[float]) -> PlayReport:
+        """Play ``ticks`` from ``start_pose_deg`` (where the servos are now)."""
+        stream = _Stream(self, list(ticks), start_pose_deg)
+        try:
+            stream.run()
+        except KeyboardInterrupt:
+            self.stop()
+            stream.finish(Outcome.INTERRUPTED, "interrupted")
+        except PlaybackAborted as error:
+            self.stop()
+            stream.finish(Outcome.ABORTED, str(error))
+        except BaseException:
+            self.stop()
+            raise
+        return stream.report()
+
+    def stop(self) -> None:
+        """Broadcast MOVE_STOP: every servo holds where it is.
+
+        Staged moves still waiting in the output buffer are dropped so the STOP goes out first.
+        """
+        try:
+            self.bus.discard_output()
+            self.bus.stop(BROADCAST_ID)
+            self.bus.drain()
+        except (BusError, OSError) as error:  # the port itself may be gone
+            log.error("could not send MOVE_STOP: %s", error)
+
+    def leave(self, outcome: Outcome) -> None:
+        """Leave the servos as configured: holding (nothing to do), at the exit pose, unloaded.
+
+        After an abort the robot is not moved again: a lost or hot servo must not be driven.
+        """
+        mode = self.options.exit_mode
+        if mode is ExitMode.POSE and outcome is not Outcome.ABORTED:
+            go_to_pose(self, self.options.exit_pose)
+        elif mode is ExitMode.UNLOAD:
+            for joint in self.robot.joints:
+                self.bus.unload(joint.servo_id)
+        self.bus.drain()  # the port may close next: let the last commands out first
+
+    # --- health --------------------------------------------------------------------------------
+    def read_health(self, budget_s: float, expected_units: np.ndarray) -> bool:
+        """One health read if it fits in ``budget_s``; whether it was made."""
+        timeout_s = self.options.health_timeout_s
+        if budget_s < timeout_s + self.options.start_guard_s:
+            return False
+        index, reading = self._pick_read()
+        joint, health = self.robot.joints[index], self.health[index]
+        command, name = reading.value
+        try:
+            value = self.bus.request(command, joint.servo_id, retries=0, timeout_s=timeout_s)[name]
+        except BusTimeoutError:
+            health.missed_reads += 1
+            self._suspect = index
+            if health.missed_reads >= self.options.max_missed_reads:
+                raise PlaybackAborted(f"{joint.name} (ID {joint.servo_id}) stopped answering "
+                                      f"({health.missed_reads} reads in a row); check its cable") from None
+            return True
+        health.missed_reads = 0
+        health.reads += 1
+        self._suspect = None
+        self._check(index, reading, value, expected_units[index])
+        return True
+
+    def _pick_read(self) -> tuple[int, Reading]:
+        if self._suspect is not None:
+            return self._suspect, Reading.POSITION
+        item = self._rotation[self._next_read % len(self._rotation)]
+        self._next_read += 1
+        return item
+
+    def _check(self, index: int, reading: Reading, value: int, expected_units: float) -> None:
+        joint, health = self.robot.joints[index], self.health[index]
+        limits = self.limits[joint.name]
+        who = f"{joint.name} (ID {joint.servo_id})"
+        if reading is Reading.TEMPERATURE:
+            health.record("temp_c", value)
+            if value >= limits.max_temp_c - self.options.temp_margin_c:
+                raise PlaybackAborted(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
+        elif reading is Reading.VIN:
+            health.record("vin_mv", value)
+            if not limits.min_vin_mv <= value <= limits.max_vin_mv:
+                raise PlaybackAborted(f"{who} supply is {value} mV, outside "
+                                      f"{limits.min_vin_mv}..{limits.max_vin_mv} mV")
+        else:
+            error_deg = abs(joint.to_deg(value) - joint.to_deg(expected_units))
+            health.record("position_error_deg", error_deg)
+            if error_deg > self.options.max_position_error_deg:
+                raise PlaybackAborted(f"{who} is {error_deg:.1f}° away from where it should be "
+                                      f"(limit {self.options.max_position_error_deg:g}°): blocked or overloaded?")
+
+
+class _Stream:
+    """The state of one pass over a tick list."""
+
+    def __init__(self, player: Player, ticks: list[Tick], start_pose_deg: Sequence[float]):
+        self.player = player
+        self.ticks = ticks
+        joints = player.robot.joints
+        self.previous_units = np.array([j.to_units(a) for j, a in zip(joints, start_pose_deg)])
+        self.current_units = self.previous_units.copy()
+        self.lateness_ms: list[float] = []
+        self.retargeted = 0
+        self.bytes_sent = 0
+        self.wire_free_s = -np.inf  # when the bytes sent so far will have left the host
+        self.played = 0
+        self.outcome, self.reason = Outcome.COMPLETED, ""
+        # Start once whatever was sent before has left and every servo of tick 0 is staged.
+        player.bus.drain()
+        first_staging_s = len(joints) * STAGE_BYTES * BYTE_TIME_S
+        self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
+        self.end_s = self.t0
+
+    @property
+    def planned_s(self) -> float:
+        last = self.ticks[-1] if self.ticks else None
+        return (last.start_ms + last.duration_ms) / 1000 if last else 0.0
+
+    def deadline(self, k: int) -> float:
+        return self.t0 + self.ticks[k].start_ms / 1000
+
+    def run(self) -> None:
+        if not self.ticks:
+            return
+        self.stage(self.ticks[0], all_servos=True)
+        k = 0
+        while k < len(self.ticks):
+            k = self.catch_up(k)
+            self.start(k)
+            if k + 1 < len(self.ticks):
+                self.stage(self.ticks[k + 1], all_servos=False)
+                self.use_spare_time(k)
+            k += 1
+        self.player.clock.sleep_until(self.t0 + self.planned_s)
+        self.end_s = self.player.clock.now()
+
+    def catch_up(self, k: int) -> int:
+        """If tick k's time is already over, jump to the tick the plan is in now."""
+        now = self.player.clock.now()
+        if k + 1 >= len(self.ticks) or now < self.deadline(k + 1):
+            return k
+        j = k + 1
+        while j + 1 < len(self.ticks) and now >= self.deadline(j + 1):
+            j += 1
+        log.warning("fell behind by %.1f ms: re-targeting from tick %d to tick %d",
+                    (now - self.deadline(k)) * 1000, k, j)
+        self.retargeted += 1
+        tick = self.ticks[j]
+        remaining_ms = max(1, round((self.deadline(j) + tick.duration_ms / 1000 - now) * 1000))
+        self.ticks[j] = replace(tick, duration_ms=remaining_ms,
+                                     start_ms=round((now - self.t0) * 1000))
+        self.stage(self.ticks[j], all_servos=True)
+        return j
+
+    def start(self, k: int) -> None:
+        """START tick k so that it arrives at the servos on its deadline.
+
+        A tick that changes no target sends nothing: every servo is already there.
+        """
+        if k == 0 or any(self.ticks[k].staged):
+            clock = self.player.clock
+            send_at = self.deadline(k) - START_BYTES * BYTE_TIME_S
+            clock.sleep_until(send_at)
+            self.lateness_ms.append((clock.now() - send_at) * 1000)
+            self.player.bus.start(BROADCAST_ID)
+            self.sent(START_BYTES)
+        self.previous_units = self.current_units
+        self.current_units = np.asarray(self.ticks[k].targets_units, dtype=float)
+        self.played = k + 1
+        self.report_progress(k)
+
+    def stage(self, tick: Tick, *, all_servos: bool) -> None:
+        bus = self.player.bus
+        for joint, pos, time_ms in staged_moves(tick, self.player.robot, all_servos=all_servos):
+            bus.stage_move(joint.servo_id, pos, time_ms)
+            self.sent(STAGE_BYTES)
+
+    def use_spare_time(self, k: int) -> None:
+        """Health reads until the next START's guard time (never delaying it)."""
+        clock, next_start = self.player.clock, self.deadline(k + 1)
+        tick = self.ticks[k]
+        for _ in range(len(self.player.robot.joints)):  # bounded: at most one round per tick
+            now = clock.now()
+            budget = next_start - max(now, self.wire_free_s)
+            fraction = np.clip((now - self.deadline(k)) / (tick.duration_ms / 1000), 0.0, 1.0)
+            expected = self.previous_units + fraction * (self.current_units - self.previous_units)
+            if not self.player.read_health(budget, expected):
+                return
+            self.sent(READ_BYTES)
+
+    def sent(self, count: int) -> None:
+        """Account for bytes put on the wire: it sends them one after another at 115200 baud."""
+        now = self.player.clock.now()
+        self.wire_free_s = max(now, self.wire_free_s) + count * BYTE_TIME_S
+        self.bytes_sent += count
+
+    def report_progress(self, k: int) -> None:
+        if self.player.on_progress:
+            now = self.player.clock.now() - self.t0
+            self.player.on_progress(Progress(now, self.planned_s, k + 1, len(self.ticks),
+                                             self.bytes_sent * BYTE_TIME_S / max(now, 1e-3)))
+
+    def finish(self, outcome: Outcome, reason: str) -> None:
+        self.outcome, self.reason = outcome, reason
+        self.end_s = self.player.clock.now()
+
+    def report(self) -> PlayReport:
+        return PlayReport(
+            outcome=self.outcome, reason=self.reason, ticks_played=self.played,
+            ticks_total=len(self.ticks), retargeted=self.retargeted,
+            lateness_ms=tuple(self.lateness_ms), bytes_sent=self.bytes_sent,
+            planned_s=self.planned_s, elapsed_s=self.end_s - self.t0, health=self.player.health,
+            start_time_s=self.t0)
+
+
+
+# --- a whole performance: approach, motion, exit -----------------------------------------------
+@dataclass(frozen=True)
+class Performance:
+    """What will be played: the approach from the measured pose, then the motion, as one tick list."""
+
+    approach: TickPlan
+    motion: TickPlan
+    trajectory: Trajectory  # of the motion, starting at ``approach_s``
+    approach_trajectory: Trajectory
+
+    @property
+    def approach_s(self) -> float:
+        return self.approach.duration_ms / 1000
+
+    @property
+    def ticks(self) -> tuple[Tick, ...]:
+        offset = self.approach.duration_ms
+        return self.approach.ticks + tuple(replace(t, start_ms=t.start_ms + offset)
+                                           for t in self.motion.ticks)
+
+    def planned_deg(self, times_s: np.ndarray) -> np.ndarray:
+        """The smooth plan (approach, then motion) at ``times_s`` from the first START."""
+        times_s = np.asarray(times_s, dtype=float)
+        in_approach = times_s < self.approach_s
+        out = np.empty((len(times_s), self.trajectory.n_joints))
+        out[in_approach] = self.approach_trajectory.positions(times_s[in_approach])
+        out[~in_approach] = self.trajectory.positions(times_s[~in_approach] - self.approach_s)
+        return out
+
+
+def prepare(motion: Motion, start_pose_deg: Sequence[float], *, speed: float | None = None,
+            stretch: bool = False, tolerance_deg: float = 0.5,
+            approach_limit_scale: float = 0.3) -> Performance:
+    """Plan the approach from ``start_pose_deg`` and the motion, and compile both into ticks."""
+    robot = motion.robot
+    plan = plan_motion(motion, speed=speed, stretch=stretch)
+    first_pose = plan.trajectory.at(0.0)[0]
+    approach = plan_approach(robot, start_pose_deg, first_pose, approach_limit_scale)
+    return Performance(segment(approach, robot, tolerance_deg=tolerance_deg),
+                       segment(plan.trajectory, robot, tolerance_deg=tolerance_deg),
+                       plan.trajectory, approach)
+
+
+def go_to_pose(player: Player, pose: str) -> PlayReport:
+    """Move slowly from wherever the servos are to a named pose of the robot (the exit pose)."""
+    robot = player.robot
+    start = [j.to_deg(player.bus.read_position(j.servo_id)) for j in robot.joints]
+    trajectory = plan_approach(robot, start, robot.pose_vector(pose), 0.3)
+    return player.play(segment(trajectory, robot).ticks, start)
+
+
+def path_errors_deg(performance: Performance, robot: Robot, emulator: BusEmulator,
+                    report: PlayReport, start_units: Sequence[float],
+                    step_s: float = 0.002) -> tuple[float, ...]:
+    """Per joint, the largest distance between where the emulated servo went and the smooth plan."""
+    times = np.arange(0.0, report.planned_s, step_s)
+    planned = performance.planned_deg(times)
+    errors = []
+    for j, (joint, start) in enumerate(zip(robot.joints, start_units)):
+        went = executed_units(emulator.log.moves, joint.servo_id, start, report.start_time_s + times)
+        errors.append(float(np.max(np.abs(joint.to_deg(went) - planned[:, j]), initial=0.0)))
+    return tuple(errors)

@@ -1,0 +1,225 @@
+"""The player on the emulator in virtual time: synchronized starts, path error, safety aborts."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from choreo.bus import ServoBus
+from choreo.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
+from choreo.errors import ChoreoError
+from choreo.motion import load_motion
+from choreo.player import (
+    ExitMode,
+    Outcome,
+    Player,
+    PlayOptions,
+    packet_schedule,
+    path_errors_deg,
+    preflight,
+    prepare,
+)
+from choreo.protocol import BROADCAST_ID, Command, PacketDecoder, decode_request
+from choreo.segments import QUANTIZATION_DEG
+
+MOTIONS = "motions"
+
+
+class Rig:
+    """A robot's servos on an emulated bus in virtual time, standing at ``pose``."""
+
+    def __init__(self, motion_path: str, pose: str = "home", skip_ids=()):
+        self.motion = load_motion(motion_path)
+        self.robot = self.motion.robot
+        self.clock = VirtualClock()
+        angles = self.robot.pose_vector(pose)
+        specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+                 for j, a in zip(self.robot.joints, angles) if j.servo_id not in skip_ids]
+        self.emulator = BusEmulator(specs, clock=self.clock)
+        self.bus = ServoBus(SimSerial.from_emulator(self.emulator))
+
+    def play(self, options=PlayOptions(), on_progress=None, **prepare_args):
+        self.start, limits = preflight(self.bus, self.robot)
+        self.performance = prepare(self.motion, self.start, **prepare_args)
+        player = Player(self.bus, self.robot, self.clock, limits, options, on_progress)
+        self.report = player.play(self.performance.ticks, self.start)
+        player.leave(self.report.outcome)
+        return self.report
+
+    def packets(self, command):
+        return [p for p in self.emulator.log.packets if p.packet.command == command]
+
+
+@pytest.mark.parametrize("motion", ["arm6/wave.yaml", "arm6/dance.yaml", "hexapod18/tripod_gait.yaml"])
+def test_executed_path_stays_within_tolerance_of_the_plan(motion):
+    rig = Rig(f"{MOTIONS}/{motion}")
+    report = rig.play()
+    assert report.outcome is Outcome.COMPLETED
+    assert report.retargeted == 0 and max(report.lateness_ms) == 0.0  # virtual time is exact
+    start_units = [j.to_units(a) for j, a in zip(rig.robot.joints, rig.start)]
+    errors = path_errors_deg(rig.performance, rig.robot, rig.emulator, report, start_units)
+    assert max(errors) <= 0.5 + QUANTIZATION_DEG + 1e-6
+    # and the servos end where the motion ends
+    final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
+    for joint, angle in zip(rig.robot.joints, final):
+        assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
+            angle, abs=QUANTIZATION_DEG + 1e-6)
+
+
+def test_all_servos_of_a_tick_start_at_the_same_instant():
+    rig = Rig(f"{MOTIONS}/hexapod18/tripod_gait.yaml")
+    rig.play()
+    starts = [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]
+    by_time: dict[float, set[int]] = {}
+    for move in starts:
+        by_time.setdefault(move.time_s, set()).add(move.servo_id)
+    start_packets = rig.packets(Command.MOVE_START)
+    assert all(p.packet.servo_id == BROADCAST_ID for p in start_packets)
+    # every move began at the arrival of a broadcast START, never servo by servo
+    assert set(by_time) <= {p.time_s for p in start_packets}
+    assert max(len(ids) for ids in by_time.values()) == 18
+    # each START arrives on its tick's deadline
+    deadlines = {round(rig.report.start_time_s + t.start_ms / 1000, 9) for t in rig.performance.ticks}
+    assert {round(p.time_s, 9) for p in start_packets} <= deadlines
+
+
+def test_every_packet_on_the_wire_is_valid_and_in_range():
+    rig = Rig(f"{MOTIONS}/arm6/pick_and_place.yaml")
+    rig.play()
+    for received in rig.emulator.log.packets:
+        fields = decode_request(received.packet)  # raises on a malformed packet
+        if "pos_units" in fields:
+            assert 0 <= fields["pos_units"] <= 1000 and 0 <= fields["time_ms"] <= 30000
+
+
+def test_missing_servo_is_refused_by_name_before_anything_moves():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml", skip_ids=(3,))
+    with pytest.raises(ChoreoError, match=r"1 servo\(s\) did not answer: elbow \(ID 3\)"):
+        rig.play()
+    assert not rig.emulator.log.moves
+
+
+def test_servo_limits_narrower_than_the_robot_file_are_refused():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.bus.set_angle_limits(1, 300, 700)
+    with pytest.raises(ChoreoError, match=r"base_yaw \(ID 1\): the servo's own angle limits 300..700 "
+                                          r"are narrower than the robot file's 0..1000"):
+        rig.play()
+
+
+def test_low_voltage_and_heat_are_refused_in_preflight():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.emulator.servo(2).vin_mv = 4000
+    rig.emulator.servo(5).temperature_c = 90
+    with pytest.raises(ChoreoError) as error:
+        rig.play()
+    assert "shoulder (ID 2): supply 4000 mV is outside" in str(error.value)
+    assert "wrist_roll (ID 5): 90 °C is at or above the servo's limit 85 °C" in str(error.value)
+
+
+def test_servo_vanishing_mid_play_aborts_with_move_stop():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    vanish_at = []
+
+    def pull_the_cable(progress):
+        if progress.tick == 10:
+            rig.emulator.servo(4).connected = False
+            vanish_at.append(rig.clock.now())
+
+    report = rig.play(on_progress=pull_the_cable)
+    assert report.outcome is Outcome.ABORTED
+    assert "wrist_pitch (ID 4) stopped answering" in report.reason
+    stops = rig.packets(Command.MOVE_STOP)
+    assert stops and stops[-1].packet.servo_id == BROADCAST_ID
+    assert stops[-1].time_s > vanish_at[0]
+    assert report.ticks_played < report.ticks_total
+
+
+def test_over_temperature_aborts():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+
+    def heat_up(progress):
+        if progress.tick == 5:
+            rig.emulator.servo(2).temperature_c = 82  # 3 °C under its limit of 85
+
+    report = rig.play(on_progress=heat_up)
+    assert report.outcome is Outcome.ABORTED
+    assert "shoulder (ID 2) is at 82 °C, near its limit 85 °C" in report.reason
+    assert rig.packets(Command.MOVE_STOP)
+
+
+def test_position_error_aborts():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+
+    def hold_the_wrist(progress):
+        # Somebody grabs the waving wrist at tick 8 and keeps it where it was.
+        if progress.tick >= 8:
+            servo = rig.emulator.servo(4)
+            held = rig.held = getattr(rig, "held", servo.position_units)
+            rig.bus.unload(4)
+            rig.bus.drain()
+            servo.move_by_hand(held)
+
+    report = rig.play(options=PlayOptions(max_position_error_deg=10), on_progress=hold_the_wrist)
+    assert report.outcome is Outcome.ABORTED
+    assert "wrist_pitch (ID 4) is" in report.reason and "away from where it should be" in report.reason
+    assert rig.packets(Command.MOVE_STOP)
+
+
+def test_ctrl_c_stops_at_once_and_unloads_when_asked():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    pressed = []
+
+    def ctrl_c(progress):
+        if progress.tick == 12:
+            pressed.append(rig.clock.now())
+            raise KeyboardInterrupt
+
+    report = rig.play(options=PlayOptions(exit_mode=ExitMode.UNLOAD), on_progress=ctrl_c)
+    assert report.outcome is Outcome.INTERRUPTED
+    [stop] = rig.packets(Command.MOVE_STOP)
+    assert stop.time_s - pressed[0] < 0.001
+    assert not any(s.loaded for s in rig.emulator.servos)
+
+
+def test_exit_pose_after_the_motion():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.play(options=PlayOptions(exit_mode=ExitMode.POSE, exit_pose="rest"))
+    for joint, angle in zip(rig.robot.joints, rig.robot.pose_vector("rest")):
+        assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
+            angle, abs=QUANTIZATION_DEG + 1e-6)
+
+
+def test_approach_from_anywhere_never_jumps():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml", pose="rest")
+    rig.play()
+    approach = rig.performance.approach
+    assert approach.duration_ms > 0
+    moves = [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]
+    top_speed = max(abs(m.to_units - m.from_units) / m.duration_s for m in moves if m.duration_s)
+    limit_units_s = max(j.limits.vel_deg_s for j in rig.robot.joints) * 1000 / 240
+    assert top_speed <= limit_units_s * 1.05
+
+
+def test_falling_behind_retargets_instead_of_replaying_stale_ticks():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+
+    def stall_the_host(progress):
+        if progress.tick == 6:
+            rig.clock.advance(0.5)  # the host froze for half a second
+
+    report = rig.play(on_progress=stall_the_host)
+    assert report.outcome is Outcome.COMPLETED and report.retargeted == 1
+    assert report.ticks_played == report.ticks_total
+
+
+def test_dry_run_schedule_matches_what_is_sent():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.play(options=PlayOptions(health_timeout_s=10.0))  # no time for health reads
+    schedule = packet_schedule(rig.performance.ticks, rig.robot)
+    sent = [p.packet.encode() for p in rig.emulator.log.packets
+            if p.packet.command in (Command.MOVE_START, Command.MOVE_TIME_WAIT_WRITE)]
+    assert [p.packet for p in schedule] == sent
