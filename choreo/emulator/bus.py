@@ -260,7 +260,7 @@ class BusEmulator:
             self._advance_to(time_s)
             while len(self._arrived) < count:
                 next_s = self.next_event_s()
-                if next_s > deadline_s:
+                if next_s > deadline_s or math.isinf(next_s):  # nothing more before the deadline
                     return deadline_s
                 self._advance_to(next_s)
                 time_s = next_s

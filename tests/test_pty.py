@@ -1,0 +1,113 @@
+"""`choreo emulate --pty` from a separate process, driven by a plain pyserial client.
+
+This is the one emulator test on the real clock: the bridge runs in real time by design. It waits
+for output with timeouts, never sleeps for a fixed time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+
+import pytest
+import serial
+
+from choreo.protocol import Command as C
+from choreo.protocol import PacketDecoder, decode_reply, encode_request
+
+STARTUP_TIMEOUT_S = 20
+
+
+def start_emulator(*options: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "choreo", "emulate", *options],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def ready_line(process: subprocess.Popen) -> str:
+    # readline blocks until the line or EOF; the watchdog kills a hung child so the test fails.
+    watchdog = threading.Timer(STARTUP_TIMEOUT_S, process.kill)
+    watchdog.start()
+    try:
+        return process.stdout.readline()
+    finally:
+        watchdog.cancel()
+
+
+def stop(process: subprocess.Popen, signum=signal.SIGINT) -> tuple[int, str]:
+    process.send_signal(signum)
+    try:
+        _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise
+    return process.returncode, stderr
+
+
+@pytest.fixture
+def link(tmp_path):
+    return tmp_path / "ttyEMU"
+
+
+def test_pos_read_over_the_pty_then_sigint_exits_cleanly(link, tmp_path):
+    state = tmp_path / "state.json"
+    process = start_emulator("--pty", str(link), "--servos", "1-3,7", "--state", str(state))
+    try:
+        line = ready_line(process)
+        assert line.startswith(f"emulating servos 1-3,7 (LX-16A) on {link} -> /dev/")
+        assert line.rstrip().endswith("; Ctrl-C to stop")
+        assert os.path.islink(link)
+        with serial.Serial(str(link), 9600, timeout=2) as port:  # any baud setting works
+            port.write(encode_request(C.POS_READ, 7))
+            reply = port.read(8)
+            port.write(encode_request(C.ID_WRITE, 2, new_id=9))
+            port.write(encode_request(C.ID_READ, 9))
+            id_reply = port.read(7)
+    finally:
+        returncode, stderr = stop(process)
+    (packet,) = PacketDecoder().feed(reply)
+    assert packet.servo_id == 7 and decode_reply(C.POS_READ, packet) == {"pos_units": 500}
+    assert id_reply == bytes.fromhex("55 55 09 04 0E 09 DB")
+    assert returncode == 0, stderr
+    assert not os.path.lexists(link)
+    saved = json.loads(state.read_text())
+    assert [s["eeprom"]["servo_id"] for s in saved["servos"]] == [1, 9, 3, 7]
+
+
+def test_sigterm_also_exits_cleanly_and_echo_works(link):
+    process = start_emulator("--pty", str(link), "--servos", "1", "--echo")
+    try:
+        ready_line(process)
+        with serial.Serial(str(link), 115200, timeout=2) as port:
+            request = encode_request(C.TEMP_READ, 1)
+            port.write(request)
+            data = port.read(len(request) + 7)
+    finally:
+        returncode, stderr = stop(process, signal.SIGTERM)
+    assert data[: len(request)] == request
+    assert data[len(request):] == bytes.fromhex("55 55 01 04 1A 1E C2")  # 30 °C
+    assert returncode == 0, stderr
+    assert not os.path.lexists(link)
+
+
+def test_an_existing_path_is_refused_and_left_alone(link):
+    link.write_text("not a tty")
+    process = start_emulator("--pty", str(link))
+    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
+    assert process.returncode == 1
+    assert "already exists" in stderr
+    assert link.read_text() == "not a tty"
+
+
+def test_bad_servo_list_is_a_usage_error(link):
+    process = start_emulator("--pty", str(link), "--servos", "1-x")
+    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
+    assert process.returncode == 2
+    assert "bad servo IDs" in stderr
