@@ -485,17 +485,33 @@ class Performance:
         return out
 
 
-def prepare(motion: Motion, start_pose_deg: Sequence[float], *, speed: float | None = None,
-            stretch: bool = False, tolerance_deg: float = 0.5,
-            approach_limit_scale: float = 0.3) -> Performance:
-    """Plan the approach from ``start_pose_deg`` and the motion, and compile both into ticks."""
-    robot = motion.robot
+@dataclass(frozen=True)
+class CompiledMotion:
+    """A motion planned and compiled into ticks: everything that doesn't depend on the robot's
+    current pose, so it can be checked before any port is opened."""
+
+    robot: Robot
+    trajectory: Trajectory
+    ticks: TickPlan
+    tolerance_deg: float
+
+
+def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False,
+                   tolerance_deg: float = 0.5) -> CompiledMotion:
     plan = plan_motion(motion, speed=speed, stretch=stretch)
-    first_pose = plan.trajectory.at(0.0)[0]
+    return CompiledMotion(motion.robot, plan.trajectory,
+                          segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
+                          tolerance_deg)
+
+
+def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float], *,
+            approach_limit_scale: float = 0.3) -> Performance:
+    """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose."""
+    robot = compiled.robot
+    first_pose = compiled.trajectory.at(0.0)[0]
     approach = plan_approach(robot, start_pose_deg, first_pose, approach_limit_scale)
-    return Performance(segment(approach, robot, tolerance_deg=tolerance_deg),
-                       segment(plan.trajectory, robot, tolerance_deg=tolerance_deg),
-                       plan.trajectory, approach)
+    return Performance(segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
+                       compiled.ticks, compiled.trajectory, approach)
 
 
 def go_to_pose(player: Player, pose: str) -> PlayReport:

@@ -17,6 +17,7 @@ from choreo.player import (
     Outcome,
     Player,
     PlayOptions,
+    compile_motion,
     packet_schedule,
     path_errors_deg,
     preflight,
@@ -43,7 +44,7 @@ class Rig:
 
     def play(self, options=PlayOptions(), on_progress=None, **prepare_args):
         self.start, limits = preflight(self.bus, self.robot)
-        self.performance = prepare(self.motion, self.start, **prepare_args)
+        self.performance = prepare(compile_motion(self.motion, **prepare_args), self.start)
         player = Player(self.bus, self.robot, self.clock, limits, options, on_progress)
         self.report = player.play(self.performance.ticks, self.start)
         player.leave(self.report.outcome)

@@ -16,14 +16,16 @@ from rich.table import Table
 from ..bus import ServoBus
 from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
-from ..motion import Motion, load_motion
+from ..motion import load_motion
 from ..player import (
+    CompiledMotion,
     ExitMode,
     Outcome,
     Performance,
     Player,
     PlayOptions,
     PlayReport,
+    compile_motion,
     packet_schedule,
     path_errors_deg,
     preflight,
@@ -83,8 +85,10 @@ def run_play(args: argparse.Namespace) -> int:
         print(f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
               f"poses: {', '.join(robot.poses)}", file=sys.stderr)
         return 2
+    compiled = compile_motion(motion, speed=args.speed, stretch=args.stretch,
+                              tolerance_deg=args.tolerance)
     if args.dry_run:
-        return dry_run(args, motion)
+        return dry_run(compiled)
     signal.signal(signal.SIGTERM, _interrupt)
     emulator = None
     port = args.port
@@ -96,8 +100,7 @@ def run_play(args: argparse.Namespace) -> int:
     options = PlayOptions(exit_mode=ExitMode(args.exit), exit_pose=args.exit_pose)
     with ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries, echo=args.echo) as bus:
         start_pose, limits = preflight(bus, robot)
-        performance = prepare(motion, start_pose, speed=args.speed, stretch=args.stretch,
-                              tolerance_deg=args.tolerance)
+        performance = prepare(compiled, start_pose)
         report = _play_with_progress(bus, robot, limits, options, performance, start_pose)
         errors = None
         if emulator is not None:
@@ -168,11 +171,9 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(args: argparse.Namespace, motion: Motion) -> int:
-    robot = motion.robot
-    start = robot.pose_vector("home")
-    performance = prepare(motion, start, speed=args.speed, stretch=args.stretch,
-                          tolerance_deg=args.tolerance)
+def dry_run(compiled: CompiledMotion) -> int:
+    robot = compiled.robot
+    performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
     for packet in packet_schedule(performance.ticks, robot):
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")

@@ -1,0 +1,96 @@
+"""`choreo play` as a user runs it: a subprocess on a pty emulator, interrupted with SIGINT; the
+dry run; the built-in emulated bus. The SIGINT test runs on the real clock by necessity."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from choreo.cli import main
+from choreo.clock import RealClock
+from choreo.emulator import BusEmulator, ServoSpec
+from choreo.emulator.pty import PtyBridge
+from choreo.protocol import BROADCAST_ID, Command
+from choreo.robot import load_robot
+
+WAIT_S = 30
+
+
+def wait_for(condition, what: str):
+    deadline = time.monotonic() + WAIT_S
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.005)
+
+
+@pytest.fixture
+def arm_on_a_pty(tmp_path):
+    robot = load_robot("arm6")
+    specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+             for j, a in zip(robot.joints, robot.pose_vector("home"))]
+    emulator = BusEmulator(specs, clock=RealClock())
+    bridge = PtyBridge(emulator, tmp_path / "ttyARM")
+    thread = threading.Thread(target=bridge.serve_forever, daemon=True)
+    thread.start()
+    yield emulator, bridge.link_path
+    bridge.stop()
+    thread.join(5)
+    bridge.close()
+
+
+def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
+    emulator, link = arm_on_a_pty
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", str(link)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        def starts():
+            return [p for p in emulator.log.packets if p.packet.command == Command.MOVE_START]
+
+        wait_for(lambda: len(starts()) >= 5, "the motion to be playing")
+        pressed_s = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=WAIT_S)
+    finally:
+        process.kill()
+    assert process.returncode == 130, stderr
+    stops = [p for p in emulator.log.packets if p.packet.command == Command.MOVE_STOP]
+    assert stops and stops[0].packet.servo_id == BROADCAST_ID
+    assert stops[0].time_s - pressed_s < 0.050
+    assert "Traceback" not in stderr
+
+
+def test_dry_run_prints_the_packet_schedule(capsys):
+    assert main(["play", "motions/arm6/wave.yaml", "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "no port opened" in out
+    assert "55 55 fe 03 0b f3  START tick 0" in out
+    assert "stage base_yaw" in out or "stage shoulder" in out
+
+
+def test_play_on_the_built_in_emulated_bus(capsys):
+    assert main(["play", "motions/arm6/wave.yaml", "--speed", "2", "--stretch"]) == 0
+    captured = capsys.readouterr()
+    assert "built-in emulated bus" in captured.err
+    assert "completed" in captured.out and "path err" in captured.out
+
+
+def test_bad_arguments_are_usage_errors(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["play", "motions/arm6/wave.yaml", "--speed", "0"])
+    assert exit_info.value.code == 2
+    assert "expected a number > 0, got '0'" in capsys.readouterr().err
+    assert main(["play", "motions/arm6/wave.yaml", "--exit", "pose", "--exit-pose", "nope"]) == 2
+    assert "'nope' is not a pose of arm6; poses: home, rest, ready" in capsys.readouterr().err
+
+
+def test_an_infeasible_motion_is_refused_before_any_port_is_opened(capsys):
+    assert main(["play", "motions/arm6/wave.yaml", "--speed", "4", "--port", "/dev/does-not-exist"]) == 1
+    err = capsys.readouterr().err
+    assert "keyframe cannot be reached at 0.250 s (at speed 4)" in err and "cannot open" not in err
