@@ -41,12 +41,11 @@ from ..clock import Clock, RealClock
 from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, MAX_SERVO_ID, Packet, PacketDecoder, checksum
 from ..servos import servo_model
-from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFate
+from .servo import DEFAULT_START_GAP_S, EmulatedServo, Eeprom, MoveStart, ReplyFate
 
 logger = logging.getLogger(__name__)
 
 DEFAULT_TURNAROUND_S = 0.0006  # one measurement of a real servo (protocol.md)
-DEFAULT_START_GAP_S = 0.001  # protocol.md: leave >= 1 ms between a preset and MOVE_START
 DEFAULT_LOG_LIMIT = 100_000  # entries per log list; a long-running emulator must not grow forever
 STATE_FORMAT = "choreo-emulator-state"
 STATE_VERSION = 1
@@ -109,11 +108,6 @@ class WireLog:
         self.replies: deque[SentReply] = deque(maxlen=limit)
         self.moves: deque[MoveStart] = deque(maxlen=limit)
 
-    def clear(self) -> None:
-        self.packets.clear()
-        self.replies.clear()
-        self.moves.clear()
-
 
 class BusEmulator:
     """Servos on one half-duplex bus. Thread-safe: every public method holds one lock."""
@@ -131,8 +125,9 @@ class BusEmulator:
         state_path: str | os.PathLike | None = None,
         log_limit: int = DEFAULT_LOG_LIMIT,
     ):
-        if turnaround_s < 0:
-            raise ValueError(f"turnaround_s must be >= 0, got {turnaround_s}")
+        for name, value in (("turnaround_s", turnaround_s), ("start_gap_s", start_gap_s)):
+            if value < 0:
+                raise ValueError(f"{name} must be >= 0, got {value}")
         specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
         self.clock = clock if clock is not None else RealClock()
         self.turnaround_s = turnaround_s
@@ -154,6 +149,7 @@ class BusEmulator:
                 servo_model(model_name),
                 eeprom,
                 self._now,
+                lock=self._lock,
                 position_units=spec.position_units,
                 start_gap_s=start_gap_s,
             )

@@ -89,11 +89,6 @@ class SimSerial(SerialBase):
     def clock(self):
         return self._open_emulator().clock
 
-    @property
-    def virtual(self) -> bool:
-        """True when reads and flushes move a virtual clock instead of waiting."""
-        return isinstance(self._open_emulator().clock, VirtualClock)
-
     # --- SerialBase ----------------------------------------------------------------------------
     def open(self) -> None:
         if self.is_open:
@@ -155,7 +150,7 @@ class SimSerial(SerialBase):
         if size <= 0:
             return b""
         deadline_s = emulator.clock.now() + (math.inf if self._timeout is None else self._timeout)
-        if self.virtual:
+        if isinstance(emulator.clock, VirtualClock):  # move the clock instead of waiting
             return self._read_virtual(emulator, size, deadline_s)
         return self._read_real(emulator, size, deadline_s)
 

@@ -32,8 +32,10 @@ servo's behaviour is undocumented:
 from __future__ import annotations
 
 import enum
+import functools
 import logging
 import math
+import threading
 from dataclasses import dataclass, fields, replace
 from typing import Callable
 
@@ -55,6 +57,7 @@ UNITS_PER_TURN = 1500  # 1500 × 0.24° = 360°
 READ_MIN_UNITS = -250  # readings wrap into READ_MIN_UNITS .. READ_MIN_UNITS + UNITS_PER_TURN - 1
 DIS_PULSES_PER_TURN = 4096
 FACTORY_TEMP_C = 30.0
+DEFAULT_START_GAP_S = 0.001  # protocol.md: leave >= 1 ms between a preset and MOVE_START
 
 
 def _request_field_range(command: Command, name: str) -> tuple[int, int]:
@@ -169,11 +172,31 @@ def wrap_reading(units: float) -> float:
     return (units - READ_MIN_UNITS) % UNITS_PER_TURN + READ_MIN_UNITS
 
 
+def _at_now(method):
+    """Run a public method under the bus lock at ``now()``, after every due packet has acted."""
+
+    @functools.wraps(method)
+    def at_now(self, *args):
+        with self._lock:
+            return method(self, self._now(), *args)
+
+    return at_now
+
+
+def _check_readable(pos_units: float) -> None:
+    if not READ_MIN_UNITS <= pos_units < READ_MIN_UNITS + UNITS_PER_TURN:
+        raise ValueError(
+            f"pos_units must be in {READ_MIN_UNITS}..{READ_MIN_UNITS + UNITS_PER_TURN - 1} "
+            f"(one turn of the potentiometer), got {pos_units}"
+        )
+
+
 class EmulatedServo:
     """One servo. The bus calls :meth:`hears` and :meth:`handle` at each packet's arrival time.
 
-    The public properties and methods (for tests and users) act at ``now()``; the bus passes a
-    ``now`` that first delivers every packet that has fully arrived, so they see the bus as it is.
+    The public properties and methods (for tests and users) act at ``now()`` under ``lock``; the
+    bus passes its lock and a ``now`` that first delivers every packet that has fully arrived, so
+    they see the bus as it is.
     """
 
     def __init__(
@@ -182,15 +205,18 @@ class EmulatedServo:
         eeprom: Eeprom,
         now: Callable[[], float],
         *,
+        lock: threading.RLock | None = None,
         position_units: float = 500.0,
-        start_gap_s: float = 0.001,
+        start_gap_s: float = DEFAULT_START_GAP_S,
     ):
+        _check_readable(position_units)
         self.model = model
-        self._eeprom = eeprom
         self.start_gap_s = start_gap_s
+        self._eeprom = eeprom
+        self._now = now
+        self._lock = lock if lock is not None else threading.RLock()
         self._connected = True
         self._reply_faults = ReplyFaults()
-        self._now = now
         self._offset_units = eeprom.offset_units
         self._vin_mv = round(sum(model.vin_range_mv) / 2)
         self._temp_c = FACTORY_TEMP_C
@@ -200,7 +226,8 @@ class EmulatedServo:
         self._preset: tuple[int, int] | None = None
         self._preset_end_s = -math.inf
         self._target_units = float(position_units)
-        self._last_move = (int(round(position_units)), 0)
+        # MOVE_TIME_READ before any move: as if the servo had been commanded to where it is.
+        self._last_move = (self._clamp_to_limits(round(position_units)), 0)
         self._resume_when_cool = False
         self._travelled_units = 0.0
         self._motion = _Motion(now(), position_units + self._offset_units)
@@ -208,74 +235,119 @@ class EmulatedServo:
 
     # --- what tests and users see ----------------------------------------------------------
     @property
-    def servo_id(self) -> int:
-        self._now()
+    @_at_now
+    def servo_id(self, now) -> int:
         return self._eeprom.servo_id
 
     @property
-    def eeprom(self) -> Eeprom:
+    @_at_now
+    def eeprom(self, now) -> Eeprom:
         """The values kept across power-off (as saved, e.g. the offset before OFFSET_WRITE)."""
-        self._now()
         return self._eeprom
 
     @property
-    def position_units(self) -> float:
+    @_at_now
+    def position_units(self, now) -> float:
         """What POS_READ reports (before rounding): output minus offset, wrapped."""
-        now = self._now()
         return self._reading_at(now)
 
     @property
-    def output_units(self) -> float:
+    @_at_now
+    def output_units(self, now) -> float:
         """Where the horn really is (no offset, not wrapped)."""
-        now = self._now()  # first: it may deliver packets that change the motion
         return self._motion.output_at(now)
 
     @property
-    def offset_units(self) -> int:
+    @_at_now
+    def offset_units(self, now) -> int:
         """The offset in use (EEPROM holds the saved one)."""
-        self._now()
         return self._offset_units
 
     @property
-    def loaded(self) -> bool:
-        self._now()
+    @_at_now
+    def loaded(self, now) -> bool:
         return self._loaded
 
     @property
-    def motor_mode(self) -> bool:
-        self._now()
+    @_at_now
+    def motor_mode(self, now) -> bool:
         return self._motor_mode
 
     @property
-    def moving(self) -> bool:
-        now = self._now()
-        return self._motion.velocity_units_s != 0.0 and now < self._motion.end_s
+    @_at_now
+    def faults(self, now) -> ErrorMask:
+        """Faults present now: over-temperature, voltage out of the limits."""
+        return self._faults()
 
     @property
-    def connected(self) -> bool:
+    @_at_now
+    def led_flashing(self, now) -> bool:
+        """The LED flashes for the faults present that the error mask enables."""
+        return bool(self._faults() & self._eeprom.error_mask)
+
+    @property
+    @_at_now
+    def connected(self, now) -> bool:
         """False: the servo hears nothing and answers nothing (a loose wire), keeping its state."""
-        self._now()
         return self._connected
 
     @connected.setter
-    def connected(self, connected: bool) -> None:
-        self._now()
+    @_at_now
+    def connected(self, now, connected: bool) -> None:
         self._connected = connected
 
     @property
-    def reply_faults(self) -> ReplyFaults:
+    @_at_now
+    def reply_faults(self, now) -> ReplyFaults:
         """Faults to inject into this servo's replies from now on."""
-        self._now()
         return self._reply_faults
 
     @reply_faults.setter
-    def reply_faults(self, faults: ReplyFaults) -> None:
-        self._now()
+    @_at_now
+    def reply_faults(self, now, faults: ReplyFaults) -> None:
         self._reply_faults = faults
 
+    @property
+    @_at_now
+    def temperature_c(self, now) -> float:
+        return self._temp_c
+
+    @temperature_c.setter
+    @_at_now
+    def temperature_c(self, now, temp_c: float) -> None:
+        if not 0 <= temp_c <= 255:
+            raise ValueError(f"temperature_c must be in 0..255 (one byte on the wire), got {temp_c}")
+        self._temp_c = temp_c
+        self._update_faults(now)
+
+    @property
+    @_at_now
+    def vin_mv(self, now) -> int:
+        return self._vin_mv
+
+    @vin_mv.setter
+    @_at_now
+    def vin_mv(self, now, vin_mv: int) -> None:
+        if not 0 <= vin_mv <= 0xFFFF:
+            raise ValueError(f"vin_mv must be in 0..65535 (two bytes on the wire), got {vin_mv}")
+        self._vin_mv = vin_mv
+        self._update_faults(now)
+
+    @_at_now
+    def move_by_hand(self, now, pos_units: float) -> None:
+        """Turn the horn of an unloaded servo so that it reads ``pos_units`` (teach mode)."""
+        _check_readable(pos_units)
+        if self._loaded:
+            raise ValueError(
+                f"servo {self._eeprom.servo_id} is loaded (holding torque): "
+                f"unload it before moving it by hand"
+            )
+        self._set_motion(now, _Motion(now, pos_units + self._offset_units))
+
+    # --- the bus side ----------------------------------------------------------------------
     def take_reply_fault(self, draw: Callable[[], float]) -> ReplyFate:
-        """Bus side: the fate of the reply being sent (SENT, DROPPED or CORRUPTED); ``draw``
-        gives a uniform random number in [0, 1) from the bus's seeded generator."""
+        """The fate of the reply being sent (SENT, DROPPED or CORRUPTED); ``draw`` gives a
+        uniform random number in [0, 1) from the bus's seeded generator."""
         faults = self._reply_faults
         if faults.drop_next:
             self._reply_faults = replace(faults, drop_next=faults.drop_next - 1)
@@ -289,59 +361,6 @@ class EmulatedServo:
             return ReplyFate.CORRUPTED
         return ReplyFate.SENT
 
-    @property
-    def faults(self) -> ErrorMask:
-        """Faults present now: over-temperature, voltage out of the limits."""
-        faults = ErrorMask.NONE
-        if self._temp_c > self._eeprom.temp_max_c:
-            faults |= ErrorMask.OVER_TEMPERATURE
-        if not self._eeprom.vin_min_mv <= self._vin_mv <= self._eeprom.vin_max_mv:
-            faults |= ErrorMask.VOLTAGE
-        return faults
-
-    @property
-    def led_flashing(self) -> bool:
-        return bool(self.faults & self._eeprom.error_mask)
-
-    @property
-    def temperature_c(self) -> float:
-        return self._temp_c
-
-    @temperature_c.setter
-    def temperature_c(self, temp_c: float) -> None:
-        if not 0 <= temp_c <= 255:
-            raise ValueError(f"temperature_c must be in 0..255 (one byte on the wire), got {temp_c}")
-        now = self._now()
-        self._temp_c = temp_c
-        self._update_faults(now)
-
-    @property
-    def vin_mv(self) -> int:
-        return self._vin_mv
-
-    @vin_mv.setter
-    def vin_mv(self, vin_mv: int) -> None:
-        if not 0 <= vin_mv <= 0xFFFF:
-            raise ValueError(f"vin_mv must be in 0..65535 (two bytes on the wire), got {vin_mv}")
-        now = self._now()
-        self._vin_mv = vin_mv
-        self._update_faults(now)
-
-    def move_by_hand(self, pos_units: float) -> None:
-        """Turn the horn of an unloaded servo so that it reads ``pos_units`` (teach mode)."""
-        if not READ_MIN_UNITS <= pos_units < READ_MIN_UNITS + UNITS_PER_TURN:
-            raise ValueError(
-                f"pos_units must be in {READ_MIN_UNITS}..{READ_MIN_UNITS + UNITS_PER_TURN} "
-                f"(one turn of the potentiometer), got {pos_units}"
-            )
-        now = self._now()
-        if self._loaded:
-            raise ValueError(
-                f"servo {self._eeprom.servo_id} is loaded (holding torque): unload it before moving it by hand"
-            )
-        self._set_motion(now, _Motion(now, pos_units + self._offset_units))
-
-    # --- the bus side ----------------------------------------------------------------------
     def hears(self, packet: Packet) -> bool:
         return self._connected and packet.servo_id in (self._eeprom.servo_id, BROADCAST_ID)
 
@@ -416,18 +435,29 @@ class EmulatedServo:
             MoveStart(now, self._eeprom.servo_id, start - self._offset_units, target_units, duration_s, command)
         )
 
+    def _faults(self) -> ErrorMask:
+        faults = ErrorMask.NONE
+        if self._temp_c > self._eeprom.temp_max_c:
+            faults |= ErrorMask.OVER_TEMPERATURE
+        if not self._eeprom.vin_min_mv <= self._vin_mv <= self._eeprom.vin_max_mv:
+            faults |= ErrorMask.VOLTAGE
+        return faults
+
+    def _clamp_to_limits(self, pos_units: int) -> int:
+        return min(max(pos_units, self._eeprom.angle_min_units), self._eeprom.angle_max_units)
+
     def _move(self, now: float, pos_units: int, time_ms: int, command: Command) -> None:
         if self._motor_mode:
             return
-        target = min(max(pos_units, self._eeprom.angle_min_units), self._eeprom.angle_max_units)
+        target = self._clamp_to_limits(pos_units)
         self._last_move = (target, time_ms)
-        if self.faults:
+        if self._faults():
             return
         self._loaded = True
         self._drive_to(now, target, time_ms / 1000, command)
 
     def _load(self, now: float) -> None:
-        if self.faults:
+        if self._faults():
             return
         self._loaded = True
         if self._motor_mode:
@@ -440,7 +470,7 @@ class EmulatedServo:
         self._hold(now)
 
     def _update_faults(self, now: float) -> None:
-        faults = self.faults
+        faults = self._faults()
         if faults:
             if self._loaded:
                 self._unload(now)
