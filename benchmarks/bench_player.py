@@ -1,0 +1,183 @@
+"""Playback figures on the emulator.
+
+1. Real time: a >= 60 s, 18-servo motion (the hexapod's tripod gait, looped) played by choreo on
+   the emulated bus with the real clock: START lateness p50/p99/max (goal p99 < 2 ms) and how far
+   the end lands from the schedule (goal within 5 ms).
+2. Side by side, in virtual time on the same motions, three ways of playing:
+   (a) the vendor runner: per keyframe, MOVE_TIME_WRITE to each servo in turn, then sleep;
+   (b) fixed 20 ms streaming: every 20 ms, MOVE_TIME_WRITE to each servo in turn;
+   (c) choreo: staged moves, one broadcast MOVE_START per tick.
+   Figures: first-to-last servo start skew, maximum path error against the smooth plan, bytes.
+
+Run: python benchmarks/bench_player.py [--skip-realtime]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+
+import numpy as np
+
+from choreo.bus import ServoBus
+from choreo.clock import RealClock, VirtualClock
+from choreo.emulator import BusEmulator, ServoSpec, SimSerial
+from choreo.emulator.trace import executed_units
+from choreo.motion import load_motion
+from choreo.player import Player, compile_motion, packet_schedule, path_errors_deg, preflight, prepare
+from choreo.robot import Robot
+
+MOTIONS = ["motions/arm6/wave.yaml", "motions/arm6/dance.yaml", "motions/hexapod18/tripod_gait.yaml"]
+STREAM_PERIOD_S = 0.020
+
+
+def rig(robot: Robot, clock, pose_deg=None) -> tuple[BusEmulator, ServoBus]:
+    """The robot's servos on an emulated bus, at ``pose_deg`` (default: home)."""
+    pose_deg = robot.pose_vector("home") if pose_deg is None else pose_deg
+    emulator = BusEmulator([ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+                            for j, a in zip(robot.joints, pose_deg)], clock=clock)
+    return emulator, ServoBus(SimSerial.from_emulator(emulator))
+
+
+def realtime(seconds: float) -> None:
+    motion = load_motion("motions/hexapod18/tripod_gait.yaml")
+    one_pass = compile_motion(dataclasses.replace(motion, repeat=1)).trajectory.duration_s
+    motion = dataclasses.replace(motion, repeat=int(np.ceil(seconds / one_pass)))
+    compiled = compile_motion(motion)
+    emulator, bus = rig(motion.robot, RealClock())
+    start, limits = preflight(bus, motion.robot)
+    performance = prepare(compiled, start)
+    report = Player(bus, motion.robot, RealClock(), limits).play(performance.ticks, start)
+    late = np.array(report.lateness_ms)
+    print(f"real time: {motion.robot.name} {len(motion.robot.joints)} servos, "
+          f"{report.planned_s:.1f} s, {report.ticks_played} ticks ({report.outcome.value})")
+    print(f"  START lateness: p50 {np.percentile(late, 50):.3f} ms, p99 {np.percentile(late, 99):.3f} ms,"
+          f" max {late.max():.3f} ms (goal p99 < 2 ms)")
+    print(f"  end {report.end_error_ms:+.3f} ms from schedule (goal within 5 ms); "
+          f"re-targeted {report.retargeted}; bus use {report.bus_use:.0%}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Way:
+    name: str
+    skew_ms: float
+    path_error_deg: float
+    motion_bytes: int
+    health_bytes: int = 0
+
+
+def start_skew_ms(emulator: BusEmulator, group_gap_s: float = 0.005) -> float:
+    """Largest spread of move start times within one burst of commands."""
+    times = sorted(m.time_s for m in emulator.log.moves)
+    skew, group_start, last = 0.0, None, None
+    for t in times:
+        if last is None or t - last > group_gap_s:
+            group_start = t
+        skew = max(skew, t - group_start)
+        last = t
+    return skew * 1000
+
+
+def path_error(emulator, robot, planned_deg, times_s, t0_s, start_units) -> float:
+    worst = 0.0
+    for j, joint in enumerate(robot.joints):
+        went = executed_units(emulator.log.moves, joint.servo_id, start_units[j], t0_s + times_s)
+        worst = max(worst, float(np.max(np.abs(joint.to_deg(went) - planned_deg[:, j]))))
+    return worst
+
+
+def written_bytes(emulator: BusEmulator, since_s: float) -> int:
+    return sum(len(p.packet.encode()) for p in emulator.log.packets if p.time_s >= since_s)
+
+
+# Every way starts with the servos at the motion's first pose, so only playing is compared.
+def first_pose(motion):
+    return compile_motion(motion).trajectory.at(0.0)[0]
+
+
+def play_choreo(motion) -> Way:
+    clock = VirtualClock()
+    emulator, bus = rig(motion.robot, clock, first_pose(motion))
+    start, limits = preflight(bus, motion.robot)
+    performance = prepare(compile_motion(motion), start)
+    player = Player(bus, motion.robot, clock, limits)
+    report = player.play(performance.ticks, start)
+    starts = [j.to_units(a) for j, a in zip(motion.robot.joints, start)]
+    errors = path_errors_deg(performance, motion.robot, emulator, report, starts)
+    motion_bytes = sum(len(p.packet) for p in packet_schedule(performance.ticks, motion.robot))
+    return Way("choreo: staged + one START per tick", start_skew_ms(emulator), max(errors),
+               motion_bytes, report.bytes_sent - motion_bytes)
+
+
+def play_vendor(motion) -> Way:
+    """Per keyframe: MOVE_TIME_WRITE to each servo in turn, then sleep the keyframe's time."""
+    robot, trajectory = motion.robot, compile_motion(motion).trajectory
+    clock = VirtualClock()
+    emulator, bus = rig(robot, clock, first_pose(motion))
+    bus.drain()
+    t0 = clock.now()
+    arrivals = (0.0,) + tuple(trajectory.keyframe_times_s)
+    poses = trajectory.positions(np.array(arrivals))
+    for k in range(1, len(arrivals)):
+        time_ms = round((arrivals[k] - arrivals[k - 1]) * 1000)
+        if time_ms <= 0:
+            continue
+        for joint, angle in zip(robot.joints, poses[k]):
+            bus.move(joint.servo_id, round(joint.to_units(angle)), time_ms)
+        bus.drain()  # the vendor's Python writes, then sleeps: the sends add up (drift)
+        clock.sleep_until(clock.now() + time_ms / 1000)
+    return _measure("vendor runner: MOVE_TIME_WRITE per servo per keyframe", emulator, robot,
+                    trajectory, t0)
+
+
+def play_streaming(motion) -> Way:
+    """Every 20 ms, MOVE_TIME_WRITE to each servo in turn toward the plan 20 ms ahead."""
+    robot, trajectory = motion.robot, compile_motion(motion).trajectory
+    clock = VirtualClock()
+    emulator, bus = rig(robot, clock, first_pose(motion))
+    bus.drain()
+    t0 = clock.now()
+    steps = np.arange(STREAM_PERIOD_S, trajectory.duration_s + STREAM_PERIOD_S, STREAM_PERIOD_S)
+    targets = trajectory.positions(np.minimum(steps, trajectory.duration_s))
+    for k, pose in enumerate(targets):
+        clock.sleep_until(t0 + k * STREAM_PERIOD_S)
+        for joint, angle in zip(robot.joints, pose):
+            bus.move(joint.servo_id, round(joint.to_units(angle)), round(STREAM_PERIOD_S * 1000))
+    bus.drain()
+    return _measure("fixed 20 ms streaming: MOVE_TIME_WRITE per servo", emulator, robot,
+                    trajectory, t0)
+
+
+def _measure(name, emulator, robot, trajectory, t0) -> Way:
+    times = np.arange(0.0, trajectory.duration_s, 0.002)
+    start_units = [j.to_units(a) for j, a in zip(robot.joints, trajectory.at(0.0)[0])]
+    error = path_error(emulator, robot, trajectory.positions(times), times, t0, start_units)
+    return Way(name, start_skew_ms(emulator), error, written_bytes(emulator, t0))
+
+
+def compare() -> None:
+    print("\nthree ways of playing the same motions (emulator, virtual time):")
+    print("| motion | way | start skew (ms) | max path error vs smooth plan (°) | motion bytes |")
+    print("|---|---|---:|---:|---:|")
+    for path in MOTIONS:
+        motion = load_motion(path)
+        for way in (play_vendor(motion), play_streaming(motion), play_choreo(motion)):
+            health = f" (+{way.health_bytes} health reads)" if way.health_bytes else ""
+            print(f"| {path.split('/', 1)[1]} | {way.name} | {way.skew_ms:.1f} | "
+                  f"{way.path_error_deg:.2f} | {way.motion_bytes}{health} |")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=60.0, help="real-time run length")
+    parser.add_argument("--skip-realtime", action="store_true")
+    args = parser.parse_args()
+    if not args.skip_realtime:
+        realtime(args.seconds)
+    compare()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
