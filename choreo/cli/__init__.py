@@ -13,9 +13,9 @@ import sys
 from typing import Sequence
 
 from ..errors import ChoreoError
-from . import bus_commands, emulate_command, motion_commands, plan_commands, play_command
+from . import bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command
 
-COMMAND_GROUPS = (bus_commands, emulate_command, motion_commands, plan_commands, play_command)
+COMMAND_GROUPS = (bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -11,6 +11,8 @@ The package is the only place besides the robot loader that imports ``mujoco``.
 from __future__ import annotations
 
 from ..motion import Motion
+from ..planner import plan_motion
+from ..segments import segment
 from .checks import (
     CheckKind,
     CheckResult,
@@ -23,6 +25,7 @@ from .render import RenderResult, RenderSettings, frame_times, render_frames, re
 from .report import JointSummary, joint_summaries, preview_report
 from .servo import ActuatorParams, TickLike, actuator_params
 from .sim import Rollout, SimSettings, simulate
+from .viewer import has_display, show_in_viewer
 
 __all__ = [
     "ActuatorParams",
@@ -39,26 +42,27 @@ __all__ = [
     "actuator_params",
     "check_motion_physics",
     "frame_times",
+    "has_display",
     "has_errors",
     "joint_summaries",
     "preview_report",
     "render_frames",
     "render_preview",
     "run_checks",
+    "show_in_viewer",
     "simulate",
     "simulate_motion",
 ]
 
 
-def simulate_motion(motion: Motion, settings: SimSettings = SimSettings()) -> Rollout:
-    """Plan ``motion``, compile it into ticks and play them to the simulated robot, starting
-    at rest at the motion's first pose."""
-    from ..planner import plan_motion
-    from ..segments import segment
-
-    trajectory = plan_motion(motion).trajectory
-    ticks = segment(trajectory, motion.robot).ticks
-    return simulate(motion.robot, ticks, motion.keyframes[0].targets_deg,
+def simulate_motion(motion: Motion, settings: SimSettings = SimSettings(), *,
+                    speed: float | None = None, stretch: bool = False,
+                    tolerance_deg: float = 0.5) -> Rollout:
+    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), then
+    play them to the simulated robot, starting at rest at the motion's first pose."""
+    trajectory = plan_motion(motion, speed=speed, stretch=stretch).trajectory
+    ticks = segment(trajectory, motion.robot, tolerance_deg=tolerance_deg).ticks
+    return simulate(motion.robot, ticks, trajectory.at(0.0)[0],
                     keyframe_times_s=trajectory.keyframe_times_s, settings=settings)
 
 

@@ -43,13 +43,17 @@ class CheckResult:
     def to_dict(self) -> dict:
         record = asdict(self)
         record.update(kind=self.kind.value, severity=self.severity.value,
-                      bodies=list(self.bodies))
+                      bodies=list(self.bodies), time_s=round(self.time_s, 4),
+                      duration_s=round(self.duration_s, 4))
+        if self.value is not None:
+            record["value"] = round(self.value, 4)
         return record
 
 
 @dataclass(frozen=True)
 class CheckThresholds:
     max_tracking_error_deg: float = 10.0  # joint angle vs the path the ticks ask for
+    tracking_error_after_s: float = 0.5  # longer than this: an error, shorter: lag (a warning)
     stall_after_s: float = 0.25  # torque at the servo's limit longer than this = a stall
     saturation_fraction: float = 0.98  # |torque| >= this * stall torque counts as saturated
     limit_margin_deg: float = 0.5  # this close to a joint limit counts as touching it
@@ -203,8 +207,9 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
         for run in timeline.episodes(error[:, j] > limit):
             start, duration = timeline.start(run), timeline.duration(run)
             worst = float(error[run[0]:run[1], j].max())
+            lasting = duration >= thresholds.tracking_error_after_s
             results.append(CheckResult(
-                CheckKind.TRACKING_ERROR, Severity.ERROR,
+                CheckKind.TRACKING_ERROR, Severity.ERROR if lasting else Severity.WARNING,
                 f"{joint.name} is {worst:.1f}° off its commanded path (more than {limit:g}°) "
                 f"from t={start:.2f} s for {duration:.2f} s",
                 start, duration, joint=joint.name, value=worst))

@@ -19,7 +19,8 @@ import numpy as np
 from ..errors import PreviewError
 from .checks import CheckKind, CheckResult
 from .gl import context_class, offscreen_backend
-from .sim import Rollout, free_root_body, load_model
+from .model import free_root_body, load_model
+from .sim import Rollout
 
 log = logging.getLogger(__name__)
 
@@ -171,7 +172,7 @@ def track_camera(model: mujoco.MjModel, rollout: Rollout,
     else:
         anchors = _smooth(anchors, rollout.times_s[steps], CAMERA_SMOOTHING_S)
     half_fov = math.radians(model.vis.global_.fovy) / 2
-    distance = 0.9 * reach / math.sin(half_fov)  # the box's corners are rarely all in view
+    distance = reach / math.sin(half_fov)
     azimuth, elevation = float(model.vis.global_.azimuth), float(model.vis.global_.elevation)
     return [CameraPose(tuple(a), distance, azimuth, elevation) for a in anchors]
 

@@ -110,12 +110,13 @@ class CommandStream:
     start_s: np.ndarray  # (n_ticks,)
     duration_s: np.ndarray  # (n_ticks,)
     targets_units: np.ndarray  # (n_ticks, n_joints)
-    staged: np.ndarray  # (n_ticks, n_joints) bool
+    staged: np.ndarray  # (n_ticks, n_joints) bool: this servo gets a new preset for the tick
+    started: np.ndarray  # (n_ticks,) bool: the tick's broadcast START is sent
 
     @classmethod
     def from_ticks(cls, ticks: Sequence[TickLike], n_joints: int) -> CommandStream:
-        if not ticks:
-            raise ValueError("no ticks to simulate: the tick list is empty")
+        """As the player sends it: the first tick is staged on every servo, and a later tick
+        that stages nothing sends no START (so nothing re-runs its preset)."""
         low, high = POSITION_RANGE_UNITS
         previous_start = -math.inf
         for index, tick in enumerate(ticks):
@@ -133,32 +134,37 @@ class CommandStream:
             if bad:
                 raise ValueError(f"{where}: servo positions {bad} are outside {low}..{high}")
             previous_start = tick.start_ms
+        staged = np.array([t.staged for t in ticks], dtype=bool).reshape(len(ticks), n_joints)
+        staged[:1] = True
         return cls(
             start_s=np.array([t.start_ms for t in ticks], dtype=float) / 1000.0,
             duration_s=np.array([t.duration_ms for t in ticks], dtype=float) / 1000.0,
-            targets_units=np.array([t.targets_units for t in ticks], dtype=float),
-            staged=np.array([t.staged for t in ticks], dtype=bool),
+            targets_units=np.array([t.targets_units for t in ticks],
+                                   dtype=float).reshape(len(ticks), n_joints),
+            staged=staged,
+            started=staged.any(axis=1),
         )
 
     @property
     def end_s(self) -> float:
-        """When the last commanded move is due to finish."""
-        return float(np.max(self.start_s + self.duration_s))
+        """When the last commanded move is due to finish (0 without ticks)."""
+        return float(np.max(self.start_s + self.duration_s, initial=0.0))
 
 
 class ServoBank:
     """Every servo's preset and current linear move; ``setpoint_units`` is where each one's
-    own interpolation is at a given time."""
+    own interpolation is at a given time (never before the move's start)."""
 
     def __init__(self, initial_units: np.ndarray, max_speed_units_s: np.ndarray | None):
         n = len(initial_units)
         self._preset_units = np.full(n, np.nan)
         self._preset_duration_s = np.zeros(n)
         self._from_units = np.array(initial_units, dtype=float)
-        self._to_units = self._from_units.copy()
+        self._delta_units = np.zeros(n)
         self._start_s = np.zeros(n)
-        self._duration_s = np.full(n, INSTANT_S)
+        self._rate_per_s = np.full(n, 1 / INSTANT_S)  # 1 / move duration
         self._max_speed_units_s = max_speed_units_s
+        self._scratch = np.empty(n)
 
     def start(self, stream: CommandStream, tick: int, now_s: float,
               position_units: np.ndarray) -> None:
@@ -167,21 +173,30 @@ class ServoBank:
         self._preset_units[staged] = stream.targets_units[tick, staged]
         self._preset_duration_s[staged] = stream.duration_s[tick]
         runs = ~np.isnan(self._preset_units)
-        self._from_units[runs] = position_units[runs]
-        self._to_units[runs] = self._preset_units[runs]
-        self._start_s[runs] = now_s
-        duration = self._preset_duration_s.copy()
+        delta = self._preset_units[runs] - position_units[runs]
+        duration = self._preset_duration_s[runs]
         if self._max_speed_units_s is not None:
-            fastest = np.abs(self._to_units - self._from_units) / self._max_speed_units_s
-            duration = np.maximum(duration, fastest)
+            duration = np.maximum(duration, np.abs(delta) / self._max_speed_units_s[runs])
+        self._from_units[runs] = position_units[runs]
+        self._delta_units[runs] = delta
+        self._start_s[runs] = now_s
         # a zero-time move (possible only without a speed cap) jumps at once
-        self._duration_s[runs] = np.maximum(duration[runs], INSTANT_S)
+        self._rate_per_s[runs] = 1 / np.maximum(duration, INSTANT_S)
 
     def setpoint_units(self, now_s: float | np.ndarray) -> np.ndarray:
         """Set-points at one time (n_joints,) or at an array of times (n_times, n_joints)."""
         elapsed = np.asarray(now_s, dtype=float)[..., None] - self._start_s
-        progress = np.clip(elapsed / self._duration_s, 0.0, 1.0)
-        return self._from_units + (self._to_units - self._from_units) * progress
+        progress = np.minimum(elapsed * self._rate_per_s, 1.0)
+        return self._from_units + self._delta_units * progress
+
+    def setpoint_into(self, now_s: float, out: np.ndarray) -> np.ndarray:
+        """``setpoint_units(now_s)`` written into ``out`` without allocating: the per-step path."""
+        progress = self._scratch
+        np.subtract(now_s, self._start_s, out=progress)
+        np.multiply(progress, self._rate_per_s, out=progress)
+        np.minimum(progress, 1.0, out=progress)
+        np.multiply(progress, self._delta_units, out=progress)
+        return np.add(progress, self._from_units, out=out)
 
 
 def max_speed_units_s(params: Sequence[ActuatorParams]) -> np.ndarray:
@@ -195,11 +210,12 @@ def commanded_path_units(stream: CommandStream, initial_units: np.ndarray,
     tick list asks for, as the reference for tracking errors. Shape (len(times_s), n_joints)."""
     bank = ServoBank(initial_units, max_speed_units_s=None)
     path = np.empty((len(times_s), len(initial_units)))
-    boundaries = np.searchsorted(times_s, stream.start_s, side="left")
-    path[: boundaries[0]] = initial_units
-    for tick, begin in enumerate(boundaries):
+    started = np.flatnonzero(stream.started)
+    boundaries = np.searchsorted(times_s, stream.start_s[started], side="left")
+    path[: boundaries[0] if len(boundaries) else len(times_s)] = initial_units
+    for k, (tick, begin) in enumerate(zip(started, boundaries)):
         start_s = stream.start_s[tick]
         bank.start(stream, tick, start_s, bank.setpoint_units(start_s))
-        end = boundaries[tick + 1] if tick + 1 < len(boundaries) else len(times_s)
+        end = boundaries[k + 1] if k + 1 < len(boundaries) else len(times_s)
         path[begin:end] = bank.setpoint_units(times_s[begin:end])
     return path

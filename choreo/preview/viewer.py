@@ -1,0 +1,40 @@
+"""MuJoCo's interactive viewer, replaying a rollout in real time (needs a display)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import mujoco
+import numpy as np
+
+from ..errors import PreviewError
+from .model import load_model
+from .sim import Rollout
+
+FRAME_S = 1 / 60
+
+
+def has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def show_in_viewer(rollout: Rollout) -> None:
+    """Loop the rollout in the viewer until its window is closed."""
+    # mujoco's viewer kills the whole process when it cannot open a window: check first
+    if not has_display():
+        raise PreviewError("the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
+                           "is set; render to a file instead: choreo preview MOTION -o out.mp4")
+    import mujoco.viewer
+
+    model = load_model(rollout.robot)
+    data = mujoco.MjData(model)
+    with mujoco.viewer.launch_passive(model, data) as viewer:
+        started = time.monotonic()
+        while viewer.is_running():
+            t = (time.monotonic() - started) % rollout.duration_s if rollout.duration_s else 0.0
+            step = min(int(np.searchsorted(rollout.times_s, t)), len(rollout.times_s) - 1)
+            data.qpos[:] = rollout.qpos[step]
+            mujoco.mj_forward(model, data)
+            viewer.sync()
+            time.sleep(FRAME_S)
