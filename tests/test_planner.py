@@ -1,0 +1,374 @@
+"""choreo.planner: keyframes -> a jerk-limited, time-synchronized trajectory."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import ruckig
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from choreo.errors import PlanningError
+from choreo.planner import check_motion, plan_approach, plan_motion
+from plan_helpers import kf, make_motion, make_robot
+
+POS_EPS = 1e-6
+VEL_EPS = 1e-6  # relative
+ACC_EPS = 1e-6
+
+
+def dense_times(trajectory, per_s: int = 4000):
+    return np.linspace(0.0, trajectory.duration_s, max(2, int(trajectory.duration_s * per_s)))
+
+
+def ruckig_rest_to_rest(robot, start, target, scale=1.0):
+    """Ruckig's own answer (the reference the planner's polynomials must reproduce)."""
+    n = len(robot.joints)
+    inp = ruckig.InputParameter(n)
+    inp.current_position, inp.target_position = list(start), list(target)
+    inp.current_velocity = inp.current_acceleration = [0.0] * n
+    inp.target_velocity = inp.target_acceleration = [0.0] * n
+    inp.max_velocity = [j.limits.vel_deg_s * scale for j in robot.joints]
+    inp.max_acceleration = [j.limits.acc_deg_s2 * scale for j in robot.joints]
+    inp.max_jerk = [j.limits.jerk_deg_s3 * scale for j in robot.joints]
+    out = ruckig.Trajectory(n)
+    assert ruckig.Ruckig(n).calculate(inp, out) == ruckig.Result.Working
+    return out
+
+
+# --- evaluation matches ruckig -----------------------------------------------------------------
+def test_approach_samples_match_ruckig_at_time():
+    robot = make_robot(4)
+    start, target = [80.0, -85.0, 3.0, 0.0], [-10.0, 20.0, 3.0, 45.0]
+    trajectory = plan_approach(robot, start, target, limit_scale=0.3)
+    reference = ruckig_rest_to_rest(robot, start, target, scale=0.3)
+    assert trajectory.duration_s == pytest.approx(reference.duration, abs=1e-12)
+    times = np.linspace(0, reference.duration, 137)
+    pos, vel, acc = trajectory.sample(times)
+    for k, t in enumerate(times):
+        p, v, a = reference.at_time(t)
+        np.testing.assert_allclose(pos[k], p, atol=1e-9)
+        np.testing.assert_allclose(vel[k], v, atol=1e-7)
+        np.testing.assert_allclose(acc[k], a, atol=1e-5)
+    assert trajectory.keyframe_times_s == (trajectory.duration_s,)
+
+
+def test_sampling_unsorted_long_and_short_queries_agree():
+    robot = make_robot(3)
+    motion = make_motion(robot, [kf([0, 0, 0], 1), kf([40, -30, 20], 2, t=0.6),
+                                 kf([-20, 10, 20], 3, t=1.2)])
+    trajectory = plan_motion(motion).trajectory
+    times = np.linspace(0, trajectory.duration_s, 3001)
+    pos, vel, acc = trajectory.sample(times)
+    shuffled = np.random.default_rng(1).permutation(len(times))
+    pos2, vel2, acc2 = trajectory.sample(times[shuffled])
+    np.testing.assert_array_equal(pos2, pos[shuffled])
+    np.testing.assert_array_equal(vel2, vel[shuffled])
+    np.testing.assert_array_equal(trajectory.positions(times[:50]), pos[:50])
+    p, v, a = trajectory.at(times[1234])
+    np.testing.assert_array_equal(p, pos[1234])
+
+
+def test_peaks_are_the_sampled_maxima():
+    robot = make_robot(3)
+    motion = make_motion(robot, [kf([0, 0, 0], 1), kf([70, -30, 5], 2), kf([-60, 40, 5], 3)])
+    trajectory = plan_motion(motion).trajectory
+    _, vel, acc = trajectory.sample(np.linspace(0, trajectory.duration_s, 200001))
+    np.testing.assert_allclose(trajectory.peak_velocity_deg_s(), np.abs(vel).max(axis=0),
+                               rtol=1e-4)
+    np.testing.assert_allclose(trajectory.peak_acceleration_deg_s2(), np.abs(acc).max(axis=0),
+                               rtol=1e-3)
+
+
+def test_after_the_end_the_robot_rests_and_before_the_start_is_an_error():
+    robot = make_robot(2)
+    trajectory = plan_motion(make_motion(robot, [kf([0, 0], 1), kf([30, -30], 2)])).trajectory
+    pos, vel, acc = trajectory.sample(np.array([trajectory.duration_s + 5.0]))
+    np.testing.assert_allclose(pos[0], [30, -30], atol=POS_EPS)
+    np.testing.assert_array_equal(vel[0], [0, 0])
+    with pytest.raises(ValueError, match=">= 0"):
+        trajectory.sample(np.array([-0.1]))
+
+
+# --- timing ------------------------------------------------------------------------------------
+def test_timed_keyframes_are_reached_at_their_times_and_rest_at_stops_and_ends():
+    robot = make_robot(3)
+    motion = make_motion(robot, [
+        kf([0, 0, 0], 1),
+        kf([30, -20, 10], 2, t=0.5),
+        kf([60, -10, -40], 3, t=1.0),
+        kf([10, 10, 10], 4, hold=0.3),
+        kf([0, 0, 0], 5, after=0.4),
+    ])
+    trajectory = plan_motion(motion).trajectory
+    times = trajectory.keyframe_times_s
+    assert times[:3] == pytest.approx((0.0, 0.5, 1.0), abs=1e-9)
+    assert times[4] == pytest.approx(times[3] + 0.3 + 0.4, abs=1e-9)
+    for t, keyframe in zip(times, motion.keyframes):
+        np.testing.assert_allclose(trajectory.at(t)[0], keyframe.targets_deg, atol=POS_EPS)
+    for index in (0, 3, 4):  # start, hold, end
+        np.testing.assert_allclose(trajectory.at(times[index])[1], 0, atol=1e-9)
+    hold = trajectory.sample(np.linspace(times[3], times[3] + 0.3, 50))
+    np.testing.assert_allclose(hold[0], np.tile([10, 10, 10], (50, 1)), atol=POS_EPS)
+    assert trajectory.duration_s == pytest.approx(times[4])
+
+
+def test_keyframes_are_passed_smoothly_unless_a_joint_reverses():
+    robot = make_robot(2)
+    motion = make_motion(robot, [kf([0, 0], 1), kf([30, 30], 2, t=0.5), kf([60, 0], 3, t=1.0)])
+    trajectory = plan_motion(motion).trajectory
+    _, vel, acc = trajectory.at(0.5)
+    assert vel[0] == pytest.approx(60.0)  # both secants are 60°/s
+    assert vel[1] == 0.0  # joint 1 turns back here
+    np.testing.assert_allclose(acc, 0, atol=1e-9)
+
+
+def test_stop_keyframe_comes_to_rest():
+    robot = make_robot(1)
+    motion = make_motion(robot, [kf([0], 1), kf([30], 2, t=0.5, stop=True), kf([60], 3, t=1.0)])
+    assert plan_motion(motion).trajectory.at(0.5)[1][0] == 0.0
+
+
+def test_first_keyframe_time_is_a_wait_at_the_first_pose():
+    robot = make_robot(1)
+    motion = make_motion(robot, [kf([20], 1, t=1.5), kf([40], 2, t=2.0)])
+    trajectory = plan_motion(motion).trajectory
+    assert trajectory.keyframe_times_s == pytest.approx((1.5, 2.0))
+    pos = trajectory.positions(np.linspace(0, 1.5, 30))
+    np.testing.assert_allclose(pos, 20.0, atol=POS_EPS)
+
+
+def test_as_soon_as_possible_takes_the_minimum_time_from_rest():
+    robot = make_robot(2)
+    motion = make_motion(robot, [kf([0, 0], 1), kf([50, -20], 2)])
+    trajectory = plan_motion(motion).trajectory
+    reference = ruckig_rest_to_rest(robot, [0, 0], [50, -20])
+    assert trajectory.duration_s == pytest.approx(reference.duration, rel=1e-9)
+
+
+def test_velocity_scale_limits_the_segment_into_its_keyframe():
+    robot = make_robot(1)
+    fast = plan_motion(make_motion(robot, [kf([-80], 1), kf([80], 2)])).trajectory
+    slow = plan_motion(make_motion(robot, [kf([-80], 1), kf([80], 2, velocity=0.4)])).trajectory
+    assert fast.peak_velocity_deg_s()[0] == pytest.approx(300.0)
+    assert slow.peak_velocity_deg_s()[0] == pytest.approx(120.0)
+    assert slow.duration_s > fast.duration_s
+
+
+def test_speed_divides_times_and_keeps_limits():
+    robot = make_robot(2)
+    keyframes = [kf([0, 0], 1), kf([20, 10], 2, t=1.0), kf([40, 0], 3, after=1.0, hold=0.5),
+                 kf([0, 0], 4, t=4.0)]
+    normal = plan_motion(make_motion(robot, keyframes)).trajectory
+    double = plan_motion(make_motion(robot, keyframes, speed=2.0)).trajectory
+    override = plan_motion(make_motion(robot, keyframes, speed=2.0), speed=1.0).trajectory
+    assert normal.keyframe_times_s == pytest.approx((0.0, 1.0, 2.0, 4.0))
+    assert double.keyframe_times_s == pytest.approx((0.0, 0.5, 1.0, 2.0))
+    assert override.keyframe_times_s == pytest.approx(normal.keyframe_times_s)
+    with pytest.raises(ValueError, match="speed"):
+        plan_motion(make_motion(robot, keyframes), speed=0.0)
+
+
+def test_speed_up_beyond_the_limits_is_an_error_or_a_stretch():
+    robot = make_robot(1)
+    motion = make_motion(robot, [kf([0], 1), kf([80], 2, t=1.0)])
+    plan_motion(motion)
+    with pytest.raises(PlanningError, match=r"^test_motion.yaml:2:5: .*\(at speed 10\)"):
+        plan_motion(motion, speed=10.0)
+    result = plan_motion(motion, speed=10.0, stretch=True)
+    minimum = ruckig_rest_to_rest(robot, [0], [80]).duration
+    assert result.trajectory.keyframe_times_s[1] == pytest.approx(minimum)
+    assert result.stretches[0].shift_s == pytest.approx(minimum - 0.1)
+
+
+def test_repeat_wraps_without_stopping_through_the_first_keyframe():
+    robot = make_robot(2)
+    keyframes = [kf([0, 0], 1), kf([30, 20], 2, after=0.5), kf([-30, 0], 3, after=0.8)]
+    trajectory = plan_motion(make_motion(robot, keyframes, repeat=3)).trajectory
+    times = trajectory.keyframe_times_s
+    assert len(times) == 9
+    for index, t in enumerate(times):
+        np.testing.assert_allclose(trajectory.at(t)[0], keyframes[index % 3].targets_deg,
+                                   atol=POS_EPS)
+    # joint 0 climbs from -30 through 0 to 30 across each wrap: it passes 0 moving
+    assert trajectory.at(times[3])[1][0] > 10
+    assert trajectory.at(times[6])[1][0] > 10
+    np.testing.assert_allclose(trajectory.at(times[-1])[1], 0, atol=1e-9)  # the end rests
+    assert times[4] - times[3] == pytest.approx(0.5)
+
+
+def test_repeat_keeps_t_spacing_in_every_repetition():
+    robot = make_robot(1)
+    keyframes = [kf([0], 1), kf([40], 2, t=1.0), kf([10], 3, t=2.0, stop=True)]
+    times = plan_motion(make_motion(robot, keyframes, repeat=2)).trajectory.keyframe_times_s
+    assert times[:3] == pytest.approx((0.0, 1.0, 2.0))
+    assert times[4] - times[3] == pytest.approx(1.0)
+    assert times[5] - times[3] == pytest.approx(2.0)
+
+
+def test_repeat_with_stop_on_the_last_keyframe_rests_there():
+    robot = make_robot(1)
+    keyframes = [kf([0], 1), kf([40], 2, after=0.5), kf([-30], 3, after=0.8, stop=True)]
+    trajectory = plan_motion(make_motion(robot, keyframes, repeat=2)).trajectory
+    assert trajectory.at(trajectory.keyframe_times_s[2])[1][0] == 0.0
+
+
+def test_single_keyframe_motion_is_a_rest():
+    robot = make_robot(2)
+    trajectory = plan_motion(make_motion(robot, [kf([10, -10], 1, hold=0.5)])).trajectory
+    assert trajectory.duration_s == pytest.approx(0.5)
+    np.testing.assert_allclose(trajectory.positions(np.array([0.0, 0.25, 1.0])),
+                               [[10, -10]] * 3)
+
+
+# --- limits and errors -------------------------------------------------------------------------
+def test_pass_through_velocity_is_lowered_instead_of_overshooting_a_limit():
+    robot = make_robot(1)
+    # 87° is passed on the way to the 90° limit, which is asked for too early: the stretched
+    # segment from the pass-through speed at 87° would carry the joint to about 101°.
+    motion = make_motion(robot, [kf([50], 1), kf([87], 2), kf([90], 3, t=0.35)])
+    result = plan_motion(motion, stretch=True)
+    trajectory = result.trajectory
+    times = dense_times(trajectory)
+    pos = trajectory.positions(times)
+    assert result.stretches
+    assert pos.max() <= 90 + POS_EPS
+    assert np.all(np.diff(pos[:, 0]) >= -1e-9)  # between keyframes a joint never turns back
+
+
+def test_too_early_keyframe_names_its_line_joint_and_earliest_time():
+    robot = make_robot(3)
+    motion = make_motion(robot, [kf([0, 0, 0], 1), kf([0, 0, 80], 7, t=0.2)])
+    minimum = ruckig_rest_to_rest(robot, [0, 0, 0], [0, 0, 80]).duration
+    with pytest.raises(PlanningError) as caught:
+        plan_motion(motion)
+    message = str(caught.value)
+    assert message.startswith("test_motion.yaml:7:5: ")
+    assert " j2 " in message
+    assert f"{minimum:.3f} s at the earliest" in message
+    assert f"t >= {minimum:.3f}" in message
+    assert check_motion(motion) == [message]
+
+
+def test_stretch_shifts_later_timed_keyframes_by_the_same_amount():
+    robot = make_robot(1)
+    motion = make_motion(robot, [kf([0], 1), kf([80], 2, t=0.2), kf([40], 3, t=1.0),
+                                 kf([60], 4, after=0.3)])
+    result = plan_motion(motion, stretch=True)
+    times = result.trajectory.keyframe_times_s
+    minimum = ruckig_rest_to_rest(robot, [0], [80]).duration
+    assert [s.where.line for s in result.stretches] == [2]
+    shift = result.stretches[0].shift_s
+    assert shift == pytest.approx(minimum - 0.2)
+    assert times[1] == pytest.approx(minimum)
+    assert times[2] == pytest.approx(1.0 + shift)
+    assert times[3] == pytest.approx(times[2] + 0.3)
+
+
+def test_keyframe_outside_the_limits_is_reported_where_it_is():
+    robot = make_robot(2, span_deg=45)
+    motion = make_motion(robot, [kf([0, 0], 1), kf([0, 50], 4)])
+    with pytest.raises(PlanningError, match=r"test_motion.yaml:4:5: j1 = 50° is outside its "
+                                            r"limits -45..45°"):
+        plan_motion(motion)
+
+
+def test_approach_starts_anywhere_and_arrives_gently():
+    robot = make_robot(2, span_deg=45)
+    trajectory = plan_approach(robot, [100.0, -60.0], [10.0, 0.0])
+    pos, vel, acc = trajectory.sample(dense_times(trajectory))
+    np.testing.assert_allclose(pos[0], [100, -60])
+    np.testing.assert_allclose(pos[-1], [10, 0], atol=POS_EPS)
+    assert np.all(np.abs(vel) <= 0.3 * 300 * (1 + VEL_EPS))
+    assert np.all(np.abs(acc) <= 0.3 * 3000 * (1 + ACC_EPS))
+    assert np.all(np.diff(pos[:, 0]) <= 1e-9)  # moves only towards its target
+    with pytest.raises(ValueError, match="outside its limits"):
+        plan_approach(robot, [0, 0], [50, 0])
+    with pytest.raises(ValueError, match="one angle per joint"):
+        plan_approach(robot, [0, 0, 0], [0, 0])
+
+
+# --- properties --------------------------------------------------------------------------------
+ROBOTS = {6: make_robot(6), 18: make_robot(18, acc=2500, jerk=20000, vel=250)}
+
+
+@st.composite
+def motions(draw):
+    robot = ROBOTS[draw(st.sampled_from(sorted(ROBOTS)))]
+    n = len(robot.joints)
+    count = draw(st.integers(1, 7))
+    angle = st.floats(-90, 90, allow_nan=False).map(lambda a: round(a, 2))
+    near_limit = st.sampled_from([-90.0, -88.0, 89.5, 90.0])
+    t = 0.0
+    keyframes = []
+    for line in range(1, count + 1):
+        targets = [draw(st.one_of(angle, near_limit)) for _ in range(n)]
+        timing = draw(st.sampled_from(["t", "after", "asap"]))
+        gap = draw(st.floats(0.05, 1.2))
+        hold = draw(st.sampled_from([0.0, 0.0, 0.0, 0.2]))
+        extra = {}
+        if timing == "t" and line > 1:
+            t += gap
+            extra["t"] = round(t, 3)
+        elif timing == "after" and line > 1:
+            extra["after"] = round(gap, 3)
+        keyframes.append(kf(targets, line, hold=hold, stop=draw(st.booleans()),
+                            velocity=draw(st.sampled_from([1.0, 1.0, 0.5])), **extra))
+        t += hold + 1.0  # leave room for untimed keyframes before the next t
+    speed = draw(st.sampled_from([1.0, 1.0, 0.5, 2.0]))
+    repeat = draw(st.sampled_from([1, 1, 2]))
+    return make_motion(robot, keyframes, speed=speed, repeat=repeat)
+
+
+def expected_times(motion, times):
+    """Arrival times the file asks for (None: as soon as possible), given the earlier arrivals:
+    t counts from the repetition's first keyframe, after from the previous one's leaving."""
+    played = list(motion.keyframes) * motion.repeat
+    n = len(motion.keyframes)
+    origin = played[0].t_s or played[0].after_s or 0.0
+    expected = [origin / motion.speed]
+    for index in range(1, len(played)):
+        keyframe, previous = played[index], played[index - 1]
+        if index % n and keyframe.t_s is not None:
+            expected.append(times[index - index % n] + (keyframe.t_s - origin) / motion.speed)
+        elif keyframe.after_s is not None:
+            leave = times[index - 1] + previous.hold_s / motion.speed
+            expected.append(leave + keyframe.after_s / motion.speed)
+        else:
+            expected.append(None)
+    return expected
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(motions())
+def test_random_motions_stay_within_every_limit_and_meet_their_times(motion):
+    robot = motion.robot
+    try:
+        plan_motion(motion)
+        feasible = True
+    except PlanningError as error:
+        feasible = False
+        assert str(error).startswith("test_motion.yaml:")
+    result = plan_motion(motion, stretch=True)
+    assert feasible == (not result.stretches)
+    trajectory = result.trajectory
+    times = np.array(trajectory.keyframe_times_s)
+    assert len(times) == len(motion.keyframes) * motion.repeat
+    assert np.all(np.diff(times) >= 0)
+
+    pos, vel, acc = trajectory.sample(dense_times(trajectory, 2000))
+    limits = [j.limits for j in robot.joints]
+    assert np.all(pos >= np.array([x.min_deg for x in limits]) - POS_EPS)
+    assert np.all(pos <= np.array([x.max_deg for x in limits]) + POS_EPS)
+    assert np.all(np.abs(vel) <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
+    assert np.all(np.abs(acc) <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS))
+    assert np.all(trajectory.peak_velocity_deg_s()
+                  <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
+
+    played = list(motion.keyframes) * motion.repeat
+    for t, keyframe in zip(times, played):
+        np.testing.assert_allclose(trajectory.at(t)[0], keyframe.targets_deg, atol=1e-6)
+    if feasible:
+        for t, want in zip(times, expected_times(motion, times)):
+            if want is not None:
+                assert t == pytest.approx(want, abs=1e-6)
