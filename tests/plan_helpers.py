@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hypothesis import strategies as st
+
 from choreo.motion import Keyframe, Motion
 from choreo.robot import Joint, JointLimits, Robot, SourceLocation
 
@@ -33,3 +35,37 @@ def kf(targets, line: int, *, t=None, after=None, hold=0.0, stop=False,
 def make_motion(robot: Robot, keyframes, *, speed: float = 1.0, repeat: int = 1) -> Motion:
     return Motion(name="test", path=MOTION_PATH, robot=robot, keyframes=tuple(keyframes),
                   speed=speed, repeat=repeat)
+
+
+ROBOTS = {6: make_robot(6), 18: make_robot(18, acc=2500, jerk=20000, vel=250)}
+
+
+@st.composite
+def motions(draw):
+    """Random keyframe sets on a 6-joint arm-like or an 18-joint robot: angles anywhere in the
+    limits and often at them, every kind of timing (some infeasible), holds, stops, velocity
+    scales, speeds and repeats."""
+    robot = ROBOTS[draw(st.sampled_from(sorted(ROBOTS)))]
+    n = len(robot.joints)
+    count = draw(st.integers(1, 7))
+    angle = st.floats(-90, 90, allow_nan=False).map(lambda a: round(a, 2))
+    near_limit = st.sampled_from([-90.0, -88.0, 89.5, 90.0])
+    t = 0.0
+    keyframes = []
+    for line in range(1, count + 1):
+        targets = [draw(st.one_of(angle, near_limit)) for _ in range(n)]
+        timing = draw(st.sampled_from(["t", "after", "asap"]))
+        gap = draw(st.floats(0.05, 1.2))
+        hold = draw(st.sampled_from([0.0, 0.0, 0.0, 0.2]))
+        extra = {}
+        if timing == "t" and line > 1:
+            t += gap
+            extra["t"] = round(t, 3)
+        elif timing == "after" and line > 1:
+            extra["after"] = round(gap, 3)
+        keyframes.append(kf(targets, line, hold=hold, stop=draw(st.booleans()),
+                            velocity=draw(st.sampled_from([1.0, 1.0, 0.5])), **extra))
+        t += hold + 1.0  # leave room for untimed keyframes before the next t
+    speed = draw(st.sampled_from([1.0, 1.0, 0.5, 2.0]))
+    repeat = draw(st.sampled_from([1, 1, 2]))
+    return make_motion(robot, keyframes, speed=speed, repeat=repeat)

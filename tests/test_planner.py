@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 import ruckig
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 from choreo.errors import PlanningError
 from choreo.planner import check_motion, plan_approach, plan_motion
-from plan_helpers import kf, make_motion, make_robot
+from plan_helpers import kf, make_motion, make_robot, motions
 
 POS_EPS = 1e-6
 VEL_EPS = 1e-6  # relative
@@ -289,37 +288,6 @@ def test_approach_starts_anywhere_and_arrives_gently():
 
 
 # --- properties --------------------------------------------------------------------------------
-ROBOTS = {6: make_robot(6), 18: make_robot(18, acc=2500, jerk=20000, vel=250)}
-
-
-@st.composite
-def motions(draw):
-    robot = ROBOTS[draw(st.sampled_from(sorted(ROBOTS)))]
-    n = len(robot.joints)
-    count = draw(st.integers(1, 7))
-    angle = st.floats(-90, 90, allow_nan=False).map(lambda a: round(a, 2))
-    near_limit = st.sampled_from([-90.0, -88.0, 89.5, 90.0])
-    t = 0.0
-    keyframes = []
-    for line in range(1, count + 1):
-        targets = [draw(st.one_of(angle, near_limit)) for _ in range(n)]
-        timing = draw(st.sampled_from(["t", "after", "asap"]))
-        gap = draw(st.floats(0.05, 1.2))
-        hold = draw(st.sampled_from([0.0, 0.0, 0.0, 0.2]))
-        extra = {}
-        if timing == "t" and line > 1:
-            t += gap
-            extra["t"] = round(t, 3)
-        elif timing == "after" and line > 1:
-            extra["after"] = round(gap, 3)
-        keyframes.append(kf(targets, line, hold=hold, stop=draw(st.booleans()),
-                            velocity=draw(st.sampled_from([1.0, 1.0, 0.5])), **extra))
-        t += hold + 1.0  # leave room for untimed keyframes before the next t
-    speed = draw(st.sampled_from([1.0, 1.0, 0.5, 2.0]))
-    repeat = draw(st.sampled_from([1, 1, 2]))
-    return make_motion(robot, keyframes, speed=speed, repeat=repeat)
-
-
 def expected_times(motion, times):
     """Arrival times the file asks for (None: as soon as possible), given the earlier arrivals:
     t counts from the repetition's first keyframe, after from the previous one's leaving."""
