@@ -54,6 +54,14 @@ def register(subparsers) -> None:
     preview.add_argument("--stall-after", type=positive_float, default=0.25, metavar="S",
                          help="report a servo at its torque limit this long as a stall "
                               "(default 0.25 s)")
+    preview.add_argument("--fall-tilt", type=positive_float, default=30.0, metavar="DEG",
+                         help="a free-floating body tilted this far has fallen (default 30°)")
+    preview.add_argument("--fall-height", type=positive_float, default=0.5, metavar="FRACTION",
+                         help="... or below this fraction of its starting height (default 0.5)")
+    preview.add_argument("--move-start", choices=["setpoint", "position"], default="setpoint",
+                         help="where a servo's new move starts: where its own interpolation is "
+                              "(default), or where its shaft is (pessimistic: loaded joints sag "
+                              "at every tick)")
     preview.set_defaults(handler=run_preview)
 
 
@@ -101,8 +109,11 @@ def run_preview(args: argparse.Namespace) -> int:
 
     motion = load_motion(args.motion)
     thresholds = preview.CheckThresholds(max_tracking_error_deg=args.max_tracking_error,
-                                         stall_after_s=args.stall_after)
-    rollout = preview.simulate_motion(motion, speed=args.speed, stretch=args.stretch,
+                                         stall_after_s=args.stall_after,
+                                         fall_tilt_deg=args.fall_tilt,
+                                         fall_height_fraction=args.fall_height)
+    settings = preview.SimSettings(move_start=preview.MoveStart(args.move_start))
+    rollout = preview.simulate_motion(motion, settings, speed=args.speed, stretch=args.stretch,
                                       tolerance_deg=args.tolerance)
     results = preview.run_checks(rollout, thresholds)
     for result in results:

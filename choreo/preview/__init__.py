@@ -24,7 +24,7 @@ from .checks import (
 from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
 from .report import JointSummary, joint_summaries, preview_report
 from .servo import ActuatorParams, TickLike, actuator_params
-from .sim import Rollout, SimSettings, simulate
+from .sim import MoveStart, Rollout, SimSettings, simulate
 from .viewer import has_display, show_in_viewer
 
 __all__ = [
@@ -33,6 +33,7 @@ __all__ = [
     "CheckResult",
     "CheckThresholds",
     "JointSummary",
+    "MoveStart",
     "RenderResult",
     "RenderSettings",
     "Rollout",

@@ -58,7 +58,7 @@ class CheckThresholds:
     saturation_fraction: float = 0.98  # |torque| >= this * stall torque counts as saturated
     limit_margin_deg: float = 0.5  # this close to a joint limit counts as touching it
     fall_height_fraction: float = 0.5  # free-floating body below this * its start height
-    fall_tilt_deg: float = 45.0  # ... or tilted more than this from upright
+    fall_tilt_deg: float = 30.0  # ... or tilted more than this from upright
     merge_gap_s: float = 0.05  # episodes closer than this are one
 
     def __post_init__(self) -> None:

@@ -113,13 +113,15 @@ def render_frames(rollout: Rollout, times_s: np.ndarray, settings: RenderSetting
             data.qpos[:] = rollout.qpos[step]
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
-            yield renderer.render(data, cameras[k], _status_lines(rollout, t),
-                                  _problem_lines(results, t))
+            yield renderer.render(data, cameras[k], status_text(rollout, t),
+                                  problem_text(results, t))
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
 
 
-def _status_lines(rollout: Rollout, t: float) -> tuple[str, str]:
+def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
+    """The overlay's (names, values) columns at time ``t``: the time and the keyframe index (of
+    the keyframe last reached, counting from 1)."""
     names, values = ["time"], [f"{t:.2f} s"]
     keyframes = rollout.keyframe_times_s
     if keyframes:
@@ -129,7 +131,8 @@ def _status_lines(rollout: Rollout, t: float) -> tuple[str, str]:
     return "\n".join(names), "\n".join(values)
 
 
-def _problem_lines(results: Sequence[CheckResult], t: float) -> tuple[str, str]:
+def problem_text(results: Sequence[CheckResult], t: float) -> tuple[str, str]:
+    """The overlay's (problems, where) columns at time ``t``: every problem under way."""
     shown = [r for r in results
              if r.time_s <= t + 1e-9 <= r.time_s + max(r.duration_s, PROBLEM_SHOWN_S)]
     kinds = [f"{r.severity.value} {SHORT_NAMES[r.kind]}" for r in shown]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from enum import Enum
 from typing import Mapping, Sequence
 
 import mujoco
@@ -45,9 +46,24 @@ from .servo import (
 log = logging.getLogger(__name__)
 
 
+class MoveStart(str, Enum):
+    """Where a servo's new linear move starts (undocumented for the real servo).
+
+    SETPOINT: where its own interpolation is, so a servo lagging under load keeps pulling towards
+    its plan (what a position loop with integral action amounts to). POSITION: where its shaft
+    measurably is, so each START forgets the lag; with a proportional-only servo model a loaded
+    joint then drops a little at every START, and a re-run preset from a sagged position creeps
+    back over the preset's whole time: the pessimistic assumption.
+    """
+
+    SETPOINT = "setpoint"
+    POSITION = "position"
+
+
 @dataclass(frozen=True)
 class SimSettings:
     settle_s: float = 0.5  # servos hold the first pose this long before the motion starts
+    move_start: MoveStart = MoveStart.SETPOINT
     tail_s: float = 0.5  # keep simulating after the last move is due to finish
     min_contact_depth_m: float = 0.0  # touches this shallow or shallower are not recorded
     # joint name -> {ActuatorParams field: value}: the robot's measured servo, if it has one
@@ -130,7 +146,8 @@ def simulate(robot: Robot, ticks: Sequence[TickLike], initial_deg: Sequence[floa
     qpos_log = np.empty((n, model.nq))
     ctrl_log = np.empty((n, n_joints))
     torque_log = np.empty((n, n_joints))
-    _run(model, data, index, stream, servos, to_deg, n, qpos_log, ctrl_log, torque_log, contacts)
+    _run(model, data, index, stream, servos, to_deg, settings.move_start, n, qpos_log, ctrl_log,
+         torque_log, contacts)
     _check_stable(data, dt, settings.settle_s)
 
     times = np.arange(n) * dt
@@ -159,8 +176,9 @@ def simulate(robot: Robot, ticks: Sequence[TickLike], initial_deg: Sequence[floa
 
 
 def _run(model: mujoco.MjModel, data: mujoco.MjData, index, stream: CommandStream,
-         servos: ServoBank, to_deg: UnitsToDeg, n: int, qpos_log: np.ndarray,
-         ctrl_log: np.ndarray, torque_log: np.ndarray, contacts: _ContactLog) -> None:
+         servos: ServoBank, to_deg: UnitsToDeg, move_start: MoveStart, n: int,
+         qpos_log: np.ndarray, ctrl_log: np.ndarray, torque_log: np.ndarray,
+         contacts: _ContactLog) -> None:
     """The step loop, kept lean: it runs ~500 times per simulated second."""
     dt = float(model.opt.timestep)
     ctrl_scale, ctrl_offset = np.radians(to_deg.scale), np.radians(to_deg.offset)
@@ -173,8 +191,10 @@ def _run(model: mujoco.MjModel, data: mujoco.MjData, index, stream: CommandStrea
     for step in range(n):
         t = step * dt
         while next_start <= t + 1e-9:
-            position_units = to_deg.units(np.degrees(data.qpos[index.qpos]))
-            servos.start(stream, tick, t, position_units)
+            if move_start is MoveStart.POSITION:
+                servos.start(stream, tick, t, to_deg.units(np.degrees(data.qpos[index.qpos])))
+            else:
+                servos.start(stream, tick, t, servos.setpoint_units(t))
             next_start, tick = starts[upcoming]
             upcoming += 1
         servos.setpoint_into(t, setpoint)
