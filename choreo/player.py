@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import enum
 import logging
+import math
 from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
@@ -376,21 +377,23 @@ class _Stream:
         self.end_s = self.player.clock.now()
 
     def catch_up(self, k: int) -> int:
-        """If tick k's time is already over, jump to the tick the plan is in now."""
-        now = self.player.clock.now()
-        if k + 1 >= len(self.ticks) or now < self.deadline(k + 1):
+        """If tick k's time is already over, jump to the tick the plan will be in once every
+        servo is re-staged (and the servos' start gap has passed), shortened to end on time."""
+        clock, ticks = self.player.clock, self.ticks
+        now = clock.now()
+        if k + 1 >= len(ticks) or now < self.deadline(k + 1):
             return k
+        restage_s = len(self.player.robot.joints) * STAGE_BYTES * BYTE_TIME_S
+        ready_ms = math.ceil((now + restage_s + self.player.options.start_guard_s - self.t0) * 1000)
         j = k + 1
-        while j + 1 < len(self.ticks) and now >= self.deadline(j + 1):
+        while j + 1 < len(ticks) and ready_ms >= ticks[j + 1].start_ms:
             j += 1
         log.warning("fell behind by %.1f ms: re-targeting from tick %d to tick %d",
                     (now - self.deadline(k)) * 1000, k, j)
         self.retargeted += 1
-        tick = self.ticks[j]
-        remaining_ms = max(1, round((self.deadline(j) + tick.duration_ms / 1000 - now) * 1000))
-        self.ticks[j] = replace(tick, duration_ms=remaining_ms,
-                                     start_ms=round((now - self.t0) * 1000))
-        self.stage(self.ticks[j], all_servos=True)
+        start_ms = min(ready_ms, ticks[j].end_ms - 1)
+        ticks[j] = replace(ticks[j], start_ms=start_ms, duration_ms=ticks[j].end_ms - start_ms)
+        self.stage(ticks[j], all_servos=True)
         return j
 
     def start(self, k: int) -> None:

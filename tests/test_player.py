@@ -215,6 +215,16 @@ def test_falling_behind_retargets_instead_of_replaying_stale_ticks():
     report = rig.play(on_progress=stall_the_host)
     assert report.outcome is Outcome.COMPLETED and report.retargeted == 1
     assert report.ticks_played == report.ticks_total
+    stale = [m for m in rig.emulator.log.moves if 0 < m.time_s - progress_time(rig, 6) < 0.5]
+    assert not stale  # nothing was started while the host was frozen: no stale tick replayed
+    final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
+    for joint, angle in zip(rig.robot.joints, final):  # the re-targeted START was not missed
+        assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
+            angle, abs=QUANTIZATION_DEG + 1e-6)
+
+
+def progress_time(rig, tick):
+    return rig.report.start_time_s + rig.performance.ticks[tick - 1].start_ms / 1000
 
 
 def test_dry_run_schedule_matches_what_is_sent():
