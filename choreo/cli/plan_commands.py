@@ -1,7 +1,146 @@
-"""``choreo plan``."""
+"""``choreo plan``: plan a motion and compile its ticks; report the figures, optionally plot."""
 
 from __future__ import annotations
 
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from ..motion import Motion, load_motion
+from ..planner import PlanResult, plan_motion
+from ..segments import TickPlan, segment
+
 
 def register(subparsers) -> None:
-    pass
+    plan = subparsers.add_parser(
+        "plan", help="plan a motion and compile it into servo ticks; report and plot",
+        description="Time-parameterize the keyframes within every joint's velocity, "
+                    "acceleration and jerk limits, compile the smooth trajectory into ticks "
+                    "(synchronized linear servo moves, one broadcast START each) and report: "
+                    "duration, ticks, bytes, peak bus use, the largest deviation of the servos' "
+                    "path from the smooth plan, and per joint the peak velocity and acceleration "
+                    "against its limits. Exits 1 if the motion cannot be planned.")
+    plan.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    plan.add_argument("--json", action="store_true", help="print the report as JSON")
+    plan.add_argument("--plot", type=png_path, metavar="FILE.png",
+                      help="draw position and velocity per joint: smooth plan against the ticks")
+    plan.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
+                      help="how far the servos' linear moves may leave the smooth plan "
+                           "(default 0.5°; rounding to whole servo units adds up to 0.12°)")
+    plan.add_argument("--speed", type=positive_float,
+                      help="time scale (overrides the file's speed): 2 plays twice as fast")
+    plan.add_argument("--stretch", action="store_true",
+                      help="move keyframes later where the limits can't meet their times "
+                           "(and say by how much) instead of failing")
+    plan.set_defaults(handler=run_plan)
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def png_path(text: str) -> Path:
+    if not text.lower().endswith(".png"):
+        raise argparse.ArgumentTypeError(f"the plot is a PNG: the file must end in .png, "
+                                         f"got {text!r}")
+    return Path(text)
+
+
+@dataclass(frozen=True)
+class JointFigures:
+    name: str
+    peak_velocity_deg_s: float
+    velocity_limit_deg_s: float
+    peak_acceleration_deg_s2: float
+    acceleration_limit_deg_s2: float
+    staged_moves: int
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    motion = load_motion(args.motion)
+    result = plan_motion(motion, speed=args.speed, stretch=args.stretch)
+    ticks = segment(result.trajectory, motion.robot, tolerance_deg=args.tolerance)
+    speed = motion.speed if args.speed is None else args.speed
+    report = plan_report(args.motion, motion, speed, result, ticks)
+    if args.json:
+        print(json.dumps(report, indent=2, ensure_ascii=False))
+    else:
+        print_report(report)
+    if args.plot is not None:
+        from ..plot import plot_plan  # matplotlib: only when a plot is asked for
+
+        plot_plan(result.trajectory, ticks, motion.robot, args.plot,
+                  title=f"{motion.name} ({args.motion}): {report['duration_s']:.2f} s, "
+                        f"{report['ticks']} ticks, {report['bytes']} bytes, max deviation "
+                        f"{report['max_deviation_deg']:.2f}°")
+        if not args.json:
+            print(f"wrote {args.plot}")
+    return 0
+
+
+def plan_report(path: Path, motion: Motion, speed: float, result: PlanResult,
+                ticks: TickPlan) -> dict:
+    """The figures ``choreo plan`` prints, as plain JSON-ready values."""
+    trajectory = result.trajectory
+    peak_vel = trajectory.peak_velocity_deg_s()
+    peak_acc = trajectory.peak_acceleration_deg_s2()
+    joints = [JointFigures(joint.name, float(peak_vel[j]), joint.limits.vel_deg_s,
+                           float(peak_acc[j]), joint.limits.acc_deg_s2,
+                           sum(t.staged[j] for t in ticks.ticks))
+              for j, joint in enumerate(motion.robot.joints)]
+    return {
+        "motion": str(path),
+        "robot": motion.robot.name,
+        "speed": speed,
+        "duration_s": trajectory.duration_s,
+        "keyframes": len(trajectory.keyframe_times_s),
+        "ticks": len(ticks.ticks),
+        "bytes": ticks.total_bytes,
+        "peak_bus_use": ticks.peak_bus_use,
+        "tolerance_deg": ticks.tolerance_deg,
+        "max_deviation_deg": ticks.max_deviation_deg,
+        "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in result.stretches],
+        "joints": [vars(j) for j in joints],
+    }
+
+
+def print_report(report: dict) -> None:
+    console = Console(highlight=False)
+    speed = f" at speed {report['speed']:g}" if report["speed"] != 1 else ""
+    console.print(f"[bold]{report['motion']}[/] on {report['robot']}{speed}: "
+                  f"{report['duration_s']:.3f} s, {report['keyframes']} keyframes played")
+    console.print(f"{report['ticks']} ticks, {report['bytes']} bytes, peak bus use "
+                  f"{100 * report['peak_bus_use']:.0f} %, max deviation "
+                  f"{report['max_deviation_deg']:.3f}° (tolerance {report['tolerance_deg']:g}° "
+                  f"+ 0.12° rounding)")
+    for stretch in report["stretches"]:
+        console.print(f"[yellow]{stretch['where']}: stretched: reached {stretch['shift_s']:.3f} s "
+                      f"later than asked[/]")
+    table = Table(show_edge=False, pad_edge=False)
+    for header in ("joint", "peak °/s", "limit", "use", "peak °/s²", "limit", "use", "moves"):
+        table.add_column(header, justify="left" if header == "joint" else "right")
+    for j in report["joints"]:
+        vel_use = j["peak_velocity_deg_s"] / j["velocity_limit_deg_s"]
+        acc_use = j["peak_acceleration_deg_s2"] / j["acceleration_limit_deg_s2"]
+        table.add_row(j["name"], f"{j['peak_velocity_deg_s']:.0f}",
+                      f"{j['velocity_limit_deg_s']:.0f}", _percent(vel_use),
+                      f"{j['peak_acceleration_deg_s2']:.0f}",
+                      f"{j['acceleration_limit_deg_s2']:.0f}", _percent(acc_use),
+                      str(j["staged_moves"]))
+    console.print(table)
+
+
+def _percent(share: float) -> str:
+    style = "bold" if share > 0.95 else ""
+    text = f"{100 * share:.0f} %"
+    return f"[{style}]{text}[/]" if style else text
