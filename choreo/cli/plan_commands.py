@@ -115,7 +115,7 @@ def plan_report(path: Path, motion: Motion, speed: float, result: PlanResult,
 
 
 def print_report(report: dict) -> None:
-    console = Console(highlight=False)
+    console = Console(highlight=False, soft_wrap=True)  # long paths stay on one line
     speed = f" at speed {report['speed']:g}" if report["speed"] != 1 else ""
     console.print(f"[bold]{report['motion']}[/] on {report['robot']}{speed}: "
                   f"{report['duration_s']:.3f} s, {report['keyframes']} keyframes played")
