@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import ruckig
 from hypothesis import HealthCheck, given, settings
 
 from choreo.errors import PlanningError
+from choreo.motion import load_motion
 from choreo.planner import check_motion, plan_approach, plan_motion
 from plan_helpers import kf, make_motion, make_robot, motions
 
@@ -340,3 +343,27 @@ def test_random_motions_stay_within_every_limit_and_meet_their_times(motion):
         for t, want in zip(times, expected_times(motion, times)):
             if want is not None:
                 assert t == pytest.approx(want, abs=1e-6)
+
+
+# --- the shipped motions -----------------------------------------------------------------------
+SHIPPED = sorted((Path(__file__).resolve().parents[1] / "motions").glob("*/*.yaml"))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_shipped_motions_plan_on_time_within_limits(path):
+    motion = load_motion(path)
+    result = plan_motion(motion)
+    trajectory = result.trajectory
+    times = np.array(trajectory.keyframe_times_s)
+    for t, want in zip(times, expected_times(motion, times)):
+        if want is not None:
+            assert t == pytest.approx(want, abs=1e-6)
+    limits = [j.limits for j in motion.robot.joints]
+    pos = trajectory.positions(dense_times(trajectory, 1000))
+    assert np.all(pos >= np.array([x.min_deg for x in limits]) - POS_EPS)
+    assert np.all(pos <= np.array([x.max_deg for x in limits]) + POS_EPS)
+    assert np.all(trajectory.peak_velocity_deg_s()
+                  <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
+    assert np.all(trajectory.peak_acceleration_deg_s2()
+                  <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS))
+    assert check_motion(motion) == []

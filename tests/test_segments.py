@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 
 from choreo.errors import PlanningError
+from choreo.motion import load_motion
 from choreo.planner import plan_approach, plan_motion
 from choreo.segments import (MAX_TICK_MS, MOVE_BYTES, START_BYTES, Tick, segment, staging_bytes,
                              wire_time_ms)
@@ -203,3 +205,13 @@ def test_random_motions_compile_to_ticks_within_tolerance_bus_floor_and_range(mo
         assert plan.ticks == ()
         return
     check_plan(motion.robot, trajectory, plan, 0.5)
+
+
+SHIPPED = sorted((Path(__file__).resolve().parents[1] / "motions").glob("*/*.yaml"))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
+    motion = load_motion(path)
+    trajectory = plan_motion(motion).trajectory
+    check_plan(motion.robot, trajectory, segment(trajectory, motion.robot), 0.5)
