@@ -1,4 +1,5 @@
-"""``choreo scan`` and ``choreo servo info``: what is on the bus."""
+"""``choreo scan``: what is on the bus; the port options and bus opening every bus command shares
+(``choreo servo`` lives in ``servo_commands``)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import sys
 from rich.console import Console
 from rich.table import Table
 
-from ..bus import ServoBus, ServoInfo
+from ..bus import ServoBus
 from ..protocol import MAX_SERVO_ID, parse_ids
 from ..servos import DEG_PER_UNIT
 
@@ -24,14 +25,6 @@ def register(subparsers) -> None:
                       metavar="RANGE", help="IDs to try, e.g. 1-18 (default 0-253)")
     scan.add_argument("--json", action="store_true", help="machine-readable output")
     scan.set_defaults(handler=run_scan)
-
-    servo = subparsers.add_parser("servo", help="read and configure one servo")
-    servo_commands = servo.add_subparsers(dest="servo_command", metavar="ACTION", required=True)
-    info = servo_commands.add_parser("info", help="show every readable parameter of one servo")
-    add_port_arguments(info)
-    info.add_argument("--id", type=servo_id, required=True, help="the servo's ID (0-253)")
-    info.add_argument("--json", action="store_true", help="machine-readable output")
-    info.set_defaults(handler=run_info)
 
 
 def add_port_arguments(parser: argparse.ArgumentParser) -> None:
@@ -89,51 +82,6 @@ def run_scan(args: argparse.Namespace) -> int:
                       f"{s.vin_mv / 1000:.2f} V", f"{s.temp_c} °C")
     Console().print(table)
     return 0
-
-
-def run_info(args: argparse.Namespace) -> int:
-    with open_bus(args) as bus:
-        info = bus.read_info(args.id)
-    if args.json:
-        print(json.dumps(_jsonable(info), indent=2))
-    else:
-        Console().print(_info_table(info))
-    return 0
-
-
-def _jsonable(info: ServoInfo) -> dict:
-    values = dataclasses.asdict(info)
-    values["led_errors"] = [flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors]
-    return values
-
-
-def _info_table(info: ServoInfo) -> Table:
-    def move(m):
-        return "not answered by this model" if m is None else f"{m.pos_units} in {m.time_ms} ms"
-
-    mask = info.led_errors
-    rows = [
-        ("position", f"{info.pos_units} ({info.pos_units * DEG_PER_UNIT:.1f}°)"),
-        ("last move", move(info.move)),
-        ("staged move", move(info.staged_move)),
-        ("offset", f"{info.offset_units} ({info.offset_units * DEG_PER_UNIT:+.1f}°)"),
-        ("angle limits", f"{info.angle_limits.min_units}..{info.angle_limits.max_units}"),
-        ("vin limits", f"{info.vin_limits.min_mv}..{info.vin_limits.max_mv} mV"),
-        ("temperature limit", f"{info.temp_limit_c} °C"),
-        ("temperature", f"{info.temp_c} °C"),
-        ("vin", f"{info.vin_mv} mV"),
-        ("mode", f"motor, speed {info.mode.speed}" if info.mode.motor else "servo"),
-        ("torque", "loaded" if info.loaded else "unloaded"),
-        ("led", "on" if info.led_on else "off"),
-        ("led flashes on", ", ".join(f.name.lower() for f in type(mask) if f in mask) or "nothing"),
-        ("distance", "not answered by this model" if info.distance is None else str(info.distance)),
-    ]
-    table = Table(title=f"servo {info.servo_id}", show_header=False)
-    table.add_column(style="bold")
-    table.add_column()
-    for name, value in rows:
-        table.add_row(name, value)
-    return table
 
 
 def _describe(ids: tuple[int, ...]) -> str:

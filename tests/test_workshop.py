@@ -1,0 +1,426 @@
+"""Servo configuration (choreo.workshop and `choreo servo ...`) against the emulator in virtual time.
+
+Expected bytes come from shared/docs/protocol.md's verified packets, not from the codec.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+
+import pytest
+
+from choreo import workshop
+from choreo.bus import AngleLimits, ServoBus, VinLimits
+from choreo.cli import main, servo_commands
+from choreo.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, SimSerial
+from choreo.errors import BusError
+from choreo.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
+
+
+class LossySerial(SimSerial):
+    """A port whose cable loses every packet of the commands in ``lost`` on the way out."""
+
+    lost: tuple[Command, ...] = ()
+
+    def write(self, data) -> int:
+        packets = PacketDecoder().feed(bytes(data))
+        if packets and all(p.command in self.lost for p in packets):
+            return len(data)
+        return super().write(data)
+
+
+def make_bus(ids=(1,), *, lost=()):
+    emulator = BusEmulator(ids, clock=VirtualClock())
+    port = LossySerial.from_emulator(emulator)
+    port.lost = lost
+    return ServoBus(port), emulator
+
+
+def sent(emulator: BusEmulator, command: Command):
+    return [p.packet for p in emulator.log.packets if p.packet.command == command]
+
+
+# --- EEPROM settings ---------------------------------------------------------------------------
+SETTINGS = [
+    (workshop.TEMP_LIMIT, 70, {"temp_max_c": 70}, "55 55 01 04 18 46 9C"),
+    (workshop.ANGLE_LIMITS, AngleLimits(100, 900), {"angle_min_units": 100, "angle_max_units": 900},
+     "55 55 01 07 14 64 00 84 03 F8"),
+    (workshop.VIN_LIMITS, VinLimits(4500, 12000), {"vin_min_mv": 4500, "vin_max_mv": 12000},
+     "55 55 01 07 16 94 11 E0 2E 2E"),
+    (workshop.LED, False, {"led_off": 1}, "55 55 01 04 21 01 D8"),
+    (workshop.LED_ERRORS, ErrorMask(7), {"error_mask": 7}, "55 55 01 04 23 07 D0"),
+]
+
+
+@pytest.mark.parametrize("setting, value, saved, packet_hex", SETTINGS, ids=lambda v: getattr(v, "name", ""))
+def test_a_setting_is_shown_old_to_new_written_and_saved(setting, value, saved, packet_hex):
+    bus, emulator = make_bus()
+    if setting is workshop.LED_ERRORS:
+        bus.set_led_errors(1, ErrorMask.NONE)
+        bus.drain()
+    writes_before = len(sent(emulator, setting.command))
+    change = workshop.plan_change(bus, 1, setting, value)
+    assert change.new == value and change.old != value and not change.unchanged
+    assert len(sent(emulator, setting.command)) == writes_before  # planning writes nothing
+    workshop.apply_change(bus, change)
+    eeprom = emulator.servo(1).eeprom
+    assert {name: getattr(eeprom, name) for name in saved} == saved
+    assert sent(emulator, setting.command)[-1].encode() == bytes.fromhex(packet_hex)
+
+
+def test_the_summary_reads_old_to_new():
+    bus, _ = make_bus()
+    change = workshop.plan_change(bus, 1, workshop.ANGLE_LIMITS, AngleLimits(100, 900))
+    assert str(change) == ("servo 1: angle limits 0 (0.0°)..1000 (240.0°) → "
+                           "100 (24.0°)..900 (216.0°)")
+
+
+@pytest.mark.parametrize("setting, value, words", [
+    (workshop.TEMP_LIMIT, 101, "temp_c must be in 50..100"),
+    (workshop.TEMP_LIMIT, 49, "temp_c must be in 50..100"),
+    (workshop.ANGLE_LIMITS, AngleLimits(0, 1001), "max_units must be in 0..1000"),
+    (workshop.ANGLE_LIMITS, AngleLimits(600, 400), "min_units must be less than max_units"),
+    (workshop.VIN_LIMITS, VinLimits(4000, 9000), "min_mv must be in 4500..14000"),
+    (workshop.LED_ERRORS, 8, "mask must be in 0..7"),
+])
+def test_out_of_range_values_are_refused_before_anything_is_sent(setting, value, words):
+    bus, emulator = make_bus()
+    with pytest.raises(ValueError, match=words):
+        workshop.plan_change(bus, 1, setting, value)
+    assert list(emulator.log.packets) == []
+
+
+def test_a_warning_when_the_new_limit_stops_the_servo_at_once():
+    bus, emulator = make_bus()
+    emulator.servo(1).temperature_c = 62
+    change = workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 60)
+    assert "62 °C now, above the new limit" in change.warning
+    assert workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 70).warning is None
+    vin = workshop.plan_change(bus, 1, workshop.VIN_LIMITS, VinLimits(9000, 12000))
+    assert "7200 mV now, outside the new limits" in vin.warning
+
+
+def test_a_write_lost_on_the_wire_is_a_mismatch_naming_the_value():
+    bus, emulator = make_bus(lost=(Command.TEMP_MAX_LIMIT_WRITE,))
+    change = workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 70)
+    with pytest.raises(BusError, match="servo 1: temperature limit reads 85 °C after writing 70 °C: "
+                                       "the write did not take"):
+        workshop.apply_change(bus, change)
+    assert emulator.servo(1).eeprom.temp_max_c == 85
+
+
+def test_a_servo_that_stops_answering_fails_the_read_back():
+    bus, emulator = make_bus()
+    change = workshop.plan_change(bus, 1, workshop.LED, False)
+    emulator.servo(1).connected = False
+    with pytest.raises(BusError, match="servo 1: wrote LED off but could not read it back"):
+        workshop.apply_change(bus, change)
+
+
+def test_broadcast_is_not_a_servo_to_configure():
+    bus, emulator = make_bus()
+    with pytest.raises(ValueError, match="no broadcast"):
+        workshop.plan_change(bus, BROADCAST_ID, workshop.TEMP_LIMIT, 70)
+
+
+@pytest.mark.parametrize("text, mask", [
+    ("none", ErrorMask.NONE), ("all", ErrorMask(7)), ("5", ErrorMask(5)),
+    ("stalled", ErrorMask.STALLED), ("voltage, over-temperature", ErrorMask(3)),
+])
+def test_fault_masks_parse_by_name_or_number(text, mask):
+    assert workshop.parse_error_mask(text) == mask
+
+
+@pytest.mark.parametrize("text", ["8", "volts", ""])
+def test_bad_fault_masks_list_the_valid_names(text):
+    with pytest.raises(ValueError, match="over-temperature, voltage, stalled"):
+        workshop.parse_error_mask(text)
+
+
+# --- offset ------------------------------------------------------------------------------------
+def test_offset_adjust_applies_at_once_and_save_persists():
+    bus, emulator = make_bus()
+    units = workshop.offset_units_from_deg(-2.4)
+    assert units == -10
+    workshop.adjust_offset(bus, 1, units)
+    assert sent(emulator, Command.ANGLE_OFFSET_ADJUST)[-1].encode() == bytes.fromhex("55 55 01 04 11 F6 F3")
+    assert emulator.servo(1).offset_units == -10
+    assert emulator.servo(1).eeprom.offset_units == 0  # not saved yet
+    change = workshop.plan_offset_save(bus, 1)
+    assert str(change) == ("servo 1: saved offset unknown (servos report only the offset in use) "
+                           "→ -10 (-2.4°)")
+    workshop.apply_change(bus, change)
+    assert sent(emulator, Command.ANGLE_OFFSET_WRITE)[-1].encode() == bytes.fromhex("55 55 01 03 12 E9")
+    assert emulator.servo(1).eeprom.offset_units == -10
+
+
+@pytest.mark.parametrize("offset_deg", [30.3, -31])
+def test_offset_beyond_30_degrees_is_refused_with_the_range(offset_deg):
+    with pytest.raises(ValueError, match=r"within -30.0..\+30.0° \(-125..125 units\)"):
+        workshop.offset_units_from_deg(offset_deg)
+
+
+def test_offset_adjust_out_of_range_units_sends_nothing():
+    bus, emulator = make_bus()
+    with pytest.raises(ValueError, match="offset_units must be in -125..125"):
+        workshop.adjust_offset(bus, 1, 126)
+    assert list(emulator.log.packets) == []
+
+
+# --- set-id ------------------------------------------------------------------------------------
+def test_set_id_finds_the_lone_servo_and_addresses_it_never_broadcast():
+    bus, emulator = make_bus(ids=(1,))
+    change = workshop.plan_id_change(bus, 5)
+    assert (change.current_id, change.new_id, change.found_alone) == (1, 5, True)
+    workshop.apply_id_change(bus, change)
+    assert emulator.servo(5).eeprom.servo_id == 5
+    (write,) = sent(emulator, Command.ID_WRITE)
+    assert write.encode() == bytes.fromhex("55 55 01 04 0D 05 E8")
+    reads = sent(emulator, Command.ID_READ)
+    assert reads[0].servo_id == BROADCAST_ID  # the search starts with a broadcast read...
+    assert len({p.servo_id for p in reads}) > 200  # ...and scans every ID
+
+
+def test_set_id_refuses_two_servos_whose_broadcast_replies_collide():
+    bus, emulator = make_bus(ids=(1, 2))
+    with pytest.raises(BusError, match="several servos answered a broadcast ID read"):
+        workshop.plan_id_change(bus, 5)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_refuses_a_second_servo_found_by_the_scan_listing_both():
+    bus, emulator = make_bus(ids=(1, 7))
+    emulator.servo(7).reply_faults = ReplyFaults(drop_next=1)  # so the broadcast finds only 1
+    with pytest.raises(BusError, match="exactly one servo on the bus, but IDs 1, 7 answer"):
+        workshop.plan_id_change(bus, 5)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_with_no_servo_says_so():
+    bus, _ = make_bus(ids=())
+    with pytest.raises(BusError, match="no servo answered a broadcast ID read"):
+        workshop.plan_id_change(bus, 5)
+
+
+def test_set_id_refuses_an_id_in_use():
+    bus, emulator = make_bus(ids=(1, 2))
+    with pytest.raises(BusError, match="ID 2 is already used by another servo"):
+        workshop.plan_id_change(bus, 2, current_id=1)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_with_a_current_id_nobody_answers():
+    bus, _ = make_bus(ids=(1, 2))
+    with pytest.raises(BusError, match="no servo answers at ID 4"):
+        workshop.plan_id_change(bus, 5, current_id=4)
+
+
+def test_set_id_with_a_known_id_renumbers_only_that_servo():
+    bus, emulator = make_bus(ids=(1, 2))
+    workshop.apply_id_change(bus, workshop.plan_id_change(bus, 9, current_id=2))
+    assert [s.servo_id for s in emulator.servos] == [1, 9]
+    assert all(p.servo_id == 2 for p in sent(emulator, Command.ID_WRITE))
+
+
+def test_set_id_to_the_same_id_is_nothing_to_do():
+    bus, _ = make_bus(ids=(3,))
+    assert workshop.plan_id_change(bus, 3, current_id=3).unchanged
+
+
+def test_set_id_whose_write_is_lost_says_the_servo_kept_its_id():
+    bus, emulator = make_bus(ids=(1,), lost=(Command.ID_WRITE,))
+    change = workshop.plan_id_change(bus, 5, current_id=1)
+    with pytest.raises(BusError, match="no servo answers at 5 \\(it still answers at 1\\)"):
+        workshop.apply_id_change(bus, change)
+    assert emulator.servo(1).eeprom.servo_id == 1
+
+
+def test_set_id_refuses_an_out_of_range_id_before_sending():
+    bus, emulator = make_bus()
+    with pytest.raises(ValueError, match="new_id must be in 0..253"):
+        workshop.plan_id_change(bus, 254, current_id=1)
+    assert list(emulator.log.packets) == []
+
+
+# --- move, torque, motor -----------------------------------------------------------------------
+def test_move_goes_there():
+    bus, emulator = make_bus()
+    workshop.move(bus, 1, workshop.position_units_from_deg(168), 400)
+    emulator.clock.advance(0.5)
+    assert emulator.servo(1).position_units == pytest.approx(700)
+
+
+def test_move_outside_the_servos_angle_limits_is_refused_not_clamped():
+    bus, emulator = make_bus()
+    bus.set_angle_limits(1, 100, 900)
+    with pytest.raises(BusError, match="position 950 is outside its angle limits 100..900"):
+        workshop.move(bus, 1, 950, 500)
+    assert sent(emulator, Command.MOVE_TIME_WRITE) == []
+
+
+def test_move_in_motor_mode_is_refused():
+    bus, emulator = make_bus()
+    workshop.run_motor(bus, 1, 300)
+    with pytest.raises(BusError, match="motor mode and ignores moves"):
+        workshop.move(bus, 1, 600, 500)
+
+
+@pytest.mark.parametrize("angle_deg", [-1, 240.2])
+def test_move_angles_outside_the_servo_travel_are_refused(angle_deg):
+    with pytest.raises(ValueError, match=r"0..240° \(0..1000 units\)"):
+        workshop.position_units_from_deg(angle_deg)
+
+
+def test_load_and_unload_are_verified():
+    bus, emulator = make_bus()
+    workshop.set_torque(bus, 1, True)
+    assert emulator.servo(1).loaded
+    workshop.set_torque(bus, 1, False)
+    assert not emulator.servo(1).loaded
+    emulator.servo(1).vin_mv = 4000  # below the VIN limit: the servo refuses torque
+    with pytest.raises(BusError, match="servo 1 did not load"):
+        workshop.set_torque(bus, 1, True)
+
+
+def test_motor_runs_and_stops():
+    bus, emulator = make_bus()
+    workshop.run_motor(bus, 1, -500)
+    assert emulator.servo(1).motor_mode
+    assert sent(emulator, Command.OR_MOTOR_MODE_WRITE)[-1].encode() == bytes.fromhex(
+        "55 55 01 07 1D 01 00 0C FE CF")
+    workshop.stop_motor(bus, 1)
+    assert not emulator.servo(1).motor_mode and emulator.servo(1).loaded
+
+
+def test_motor_speed_out_of_range_sends_nothing():
+    bus, emulator = make_bus()
+    with pytest.raises(ValueError, match="speed must be in -1000..1000"):
+        workshop.run_motor(bus, 1, 1001)
+    assert list(emulator.log.packets) == []
+
+
+# --- through the CLI ---------------------------------------------------------------------------
+class Terminal(io.StringIO):
+    """stdin as a terminal where the user types ``text``."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.fixture
+def cli_emulator(monkeypatch):
+    """`choreo servo ...` on an in-process emulator (servos 1 and 2), so tests can inspect it."""
+    emulator = BusEmulator((1, 2), clock=VirtualClock())
+    monkeypatch.setattr(servo_commands, "open_bus",
+                        lambda args: ServoBus(SimSerial.from_emulator(emulator)))
+    return emulator
+
+
+def test_cli_asks_and_a_no_writes_nothing(cli_emulator, monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdin", Terminal("n\n"))
+    assert main(["servo", "temp-limit", "--id", "2", "70"]) == 1
+    out = capsys.readouterr().out
+    assert "servo 2: temperature limit 85 °C → 70 °C" in out
+    assert "write it to the servo? [y/N]" in out and "nothing written" in out
+    assert sent(cli_emulator, Command.TEMP_MAX_LIMIT_WRITE) == []
+
+
+def test_cli_asks_and_a_yes_writes(cli_emulator, monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdin", Terminal("y\n"))
+    assert main(["servo", "led", "--id", "2", "off"]) == 0
+    assert "written and verified" in capsys.readouterr().out
+    assert cli_emulator.servo(2).eeprom.led_off == 1
+
+
+def test_cli_without_a_terminal_or_yes_refuses(cli_emulator, monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdin", io.StringIO("y\n"))
+    assert main(["servo", "limits", "--id", "1", "--min", "100", "--max", "900"]) == 1
+    err = capsys.readouterr().err
+    assert "stdin is not a terminal" in err and "--yes" in err
+    assert sent(cli_emulator, Command.ANGLE_LIMIT_WRITE) == []
+
+
+def test_cli_led_errors_by_name_with_yes(cli_emulator, capsys):
+    assert main(["servo", "led-errors", "--id", "1", "stalled,voltage", "--yes"]) == 0
+    assert "faults that flash the LED over-temperature, voltage, stalled → voltage, stalled" in \
+        capsys.readouterr().out
+    assert cli_emulator.servo(1).eeprom.error_mask == 6
+
+
+def test_cli_offset_adjust_and_save(cli_emulator, capsys):
+    assert main(["servo", "offset", "adjust", "--id", "1", "--units", "-10"]) == 0
+    assert main(["servo", "offset", "save", "--id", "1", "-y"]) == 0
+    assert cli_emulator.servo(1).eeprom.offset_units == -10
+
+
+def test_cli_move_load_unload_motor(cli_emulator, capsys):
+    assert main(["servo", "move", "--id", "1", "--pos", "300", "--time-ms", "200"]) == 0
+    cli_emulator.clock.advance(0.5)
+    assert cli_emulator.servo(1).position_units == pytest.approx(300)
+    assert main(["servo", "unload", "--id", "1"]) == 0
+    assert not cli_emulator.servo(1).loaded
+    assert main(["servo", "load", "--id", "1"]) == 0
+    assert cli_emulator.servo(1).loaded
+    assert main(["servo", "motor", "--id", "1", "--speed", "200"]) == 0
+    assert cli_emulator.servo(1).motor_mode
+    assert main(["servo", "motor", "--id", "1", "--stop"]) == 0
+    assert not cli_emulator.servo(1).motor_mode
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["temp-limit", "--id", "1", "120"], "temperature limit must be a whole number in 50..100 °C"),
+    (["move", "--id", "1", "--pos", "1200"], "position must be a whole number in 0..1000 units"),
+    (["motor", "--id", "1", "--speed", "-2000"], "motor speed must be a whole number in -1000..1000"),
+    (["vin-limits", "--id", "1", "--min", "3000", "--max", "9000"], "4500..14000 mV"),
+    (["set-id", "254"], "a servo ID is a whole number 0-253"),
+    (["led-errors", "--id", "1", "hot"], "unknown fault 'hot'"),
+])
+def test_cli_bad_values_are_usage_errors_with_the_range(argv, words, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["servo", *argv, "--port", "sim://?clock=virtual"])
+    assert exit_info.value.code == 2
+    assert words in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["limits", "--id", "1", "--min", "900", "--max", "100", "-y"], "min_units must be less than max_units"),
+    (["offset", "adjust", "--id", "1", "--deg", "40"], "within -30.0..+30.0°"),
+    (["move", "--id", "1", "--deg", "250"], "0..240°"),
+])
+def test_cli_values_the_codec_refuses_are_one_line(argv, words, capsys):
+    assert main(["servo", *argv, "--port", "sim://?clock=virtual"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("choreo: error: ") and words in err
+
+
+def test_cli_set_id_on_a_sim_url_renumbers_the_lone_servo(tmp_path, capsys):
+    state = tmp_path / "servos.json"
+    assert main(["servo", "set-id", "5", "--yes", "--port",
+                 f"sim://?ids=1&clock=virtual&state={state}"]) == 0
+    assert "servo ID 1 → 5 (the only servo on the bus)" in capsys.readouterr().out
+    saved = json.loads(state.read_text())
+    assert [s["eeprom"]["servo_id"] for s in saved["servos"]] == [5]
+
+
+def test_cli_set_id_refuses_two_servos_on_a_sim_url(tmp_path, capsys):
+    state = tmp_path / "servos.json"
+    assert main(["servo", "set-id", "5", "--yes", "--port",
+                 f"sim://?ids=1-2&clock=virtual&state={state}"]) == 1
+    assert "several servos answered" in capsys.readouterr().err
+    assert not state.exists()  # no EEPROM was written
+
+
+def test_cli_temp_limit_on_a_sim_url_persists(tmp_path, capsys):
+    state = tmp_path / "servos.json"
+    assert main(["servo", "temp-limit", "--id", "3", "65", "-y", "--port",
+                 f"sim://?ids=1-6&clock=virtual&state={state}"]) == 0
+    saved = json.loads(state.read_text())
+    assert [s["eeprom"]["temp_max_c"] for s in saved["servos"]] == [85, 85, 65, 85, 85, 85]
+
+
+def test_cli_info_still_works(capsys):
+    assert main(["servo", "info", "--id", "2", "--json", "--port", "sim://?clock=virtual"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["servo_id"] == 2 and info["temp_limit_c"] == 85
