@@ -14,10 +14,10 @@ from typing import Sequence
 
 from ..errors import ChoreoError
 from . import bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command
-from . import servo_commands
+from . import record_command, servo_commands
 
 COMMAND_GROUPS = (bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command,
-                  servo_commands)
+                  servo_commands, record_command)
 
 
 def build_parser() -> argparse.ArgumentParser:

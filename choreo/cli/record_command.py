@@ -1,0 +1,198 @@
+"""``choreo record``: teach a motion by hand (the logic is in ``choreo.recorder``)."""
+
+from __future__ import annotations
+
+import argparse
+import queue
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from ..bus import ServoBus
+from ..clock import RealClock
+from ..emulator import SimSerial
+from ..errors import BusError, ChoreoError
+from ..recorder import (
+    Captured,
+    Ending,
+    Event,
+    NothingToUndo,
+    Recorder,
+    Recording,
+    Refused,
+    Undone,
+    UnknownInput,
+    journal_path,
+)
+from ..robot import Robot, load_robot
+from .bus_commands import add_port_arguments
+from .play_command import built_in_emulator, positive_float
+
+KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
+
+
+def register(subparsers) -> None:
+    record = subparsers.add_parser(
+        "record", help="teach a motion by hand: pose the robot, capture keyframes",
+        description="Unload the joints to teach (the others hold), pose them by hand and capture "
+                    "keyframes; or sample a stream with --continuous. Every capture goes to "
+                    "OUT.yaml.journal at once, so nothing is lost if the program or the cable "
+                    "dies: --resume continues. The taught joints are loaded again at the end.")
+    record.add_argument("out", type=Path, metavar="OUT.yaml", help="the motion file to write")
+    record.add_argument("--robot", help="robot name or path to its robot.yaml (with --resume, "
+                        "default: the journal's robot)")
+    add_port_arguments(record)
+    record.add_argument("--joints", nargs="+", metavar="JOINT",
+                        help="the joints to teach, unloaded (default: all); the others hold")
+    record.add_argument("--continuous", type=positive_float, metavar="HZ",
+                        help="sample every joint at HZ until Enter or q, then reduce the stream "
+                        "to keyframes")
+    record.add_argument("--tolerance", type=positive_float, default=1.0, metavar="DEG",
+                        help="how far the reduced keyframes may stray from the stream "
+                        "(default 1°)")
+    record.add_argument("--resume", action="store_true",
+                        help="continue an unfinished recording from OUT.yaml.journal")
+    record.add_argument("--overwrite", action="store_true", help="replace an existing OUT.yaml")
+    record.add_argument("--leave-unloaded", action="store_true",
+                        help="leave the taught joints limp at the end (default: load them)")
+    record.set_defaults(handler=run_record)
+
+
+def run_record(args: argparse.Namespace) -> int:
+    if args.robot is None and not args.resume:
+        print("choreo: error: --robot is required (unless --resume takes the journal's)",
+              file=sys.stderr)
+        return 2
+    robot = load_robot(args.robot) if args.robot else None
+    if args.resume:
+        recording = Recording.resume(args.out, robot)
+        print(f"resuming {args.out}: {len(recording.captures)} capture(s) from "
+              f"{recording.journal.path}")
+    else:
+        recording = Recording.start(args.out, robot, overwrite=args.overwrite)
+    previous_sigterm = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        return _record(args, recording)
+    except ValueError as error:  # e.g. an unknown joint name
+        print(f"choreo: error: {error}", file=sys.stderr)
+        return 2
+    except (BusError, KeyboardInterrupt) as error:
+        journal = journal_path(args.out)
+        if not journal.exists() or not recording.captures:
+            raise  # nothing kept to resume from (or the motion was saved already)
+        reason = "interrupted" if isinstance(error, KeyboardInterrupt) else str(error)
+        raise ChoreoError(f"{reason}; the {len(recording.captures)} capture(s) so far are kept in "
+                          f"{journal}: run again with --resume") from error
+    finally:
+        recording.close()
+        signal.signal(signal.SIGTERM, previous_sigterm)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def _record(args: argparse.Namespace, recording: Recording) -> int:
+    robot = recording.robot
+    port = args.port
+    if port is None:
+        port = SimSerial.from_emulator(built_in_emulator(robot))
+        print(f"no --port given: recording on the built-in emulated bus ({robot.name}'s servos "
+              "at home; nobody can turn them by hand there, so every capture is the home pose)",
+              file=sys.stderr)
+    printer = _EventPrinter(robot)
+    with ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries,
+                  echo=args.echo) as bus:
+        with Recorder(bus, recording, RealClock(), taught=_joint_names(args.joints),
+                      leave_unloaded=args.leave_unloaded, on_event=printer) as recorder:
+            held = ", ".join(j.name for j in recorder.held) or "none"
+            print(f"unloaded, pose by hand: {', '.join(j.name for j in recorder.taught)}; "
+                  f"holding: {held}")
+            if args.continuous:
+                print(f"sampling at {args.continuous:g} Hz: press Enter (or q) to stop")
+                ending = recorder.run_stream(_StdinLines(), args.continuous)
+                print(f"stream: {printer.samples} sample(s)")
+            else:
+                print(KEYS)
+                ending = recorder.run_keyframes(_prompt)
+            saved = recording.save(args.tolerance)
+            if saved is None:
+                print(f"nothing captured: {args.out} not written")
+            else:
+                print(f"saved {saved.path}: {saved.keyframes} keyframe(s) from {saved.captures} "
+                      "capture(s)")
+    print("taught joints left unloaded" if args.leave_unloaded
+          else "taught joints loaded again, holding where they are")
+    if saved is None:
+        return 1
+    return 130 if ending is Ending.INTERRUPTED else 0
+
+
+def _joint_names(values: list[str] | None) -> list[str] | None:
+    """``--joints a b`` or ``--joints a,b``."""
+    if values is None:
+        return None
+    return [name for value in values for name in value.split(",") if name]
+
+
+def _prompt() -> str:
+    return input("> " if sys.stdin.isatty() else "")
+
+
+class _StdinLines:
+    """Lines typed on stdin, read by a thread, so the sampler can ask without waiting."""
+
+    _END = object()
+
+    def __init__(self) -> None:
+        self._lines: queue.Queue = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in sys.stdin:
+            self._lines.put(line.rstrip("\r\n"))
+        self._lines.put(self._END)
+
+    def __call__(self) -> str | None:
+        try:
+            line = self._lines.get_nowait()
+        except queue.Empty:
+            return None
+        if line is self._END:
+            raise EOFError
+        return line
+
+
+class _EventPrinter:
+    def __init__(self, robot: Robot):
+        self.robot = robot
+        self.samples = 0
+
+    def __call__(self, event: Event) -> None:
+        text = self._describe(event)
+        if text is not None:
+            print(text, flush=True)
+
+    def _describe(self, event: Event) -> str | None:
+        if isinstance(event, Captured):
+            if event.capture.stream is not None:
+                self.samples += 1
+                return None
+            return self._captured(event)
+        if isinstance(event, Refused):
+            return "not captured: " + "; ".join(event.problems)
+        if isinstance(event, Undone):
+            return f"undid #{event.number}; {event.remaining} capture(s) left"
+        if isinstance(event, NothingToUndo):
+            return "nothing to undo"
+        if isinstance(event, UnknownInput):
+            return f"unknown command {event.text!r}: {KEYS}"
+        raise TypeError(f"unknown event {event!r}")
+
+    def _captured(self, event: Captured) -> str:
+        timing = "start" if event.capture.after_s is None else f"after {event.capture.after_s:.2f} s"
+        angles = "  ".join(f"{name} {angle:.1f}"
+                           for name, angle in zip(self.robot.joint_names, event.capture.angles_deg))
+        return f"#{event.number} ({timing}): {angles}"
+
