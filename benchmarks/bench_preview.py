@@ -1,0 +1,90 @@
+"""How fast the preview runs: hexapod physics without rendering (target: >= 20x real time) and
+offscreen rendering at 640x480 (target: >= 20 frames/s, mp4 encoding included).
+
+    python benchmarks/bench_preview.py [--repeat N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from choreo.motion import load_motion
+from choreo.planner import plan_motion
+from choreo.preview import RenderSettings, render_frames, render_preview, run_checks, simulate
+from choreo.preview.gl import offscreen_backend
+from choreo.preview.render import frame_times
+from choreo.segments import segment
+
+REPO = Path(__file__).resolve().parents[1]
+HEXAPOD_MOTIONS = sorted((REPO / "motions" / "hexapod18").glob("*.yaml"))
+RENDERED = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
+
+
+def physics(repeat: int) -> None:
+    print("hexapod physics, no rendering (planning and segmenting not timed):")
+    for path in HEXAPOD_MOTIONS:
+        motion = load_motion(path)
+        trajectory = plan_motion(motion).trajectory
+        ticks = segment(trajectory, motion.robot).ticks
+        best = np.inf
+        for _ in range(repeat):
+            started = time.perf_counter()
+            rollout = simulate(motion.robot, ticks, trajectory.at(0.0)[0],
+                               keyframe_times_s=trajectory.keyframe_times_s)
+            run_checks(rollout)
+            best = min(best, time.perf_counter() - started)
+        simulated = rollout.duration_s
+        print(f"  {path.stem:16s} {simulated:5.2f} s simulated in {best * 1000:6.1f} ms: "
+              f"{simulated / best:5.1f}x real time ({len(rollout.times_s)} steps, "
+              f"{best / len(rollout.times_s) * 1e6:.0f} us/step, model load and checks included)")
+
+
+def rendering(repeat: int) -> None:
+    motion = load_motion(RENDERED)
+    trajectory = plan_motion(motion).trajectory
+    rollout = simulate(motion.robot, segment(trajectory, motion.robot).ticks,
+                       trajectory.at(0.0)[0], keyframe_times_s=trajectory.keyframe_times_s)
+    started = time.perf_counter()
+    backend = offscreen_backend()
+    print(f"offscreen back-end: {backend} (chosen in {time.perf_counter() - started:.2f} s)")
+    settings = RenderSettings(640, 480)
+    times = frame_times(rollout.duration_s, 30)
+    best_frames = best_mp4 = np.inf
+    with tempfile.TemporaryDirectory() as folder:
+        for _ in range(repeat):
+            started = time.perf_counter()
+            for _frame in render_frames(rollout, times, settings):
+                pass
+            best_frames = min(best_frames, time.perf_counter() - started)
+            started = time.perf_counter()
+            render_preview(rollout, Path(folder) / "bench.mp4", settings)
+            best_mp4 = min(best_mp4, time.perf_counter() - started)
+    n = len(times)
+    print(f"rendering {RENDERED.stem} at 640x480, {n} frames (set-up included):")
+    print(f"  frames only      {n / best_frames:5.1f} frames/s ({best_frames:.2f} s)")
+    print(f"  mp4 (+ encoding) {n / best_mp4:5.1f} frames/s ({best_mp4:.2f} s)")
+    best_hq = np.inf
+    for _ in range(repeat):
+        started = time.perf_counter()
+        for _frame in render_frames(rollout, times[:20], RenderSettings(640, 480,
+                                                                        high_quality=True)):
+            pass
+        best_hq = min(best_hq, time.perf_counter() - started)
+    print(f"  --hq frames only {20 / best_hq:5.1f} frames/s (shadows, reflections, 4x MSAA)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    args = parser.parse_args()
+    physics(args.repeat)
+    rendering(args.repeat)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,239 @@
+"""choreo.preview rendering, offscreen. These tests render for real: where rendering is impossible
+they fail (CI installs Mesa's EGL and OSMesa), they never skip."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import imageio_ffmpeg
+import mujoco
+import numpy as np
+import pytest
+from PIL import Image
+
+from choreo.cli import main
+from choreo.errors import PreviewError
+from choreo.motion import load_motion
+from choreo.planner import plan_motion
+from choreo.preview import (
+    CheckKind,
+    CheckResult,
+    RenderSettings,
+    Severity,
+    SimSettings,
+    frame_times,
+    render_frames,
+    render_preview,
+    run_checks,
+    simulate_motion,
+)
+from choreo.preview import gl
+from choreo.preview.render import problem_text, status_text, track_camera
+from choreo.segments import segment
+
+DATA = Path(__file__).parent / "data" / "preview"
+FINE = DATA / "motions" / "fine.yaml"
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def fine():
+    """The arm3 test motion, its rollout, and how long the preview runs (from its ticks)."""
+    motion = load_motion(FINE)
+    ticks = segment(plan_motion(motion).trajectory, motion.robot).ticks
+    return simulate_motion(motion), ticks[-1].end_ms / 1000 + SimSettings().tail_s
+
+
+def video_frames(path: Path) -> np.ndarray:
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    width, height = meta["size"]
+    return np.stack([np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader])
+
+
+# --- the OpenGL back-end -----------------------------------------------------------------------
+def test_an_offscreen_backend_works_on_this_machine():
+    backend = gl.offscreen_backend()
+    assert backend in ("egl", "osmesa")
+    assert gl.probe(backend) is None
+
+
+def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "")
+    monkeypatch.setattr(gl, "_chosen", None)
+    tried = []
+    monkeypatch.setattr(gl, "probe",
+                        lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None))
+    assert gl.offscreen_backend() == "osmesa"
+    assert tried == ["egl", "osmesa"]
+
+
+def test_no_working_backend_fails_saying_what_to_install(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "")
+    monkeypatch.setattr(gl, "_chosen", None)
+    monkeypatch.setattr(gl, "probe", lambda backend: f"{backend} library missing")
+    with pytest.raises(PreviewError, match="egl: egl library missing; osmesa: .*libosmesa6"):
+        gl.offscreen_backend()
+
+
+def test_mujoco_gl_in_the_environment_is_used_without_probing(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.setattr(gl, "_chosen", None)
+    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    assert gl.offscreen_backend() == "osmesa"
+
+
+def test_rendering_without_a_backend_is_an_error_not_a_skip(fine, tmp_path, monkeypatch):
+    def unavailable():
+        raise PreviewError("cannot render offscreen: no OpenGL back-end works")
+
+    monkeypatch.setattr("choreo.preview.render.offscreen_backend", unavailable)
+    with pytest.raises(PreviewError, match="cannot render offscreen"):
+        render_preview(fine[0], tmp_path / "out.png", RenderSettings(64, 48))
+
+
+# --- the files ---------------------------------------------------------------------------------
+def test_an_mp4_has_one_frame_per_tick_of_the_clock_and_shows_the_robot_moving(fine, tmp_path):
+    rollout, duration_s = fine
+    fps = 12
+    path = tmp_path / "fine.mp4"
+    done = render_preview(rollout, path, RenderSettings(160, 120, fps=fps))
+    expected = int(duration_s * fps) + 1  # frames at 0, 1/fps, ... up to the end
+    assert done.frames == expected
+    assert imageio_ffmpeg.count_frames_and_secs(str(path))[0] == expected
+    frames = video_frames(path).astype(float)
+    assert frames.shape == (expected, 120, 160, 3)
+    assert min(frame.std() for frame in frames) > 10  # not blank
+    # the arm is at home at 0 s and turned, leaning over at 1 s (fine.yaml's second keyframe):
+    # the pixels it leaves and covers change, more than from one frame to the next
+    def changed(a: int, b: int) -> float:
+        return (np.abs(frames[a] - frames[b]).max(axis=2) > 30).mean()
+
+    assert changed(fps, 0) > 0.005
+    assert changed(fps, 0) > 3 * changed(1, 0)
+
+
+def test_a_gif_has_the_frames_and_their_timing(fine, tmp_path):
+    rollout, duration_s = fine
+    path = tmp_path / "fine.gif"
+    render_preview(rollout, path, RenderSettings(96, 72, fps=10))
+    with Image.open(path) as gif:
+        assert gif.size == (96, 72)
+        durations = []
+        for k in range(gif.n_frames):  # identical frames are merged into one longer frame
+            gif.seek(k)
+            durations.append(gif.info["duration"])
+    assert sum(durations) == 100 * (int(duration_s * 10) + 1)
+    assert min(durations) == 100
+
+
+def test_a_png_is_a_contact_sheet_across_the_motion(fine, tmp_path):
+    rollout, _ = fine
+    path = tmp_path / "sheet.png"
+    assert render_preview(rollout, path, RenderSettings(160, 120, sheet_frames=6)).frames == 6
+    sheet = np.asarray(Image.open(path).convert("RGB")).astype(float)
+    gap = 4
+    assert sheet.shape == (2 * 120 + gap, 4 * 160 + 3 * gap, 3)  # 4 columns, 2 rows
+    tiles = [sheet[r * (120 + gap):r * (120 + gap) + 120, c * (160 + gap):c * (160 + gap) + 160]
+             for r in range(2) for c in range(4)]
+    assert all(tile.std() > 10 for tile in tiles[:6])
+    assert all((tile == 255).all() for tile in tiles[6:])  # unused places stay blank
+
+
+def test_an_unknown_format_or_an_odd_mp4_size_is_refused(fine, tmp_path):
+    with pytest.raises(ValueError, match="must end in .mp4, .gif, .png"):
+        render_preview(fine[0], tmp_path / "out.avi")
+    with pytest.raises(ValueError, match="mp4 needs an even width and height"):
+        render_preview(fine[0], tmp_path / "out.mp4", RenderSettings(161, 120))
+
+
+# --- what the frames show ----------------------------------------------------------------------
+def test_the_overlay_gives_the_time_and_the_keyframe_reached(fine):
+    rollout, _ = fine
+    keyframes = rollout.keyframe_times_s
+    assert len(keyframes) == 3 and keyframes[1] == pytest.approx(1.0)
+    assert status_text(rollout, 0.0) == ("time\nkeyframe", "0.00 s\n1 / 3")
+    assert status_text(rollout, 1.25) == ("time\nkeyframe", "1.25 s\n2 / 3")
+    assert status_text(rollout, 2.4)[1].endswith("3 / 3")
+
+
+def test_the_overlay_lists_the_problems_under_way():
+    stall = CheckResult(CheckKind.SATURATION, Severity.ERROR, "...", 1.0, 0.8, joint="elbow")
+    touch = CheckResult(CheckKind.SELF_COLLISION, Severity.ERROR, "...", 1.5, 0.0,
+                        bodies=("forearm", "base"))
+    assert problem_text([stall, touch], 0.9) == ("", "")
+    assert problem_text([stall, touch], 1.6) == ("error stall\nerror collision",
+                                                 "elbow\nforearm / base")
+    # the stall is over at 1.8 s; the instant touch stays on screen for 0.5 s
+    assert problem_text([stall, touch], 1.9) == ("error collision", "forearm / base")
+    assert problem_text([stall, touch], 2.1) == ("", "")
+
+
+def test_the_overlay_is_drawn_on_the_frames(fine):
+    rollout, _ = fine
+    settings = RenderSettings(320, 240)
+    plain, with_problem = (
+        next(render_frames(rollout, np.array([0.0]), settings, results))
+        for results in ((), [CheckResult(CheckKind.FALL, Severity.ERROR, "...", 0.0)]))
+    corner = (slice(0, 50), slice(0, 160))
+    bottom = (slice(200, 240), slice(0, 160))
+    assert plain[corner].max() > 200  # white text on the dark box
+    assert np.abs(plain[bottom].astype(int) - with_problem[bottom]).sum() > 1000
+
+
+def test_the_camera_follows_a_free_floating_body():
+    motion = load_motion(REPO / "motions" / "hexapod18" / "tripod_gait.yaml")
+    rollout = simulate_motion(motion)
+    model = mujoco.MjModel.from_xml_path(str(motion.robot.scene_path))
+    steps = np.arange(0, len(rollout.times_s), 25)
+    cameras = track_camera(model, rollout, steps)
+    lookat = np.array([c.lookat for c in cameras])
+    torso = rollout.qpos[steps, :3]
+    travelled = np.linalg.norm(torso[-1, :2] - torso[0, :2])
+    assert travelled > 0.05  # the gait walks
+    assert np.linalg.norm(lookat[-1, :2] - lookat[0, :2]) > 0.8 * travelled
+    assert np.linalg.norm(lookat - torso, axis=1).max() < 0.03
+    assert len({c.distance for c in cameras}) == 1  # same zoom all along
+
+
+def test_the_camera_holds_still_on_a_fixed_robot(fine):
+    rollout, _ = fine
+    model = mujoco.MjModel.from_xml_path(str(rollout.robot.scene_path))
+    cameras = track_camera(model, rollout, np.arange(0, len(rollout.times_s), 50))
+    assert len({c.lookat for c in cameras}) == 1
+
+
+# --- the command line --------------------------------------------------------------------------
+def test_preview_renders_a_contact_sheet_from_the_command_line(tmp_path, capsys):
+    out = tmp_path / "sheet.png"
+    assert main(["preview", str(FINE), "-o", str(out), "--size", "128x96", "--frames", "4"]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out} (4 frames of 128x96, rendered with" in printed
+    assert Image.open(out).size == (4 * 128 + 3 * 4, 96)
+
+
+def test_rendering_a_motion_with_errors_still_writes_the_file_and_says_why(tmp_path, capsys):
+    out = tmp_path / "collide.mp4"
+    argv = ["preview", str(DATA / "motions" / "collide.yaml"), "-o", str(out), "--size", "64x48",
+            "--fps", "5"]
+    assert main(argv) == 0
+    assert "error: self-collision" in capsys.readouterr().out
+    assert out.stat().st_size > 0
+
+
+def test_frame_times_cover_the_whole_preview():
+    assert frame_times(1.0, 10).tolist() == pytest.approx([k / 10 for k in range(11)])
+    assert len(frame_times(2.55, 30)) == 77
+    assert frame_times(0.0, 30).tolist() == [0.0]
+
+
+def test_the_frames_are_the_recorded_states(fine):
+    """A frame at a time shows the pose recorded then: render it again from a fresh model."""
+    rollout, _ = fine
+    t = 1.0
+    frame = next(render_frames(rollout, np.array([t]), RenderSettings(64, 48)))
+    again = next(render_frames(rollout, np.array([t]), RenderSettings(64, 48)))
+    other = next(render_frames(rollout, np.array([0.0]), RenderSettings(64, 48)))
+    assert (frame == again).all()
+    assert not (frame == other).all()
+    assert run_checks(rollout) == []
