@@ -438,3 +438,12 @@ def test_the_viewer_without_a_display_says_so(monkeypatch, capsys):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["preview", str(MOTIONS / "fine.yaml"), "--viewer"]) == 1
     assert "the viewer needs a display" in capsys.readouterr().err
+
+
+def test_no_ticks_means_holding_the_first_pose(arm3):
+    """A one-keyframe motion compiles to no ticks at all."""
+    rollout = simulate(arm3, [], [10, 20, 30])
+    assert rollout.commands_end_s == 0
+    assert rollout.duration_s == pytest.approx(SimSettings().tail_s)
+    assert np.abs(rollout.position_deg - [10, 20, 30]).max() < 1.0
+    assert np.abs(rollout.command_deg - [10, 20, 30]).max() < 1e-9

@@ -23,7 +23,7 @@ from .checks import (
 )
 from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
 from .report import JointSummary, joint_summaries, preview_report
-from .servo import ActuatorParams, TickLike, actuator_params
+from .servo import ActuatorParams, actuator_params
 from .sim import MoveStart, Rollout, SimSettings, simulate
 from .viewer import has_display, show_in_viewer
 
@@ -39,7 +39,6 @@ __all__ = [
     "Rollout",
     "Severity",
     "SimSettings",
-    "TickLike",
     "actuator_params",
     "check_motion_physics",
     "frame_times",

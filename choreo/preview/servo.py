@@ -1,12 +1,12 @@
 """What the servos do with the ticks they receive: their own linear moves, and the actuator model.
 
 Plain numpy, no MuJoCo: the simulation asks a ``ServoBank`` for every servo's set-point at each
-physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``):
+physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``), as the player sends:
 
 - a staged move (position, time) is a preset; every tick's broadcast START runs each servo's
-  preset, so a servo that was not re-staged re-runs its previous one;
-- a move is linear and starts from where the servo *is* (its measured position), not from where
-  it was told to be, so lag under load carries into the next move;
+  preset, so a servo that was not re-staged re-runs its previous one (the first tick is staged on
+  every servo; a tick that stages nothing sends no START);
+- a move is linear from where the servo is (``sim.MoveStart`` says which "where") to the target;
 - the servo caps its speed at the motor's no-load speed (a time too short just means full speed).
 """
 
@@ -14,26 +14,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Mapping, Protocol, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..robot import Joint, Robot
+from ..segments import Tick
 from ..servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
 
 MAX_MOVE_TIME_MS = 30000  # the protocol's MOVE_TIME field range is 0..30000 ms
 INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
-
-
-class TickLike(Protocol):
-    """A tick as ``choreo.segments.Tick`` defines it: at ``start_ms`` every servo starts a
-    linear move to ``targets_units`` (every joint, robot joint order) over ``duration_ms``;
-    ``staged`` says which servos were sent a new preset for it."""
-
-    start_ms: int
-    duration_ms: int
-    targets_units: tuple[int, ...]
-    staged: tuple[bool, ...]
 
 
 @dataclass(frozen=True)
@@ -114,7 +104,7 @@ class CommandStream:
     started: np.ndarray  # (n_ticks,) bool: the tick's broadcast START is sent
 
     @classmethod
-    def from_ticks(cls, ticks: Sequence[TickLike], n_joints: int) -> CommandStream:
+    def from_ticks(cls, ticks: Sequence[Tick], n_joints: int) -> CommandStream:
         """As the player sends it: the first tick is staged on every servo, and a later tick
         that stages nothing sends no START (so nothing re-runs its preset)."""
         low, high = POSITION_RANGE_UNITS

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import PreviewError
 from ..robot import Robot
+from ..segments import Tick
 from .model import (
     FLOOR_CONTACT,
     NO_CONTACT,
@@ -36,7 +37,6 @@ from .servo import (
     ActuatorParams,
     CommandStream,
     ServoBank,
-    TickLike,
     UnitsToDeg,
     actuator_params,
     commanded_path_units,
@@ -117,7 +117,7 @@ class Rollout:
         return np.array([a.stall_torque_nm for a in self.actuators])
 
 
-def simulate(robot: Robot, ticks: Sequence[TickLike], initial_deg: Sequence[float],
+def simulate(robot: Robot, ticks: Sequence[Tick], initial_deg: Sequence[float],
              keyframe_times_s: Sequence[float] = (),
              settings: SimSettings = SimSettings()) -> Rollout:
     """Play ``ticks`` (what the bus will send) to the simulated robot, starting at rest at
