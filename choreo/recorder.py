@@ -119,7 +119,8 @@ def read_journal(path: Path) -> JournalContents:
     if not lines:
         raise ChoreoError(f"{path}: empty journal: delete it and record again")
     header = _journal_line(path, 1, lines[0])
-    if header.get("format") != JOURNAL_FORMAT or header.get("version") != JOURNAL_VERSION:
+    if header.get("format") != JOURNAL_FORMAT or header.get("version") != JOURNAL_VERSION or \
+            not isinstance(header.get("robot"), str) or not isinstance(header.get("joints"), list):
         raise ChoreoError(f"{path}:1: not a {JOURNAL_FORMAT} version {JOURNAL_VERSION} file")
     joint_names = tuple(header["joints"])
     captures: list[Capture] = []
@@ -296,7 +297,7 @@ class Recording:
         """Close the journal; remove it if it holds no capture (nothing to resume)."""
         self.journal.close()
         path = self.journal.path
-        if path.exists() and not read_journal(path).captures:
+        if path.exists() and not self._captures and not read_journal(path).captures:
             path.unlink()
 
 

@@ -214,29 +214,33 @@ class IdChange:
 
 
 def find_single_servo(bus: ServoBus, scan_ids: Iterable[int] = ALL_IDS) -> int:
-    """The ID of the one servo on the bus; ``BusError`` unless exactly one answers.
+    """The ID of the one servo on the bus; ``BusError`` listing what answers otherwise.
 
     A broadcast ID_READ is answered by every servo (colliding replies if there are several); a
-    scan of ``scan_ids`` then makes sure nobody else is there, e.g. a servo whose reply was lost.
+    scan of ``scan_ids`` then makes sure nobody else is there, e.g. a servo whose reply was lost,
+    and names the servos found when there are several.
     """
+    collided = False
     try:
-        found = bus.read_id(BROADCAST_ID)
-    except ProtocolError as error:
-        raise BusError(
-            "several servos answered a broadcast ID read at once (their replies collided): "
-            "connect only the servo to renumber, or give its current ID with --id"
-        ) from error
-    except BusTimeoutError as error:
-        raise BusError("no servo answered a broadcast ID read: check power and wiring") from error
-    on_bus = bus.scan(sorted(set(scan_ids) | {found}))
-    others = [i for i in on_bus if i != found]
-    if others or found not in on_bus:
-        listing = ", ".join(map(str, sorted(set(on_bus) | {found})))
-        raise BusError(
-            f"setting an ID without --id needs exactly one servo on the bus, but IDs {listing} "
-            "answer: connect only the servo to renumber, or give its current ID with --id"
-        )
-    return found
+        found = {bus.read_id(BROADCAST_ID)}
+    except ProtocolError:
+        found, collided = set(), True
+    except BusTimeoutError:
+        found = set()
+    on_bus = bus.scan(sorted(set(scan_ids) | found))
+    if found and on_bus == sorted(found):
+        return on_bus[0]
+    if not (on_bus or found or collided):
+        raise BusError("no servo answered a broadcast ID read nor the scan: check power and wiring")
+    reasons = []
+    if collided:
+        reasons.append("several servos answered a broadcast ID read at once (their replies collided)")
+    answering = sorted(set(on_bus) | found)
+    reasons.append(f"IDs {', '.join(map(str, answering))} answer" if answering else
+                   "no ID answers the scan alone (servos sharing an ID garble each other's replies)")
+    raise BusError("setting an ID without --id needs exactly one servo on the bus, but "
+                   f"{'; '.join(reasons)}: connect only the servo to renumber, or give its "
+                   "current ID with --id")
 
 
 def plan_id_change(bus: ServoBus, new_id: int, current_id: int | None = None,

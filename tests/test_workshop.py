@@ -183,9 +183,18 @@ def test_set_id_finds_the_lone_servo_and_addresses_it_never_broadcast():
     assert len({p.servo_id for p in reads}) > 200  # ...and scans every ID
 
 
-def test_set_id_refuses_two_servos_whose_broadcast_replies_collide():
+def test_set_id_refuses_two_servos_whose_broadcast_replies_collide_listing_them():
     bus, emulator = make_bus(ids=(1, 2))
-    with pytest.raises(BusError, match="several servos answered a broadcast ID read"):
+    with pytest.raises(BusError, match="exactly one servo on the bus, but several servos answered "
+                                       r"a broadcast ID read at once \(their replies collided\); "
+                                       "IDs 1, 2 answer: connect only the servo"):
+        workshop.plan_id_change(bus, 5)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_refuses_two_servos_sharing_an_id():
+    bus, emulator = make_bus(ids=(4, 4))
+    with pytest.raises(BusError, match="no ID answers the scan alone"):
         workshop.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
@@ -200,7 +209,7 @@ def test_set_id_refuses_a_second_servo_found_by_the_scan_listing_both():
 
 def test_set_id_with_no_servo_says_so():
     bus, _ = make_bus(ids=())
-    with pytest.raises(BusError, match="no servo answered a broadcast ID read"):
+    with pytest.raises(BusError, match="no servo answered a broadcast ID read nor the scan"):
         workshop.plan_id_change(bus, 5)
 
 
