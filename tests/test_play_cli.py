@@ -50,8 +50,8 @@ def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", str(link)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        def starts():
-            return [p for p in emulator.log.packets if p.packet.command == Command.MOVE_START]
+        def starts():  # list() copies at once: the bridge thread appends to the log meanwhile
+            return [p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_START]
 
         wait_for(lambda: len(starts()) >= 5, "the motion to be playing")
         pressed_s = time.monotonic()
@@ -60,7 +60,7 @@ def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
     finally:
         process.kill()
     assert process.returncode == 130, stderr
-    stops = [p for p in emulator.log.packets if p.packet.command == Command.MOVE_STOP]
+    stops = [p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_STOP]
     assert stops and stops[0].packet.servo_id == BROADCAST_ID
     assert stops[0].time_s - pressed_s < 0.050
     assert "Traceback" not in stderr
