@@ -447,3 +447,12 @@ def test_no_ticks_means_holding_the_first_pose(arm3):
     assert rollout.duration_s == pytest.approx(SimSettings().tail_s)
     assert np.abs(rollout.position_deg - [10, 20, 30]).max() < 1.0
     assert np.abs(rollout.command_deg - [10, 20, 30]).max() < 1e-9
+
+
+def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
+    absurd = {"kp_nm_rad": 1e9, "stall_torque_nm": 1e9, "armature_kg_m2": 1e-9,
+              "damping_nm_s_rad": 1e-9}
+    settings = SimSettings(actuator_overrides={"shoulder": absurd})
+    ticks = [Tick(0, 0, (500, 900, 500), (True,) * 3)]
+    with pytest.raises(PreviewError, match="unstable .*last at shoulder"):
+        simulate(arm3, ticks, [0, 0, 0], settings=settings)

@@ -7,6 +7,7 @@ armature from the servo model) on the compiled model, whatever the MJCF says.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import mujoco
 import numpy as np

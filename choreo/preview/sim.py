@@ -148,12 +148,13 @@ def simulate(robot: Robot, ticks: Sequence[Tick], initial_deg: Sequence[float],
     torque_log = np.empty((n, n_joints))
     _run(model, data, index, stream, servos, to_deg, settings.move_start, n, qpos_log, ctrl_log,
          torque_log, contacts)
-    _check_stable(data, dt, settings.settle_s)
+    _check_stable(model, data)
 
     times = np.arange(n) * dt
     root = free_joint(model)
-    height, tilt = _root_pose(qpos_log, model.jnt_qposadr[root]) if root is not None else (None,
-                                                                                          None)
+    height = tilt = None
+    if root is not None:
+        height, tilt = _root_pose(qpos_log, model.jnt_qposadr[root])
     return Rollout(
         robot=robot,
         times_s=times,
@@ -209,12 +210,15 @@ def _run(model: mujoco.MjModel, data: mujoco.MjData, index, stream: CommandStrea
             contacts.see(data, step)
 
 
-def _check_stable(data: mujoco.MjData, dt: float, settle_s: float) -> None:
+def _check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """MuJoCo resets the state when accelerations blow up; a rollout after that means nothing."""
     warning = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
     if warning.number:
-        when = warning.lastinfo * dt - settle_s
-        raise PreviewError(f"the simulation became unstable (bad accelerations, last near "
-                           f"t={when:.2f} s): check the MJCF's masses, inertias and timestep")
+        joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT,
+                                  model.dof_jntid[warning.lastinfo]) or "a joint"
+        raise PreviewError(f"the simulation became unstable ({warning.number} bad accelerations, "
+                           f"last at {joint}): check the MJCF's masses, inertias and timestep, and "
+                           f"any actuator overrides")
 
 
 def _root_pose(qpos: np.ndarray, address: int) -> tuple[np.ndarray, np.ndarray]:

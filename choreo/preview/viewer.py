@@ -25,11 +25,11 @@ def show_in_viewer(rollout: Rollout) -> None:
     if not has_display():
         raise PreviewError("the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
                            "is set; render to a file instead: choreo preview MOTION -o out.mp4")
-    import mujoco.viewer
+    from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
 
     model = load_model(rollout.robot)
     data = mujoco.MjData(model)
-    with mujoco.viewer.launch_passive(model, data) as viewer:
+    with mujoco_viewer.launch_passive(model, data) as viewer:
         started = time.monotonic()
         while viewer.is_running():
             t = (time.monotonic() - started) % rollout.duration_s if rollout.duration_s else 0.0
