@@ -25,7 +25,8 @@ from __future__ import annotations
 import enum
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from itertools import chain
 
 import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization
@@ -41,6 +42,7 @@ PHASES = 7  # constant-jerk phases of one ruckig profile
 DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
+_DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
 
 
 # --- the result --------------------------------------------------------------------------------
@@ -61,13 +63,15 @@ class Trajectory:
         self.knots_s.flags.writeable = False
         self.poly.flags.writeable = False
         n = self.knots_s.shape[0]
-        span = self.duration_s + 1.0
-        # For evaluation: all joints' knots in one sorted array (joint j shifted by j * span)
-        # and each phase's Taylor coefficients p, v, a/2, j/6 in one row.
-        object.__setattr__(self, "_span_s", span)
-        object.__setattr__(self, "_flat_knots", (self.knots_s + span * np.arange(n)[:, None]).ravel())
-        p, v, a, j = (c.ravel() for c in self.poly)
-        object.__setattr__(self, "_taylor", np.stack([p, v, a / 2, j / 6], axis=1))
+        p, v, a, j = self.poly
+        taylor = np.stack([p, v, a / 2, j / 6])  # (4, n, phases): p + v·t + a/2·t² + j/6·t³
+        # For few times: every joint's knots in one sorted array (joint j shifted by j * span),
+        # the Taylor coefficients of every phase in one row of a table.
+        offsets = (self.duration_s + 1.0) * np.arange(n)[:, None]
+        object.__setattr__(self, "_taylor", taylor)
+        object.__setattr__(self, "_offsets", offsets)
+        object.__setattr__(self, "_flat_knots", (self.knots_s + offsets).ravel())
+        object.__setattr__(self, "_taylor_rows", taylor.reshape(4, -1).T.copy())
 
     @property
     def n_joints(self) -> int:
@@ -75,16 +79,12 @@ class Trajectory:
 
     def sample(self, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, velocity, acceleration) at ``times_s``, each ``(len(times_s), n_joints)``."""
-        c, dt = self._locate(times_s)
-        pos = c[..., 0] + dt * (c[..., 1] + dt * (c[..., 2] + dt * c[..., 3]))
-        vel = c[..., 1] + dt * (2 * c[..., 2] + dt * 3 * c[..., 3])
-        acc = 2 * c[..., 2] + dt * 6 * c[..., 3]
+        pos, vel, acc = self._evaluate(self._checked_times(times_s), rates=True)
         return pos.T, vel.T, acc.T
 
     def positions(self, times_s: np.ndarray) -> np.ndarray:
         """Positions only (cheaper than ``sample``), ``(len(times_s), n_joints)`` degrees."""
-        c, dt = self._locate(times_s)
-        return (c[..., 0] + dt * (c[..., 1] + dt * (c[..., 2] + dt * c[..., 3]))).T
+        return self._evaluate(self._checked_times(times_s), rates=False)[0].T
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, velocity, acceleration) at one time, each ``(n_joints,)``."""
@@ -111,32 +111,55 @@ class Trajectory:
     def _phase_lengths_s(self) -> np.ndarray:
         return np.diff(self.knots_s, axis=1, append=self.knots_s[:, -1:])
 
-    def _locate(self, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For every joint and time: the Taylor coefficients of its phase and the time into the
-        phase, ``(n_joints, len(times_s), 4)`` and ``(n_joints, len(times_s))``."""
+    @staticmethod
+    def _checked_times(times_s: np.ndarray) -> np.ndarray:
         times_s = np.asarray(times_s, dtype=float)
         if times_s.ndim != 1:
             raise ValueError(f"times_s must be one-dimensional, got shape {times_s.shape}")
         if times_s.size and not times_s.min() >= 0:
             raise ValueError(f"times_s must be >= 0 (the trajectory starts at 0), "
                              f"got {times_s.min()}")
-        # After the end the last (rest) phase holds; locating by the clamped time finds it.
+        return times_s
+
+    def _evaluate(self, times_s: np.ndarray, rates: bool) -> list[np.ndarray]:
+        """Position (and velocity, acceleration if ``rates``) at every time, ``(n, len)`` each."""
+        # After the end the last (rest) phase holds: locating by the clamped time finds it.
         located = np.minimum(times_s, self.duration_s)
-        n, phases = self.knots_s.shape
-        if len(located) > _DENSE_QUERY and not np.any(located[1:] < located[:-1]):
-            # Long sorted queries: count the times falling in each phase, joint by joint.
-            index = np.empty((n, len(located)), dtype=np.intp)
-            for j in range(n):
-                first = np.searchsorted(located, self.knots_s[j], side="left")
-                counts = np.diff(first, append=len(located))
-                index[j] = np.repeat(np.arange(j * phases, (j + 1) * phases), counts)
-        else:
-            keys = located + self._span_s * np.arange(n)[:, None]
-            index = np.searchsorted(self._flat_knots, keys, side="right") - 1
-        return self._taylor[index], times_s - self.knots_s.ravel()[index]
+        if len(located) <= _DENSE_QUERY or np.any(located[1:] < located[:-1]):
+            index = np.searchsorted(self._flat_knots, located + self._offsets, side="right")
+            index -= 1
+            dt = times_s - self.knots_s.ravel()[index]
+            c = self._taylor_rows[index]
+            return _taylor_values(c[..., 0], c[..., 1], c[..., 2], c[..., 3], dt, rates)
+        # Long sorted queries: count the times falling in each phase, joint by joint.
+        n = self.n_joints
+        out = [np.empty((n, len(located))) for _ in range(3 if rates else 1)]
+        for j in range(n):
+            counts = np.diff(np.searchsorted(located, self.knots_s[j], side="left"),
+                             append=len(located))
+            dt = times_s - np.repeat(self.knots_s[j], counts)
+            c = [np.repeat(column[j], counts) for column in self._taylor]
+            for array, values in zip(out, _taylor_values(*c, dt, rates)):
+                array[j] = values
+        return out
 
 
-_DENSE_QUERY = 256  # queries longer than this (and sorted) are located joint by joint
+def _taylor_values(p, v, a_half, j_sixth, dt, rates: bool) -> list[np.ndarray]:
+    pos = j_sixth * dt
+    pos += a_half
+    pos *= dt
+    pos += v
+    pos *= dt
+    pos += p
+    if not rates:
+        return [pos]
+    vel = 3 * j_sixth * dt
+    vel += 2 * a_half
+    vel *= dt
+    vel += v
+    acc = 6 * j_sixth * dt
+    acc += 2 * a_half
+    return [pos, vel, acc]
 
 
 @dataclass(frozen=True)
@@ -155,9 +178,9 @@ class PlanResult:
 
 # --- the played keyframe sequence --------------------------------------------------------------
 class _Timing(enum.Enum):
-    ASAP = "as soon as the limits allow"
-    AFTER = "after"
-    AT = "at"
+    ASAP = enum.auto()  # as soon as the limits allow
+    AFTER = enum.auto()  # a delay after the previous keyframe is left
+    AT = enum.auto()  # a time after the repetition's first keyframe
 
 
 @dataclass(frozen=True)
@@ -166,7 +189,8 @@ class _Played:
 
     keyframe: Keyframe
     timing: _Timing
-    value_s: float  # AFTER: delay after the previous keyframe is left; AT: time after the anchor
+    value_s: float  # AFTER: the delay; AT: the time after the anchor's arrival (the very first
+    #                 keyframe: after the start)
     anchor: int  # AT: index of the played keyframe this repetition's t values count from
     hold_s: float
     rests: bool  # velocity zero here: stop, hold, or an end of the whole play
@@ -174,6 +198,8 @@ class _Played:
 
 
 def _played_keyframes(motion: Motion, speed: float) -> list[_Played]:
+    """The keyframes in playing order; a keyframe rests if it says stop or hold, and so do the
+    very first and the very last (not the ends of inner repetitions: the wrap flows)."""
     keyframes = motion.keyframes
     first = keyframes[0]
     origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
@@ -195,13 +221,9 @@ def _played_keyframes(motion: Motion, speed: float) -> list[_Played]:
                 timing, value = _Timing.ASAP, 0.0
             played.append(_Played(kf, timing, value / speed, anchor, kf.hold_s / speed,
                                   rests=kf.stop or kf.hold_s > 0, speed=speed))
-    played[0] = _replace_rests(played[0])
-    played[-1] = _replace_rests(played[-1])
+    played[0] = replace(played[0], rests=True)
+    played[-1] = replace(played[-1], rests=True)
     return played
-
-
-def _replace_rests(p: _Played) -> _Played:
-    return _Played(p.keyframe, p.timing, p.value_s, p.anchor, p.hold_s, True, p.speed)
 
 
 # --- one segment -------------------------------------------------------------------------------
@@ -469,8 +491,11 @@ def _integrate(leave_s: np.ndarray, segments: list[_Segment],
     """Knots (S, 7, n) and (p, v, a, j) at each phase start (4, S, 7, n) of all segments."""
     if not segments:
         return np.empty((0, PHASES, n)), np.empty((4, 0, PHASES, n))
-    phase_s = np.array([s.phase_s for s in segments]).reshape(len(segments), n, PHASES)
-    jerk = np.array([s.jerk for s in segments]).reshape(len(segments), n, PHASES)
+    shape = (len(segments), n, PHASES)
+    phase_s = np.fromiter(chain.from_iterable(s.phase_s for s in segments), float,
+                          math.prod(shape)).reshape(shape)
+    jerk = np.fromiter(chain.from_iterable(s.jerk for s in segments), float,
+                       math.prod(shape)).reshape(shape)
     p = np.array([s.p0 for s in segments])  # (S, n)
     v = np.array([s.v0 for s in segments])
     a = np.zeros_like(p)
