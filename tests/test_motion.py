@@ -275,12 +275,12 @@ def test_problems_of_the_robot_are_reported_from_the_motion(tmp_path):
 
 def test_validate_prints_ok_per_good_file_and_exits_0(capsys):
     robot = DATA / "models" / "tiny" / "robot.yaml"
-    assert main(["validate", str(GOOD / "wave.yaml"), str(robot)]) == 0
-    assert capsys.readouterr().out.splitlines() == [f"{GOOD / 'wave.yaml'}: ok", f"{robot}: ok"]
+    assert main(["validate", str(GOOD / "simple.yaml"), str(robot)]) == 0
+    assert capsys.readouterr().out.splitlines() == [f"{GOOD / 'simple.yaml'}: ok", f"{robot}: ok"]
 
 
 def test_validate_prints_every_problem_and_exits_1(capsys):
-    good, bad = GOOD / "wave.yaml", BAD / "several_problems.yaml"
+    good, bad = GOOD / "simple.yaml", BAD / "several_problems.yaml"
     bad_robot = DATA / "bad_robots" / "duplicate_id" / "robot.yaml"
     assert main(["validate", str(good), str(bad), str(bad_robot)]) == 1
     lines = capsys.readouterr().out.splitlines()

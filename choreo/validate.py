@@ -1,0 +1,63 @@
+"""Everything ``choreo validate`` checks, stage by stage, before anything moves.
+
+A robot file is loaded and checked against its MuJoCo model. A motion file is loaded, planned
+(every keyframe time must be reachable within the limits), compiled into ticks (every servo stays
+in range, the tolerance is reachable over the bus), and simulated in the physics preview
+(collisions, range hits, stalls, tracking, falls). Each stage runs only if the one before passed.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import PlanningError, SourceError
+from .motion import Motion, load_motion
+from .player import compile_motion
+from .robot import ROBOT_FILE, load_robot
+
+
+@dataclass(frozen=True)
+class FileCheck:
+    path: Path
+    problems: list[str] = field(default_factory=list)  # any problem fails validation
+    warnings: list[str] = field(default_factory=list)  # worth a look; validation still passes
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def check_file(path: Path, *, physics: bool = True) -> FileCheck:
+    """Check one motion or robot file (a file named robot.yaml is a robot)."""
+    try:
+        if path.name == ROBOT_FILE:
+            load_robot(path)
+            return FileCheck(path)
+        motion = load_motion(path)
+        compiled = compile_motion(motion)
+    except (SourceError, PlanningError) as error:
+        problems = error.problems if isinstance(error, SourceError) else [str(error)]
+        return FileCheck(path, list(problems))
+    if not physics:
+        return FileCheck(path)
+    return _physics_check(path, motion, compiled.trajectory.keyframe_times_s)
+
+
+def _physics_check(path: Path, motion: Motion, arrivals_s: tuple[float, ...]) -> FileCheck:
+    from .preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
+
+    results = run_checks(simulate_motion(motion))
+    lines = {r: f"{_heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}"
+             for r in results}
+    return FileCheck(path,
+                     [lines[r] for r in results if r.severity is Severity.ERROR],
+                     [lines[r] for r in results if r.severity is Severity.WARNING])
+
+
+def _heading_for(motion: Motion, arrivals_s: tuple[float, ...], time_s: float) -> str:
+    """Where the keyframe the robot is heading for at ``time_s`` was written."""
+    played = bisect.bisect_left(arrivals_s, time_s)
+    keyframe = motion.keyframes[min(played, len(arrivals_s) - 1) % len(motion.keyframes)]
+    return str(keyframe.where)

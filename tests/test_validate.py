@@ -1,0 +1,43 @@
+"""choreo validate runs every stage: load, plan, compile into ticks, physics preview."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from choreo.cli import main
+from choreo.validate import check_file
+
+PREVIEW_MOTIONS = Path("tests/data/preview/motions")
+
+
+def write(tmp_path: Path, keyframes: str) -> Path:
+    path = tmp_path / "m.yaml"
+    path.write_text("robot: arm6\nkeyframes:\n  - pose: home\n" + keyframes)
+    return path
+
+
+def test_an_unreachable_keyframe_time_fails_with_its_line(tmp_path):
+    path = write(tmp_path, "  - pose: {shoulder: 80}\n    t: 0.1\n")
+    result = check_file(path)
+    assert not result.ok
+    [problem] = result.problems
+    assert problem.startswith(f"{path}:4:5: keyframe cannot be reached at 0.100 s")
+    assert "shoulder" in problem
+
+
+def test_a_self_collision_is_reported_at_the_keyframe_heading_into_it():
+    result = check_file(PREVIEW_MOTIONS / "collide.yaml")
+    assert any(p.startswith(f"{PREVIEW_MOTIONS / 'collide.yaml'}:6:5: preview: self-collision")
+               for p in result.problems)
+
+
+def test_physics_can_be_skipped(capsys):
+    assert main(["validate", "--no-physics", str(PREVIEW_MOTIONS / "collide.yaml")]) == 0
+    assert main(["validate", str(PREVIEW_MOTIONS / "collide.yaml")]) == 1
+    assert "self-collision" in capsys.readouterr().out
+
+
+def test_a_fine_motion_and_a_robot_pass(capsys):
+    assert main(["validate", str(PREVIEW_MOTIONS / "fine.yaml"), "models/arm6/robot.yaml"]) == 0
+    out = capsys.readouterr().out
+    assert f"{PREVIEW_MOTIONS / 'fine.yaml'}: ok" in out and "models/arm6/robot.yaml: ok" in out
