@@ -112,12 +112,12 @@ def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
     floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints)), robot.bus.baudrate)
                          + bus_margin_ms)
     search = _Search(trajectory, tolerance_deg, end_ms)
-    servo.check_range(search.lattice_deg, search.step_ms)
+    servo.check_range(search.samples_deg.T, search.step_ms)
     bounds, forced = search.ticks(floor_ms)
     if forced:
         _check_forced(robot, search, bounds, forced, floor_ms)
 
-    targets = servo.to_units(search.lattice_deg[bounds])
+    targets = servo.to_units(search.samples_deg[:, bounds].T)
     bounds_ms = bounds * search.step_ms
     servo.check_targets(targets, bounds_ms)
     staged = targets[1:] != targets[:-1]
@@ -177,28 +177,30 @@ class _Search:
     """Greedy farthest reach over the sampled trajectory, in lattice steps (see the module
     docstring).
 
-    The cone test runs on ``[x, -x]`` pairs so that one running maximum gives both bounds:
-    ``max(slope - tol)`` (the low side) and ``max(-slope - tol) = -min(slope + tol)`` (minus the
-    high side).
+    Samples are stored joint-major, one row per joint and then per negated joint (``[x, -x]``),
+    so that one running maximum along a row gives both bounds of the cone: ``max(slope - tol)``
+    (the low side) and ``max(-slope - tol) = -min(slope + tol)`` (minus the high side).
     """
 
     def __init__(self, trajectory: Trajectory, tolerance_deg: float, end_ms: int):
         self.trajectory = trajectory
         self.tolerance_deg = tolerance_deg
-        n = trajectory.n_joints
+        self.n = n = trajectory.n_joints
         peak_acc = trajectory.peak_acceleration_deg_s2()
         self.step_ms = _lattice_step_ms(tolerance_deg * MARGIN_SHARE, float(peak_acc.max()))
         self.margin_deg = peak_acc * (self.step_ms / 1000) ** 2 / 8  # per joint
         self.end = math.ceil(end_ms / self.step_ms)  # last lattice point: at or after the end
         self.max_steps = MAX_TICK_MS // self.step_ms
-        self.lattice_deg = trajectory.positions(np.arange(self.end + 1) * self.step_ms / 1000)
-        self.lattice_pm = np.concatenate([self.lattice_deg, -self.lattice_deg], axis=1)
+        samples = trajectory.positions(np.arange(self.end + 1) * self.step_ms / 1000).T
+        self.samples_pm = np.empty((2 * n, self.end + 1))
+        self.samples_pm[:n] = samples
+        np.negative(samples, out=self.samples_pm[n:])
+        self.samples_deg = self.samples_pm[:n]  # (n, lattice points)
         # 1/d and tolerance/d for chords d = 1..max steps long
-        steps = np.arange(1, min(self.end, self.max_steps) + 1)[:, None]
+        steps = np.arange(1, min(self.end, self.max_steps) + 1)
         self.inv_d = 1.0 / steps
         tol = tolerance_deg - self.margin_deg
-        self.tol_d = np.concatenate([tol, tol])[None, :] / steps
-        self.n = n
+        self.tol_d = np.concatenate([tol, tol])[:, None] / steps
 
     def ticks(self, floor_ms: int) -> tuple[np.ndarray, list[int]]:
         """Tick boundaries (lattice indices, from 0 to the end) and the ticks the bus floor
@@ -225,21 +227,21 @@ class _Search:
         (D_d - tol)/d and (D_d + tol)/d: a cone that only narrows, so one pass over a window
         finds every chord that fits, and the search stops once a joint's cone is closed.
         """
-        n, lattice, inv_d, tol_d = self.n, self.lattice_pm, self.inv_d, self.tol_d
-        base = lattice[start]
+        n, samples, inv_d, tol_d = self.n, self.samples_pm, self.inv_d, self.tol_d
+        base = samples[:, start:start + 1]
         best, first, carry = 0, 1, None
         while first <= limit:
             last = min(first + guess - 1, limit)
-            slope = lattice[start + first:start + last + 1] - base
+            slope = samples[:, start + first:start + last + 1] - base
             slope *= inv_d[first - 1:last]
-            bound = np.subtract(slope, tol_d[first - 1:last])
-            np.maximum.accumulate(bound, axis=0, out=bound)
+            bound = np.subtract(slope, tol_d[:, first - 1:last])
+            np.maximum.accumulate(bound, axis=1, out=bound)
             if carry is not None:
                 np.maximum(bound, carry, out=bound)
-            fits = (bound <= slope).all(axis=1).nonzero()[0]
+            fits = (bound <= slope).all(axis=0).nonzero()[0]
             if len(fits):
                 best = first + int(fits[-1])
-            carry = bound[-1]
+            carry = bound[:, -1:]
             if np.add(carry[:n], carry[n:]).max() > 0:  # the cone closed: no longer chord fits
                 break
             first, guess = last + 1, 2 * guess
@@ -248,12 +250,12 @@ class _Search:
     def max_deviation(self, bounds: np.ndarray, path_deg: np.ndarray) -> float:
         """An upper bound (exact at the samples, plus the lattice margin) on how far the servos'
         piecewise-linear path through the rounded targets strays from the smooth trajectory."""
-        samples = np.arange(len(self.lattice_deg), dtype=float)
+        points = np.arange(self.samples_deg.shape[1], dtype=float)
         bounds = bounds.astype(float)
         worst = 0.0
         for j in range(self.n):
-            linear = np.interp(samples, bounds, path_deg[:, j])
-            off = np.abs(linear - self.lattice_deg[:, j]).max() + self.margin_deg[j]
+            linear = np.interp(points, bounds, path_deg[:, j])
+            off = np.abs(linear - self.samples_deg[j]).max() + self.margin_deg[j]
             worst = max(worst, float(off))
         return worst
 
