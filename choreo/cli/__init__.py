@@ -14,10 +14,10 @@ from typing import Sequence
 
 from ..errors import ChoreoError
 from . import bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command
-from . import record_command, servo_commands
+from . import interop_commands, record_command, servo_commands
 
 COMMAND_GROUPS = (bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command,
-                  servo_commands, record_command)
+                  servo_commands, record_command, interop_commands)
 
 
 def build_parser() -> argparse.ArgumentParser:

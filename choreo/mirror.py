@@ -1,0 +1,55 @@
+"""A motion turned left for right with its robot's mirror pairs, as a new motion file.
+
+Every keyframe (includes expanded, mirrored blocks already mirrored) keeps its timing, hold,
+stop and velocity; only its targets are mirrored (``choreo.robot.mirror_targets``). Mirroring
+twice gives back the original keyframes exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+from .errors import SourceError
+from .motion import Keyframe, Motion
+from .motion_writer import motion_text, robot_reference, write_text_atomically
+from .robot import mirror_targets
+from .yamlsource import fmt
+
+
+def mirrored_keyframes(motion: Motion) -> tuple[Keyframe, ...]:
+    """The motion's keyframes with mirrored targets; ``SourceError`` if the robot has no mirror
+    pairs or a mirrored angle falls outside its joint's limits (every such angle, at its
+    keyframe)."""
+    robot = motion.robot
+    if not robot.mirror_pairs:
+        raise SourceError(f"{robot.path}: robot {robot.name!r} has no mirror pairs, so "
+                          f"{motion.path} cannot be mirrored; add 'mirror:' pairs to the robot")
+    problems = []
+    mirrored = []
+    for keyframe in motion.keyframes:
+        targets = mirror_targets(robot, keyframe.targets_deg)
+        for joint, angle in zip(robot.joints, targets):
+            low, high = joint.limits.min_deg, joint.limits.max_deg
+            if not low <= angle <= high:
+                problems.append(f"{keyframe.where}: mirrored, {joint.name} would be at "
+                                f"{fmt(angle)}°, outside its limits {fmt(low)}..{fmt(high)}°")
+        mirrored.append(replace(keyframe, targets_deg=targets, label=""))
+    if problems:
+        raise SourceError(problems)
+    return tuple(mirrored)
+
+
+def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
+    """Write the mirror image of ``motion`` to ``out`` (atomically); the keyframes written."""
+    keyframes = mirrored_keyframes(motion)
+    out = Path(out)
+    description = f"Mirror image of {motion.name}"
+    if motion.description:
+        description += f": {motion.description}"
+    header = [f"Made by `choreo mirror` from {motion.path.name} (left and right swapped with "
+              f"the robot's mirror pairs)."]
+    write_text_atomically(out, motion_text(
+        motion.robot, keyframes, robot_ref=robot_reference(motion.robot, out),
+        description=description, speed=motion.speed, repeat=motion.repeat, header=header))
+    return keyframes

@@ -1,0 +1,144 @@
+"""Keyframes -> motion file text (``motions/<robot>/*.yaml``), written atomically.
+
+The text is meant for people as much as for the loader: a keyframe that equals one of the
+robot's poses is written by its name, any other names only the joints that differ from the
+keyframe before (partial poses; the first keyframe against ``home``), numbers are written in
+their shortest exact form, so loading the file gives back the same keyframes bit for bit.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Iterator, Mapping, Sequence
+
+import yaml
+
+from .motion import HOME_POSE, Keyframe
+from .robot import Robot, find_robot_file
+
+LINE_WIDTH = 100
+_PLAIN_TEXT = re.compile(r"[A-Za-z0-9][\w .,()/+-]*")  # needs no quotes in YAML
+
+
+def motion_text(robot: Robot, keyframes: Sequence[Keyframe], *, robot_ref: str,
+                description: str = "", speed: float = 1.0, repeat: int = 1,
+                header: Sequence[str] = (), comments: Mapping[int, str] | None = None) -> str:
+    """The YAML text of a motion of ``robot`` (named by ``robot_ref``) with these keyframes.
+
+    ``header``: comment lines for the top of the file; ``comments``: keyframe index -> a comment
+    for that keyframe, at the end of its last line if it is one short line, else on the lines
+    before it. The motion's name is left to default to the file name.
+    """
+    lines = [f"# {line}".rstrip() for line in header]
+    if description:
+        lines.append(f"description: {_text(description)}")
+    lines.append(f"robot: {_text(robot_ref)}")
+    if speed != 1.0:
+        lines.append(f"speed: {_number(speed)}")
+    if repeat != 1:
+        lines.append(f"repeat: {repeat}")
+    lines.append("keyframes:")
+    previous = robot.pose_vector(HOME_POSE)
+    for index, keyframe in enumerate(keyframes):
+        keyframe_lines = _keyframe_lines(robot, keyframe, previous)
+        comment = (comments or {}).get(index, "")
+        if comment and "\n" not in comment and \
+                len(keyframe_lines[-1]) + len(comment) + 4 <= LINE_WIDTH:
+            keyframe_lines[-1] += f"  # {comment}"
+        else:
+            lines += [f"  # {line}".rstrip() for line in comment.splitlines()]
+        lines += keyframe_lines
+        previous = keyframe.targets_deg
+    return "\n".join(lines) + "\n"
+
+
+def robot_reference(robot: Robot, motion_path: Path) -> str:
+    """How a motion file at ``motion_path`` names ``robot``: its name if that finds this very
+    robot from there, else the path of its robot.yaml relative to the motion's folder."""
+    try:
+        if find_robot_file(robot.name, relative_to=motion_path).resolve() == robot.path.resolve():
+            return robot.name
+    except LookupError:
+        pass
+    return Path(os.path.relpath(robot.path.resolve(), motion_path.resolve().parent)).as_posix()
+
+
+@contextlib.contextmanager
+def atomic_output(path: Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write to; it replaces ``path`` only when the block
+    finishes without an exception, so readers never see a half-written file."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(handle)
+    try:
+        yield Path(temporary)
+        os.replace(temporary, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+
+
+def write_text_atomically(path: Path, text: str) -> None:
+    with atomic_output(path) as temporary:
+        temporary.write_text(text, encoding="utf-8")
+
+
+# --- one keyframe ------------------------------------------------------------------------------
+
+
+def _keyframe_lines(robot: Robot, keyframe: Keyframe, previous: Sequence[float]) -> list[str]:
+    lines = [f"  - pose: {_pose_text(robot, keyframe, previous, indent=len('  - pose: '))}"]
+    if keyframe.t_s is not None:
+        lines.append(f"    t: {_number(keyframe.t_s)}")
+    if keyframe.after_s is not None:
+        lines.append(f"    after: {_number(keyframe.after_s)}")
+    if keyframe.hold_s:
+        lines.append(f"    hold: {_number(keyframe.hold_s)}")
+    elif keyframe.stop:  # a hold implies the stop
+        lines.append("    stop: true")
+    if keyframe.velocity_scale != 1.0:
+        lines.append(f"    velocity: {_number(keyframe.velocity_scale)}")
+    return lines
+
+
+def _pose_text(robot: Robot, keyframe: Keyframe, previous: Sequence[float], indent: int) -> str:
+    targets = tuple(keyframe.targets_deg)
+    named = [keyframe.label] if keyframe.label else []
+    for name in (*named, *robot.poses):
+        if name in robot.poses and robot.pose_vector(name) == targets:
+            return name
+    changed = [f"{joint}: {_number(angle)}" for joint, angle, before
+               in zip(robot.joint_names, targets, previous) if angle != before]
+    return _flow_mapping(changed, indent)
+
+
+def _flow_mapping(items: list[str], indent: int) -> str:
+    """``{a: 1, b: 2}``, wrapped before ``LINE_WIDTH`` with continuation lines under the ``{``."""
+    lines = [""]
+    for k, item in enumerate(items):
+        piece = item + ("," if k < len(items) - 1 else "")
+        if lines[-1] and indent + 1 + len(lines[-1]) + 1 + len(piece) + 1 > LINE_WIDTH:
+            lines.append("")
+        lines[-1] += (" " if lines[-1] else "") + piece
+    return "{" + f"\n{' ' * (indent + 1)}".join(lines) + "}"
+
+
+def _number(value: float) -> str:
+    """The shortest text that reads back as exactly ``value``: ``18``, ``26.4``, ``-72.72``."""
+    value = float(value)
+    if value == int(value) and abs(value) < 1e15:
+        return str(int(value))  # also turns -0.0 into 0
+    return repr(value)
+
+
+def _text(value: str) -> str:
+    """A YAML scalar for ``value``: plain where that reads back unchanged, else double-quoted
+    (JSON strings are YAML double-quoted scalars)."""
+    if _PLAIN_TEXT.fullmatch(value) and not value.endswith(" ") and yaml.safe_load(value) == value:
+        return value
+    return json.dumps(value, ensure_ascii=False)
