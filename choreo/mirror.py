@@ -47,8 +47,8 @@ def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
     description = f"Mirror image of {motion.name}"
     if motion.description:
         description += f": {motion.description}"
-    header = [f"Made by `choreo mirror` from {motion.path.name} (left and right swapped with "
-              f"the robot's mirror pairs)."]
+    header = [f"Made by `choreo mirror` from {motion.path.name}:",
+              "left and right swapped with the robot's mirror pairs."]
     write_text_atomically(out, motion_text(
         motion.robot, keyframes, robot_ref=robot_reference(motion.robot, out),
         description=description, speed=motion.speed, repeat=motion.repeat, header=header))

@@ -13,6 +13,7 @@ import json
 import os
 import re
 import tempfile
+import textwrap
 from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
@@ -36,7 +37,7 @@ def motion_text(robot: Robot, keyframes: Sequence[Keyframe], *, robot_ref: str,
     """
     lines = [f"# {line}".rstrip() for line in header]
     if description:
-        lines.append(f"description: {_text(description)}")
+        lines += _description_lines(description)
     lines.append(f"robot: {_text(robot_ref)}")
     if speed != 1.0:
         lines.append(f"speed: {_number(speed)}")
@@ -134,6 +135,18 @@ def _number(value: float) -> str:
     if value == int(value) and abs(value) < 1e15:
         return str(int(value))  # also turns -0.0 into 0
     return repr(value)
+
+
+def _description_lines(text: str) -> list[str]:
+    """``description: ...`` on one line, or folded (``>-``) over several when it is long."""
+    line = f"description: {_text(text)}"
+    if len(line) <= LINE_WIDTH:
+        return [line]
+    wrapped = textwrap.wrap(text, LINE_WIDTH - 2, break_long_words=False, break_on_hyphens=False)
+    folded = ["description: >-", *(f"  {part}" for part in wrapped)]
+    if yaml.safe_load("\n".join(folded)) == {"description": text}:
+        return folded
+    return [line]  # wrapping would change it (runs of spaces, line breaks): keep it quoted
 
 
 def _text(value: str) -> str:
