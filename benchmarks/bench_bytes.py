@@ -86,7 +86,7 @@ def main() -> None:
         trajectory = plan_motion(motion, stretch=True).trajectory
         plan = segment(trajectory, robot, tolerance_deg=TOLERANCE_DEG)
         ours = plan.total_bytes
-        bounds, units, staged20, dev20 = fixed_period(robot, trajectory, STREAM_MS)
+        bounds, _, staged20, dev20 = fixed_period(robot, trajectory, STREAM_MS)
         stream20 = (len(bounds) - 1) * len(robot.joints) * MOVE_BYTES
         period = longest_fixed_period(robot, trajectory, plan.max_deviation_deg)
         fixed_bytes = fixed_period(robot, trajectory, period)[2]

@@ -9,7 +9,6 @@ import numpy as np
 from choreo.motion import Keyframe, Motion
 from choreo.robot import Joint, JointLimits, Robot, SourceLocation
 
-
 VELOCITY, ACCELERATION, JERK = 300.0, 3000.0, 30000.0  # LX-16A defaults (choreo.servos)
 
 
@@ -42,7 +41,7 @@ def dance(robot: Robot, n_keyframes: int, duration_s: float, *, seed: int = 0) -
         pose = np.clip(pose + step, -80, 80)
         hold = 0.2 if rng.random() < 1 / 40 else 0.0
         kind = rng.integers(3)
-        timing = dict(t_s=t + gap) if kind == 0 else dict(after_s=gap) if kind == 1 else {}
+        timing = {"t_s": t + gap} if kind == 0 else {"after_s": gap} if kind == 1 else {}
         keyframes.append(Keyframe(tuple(float(x) for x in pose), SourceLocation(path, line, 3),
                                   hold_s=hold, stop=hold > 0 or rng.random() < 0.1, **timing))
         t += gap + hold

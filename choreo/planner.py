@@ -27,6 +27,7 @@ import logging
 import math
 from dataclasses import dataclass, field, replace
 from itertools import chain
+from typing import NamedTuple
 
 import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization
@@ -162,9 +163,9 @@ def _taylor_values(p, v, a_half, j_sixth, dt, rates: bool) -> list[np.ndarray]:
     return [pos, vel, acc]
 
 
-@dataclass(frozen=True)
-class Stretch:
-    """A keyframe that could not be reached at its time and was moved later (``stretch=True``)."""
+class Stretch(NamedTuple):
+    """A keyframe that could not be reached at its time and was moved later (``stretch=True``);
+    a ``(where, shift_s)`` pair."""
 
     where: SourceLocation
     shift_s: float  # played seconds (after speed scaling) this keyframe and the later ones moved

@@ -213,7 +213,7 @@ class _Search:
             start = bounds[-1]
             limit = min(self.end - start, self.max_steps)
             reach = self.reach(start, limit, guess)
-            guess = reach + reach // 4 + 2  # the next tick is likely about as long
+            guess = reach + reach // 2 + 4  # the next tick is likely about as long
             if reach < min(floor, limit):
                 forced.append(len(bounds) - 1)
                 reach = min(floor, limit)

@@ -9,13 +9,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
+from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.errors import PlanningError
 from choreo.motion import load_motion
 from choreo.planner import plan_approach, plan_motion
-from choreo.segments import (MAX_TICK_MS, MOVE_BYTES, START_BYTES, Tick, segment, staging_bytes,
-                             wire_time_ms)
-from plan_helpers import kf, make_motion, make_robot, motions
+from choreo.segments import (
+    MAX_TICK_MS,
+    MOVE_BYTES,
+    START_BYTES,
+    Tick,
+    segment,
+    staging_bytes,
+    wire_time_ms,
+)
 
 BAUD = 115200
 QUANTIZATION_DEG = 0.12  # half a servo unit (0.24°)
