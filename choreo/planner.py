@@ -579,7 +579,7 @@ def check_motion(motion: Motion, *, speed: float | None = None) -> list[str]:
     try:
         plan_motion(motion, speed=speed)
     except PlanningError as error:
-        return [str(error)]
+        return str(error).splitlines()
     return []
 
 

@@ -272,6 +272,9 @@ def test_keyframe_outside_the_limits_is_reported_where_it_is():
     with pytest.raises(PlanningError, match=r"test_motion.yaml:4:5: j1 = 50° is outside its "
                                             r"limits -45..45°"):
         plan_motion(motion)
+    two = make_motion(robot, [kf([0, 0], 1), kf([0, 50], 4), kf([-60, 0], 6)])
+    assert check_motion(two) == ["test_motion.yaml:4:5: j1 = 50° is outside its limits -45..45°",
+                                 "test_motion.yaml:6:5: j0 = -60° is outside its limits -45..45°"]
 
 
 def test_approach_starts_anywhere_and_arrives_gently():
