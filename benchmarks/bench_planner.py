@@ -45,7 +45,8 @@ def main() -> None:
     trajectory = result.trajectory
     print(f"motion: {len(robot.joints)} servos, {len(motion.keyframes)} keyframes, "
           f"{trajectory.duration_s:.1f} s ({len(result.stretches)} keyframes stretched)")
-    print(f"result: {len(ticks.ticks)} ticks (mean {trajectory.duration_s * 1000 / len(ticks.ticks):.0f} ms), "
+    mean_ms = trajectory.duration_s * 1000 / len(ticks.ticks)
+    print(f"result: {len(ticks.ticks)} ticks (mean {mean_ms:.0f} ms), "
           f"{ticks.total_bytes} bytes, max deviation {ticks.max_deviation_deg:.3f}°, "
           f"peak bus use {ticks.peak_bus_use:.0%}")
     for name, runs in (("plan", plan_s), ("segment", segment_s), ("plan + segment", total_s),

@@ -414,7 +414,8 @@ class _Planner:
             shift[i + 1] = 0.0
             if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
                 if not self.stretch:
-                    raise PlanningError(self.too_early_message(i + 1, wanted, leave + seg.duration_s))
+                    earliest = leave + seg.duration_s
+                    raise PlanningError(self.too_early_message(i + 1, wanted, earliest))
                 shift[i + 1] = seg.duration_s - requested
             segments[i] = seg
             arrive[i + 1] = leave + seg.duration_s
