@@ -13,10 +13,11 @@ when the robot already stands there, and is the time to come back to it when the
 repeats. Column ``ServoK`` is servo ID K unless the caller gives the IDs column by column.
 Positions outside a joint's limits are errors (every one reported at once), never clamped.
 
-Export: one row per played keyframe (``repeat`` unrolled, ``speed`` applied), an extra row
-repeating the pose for each hold, ``Time`` = the time between leaving one keyframe and reaching
-the next, from the keyframes' own times or, for keyframes timed "as soon as possible", from the
-planner. The vendor's runner moves in straight lines between rows: a keyframe's ``stop`` and
+Export: one row per played keyframe (``repeat`` unrolled, ``speed`` applied) and rows repeating
+the pose for each hold (split into rows of at most 30 s), ``Time`` = the time between leaving
+one keyframe and reaching the next, from the keyframes' own times or, for keyframes timed "as
+soon as possible", from the planner; whole milliseconds on the motion's clock, so the rows add
+up to the motion's duration. The vendor's runner moves in straight lines between rows: a keyframe's ``stop`` and
 ``velocity`` and the planner's smoothing have no equivalent in the file.
 """
 
@@ -230,10 +231,13 @@ def motion_yaml(group: ActionGroup, robot: Robot, keyframes: Sequence[Keyframe],
     comments = {k: f"row {row.index}" if row.time_ms is not None else
                 f"row {row.index}: its Time is NULL: reached as soon as the limits allow"
                 for k, row in enumerate(group.rows)}
-    comments[0] = (f"{comments[0]} is reached from wherever the robot is: choreo's approach "
-                   f"brings the robot\nto this pose first. The row's Time is then spent here "
-                   f"(as the vendor's runner does when\nthe robot already stands here) and is "
-                   f"the time to come back here on repeat.")
+    first = group.rows[0]
+    comments[0] = (f"row {first.index} is reached from wherever the robot is: choreo's approach "
+                   f"brings the robot\nto this pose first. " + (
+                       "The row's Time is then spent here (as the vendor's runner does when\n"
+                       "the robot already stands here) and is the time to come back here on "
+                       "repeat." if first.time_ms is not None else
+                       "Its Time is NULL: the motion goes on from here at once."))
     return motion_text(robot, keyframes, robot_ref=robot_ref,
                        description=f"Hiwonder action group {group.path.name}", header=header,
                        comments=comments)
@@ -262,32 +266,40 @@ def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, 
     played = _played(motion)
     rows: list[ActionRow] = []
     problems: list[str] = []
-    leave_s = 0.0
+    left_ms = 0  # when the keyframe before was left; whole ms, so row times add up exactly
     for k, p in enumerate(played):
-        time_ms = round(1000 * (p.arrive_s - leave_s), 6)
+        arrive_ms = round(1000 * p.arrive_s)
+        time_ms = arrive_ms - left_ms
         if k == 0 and _untimed(p.keyframe):
             time_ms = _first_move_ms(robot, p.keyframe)
         positions = tuple(float(round(robot.joints[j].to_units(p.keyframe.targets_deg[j])))
                           for j in order)
-        reached = f"is reached {fmt(time_ms / 1000)} s after the keyframe before it is left"
-        rows.append(ActionRow(len(rows) + 1, _whole_ms(time_ms, p.keyframe, reached, problems),
-                              positions))
-        if p.hold_s:
-            held = f"holds {fmt(p.hold_s)} s (a row of its own)"
-            rows.append(ActionRow(len(rows) + 1,
-                                  _whole_ms(1000 * p.hold_s, p.keyframe, held, problems),
-                                  positions))
-        leave_s = p.arrive_s + p.hold_s
+        _check_ms(time_ms, p.keyframe, f"is reached {fmt(time_ms / 1000)} s after the keyframe "
+                                       f"before it is left", problems)
+        rows.append(ActionRow(len(rows) + 1, time_ms, positions))
+        left_ms = round(1000 * (p.arrive_s + p.hold_s))
+        hold_ms = left_ms - arrive_ms  # rows of their own; a long one split, not refused
+        if 0 < hold_ms < TIME_RANGE_MS[0]:
+            _check_ms(hold_ms, p.keyframe, f"holds {fmt(hold_ms / 1000)} s", problems)
+        if hold_ms:
+            rows += [ActionRow(len(rows) + 1 + n, piece, positions)
+                     for n, piece in enumerate(_pieces_ms(hold_ms))]
     if problems:
         raise SourceError(problems)
     return columns, tuple(rows)
+
+
+def _pieces_ms(total_ms: int) -> list[int]:
+    """A hold as rows no longer than the editor allows, as equal as whole ms can be."""
+    count = -(-total_ms // TIME_RANGE_MS[1])
+    return [total_ms // count + (1 if n < total_ms % count else 0) for n in range(count)]
 
 
 def _untimed(keyframe: Keyframe) -> bool:
     return keyframe.t_s is None and keyframe.after_s is None
 
 
-def _first_move_ms(robot: Robot, first: Keyframe) -> float:
+def _first_move_ms(robot: Robot, first: Keyframe) -> int:
     """Row 1's Time for an untimed first keyframe: as long as choreo's approach from the home
     pose takes, and at least the editor's 20 ms (the runner needs a move time even if the
     robot is already there)."""
@@ -299,16 +311,14 @@ def _first_move_ms(robot: Robot, first: Keyframe) -> float:
     return time_ms
 
 
-def _whole_ms(time_ms: float, keyframe: Keyframe, what: str, problems: list[str]) -> int:
-    """A row's Time in whole ms; outside the editor's range it is reported at the keyframe."""
+def _check_ms(time_ms: int, keyframe: Keyframe, what: str, problems: list[str]) -> None:
+    """A row's Time outside the editor's range is reported at its keyframe."""
     low, high = TIME_RANGE_MS
-    whole = round(time_ms)
-    if not low <= whole <= high:
-        fix = (f"give it at least {low / 1000:g} s" if whole < low else
-               "split it with keyframes in between")
+    if not low <= time_ms <= high:
+        fix = (f"give it at least {low / 1000:g} s" if time_ms < low else
+               "split the move with keyframes in between")
         problems.append(f"{keyframe.where}: this keyframe {what}, but an action group row's Time "
                         f"must be {low}..{high} ms (the vendor editor's range): {fix}")
-    return whole
 
 
 def _played(motion: Motion) -> list[_Played]:

@@ -271,5 +271,21 @@ def test_rows_too_short_or_too_long_are_reported_at_their_keyframes(tmp_path):
         f"give it at least 0.02 s",
         f"{motion_file}:6:5: this keyframe is reached 31 s after the keyframe before it is left, "
         f"but an action group row's Time must be 20..30000 ms (the vendor editor's range): split "
-        f"it with keyframes in between",
+        f"the move with keyframes in between",
     ]
+
+
+def test_holds_are_rows_of_their_own_split_when_long_refused_when_too_short(tmp_path):
+    motion_file = tmp_path / "holds.yaml"
+    motion_file.write_text("robot: arm6\nkeyframes:\n  - pose: home\n    after: 0.5\n"
+                           "    hold: 65\n  - pose: {shoulder: 10}\n    after: 1\n"
+                           "    hold: 0.01\n")
+    with pytest.raises(SourceError) as error:
+        rows_from_motion(load_motion(motion_file))
+    assert error.value.problems == [
+        f"{motion_file}:6:5: this keyframe holds 0.01 s, but an action group row's Time must be "
+        f"20..30000 ms (the vendor editor's range): give it at least 0.02 s"]
+    motion_file.write_text(motion_file.read_text().replace("hold: 0.01", "hold: 0.02"))
+    _, rows = rows_from_motion(load_motion(motion_file))
+    assert [row.time_ms for row in rows] == [500, 21667, 21667, 21666, 1000, 20]
+    assert len({row.positions_units for row in rows[:4]}) == 1
