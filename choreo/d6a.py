@@ -17,8 +17,8 @@ Export: one row per played keyframe (``repeat`` unrolled, ``speed`` applied) and
 the pose for each hold (split into rows of at most 30 s), ``Time`` = the time between leaving
 one keyframe and reaching the next, from the keyframes' own times or, for keyframes timed "as
 soon as possible", from the planner; whole milliseconds on the motion's clock, so the rows add
-up to the motion's duration. The vendor's runner moves in straight lines between rows: a keyframe's ``stop`` and
-``velocity`` and the planner's smoothing have no equivalent in the file.
+up to the motion's duration. The vendor's runner moves in straight lines between rows: a
+keyframe's ``stop`` and ``velocity`` and the planner's smoothing have no equivalent in the file.
 """
 
 from __future__ import annotations
