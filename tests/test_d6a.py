@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 import sqlite3
+from contextlib import closing
 from pathlib import Path
 
 import pytest
@@ -30,12 +31,12 @@ def tonypi():
 
 
 def sqlite_rows(path: Path) -> list[tuple]:
-    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as connection:
+    with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as connection:
         return connection.execute('SELECT * FROM ActionGroup ORDER BY "Index"').fetchall()
 
 
 def table_sql(path: Path) -> str:
-    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as connection:
+    with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as connection:
         return connection.execute(
             "SELECT sql FROM sqlite_master WHERE name = 'ActionGroup'").fetchone()[0]
 
@@ -44,9 +45,10 @@ def edited_copy(source: Path, target: Path, *updates: str) -> Path:
     """A copy of an action group with SQL statements applied."""
     shutil.copy(source, target)
     target.chmod(0o644)
-    with sqlite3.connect(target) as connection:
+    with closing(sqlite3.connect(target)) as connection:
         for statement in updates:
             connection.execute(statement)
+        connection.commit()
     return target
 
 
@@ -157,8 +159,8 @@ def test_a_failed_import_leaves_the_old_output_alone(tmp_path, tonypi):
 def test_a_file_that_is_not_sqlite_is_one_clear_line(tmp_path, capsys):
     text = tmp_path / "notes.d6a"
     text.write_text("Time,Servo1\n500,500\n")
-    assert main(["import", "d6a", str(text), "--robot", "tonypi", "-o", str(tmp_path / "x.yaml")]) \
-        == 1
+    out = tmp_path / "x.yaml"
+    assert main(["import", "d6a", str(text), "--robot", "tonypi", "-o", str(out)]) == 1
     assert capsys.readouterr().err.splitlines() == [
         f"choreo: error: {text}: not a Hiwonder action group: SQLite cannot read it (file is "
         f"not a database)"]
@@ -166,10 +168,10 @@ def test_a_file_that_is_not_sqlite_is_one_clear_line(tmp_path, capsys):
 
 def test_a_database_without_an_action_group_table_is_one_clear_line(tmp_path, capsys):
     other = tmp_path / "other.d6a"
-    with sqlite3.connect(other) as connection:
+    with closing(sqlite3.connect(other)) as connection:
         connection.execute("CREATE TABLE Moves (Time INT, Servo1 INT)")
-    assert main(["import", "d6a", str(other), "--robot", "tonypi", "-o", str(tmp_path / "x.yaml")]) \
-        == 1
+    out = tmp_path / "x.yaml"
+    assert main(["import", "d6a", str(other), "--robot", "tonypi", "-o", str(out)]) == 1
     assert capsys.readouterr().err.splitlines() == [
         f"choreo: error: {other}: not a Hiwonder action group: it has no ActionGroup table "
         f"(tables: Moves)"]
@@ -223,8 +225,9 @@ def test_exported_files_use_the_vendor_schema(tmp_path):
     out = tmp_path / "stand.d6a"
     export_d6a(load_motion(SHIPPED / "stand.yaml"), out)
     assert table_sql(out).split() == table_sql(VENDOR / "stand.d6a").split()
-    with sqlite3.connect(out) as connection:
-        assert connection.execute("SELECT * FROM sqlite_sequence").fetchall() == [("ActionGroup", 1)]
+    with closing(sqlite3.connect(out)) as connection:
+        sequence = connection.execute("SELECT * FROM sqlite_sequence").fetchall()
+    assert sequence == [("ActionGroup", 1)]
 
 
 def test_arm6_wave_exports_a_row_per_keyframe_and_per_hold():
