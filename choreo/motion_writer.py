@@ -17,6 +17,7 @@ import textwrap
 from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
+import numpy as np
 import yaml
 
 from .motion import HOME_POSE, Keyframe
@@ -130,11 +131,10 @@ def _flow_mapping(items: list[str], indent: int) -> str:
 
 
 def _number(value: float) -> str:
-    """The shortest text that reads back as exactly ``value``: ``18``, ``26.4``, ``-72.72``."""
-    value = float(value)
-    if value == int(value) and abs(value) < 1e15:
-        return str(int(value))  # also turns -0.0 into 0
-    return repr(value)
+    """The shortest text that reads back as exactly ``value``: ``18``, ``26.4``, ``0.00001``
+    (positional: YAML 1.1 reads ``1e-05`` as a string)."""
+    value = float(value) + 0.0  # no -0.0
+    return np.format_float_positional(value, unique=True, trim="-")
 
 
 def _description_lines(text: str) -> list[str]:
