@@ -401,10 +401,10 @@ class _Stream:
 
         A tick that changes no target sends nothing: every servo is already there.
         """
+        clock = self.player.clock
+        send_at = self.deadline(k) - START_BYTES * BYTE_TIME_S
+        clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
         if k == 0 or any(self.ticks[k].staged):
-            clock = self.player.clock
-            send_at = self.deadline(k) - START_BYTES * BYTE_TIME_S
-            clock.sleep_until(send_at)
             self.lateness_ms.append((clock.now() - send_at) * 1000)
             self.player.bus.start(BROADCAST_ID)
             self.sent(START_BYTES)

@@ -54,7 +54,8 @@ class Rig:
         return [p for p in self.emulator.log.packets if p.packet.command == command]
 
 
-@pytest.mark.parametrize("motion", ["arm6/wave.yaml", "arm6/dance.yaml", "hexapod18/tripod_gait.yaml"])
+@pytest.mark.parametrize("motion", ["arm6/wave.yaml", "arm6/dance.yaml", "hexapod18/tripod_gait.yaml",
+                                    "tonypi/twist.yaml", "tonypi/turn_left.yaml"])  # with ticks that change nothing
 def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     rig = Rig(f"{MOTIONS}/{motion}")
     report = rig.play()
