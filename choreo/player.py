@@ -28,7 +28,7 @@ from .emulator.trace import executed_units
 from .errors import BusError, BusTimeoutError, ChoreoError, PlaybackAborted
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .motion import Motion
-from .planner import Trajectory, plan_approach, plan_motion
+from .planner import Stretch, Trajectory, plan_approach, plan_motion
 from .robot import Joint, Robot
 from .segments import Tick, TickPlan, segment
 
@@ -497,6 +497,7 @@ class CompiledMotion:
     trajectory: Trajectory
     ticks: TickPlan
     tolerance_deg: float
+    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
 
 
 def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False,
@@ -504,7 +505,7 @@ def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool 
     plan = plan_motion(motion, speed=speed, stretch=stretch)
     return CompiledMotion(motion.robot, plan.trajectory,
                           segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
-                          tolerance_deg)
+                          tolerance_deg, plan.stretches)
 
 
 def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float], *,

@@ -29,26 +29,34 @@ class FileCheck:
         return not self.problems
 
 
-def check_file(path: Path, *, physics: bool = True) -> FileCheck:
-    """Check one motion or robot file (a file named robot.yaml is a robot)."""
+def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> FileCheck:
+    """Check one motion or robot file (a file named robot.yaml is a robot).
+
+    With ``stretch``, keyframes the limits can't meet on time are moved later (as ``choreo play
+    --stretch`` would) and reported as warnings instead of problems.
+    """
     try:
         if path.name == ROBOT_FILE:
             load_robot(path)
             return FileCheck(path)
         motion = load_motion(path)
-        compiled = compile_motion(motion)
+        compiled = compile_motion(motion, stretch=stretch)
     except (SourceError, PlanningError) as error:
         problems = error.problems if isinstance(error, SourceError) else [str(error)]
         return FileCheck(path, list(problems))
+    stretched = [f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
+                 for s in compiled.stretches]
     if not physics:
-        return FileCheck(path)
-    return _physics_check(path, motion, compiled.trajectory.keyframe_times_s)
+        return FileCheck(path, warnings=stretched)
+    found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)
+    return FileCheck(path, found.problems, stretched + found.warnings)
 
 
-def _physics_check(path: Path, motion: Motion, arrivals_s: tuple[float, ...]) -> FileCheck:
+def _physics_check(path: Path, motion: Motion, arrivals_s: tuple[float, ...],
+                   stretch: bool) -> FileCheck:
     from .preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
 
-    results = run_checks(simulate_motion(motion))
+    results = run_checks(simulate_motion(motion, stretch=stretch))
     lines = {r: f"{_heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}"
              for r in results}
     return FileCheck(path,

@@ -41,3 +41,13 @@ def test_a_fine_motion_and_a_robot_pass(capsys):
     assert main(["validate", str(PREVIEW_MOTIONS / "fine.yaml"), "models/arm6/robot.yaml"]) == 0
     out = capsys.readouterr().out
     assert f"{PREVIEW_MOTIONS / 'fine.yaml'}: ok" in out and "models/arm6/robot.yaml: ok" in out
+
+
+def test_stretch_turns_an_unreachable_time_into_a_warning(tmp_path, capsys):
+    path = write(tmp_path, "  - pose: {shoulder: 80}\n    t: 0.1\n")
+    result = check_file(path, stretch=True)
+    assert result.ok
+    [warning] = [w for w in result.warnings if "stretched" in w]
+    assert warning.startswith(f"{path}:4:5: stretched: reached 0.") and "s later than written" in warning
+    assert main(["validate", "--stretch", "--no-physics", str(path)]) == 0
+    assert f"warning: {path}:4:5: stretched" in capsys.readouterr().out

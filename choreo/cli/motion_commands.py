@@ -19,6 +19,9 @@ def register(subparsers) -> None:
     )
     validate.add_argument("--no-physics", action="store_true",
                           help="skip the physics preview (faster; no collision or stall checks)")
+    validate.add_argument("--stretch", action="store_true",
+                          help="move keyframes later where the limits can't meet their times, as "
+                               "`choreo play --stretch` does, and warn instead of failing")
     validate.add_argument("files", nargs="+", type=Path, metavar="FILE",
                           help="a motion .yaml or a robot.yaml")
     validate.set_defaults(handler=run_validate)
@@ -27,7 +30,7 @@ def register(subparsers) -> None:
 def run_validate(args: argparse.Namespace) -> int:
     failed = False
     for path in args.files:
-        result = check_file(path, physics=not args.no_physics)
+        result = check_file(path, physics=not args.no_physics, stretch=args.stretch)
         for line in result.problems:
             print(line)
         for line in result.warnings:
