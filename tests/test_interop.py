@@ -79,10 +79,6 @@ def at(emulator: BusEmulator, targets: dict[int, int]) -> bool:
     )
 
 
-def positions(emulator: BusEmulator, ids) -> dict[int, float]:
-    return {i: emulator.servo(i).position_units for i in ids}
-
-
 def sent(emulator: BusEmulator, command: Command) -> list:
     return [p for p in emulator.log.packets if p.packet.command == command]
 
