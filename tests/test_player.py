@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import dataclasses
-
-import numpy as np
 import pytest
 
 from choreo.bus import ServoBus
 from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
+from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
 from choreo.motion import load_motion
 from choreo.player import (
@@ -23,7 +20,7 @@ from choreo.player import (
     preflight,
     prepare,
 )
-from choreo.protocol import BROADCAST_ID, Command, PacketDecoder, decode_request
+from choreo.protocol import BROADCAST_ID, Command, decode_request
 from choreo.segments import QUANTIZATION_DEG
 
 MOTIONS = "motions"

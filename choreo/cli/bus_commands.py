@@ -6,17 +6,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import sys
 
 from rich.console import Console
 from rich.table import Table
 
-from ..bus import ServoBus
-from ..protocol import MAX_SERVO_ID, parse_ids
+from ..protocol import MAX_SERVO_ID
 from ..servos import DEG_PER_UNIT
-
-BUILT_IN_PORT = "sim://?ids=1-6"
-
+from .arguments import add_port_arguments, id_ranges, open_bus
 
 def register(subparsers) -> None:
     scan = subparsers.add_parser("scan", help="list the servos that answer on the bus")
@@ -27,40 +23,12 @@ def register(subparsers) -> None:
     scan.set_defaults(handler=run_scan)
 
 
-def add_port_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", help="serial port or pyserial URL (default: the built-in "
-                        f"emulated bus, {BUILT_IN_PORT}); e.g. /dev/ttyUSB0, COM3, sim://?ids=1-18")
-    parser.add_argument("--timeout-ms", type=float, default=50.0,
-                        help="per-read timeout (default 50 ms; USB adapters add latency)")
-    parser.add_argument("--retries", type=int, default=2, help="retries per read (default 2)")
-    parser.add_argument("--echo", choices=("none", "discard", "auto"), default="auto",
-                        help="does the adapter echo the host's bytes (one-wire wiring)? default auto")
 
 
-def open_bus(args: argparse.Namespace, *, built_in: str = BUILT_IN_PORT) -> ServoBus:
-    """The bus the user asked for; without --port, the built-in emulator (and say so)."""
-    port = args.port
-    if port is None:
-        port = built_in
-        print(f"no --port given: using the built-in emulated bus ({port})", file=sys.stderr)
-    return ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries, echo=args.echo)
 
 
-def id_ranges(text: str) -> tuple[int, ...]:
-    try:
-        return parse_ids(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def servo_id(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if not 0 <= value <= MAX_SERVO_ID:
-        raise argparse.ArgumentTypeError(f"a servo ID is a whole number 0-{MAX_SERVO_ID}, got {text!r}")
-    return value
 
 
 def run_scan(args: argparse.Namespace) -> int:

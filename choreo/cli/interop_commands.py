@@ -10,7 +10,7 @@ from ..d6a import TIME_RANGE_MS, export_d6a, import_d6a
 from ..mirror import write_mirrored
 from ..motion import load_motion
 from ..robot import load_robot
-from .bus_commands import id_ranges
+from .arguments import id_ranges
 
 
 def register(subparsers) -> None:

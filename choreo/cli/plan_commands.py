@@ -13,6 +13,7 @@ from rich.table import Table
 from ..motion import Motion, load_motion
 from ..planner import PlanResult, plan_motion
 from ..segments import TickPlan, segment
+from .arguments import add_planning_arguments
 
 
 def register(subparsers) -> None:
@@ -28,25 +29,10 @@ def register(subparsers) -> None:
     plan.add_argument("--json", action="store_true", help="print the report as JSON")
     plan.add_argument("--plot", type=png_path, metavar="FILE.png",
                       help="draw position and velocity per joint: smooth plan against the ticks")
-    plan.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
-                      help="how far the servos' linear moves may leave the smooth plan "
-                           "(default 0.5°; rounding to whole servo units adds up to 0.12°)")
-    plan.add_argument("--speed", type=positive_float,
-                      help="time scale (overrides the file's speed): 2 plays twice as fast")
-    plan.add_argument("--stretch", action="store_true",
-                      help="move keyframes later where the limits can't meet their times "
-                           "(and say by how much) instead of failing")
+    add_planning_arguments(plan)
     plan.set_defaults(handler=run_plan)
 
 
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = 0.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
 
 
 def png_path(text: str) -> Path:

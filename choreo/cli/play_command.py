@@ -15,7 +15,7 @@ from rich.table import Table
 
 from ..bus import ServoBus
 from ..clock import RealClock
-from ..emulator import BusEmulator, ServoSpec, SimSerial
+from ..emulator import SimSerial
 from ..motion import load_motion
 from ..player import (
     CompiledMotion,
@@ -32,7 +32,12 @@ from ..player import (
     prepare,
 )
 from ..robot import Robot
-from .bus_commands import add_port_arguments
+from .arguments import (
+    add_planning_arguments,
+    add_port_arguments,
+    built_in_emulator,
+    positive_int,
+)
 
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
 
@@ -45,35 +50,15 @@ def register(subparsers) -> None:
                     "Ctrl-C stops the servos at once.")
     play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
     add_port_arguments(play)
-    play.add_argument("--speed", type=positive_float, help="time scale: 2 plays twice as fast")
     play.add_argument("--loop", type=positive_int, metavar="N",
                       help="play the motion N times (overrides the file's repeat)")
     play.add_argument("--dry-run", action="store_true",
                       help="plan everything, open no port, print the packet schedule")
-    play.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
-                      help="how far the servos' linear moves may leave the smooth plan (default 0.5°)")
-    play.add_argument("--stretch", action="store_true",
-                      help="move keyframes later where the limits can't meet their times")
+    add_planning_arguments(play)
     play.add_argument("--exit", choices=[m.value for m in ExitMode], default="hold",
                       help="after the motion or a stop: hold (default), go to the exit pose, unload")
     play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
     play.set_defaults(handler=run_play)
-
-
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = 0.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
-
-
-def positive_int(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(text)
 
 
 def run_play(args: argparse.Namespace) -> int:
@@ -112,14 +97,6 @@ def run_play(args: argparse.Namespace) -> int:
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
-
-
-def built_in_emulator(robot: Robot) -> BusEmulator:
-    """The robot's servos on an emulated bus, standing at its home pose."""
-    home = robot.pose_vector("home")
-    specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-             for j, a in zip(robot.joints, home)]
-    return BusEmulator(specs, clock=RealClock())
 
 
 def _play_with_progress(bus, robot, limits, options, performance: Performance, start_pose) -> PlayReport:

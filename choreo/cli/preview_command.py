@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from ..motion import load_motion
+from .arguments import add_planning_arguments, positive_float, positive_int
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
 
@@ -42,12 +43,7 @@ def register(subparsers) -> None:
                          help="frames in a png contact sheet (default 12)")
     preview.add_argument("--hq", action="store_true",
                          help="shadows, reflections and anti-aliasing (several times slower)")
-    preview.add_argument("--speed", type=positive_float, help="time scale: 2 plays twice as fast")
-    preview.add_argument("--stretch", action="store_true",
-                         help="move keyframes later where the limits can't meet their times")
-    preview.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
-                         help="how far the servos' linear moves may leave the smooth plan "
-                              "(default 0.5°, as for play)")
+    add_planning_arguments(preview)
     preview.add_argument("--max-tracking-error", type=positive_float, default=10.0,
                          metavar="DEG", help="report a joint this far off its commanded path "
                                              "(default 10°)")
@@ -73,20 +69,8 @@ def image_size(text: str) -> tuple[int, int]:
     return int(match[1]), int(match[2])
 
 
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = 0.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
 
 
-def positive_int(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(text)
 
 
 def _usage_error(message: str) -> int:

@@ -26,8 +26,7 @@ from ..recorder import (
     journal_path,
 )
 from ..robot import Robot, load_robot
-from .bus_commands import add_port_arguments
-from .play_command import built_in_emulator, positive_float
+from .arguments import add_port_arguments, built_in_emulator, positive_float
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
 

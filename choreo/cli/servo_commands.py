@@ -22,7 +22,7 @@ from ..bus import AngleLimits, ServoBus, ServoInfo, VinLimits
 from ..errors import ChoreoError
 from ..protocol import Command
 from ..servos import DEG_PER_UNIT
-from .bus_commands import add_port_arguments, id_ranges, open_bus, servo_id
+from .arguments import add_port_arguments, id_ranges, open_bus, servo_id
 
 
 def register(subparsers) -> None:
