@@ -61,25 +61,34 @@ def motion_text(robot: Robot, keyframes: Sequence[Keyframe], *, robot_ref: str,
 
 def robot_reference(robot: Robot, motion_path: Path) -> str:
     """How a motion file at ``motion_path`` names ``robot``: its name if that finds this very
-    robot from there, else the path of its robot.yaml relative to the motion's folder."""
+    robot from there, else the path of its robot.yaml relative to the motion's folder (absolute
+    across Windows drives)."""
     try:
         if find_robot_file(robot.name, relative_to=motion_path).resolve() == robot.path.resolve():
             return robot.name
     except LookupError:
         pass
-    return Path(os.path.relpath(robot.path.resolve(), motion_path.resolve().parent)).as_posix()
+    try:
+        relative = os.path.relpath(robot.path.resolve(), motion_path.resolve().parent)
+    except ValueError:
+        return robot.path.resolve().as_posix()
+    return Path(relative).as_posix()
 
 
 @contextlib.contextmanager
 def atomic_output(path: Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; it replaces ``path`` only when the block
-    finishes without an exception, so readers never see a half-written file."""
+    finishes without an exception, so readers never see a half-written file. The data and the
+    new name are flushed to disk before returning (a crash right after loses nothing)."""
     path = Path(path)
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(handle)
     try:
         yield Path(temporary)
+        with open(temporary, "rb") as written:
+            os.fsync(written.fileno())
         os.replace(temporary, path)
+        fsync_directory(path.parent)
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
@@ -88,6 +97,17 @@ def atomic_output(path: Path) -> Iterator[Path]:
 def write_text_atomically(path: Path, text: str) -> None:
     with atomic_output(path) as temporary:
         temporary.write_text(text, encoding="utf-8")
+
+
+def fsync_directory(folder: Path) -> None:
+    """Make a new or renamed file's name durable."""
+    if os.name != "posix":
+        return  # Windows cannot open a folder for fsync; NTFS journals its metadata
+    handle = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(handle)
+    finally:
+        os.close(handle)
 
 
 # --- one keyframe ------------------------------------------------------------------------------

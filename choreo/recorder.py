@@ -27,20 +27,20 @@ import json
 import logging
 import math
 import os
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import BinaryIO, Callable, Iterable, Sequence
 
 import numpy as np
-import yaml
 
 from . import workshop
 from .bus import ServoBus
 from .clock import Clock
 from .errors import BusError, ChoreoError
-from .robot import Joint, Robot, find_robot_file, load_robot
-from .yamlsource import did_you_mean, fmt
+from .motion import Keyframe
+from .motion_writer import fsync_directory, motion_text, robot_reference, write_text_atomically
+from .robot import Joint, Robot, load_robot
+from .yamlsource import SourceLocation, did_you_mean, fmt
 
 log = logging.getLogger(__name__)
 
@@ -176,7 +176,7 @@ class Journal:
         journal = cls(path, file)
         journal.append(dict(format=JOURNAL_FORMAT, version=JOURNAL_VERSION,
                             robot=str(robot.path.resolve()), joints=list(robot.joint_names)))
-        _fsync_directory(path.parent)  # the new file's name is durable too
+        fsync_directory(path.parent)  # the new file's name is durable too
         return journal
 
     @classmethod
@@ -193,16 +193,6 @@ class Journal:
 
     def close(self) -> None:
         self._file.close()
-
-
-def _fsync_directory(folder: Path) -> None:
-    if os.name != "posix":
-        return  # Windows cannot open a folder for fsync; NTFS journals its metadata
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 # --- the recording: captures, journaled -----------------------------------------------------------
@@ -286,9 +276,11 @@ class Recording:
         if not captures:
             return None
         keyframes = reduce_captures(captures, tolerance_deg)
-        text = motion_yaml(robot_reference(self.robot, self.motion_path), self.robot, keyframes,
-                           f"recorded by hand on {self.robot.name}: {len(captures)} capture(s)")
-        write_atomically(self.motion_path, text)
+        text = motion_text(self.robot, as_keyframes(keyframes, self.motion_path),
+                           robot_ref=robot_reference(self.robot, self.motion_path),
+                           description=f"recorded by hand on {self.robot.name}: "
+                                       f"{len(captures)} capture(s)")
+        write_text_atomically(self.motion_path, text)
         self.journal.close()
         self.journal.path.unlink()
         return SavedMotion(self.motion_path, len(captures), len(keyframes))
@@ -551,58 +543,7 @@ def reduce_captures(captures: Sequence[Capture], tolerance_deg: float) -> list[C
 
 
 # --- the motion file ---------------------------------------------------------------------------------
-def robot_reference(robot: Robot, motion_path: Path) -> str:
-    """How the motion file names its robot: by name if that finds this robot from the file's
-    folder, else by a path relative to it (absolute across Windows drives)."""
-    try:
-        if find_robot_file(robot.name, relative_to=motion_path).resolve() == robot.path.resolve():
-            return robot.name
-    except LookupError:
-        pass
-    try:
-        relative = os.path.relpath(robot.path.resolve(), motion_path.resolve().parent)
-    except ValueError:
-        return robot.path.resolve().as_posix()
-    return Path(relative).as_posix()
-
-
-def motion_yaml(robot_ref: str, robot: Robot, keyframes: Sequence[Capture], description: str) -> str:
-    lines = [f"description: {_scalar(description)}", f"robot: {_scalar(robot_ref)}", "keyframes:"]
-    for keyframe in keyframes:
-        pose = ", ".join(f"{_scalar(name)}: {_number(angle, ANGLE_DECIMALS)}"
-                         for name, angle in zip(robot.joint_names, keyframe.angles_deg))
-        lines.append(f"  - pose: {{{pose}}}")
-        if keyframe.after_s is not None:
-            lines.append(f"    after: {_number(keyframe.after_s, TIME_DECIMALS)}")
-    return "\n".join(lines) + "\n"
-
-
-def _scalar(text: str) -> str:
-    """Plain if YAML reads it back as this very string, else double-quoted (JSON is YAML)."""
-    try:
-        plain = yaml.safe_load(text) == text and text == text.strip() and "\n" not in text
-    except yaml.YAMLError:
-        plain = False
-    return text if plain else json.dumps(text)
-
-
-def _number(value: float, decimals: int) -> str:
-    text = f"{round(value, decimals) + 0.0:.{decimals}f}".rstrip("0").rstrip(".")
-    return "0" if text == "-0" else text
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """Replace ``path`` with ``text`` all at once: readers see the old file or the new one."""
-    path = Path(path)
-    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as file:
-            file.write(text)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
-    _fsync_directory(path.parent)
+def as_keyframes(captures: Sequence[Capture], motion_path: Path) -> list[Keyframe]:
+    """Captures as the motion file's keyframes (they have no source line yet: the file's top)."""
+    where = SourceLocation(motion_path, 1, 1)
+    return [Keyframe(c.angles_deg, where, after_s=c.after_s) for c in captures]

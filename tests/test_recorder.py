@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 
 from choreo.bus import ServoBus
 from choreo.cli import main
@@ -323,8 +324,8 @@ def test_a_robot_found_by_no_name_is_written_as_a_relative_path(tmp_path, monkey
 
     recording, _ = rig.record(out, typing())
     recording.save()
-    robot_line = next(line for line in out.read_text().splitlines() if line.startswith("robot:"))
-    assert robot_line.startswith("robot: ../") and robot_line.endswith("tests/data/models/tiny/robot.yaml")
+    robot_ref = yaml.safe_load(out.read_text())["robot"]
+    assert robot_ref.startswith("../") and robot_ref.endswith("tests/data/models/tiny/robot.yaml")
     assert main(["validate", str(out)]) == 0
     assert load_motion(out).keyframes[0].targets_deg == (0, 30, 0)
 
