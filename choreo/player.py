@@ -14,6 +14,7 @@ them as configured: holding (torque on), at an exit pose, or unloaded.
 from __future__ import annotations
 
 import enum
+import gc
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -242,6 +243,8 @@ class Player:
     def play(self, ticks: Sequence[Tick], start_pose_deg: Sequence[float]) -> PlayReport:
         """Play ``ticks`` from ``start_pose_deg`` (where the servos are now)."""
         stream = _Stream(self, list(ticks), start_pose_deg)
+        collecting = gc.isenabled()
+        gc.disable()  # a full collection can pause for tens of ms; streaming makes no cycles
         try:
             stream.run()
         except KeyboardInterrupt:
@@ -253,6 +256,9 @@ class Player:
         except BaseException:
             self.stop()
             raise
+        finally:
+            if collecting:
+                gc.enable()
         return stream.report()
 
     def stop(self) -> None:

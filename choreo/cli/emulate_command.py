@@ -12,6 +12,9 @@ from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
 
 
+EMULATE_LOG_LIMIT = 1000
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "emulate",
@@ -51,6 +54,9 @@ def run(args) -> int:
         turnaround_s=args.turnaround_ms / 1000,
         echo=args.echo,
         state_path=args.state,
+        # Nothing reads this process's wire log; a long one makes the garbage collector stall
+        # replies for tens of milliseconds as it fills.
+        log_limit=EMULATE_LOG_LIMIT,
     )
     with PtyBridge(emulator, args.pty) as bridge:
         previous = {
