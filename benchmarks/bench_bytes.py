@@ -90,6 +90,10 @@ def main() -> None:
         stream20 = (len(bounds) - 1) * len(robot.joints) * MOVE_BYTES
         period = longest_fixed_period(robot, trajectory, plan.max_deviation_deg)
         fixed_bytes = fixed_period(robot, trajectory, period)[2]
+        if ours == 0:  # a motion that holds one pose (tonypi/stand) sends nothing to compare
+            table.add_row(name, f"{trajectory.duration_s:.1f}", str(len(plan.ticks)), "0",
+                          *["-"] * 9)
+            continue
         worst_ratio = min(worst_ratio, stream20 / ours)
         table.add_row(name, f"{trajectory.duration_s:.1f}", str(len(plan.ticks)), str(ours),
                       f"{plan.max_deviation_deg:.2f}", str(stream20), f"{dev20:.2f}",

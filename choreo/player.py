@@ -26,7 +26,7 @@ from .bus import ServoBus
 from .clock import Clock
 from .emulator import BusEmulator
 from .emulator.trace import executed_units
-from .errors import BusError, BusTimeoutError, ChoreoError, PlaybackAborted
+from .errors import BusError, BusTimeoutError, ChoreoError, PlaybackAborted, ProtocolError
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .motion import Motion
 from .planner import Stretch, Trajectory, plan_approach, plan_motion
@@ -297,12 +297,14 @@ class Player:
         command, name = reading.value
         try:
             value = self.bus.request(command, joint.servo_id, retries=0, timeout_s=timeout_s)[name]
-        except BusTimeoutError:
+        except (BusTimeoutError, ProtocolError) as error:  # one bad read is noise; a run is not
             health.missed_reads += 1
             self._suspect = index
+            log.info("health read of %s missed: %s", joint.name, error)
             if health.missed_reads >= self.options.max_missed_reads:
                 raise PlaybackAborted(f"{joint.name} (ID {joint.servo_id}) stopped answering "
-                                      f"({health.missed_reads} reads in a row); check its cable") from None
+                                      f"({health.missed_reads} reads in a row timed out or came "
+                                      "back garbled); check its cable") from None
             return True
         health.missed_reads = 0
         health.reads += 1

@@ -6,7 +6,7 @@ import pytest
 
 from choreo.bus import ServoBus
 from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial
+from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
 from choreo.motion import load_motion
 from choreo.player import (
@@ -232,3 +232,19 @@ def test_dry_run_schedule_matches_what_is_sent():
     sent = [p.packet.encode() for p in rig.emulator.log.packets
             if p.packet.command in (Command.MOVE_START, Command.MOVE_TIME_WAIT_WRITE)]
     assert [p.packet for p in schedule] == sent
+
+
+def test_a_garbled_health_read_is_tolerated_but_a_run_of_them_aborts():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+
+    def noisy_wire(progress):
+        if progress.tick == 3:
+            rig.emulator.servo(2).reply_faults = ReplyFaults(corrupt_next=1)
+        if progress.tick == 20:
+            rig.emulator.servo(2).reply_faults = ReplyFaults(corrupt_probability=1.0)
+
+    report = rig.play(on_progress=noisy_wire)
+    assert report.outcome is Outcome.ABORTED
+    assert "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled)" \
+        in report.reason
+    assert report.ticks_played >= 20  # the single garbled reply at tick 3 did not stop it
