@@ -32,23 +32,24 @@ What the drivers cannot do (their bugs or limits, not the emulator's):
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import json
 import signal
 import subprocess
 import sys
 import threading
-import time
 from dataclasses import asdict
 
 import lewansoul_lx16a
 import pytest
 import serial
+from emulated import served_on_a_pty, wait_for
 from pylx16a.lx16a import LX16A, ServoTimeoutError
 
 from choreo.clock import RealClock
 from choreo.emulator import BusEmulator, Eeprom, ReplyFate, ServoSpec
 from choreo.emulator.bus import STATE_FORMAT, STATE_VERSION
-from choreo.emulator.pty import PtyBridge
 from choreo.protocol import BROADCAST_ID, BYTE_TIME_S, Command, decode_request
 
 WAIT_S = 10  # bound on every wait; a passing test waits a few hundred ms at most
@@ -62,14 +63,6 @@ CUSTOM_EEPROM = Eeprom(1, offset_units=-10, angle_min_units=100, angle_max_units
 CUSTOM_POSITION_UNITS = 300
 CUSTOM_VIN_MV = 7400
 CUSTOM_TEMP_C = 41
-
-
-def wait_for(condition, what: str) -> None:
-    deadline = time.monotonic() + WAIT_S
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {WAIT_S} s waiting for {what}")
-        time.sleep(0.002)
 
 
 def at(emulator: BusEmulator, targets: dict[int, int]) -> bool:
@@ -87,32 +80,27 @@ def sent(emulator: BusEmulator, command: Command) -> list:
 def host(tmp_path):
     """``host(servos, model=..., eeproms={id: Eeprom})`` -> (emulator, link): a bridge served by a
     thread of this process on a real clock; ``eeproms`` seeds servos through a state file."""
-    running = []
+    with contextlib.ExitStack() as running:
+        hosted = itertools.count()
 
-    def start(servos, *, model="LX-16A", eeproms=None):
-        specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
-        state_path = None
-        if eeproms:
-            state_path = tmp_path / f"state{len(running)}.json"
-            state_path.write_text(json.dumps({
-                "format": STATE_FORMAT,
-                "version": STATE_VERSION,
-                "servos": [{"factory_id": s.servo_id, "model": model,
-                            "eeprom": asdict(eeproms.get(s.servo_id, Eeprom(s.servo_id)))}
-                           for s in specs],
-            }))
-        emulator = BusEmulator(specs, model=model, clock=RealClock(), state_path=state_path)
-        bridge = PtyBridge(emulator, tmp_path / f"ttyEMU{len(running)}")
-        thread = threading.Thread(target=bridge.serve_forever, daemon=True)
-        thread.start()
-        running.append((bridge, thread))
-        return emulator, str(bridge.link_path)
+        def start(servos, *, model="LX-16A", eeproms=None):
+            number = next(hosted)
+            specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
+            state_path = None
+            if eeproms:
+                state_path = tmp_path / f"state{number}.json"
+                state_path.write_text(json.dumps({
+                    "format": STATE_FORMAT,
+                    "version": STATE_VERSION,
+                    "servos": [{"factory_id": s.servo_id, "model": model,
+                                "eeprom": asdict(eeproms.get(s.servo_id, Eeprom(s.servo_id)))}
+                               for s in specs],
+                }))
+            emulator = BusEmulator(specs, model=model, clock=RealClock(), state_path=state_path)
+            link = running.enter_context(served_on_a_pty(emulator, tmp_path / f"ttyEMU{number}"))
+            return emulator, str(link)
 
-    yield start
-    for bridge, thread in running:
-        bridge.stop()
-        thread.join(WAIT_S)
-        bridge.close()
+        yield start
 
 
 @pytest.fixture

@@ -6,43 +6,13 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
+from emulated import wait_for
 
 from choreo.cli import main
-from choreo.clock import RealClock
-from choreo.emulator import BusEmulator, ServoSpec
-from choreo.emulator.pty import PtyBridge
 from choreo.protocol import BROADCAST_ID, Command
-from choreo.robot import load_robot
-
-WAIT_S = 30
-
-
-def wait_for(condition, what: str):
-    deadline = time.monotonic() + WAIT_S
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.005)
-
-
-@pytest.fixture
-def arm_on_a_pty(tmp_path):
-    robot = load_robot("arm6")
-    specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-             for j, a in zip(robot.joints, robot.pose_vector("home"))]
-    emulator = BusEmulator(specs, clock=RealClock())
-    bridge = PtyBridge(emulator, tmp_path / "ttyARM")
-    thread = threading.Thread(target=bridge.serve_forever, daemon=True)
-    thread.start()
-    yield emulator, bridge.link_path
-    bridge.stop()
-    thread.join(5)
-    bridge.close()
-
 
 def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
     emulator, link = arm_on_a_pty
@@ -56,7 +26,7 @@ def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
         wait_for(lambda: len(starts()) >= 5, "the motion to be playing")
         pressed_s = time.monotonic()
         process.send_signal(signal.SIGINT)
-        _, stderr = process.communicate(timeout=WAIT_S)
+        _, stderr = process.communicate(timeout=30)
     finally:
         process.kill()
     assert process.returncode == 130, stderr

@@ -8,18 +8,16 @@ import json
 import signal
 import subprocess
 import sys
-import threading
-import time
 
 import numpy as np
 import pytest
 import yaml
+from emulated import WAIT_S, home_specs, wait_for
 
 from choreo.bus import ServoBus
 from choreo.cli import main
-from choreo.clock import RealClock, VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial
-from choreo.emulator.pty import PtyBridge
+from choreo.clock import VirtualClock
+from choreo.emulator import BusEmulator, SimSerial
 from choreo.errors import BusError, ChoreoError
 from choreo.motion import load_motion
 from choreo.protocol import Command
@@ -40,12 +38,6 @@ from choreo.recorder import (
 from choreo.robot import load_robot
 
 TINY = "tests/data/models/tiny/robot.yaml"
-WAIT_S = 30
-
-
-def home_specs(robot):
-    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-            for j, a in zip(robot.joints, robot.pose_vector("home"))]
 
 
 class Rig:
@@ -448,26 +440,6 @@ def test_cli_an_unknown_joint_is_a_usage_error_and_leaves_no_journal(tmp_path, c
 
 
 # --- a real process, killed --------------------------------------------------------------------
-def wait_for(condition, what: str):
-    deadline = time.monotonic() + WAIT_S
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.005)
-
-
-@pytest.fixture
-def arm_on_a_pty(tmp_path):
-    emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
-    bridge = PtyBridge(emulator, tmp_path / "ttyARM")
-    thread = threading.Thread(target=bridge.serve_forever, daemon=True)
-    thread.start()
-    yield emulator, bridge.link_path
-    bridge.stop()
-    thread.join(5)
-    bridge.close()
-
-
 def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path):
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"

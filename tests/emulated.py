@@ -1,0 +1,45 @@
+"""Helpers for tests that run the emulator: robots standing at home, a pty served by a thread."""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from pathlib import Path
+from typing import Iterator
+
+from choreo.emulator import BusEmulator, ServoSpec
+from choreo.emulator.pty import PtyBridge
+from choreo.robot import Robot
+
+WAIT_S = 30
+
+
+def home_specs(robot: Robot) -> list[ServoSpec]:
+    """The robot's servos, standing at its home pose."""
+    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+            for j, a in zip(robot.joints, robot.pose_vector("home"))]
+
+
+def wait_for(condition, what: str, timeout_s: float = WAIT_S) -> None:
+    """Poll ``condition`` until it holds; fail the test after ``timeout_s`` (never a fixed sleep)."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(0.002)
+
+
+@contextlib.contextmanager
+def served_on_a_pty(emulator: BusEmulator, link_path: Path) -> Iterator[Path]:
+    """``emulator`` on a pty linked at ``link_path``, bridged by a thread of this process (the
+    emulator should run on a RealClock); the link's path inside, everything closed after."""
+    bridge = PtyBridge(emulator, link_path)
+    thread = threading.Thread(target=bridge.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield bridge.link_path
+    finally:
+        bridge.stop()
+        thread.join(WAIT_S)
+        bridge.close()
