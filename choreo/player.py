@@ -26,7 +26,14 @@ from .bus import ServoBus
 from .clock import Clock
 from .emulator import BusEmulator
 from .emulator.trace import executed_units
-from .errors import BusError, BusTimeoutError, ChoreoError, PlaybackAborted, ProtocolError
+from .errors import (
+    BusError,
+    BusTimeoutError,
+    ChoreoError,
+    PlaybackAborted,
+    ProtocolError,
+    ServoFault,
+)
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .motion import Motion
 from .planner import Stretch, Trajectory, plan_approach, plan_motion
@@ -250,7 +257,7 @@ class Player:
         except KeyboardInterrupt:
             self.stop()
             stream.finish(Outcome.INTERRUPTED, "interrupted")
-        except PlaybackAborted as error:
+        except (PlaybackAborted, ServoFault) as error:
             self.stop()
             stream.finish(Outcome.ABORTED, str(error))
         except BaseException:
@@ -326,12 +333,12 @@ class Player:
         if reading is Reading.TEMPERATURE:
             health.record("temp_c", value)
             if value >= limits.max_temp_c - self.options.temp_margin_c:
-                raise PlaybackAborted(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
+                raise ServoFault(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
             if not limits.min_vin_mv <= value <= limits.max_vin_mv:
-                raise PlaybackAborted(f"{who} supply is {value} mV, outside "
-                                      f"{limits.min_vin_mv}..{limits.max_vin_mv} mV")
+                raise ServoFault(f"{who} supply is {value} mV, outside "
+                                 f"{limits.min_vin_mv}..{limits.max_vin_mv} mV")
         else:
             error_deg = abs(joint.to_deg(value) - joint.to_deg(expected_units))
             health.record("position_error_deg", error_deg)

@@ -248,3 +248,16 @@ def test_a_garbled_health_read_is_tolerated_but_a_run_of_them_aborts():
     assert "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled)" \
         in report.reason
     assert report.ticks_played >= 20  # the single garbled reply at tick 3 did not stop it
+
+
+def test_low_voltage_mid_play_aborts():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+
+    def brown_out(progress):
+        if progress.tick == 5:
+            rig.emulator.servo(3).vin_mv = 4200  # below the factory minimum of 4500 mV
+
+    report = rig.play(on_progress=brown_out)
+    assert report.outcome is Outcome.ABORTED
+    assert "elbow (ID 3) supply is 4200 mV, outside 4500..14000 mV" in report.reason
+    assert rig.packets(Command.MOVE_STOP)
