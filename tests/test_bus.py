@@ -97,7 +97,8 @@ def test_corrupted_replies_are_retried():
 def test_exhausted_retries_raise_a_timeout_naming_the_servo():
     bus, emulator = make_bus(retries=1)
     emulator.servo(3).reply_faults = ReplyFaults(drop_next=2)
-    with pytest.raises(BusTimeoutError, match=r"servo 3 answered POS_READ .*2 tries, 50 ms each.*choreo scan"):
+    with pytest.raises(BusTimeoutError, match=r"^servo 3 did not answer POS_READ on sim:// "
+                       r"\(2 tries, 50 ms each\): check power and wiring, or run `choreo scan`$"):
         bus.read_position(3)
     assert isinstance(BusTimeoutError("x"), TimeoutError)
     assert bus.read_position(3) == 500  # the bus is usable again
@@ -148,6 +149,19 @@ def test_discard_mode_without_echo_says_what_to_try():
     bus, _ = make_bus(echo=False, mode=EchoMode.DISCARD, retries=0)
     with pytest.raises(ProtocolError, match="expected the echo of the request.*echo mode"):
         bus.read_position(1)
+
+
+def test_silent_broadcast_says_no_servo_answered():
+    bus, _ = make_bus(ids=(), retries=0)
+    with pytest.raises(BusTimeoutError, match=r"^no servo answered ID_READ on sim:// \(1 try of 50 ms\): check power"):
+        bus.read_id()
+
+
+def test_colliding_broadcast_replies_say_several_servos_answered():
+    bus, _ = make_bus(ids=(1, 2), retries=0)
+    with pytest.raises(ProtocolError, match=r"^1 replies to a broadcast ID_READ failed the checksum "
+                       r"in 1 tries: several servos answered at once"):
+        bus.read_id()
 
 
 def test_broadcast_rules():
