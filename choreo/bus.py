@@ -218,7 +218,8 @@ class ServoBus:
                     f"{self.name}: expected the echo of the request, got {echo.hex(' ') or 'nothing'}:"
                     " is the bus really wired one-wire? try echo mode 'none' or 'auto'"
                 )
-        wanted = SPECS[command].reply_len + 3
+        reply_len = SPECS[command].reply_len + 3
+        wanted = reply_len
         for _ in range(MAX_READS_PER_ATTEMPT):
             data = port.read(wanted)
             for reply in self._decoder.feed(data):
@@ -226,6 +227,9 @@ class ServoBus:
                     return decode_reply(command, reply)
             if len(data) < wanted:
                 return None  # the read timed out
+            # Ask only for the rest of the frame begun: an echo (or a stray packet) took part of
+            # this read, and asking for a whole reply again would wait out the timeout.
+            wanted = self._decoder.bytes_to_complete(reply_len)
         return None
 
     def _is_reply(self, reply, request: bytes, command: Command, servo_id: int) -> bool:

@@ -262,10 +262,15 @@ class PacketDecoder:
     def reset(self) -> None:
         self._buffer.clear()
 
-    @property
-    def pending(self) -> int:
-        """Bytes held back waiting for the rest of a packet."""
-        return len(self._buffer)
+    def bytes_to_complete(self, expected_len: int) -> int:
+        """How many more bytes finish the frame begun in the buffer: counted from its LEN byte
+        once that has arrived, else assuming a frame of ``expected_len`` bytes (the reply the
+        caller waits for). So a reader can ask for exactly what is missing and not block for
+        bytes that never come."""
+        buf = self._buffer  # after feed(): empty, a lone 0x55, or the start of a frame
+        if len(buf) >= 4:
+            return buf[3] + 3 - len(buf)  # LEN was checked when the frame was parsed
+        return expected_len - len(buf)
 
     def _next_packet(self) -> Packet | None:
         buf = self._buffer

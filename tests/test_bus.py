@@ -12,6 +12,9 @@ from choreo.errors import BusTimeoutError, PortError, ProtocolError
 from choreo.protocol import BROADCAST_ID, Command, ErrorMask
 
 
+BYTE_TIME_S = 10 / 115200  # start + 8 data + stop bits at 115200 baud
+
+
 def make_bus(ids=(1, 2, 3), *, echo=False, mode=EchoMode.AUTO, model="LX-224HV", **kwargs):
     emulator = BusEmulator(ids, model=model, clock=VirtualClock(), echo=echo)
     return ServoBus(SimSerial.from_emulator(emulator), echo=mode, **kwargs), emulator
@@ -143,6 +146,17 @@ def test_echo_is_never_taken_for_a_reply():
     emulator.servo(1).connected = False
     with pytest.raises(BusTimeoutError):
         bus.read_id(1)
+
+
+def test_an_echoing_adapter_costs_wire_time_not_a_timeout_in_auto_mode():
+    # The echo fills part of the first read; the rest of the reply must be asked for exactly, or
+    # the read waits its whole timeout for bytes that never come.
+    bus, emulator = make_bus(echo=True, mode=EchoMode.AUTO, retries=0, timeout_s=0.05)
+    for read, reply_len in ((bus.read_position, 8), (bus.read_id, 7), (bus.read_distance, 10)):
+        before = emulator.clock.now()
+        read(1)
+        wire_s = (6 + reply_len) * BYTE_TIME_S + emulator.turnaround_s
+        assert emulator.clock.now() - before == pytest.approx(wire_s, abs=BYTE_TIME_S / 2)
 
 
 def test_discard_mode_without_echo_says_what_to_try():

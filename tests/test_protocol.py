@@ -157,6 +157,20 @@ def test_packet_split_across_feeds():
     assert decoder.feed(good[-1:]) == [Packet(1, C.DIS_READ, bytes.fromhex("31 24 01 00"))]
 
 
+def test_bytes_to_complete_counts_from_the_length_byte_once_it_has_arrived():
+    reply = bytes.fromhex("55 55 01 07 30 31 24 01 00 71")  # 10 bytes, LEN 7
+    decoder = PacketDecoder()
+    assert decoder.bytes_to_complete(8) == 8  # nothing begun: the caller's expected length
+    decoder.feed(reply[:1])
+    assert decoder.bytes_to_complete(8) == 7  # a lone 0x55 may start a header
+    decoder.feed(reply[1:3])
+    assert decoder.bytes_to_complete(8) == 5  # header and ID, no LEN yet: still the expected length
+    decoder.feed(reply[3:6])
+    assert decoder.bytes_to_complete(8) == 4  # LEN 7 says the frame is 10 bytes long
+    assert decoder.feed(reply[6:]) == [Packet(1, C.DIS_READ, bytes.fromhex("31 24 01 00"))]
+    assert decoder.feed(b"\x13\x37") == [] and decoder.bytes_to_complete(8) == 8  # garbage dropped
+
+
 @settings(max_examples=300)
 @given(st.binary(max_size=300))
 def test_never_raises_and_never_yields_a_bad_checksum(data):
