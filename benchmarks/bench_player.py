@@ -24,9 +24,10 @@ import numpy as np
 from choreo.bus import ServoBus
 from choreo.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
-from choreo.emulator.trace import executed_units
+from choreo.emulator.trace import path_errors_deg
 from choreo.motion import load_motion
-from choreo.player import Player, compile_motion, packet_schedule, path_errors_deg, preflight, prepare
+from choreo.player import Player, packet_schedule, preflight, prepare
+from choreo.segments import compile_motion
 from choreo.robot import Robot
 
 MOTIONS = ["motions/arm6/wave.yaml", "motions/arm6/dance.yaml", "motions/hexapod18/tripod_gait.yaml"]
@@ -99,14 +100,6 @@ def start_skew_ms(emulator: BusEmulator, group_gap_s: float = 0.005) -> float:
     return skew * 1000
 
 
-def path_error(emulator, robot, planned_deg, times_s, t0_s, start_units) -> float:
-    worst = 0.0
-    for j, joint in enumerate(robot.joints):
-        went = executed_units(emulator.log.moves, joint.servo_id, start_units[j], t0_s + times_s)
-        worst = max(worst, float(np.max(np.abs(joint.to_deg(went) - planned_deg[:, j]))))
-    return worst
-
-
 def written_bytes(emulator: BusEmulator, since_s: float) -> int:
     return sum(len(p.packet.encode()) for p in emulator.log.packets if p.time_s >= since_s)
 
@@ -124,7 +117,9 @@ def play_choreo(motion) -> Way:
     player = Player(bus, motion.robot, clock, limits)
     report = player.play(performance.ticks, start)
     starts = [j.to_units(a) for j, a in zip(motion.robot.joints, start)]
-    errors = path_errors_deg(performance, motion.robot, emulator, report, starts)
+    times = np.arange(0.0, report.planned_s, 0.002)
+    errors = path_errors_deg(emulator.log.moves, motion.robot, starts, report.start_time_s, times,
+                             performance.planned_deg(times))
     motion_bytes = sum(len(p.packet) for p in packet_schedule(performance.ticks, motion.robot))
     return Way("choreo: staged + one START per tick", start_skew_ms(emulator), max(errors),
                motion_bytes, report.bytes_sent - motion_bytes)
@@ -172,7 +167,8 @@ def play_streaming(motion) -> Way:
 def _measure(name, emulator, robot, trajectory, t0) -> Way:
     times = np.arange(0.0, trajectory.duration_s, 0.002)
     start_units = [j.to_units(a) for j, a in zip(robot.joints, trajectory.at(0.0)[0])]
-    error = path_error(emulator, robot, trajectory.positions(times), times, t0, start_units)
+    error = max(path_errors_deg(emulator.log.moves, robot, start_units, t0, times,
+                                trajectory.positions(times)))
     return Way(name, start_skew_ms(emulator), error, written_bytes(emulator, t0))
 
 

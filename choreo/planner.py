@@ -572,18 +572,6 @@ def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3)
                       trajectory.knots_s, trajectory.poly)
 
 
-def check_motion(motion: Motion, *, speed: float | None = None) -> list[str]:
-    """Problems that keep the motion from being planned (each ``path:line:col: ...``); [] if none.
-
-    For the validator: the same rules as ``plan_motion`` without stretching.
-    """
-    try:
-        plan_motion(motion, speed=speed)
-    except PlanningError as error:
-        return str(error).splitlines()
-    return []
-
-
 def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
     angles = np.asarray(angles_deg, dtype=float)
     if angles.shape != (len(robot.joints),):

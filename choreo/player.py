@@ -7,8 +7,9 @@ before the next START goes to health reads (position, VIN, temperature, rotating
 servos), each with a timeout that ends before that START. If the host falls a whole tick behind,
 the servos are re-targeted to where the plan is now instead of replaying stale ticks.
 
-Every exit path stops the servos (broadcast MOVE_STOP) unless the motion completed, then leaves
-them as configured: holding (torque on), at an exit pose, or unloaded.
+Preflight refuses servos that MOVE_STOP could not stop (motor mode). Every exit path other than
+completion stops the servos (broadcast MOVE_STOP); then they are left as configured: holding
+(torque on), moved slowly to an exit pose, or unloaded.
 """
 
 from __future__ import annotations
@@ -24,8 +25,6 @@ import numpy as np
 
 from .bus import ServoBus
 from .clock import Clock
-from .emulator import BusEmulator
-from .emulator.trace import executed_units
 from .errors import (
     BusError,
     BusTimeoutError,
@@ -35,15 +34,13 @@ from .errors import (
     ServoFault,
 )
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
-from .motion import Motion
-from .planner import Stretch, Trajectory, plan_approach, plan_motion
+from .planner import Trajectory, plan_approach
 from .robot import Joint, Robot
-from .segments import Tick, TickPlan, segment
+from .segments import MOVE_BYTES, START_BYTES, CompiledMotion, Tick, TickPlan, segment
 
 log = logging.getLogger(__name__)
 
-START_BYTES = SPECS[Command.MOVE_START].request_len + 3
-STAGE_BYTES = SPECS[Command.MOVE_TIME_WAIT_WRITE].request_len + 3
+APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].reply_len + 3
 
 
@@ -71,6 +68,7 @@ class Reading(enum.Enum):
 class PlayOptions:
     exit_mode: ExitMode = ExitMode.HOLD
     exit_pose: str = "home"
+    tolerance_deg: float = 0.5  # for the ticks of the move to the exit pose
     lead_s: float = 0.01  # spare time between staging the first tick and its START
     health_timeout_s: float = 0.02  # per health read; reads happen only when they fit
     start_guard_s: float = 0.002  # bus time kept free before every START
@@ -175,7 +173,11 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
     vin, vin_limits = bus.read_vin(sid), bus.read_vin_limits(sid)
     temp, temp_limit = bus.read_temperature(sid), bus.read_temp_limit(sid)
     angle_limits = bus.read_angle_limits(sid)
+    mode = bus.read_mode(sid)
     problems = []
+    if mode.motor:
+        problems.append(f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
+                        f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`")
     if not vin_limits.min_mv <= vin <= vin_limits.max_mv:
         problems.append(f"{who}: supply {vin} mV is outside the servo's limits "
                         f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply")
@@ -280,18 +282,20 @@ class Player:
         except (BusError, OSError) as error:  # the port itself may be gone
             log.error("could not send MOVE_STOP: %s", error)
 
-    def leave(self, outcome: Outcome) -> None:
+    def leave(self, outcome: Outcome) -> PlayReport | None:
         """Leave the servos as configured: holding (nothing to do), at the exit pose, unloaded.
+        Returns the report of the move to the exit pose, if one was made.
 
         After an abort the robot is not moved again: a lost or hot servo must not be driven.
         """
-        mode = self.options.exit_mode
+        mode, exit_move = self.options.exit_mode, None
         if mode is ExitMode.POSE and outcome is not Outcome.ABORTED:
-            go_to_pose(self, self.options.exit_pose)
+            exit_move = go_to_pose(self, self.options.exit_pose)
         elif mode is ExitMode.UNLOAD:
             for joint in self.robot.joints:
                 self.bus.unload(joint.servo_id)
         self.bus.drain()  # the port may close next: let the last commands out first
+        return exit_move
 
     # --- health --------------------------------------------------------------------------------
     def read_health(self, budget_s: float, expected_units: np.ndarray) -> bool:
@@ -311,7 +315,8 @@ class Player:
             if health.missed_reads >= self.options.max_missed_reads:
                 raise PlaybackAborted(f"{joint.name} (ID {joint.servo_id}) stopped answering "
                                       f"({health.missed_reads} reads in a row timed out or came "
-                                      "back garbled); check its cable") from None
+                                      "back garbled); check its cable, or allow a slow USB "
+                                      "adapter more time with --health-timeout-ms") from None
             return True
         health.missed_reads = 0
         health.reads += 1
@@ -364,7 +369,7 @@ class _Stream:
         self.outcome, self.reason = Outcome.COMPLETED, ""
         # Start once whatever was sent before has left and every servo of tick 0 is staged.
         player.bus.drain()
-        first_staging_s = len(joints) * STAGE_BYTES * BYTE_TIME_S
+        first_staging_s = len(joints) * MOVE_BYTES * BYTE_TIME_S
         self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
         self.end_s = self.t0
 
@@ -398,7 +403,7 @@ class _Stream:
         now = clock.now()
         if k + 1 >= len(ticks) or now < self.deadline(k + 1):
             return k
-        restage_s = len(self.player.robot.joints) * STAGE_BYTES * BYTE_TIME_S
+        restage_s = len(self.player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
         ready_ms = math.ceil((now + restage_s + self.player.options.start_guard_s - self.t0) * 1000)
         j = k + 1
         while j + 1 < len(ticks) and ready_ms >= ticks[j + 1].start_ms:
@@ -407,7 +412,8 @@ class _Stream:
                     (now - self.deadline(k)) * 1000, k, j)
         self.retargeted += 1
         start_ms = min(ready_ms, ticks[j].end_ms - 1)
-        ticks[j] = replace(ticks[j], start_ms=start_ms, duration_ms=ticks[j].end_ms - start_ms)
+        ticks[j] = replace(ticks[j], start_ms=start_ms, duration_ms=ticks[j].end_ms - start_ms,
+                           staged=(True,) * len(ticks[j].staged))  # re-staged: needs its START
         self.stage(ticks[j], all_servos=True)
         return j
 
@@ -432,7 +438,7 @@ class _Stream:
         bus = self.player.bus
         for joint, pos, time_ms in staged_moves(tick, self.player.robot, all_servos=all_servos):
             bus.stage_move(joint.servo_id, pos, time_ms)
-            self.sent(STAGE_BYTES)
+            self.sent(MOVE_BYTES)
 
     def use_spare_time(self, k: int) -> None:
         """Health reads until the next START's guard time (never delaying it)."""
@@ -503,28 +509,8 @@ class Performance:
         return out
 
 
-@dataclass(frozen=True)
-class CompiledMotion:
-    """A motion planned and compiled into ticks: everything that doesn't depend on the robot's
-    current pose, so it can be checked before any port is opened."""
-
-    robot: Robot
-    trajectory: Trajectory
-    ticks: TickPlan
-    tolerance_deg: float
-    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
-
-
-def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False,
-                   tolerance_deg: float = 0.5) -> CompiledMotion:
-    plan = plan_motion(motion, speed=speed, stretch=stretch)
-    return CompiledMotion(motion.robot, plan.trajectory,
-                          segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
-                          tolerance_deg, plan.stretches)
-
-
 def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float], *,
-            approach_limit_scale: float = 0.3) -> Performance:
+            approach_limit_scale: float = APPROACH_LIMIT_SCALE) -> Performance:
     """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose."""
     robot = compiled.robot
     first_pose = compiled.trajectory.at(0.0)[0]
@@ -534,21 +520,11 @@ def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float], *,
 
 
 def go_to_pose(player: Player, pose: str) -> PlayReport:
-    """Move slowly from wherever the servos are to a named pose of the robot (the exit pose)."""
-    robot = player.robot
+    """Move slowly from wherever the servos are to a named pose of the robot (the exit pose),
+    with health records of its own."""
+    robot, options = player.robot, player.options
     start = [j.to_deg(player.bus.read_position(j.servo_id)) for j in robot.joints]
-    trajectory = plan_approach(robot, start, robot.pose_vector(pose), 0.3)
-    return player.play(segment(trajectory, robot).ticks, start)
+    trajectory = plan_approach(robot, start, robot.pose_vector(pose), APPROACH_LIMIT_SCALE)
+    mover = Player(player.bus, robot, player.clock, player.limits, options)
+    return mover.play(segment(trajectory, robot, tolerance_deg=options.tolerance_deg).ticks, start)
 
-
-def path_errors_deg(performance: Performance, robot: Robot, emulator: BusEmulator,
-                    report: PlayReport, start_units: Sequence[float],
-                    step_s: float = 0.002) -> tuple[float, ...]:
-    """Per joint, the largest distance between where the emulated servo went and the smooth plan."""
-    times = np.arange(0.0, report.planned_s, step_s)
-    planned = performance.planned_deg(times)
-    errors = []
-    for j, (joint, start) in enumerate(zip(robot.joints, start_units)):
-        went = executed_units(emulator.log.moves, joint.servo_id, start, report.start_time_s + times)
-        errors.append(float(np.max(np.abs(joint.to_deg(went) - planned[:, j]), initial=0.0)))
-    return tuple(errors)

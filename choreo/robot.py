@@ -61,7 +61,6 @@ class MirrorPair:
 @dataclass(frozen=True)
 class BusSettings:
     port: str | None = None  # None: the built-in emulated bus
-    baudrate: int = 115200
     timeout_s: float = 0.05
     retries: int = 2
     echo: str = "auto"  # none | discard | auto
@@ -167,7 +166,7 @@ REQUIRED_JOINT_KEYS = {
     "min": "the lower joint limit in degrees",
     "max": "the upper joint limit in degrees",
 }
-BUS_KEYS = ("port", "baudrate", "timeout_ms", "retries", "echo")
+BUS_KEYS = ("port", "timeout_ms", "retries", "echo")  # the baud rate is always 115200
 ECHO_MODES = ("none", "discard", "auto")
 MIRROR_KEYS = ("left", "right", "sign")
 RATE_KEYS = ("velocity", "acceleration", "jerk")
@@ -241,7 +240,6 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
     fields = reader.fields(entry.value, "bus", BUS_KEYS) or {}
     read = {
         "port": lambda node: reader.string(node, "bus: port", optional=True),
-        "baudrate": lambda node: reader.integer(node, "bus: baudrate", low=1),
         "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
         "retries": lambda node: reader.integer(node, "bus: retries", low=0),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),

@@ -28,8 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import PlanningError
-from .planner import Trajectory
-from .protocol import SPECS, Command
+from .motion import Motion
+from .planner import Stretch, Trajectory, plan_motion
+from .protocol import BYTE_TIME_S, SPECS, Command
 from .robot import Robot
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
 
@@ -38,7 +39,6 @@ log = logging.getLogger(__name__)
 _STAGE = SPECS[Command.MOVE_TIME_WAIT_WRITE]
 MOVE_BYTES = _STAGE.request_len + 3  # a whole staged-move packet: 10 bytes
 START_BYTES = SPECS[Command.MOVE_START].request_len + 3  # broadcast MOVE_START: 6 bytes
-BITS_PER_BYTE = 10  # start + 8 data + stop
 POSITION_RANGE_UNITS = next((f.lo, f.hi) for f in _STAGE.request if f.name == "pos_units")
 MAX_TICK_MS = next(f.hi for f in _STAGE.request if f.name == "time_ms")
 DEFAULT_BUS_MARGIN_MS = 1.5  # slack per tick beyond the wire time (host jitter, START gap)
@@ -84,8 +84,8 @@ def staging_bytes(n_staged: int) -> int:
     return n_staged * MOVE_BYTES + START_BYTES if n_staged else 0
 
 
-def wire_time_ms(n_bytes: int, baudrate: int) -> float:
-    return n_bytes * BITS_PER_BYTE / baudrate * 1000
+def wire_time_ms(n_bytes: int) -> float:
+    return n_bytes * BYTE_TIME_S * 1000
 
 
 def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
@@ -109,7 +109,7 @@ def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
     if end_ms == 0:
         return TickPlan((), tolerance_deg, 0.0, 0, 0.0)
     servo = _ServoMap(robot)
-    floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints)), robot.bus.baudrate)
+    floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints)))
                          + bus_margin_ms)
     search = _Search(trajectory, tolerance_deg, end_ms)
     servo.check_range(search.samples_deg.T, search.step_ms)
@@ -126,7 +126,7 @@ def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
     deviation = search.max_deviation(bounds, servo.to_deg(targets))
     n_staged = staged.sum(axis=1)
     sent = np.where(n_staged > 0, n_staged * MOVE_BYTES + START_BYTES, 0)
-    use = wire_time_ms(sent[1:], robot.bus.baudrate) / np.diff(bounds_ms)[:-1]
+    use = wire_time_ms(sent[1:]) / np.diff(bounds_ms)[:-1]
     plan = TickPlan(ticks, tolerance_deg, deviation, int(sent.sum()),
                     float(use.max()) if use.size else 0.0)
     log.debug("%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)", len(ticks),
@@ -286,6 +286,31 @@ def _check_forced(robot: Robot, search: _Search, bounds: np.ndarray, forced: lis
     name = robot.joints[worst_joint].name
     raise PlanningError(
         f"tolerance {search.tolerance_deg:g}° cannot be met at the bus rate: a tick must last at "
-        f"least {floor_ms} ms to stage {len(robot.joints)} servos at {robot.bus.baudrate} baud, "
+        f"least {floor_ms} ms to stage {len(robot.joints)} servos at 115200 baud, "
         f"and then {name} strays {worst:.3f}° at {worst_ms / 1000:.3f} s; use a tolerance of "
         f"at least {math.ceil(worst * 100) / 100:g}° or lower {name}'s acceleration limit")
+
+
+# --- a whole motion: plan, then compile ---------------------------------------------------------
+@dataclass(frozen=True)
+class CompiledMotion:
+    """A motion planned and compiled into ticks: everything play, preview and validate need that
+    doesn't depend on where the robot is now."""
+
+    robot: Robot
+    trajectory: Trajectory
+    ticks: TickPlan
+    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
+
+    @property
+    def tolerance_deg(self) -> float:
+        return self.ticks.tolerance_deg
+
+
+def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False,
+                   tolerance_deg: float = 0.5) -> CompiledMotion:
+    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
+    plan = plan_motion(motion, speed=speed, stretch=stretch)
+    return CompiledMotion(motion.robot, plan.trajectory,
+                          segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
+                          plan.stretches)

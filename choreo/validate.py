@@ -14,8 +14,8 @@ from pathlib import Path
 
 from .errors import PlanningError, SourceError
 from .motion import Motion, load_motion
-from .player import compile_motion
 from .robot import ROBOT_FILE, load_robot
+from .segments import compile_motion
 
 
 @dataclass(frozen=True)
@@ -41,9 +41,10 @@ def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> Fi
             return FileCheck(path)
         motion = load_motion(path)
         compiled = compile_motion(motion, stretch=stretch)
-    except (SourceError, PlanningError) as error:
-        problems = error.problems if isinstance(error, SourceError) else [str(error)]
-        return FileCheck(path, list(problems))
+    except SourceError as error:
+        return FileCheck(path, list(error.problems))
+    except PlanningError as error:  # one line per problem, each path:line:col
+        return FileCheck(path, str(error).splitlines())
     stretched = [f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
                  for s in compiled.stretches]
     if not physics:

@@ -64,3 +64,20 @@ def test_an_infeasible_motion_is_refused_before_any_port_is_opened(capsys):
     assert main(["play", "motions/arm6/wave.yaml", "--speed", "4", "--port", "/dev/does-not-exist"]) == 1
     err = capsys.readouterr().err
     assert "keyframe cannot be reached at 0.250 s (at speed 4)" in err and "cannot open" not in err
+
+
+def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
+    import argparse
+    import dataclasses
+
+    from choreo.cli.arguments import bus_settings
+    from choreo.robot import BusSettings, load_robot
+
+    robot = dataclasses.replace(load_robot("arm6"), bus=BusSettings(
+        port="/dev/ttyUSB7", timeout_s=0.1, retries=4, echo="none"))
+    nothing = argparse.Namespace(port=None, timeout_ms=None, retries=None, echo=None)
+    assert bus_settings(nothing, robot) == robot.bus
+    assert bus_settings(nothing) == BusSettings()  # no robot: the defaults, the built-in bus
+    given = argparse.Namespace(port="sim://?ids=1-6", timeout_ms=80.0, retries=None, echo="auto")
+    assert bus_settings(given, robot) == BusSettings(port="sim://?ids=1-6", timeout_s=0.08,
+                                                     retries=4, echo="auto")

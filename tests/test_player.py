@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from choreo.bus import ServoBus
+from choreo.cli.play_command import measured_path_errors
 from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
@@ -14,14 +15,12 @@ from choreo.player import (
     Outcome,
     Player,
     PlayOptions,
-    compile_motion,
     packet_schedule,
-    path_errors_deg,
     preflight,
     prepare,
 )
 from choreo.protocol import BROADCAST_ID, Command, decode_request
-from choreo.segments import QUANTIZATION_DEG
+from choreo.segments import QUANTIZATION_DEG, Tick, compile_motion
 
 MOTIONS = "motions"
 
@@ -58,8 +57,7 @@ def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     report = rig.play()
     assert report.outcome is Outcome.COMPLETED
     assert report.retargeted == 0 and max(report.lateness_ms) == 0.0  # virtual time is exact
-    start_units = [j.to_units(a) for j, a in zip(rig.robot.joints, rig.start)]
-    errors = path_errors_deg(rig.performance, rig.robot, rig.emulator, report, start_units)
+    errors = measured_path_errors(rig.emulator, rig.robot, rig.performance, report, rig.start)
     assert max(errors) <= 0.5 + QUANTIZATION_DEG + 1e-6
     # and the servos end where the motion ends
     final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
@@ -261,3 +259,38 @@ def test_low_voltage_mid_play_aborts():
     assert report.outcome is Outcome.ABORTED
     assert "elbow (ID 3) supply is 4200 mV, outside 4500..14000 mV" in report.reason
     assert rig.packets(Command.MOVE_STOP)
+
+
+def test_a_servo_in_motor_mode_is_refused_before_anything_moves():
+    # MOVE_STOP cannot stop a servo in motor mode, so play must not start with one.
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.bus.set_motor_mode(5, 300)
+    with pytest.raises(ChoreoError, match=r"wrist_roll \(ID 5\): is in motor mode \(turning at "
+                                          r"duty 300\).*choreo servo motor --id 5 --stop"):
+        rig.play()
+    assert not [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]
+
+
+def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    start, limits = preflight(rig.bus, rig.robot)
+    here = tuple(round(j.to_units(a)) for j, a in zip(rig.robot.joints, start))
+    there = (here[0] + 40,) + here[1:]  # base_yaw 9.6° further, then 19.2°
+    further = (here[0] + 80,) + here[1:]
+    all_, none = (True,) * 6, (False,) * 6
+    ticks = [Tick(0, 100, there, all_),
+             Tick(100, 100, further, all_),
+             Tick(200, 400, further, none),  # stay: nothing to stage, no START needed
+             Tick(600, 100, here, all_)]  # then back
+
+    def freeze(progress):
+        if progress.tick == 1:
+            rig.clock.advance(0.25)  # the host wakes up inside the tick that changes nothing
+
+    report = Player(rig.bus, rig.robot, rig.clock, limits, on_progress=freeze).play(ticks, start)
+    assert report.outcome is Outcome.COMPLETED and report.retargeted == 1
+    starts = rig.packets(Command.MOVE_START)
+    assert len(starts) == 3  # tick 0, the re-targeted tick 2 (it was re-staged), tick 3
+    reached = [m.to_units for m in rig.emulator.log.moves if m.servo_id == 1]
+    assert further[0] in reached  # the re-targeted tick really moved the servo
+    assert rig.emulator.servo(1).position_units == pytest.approx(here[0])

@@ -24,7 +24,6 @@ from choreo.preview import (
     Severity,
     SimSettings,
     actuator_params,
-    check_motion_physics,
     joint_summaries,
     preview_report,
     run_checks,
@@ -319,7 +318,7 @@ def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
 
 
 def test_the_same_swing_slowly_does_not_stall():
-    assert check_motion_physics(load_motion(MOTIONS / "slow_swing.yaml")) == []
+    assert run_checks(simulate_motion(load_motion(MOTIONS / "slow_swing.yaml"))) == []
 
 
 def test_a_weaker_servo_given_as_an_override_stalls_where_the_default_does_not(arm3):
@@ -382,14 +381,7 @@ def test_episodes_merge_short_gaps():
 
 @pytest.mark.parametrize("path", SHIPPED_MOTIONS, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_the_shipped_motions_pass(path):
-    assert check_motion_physics(load_motion(path)) == []
-
-
-def test_check_motion_physics_gives_one_line_per_problem():
-    lines = check_motion_physics(load_motion(MOTIONS / "collide.yaml"))
-    assert len(lines) == 1
-    assert lines[0].startswith(f"{MOTIONS / 'collide.yaml'}: error: self-collision: base hits "
-                               f"forearm at t=")
+    assert run_checks(simulate_motion(load_motion(path))) == []
 
 
 # --- the report --------------------------------------------------------------------------------

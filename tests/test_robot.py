@@ -52,7 +52,7 @@ def test_tiny_robot_is_read_with_defaults_and_overrides():
     assert dict(robot.poses["home"]) == {"yaw": 0, "left": 0, "right": 0}
     assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == \
         [("left", "right", -1), ("yaw", "yaw", -1)]
-    assert (robot.bus.port, robot.bus.baudrate, robot.bus.timeout_s) == (None, 115200, 0.05)
+    assert (robot.bus.port, robot.bus.timeout_s) == (None, 0.05)
     assert robot.mjcf_path.name == "tiny.xml" and robot.scene_path.name == "scene.xml"
     assert robot.free_floating is False
 
@@ -206,7 +206,7 @@ def test_name_must_equal_the_folder():
 def test_every_problem_of_a_file_is_reported_at_once():
     path = BAD / "several_problems" / "robot.yaml"
     assert problems_of(path) == [
-        f"{path}:6:13: bus: baudrate must be a whole number >= 1, got 'fast'",
+        f"{path}:6:12: bus: retries must be a whole number >= 0, got 'fast'",
         f"{path}:7:9: bus: echo 'discrad' is not one of none, discard, auto "
         f"(did you mean 'discard'?)",
         f"{path}:10:3: unknown key 'colour' in defaults; valid keys: servo, zero, direction, "

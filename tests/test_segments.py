@@ -74,8 +74,8 @@ def check_plan(robot, trajectory, plan, tolerance_deg, margin_ms=1.5):
 def test_packet_sizes_and_wire_times_match_the_protocol_reference():
     assert (MOVE_BYTES, START_BYTES) == (10, 6)
     assert staging_bytes(6) == 66 and staging_bytes(0) == 0
-    assert wire_time_ms(staging_bytes(6), BAUD) == pytest.approx(5.7, abs=0.05)
-    assert wire_time_ms(staging_bytes(18), BAUD) == pytest.approx(16.1, abs=0.1)
+    assert wire_time_ms(staging_bytes(6)) == pytest.approx(5.7, abs=0.05)
+    assert wire_time_ms(staging_bytes(18)) == pytest.approx(16.1, abs=0.1)
     assert MAX_TICK_MS == 30000
 
 
@@ -195,7 +195,7 @@ def test_greedy_is_within_one_tick_of_the_fewest(tolerance_deg):
                                  kf([0] * 6, 4, t=1.5)])
     trajectory = plan_motion(motion).trajectory
     plan = segment(trajectory, robot, tolerance_deg=tolerance_deg)
-    floor_ms = math.ceil(wire_time_ms(staging_bytes(6), BAUD) + 1.5)
+    floor_ms = math.ceil(wire_time_ms(staging_bytes(6)) + 1.5)
     # ticks on the 2 ms lattice: within one of the fewest there, and of the fewest on whole
     # milliseconds within 5 % (plus that one)
     assert len(plan.ticks) <= fewest_ticks(trajectory, tolerance_deg, floor_ms, step_ms=2) + 1

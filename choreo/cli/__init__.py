@@ -44,6 +44,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ChoreoError as error:
         print(f"choreo: error: {error}", file=sys.stderr)
         return 1
+    except OSError as error:  # a file that can't be written, a port that went away
+        print(f"choreo: error: {error}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("choreo: interrupted", file=sys.stderr)
         return 130

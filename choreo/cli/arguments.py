@@ -3,22 +3,37 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ..bus import ServoBus
 from ..clock import RealClock
-from ..emulator import BusEmulator, ServoSpec
+from ..emulator import BusEmulator, ServoSpec, SimSerial
 from ..protocol import MAX_SERVO_ID, parse_ids
-from ..robot import Robot
+from ..robot import BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 
 
-def positive_float(text: str) -> float:
+def finite_float(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        value = 0.0
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    value = finite_float(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = finite_float(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
     return value
@@ -60,23 +75,56 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_port_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", help="serial port or pyserial URL (default: the built-in "
-                        f"emulated bus, {BUILT_IN_PORT}); e.g. /dev/ttyUSB0, COM3, sim://?ids=1-18")
-    parser.add_argument("--timeout-ms", type=positive_float, default=50.0,
-                        help="per-read timeout (default 50 ms; USB adapters add latency)")
-    parser.add_argument("--retries", type=int, default=2, choices=range(0, 10), metavar="N",
-                        help="retries per read, 0-9 (default 2)")
-    parser.add_argument("--echo", choices=("none", "discard", "auto"), default="auto",
-                        help="does the adapter echo the host's bytes (one-wire wiring)? default auto")
+    """--port, --timeout-ms, --retries, --echo; unset ones come from the robot file's ``bus:``
+    section where a robot is involved, else from the defaults."""
+    defaults = BusSettings()
+    parser.add_argument("--port", help="serial port or pyserial URL, e.g. /dev/ttyUSB0, COM3, "
+                        "sim://?ids=1-18 (default: the robot file's bus port, else the built-in "
+                        "emulated bus)")
+    parser.add_argument("--timeout-ms", type=positive_float,
+                        help=f"per-read timeout (default {defaults.timeout_s * 1000:g} ms; USB "
+                             "adapters add latency)")
+    parser.add_argument("--retries", type=int, choices=range(0, 10), metavar="N",
+                        help=f"retries per read, 0-9 (default {defaults.retries})")
+    parser.add_argument("--echo", choices=("none", "discard", "auto"),
+                        help="does the adapter echo the host's bytes (one-wire wiring)? "
+                             f"(default {defaults.echo})")
 
 
-def open_bus(args: argparse.Namespace, *, built_in: str = BUILT_IN_PORT) -> ServoBus:
-    """The bus the user asked for; without --port, the built-in emulator (and say so)."""
-    port = args.port
+def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSettings:
+    """The command line over the robot file's ``bus:`` section over the defaults."""
+    base = robot.bus if robot is not None else BusSettings()
+    return BusSettings(
+        port=args.port if args.port is not None else base.port,
+        timeout_s=args.timeout_ms / 1000 if args.timeout_ms is not None else base.timeout_s,
+        retries=args.retries if args.retries is not None else base.retries,
+        echo=args.echo if args.echo is not None else base.echo,
+    )
+
+
+def open_bus(args: argparse.Namespace) -> ServoBus:
+    """The bus the user asked for; without --port, the built-in emulator's servos 1-6 (and say so)."""
+    settings = bus_settings(args)
+    port = settings.port
     if port is None:
-        port = built_in
+        port = BUILT_IN_PORT
         print(f"no --port given: using the built-in emulated bus ({port})", file=sys.stderr)
-    return ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries, echo=args.echo)
+    return ServoBus(port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo)
+
+
+def open_robot_bus(args: argparse.Namespace, robot: Robot,
+                   doing: str) -> tuple[ServoBus, BusEmulator | None]:
+    """The bus of ``robot`` (command line over its file's ``bus:`` section), and the emulator
+    behind it when no port is named anywhere: the robot's servos standing at home."""
+    settings = bus_settings(args, robot)
+    emulator, port = None, settings.port
+    if port is None:
+        emulator = built_in_emulator(robot)
+        port = SimSerial.from_emulator(emulator)
+        print(f"no --port given: {doing} the built-in emulated bus ({len(robot.joints)} servos "
+              f"of {robot.name} at its home pose)", file=sys.stderr)
+    bus = ServoBus(port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo)
+    return bus, emulator
 
 
 def built_in_emulator(robot: Robot) -> BusEmulator:

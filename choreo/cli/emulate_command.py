@@ -10,6 +10,7 @@ from ..emulator import BusEmulator, parse_servo_specs
 from ..emulator.bus import DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
+from .arguments import non_negative_float
 
 
 EMULATE_LOG_LIMIT = 1000
@@ -33,7 +34,7 @@ def register(subparsers) -> None:
                         help="echo the host's bytes back, like one-wire DIY wiring")
     parser.add_argument("--state", metavar="FILE",
                         help="keep the servos' EEPROM (IDs, offsets, limits) in this JSON file")
-    parser.add_argument("--turnaround-ms", type=float, default=DEFAULT_TURNAROUND_S * 1000,
+    parser.add_argument("--turnaround-ms", type=non_negative_float, default=DEFAULT_TURNAROUND_S * 1000,
                         metavar="X", help="delay before a servo answers (default 0.6)")
     parser.set_defaults(handler=run)
 

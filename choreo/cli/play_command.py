@@ -9,33 +9,32 @@ import signal
 import sys
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..bus import ServoBus
 from ..clock import RealClock
-from ..emulator import SimSerial
+from ..emulator.trace import path_errors_deg
 from ..motion import load_motion
 from ..player import (
-    CompiledMotion,
     ExitMode,
     Outcome,
     Performance,
     Player,
     PlayOptions,
     PlayReport,
-    compile_motion,
     packet_schedule,
-    path_errors_deg,
     preflight,
     prepare,
 )
 from ..robot import Robot
+from ..segments import CompiledMotion, compile_motion
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
-    built_in_emulator,
+    open_robot_bus,
+    positive_float,
     positive_int,
 )
 
@@ -58,6 +57,9 @@ def register(subparsers) -> None:
     play.add_argument("--exit", choices=[m.value for m in ExitMode], default="hold",
                       help="after the motion or a stop: hold (default), go to the exit pose, unload")
     play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
+    play.add_argument("--health-timeout-ms", type=positive_float, default=20.0, metavar="MS",
+                      help="timeout of the health reads made between ticks (default 20 ms; raise "
+                           "it for USB adapters with a long latency timer)")
     play.set_defaults(handler=run_play)
 
 
@@ -75,24 +77,31 @@ def run_play(args: argparse.Namespace) -> int:
     if args.dry_run:
         return dry_run(compiled)
     signal.signal(signal.SIGTERM, _interrupt)
-    emulator = None
-    port = args.port
-    if port is None:
-        emulator = built_in_emulator(robot)
-        port = SimSerial.from_emulator(emulator)
-        print(f"no --port given: playing on the built-in emulated bus ({len(robot.joints)} "
-              f"servos of {robot.name} at its home pose)", file=sys.stderr)
-    options = PlayOptions(exit_mode=ExitMode(args.exit), exit_pose=args.exit_pose)
-    with ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries, echo=args.echo) as bus:
+    options = PlayOptions(exit_mode=ExitMode(args.exit), exit_pose=args.exit_pose,
+                          tolerance_deg=args.tolerance,
+                          health_timeout_s=args.health_timeout_ms / 1000)
+    bus, emulator = open_robot_bus(args, robot, doing="playing on")
+    with bus:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
-        report = _play_with_progress(bus, robot, limits, options, performance, start_pose)
+        report, exit_move = _play_with_progress(bus, robot, limits, options, performance, start_pose)
         errors = None
         if emulator is not None:
-            start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
-            errors = path_errors_deg(performance, robot, emulator, report, start_units)
+            errors = measured_path_errors(emulator, robot, performance, report, start_pose)
     _print_report(report, robot, errors)
+    if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
+        print(f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
+              f"{exit_move.reason}", file=sys.stderr)
     return EXIT_CODES[report.outcome]
+
+
+def measured_path_errors(emulator, robot: Robot, performance: Performance, report: PlayReport,
+                         start_pose) -> tuple[float, ...]:
+    """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms)."""
+    times = np.arange(0.0, report.planned_s, 0.002)
+    start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
+    return path_errors_deg(emulator.log.moves, robot, start_units, report.start_time_s, times,
+                           performance.planned_deg(times))
 
 
 def _interrupt(signum, frame):
@@ -121,8 +130,8 @@ def _play_with_progress(bus, robot, limits, options, performance: Performance, s
 
         player = Player(bus, robot, RealClock(), limits, options, on_progress=update)
         report = player.play(performance.ticks, start_pose)
-        player.leave(report.outcome)
-    return report
+        exit_move = player.leave(report.outcome)
+    return report, exit_move
 
 
 def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:

@@ -9,9 +9,7 @@ import sys
 import threading
 from pathlib import Path
 
-from ..bus import ServoBus
 from ..clock import RealClock
-from ..emulator import SimSerial
 from ..errors import BusError, ChoreoError
 from ..recorder import (
     Captured,
@@ -26,7 +24,7 @@ from ..recorder import (
     journal_path,
 )
 from ..robot import Robot, load_robot
-from .arguments import add_port_arguments, built_in_emulator, positive_float
+from .arguments import add_port_arguments, open_robot_bus, positive_float
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
 
@@ -94,15 +92,12 @@ def _interrupt(signum, frame):
 
 def _record(args: argparse.Namespace, recording: Recording) -> int:
     robot = recording.robot
-    port = args.port
-    if port is None:
-        port = SimSerial.from_emulator(built_in_emulator(robot))
-        print(f"no --port given: recording on the built-in emulated bus ({robot.name}'s servos "
-              "at home; nobody can turn them by hand there, so every capture is the home pose)",
+    bus, emulator = open_robot_bus(args, robot, doing="recording on")
+    if emulator is not None:
+        print("(nobody can turn emulated servos by hand, so every capture is the home pose)",
               file=sys.stderr)
     printer = _EventPrinter(robot)
-    with ServoBus(port, timeout_s=args.timeout_ms / 1000, retries=args.retries,
-                  echo=args.echo) as bus:
+    with bus:
         with Recorder(bus, recording, RealClock(), taught=_joint_names(args.joints),
                       leave_unloaded=args.leave_unloaded, on_event=printer) as recorder:
             held = ", ".join(j.name for j in recorder.held) or "none"

@@ -22,7 +22,7 @@ from ..bus import AngleLimits, ServoBus, ServoInfo, VinLimits
 from ..errors import ChoreoError
 from ..protocol import Command
 from ..servos import DEG_PER_UNIT
-from .arguments import add_port_arguments, id_ranges, open_bus, servo_id
+from .arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
 
 
 def register(subparsers) -> None:
@@ -52,7 +52,7 @@ def register(subparsers) -> None:
     amount = adjust.add_mutually_exclusive_group(required=True)
     amount.add_argument("--units", type=_whole("offset", lo, hi, " units"),
                         help=f"offset in units of 0.24° ({lo}..{hi})")
-    amount.add_argument("--deg", type=float, help=f"offset in degrees "
+    amount.add_argument("--deg", type=finite_float, help=f"offset in degrees "
                         f"({lo * DEG_PER_UNIT:+.0f}..{hi * DEG_PER_UNIT:+.0f}), rounded to units")
     _action(offset_actions, "save", "save the offset in use in the servo", run_offset_save,
             saves=True)
@@ -93,7 +93,7 @@ def register(subparsers) -> None:
     target = move.add_mutually_exclusive_group(required=True)
     target.add_argument("--pos", type=_whole("position", lo, hi, " units"), metavar="UNITS",
                         help=f"target position ({lo}..{hi}, 0.24° each)")
-    target.add_argument("--deg", type=float, help=f"target servo angle "
+    target.add_argument("--deg", type=finite_float, help=f"target servo angle "
                         f"({lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}°), rounded to units")
     lo, hi = workshop.field_range(Command.MOVE_TIME_WRITE, "time_ms")
     move.add_argument("--time-ms", type=_whole("move time", lo, hi, " ms"), default=1000,

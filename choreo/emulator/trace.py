@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import numpy as np
 
+from ..robot import Robot
 from .servo import MoveStart
 
 
@@ -30,3 +31,16 @@ def executed_units(moves: Iterable[MoveStart], servo_id: int, start_units: float
     fraction = np.where(duration > 0, (times_s - starts[index]) / np.where(duration > 0, duration, 1), 1.0)
     path = begin + (end - begin) * np.clip(fraction, 0.0, 1.0)
     return np.where(before, float(start_units), path)
+
+
+def path_errors_deg(moves: Iterable[MoveStart], robot: Robot, start_units: Sequence[float],
+                    start_time_s: float, times_s: np.ndarray,
+                    planned_deg: np.ndarray) -> tuple[float, ...]:
+    """Per joint, the largest distance between where the emulated servo went and
+    ``planned_deg`` (``(len(times_s), n_joints)`` degrees at ``start_time_s + times_s``)."""
+    moves = list(moves)
+    return tuple(
+        float(np.max(np.abs(joint.to_deg(executed_units(moves, joint.servo_id, start,
+                                                        start_time_s + times_s))
+                            - planned_deg[:, j]), initial=0.0))
+        for j, (joint, start) in enumerate(zip(robot.joints, start_units)))

@@ -11,8 +11,7 @@ The package is the only place besides the robot loader that imports ``mujoco``.
 from __future__ import annotations
 
 from ..motion import Motion
-from ..planner import plan_motion
-from ..segments import segment
+from ..segments import compile_motion
 from .checks import (
     CheckKind,
     CheckResult,
@@ -40,7 +39,6 @@ __all__ = [
     "Severity",
     "SimSettings",
     "actuator_params",
-    "check_motion_physics",
     "frame_times",
     "has_display",
     "has_errors",
@@ -60,15 +58,7 @@ def simulate_motion(motion: Motion, settings: SimSettings = SimSettings(), *,
                     tolerance_deg: float = 0.5) -> Rollout:
     """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), then
     play them to the simulated robot, starting at rest at the motion's first pose."""
-    trajectory = plan_motion(motion, speed=speed, stretch=stretch).trajectory
-    ticks = segment(trajectory, motion.robot, tolerance_deg=tolerance_deg).ticks
-    return simulate(motion.robot, ticks, trajectory.at(0.0)[0],
+    compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
+    trajectory = compiled.trajectory
+    return simulate(motion.robot, compiled.ticks.ticks, trajectory.at(0.0)[0],
                     keyframe_times_s=trajectory.keyframe_times_s, settings=settings)
-
-
-def check_motion_physics(motion: Motion,
-                         thresholds: CheckThresholds = CheckThresholds()) -> list[str]:
-    """One line per problem the physics preview finds (``choreo validate`` shows them),
-    each starting with its severity."""
-    results = run_checks(simulate_motion(motion), thresholds)
-    return [f"{motion.path}: {r.severity.value}: {r.message}" for r in results]
