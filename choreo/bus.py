@@ -8,11 +8,12 @@ a valid packet) is never taken for its reply. ``sim://`` opens the built-in emul
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import logging
 import threading
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, Iterator
 
 import serial
 
@@ -122,7 +123,7 @@ class ServoBus:
 
     # --- lifetime ------------------------------------------------------------------------------
     def close(self) -> None:
-        with self._lock:
+        with self._lock, self._port_io():
             self.port.close()
 
     def __enter__(self) -> ServoBus:
@@ -133,12 +134,12 @@ class ServoBus:
 
     def drain(self) -> None:
         """Wait until every byte written so far has left the host."""
-        with self._lock:
+        with self._lock, self._port_io():
             self.port.flush()
 
     def discard_output(self) -> None:
         """Drop bytes written but not yet sent (before an emergency stop)."""
-        with self._lock:
+        with self._lock, self._port_io():
             self.port.reset_output_buffer()
             self._echo_owed = 0  # what was dropped will not echo; the input is flushed anyway
 
@@ -149,7 +150,7 @@ class ServoBus:
         if spec.is_read:
             raise ValueError(f"{spec.command.name} is a read: use request()")
         packet = encode_request(spec.command, servo_id, **fields)
-        with self._lock:
+        with self._lock, self._port_io():
             self.port.write(packet)
             if self.echo is EchoMode.DISCARD:
                 self._echo_owed += len(packet)  # read back before the next request, not now
@@ -175,7 +176,8 @@ class ServoBus:
         with self._lock:
             bad_before = self._decoder.bad_checksums
             for attempt in range(attempts):
-                fields = self._exchange(packet, spec.command, servo_id, timeout_s)
+                with self._port_io():
+                    fields = self._exchange(packet, spec.command, servo_id, timeout_s)
                 if fields is not None:
                     return fields
                 log.debug("servo %d: no valid %s reply (try %d/%d)", servo_id,
@@ -200,6 +202,15 @@ class ServoBus:
             f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
             "or run `choreo scan`"
         )
+
+    @contextlib.contextmanager
+    def _port_io(self) -> Iterator[None]:
+        """Turn the port failing under us (an unplugged USB adapter) into one clear PortError."""
+        try:
+            yield
+        except (serial.SerialException, OSError) as error:
+            raise PortError(f"{self.name}: the port was lost ({error}): check the USB cable") \
+                from error
 
     def _exchange(self, packet: bytes, command: Command, servo_id: int, timeout_s: float):
         """One attempt: flush, write, read until the expected reply or a timeout."""

@@ -225,3 +225,36 @@ def test_a_real_serial_loop_echoes_and_times_out():
     with ServoBus(serial.serial_for_url("loop://", timeout=0.01), retries=0, timeout_s=0.01) as bus:
         with pytest.raises(BusTimeoutError):
             bus.read_position(1)
+
+
+class UnpluggedPort:
+    """A port whose USB adapter was pulled after it was opened: every I/O call fails."""
+
+    name = "/dev/ttyUSB0"
+    timeout = 0.05
+
+    def __init__(self, error: Exception):
+        self.error = error
+
+    def _fail(self, *args):
+        raise self.error
+
+    write = read = flush = reset_input_buffer = reset_output_buffer = close = _fail
+
+
+@pytest.mark.parametrize("error", [
+    serial.SerialException("write failed: [Errno 5] Input/output error"),
+    OSError(19, "No such device"),
+], ids=["SerialException", "OSError"])
+@pytest.mark.parametrize("use", [
+    lambda bus: bus.move(1, 500, 100),
+    lambda bus: bus.read_position(1),
+    lambda bus: bus.drain(),
+    lambda bus: bus.discard_output(),
+    lambda bus: bus.close(),
+], ids=["send", "request", "drain", "discard_output", "close"])
+def test_a_port_lost_after_opening_is_a_port_error(use, error):
+    bus = ServoBus(UnpluggedPort(error), retries=2)
+    with pytest.raises(PortError, match=r"^/dev/ttyUSB0: the port was lost \(.+\): check the USB cable$"):
+        use(bus)
+
