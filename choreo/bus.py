@@ -149,6 +149,11 @@ class ServoBus:
         spec = SPECS[Command(command)]
         if spec.is_read:
             raise ValueError(f"{spec.command.name} is a read: use request()")
+        if spec.command == Command.ID_WRITE and servo_id == BROADCAST_ID:
+            raise ValueError(
+                "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
+                "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
+            )
         packet = encode_request(spec.command, servo_id, **fields)
         with self._lock, self._port_io():
             self.port.write(packet)
@@ -281,12 +286,8 @@ class ServoBus:
         self.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, loaded=0)
 
     def set_id(self, servo_id: int, new_id: int) -> None:
-        """ID_WRITE, saved in the servo. Never broadcast: it would renumber every servo."""
-        if servo_id == BROADCAST_ID:
-            raise ValueError(
-                "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
-                "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
-            )
+        """ID_WRITE, saved in the servo. Never broadcast (send() refuses): it would renumber
+        every servo."""
         self.send(Command.ID_WRITE, servo_id, new_id=new_id)
 
     def adjust_offset(self, servo_id: int, offset_units: int) -> None:

@@ -185,6 +185,9 @@ def test_broadcast_rules():
         bus.request(Command.POS_READ, BROADCAST_ID)
     with pytest.raises(ValueError, match="refusing to broadcast ID_WRITE"):
         bus.set_id(BROADCAST_ID, 3)
+    with pytest.raises(ValueError, match="refusing to broadcast ID_WRITE"):
+        bus.send(Command.ID_WRITE, BROADCAST_ID, new_id=3)
+    assert bus.read_id(7) == 7  # nothing was sent
 
 
 def test_set_id_renumbers_one_servo():
