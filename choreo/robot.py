@@ -18,6 +18,7 @@ import mujoco
 import yaml
 
 from .errors import SourceError
+from .protocol import MAX_SERVO_ID
 from .servos import DEG_PER_UNIT, SERVO_MODELS, UNITS_PER_DEG, ServoModel
 from .yamlsource import (Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt,
                          parse_yaml_file)
@@ -159,7 +160,6 @@ ROBOT_KEYS = ("name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mi
 JOINT_KEYS = ("id", "servo", "zero", "direction", "min", "max", "velocity", "acceleration",
               "jerk", "mjcf_joint")
 DEFAULT_KEYS = JOINT_KEYS[1:]  # every joint needs its own id
-MAX_SERVO_ID = 253  # 254 is the broadcast id
 REQUIRED_JOINT_KEYS = {
     "id": f"its servo id, 0..{MAX_SERVO_ID}",
     "servo": "the servo model; give it here or under defaults",

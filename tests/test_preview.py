@@ -78,8 +78,6 @@ def test_a_move_is_linear_from_the_start_to_the_target_in_the_time_given():
     assert bank.setpoint_units(0.05)[0] == pytest.approx(550)
     assert bank.setpoint_units(0.1)[0] == pytest.approx(600)
     assert bank.setpoint_units(0.3)[0] == pytest.approx(600)
-    out = np.empty(1)
-    assert bank.setpoint_into(0.025, out)[0] == pytest.approx(525)
 
 
 def test_a_move_too_fast_for_the_motor_runs_at_its_no_load_speed():

@@ -60,27 +60,24 @@ def test_an_offscreen_backend_works_on_this_machine():
 
 def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "")
-    monkeypatch.setattr(gl, "_chosen", None)
     tried = []
     monkeypatch.setattr(gl, "probe",
                         lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None))
-    assert gl.offscreen_backend() == "osmesa"
+    assert gl.choose_backend() == "osmesa"
     assert tried == ["egl", "osmesa"]
 
 
 def test_no_working_backend_fails_saying_what_to_install(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "")
-    monkeypatch.setattr(gl, "_chosen", None)
     monkeypatch.setattr(gl, "probe", lambda backend: f"{backend} library missing")
     with pytest.raises(PreviewError, match="egl: egl library missing; osmesa: .*libosmesa6"):
-        gl.offscreen_backend()
+        gl.choose_backend()
 
 
 def test_mujoco_gl_in_the_environment_is_used_without_probing(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "osmesa")
-    monkeypatch.setattr(gl, "_chosen", None)
     monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
-    assert gl.offscreen_backend() == "osmesa"
+    assert gl.choose_backend() == "osmesa"
 
 
 def test_rendering_without_a_backend_is_an_error_not_a_skip(fine, tmp_path, monkeypatch):

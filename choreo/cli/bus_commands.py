@@ -1,5 +1,4 @@
-"""``choreo scan``: what is on the bus; the port options and bus opening every bus command shares
-(``choreo servo`` lives in ``servo_commands``)."""
+"""``choreo scan``: what is on the bus (``choreo servo`` lives in ``servo_commands``)."""
 
 from __future__ import annotations
 

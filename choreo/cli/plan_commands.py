@@ -11,8 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..motion import Motion, load_motion
-from ..planner import PlanResult, plan_motion
-from ..segments import TickPlan, segment
+from ..segments import CompiledMotion, compile_motion
 from .arguments import add_planning_arguments
 
 
@@ -54,10 +53,10 @@ class JointFigures:
 
 def run_plan(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
-    result = plan_motion(motion, speed=args.speed, stretch=args.stretch)
-    ticks = segment(result.trajectory, motion.robot, tolerance_deg=args.tolerance)
+    compiled = compile_motion(motion, speed=args.speed, stretch=args.stretch,
+                              tolerance_deg=args.tolerance)
     speed = motion.speed if args.speed is None else args.speed
-    report = plan_report(args.motion, motion, speed, result, ticks)
+    report = plan_report(args.motion, motion, speed, compiled)
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
     else:
@@ -65,7 +64,7 @@ def run_plan(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from ..plot import plot_plan  # matplotlib: only when a plot is asked for
 
-        plot_plan(result.trajectory, ticks, motion.robot, args.plot,
+        plot_plan(compiled.trajectory, compiled.ticks, motion.robot, args.plot,
                   title=f"{motion.name} ({args.motion}): {report['duration_s']:.2f} s, "
                         f"{report['ticks']} ticks, {report['bytes']} bytes, max deviation "
                         f"{report['max_deviation_deg']:.2f}°")
@@ -74,10 +73,9 @@ def run_plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def plan_report(path: Path, motion: Motion, speed: float, result: PlanResult,
-                ticks: TickPlan) -> dict:
+def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMotion) -> dict:
     """The figures ``choreo plan`` prints, as plain JSON-ready values."""
-    trajectory = result.trajectory
+    trajectory, ticks = compiled.trajectory, compiled.ticks
     peak_vel = trajectory.peak_velocity_deg_s()
     peak_acc = trajectory.peak_acceleration_deg_s2()
     joints = [JointFigures(joint.name, float(peak_vel[j]), joint.limits.vel_deg_s,
@@ -95,7 +93,7 @@ def plan_report(path: Path, motion: Motion, speed: float, result: PlanResult,
         "peak_bus_use": ticks.peak_bus_use,
         "tolerance_deg": ticks.tolerance_deg,
         "max_deviation_deg": ticks.max_deviation_deg,
-        "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in result.stretches],
+        "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in compiled.stretches],
         "joints": [vars(j) for j in joints],
     }
 

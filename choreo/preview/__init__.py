@@ -17,7 +17,6 @@ from .checks import (
     CheckResult,
     CheckThresholds,
     Severity,
-    has_errors,
     run_checks,
 )
 from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
@@ -41,7 +40,6 @@ __all__ = [
     "actuator_params",
     "frame_times",
     "has_display",
-    "has_errors",
     "joint_summaries",
     "preview_report",
     "render_frames",

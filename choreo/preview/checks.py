@@ -83,10 +83,6 @@ def run_checks(rollout: Rollout,
     return sorted(results, key=lambda r: (r.time_s, r.kind.value, r.joint or "", r.bodies))
 
 
-def has_errors(results: list[CheckResult]) -> bool:
-    return any(r.severity is Severity.ERROR for r in results)
-
-
 def episodes(mask: np.ndarray, merge_gap_steps: int) -> list[tuple[int, int]]:
     """Runs of True as [start, end) index pairs; runs separated by at most ``merge_gap_steps``
     False steps are merged."""

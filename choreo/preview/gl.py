@@ -9,6 +9,7 @@ when ``mujoco`` was imported earlier (by the robot loader) without ``MUJOCO_GL``
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import subprocess
@@ -34,20 +35,17 @@ mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100).free()
 context.free()
 """
 
-_chosen: str | None = None
-
-
+@functools.cache
 def offscreen_backend() -> str:
     """The back-end to render with, chosen once per process (and exported as ``MUJOCO_GL``)."""
-    global _chosen
-    if _chosen is None:
-        _chosen = _choose()
-        os.environ.setdefault("MUJOCO_GL", _chosen)
-        log.info("offscreen rendering with %s", _chosen)
-    return _chosen
+    chosen = choose_backend()
+    os.environ.setdefault("MUJOCO_GL", chosen)
+    log.info("offscreen rendering with %s", chosen)
+    return chosen
 
 
-def _choose() -> str:
+def choose_backend() -> str:
+    """MUJOCO_GL if it names a back-end, else the first that works: EGL, then OSMesa."""
     requested = os.environ.get("MUJOCO_GL", "").strip().lower()
     if requested in BACKENDS:
         return requested

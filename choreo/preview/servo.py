@@ -19,10 +19,9 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..robot import Joint, Robot
-from ..segments import Tick
+from ..segments import MAX_TICK_MS, Tick
 from ..servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
 
-MAX_MOVE_TIME_MS = 30000  # the protocol's MOVE_TIME field range is 0..30000 ms
 INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
 
 
@@ -117,9 +116,9 @@ class CommandStream:
             if tick.start_ms < previous_start:
                 raise ValueError(f"{where}: ticks must be in time order "
                                  f"(the previous one starts at {previous_start} ms)")
-            if not 0 <= tick.duration_ms <= MAX_MOVE_TIME_MS:
+            if not 0 <= tick.duration_ms <= MAX_TICK_MS:
                 raise ValueError(f"{where}: duration {tick.duration_ms} ms is outside "
-                                 f"0..{MAX_MOVE_TIME_MS}")
+                                 f"0..{MAX_TICK_MS}")
             bad = [u for u in tick.targets_units if not low <= u <= high]
             if bad:
                 raise ValueError(f"{where}: servo positions {bad} are outside {low}..{high}")
@@ -154,7 +153,6 @@ class ServoBank:
         self._start_s = np.zeros(n)
         self._rate_per_s = np.full(n, 1 / INSTANT_S)  # 1 / move duration
         self._max_speed_units_s = max_speed_units_s
-        self._scratch = np.empty(n)
 
     def start(self, stream: CommandStream, tick: int, now_s: float,
               position_units: np.ndarray) -> None:
@@ -178,15 +176,6 @@ class ServoBank:
         elapsed = np.asarray(now_s, dtype=float)[..., None] - self._start_s
         progress = np.minimum(elapsed * self._rate_per_s, 1.0)
         return self._from_units + self._delta_units * progress
-
-    def setpoint_into(self, now_s: float, out: np.ndarray) -> np.ndarray:
-        """``setpoint_units(now_s)`` written into ``out`` without allocating: the per-step path."""
-        progress = self._scratch
-        np.subtract(now_s, self._start_s, out=progress)
-        np.multiply(progress, self._rate_per_s, out=progress)
-        np.minimum(progress, 1.0, out=progress)
-        np.multiply(progress, self._delta_units, out=progress)
-        return np.add(progress, self._from_units, out=out)
 
 
 def max_speed_units_s(params: Sequence[ActuatorParams]) -> np.ndarray:
