@@ -188,10 +188,10 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
                         f"give a number of units, 0..1000")
         return None
     angle = round(joint.to_deg(value), ANGLE_DECIMALS) + 0.0  # + 0.0: no -0.0
-    if not limits.min_deg <= angle <= limits.max_deg:
+    if not limits.contains(angle):
         low, high = sorted(round(joint.to_units(a), 1) for a in (limits.min_deg, limits.max_deg))
         problems.append(f"{where} (joint {joint.name}): {fmt(value)} units = {fmt(angle)}° is "
-                        f"outside the joint's limits {fmt(limits.min_deg)}..{fmt(limits.max_deg)}° "
+                        f"outside the joint's limits {limits.range_text} "
                         f"(servo positions {fmt(low)}..{fmt(high)})")
         return None
     return angle

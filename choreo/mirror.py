@@ -30,10 +30,9 @@ def mirrored_keyframes(motion: Motion) -> tuple[Keyframe, ...]:
     for keyframe in motion.keyframes:
         targets = mirror_targets(robot, keyframe.targets_deg)
         for joint, angle in zip(robot.joints, targets):
-            low, high = joint.limits.min_deg, joint.limits.max_deg
-            if not low <= angle <= high:
+            if not joint.limits.contains(angle):
                 problems.append(f"{keyframe.where}: mirrored, {joint.name} would be at "
-                                f"{fmt(angle)}°, outside its limits {fmt(low)}..{fmt(high)}°")
+                                f"{fmt(angle)}°, outside its limits {joint.limits.range_text}")
         mirrored.append(replace(keyframe, targets_deg=targets, label=""))
     if problems:
         raise SourceError(problems)

@@ -316,10 +316,10 @@ def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot,
         angles = mirror_pose(robot, step.angles_deg)
         for name, angle in angles.items():
             limits = robot.joint(name).limits
-            if not limits.min_deg <= angle <= limits.max_deg:
+            if not limits.contains(angle):
                 reader.report(mirror_node, f"mirror: the keyframe at {step.where} mirrored puts "
                                            f"{name} at {fmt(angle)}°, outside its limits "
-                                           f"{fmt(limits.min_deg)}..{fmt(limits.max_deg)}°")
+                                           f"{limits.range_text}")
         mirrored.append(replace(step, angles_deg=angles, label=""))
     return mirrored
 

@@ -555,9 +555,9 @@ def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3)
     if not 0 < limit_scale <= 1:
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
     for joint, angle in zip(robot.joints, target):
-        if not joint.limits.min_deg <= angle <= joint.limits.max_deg:
+        if not joint.limits.contains(angle):
             raise ValueError(f"target_deg: {joint.name} = {angle:g}° is outside its limits "
-                             f"{joint.limits.min_deg:g}..{joint.limits.max_deg:g}°")
+                             f"{joint.limits.range_text}")
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
     segment = _Solver(n).solve(start.tolist(), zero, target.tolist(), zero,
@@ -594,6 +594,7 @@ def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
     high = np.array([j.limits.max_deg for j in robot.joints])
     outside = ~((targets >= low) & (targets <= high))
     problems = [f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
-                f"its limits {low[j]:g}..{high[j]:g}°" for k, j in zip(*np.nonzero(outside))]
+                f"its limits {robot.joints[j].limits.range_text}"
+                for k, j in zip(*np.nonzero(outside))]
     if problems:
         raise PlanningError("\n".join(problems))

@@ -329,10 +329,9 @@ def taught_joints(robot: Robot, names: Iterable[str] | None) -> tuple[Joint, ...
 def limit_problems(robot: Robot, angles_deg: Sequence[float]) -> list[str]:
     problems = []
     for joint, angle in zip(robot.joints, angles_deg):
-        low, high = joint.limits.min_deg, joint.limits.max_deg
-        if not low <= angle <= high:
+        if not joint.limits.contains(angle):
             problems.append(f"{joint.name} at {fmt(angle)}° is outside its limits "
-                            f"{fmt(low)}..{fmt(high)}°")
+                            f"{joint.limits.range_text}")
     return problems
 
 

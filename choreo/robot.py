@@ -32,6 +32,14 @@ class JointLimits:
     acc_deg_s2: float
     jerk_deg_s3: float
 
+    def contains(self, angle_deg: float) -> bool:
+        return self.min_deg <= angle_deg <= self.max_deg
+
+    @property
+    def range_text(self) -> str:
+        """The position range for messages: ``-90..90°``."""
+        return f"{fmt(self.min_deg)}..{fmt(self.max_deg)}°"
+
 
 @dataclass(frozen=True)
 class Joint:
@@ -389,11 +397,9 @@ def read_angles(reader: Reader, node: Node, what: str,
             continue
         angle = reader.number(entry.value, f"{what}: {entry.key}")
         joint = joints[entry.key]
-        if angle is not None and joint is not None and not (
-                joint.limits.min_deg <= angle <= joint.limits.max_deg):
-            low, high = joint.limits.min_deg, joint.limits.max_deg
+        if angle is not None and joint is not None and not joint.limits.contains(angle):
             reader.report(entry.value, f"{what}: {entry.key} {fmt(angle)}° is outside its limits "
-                                       f"{fmt(low)}..{fmt(high)}°")
+                                       f"{joint.limits.range_text}")
             angle = None
         angles[entry.key] = angle
     return angles
