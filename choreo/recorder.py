@@ -238,6 +238,11 @@ class Recording:
         contents = read_journal(path)
         if robot is None:
             robot = load_robot(contents.robot_path)
+            if robot.joint_names != contents.joint_names:  # robot.yaml changed since
+                raise ChoreoError(
+                    f"{path} was recorded with the joints {', '.join(contents.joint_names)}, but "
+                    f"{robot.path} now has {', '.join(robot.joint_names)}: its captures can't be "
+                    "matched to the joints; restore the robot file, or delete the journal")
         elif robot.path.resolve() != contents.robot_path or robot.joint_names != contents.joint_names:
             raise ChoreoError(f"{path} was recorded with the robot {contents.robot_path} (joints "
                               f"{', '.join(contents.joint_names)}), not {robot.path}: resume "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import shutil
 import signal
 import subprocess
 import sys
@@ -492,3 +493,18 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
         (0, 24, 0, 0, 0, 0), (0, 24, -24, 0, 0, 0), (0, 48, -24, 0, 0, 0)]
     assert not journal.exists()
     assert emulator.servo(2).loaded and emulator.servo(3).loaded
+
+
+def test_resume_refuses_a_journal_whose_robot_changed_its_joints(tmp_path):
+    tiny = tmp_path / "models" / "tiny"
+    shutil.copytree("tests/data/models/tiny", tiny)
+    rig = Rig(str(tiny / "robot.yaml"))
+    out = tmp_path / "taught.yaml"
+    crashed, _ = rig.record(out, [""])
+    crashed.journal.close()
+    text = (tiny / "robot.yaml").read_text()
+    yaw = "  yaw:\n    id: 1\n    min: -90\n    max: 90\n"
+    (tiny / "robot.yaml").write_text(text.replace(yaw, "").replace("poses:", yaw + "poses:"))
+    with pytest.raises(ChoreoError, match="was recorded with the joints yaw, left, right, but "
+                                          ".*robot.yaml now has left, right, yaw"):
+        Recording.resume(out)
