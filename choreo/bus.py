@@ -41,6 +41,22 @@ class EchoMode(enum.Enum):
     AUTO = "auto"  # skip the echo of a request if it shows up
 
 
+class Presence(enum.Enum):
+    """What a probe with ID_READ found at one ID."""
+
+    ANSWERS = "answers"
+    SILENT = "silent"  # nothing came back: no servo has this ID (or it is unpowered)
+    GARBLED = "garbled"  # replies failed the checksum: two servos share this ID, or noisy wiring
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """The IDs a scan found answering, and those whose replies came back garbled."""
+
+    found: tuple[int, ...]
+    garbled: tuple[int, ...]
+
+
 @dataclass(frozen=True)
 class MoveTime:
     pos_units: int
@@ -372,17 +388,47 @@ class ServoBus:
         return self.request(Command.DIS_READ, servo_id)["distance"]
 
     # --- several commands ----------------------------------------------------------------------
+    def probe(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> Presence:
+        """Whether a servo answers ID_READ at ``servo_id``, stays silent, or answers garbled.
+
+        A ``ProtocolError`` that is not about garbled replies (a missing echo in DISCARD mode)
+        still raises: it is the bus set-up that is wrong, not this ID.
+        """
+        with self._lock:
+            bad_before = self._decoder.bad_checksums
+            try:
+                self.request(Command.ID_READ, servo_id, retries=retries, timeout_s=timeout_s)
+            except BusTimeoutError:
+                return Presence.SILENT
+            except ProtocolError:
+                if self._decoder.bad_checksums == bad_before:
+                    raise
+                return Presence.GARBLED
+            return Presence.ANSWERS
+
     def ping(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> bool:
-        """Whether a servo answers ID_READ at ``servo_id``."""
+        """Whether a servo answers ID_READ at ``servo_id``; ``ProtocolError`` if its replies come
+        back garbled (two servos sharing the ID), which is not the same as absent."""
         try:
             self.request(Command.ID_READ, servo_id, retries=retries, timeout_s=timeout_s)
-        except (BusTimeoutError, ProtocolError):
+        except BusTimeoutError:
             return False
         return True
 
-    def scan(self, ids: Iterable[int] = range(BROADCAST_ID), *, timeout_s: float = 0.02) -> list[int]:
-        """The IDs that answer, in order. Each absent ID costs ``timeout_s``."""
-        return [i for i in ids if self.ping(i, timeout_s=timeout_s, retries=1)]
+    def scan_presence(self, ids: Iterable[int] = range(BROADCAST_ID), *,
+                      timeout_s: float | None = None, retries: int = 0) -> ScanResult:
+        """Probe each ID in order. Each absent ID costs ``timeout_s`` (the bus's by default; USB
+        adapters add up to 16 ms of latency) times ``1 + retries``."""
+        presence = {i: self.probe(i, timeout_s=timeout_s, retries=retries) for i in ids}
+        return ScanResult(
+            found=tuple(i for i, p in presence.items() if p is Presence.ANSWERS),
+            garbled=tuple(i for i, p in presence.items() if p is Presence.GARBLED),
+        )
+
+    def scan(self, ids: Iterable[int] = range(BROADCAST_ID), *, timeout_s: float | None = None,
+             retries: int = 0) -> list[int]:
+        """The IDs that answer, in order (``scan_presence`` also lists garbled ones)."""
+        return list(self.scan_presence(ids, timeout_s=timeout_s, retries=retries).found)
 
     def read_status(self, servo_id: int) -> ServoStatus:
         return ServoStatus(

@@ -17,7 +17,7 @@ import logging
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
-from .bus import AngleLimits, ServoBus, VinLimits
+from .bus import AngleLimits, Presence, ServoBus, VinLimits
 from .errors import BusError, BusTimeoutError, ProtocolError
 from .protocol import BROADCAST_ID, MAX_SERVO_ID, SPECS, Command, ErrorMask, encode_request
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
@@ -227,17 +227,22 @@ def find_single_servo(bus: ServoBus, scan_ids: Iterable[int] = ALL_IDS) -> int:
         found, collided = set(), True
     except BusTimeoutError:
         found = set()
-    on_bus = bus.scan(sorted(set(scan_ids) | found))
-    if found and on_bus == sorted(found):
-        return on_bus[0]
-    if not (on_bus or found or collided):
+    scan = bus.scan_presence(sorted(set(scan_ids) | found))
+    if found and list(scan.found) == sorted(found) and not scan.garbled:
+        return scan.found[0]
+    if not (scan.found or scan.garbled or found or collided):
         raise BusError("no servo answered a broadcast ID read nor the scan: check power and wiring")
     reasons = []
     if collided:
         reasons.append("several servos answered a broadcast ID read at once (their replies collided)")
-    answering = sorted(set(on_bus) | found)
-    reasons.append(f"IDs {', '.join(map(str, answering))} answer" if answering else
-                   "no ID answers the scan alone (servos sharing an ID garble each other's replies)")
+    answering = sorted(set(scan.found) | found)
+    if answering:
+        reasons.append(f"IDs {', '.join(map(str, answering))} answer")
+    if scan.garbled:
+        reasons.append(f"replies at IDs {', '.join(map(str, scan.garbled))} are garbled (several "
+                       "servos share each of these IDs)")
+    if not (answering or scan.garbled):
+        reasons.append("no ID answers the scan alone")
     raise BusError("setting an ID without --id needs exactly one servo on the bus, but "
                    f"{'; '.join(reasons)}: connect only the servo to renumber, or give its "
                    "current ID with --id")
@@ -252,11 +257,15 @@ def plan_id_change(bus: ServoBus, new_id: int, current_id: int | None = None,
         change = IdChange(current_id, new_id, found_alone=True)
     else:
         _check_addressable(current_id)
-        if not bus.ping(current_id, retries=2):
+        presence = bus.probe(current_id, retries=2)
+        if presence is Presence.GARBLED:
+            raise BusError(f"replies at ID {current_id} are garbled: several servos share it, and "
+                           "ID_WRITE would renumber them all; connect only the servo to renumber")
+        if presence is Presence.SILENT:
             raise BusError(f"no servo answers at ID {current_id}: check the ID (`choreo scan`), "
                            "power and wiring")
         change = IdChange(current_id, new_id, found_alone=False)
-    if not change.unchanged and bus.ping(new_id, retries=1):
+    if not change.unchanged and bus.probe(new_id, retries=1) is not Presence.SILENT:
         raise BusError(
             f"ID {new_id} is already used by another servo on the bus: two servos with one ID "
             "garble each other's replies; choose a free ID (`choreo scan` lists those in use)"

@@ -5,7 +5,16 @@ from __future__ import annotations
 import pytest
 import serial
 
-from choreo.bus import AngleLimits, EchoMode, MotorMode, MoveTime, ServoBus, VinLimits
+from choreo.bus import (
+    AngleLimits,
+    EchoMode,
+    MotorMode,
+    MoveTime,
+    Presence,
+    ScanResult,
+    ServoBus,
+    VinLimits,
+)
 from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import BusTimeoutError, PortError, ProtocolError
@@ -68,6 +77,31 @@ def test_every_read_command(bus_and_emulator):
 def test_scan_finds_every_servo_and_only_them(bus_and_emulator):
     bus, _ = bus_and_emulator
     assert bus.scan(range(0, 10)) == [1, 2, 3]
+
+
+def test_scan_tries_each_id_once_with_the_bus_timeout():
+    bus, emulator = make_bus(timeout_s=0.03)
+    before = emulator.clock.now()
+    assert bus.scan(range(0, 10)) == [1, 2, 3]
+    answer_s = (6 + 7) * BYTE_TIME_S + emulator.turnaround_s  # ID_READ and its reply
+    assert emulator.clock.now() - before == pytest.approx(7 * 0.03 + 3 * answer_s, abs=1e-4)
+
+
+def test_servos_sharing_an_id_are_garbled_not_absent():
+    emulator = BusEmulator([ServoSpec(1), ServoSpec(1), ServoSpec(2)], clock=VirtualClock())
+    bus = ServoBus(SimSerial.from_emulator(emulator))
+    assert [bus.probe(i) for i in (1, 2, 3)] == [Presence.GARBLED, Presence.ANSWERS, Presence.SILENT]
+    assert bus.scan_presence(range(0, 5)) == ScanResult(found=(2,), garbled=(1,))
+    assert bus.scan(range(0, 5)) == [2]
+    with pytest.raises(ProtocolError, match="two servos may share ID 1"):
+        bus.ping(1)
+    assert bus.ping(2) and not bus.ping(3)
+
+
+def test_probe_raises_a_wrong_echo_setting_instead_of_calling_every_id_garbled():
+    bus, _ = make_bus(echo=False, mode=EchoMode.DISCARD)
+    with pytest.raises(ProtocolError, match="expected the echo of the request"):
+        bus.scan(range(0, 4))
 
 
 def test_staged_moves_start_together_on_broadcast():

@@ -194,7 +194,30 @@ def test_set_id_refuses_two_servos_whose_broadcast_replies_collide_listing_them(
 
 def test_set_id_refuses_two_servos_sharing_an_id():
     bus, emulator = make_bus(ids=(4, 4))
-    with pytest.raises(BusError, match="no ID answers the scan alone"):
+    with pytest.raises(BusError, match=r"replies at IDs 4 are garbled \(several servos share each "):
+        workshop.plan_id_change(bus, 5)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_refuses_a_given_current_id_that_two_servos_share():
+    bus, emulator = make_bus(ids=(4, 4))
+    with pytest.raises(BusError, match="replies at ID 4 are garbled: several servos share it"):
+        workshop.plan_id_change(bus, 5, current_id=4)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_refuses_a_new_id_that_two_servos_share():
+    bus, emulator = make_bus(ids=(1, 2, 2))
+    with pytest.raises(BusError, match="ID 2 is already used by another servo"):
+        workshop.plan_id_change(bus, 2, current_id=1)
+    assert sent(emulator, Command.ID_WRITE) == []
+
+
+def test_set_id_refuses_a_lone_broadcast_answer_when_the_scan_finds_a_shared_id():
+    bus, emulator = make_bus(ids=(1, 3, 3))
+    for servo in emulator.servos[1:]:
+        servo.reply_faults = ReplyFaults(drop_next=1)  # so the broadcast hears only servo 1
+    with pytest.raises(BusError, match=r"IDs 1 answer; replies at IDs 3 are garbled"):
         workshop.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
