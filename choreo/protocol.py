@@ -210,6 +210,16 @@ def encode_request(command: Command, servo_id: int, /, **values: int) -> bytes:
     return encode_packet(servo_id, spec.command, params)
 
 
+def field_range(command: Command, name: str) -> tuple[int, int]:
+    """The valid range of one of a write command's fields (this table is the one source)."""
+    spec = SPECS[Command(command)]
+    for f in spec.request:
+        if f.name == name:
+            return f.lo, f.hi
+    names = ", ".join(f.name for f in spec.request) or "none"
+    raise ValueError(f"{spec.command.name} has no field {name!r}; its fields: {names}")
+
+
 def decode_request(packet: Packet) -> dict[str, int]:
     """The field values of a request packet (for the emulator); ``ValueError`` if malformed."""
     spec = SPECS[Command(packet.command)]

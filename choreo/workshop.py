@@ -19,7 +19,7 @@ from typing import Any, Callable, Iterable
 
 from .bus import AngleLimits, Presence, ServoBus, VinLimits
 from .errors import BusError, BusTimeoutError, ProtocolError
-from .protocol import BROADCAST_ID, MAX_SERVO_ID, SPECS, Command, ErrorMask, encode_request
+from .protocol import BROADCAST_ID, MAX_SERVO_ID, Command, ErrorMask, encode_request, field_range
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
 
 log = logging.getLogger(__name__)
@@ -30,12 +30,6 @@ ERROR_MASK_NAMES = {
     "voltage": ErrorMask.VOLTAGE,
     "stalled": ErrorMask.STALLED,
 }
-
-
-def field_range(command: Command, name: str) -> tuple[int, int]:
-    """The valid range of one request field (the protocol table is the one source of truth)."""
-    (spec_field,) = (f for f in SPECS[command].request if f.name == name)
-    return spec_field.lo, spec_field.hi
 
 
 # --- settings kept in EEPROM -------------------------------------------------------------------

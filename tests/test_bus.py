@@ -224,6 +224,15 @@ def test_broadcast_rules():
     assert bus.read_id(7) == 7  # nothing was sent
 
 
+def test_an_adjusted_offset_is_kept_only_once_saved():
+    bus, emulator = make_bus()
+    bus.adjust_offset(1, -10)
+    assert emulator.servo(1).eeprom.offset_units == 0
+    bus.save_offset(1)
+    assert bus.read_offset(1) == -10
+    assert emulator.servo(1).eeprom.offset_units == -10
+
+
 def test_set_id_renumbers_one_servo():
     bus, emulator = make_bus()
     bus.set_id(2, 12)

@@ -19,6 +19,7 @@ from choreo.protocol import (
     encode_packet,
     encode_reply,
     encode_request,
+    field_range,
     parse_ids,
 )
 
@@ -124,6 +125,15 @@ def test_every_command_of_the_document_is_in_the_table():
 def test_out_of_range_arguments_name_the_field(command, fields, message):
     with pytest.raises(ValueError, match=message):
         encode_request(command, 1, **fields)
+
+
+def test_field_range_from_the_table_of_protocol_md():
+    assert field_range(C.ANGLE_OFFSET_ADJUST, "offset_units") == (-125, 125)
+    assert field_range(C.MOVE_TIME_WRITE, "time_ms") == (0, 30000)
+    assert field_range(C.ID_WRITE, "new_id") == (0, 253)
+    with pytest.raises(ValueError, match=r"ANGLE_LIMIT_WRITE has no field 'min'; its fields: "
+                                         "min_units, max_units"):
+        field_range(C.ANGLE_LIMIT_WRITE, "min")
 
 
 def test_servo_id_range():

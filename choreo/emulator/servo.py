@@ -48,6 +48,7 @@ from ..protocol import (
     Packet,
     decode_request,
     encode_reply,
+    field_range,
 )
 from ..servos import DEG_PER_UNIT, UNITS_PER_DEG, ServoModel
 
@@ -60,22 +61,17 @@ FACTORY_TEMP_C = 30.0
 DEFAULT_START_GAP_S = 0.001  # protocol.md: leave >= 1 ms between a preset and MOVE_START
 
 
-def _request_field_range(command: Command, name: str) -> tuple[int, int]:
-    (spec_field,) = (f for f in SPECS[command].request if f.name == name)
-    return spec_field.lo, spec_field.hi
-
-
-# EEPROM field -> (valid range, the write command whose range it is). One source of truth: SPECS.
+# EEPROM field -> its valid range: that of the write command's field (one source of truth: SPECS).
 _EEPROM_RANGES: dict[str, tuple[int, int]] = {
-    "servo_id": _request_field_range(Command.ID_WRITE, "new_id"),
-    "offset_units": _request_field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units"),
-    "angle_min_units": _request_field_range(Command.ANGLE_LIMIT_WRITE, "min_units"),
-    "angle_max_units": _request_field_range(Command.ANGLE_LIMIT_WRITE, "max_units"),
-    "vin_min_mv": _request_field_range(Command.VIN_LIMIT_WRITE, "min_mv"),
-    "vin_max_mv": _request_field_range(Command.VIN_LIMIT_WRITE, "max_mv"),
-    "temp_max_c": _request_field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c"),
-    "led_off": _request_field_range(Command.LED_CTRL_WRITE, "led_off"),
-    "error_mask": _request_field_range(Command.LED_ERROR_WRITE, "mask"),
+    "servo_id": field_range(Command.ID_WRITE, "new_id"),
+    "offset_units": field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units"),
+    "angle_min_units": field_range(Command.ANGLE_LIMIT_WRITE, "min_units"),
+    "angle_max_units": field_range(Command.ANGLE_LIMIT_WRITE, "max_units"),
+    "vin_min_mv": field_range(Command.VIN_LIMIT_WRITE, "min_mv"),
+    "vin_max_mv": field_range(Command.VIN_LIMIT_WRITE, "max_mv"),
+    "temp_max_c": field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c"),
+    "led_off": field_range(Command.LED_CTRL_WRITE, "led_off"),
+    "error_mask": field_range(Command.LED_ERROR_WRITE, "mask"),
 }
 
 
