@@ -87,7 +87,8 @@ def test_url_options_configure_the_emulator(tmp_path):
         ("sim://?echo=yes", "echo must be 0 or 1"),
         ("sim://?turnaround_ms=soon", "turnaround_ms must be a number"),
         ("sim://?ids=1-x", "bad servo IDs '1-x'"),
-        ("sim://?ids=300", "IDs go from 0 to 253"),
+        ("sim://?ids=300", r"bad servo IDs '300' \(servo IDs must be in 0..253"),
+        ("sim://?ids=1-2,:LX-224HV", r"bad servo IDs ':LX-224HV' .*an ID or a range like 1-6"),
         ("sim://?model=LX-99", "known models: LX-16A"),
     ],
 )
@@ -101,7 +102,8 @@ def test_parse_servo_specs():
         ServoSpec(1), ServoSpec(2), ServoSpec(3), ServoSpec(9),
         ServoSpec(12, "LX-224HV"), ServoSpec(13, "LX-224HV"),
     ]
-    with pytest.raises(ValueError, match="low to high"):
+    assert parse_servo_specs("2,2") == [ServoSpec(2), ServoSpec(2)]  # two servos share ID 2
+    with pytest.raises(ValueError, match="low <= high"):
         parse_servo_specs("6-1")
 
 

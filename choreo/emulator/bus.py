@@ -39,7 +39,7 @@ from typing import Iterable, Sequence
 
 from ..clock import Clock, RealClock
 from ..errors import ChoreoError
-from ..protocol import BYTE_TIME_S, MAX_SERVO_ID, Packet, PacketDecoder, checksum
+from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from ..servos import servo_model
 from .servo import DEFAULT_START_GAP_S, EmulatedServo, Eeprom, MoveStart, ReplyFate
 
@@ -63,22 +63,18 @@ class ServoSpec:
 def parse_servo_specs(text: str) -> list[ServoSpec]:
     """``"1-6,9,12-14"``; a group may name its model: ``"1-6,7-8:LX-224HV"``."""
     specs = []
-    for group in text.split(","):
+    for group in text.split(","):  # one group at a time: "1,1" puts two servos with ID 1 on the bus
         ids_text, _, model = group.strip().partition(":")
         if model:
             servo_model(model)  # ValueError listing the known models
-        low_text, _, high_text = ids_text.partition("-")
         try:
-            low = int(low_text)
-            high = int(high_text) if high_text else low
-        except ValueError:
+            ids = parse_ids(ids_text)
+        except ValueError as error:
             raise ValueError(
-                f"bad servo IDs {group!r}: expected an ID or a range like 1-6, optionally "
-                f"followed by :MODEL, in a comma-separated list such as 1-6,9,12-14"
+                f"bad servo IDs {group.strip()!r} ({error}): each comma-separated group is an ID or "
+                "a range like 1-6, optionally followed by :MODEL, as in 1-6,9,12-14:LX-224HV"
             ) from None
-        if not 0 <= low <= high <= MAX_SERVO_ID:
-            raise ValueError(f"bad servo IDs {group!r}: IDs go from 0 to {MAX_SERVO_ID}, low to high")
-        specs.extend(ServoSpec(servo_id, model or None) for servo_id in range(low, high + 1))
+        specs.extend(ServoSpec(servo_id, model or None) for servo_id in ids)
     return specs
 
 
