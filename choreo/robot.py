@@ -19,7 +19,7 @@ import yaml
 
 from .errors import SourceError
 from .protocol import MAX_SERVO_ID
-from .servos import DEG_PER_UNIT, SERVO_MODELS, UNITS_PER_DEG, ServoModel
+from .servos import ACTUATOR_FIELDS, DEG_PER_UNIT, SERVO_MODELS, UNITS_PER_DEG, ServoModel
 from .yamlsource import (Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt,
                          parse_yaml_file)
 
@@ -50,6 +50,11 @@ class Joint:
     direction: int  # +1 or -1
     limits: JointLimits
     mjcf_joint: str  # the MuJoCo joint this servo drives
+    # preview actuator values overriding the servo model's (keys: servos.ACTUATOR_FIELDS)
+    actuator: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "actuator", MappingProxyType(dict(self.actuator)))
 
     def to_units(self, angle_deg: float) -> float:
         """Servo position (not rounded) for a joint angle."""
@@ -166,7 +171,7 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
 
 ROBOT_KEYS = ("name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror")
 JOINT_KEYS = ("id", "servo", "zero", "direction", "min", "max", "velocity", "acceleration",
-              "jerk", "mjcf_joint")
+              "jerk", "mjcf_joint", "actuator")
 DEFAULT_KEYS = JOINT_KEYS[1:]  # every joint needs its own id
 REQUIRED_JOINT_KEYS = {
     "id": f"its servo id, 0..{MAX_SERVO_ID}",
@@ -310,7 +315,9 @@ def _joint_from_fields(reader: Reader, name: str, fields: dict[str, Entry],
     mjcf_joint = reader.string(fields["mjcf_joint"].value, labels["mjcf_joint"]) \
         if "mjcf_joint" in fields else name
     rates = {key: number(key, None, low=0, low_open=True) for key in RATE_KEYS}
-    if None in (servo_id, model, zero, direction, low, high, mjcf_joint) or any(
+    actuator = _read_actuator(reader, fields["actuator"].value, labels["actuator"]) \
+        if "actuator" in fields else {}
+    if None in (servo_id, model, zero, direction, low, high, mjcf_joint, actuator) or any(
             rates[key] is None for key in RATE_KEYS if key in fields):
         return None
     # rates are > 0 when given; the servo model's defaults otherwise
@@ -322,7 +329,17 @@ def _joint_from_fields(reader: Reader, name: str, fields: dict[str, Entry],
     if not all(checks):
         return None
     return Joint(name=name, servo_id=servo_id, servo_model=model.name, zero_units=zero,
-                 direction=direction, limits=limits, mjcf_joint=mjcf_joint)
+                 direction=direction, limits=limits, mjcf_joint=mjcf_joint, actuator=actuator)
+
+
+def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
+    """Preview actuator overrides: each a number > 0 (a problem makes the whole block None)."""
+    entries = reader.fields(node, what, ACTUATOR_FIELDS)
+    if entries is None:
+        return None
+    values = {key: reader.number(entry.value, f"{what}: {key}", low=0, low_open=True)
+              for key, entry in entries.items()}
+    return None if None in values.values() else values
 
 
 def _read_servo_model(reader: Reader, node: Node, what: str) -> ServoModel | None:

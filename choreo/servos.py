@@ -42,6 +42,11 @@ class ServoModel:
         return self.stall_torque_nm / 0.105
 
 
+# What a robot file's ``actuator:`` block may override per joint (the preview's servo model).
+ACTUATOR_FIELDS = ("stall_torque_nm", "kp_nm_rad", "damping_nm_s_rad", "armature_kg_m2",
+                   "no_load_speed_deg_s")
+
+
 SERVO_MODELS: dict[str, ServoModel] = {
     m.name: m
     for m in (

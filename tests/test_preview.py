@@ -4,6 +4,7 @@ kinematics and statics, and the player's packet schedule."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -32,10 +33,17 @@ from choreo.preview import (
 )
 from choreo.preview.checks import episodes
 from choreo.preview.model import apply_servo_models, index_joints, load_model
-from choreo.preview.servo import CommandStream, ServoBank, UnitsToDeg, commanded_path_units
+from choreo.preview.servo import (
+    ActuatorParams,
+    CommandStream,
+    ServoBank,
+    UnitsToDeg,
+    commanded_path_units,
+)
 from choreo.protocol import Command
 from choreo.robot import load_robot
 from choreo.segments import Tick, segment
+from choreo.servos import ACTUATOR_FIELDS
 
 DATA = Path(__file__).parent / "data" / "preview"
 MOTIONS = DATA / "motions"
@@ -446,3 +454,17 @@ def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
     ticks = [Tick(0, 0, (500, 900, 500), (True,) * 3)]
     with pytest.raises(PreviewError, match="unstable .*last at shoulder"):
         simulate(arm3, ticks, [0, 0, 0], settings=settings)
+
+
+def test_the_robot_files_actuator_block_overrides_the_servo_model(arm3):
+    assert ACTUATOR_FIELDS == tuple(f.name for f in dataclasses.fields(ActuatorParams))
+    shoulder = dataclasses.replace(arm3.joint("shoulder"), actuator={"stall_torque_nm": 0.1})
+    weak_robot = dataclasses.replace(arm3, joints=tuple(
+        shoulder if j.name == "shoulder" else j for j in arm3.joints))
+    assert actuator_params(weak_robot)[1].stall_torque_nm == 0.1
+    # the run-time override still wins over the file
+    assert actuator_params(weak_robot, {"shoulder": {"stall_torque_nm": 0.7}})[1].stall_torque_nm == 0.7
+    ticks = linear_ticks(arm3, [0, 0, 0], [0, 80, 0], 800, 100)
+    stalls = [r for r in run_checks(simulate(weak_robot, ticks, [0, 0, 0]))
+              if r.kind is CheckKind.SATURATION]
+    assert [r.joint for r in stalls] == ["shoulder"]

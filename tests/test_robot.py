@@ -6,6 +6,7 @@ Fixtures: tests/data/models/tiny (a good three-joint robot) and tests/data/bad_r
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -210,7 +211,7 @@ def test_every_problem_of_a_file_is_reported_at_once():
         f"{path}:7:9: bus: echo 'discrad' is not one of none, discard, auto "
         f"(did you mean 'discard'?)",
         f"{path}:10:3: unknown key 'colour' in defaults; valid keys: servo, zero, direction, "
-        f"min, max, velocity, acceleration, jerk, mjcf_joint",
+        f"min, max, velocity, acceleration, jerk, mjcf_joint, actuator",
         f"{path}:12:13: joint 'yaw': id must be in 0..253, got 254",
         f"{path}:13:39: joint 'left': direction must be 1 or -1, got 2",
         f"{path}:14:34: joint 'right': min 60° must be below max -110°",
@@ -260,3 +261,23 @@ def test_mirror_of_a_partial_pose_moves_only_the_partner():
 def test_mirror_targets_needs_one_value_per_joint():
     with pytest.raises(ValueError, match="robot 'tiny' has 3 joints"):
         mirror_targets(load_robot(TINY), (1.0, 2.0))
+
+
+def test_a_joint_can_override_the_preview_actuator_of_its_servo(tmp_path):
+    tiny = tmp_path / "tiny"
+    shutil.copytree(DATA / "models" / "tiny", tiny)
+    text = (tiny / "robot.yaml").read_text()
+    (tiny / "robot.yaml").write_text(text.replace(
+        "    velocity: 200\n",
+        "    velocity: 200\n    actuator: {stall_torque_nm: 0.8, damping_nm_s_rad: 0.1}\n"))
+    robot = load_robot(tiny / "robot.yaml")
+    assert dict(robot.joint("right").actuator) == {"stall_torque_nm": 0.8, "damping_nm_s_rad": 0.1}
+    assert dict(robot.joint("left").actuator) == {}
+    (tiny / "robot.yaml").write_text(text.replace(
+        "    velocity: 200\n", "    velocity: 200\n    actuator: {stall_torque: 0.8, kp_nm_rad: 0}\n"))
+    with pytest.raises(SourceError) as error:
+        load_robot(tiny / "robot.yaml")
+    [unknown, zero] = error.value.problems
+    assert "unknown key 'stall_torque' in joint 'right': actuator (did you mean " \
+           "'stall_torque_nm'?)" in unknown
+    assert "joint 'right': actuator: kp_nm_rad must be > 0, got 0" in zero

@@ -13,14 +13,14 @@ physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``), as 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..robot import Joint, Robot
 from ..segments import MAX_TICK_MS, Tick
-from ..servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
+from ..servos import ACTUATOR_FIELDS, DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
 
 INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
 
@@ -36,20 +36,20 @@ class ActuatorParams:
     no_load_speed_deg_s: float
 
 
-ACTUATOR_FIELDS = tuple(f.name for f in fields(ActuatorParams))
 
 
 def actuator_params(robot: Robot,
                     overrides: Mapping[str, Mapping[str, float]] | None = None,
                     ) -> tuple[ActuatorParams, ...]:
-    """Every joint's actuator model from its servo model, with per-joint ``overrides``
-    (joint name -> {field of ``ActuatorParams``: value}) applied on top."""
+    """Every joint's actuator model from its servo model, then its robot file's ``actuator:``
+    values, then per-joint ``overrides`` (joint name -> {field of ``ActuatorParams``: value})."""
     overrides = dict(overrides or {})
     unknown = sorted(set(overrides) - set(robot.joint_names))
     if unknown:
         raise ValueError(f"actuator overrides name unknown joints {', '.join(unknown)}; "
                          f"joints of {robot.name}: {', '.join(robot.joint_names)}")
-    return tuple(_params_for(joint, overrides.get(joint.name, {})) for joint in robot.joints)
+    return tuple(_params_for(joint, {**joint.actuator, **overrides.get(joint.name, {})})
+                 for joint in robot.joints)
 
 
 def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
