@@ -32,9 +32,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
+from .atomic import atomic_output, write_text_atomically
 from .errors import SourceError
 from .motion import HOME_POSE, Keyframe, Motion
-from .motion_writer import atomic_output, motion_text, robot_reference, write_text_atomically
+from .motion_writer import motion_text, robot_reference
 from .planner import plan_approach, plan_motion
 from .robot import Joint, Robot, SourceLocation
 from .yamlsource import fmt

@@ -10,9 +10,10 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from .atomic import write_text_atomically
 from .errors import SourceError
 from .motion import Keyframe, Motion
-from .motion_writer import motion_text, robot_reference, write_text_atomically
+from .motion_writer import motion_text, robot_reference
 from .robot import mirror_targets
 from .yamlsource import fmt
 

@@ -1,4 +1,5 @@
-"""Keyframes -> motion file text (``motions/<robot>/*.yaml``), written atomically.
+"""Keyframes -> motion file text (``motions/<robot>/*.yaml``); callers write it with
+:func:`choreo.atomic.write_text_atomically`.
 
 The text is meant for people as much as for the loader: a keyframe that equals one of the
 robot's poses is written by its name, any other names only the joints that differ from the
@@ -8,14 +9,12 @@ their shortest exact form, so loading the file gives back the same keyframes bit
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
-import tempfile
 import textwrap
 from pathlib import Path
-from typing import Iterator, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import yaml
@@ -73,41 +72,6 @@ def robot_reference(robot: Robot, motion_path: Path) -> str:
     except ValueError:
         return robot.path.resolve().as_posix()
     return Path(relative).as_posix()
-
-
-@contextlib.contextmanager
-def atomic_output(path: Path) -> Iterator[Path]:
-    """A temporary path beside ``path`` to write to; it replaces ``path`` only when the block
-    finishes without an exception, so readers never see a half-written file. The data and the
-    new name are flushed to disk before returning (a crash right after loses nothing)."""
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(handle)
-    try:
-        yield Path(temporary)
-        with open(temporary, "rb") as written:
-            os.fsync(written.fileno())
-        os.replace(temporary, path)
-        fsync_directory(path.parent)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
-
-
-def write_text_atomically(path: Path, text: str) -> None:
-    with atomic_output(path) as temporary:
-        temporary.write_text(text, encoding="utf-8")
-
-
-def fsync_directory(folder: Path) -> None:
-    """Make a new or renamed file's name durable."""
-    if os.name != "posix":
-        return  # Windows cannot open a folder for fsync; NTFS journals its metadata
-    handle = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(handle)
-    finally:
-        os.close(handle)
 
 
 # --- one keyframe ------------------------------------------------------------------------------

@@ -34,11 +34,12 @@ from typing import BinaryIO, Callable, Iterable, Sequence
 import numpy as np
 
 from . import workshop
+from .atomic import fsync_directory, write_text_atomically
 from .bus import ServoBus
 from .clock import Clock
 from .errors import BusError, ChoreoError
 from .motion import Keyframe
-from .motion_writer import fsync_directory, motion_text, robot_reference, write_text_atomically
+from .motion_writer import motion_text, robot_reference
 from .robot import Joint, Robot, load_robot
 from .yamlsource import SourceLocation, did_you_mean, fmt
 

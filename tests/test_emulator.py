@@ -514,6 +514,13 @@ def test_eeprom_values_persist_across_a_restart_and_unsaved_ones_do_not(tmp_path
     assert again.read(C.ID_READ, 2) is None
 
 
+def test_the_state_file_folder_is_created(tmp_path):
+    state = tmp_path / "emulators" / "bus.json"
+    Bus([1], state_path=state).send(C.TEMP_MAX_LIMIT_WRITE, 1, temp_c=70)
+    assert Bus([1], state_path=state).read(C.TEMP_MAX_LIMIT_READ, 1) == {"temp_c": 70}
+    assert [p.name for p in state.parent.iterdir()] == ["bus.json"]
+
+
 def test_a_state_file_for_other_servos_is_refused(tmp_path):
     state = tmp_path / "bus.json"
     Bus([1, 2], state_path=state).send(C.ID_WRITE, 1, new_id=3)

@@ -30,13 +30,13 @@ import logging
 import math
 import os
 import random
-import tempfile
 import threading
 from collections import deque
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
+from ..atomic import write_text_atomically
 from ..clock import Clock, RealClock
 from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
@@ -361,7 +361,8 @@ class BusEmulator:
                 for (factory_id, model_name), eeprom in zip(self._layout, self._eeproms)
             ],
         }
-        _write_atomically(self.state_path, json.dumps(document, indent=2) + "\n")
+        self.state_path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomically(self.state_path, json.dumps(document, indent=2) + "\n")
 
     def _load_state(self) -> list[Eeprom] | None:
         if self.state_path is None or not self.state_path.exists():
@@ -394,17 +395,3 @@ def _collide(replies: Sequence[bytes]) -> bytes:
 
 def _describe(layout: Sequence[tuple[int, str]]) -> str:
     return ", ".join(f"{servo_id} ({model_name})" for servo_id, model_name in layout)
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as file:
-            file.write(text)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
