@@ -204,21 +204,21 @@ class ServoBus:
                 log.debug("servo %d: no valid %s reply (try %d/%d)", servo_id,
                           spec.command.name, attempt + 1, attempts)
             garbled = self._decoder.bad_checksums - bad_before
+        tries = f"1 try of {timeout_s * 1000:.0f} ms" if attempts == 1 else \
+            f"{attempts} tries, {timeout_s * 1000:.0f} ms each"
+        replies = f"{garbled} repl{'y' if garbled == 1 else 'ies'} to"
         if garbled and servo_id == BROADCAST_ID:
             raise ProtocolError(
-                f"{garbled} replies to a broadcast {spec.command.name} failed the checksum in "
-                f"{attempts} tries: several servos answered at once (a broadcast read needs a "
-                "single servo on the bus), or the wiring is noisy"
+                f"{replies} a broadcast {spec.command.name} failed the checksum ({tries}): "
+                "several servos answered at once (a broadcast read needs a single servo on the "
+                "bus), or the wiring is noisy"
             )
         if garbled:
             raise ProtocolError(
-                f"servo {servo_id}: {garbled} replies to {spec.command.name} failed the checksum in "
-                f"{attempts} tries: two servos may share ID {servo_id} (run `choreo scan`), "
-                "or the wiring is noisy"
+                f"servo {servo_id}: {replies} {spec.command.name} failed the checksum ({tries}): "
+                f"two servos may share ID {servo_id} (run `choreo scan`), or the wiring is noisy"
             )
         silent = "no servo answered" if servo_id == BROADCAST_ID else f"servo {servo_id} did not answer"
-        tries = f"1 try of {timeout_s * 1000:.0f} ms" if attempts == 1 else \
-            f"{attempts} tries, {timeout_s * 1000:.0f} ms each"
         raise BusTimeoutError(
             f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
             "or run `choreo scan`"

@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .bus import ServoBus
+from .bus import Presence, ServoBus
 from .clock import Clock
 from .errors import (
     BusError,
@@ -149,11 +149,18 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
     Returns the measured pose (degrees, joint order) and each joint's servo limits. Raises a
     ChoreoError listing every problem; nothing has moved then.
     """
-    missing = [j for j in robot.joints if not bus.ping(j.servo_id, retries=2)]
-    if missing:
-        names = ", ".join(f"{j.name} (ID {j.servo_id})" for j in missing)
-        raise ChoreoError(f"{len(missing)} servo(s) did not answer: {names}; check power and "
-                          "wiring, or run `choreo scan` to see which IDs answer")
+    presence = {j: bus.probe(j.servo_id, retries=2) for j in robot.joints}
+    silent = [j for j, p in presence.items() if p is Presence.SILENT]
+    garbled = [j for j, p in presence.items() if p is Presence.GARBLED]
+    problems = []
+    if silent:
+        problems.append(f"{len(silent)} servo(s) did not answer: {_names(silent)}")
+    if garbled:
+        problems.append(f"{len(garbled)} servo(s) answered garbled, as when two servos share an "
+                        f"ID: {_names(garbled)}")
+    if problems:
+        raise ChoreoError("; ".join(problems) + "; check power and wiring, or run `choreo scan` "
+                          "to see which IDs answer")
     problems, pose, limits = [], [], {}
     for joint in robot.joints:
         position, servo_limits, joint_problems = _inspect(bus, joint)
@@ -165,6 +172,10 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
     for joint in robot.joints:
         bus.load(joint.servo_id)
     return tuple(pose), limits
+
+
+def _names(joints: Sequence[Joint]) -> str:
+    return ", ".join(f"{j.name} (ID {j.servo_id})" for j in joints)
 
 
 def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:

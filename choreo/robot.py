@@ -51,7 +51,7 @@ class Joint:
     limits: JointLimits
     mjcf_joint: str  # the MuJoCo joint this servo drives
     # preview actuator values overriding the servo model's (keys: servos.ACTUATOR_FIELDS)
-    actuator: Mapping[str, float] = field(default_factory=dict)
+    actuator: Mapping[str, float] = field(default_factory=dict, hash=False)  # (a dict can't hash)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "actuator", MappingProxyType(dict(self.actuator)))

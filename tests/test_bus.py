@@ -152,7 +152,7 @@ def test_absent_servo_times_out_after_every_try_in_virtual_time():
 def test_persistent_corruption_is_a_protocol_error():
     bus, emulator = make_bus(retries=1)
     emulator.servo(2).reply_faults = ReplyFaults(corrupt_probability=1.0)
-    with pytest.raises(ProtocolError, match="servo 2: 2 replies to VIN_READ failed the checksum"):
+    with pytest.raises(ProtocolError, match=r"servo 2: 2 replies to VIN_READ failed the checksum \(2 tries, 50 ms each\)"):
         bus.read_vin(2)
 
 
@@ -207,8 +207,8 @@ def test_silent_broadcast_says_no_servo_answered():
 
 def test_colliding_broadcast_replies_say_several_servos_answered():
     bus, _ = make_bus(ids=(1, 2), retries=0)
-    with pytest.raises(ProtocolError, match=r"^1 replies to a broadcast ID_READ failed the checksum "
-                       r"in 1 tries: several servos answered at once"):
+    with pytest.raises(ProtocolError, match=r"^1 reply to a broadcast ID_READ failed the checksum "
+                       r"\(1 try of 50 ms\): several servos answered at once"):
         bus.read_id()
 
 

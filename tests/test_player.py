@@ -294,3 +294,17 @@ def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
     reached = [m.to_units for m in rig.emulator.log.moves if m.servo_id == 1]
     assert further[0] in reached  # the re-targeted tick really moved the servo
     assert rig.emulator.servo(1).position_units == pytest.approx(here[0])
+
+
+def test_two_servos_sharing_an_id_are_refused_as_such():
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    rig.emulator = BusEmulator([*home_specs_of(rig.robot), ServoSpec(3)], clock=rig.clock)
+    rig.bus = ServoBus(SimSerial.from_emulator(rig.emulator))
+    with pytest.raises(ChoreoError, match=r"1 servo\(s\) answered garbled, as when two servos "
+                                          r"share an ID: elbow \(ID 3\)"):
+        rig.play()
+
+
+def home_specs_of(robot):
+    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+            for j, a in zip(robot.joints, robot.pose_vector("home"))]

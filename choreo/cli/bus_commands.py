@@ -32,14 +32,19 @@ def register(subparsers) -> None:
 
 def run_scan(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        found = bus.scan(args.ids)
-        statuses = [bus.read_status(i) for i in found]
+        scan = bus.scan_presence(args.ids)
+        statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
-        print(json.dumps([dataclasses.asdict(s) for s in statuses], indent=2))
+        print(json.dumps({"servos": [dataclasses.asdict(s) for s in statuses],
+                          "garbled_ids": list(scan.garbled)}, indent=2))
         return 0
+    for servo_id in scan.garbled:
+        print(f"ID {servo_id}: replies garbled: several servos share this ID (give them their own "
+              "IDs one at a time with `choreo servo set-id`), or the wiring is noisy")
     if not statuses:
-        print(f"no servo answered on IDs {_describe(args.ids)}: check power (the servos need their "
-              "own supply), wiring and baud rate (115200)")
+        if not scan.garbled:
+            print(f"no servo answered on IDs {_describe(args.ids)}: check power (the servos need "
+                  "their own supply), wiring and baud rate (115200)")
         return 1
     table = Table(title=f"{len(statuses)} servo(s) on {bus.name}")
     for column in ("id", "position", "angle", "vin", "temp"):

@@ -1,0 +1,26 @@
+"""choreo scan as a user sees it: servos found, and IDs shared by several servos named."""
+
+from __future__ import annotations
+
+import json
+
+from choreo.cli import main
+
+
+def test_scan_lists_the_servos_that_answer(capsys):
+    assert main(["scan", "--port", "sim://?ids=2-4&clock=virtual", "--ids", "0-8", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [s["servo_id"] for s in report["servos"]] == [2, 3, 4]
+    assert report["garbled_ids"] == []
+
+
+def test_scan_names_an_id_that_two_servos_share(capsys):
+    assert main(["scan", "--port", "sim://?ids=1-3,3&clock=virtual", "--ids", "0-5"]) == 0
+    out = capsys.readouterr().out
+    assert "ID 3: replies garbled: several servos share this ID" in out
+    assert "2 servo(s)" in out
+
+
+def test_scan_with_nothing_on_the_bus_says_what_to_check(capsys):
+    assert main(["scan", "--port", "sim://?ids=9&clock=virtual", "--ids", "0-5"]) == 1
+    assert "no servo answered on IDs 0-5: check power" in capsys.readouterr().out
