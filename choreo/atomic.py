@@ -8,6 +8,8 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
+from .errors import ChoreoError
+
 
 @contextlib.contextmanager
 def atomic_output(path: Path) -> Iterator[Path]:
@@ -15,6 +17,8 @@ def atomic_output(path: Path) -> Iterator[Path]:
     finishes without an exception, so readers never see a half-written file. The data and the
     new name are flushed to disk before returning (a crash right after loses nothing)."""
     path = Path(path)
+    if not path.parent.is_dir():
+        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(handle)
     try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from choreo.atomic import atomic_output, fsync_directory, write_text_atomically
+from choreo.errors import ChoreoError
 
 
 def test_write_text_replaces_the_file_whole_and_leaves_nothing_else(tmp_path):
@@ -38,3 +39,9 @@ def test_fsync_directory_accepts_a_folder(tmp_path):
     fsync_directory(tmp_path)  # raises OSError if the folder cannot be opened
     with pytest.raises(FileNotFoundError):
         fsync_directory(tmp_path / "missing")
+
+
+def test_a_missing_folder_is_a_clear_error_naming_it(tmp_path):
+    with pytest.raises(ChoreoError, match=r"cannot write .*nowhere/x.yaml: the folder .*nowhere "
+                                          r"does not exist"):
+        write_text_atomically(tmp_path / "nowhere" / "x.yaml", "a: 1\n")
