@@ -445,8 +445,16 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"
     journal = journal_path(out)
+    # A generous read timeout: on a loaded machine the bridge thread may answer late.
     command = [sys.executable, "-m", "choreo", "record", str(out), "--robot", "arm6",
-               "--port", str(link), "--joints", "shoulder", "elbow"]
+               "--port", str(link), "--joints", "shoulder", "elbow", "--timeout-ms", "500"]
+
+    def running(process, condition):
+        def check():
+            if process.poll() is not None:
+                raise AssertionError(f"choreo record exited early: {process.communicate()[1]}")
+            return condition()
+        return check
 
     def unloads_of_elbow():
         return sum(1 for p in list(emulator.log.packets)  # list(): one step, the bridge appends
@@ -459,12 +467,12 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
     def press_enter(process, count):
         process.stdin.write("\n")
         process.stdin.flush()
-        wait_for(lambda: captures() == count, f"capture {count} in the journal")
+        wait_for(running(process, lambda: captures() == count), f"capture {count} in the journal")
 
     first = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: unloads_of_elbow() == 1, "the recorder to unload the elbow")
+        wait_for(running(first, lambda: unloads_of_elbow() == 1), "the recorder to unload the elbow")
         emulator.servo(2).move_by_hand(600)
         press_enter(first, 1)
         emulator.servo(3).move_by_hand(400)
@@ -481,7 +489,8 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
     second = subprocess.Popen(command + ["--resume"], stdin=subprocess.PIPE,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: unloads_of_elbow() == 2, "the resumed recorder to unload the elbow")
+        wait_for(running(second, lambda: unloads_of_elbow() == 2),
+                 "the resumed recorder to unload the elbow")
         emulator.servo(2).move_by_hand(700)
         press_enter(second, 3)
         stdout, stderr = second.communicate("q\n", timeout=WAIT_S)
