@@ -3,6 +3,7 @@ choreo motions. The vendor files live in ``shared/data/tonypi`` beside the check
 
 from __future__ import annotations
 
+import re
 import shutil
 import sqlite3
 from contextlib import closing
@@ -18,6 +19,7 @@ from choreo.motion import Motion, load_motion
 from choreo.planner import plan_motion
 from choreo.robot import load_robot
 from choreo.segments import segment
+from choreo.validate import check_file
 
 REPO = Path(__file__).resolve().parents[1]
 VENDOR = Path(__file__).resolve().parents[2] / "shared" / "data" / "tonypi"
@@ -292,3 +294,17 @@ def test_holds_are_rows_of_their_own_split_when_long_refused_when_too_short(tmp_
     _, rows = rows_from_motion(load_motion(motion_file))
     assert [row.time_ms for row in rows] == [500, 21667, 21667, 21666, 1000, 20]
     assert len({row.positions_units for row in rows[:4]}) == 1
+
+
+@pytest.mark.parametrize("source", VENDOR_FILES, ids=lambda p: p.stem)
+def test_every_vendor_file_imports_and_validates_or_says_precisely_why_not(source, tmp_path):
+    """The user's way: `choreo import d6a`, then `choreo validate` (planning and ticks). A file
+    either validates, or every problem names its keyframe's line, the limiting joint and the
+    earliest feasible time, and `--stretch` then validates it."""
+    out = tmp_path / f"{source.stem}.yaml"
+    assert main(["import", "d6a", str(source), "--robot", "tonypi", "-o", str(out)]) == 0
+    result = check_file(out, physics=False)
+    for problem in result.problems:
+        assert re.match(rf"^{re.escape(str(out))}:\d+:\d+: keyframe cannot be reached at [\d.]+ s"
+                        r".*limits of \w+ allow [\d.]+ s at the earliest", problem), problem
+    assert check_file(out, physics=False, stretch=True).ok
