@@ -39,8 +39,9 @@ def rounded_targets(robot: Robot, trajectory: Trajectory, bounds_ms: np.ndarray)
     return np.array([[round(j.to_units(a)) for j, a in zip(robot.joints, row)] for row in angles])
 
 
-def deviation_deg(robot: Robot, trajectory: Trajectory, bounds_ms: np.ndarray,
-                  units: np.ndarray) -> float:
+def deviation_deg(
+    robot: Robot, trajectory: Trajectory, bounds_ms: np.ndarray, units: np.ndarray
+) -> float:
     times_ms = np.arange(0, bounds_ms[-1] * 2 + 1) / 2
     smooth = trajectory.positions(times_ms / 1000)
     worst = 0.0
@@ -76,9 +77,21 @@ def main() -> None:
     rows = [(str(p.relative_to(p.parents[2])), load_motion(p)) for p in MOTIONS]
     rows.append(("generated dance, 18 servos, 10 min", dance(servo_robot(18), 2000, 600.0)))
     table = Table(title=f"bytes at tolerance {TOLERANCE_DEG}° (+{QUANTIZATION_DEG}° rounding)")
-    for header in ("motion", "s", "choreo ticks", "choreo bytes", "dev °", "20 ms stream bytes",
-                   "dev °", "ratio", "20 ms staged bytes", "ratio", "fixed P ms", "bytes",
-                   "ratio"):
+    for header in (
+        "motion",
+        "s",
+        "choreo ticks",
+        "choreo bytes",
+        "dev °",
+        "20 ms stream bytes",
+        "dev °",
+        "ratio",
+        "20 ms staged bytes",
+        "ratio",
+        "fixed P ms",
+        "bytes",
+        "ratio",
+    ):
         table.add_column(header, justify="left" if header == "motion" else "right")
     worst_ratio = math.inf
     for name, motion in rows:
@@ -91,19 +104,33 @@ def main() -> None:
         period = longest_fixed_period(robot, trajectory, plan.max_deviation_deg)
         fixed_bytes = fixed_period(robot, trajectory, period)[2]
         if ours == 0:  # a motion that holds one pose (tonypi/stand) sends nothing to compare
-            table.add_row(name, f"{trajectory.duration_s:.1f}", str(len(plan.ticks)), "0",
-                          *["-"] * 9)
+            table.add_row(
+                name, f"{trajectory.duration_s:.1f}", str(len(plan.ticks)), "0", *["-"] * 9
+            )
             continue
         worst_ratio = min(worst_ratio, stream20 / ours)
-        table.add_row(name, f"{trajectory.duration_s:.1f}", str(len(plan.ticks)), str(ours),
-                      f"{plan.max_deviation_deg:.2f}", str(stream20), f"{dev20:.2f}",
-                      f"{stream20 / ours:.1f}x", str(staged20), f"{staged20 / ours:.1f}x",
-                      str(period), str(fixed_bytes), f"{fixed_bytes / ours:.1f}x")
+        table.add_row(
+            name,
+            f"{trajectory.duration_s:.1f}",
+            str(len(plan.ticks)),
+            str(ours),
+            f"{plan.max_deviation_deg:.2f}",
+            str(stream20),
+            f"{dev20:.2f}",
+            f"{stream20 / ours:.1f}x",
+            str(staged20),
+            f"{staged20 / ours:.1f}x",
+            str(period),
+            str(fixed_bytes),
+            f"{fixed_bytes / ours:.1f}x",
+        )
     console = Console(width=200)
     console.print(table)
     verdict = "met" if worst_ratio >= GOAL else "NOT met"
-    console.print(f"fewest-bytes ratio against 20 ms streaming: {worst_ratio:.1f}x "
-                  f"(goal >= {GOAL:g}x: {verdict})")
+    console.print(
+        f"fewest-bytes ratio against 20 ms streaming: {worst_ratio:.1f}x "
+        f"(goal >= {GOAL:g}x: {verdict})"
+    )
 
 
 if __name__ == "__main__":

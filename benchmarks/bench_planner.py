@@ -43,20 +43,32 @@ def main() -> None:
         total_s.append(t2 - t0)
 
     trajectory = result.trajectory
-    print(f"motion: {len(robot.joints)} servos, {len(motion.keyframes)} keyframes, "
-          f"{trajectory.duration_s:.1f} s ({len(result.stretches)} keyframes stretched)")
+    print(
+        f"motion: {len(robot.joints)} servos, {len(motion.keyframes)} keyframes, "
+        f"{trajectory.duration_s:.1f} s ({len(result.stretches)} keyframes stretched)"
+    )
     mean_ms = trajectory.duration_s * 1000 / len(ticks.ticks)
-    print(f"result: {len(ticks.ticks)} ticks (mean {mean_ms:.0f} ms), "
-          f"{ticks.total_bytes} bytes, max deviation {ticks.max_deviation_deg:.3f}°, "
-          f"peak bus use {ticks.peak_bus_use:.0%}")
-    for name, runs in (("plan", plan_s), ("segment", segment_s), ("plan + segment", total_s),
-                       ("(CPU time)", cpu_s)):
-        print(f"{name:>15}: best {min(runs):.3f} s, median {statistics.median(runs):.3f} s "
-              f"over {len(runs)} runs")
+    print(
+        f"result: {len(ticks.ticks)} ticks (mean {mean_ms:.0f} ms), "
+        f"{ticks.total_bytes} bytes, max deviation {ticks.max_deviation_deg:.3f}°, "
+        f"peak bus use {ticks.peak_bus_use:.0%}"
+    )
+    for name, runs in (
+        ("plan", plan_s),
+        ("segment", segment_s),
+        ("plan + segment", total_s),
+        ("(CPU time)", cpu_s),
+    ):
+        print(
+            f"{name:>15}: best {min(runs):.3f} s, median {statistics.median(runs):.3f} s "
+            f"over {len(runs)} runs"
+        )
     verdict = "met" if min(total_s) < GOAL_S else "NOT met"
     load = os.getloadavg()[0]
-    print(f"goal plan + segment < {GOAL_S:g} s: {verdict} (load average {load:.1f} on "
-          f"{os.cpu_count()} cores while measuring)")
+    print(
+        f"goal plan + segment < {GOAL_S:g} s: {verdict} (load average {load:.1f} on "
+        f"{os.cpu_count()} cores while measuring)"
+    )
 
 
 if __name__ == "__main__":

@@ -27,18 +27,27 @@ from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.emulator.trace import path_errors_deg
 from choreo.motion import load_motion
 from choreo.player import Player, packet_schedule, preflight, prepare
-from choreo.segments import compile_motion
 from choreo.robot import Robot
+from choreo.segments import compile_motion
 
-MOTIONS = ["motions/arm6/wave.yaml", "motions/arm6/dance.yaml", "motions/hexapod18/tripod_gait.yaml"]
+MOTIONS = [
+    "motions/arm6/wave.yaml",
+    "motions/arm6/dance.yaml",
+    "motions/hexapod18/tripod_gait.yaml",
+]
 STREAM_PERIOD_S = 0.020
 
 
 def rig(robot: Robot, clock, pose_deg=None) -> tuple[BusEmulator, ServoBus]:
     """The robot's servos on an emulated bus, at ``pose_deg`` (default: home)."""
     pose_deg = robot.pose_vector("home") if pose_deg is None else pose_deg
-    emulator = BusEmulator([ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-                            for j, a in zip(robot.joints, pose_deg)], clock=clock)
+    emulator = BusEmulator(
+        [
+            ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+            for j, a in zip(robot.joints, pose_deg)
+        ],
+        clock=clock,
+    )
     return emulator, ServoBus(SimSerial.from_emulator(emulator))
 
 
@@ -52,20 +61,28 @@ def realtime(seconds: float) -> None:
     performance = prepare(compiled, start)
     report = Player(bus, motion.robot, RealClock(), limits).play(performance.ticks, start)
     late = np.array(report.lateness_ms)
-    print(f"real time: {motion.robot.name} {len(motion.robot.joints)} servos, "
-          f"{report.planned_s:.1f} s, {report.ticks_played} ticks ({report.outcome.value}), "
-          f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
+    print(
+        f"real time: {motion.robot.name} {len(motion.robot.joints)} servos, "
+        f"{report.planned_s:.1f} s, {report.ticks_played} ticks ({report.outcome.value}), "
+        f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
+    )
     print(f"  choreo START lateness:   {percentiles(late)} (goal p99 < 2 ms)")
     baseline = bare_deadlines([t.start_ms / 1000 for t in performance.ticks])
-    print(f"  bare sleep-until loop:   {percentiles(baseline)} (same deadlines, nothing else: "
-          "the machine's own wake-up noise)")
-    print(f"  end {report.end_error_ms:+.3f} ms from schedule (goal within 5 ms); "
-          f"re-targeted {report.retargeted}; bus use {report.bus_use:.0%}")
+    print(
+        f"  bare sleep-until loop:   {percentiles(baseline)} (same deadlines, nothing else: "
+        "the machine's own wake-up noise)"
+    )
+    print(
+        f"  end {report.end_error_ms:+.3f} ms from schedule (goal within 5 ms); "
+        f"re-targeted {report.retargeted}; bus use {report.bus_use:.0%}"
+    )
 
 
 def percentiles(late_ms: np.ndarray) -> str:
-    return (f"p50 {np.percentile(late_ms, 50):.3f} ms, p99 {np.percentile(late_ms, 99):.3f} ms, "
-            f"max {late_ms.max():.3f} ms")
+    return (
+        f"p50 {np.percentile(late_ms, 50):.3f} ms, p99 {np.percentile(late_ms, 99):.3f} ms, "
+        f"max {late_ms.max():.3f} ms"
+    )
 
 
 def bare_deadlines(offsets_s: list[float]) -> np.ndarray:
@@ -118,11 +135,22 @@ def play_choreo(motion) -> Way:
     report = player.play(performance.ticks, start)
     starts = [j.to_units(a) for j, a in zip(motion.robot.joints, start)]
     times = np.arange(0.0, report.planned_s, 0.002)
-    errors = path_errors_deg(emulator.log.moves, motion.robot, starts, report.start_time_s, times,
-                             performance.planned_deg(times))
+    errors = path_errors_deg(
+        emulator.log.moves,
+        motion.robot,
+        starts,
+        report.start_time_s,
+        times,
+        performance.planned_deg(times),
+    )
     motion_bytes = sum(len(p.packet) for p in packet_schedule(performance.ticks, motion.robot))
-    return Way("choreo: staged + one START per tick", start_skew_ms(emulator), max(errors),
-               motion_bytes, report.bytes_sent - motion_bytes)
+    return Way(
+        "choreo: staged + one START per tick",
+        start_skew_ms(emulator),
+        max(errors),
+        motion_bytes,
+        report.bytes_sent - motion_bytes,
+    )
 
 
 def play_vendor(motion) -> Way:
@@ -142,8 +170,9 @@ def play_vendor(motion) -> Way:
             bus.move(joint.servo_id, round(joint.to_units(angle)), time_ms)
         bus.drain()  # the vendor's Python writes, then sleeps: the sends add up (drift)
         clock.sleep_until(clock.now() + time_ms / 1000)
-    return _measure("vendor runner: MOVE_TIME_WRITE per servo per keyframe", emulator, robot,
-                    trajectory, t0)
+    return _measure(
+        "vendor runner: MOVE_TIME_WRITE per servo per keyframe", emulator, robot, trajectory, t0
+    )
 
 
 def play_streaming(motion) -> Way:
@@ -160,15 +189,19 @@ def play_streaming(motion) -> Way:
         for joint, angle in zip(robot.joints, pose):
             bus.move(joint.servo_id, round(joint.to_units(angle)), round(STREAM_PERIOD_S * 1000))
     bus.drain()
-    return _measure("fixed 20 ms streaming: MOVE_TIME_WRITE per servo", emulator, robot,
-                    trajectory, t0)
+    return _measure(
+        "fixed 20 ms streaming: MOVE_TIME_WRITE per servo", emulator, robot, trajectory, t0
+    )
 
 
 def _measure(name, emulator, robot, trajectory, t0) -> Way:
     times = np.arange(0.0, trajectory.duration_s, 0.002)
     start_units = [j.to_units(a) for j, a in zip(robot.joints, trajectory.at(0.0)[0])]
-    error = max(path_errors_deg(emulator.log.moves, robot, start_units, t0, times,
-                                trajectory.positions(times)))
+    error = max(
+        path_errors_deg(
+            emulator.log.moves, robot, start_units, t0, times, trajectory.positions(times)
+        )
+    )
     return Way(name, start_skew_ms(emulator), error, written_bytes(emulator, t0))
 
 
@@ -180,8 +213,10 @@ def compare() -> None:
         motion = load_motion(path)
         for way in (play_vendor(motion), play_streaming(motion), play_choreo(motion)):
             health = f" (+{way.health_bytes} health reads)" if way.health_bytes else ""
-            print(f"| {path.split('/', 1)[1]} | {way.name} | {way.skew_ms:.1f} | "
-                  f"{way.path_error_deg:.2f} | {way.motion_bytes}{health} |")
+            print(
+                f"| {path.split('/', 1)[1]} | {way.name} | {way.skew_ms:.1f} | "
+                f"{way.path_error_deg:.2f} | {way.motion_bytes}{health} |"
+            )
 
 
 def main() -> int:

@@ -34,21 +34,31 @@ def physics(repeat: int) -> None:
         best = np.inf
         for _ in range(repeat):
             started = time.perf_counter()
-            rollout = simulate(motion.robot, ticks, trajectory.at(0.0)[0],
-                               keyframe_times_s=trajectory.keyframe_times_s)
+            rollout = simulate(
+                motion.robot,
+                ticks,
+                trajectory.at(0.0)[0],
+                keyframe_times_s=trajectory.keyframe_times_s,
+            )
             run_checks(rollout)
             best = min(best, time.perf_counter() - started)
         simulated = rollout.duration_s
-        print(f"  {path.stem:16s} {simulated:5.2f} s simulated in {best * 1000:6.1f} ms: "
-              f"{simulated / best:5.1f}x real time ({len(rollout.times_s)} steps, "
-              f"{best / len(rollout.times_s) * 1e6:.0f} us/step, model load and checks included)")
+        print(
+            f"  {path.stem:16s} {simulated:5.2f} s simulated in {best * 1000:6.1f} ms: "
+            f"{simulated / best:5.1f}x real time ({len(rollout.times_s)} steps, "
+            f"{best / len(rollout.times_s) * 1e6:.0f} us/step, model load and checks included)"
+        )
 
 
 def rendering(repeat: int) -> None:
     motion = load_motion(RENDERED)
     trajectory = plan_motion(motion).trajectory
-    rollout = simulate(motion.robot, segment(trajectory, motion.robot).ticks,
-                       trajectory.at(0.0)[0], keyframe_times_s=trajectory.keyframe_times_s)
+    rollout = simulate(
+        motion.robot,
+        segment(trajectory, motion.robot).ticks,
+        trajectory.at(0.0)[0],
+        keyframe_times_s=trajectory.keyframe_times_s,
+    )
     started = time.perf_counter()
     backend = offscreen_backend()
     print(f"offscreen back-end: {backend} (chosen in {time.perf_counter() - started:.2f} s)")
@@ -71,8 +81,9 @@ def rendering(repeat: int) -> None:
     best_hq = np.inf
     for _ in range(repeat):
         started = time.perf_counter()
-        for _frame in render_frames(rollout, times[:20], RenderSettings(640, 480,
-                                                                        high_quality=True)):
+        for _frame in render_frames(
+            rollout, times[:20], RenderSettings(640, 480, high_quality=True)
+        ):
             pass
         best_hq = min(best_hq, time.perf_counter() - started)
     print(f"  --hq frames only {20 / best_hq:5.1f} frames/s (shadows, reflections, 4x MSAA)")

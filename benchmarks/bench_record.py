@@ -26,8 +26,10 @@ READS = 200
 
 
 def specs(robot):
-    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-            for j, a in zip(robot.joints, robot.pose_vector("home"))]
+    return [
+        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+        for j, a in zip(robot.joints, robot.pose_vector("home"))
+    ]
 
 
 def virtual_pose_read_ms(robot) -> float:
@@ -80,18 +82,24 @@ def journal_append_ms(robot) -> list[float]:
 
 def summary(times: list[float]) -> str:
     ordered = sorted(times)
-    return (f"median {statistics.median(ordered):.2f} ms, p95 {ordered[int(0.95 * len(ordered))]:.2f} ms, "
-            f"max {ordered[-1]:.2f} ms")
+    return (
+        f"median {statistics.median(ordered):.2f} ms, p95 {ordered[int(0.95 * len(ordered))]:.2f} ms, "
+        f"max {ordered[-1]:.2f} ms"
+    )
 
 
 def main() -> None:
     for name in ("arm6", "hexapod18"):
         robot = load_robot(name)
         wire_ms = virtual_pose_read_ms(robot)
-        print(f"{name} ({len(robot.joints)} servos): one pose read = {wire_ms:.2f} ms of bus time "
-              f"-> at most {1000 / wire_ms:.0f} Hz")
+        print(
+            f"{name} ({len(robot.joints)} servos): one pose read = {wire_ms:.2f} ms of bus time "
+            f"-> at most {1000 / wire_ms:.0f} Hz"
+        )
         print(f"  over a pty, real time: {summary(pty_pose_read_ms(robot))}")
-    print(f"journal append (write + flush + fsync): {summary(journal_append_ms(load_robot('arm6')))}")
+    print(
+        f"journal append (write + flush + fsync): {summary(journal_append_ms(load_robot('arm6')))}"
+    )
 
 
 if __name__ == "__main__":

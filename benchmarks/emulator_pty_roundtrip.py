@@ -57,12 +57,22 @@ def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
     floor_ms = ((6 + 8) * BYTE_TIME_S + args.turnaround_ms / 1000) * 1000
     print(f"{args.count} POS_READ round trips; wire floor {floor_ms:.3f} ms")
-    emulate = ["-m", "choreo", "emulate", "--servos", "1-6", "--turnaround-ms", str(args.turnaround_ms)]
+    emulate = [
+        "-m",
+        "choreo",
+        "emulate",
+        "--servos",
+        "1-6",
+        "--turnaround-ms",
+        str(args.turnaround_ms),
+    ]
     with serving(emulate + ["--pty"]) as link:
         print_percentiles("emulator", round_trips(link, args.count), floor_ms)
         stream = move_stream(args.stream_s)
         print_throughput(*sustained(link, stream, args.turnaround_ms / 1000), len(stream))
-    with serving([__file__, "--turnaround-ms", str(args.turnaround_ms), "--serve-baseline"]) as link:
+    with serving(
+        [__file__, "--turnaround-ms", str(args.turnaround_ms), "--serve-baseline"]
+    ) as link:
         print_percentiles("baseline", round_trips(link, args.count), floor_ms)
     print_headroom(stream)
 
@@ -72,8 +82,9 @@ class serving:
 
     def __init__(self, arguments: list[str]):
         self.link = os.path.join(tempfile.mkdtemp(), "ttyEMU")
-        self.process = subprocess.Popen([sys.executable, *arguments, self.link],
-                                        stdout=subprocess.PIPE, text=True)
+        self.process = subprocess.Popen(
+            [sys.executable, *arguments, self.link], stdout=subprocess.PIPE, text=True
+        )
 
     def __enter__(self) -> str:
         self.process.stdout.readline()
@@ -112,8 +123,14 @@ def move_stream(duration_s: float) -> bytes:
     packets = []
     while len(packets) * 10 < duration_s * BYTES_PER_S:
         n = len(packets)
-        packets.append(encode_request(Command.MOVE_TIME_WRITE, SERVO_IDS[n % len(SERVO_IDS)],
-                                      pos_units=(n * 37) % 1001, time_ms=20))
+        packets.append(
+            encode_request(
+                Command.MOVE_TIME_WRITE,
+                SERVO_IDS[n % len(SERVO_IDS)],
+                pos_units=(n * 37) % 1001,
+                time_ms=20,
+            )
+        )
     return b"".join(packets)
 
 
@@ -136,9 +153,11 @@ def sustained(link: str, stream: bytes, turnaround_s: float) -> tuple[float, flo
 
 def print_throughput(elapsed_s: float, late_s: float, stream_bytes: int) -> None:
     rate = stream_bytes / elapsed_s
-    print(f"sustained: {stream_bytes} bytes of MOVE_TIME_WRITE in {elapsed_s:.3f} s = {rate:,.0f} "
-          f"bytes/s ({rate / BYTES_PER_S:.1%} of the wire's {BYTES_PER_S:,.0f}); "
-          f"the read after them came {late_s * 1000:.2f} ms after its wire time")
+    print(
+        f"sustained: {stream_bytes} bytes of MOVE_TIME_WRITE in {elapsed_s:.3f} s = {rate:,.0f} "
+        f"bytes/s ({rate / BYTES_PER_S:.1%} of the wire's {BYTES_PER_S:,.0f}); "
+        f"the read after them came {late_s * 1000:.2f} ms after its wire time"
+    )
 
 
 def print_headroom(stream: bytes) -> None:
@@ -147,8 +166,10 @@ def print_headroom(stream: bytes) -> None:
     port.write(stream)
     port.flush()
     cpu_s = time.process_time() - start
-    print(f"CPU headroom: the emulator handles {len(stream) / cpu_s:,.0f} bytes per CPU second "
-          f"({len(stream) / cpu_s / BYTES_PER_S:.1f}x the wire)")
+    print(
+        f"CPU headroom: the emulator handles {len(stream) / cpu_s:,.0f} bytes per CPU second "
+        f"({len(stream) / cpu_s / BYTES_PER_S:.1f}x the wire)"
+    )
 
 
 def serve_baseline(link: str, turnaround_s: float) -> None:

@@ -12,8 +12,8 @@ import contextlib
 import enum
 import logging
 import threading
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import Iterable, Iterator
 
 import serial
 
@@ -201,11 +201,19 @@ class ServoBus:
                     fields = self._exchange(packet, spec.command, servo_id, timeout_s)
                 if fields is not None:
                     return fields
-                log.debug("servo %d: no valid %s reply (try %d/%d)", servo_id,
-                          spec.command.name, attempt + 1, attempts)
+                log.debug(
+                    "servo %d: no valid %s reply (try %d/%d)",
+                    servo_id,
+                    spec.command.name,
+                    attempt + 1,
+                    attempts,
+                )
             garbled = self._decoder.bad_checksums - bad_before
-        tries = f"1 try of {timeout_s * 1000:.0f} ms" if attempts == 1 else \
-            f"{attempts} tries, {timeout_s * 1000:.0f} ms each"
+        tries = (
+            f"1 try of {timeout_s * 1000:.0f} ms"
+            if attempts == 1
+            else f"{attempts} tries, {timeout_s * 1000:.0f} ms each"
+        )
         replies = f"{garbled} repl{'y' if garbled == 1 else 'ies'} to"
         if garbled and servo_id == BROADCAST_ID:
             raise ProtocolError(
@@ -218,7 +226,9 @@ class ServoBus:
                 f"servo {servo_id}: {replies} {spec.command.name} failed the checksum ({tries}): "
                 f"two servos may share ID {servo_id} (run `choreo scan`), or the wiring is noisy"
             )
-        silent = "no servo answered" if servo_id == BROADCAST_ID else f"servo {servo_id} did not answer"
+        silent = (
+            "no servo answered" if servo_id == BROADCAST_ID else f"servo {servo_id} did not answer"
+        )
         raise BusTimeoutError(
             f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
             "or run `choreo scan`"
@@ -230,15 +240,18 @@ class ServoBus:
         try:
             yield
         except (serial.SerialException, OSError) as error:
-            raise PortError(f"{self.name}: the port was lost ({error}): check the USB cable") \
-                from error
+            raise PortError(
+                f"{self.name}: the port was lost ({error}): check the USB cable"
+            ) from error
 
     def _exchange(self, packet: bytes, command: Command, servo_id: int, timeout_s: float):
         """One attempt: flush, write, read until the expected reply or a timeout."""
         port = self.port
         port.timeout = timeout_s
         if self._echo_owed:
-            port.read(self._echo_owed)  # the echoes of earlier writes, so they aren't flushed mid-way
+            port.read(
+                self._echo_owed
+            )  # the echoes of earlier writes, so they aren't flushed mid-way
             self._echo_owed = 0
         port.reset_input_buffer()
         self._decoder.reset()
@@ -415,8 +428,13 @@ class ServoBus:
             return False
         return True
 
-    def scan_presence(self, ids: Iterable[int] = range(BROADCAST_ID), *,
-                      timeout_s: float | None = None, retries: int = 0) -> ScanResult:
+    def scan_presence(
+        self,
+        ids: Iterable[int] = range(BROADCAST_ID),
+        *,
+        timeout_s: float | None = None,
+        retries: int = 0,
+    ) -> ScanResult:
         """Probe each ID in order. Each absent ID costs ``timeout_s`` (the bus's by default; USB
         adapters add up to 16 ms of latency) times ``1 + retries``."""
         presence = {i: self.probe(i, timeout_s=timeout_s, retries=retries) for i in ids}
@@ -425,8 +443,13 @@ class ServoBus:
             garbled=tuple(i for i, p in presence.items() if p is Presence.GARBLED),
         )
 
-    def scan(self, ids: Iterable[int] = range(BROADCAST_ID), *, timeout_s: float | None = None,
-             retries: int = 0) -> list[int]:
+    def scan(
+        self,
+        ids: Iterable[int] = range(BROADCAST_ID),
+        *,
+        timeout_s: float | None = None,
+        retries: int = 0,
+    ) -> list[int]:
         """The IDs that answer, in order (``scan_presence`` also lists garbled ones)."""
         return list(self.scan_presence(ids, timeout_s=timeout_s, retries=retries).found)
 

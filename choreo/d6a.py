@@ -28,9 +28,9 @@ import logging
 import math
 import re
 import sqlite3
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 from .atomic import atomic_output, write_text_atomically
 from .errors import SourceError
@@ -77,17 +77,24 @@ def read_action_group(path: str | Path) -> ActionGroup:
     uri = f"{path.resolve().as_uri()}?mode=ro"
     try:
         with contextlib.closing(sqlite3.connect(uri, uri=True)) as connection:
-            tables = [name for (name,) in connection.execute(
-                "SELECT name FROM sqlite_master WHERE type = 'table'")]
+            tables = [
+                name
+                for (name,) in connection.execute(
+                    "SELECT name FROM sqlite_master WHERE type = 'table'"
+                )
+            ]
             if TABLE not in tables:
-                raise SourceError(f"{path}: not a Hiwonder action group: it has no {TABLE} table "
-                                  f"(tables: {', '.join(tables) or 'none'})")
+                raise SourceError(
+                    f"{path}: not a Hiwonder action group: it has no {TABLE} table "
+                    f"(tables: {', '.join(tables) or 'none'})"
+                )
             cursor = connection.execute(f'SELECT * FROM {TABLE} ORDER BY "{INDEX_COLUMN}"')
             columns = [description[0] for description in cursor.description]
             records = cursor.fetchall()
     except sqlite3.DatabaseError as error:
-        raise SourceError(f"{path}: not a Hiwonder action group: SQLite cannot read it "
-                          f"({error})") from None
+        raise SourceError(
+            f"{path}: not a Hiwonder action group: SQLite cannot read it ({error})"
+        ) from None
     return _group_from_records(path, columns, records)
 
 
@@ -97,20 +104,28 @@ def _group_from_records(path: Path, columns: list[str], records: list[tuple]) ->
     servo_columns = [name for name in columns if SERVO_COLUMN.fullmatch(name)]
     if missing or not servo_columns:
         wanted = ", ".join([*missing] + ([] if servo_columns else ["Servo1..ServoN"]))
-        raise SourceError(f"{path}: not a Hiwonder action group: its {TABLE} table has no "
-                          f"{wanted} column (columns: {', '.join(columns)})")
+        raise SourceError(
+            f"{path}: not a Hiwonder action group: its {TABLE} table has no "
+            f"{wanted} column (columns: {', '.join(columns)})"
+        )
     if not records:
         raise SourceError(f"{path}: the action group has no rows")
     known = {name.lower() for name in (INDEX_COLUMN, TIME_COLUMN, *servo_columns)}
     ignored = [name for name in columns if name.lower() not in known]
     if ignored:
-        log.warning("%s: ignoring columns %s (neither Index, Time nor ServoK)", path,
-                    ", ".join(ignored))
+        log.warning(
+            "%s: ignoring columns %s (neither Index, Time nor ServoK)", path, ", ".join(ignored)
+        )
     index, time = at[INDEX_COLUMN.lower()], at[TIME_COLUMN.lower()]
     servos = [at[name.lower()] for name in servo_columns]
-    rows = tuple(ActionRow(index=record[index], time_ms=record[time],
-                           positions_units=tuple(record[k] for k in servos))
-                 for record in records)
+    rows = tuple(
+        ActionRow(
+            index=record[index],
+            time_ms=record[time],
+            positions_units=tuple(record[k] for k in servos),
+        )
+        for record in records
+    )
     return ActionGroup(path, tuple(servo_columns), rows)
 
 
@@ -120,17 +135,20 @@ def column_servo_ids(group: ActionGroup, ids: Sequence[int] | None = None) -> tu
     if ids is None:
         return tuple(int(SERVO_COLUMN.fullmatch(name).group(1)) for name in group.servo_columns)
     if len(ids) != len(group.servo_columns) or len(set(ids)) != len(ids):
-        raise SourceError(f"{group.path}: {len(group.servo_columns)} servo columns but "
-                          f"{len(set(ids))} different servo IDs given; give one ID per column, "
-                          f"in column order")
+        raise SourceError(
+            f"{group.path}: {len(group.servo_columns)} servo columns but "
+            f"{len(set(ids))} different servo IDs given; give one ID per column, "
+            f"in column order"
+        )
     return tuple(ids)
 
 
 # --- rows -> keyframes -------------------------------------------------------------------------
 
 
-def keyframes_from_group(group: ActionGroup, robot: Robot,
-                         ids: Sequence[int] | None = None) -> tuple[Keyframe, ...]:
+def keyframes_from_group(
+    group: ActionGroup, robot: Robot, ids: Sequence[int] | None = None
+) -> tuple[Keyframe, ...]:
     """One keyframe per row (see the module docstring). NULL cells and joints without a column
     keep the previous row's angle (the home pose before row 1). ``SourceError`` lists every
     problem: unknown servo IDs, non-numbers, negative times, positions outside the limits."""
@@ -149,23 +167,30 @@ def keyframes_from_group(group: ActionGroup, robot: Robot,
             angle = _angle(joint, value, f"{where}, column {column}", problems)
             if angle is not None:
                 current[joint.name] = angle
-        keyframes.append(Keyframe(
-            targets_deg=tuple(current[name] for name in robot.joint_names),
-            where=SourceLocation(group.path, row.index, 1), after_s=after_s))
+        keyframes.append(
+            Keyframe(
+                targets_deg=tuple(current[name] for name in robot.joint_names),
+                where=SourceLocation(group.path, row.index, 1),
+                after_s=after_s,
+            )
+        )
     if problems:
         raise SourceError(problems)
     return tuple(keyframes)
 
 
-def _unknown_columns(group: ActionGroup, robot: Robot, servo_ids: Sequence[int],
-                     joints: dict[int, Joint]) -> list[str]:
+def _unknown_columns(
+    group: ActionGroup, robot: Robot, servo_ids: Sequence[int], joints: dict[int, Joint]
+) -> list[str]:
     """Columns with values for servos the robot does not have (all-NULL columns are fine)."""
     problems = []
     for k, (column, servo_id) in enumerate(zip(group.servo_columns, servo_ids)):
         if servo_id not in joints and any(row.positions_units[k] is not None for row in group.rows):
-            problems.append(f"{group.path}: column {column} (servo ID {servo_id}): robot "
-                            f"{robot.name!r} has no joint with servo ID {servo_id} (its IDs: "
-                            f"{', '.join(str(i) for i in sorted(joints))})")
+            problems.append(
+                f"{group.path}: column {column} (servo ID {servo_id}): robot "
+                f"{robot.name!r} has no joint with servo ID {servo_id} (its IDs: "
+                f"{', '.join(str(i) for i in sorted(joints))})"
+            )
     return problems
 
 
@@ -175,8 +200,10 @@ def _row_time_s(row: ActionRow, where: str, problems: list[str]) -> float | None
     if value is None:
         return None
     if not _is_number(value) or value < 0:
-        problems.append(f"{where}, column {TIME_COLUMN}: {value!r} is not a time; Time is the "
-                        f"milliseconds to move here from the previous row, a number >= 0")
+        problems.append(
+            f"{where}, column {TIME_COLUMN}: {value!r} is not a time; Time is the "
+            f"milliseconds to move here from the previous row, a number >= 0"
+        )
         return None
     return round(value / 1000, 6)  # milliseconds, to the microsecond, without float noise
 
@@ -185,15 +212,19 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
     """The joint angle for a servo position, rounded to what will be written, inside limits."""
     limits = joint.limits
     if not _is_number(value):
-        problems.append(f"{where} (joint {joint.name}): {value!r} is not a servo position; "
-                        f"give a number of units, 0..1000")
+        problems.append(
+            f"{where} (joint {joint.name}): {value!r} is not a servo position; "
+            f"give a number of units, 0..1000"
+        )
         return None
     angle = round(joint.to_deg(value), ANGLE_DECIMALS) + 0.0  # + 0.0: no -0.0
     if not limits.contains(angle):
         low, high = sorted(round(joint.to_units(a), 1) for a in (limits.min_deg, limits.max_deg))
-        problems.append(f"{where} (joint {joint.name}): {fmt(value)} units = {fmt(angle)}° is "
-                        f"outside the joint's limits {limits.range_text} "
-                        f"(servo positions {fmt(low)}..{fmt(high)})")
+        problems.append(
+            f"{where} (joint {joint.name}): {fmt(value)} units = {fmt(angle)}° is "
+            f"outside the joint's limits {limits.range_text} "
+            f"(servo positions {fmt(low)}..{fmt(high)})"
+        )
         return None
     return angle
 
@@ -202,19 +233,26 @@ def _is_number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def import_d6a(path: str | Path, robot: Robot, out: str | Path,
-               ids: Sequence[int] | None = None) -> tuple[Keyframe, ...]:
+def import_d6a(
+    path: str | Path, robot: Robot, out: str | Path, ids: Sequence[int] | None = None
+) -> tuple[Keyframe, ...]:
     """Read an action group and write it as a motion file ``out`` (atomically)."""
     group = read_action_group(path)
     keyframes = keyframes_from_group(group, robot, ids)
     out = Path(out)
-    write_text_atomically(out, motion_yaml(group, robot, keyframes, robot_reference(robot, out),
-                                           ids))
+    write_text_atomically(
+        out, motion_yaml(group, robot, keyframes, robot_reference(robot, out), ids)
+    )
     return keyframes
 
 
-def motion_yaml(group: ActionGroup, robot: Robot, keyframes: Sequence[Keyframe], robot_ref: str,
-                ids: Sequence[int] | None = None) -> str:
+def motion_yaml(
+    group: ActionGroup,
+    robot: Robot,
+    keyframes: Sequence[Keyframe],
+    robot_ref: str,
+    ids: Sequence[int] | None = None,
+) -> str:
     """The motion file text for imported keyframes, with comments saying where they came from."""
     servo_ids = set(column_servo_ids(group, ids))
     uncovered = [joint.name for joint in robot.joints if joint.servo_id not in servo_ids]
@@ -229,19 +267,32 @@ def motion_yaml(group: ActionGroup, robot: Robot, keyframes: Sequence[Keyframe],
     ]
     if uncovered:
         header.append(f"The file has no column for {', '.join(uncovered)}: they stay at home.")
-    comments = {k: f"row {row.index}" if row.time_ms is not None else
-                f"row {row.index}: its Time is NULL: reached as soon as the limits allow"
-                for k, row in enumerate(group.rows)}
+    comments = {
+        k: f"row {row.index}"
+        if row.time_ms is not None
+        else f"row {row.index}: its Time is NULL: reached as soon as the limits allow"
+        for k, row in enumerate(group.rows)
+    }
     first = group.rows[0]
-    comments[0] = (f"row {first.index} is reached from wherever the robot is: choreo's approach "
-                   f"brings the robot\nto this pose first. " + (
-                       "The row's Time is then spent here (as the vendor's runner does when\n"
-                       "the robot already stands here) and is the time to come back here on "
-                       "repeat." if first.time_ms is not None else
-                       "Its Time is NULL: the motion goes on from here at once."))
-    return motion_text(robot, keyframes, robot_ref=robot_ref,
-                       description=f"Hiwonder action group {group.path.name}", header=header,
-                       comments=comments)
+    comments[0] = (
+        f"row {first.index} is reached from wherever the robot is: choreo's approach "
+        f"brings the robot\nto this pose first. "
+        + (
+            "The row's Time is then spent here (as the vendor's runner does when\n"
+            "the robot already stands here) and is the time to come back here on "
+            "repeat."
+            if first.time_ms is not None
+            else "Its Time is NULL: the motion goes on from here at once."
+        )
+    )
+    return motion_text(
+        robot,
+        keyframes,
+        robot_ref=robot_ref,
+        description=f"Hiwonder action group {group.path.name}",
+        header=header,
+        comments=comments,
+    )
 
 
 # --- motion -> rows ----------------------------------------------------------------------------
@@ -273,18 +324,25 @@ def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, 
         time_ms = arrive_ms - left_ms
         if k == 0 and _untimed(p.keyframe):
             time_ms = _first_move_ms(robot, p.keyframe)
-        positions = tuple(float(round(robot.joints[j].to_units(p.keyframe.targets_deg[j])))
-                          for j in order)
-        _check_ms(time_ms, p.keyframe, f"is reached {fmt(time_ms / 1000)} s after the keyframe "
-                                       f"before it is left", problems)
+        positions = tuple(
+            float(round(robot.joints[j].to_units(p.keyframe.targets_deg[j]))) for j in order
+        )
+        _check_ms(
+            time_ms,
+            p.keyframe,
+            f"is reached {fmt(time_ms / 1000)} s after the keyframe before it is left",
+            problems,
+        )
         rows.append(ActionRow(len(rows) + 1, time_ms, positions))
         left_ms = round(1000 * (p.arrive_s + p.hold_s))
         hold_ms = left_ms - arrive_ms  # rows of their own; a long one split, not refused
         if 0 < hold_ms < TIME_RANGE_MS[0]:
             _check_ms(hold_ms, p.keyframe, f"holds {fmt(hold_ms / 1000)} s", problems)
         if hold_ms:
-            rows += [ActionRow(len(rows) + 1 + n, piece, positions)
-                     for n, piece in enumerate(_pieces_ms(hold_ms))]
+            rows += [
+                ActionRow(len(rows) + 1 + n, piece, positions)
+                for n, piece in enumerate(_pieces_ms(hold_ms))
+            ]
     if problems:
         raise SourceError(problems)
     return columns, tuple(rows)
@@ -304,11 +362,15 @@ def _first_move_ms(robot: Robot, first: Keyframe) -> int:
     """Row 1's Time for an untimed first keyframe: as long as choreo's approach from the home
     pose takes, and at least the editor's 20 ms (the runner needs a move time even if the
     robot is already there)."""
-    approach = plan_approach(robot, robot.pose_vector(HOME_POSE), first.targets_deg,
-                             APPROACH_LIMIT_SCALE)
+    approach = plan_approach(
+        robot, robot.pose_vector(HOME_POSE), first.targets_deg, APPROACH_LIMIT_SCALE
+    )
     time_ms = max(math.ceil(1000 * approach.duration_s), TIME_RANGE_MS[0])
-    log.info("%s: the first keyframe has no time: row 1 gets %d ms, the approach from home",
-             first.where, time_ms)
+    log.info(
+        "%s: the first keyframe has no time: row 1 gets %d ms, the approach from home",
+        first.where,
+        time_ms,
+    )
     return time_ms
 
 
@@ -316,10 +378,15 @@ def _check_ms(time_ms: int, keyframe: Keyframe, what: str, problems: list[str]) 
     """A row's Time outside the editor's range is reported at its keyframe."""
     low, high = TIME_RANGE_MS
     if not low <= time_ms <= high:
-        fix = (f"give it at least {low / 1000:g} s" if time_ms < low else
-               "split the move with keyframes in between")
-        problems.append(f"{keyframe.where}: this keyframe {what}, but an action group row's Time "
-                        f"must be {low}..{high} ms (the vendor editor's range): {fix}")
+        fix = (
+            f"give it at least {low / 1000:g} s"
+            if time_ms < low
+            else "split the move with keyframes in between"
+        )
+        problems.append(
+            f"{keyframe.where}: this keyframe {what}, but an action group row's Time "
+            f"must be {low}..{high} ms (the vendor editor's range): {fix}"
+        )
 
 
 def _played(motion: Motion) -> list[_Played]:
@@ -330,12 +397,14 @@ def _played(motion: Motion) -> list[_Played]:
     holds = [kf.hold_s / speed for kf in keyframes] * motion.repeat
     played_keyframes = list(keyframes) * motion.repeat
     if all(not _untimed(kf) for kf in keyframes[1:]) and (
-            motion.repeat == 1 or keyframes[0].after_s is not None):
+        motion.repeat == 1 or keyframes[0].after_s is not None
+    ):
         arrivals = _own_arrivals(motion)
     else:
         arrivals = list(plan_motion(motion).trajectory.keyframe_times_s)
-    return [_Played(kf, arrive, hold) for kf, arrive, hold in
-            zip(played_keyframes, arrivals, holds)]
+    return [
+        _Played(kf, arrive, hold) for kf, arrive, hold in zip(played_keyframes, arrivals, holds)
+    ]
 
 
 def _own_arrivals(motion: Motion) -> list[float]:
@@ -367,23 +436,29 @@ def _own_arrivals(motion: Motion) -> list[float]:
 def schema_sql(servo_columns: Sequence[str]) -> str:
     """The ActionGroup table as the vendor's editor creates it."""
     indent = " " * 4
-    lines = [f"CREATE TABLE {TABLE}([{INDEX_COLUMN}] INTEGER PRIMARY KEY AUTOINCREMENT",
-             f"{indent}NOT NULL ON CONFLICT FAIL",
-             f"{indent}UNIQUE ON CONFLICT ABORT,",
-             f"{indent}{TIME_COLUMN} INT,"]
+    lines = [
+        f"CREATE TABLE {TABLE}([{INDEX_COLUMN}] INTEGER PRIMARY KEY AUTOINCREMENT",
+        f"{indent}NOT NULL ON CONFLICT FAIL",
+        f"{indent}UNIQUE ON CONFLICT ABORT,",
+        f"{indent}{TIME_COLUMN} INT,",
+    ]
     lines += [f"{indent}{name} INT," for name in servo_columns]
     lines[-1] = lines[-1].removesuffix(",") + ")"
     return "\n".join(lines)
 
 
-def write_action_group(path: str | Path, servo_columns: Sequence[str],
-                       rows: Sequence[ActionRow]) -> None:
+def write_action_group(
+    path: str | Path, servo_columns: Sequence[str], rows: Sequence[ActionRow]
+) -> None:
     """Write an action group file atomically: whole numbers, the vendor's schema."""
     columns = [INDEX_COLUMN, TIME_COLUMN, *servo_columns]
-    insert = (f"INSERT INTO {TABLE} ({', '.join(f'[{name}]' for name in columns)}) "
-              f"VALUES ({', '.join('?' * len(columns))})")
-    values = [(row.index, _whole(row.time_ms), *(_whole(p) for p in row.positions_units))
-              for row in rows]
+    insert = (
+        f"INSERT INTO {TABLE} ({', '.join(f'[{name}]' for name in columns)}) "
+        f"VALUES ({', '.join('?' * len(columns))})"
+    )
+    values = [
+        (row.index, _whole(row.time_ms), *(_whole(p) for p in row.positions_units)) for row in rows
+    ]
     with atomic_output(Path(path)) as temporary:
         with contextlib.closing(sqlite3.connect(temporary)) as connection:
             connection.execute(schema_sql(servo_columns))

@@ -24,16 +24,20 @@ def mirrored_keyframes(motion: Motion) -> tuple[Keyframe, ...]:
     keyframe)."""
     robot = motion.robot
     if not robot.mirror_pairs:
-        raise SourceError(f"{robot.path}: robot {robot.name!r} has no mirror pairs, so "
-                          f"{motion.path} cannot be mirrored; add 'mirror:' pairs to the robot")
+        raise SourceError(
+            f"{robot.path}: robot {robot.name!r} has no mirror pairs, so "
+            f"{motion.path} cannot be mirrored; add 'mirror:' pairs to the robot"
+        )
     problems = []
     mirrored = []
     for keyframe in motion.keyframes:
         targets = mirror_targets(robot, keyframe.targets_deg)
         for joint, angle in zip(robot.joints, targets):
             if not joint.limits.contains(angle):
-                problems.append(f"{keyframe.where}: mirrored, {joint.name} would be at "
-                                f"{fmt(angle)}°, outside its limits {joint.limits.range_text}")
+                problems.append(
+                    f"{keyframe.where}: mirrored, {joint.name} would be at "
+                    f"{fmt(angle)}°, outside its limits {joint.limits.range_text}"
+                )
         mirrored.append(replace(keyframe, targets_deg=targets, label=""))
     if problems:
         raise SourceError(problems)
@@ -47,9 +51,20 @@ def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
     description = f"Mirror image of {motion.name}"
     if motion.description:
         description += f": {motion.description}"
-    header = [f"Made by `choreo mirror` from {motion.path.name}:",
-              "left and right swapped with the robot's mirror pairs."]
-    write_text_atomically(out, motion_text(
-        motion.robot, keyframes, robot_ref=robot_reference(motion.robot, out),
-        description=description, speed=motion.speed, repeat=motion.repeat, header=header))
+    header = [
+        f"Made by `choreo mirror` from {motion.path.name}:",
+        "left and right swapped with the robot's mirror pairs.",
+    ]
+    write_text_atomically(
+        out,
+        motion_text(
+            motion.robot,
+            keyframes,
+            robot_ref=robot_reference(motion.robot, out),
+            description=description,
+            speed=motion.speed,
+            repeat=motion.repeat,
+            header=header,
+        ),
+    )
     return keyframes

@@ -6,16 +6,25 @@ in the robot's joint order) and where it was written, so later stages can point 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Mapping
 
 import yaml
 
 from .errors import SourceError
 from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
-from .yamlsource import (Entry, Node, Problems, Reader, SourceLocation, describe, did_you_mean,
-                         fmt, parse_yaml_file)
+from .yamlsource import (
+    Entry,
+    Node,
+    Problems,
+    Reader,
+    SourceLocation,
+    describe,
+    did_you_mean,
+    fmt,
+    parse_yaml_file,
+)
 
 
 @dataclass(frozen=True)
@@ -38,7 +47,9 @@ class Motion:
     keyframes: tuple[Keyframe, ...]
     description: str = ""
     speed: float = 1.0  # time scale: 2.0 plays twice as fast
-    repeat: int = 1  # times to play; the planner wraps seamlessly from the last keyframe to the first
+    repeat: int = (
+        1  # times to play; the planner wraps seamlessly from the last keyframe to the first
+    )
 
 
 # --- reading motion files ----------------------------------------------------------------------
@@ -92,10 +103,14 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         return None
     robot = _load_robot_of(reader, fields["robot"]) if "robot" in fields else None
     name = reader.string(fields["name"].value, "name") if "name" in fields else reader.path.stem
-    description = reader.string(fields["description"].value, "description") \
-        if "description" in fields else ""
-    speed = reader.number(fields["speed"].value, "speed", low=0, low_open=True) \
-        if "speed" in fields else 1.0
+    description = (
+        reader.string(fields["description"].value, "description") if "description" in fields else ""
+    )
+    speed = (
+        reader.number(fields["speed"].value, "speed", low=0, low_open=True)
+        if "speed" in fields
+        else 1.0
+    )
     repeat = reader.integer(fields["repeat"].value, "repeat", low=1) if "repeat" in fields else 1
     if robot is None or "keyframes" not in fields:
         return None
@@ -103,14 +118,23 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if None in (name, description, speed, repeat) or reader.problems:
         return None
-    return Motion(name=name, path=reader.path, robot=robot, keyframes=_fill_poses(robot, steps),
-                  description=description, speed=speed, repeat=repeat)
+    return Motion(
+        name=name,
+        path=reader.path,
+        robot=robot,
+        keyframes=_fill_poses(robot, steps),
+        description=description,
+        speed=speed,
+        repeat=repeat,
+    )
 
 
 def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None:
     if root is None:
-        reader.problems.add(SourceLocation(reader.path, 1, 1),
-                            "the file is empty; a motion needs robot and keyframes")
+        reader.problems.add(
+            SourceLocation(reader.path, 1, 1),
+            "the file is empty; a motion needs robot and keyframes",
+        )
         return None
     return reader.fields(root, "the motion file", MOTION_KEYS, required=("robot", "keyframes"))
 
@@ -122,8 +146,9 @@ def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
     try:
         return load_robot(robot_path)
     except SourceError as error:
-        reader.report(entry.value, f"robot {robot_path} has problems (listed after this line); "
-                                   f"fix them first")
+        reader.report(
+            entry.value, f"robot {robot_path} has problems (listed after this line); fix them first"
+        )
         reader.problems.extend(error.problems)
         return None
 
@@ -139,8 +164,9 @@ def _find_robot_of(reader: Reader, entry: Entry) -> Path | None:
         return None
 
 
-def _read_steps(reader: Reader, entry: Entry, robot: Robot,
-                chain: tuple[_Include, ...]) -> list[_Step]:
+def _read_steps(
+    reader: Reader, entry: Entry, robot: Robot, chain: tuple[_Include, ...]
+) -> list[_Step]:
     items = reader.sequence(entry.value, "keyframes")
     if items is None:
         return []
@@ -165,28 +191,52 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
     timing = _read_timing(reader, fields)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
-    velocity = reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True) \
-        if "velocity" in fields else 1.0
+    velocity = (
+        reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True)
+        if "velocity" in fields
+        else 1.0
+    )
     if hold_s and stop is False:
-        reader.report(fields["stop"].value, f"stop: false contradicts hold {fmt(hold_s)}: a hold "
-                                            f"always comes to rest; remove stop: false")
-    if pose is None or timing is None or hold_s is None or velocity is None or \
-            "stop" in fields and stop is None:
+        reader.report(
+            fields["stop"].value,
+            f"stop: false contradicts hold {fmt(hold_s)}: a hold "
+            f"always comes to rest; remove stop: false",
+        )
+    if (
+        pose is None
+        or timing is None
+        or hold_s is None
+        or velocity is None
+        or "stop" in fields
+        and stop is None
+    ):
         return None
     angles, label = pose
     t_where = reader.where(fields["t"].value) if "t" in fields else None
-    return _Step(angles, reader.where(item), *timing, hold_s=hold_s, stop=bool(stop or hold_s),
-                 velocity_scale=velocity, label=label, t_where=t_where)
+    return _Step(
+        angles,
+        reader.where(item),
+        *timing,
+        hold_s=hold_s,
+        stop=bool(stop or hold_s),
+        velocity_scale=velocity,
+        label=label,
+        t_where=t_where,
+    )
 
 
-def _read_timing(reader: Reader,
-                 fields: dict[str, Entry]) -> tuple[float | None, float | None] | None:
+def _read_timing(
+    reader: Reader, fields: dict[str, Entry]
+) -> tuple[float | None, float | None] | None:
     """(t_s, after_s) of a keyframe or include entry; None if refused (reported)."""
     if "t" in fields and "after" in fields:
         later = max(fields["t"], fields["after"], key=lambda e: e.key_node.start_mark.index)
-        reader.report(later.key_node, "give at most one of t (arrival time from the motion "
-                                      "start) and after (delay after the previous keyframe); "
-                                      "remove one")
+        reader.report(
+            later.key_node,
+            "give at most one of t (arrival time from the motion "
+            "start) and after (delay after the previous keyframe); "
+            "remove one",
+        )
         return None
     t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
     after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
@@ -200,13 +250,19 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
     if isinstance(node, yaml.ScalarNode) and node.tag.endswith(":str"):
         if node.value in robot.poses:
             return dict(robot.poses[node.value]), node.value
-        reader.report(node, f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
-                            f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
-                            f"joint angles as {{joint: degrees}}")
+        reader.report(
+            node,
+            f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
+            f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
+            f"joint angles as {{joint: degrees}}",
+        )
         return None
     if not isinstance(node, yaml.MappingNode):
-        reader.report(node, f"pose must be a pose name ({', '.join(robot.poses)}) or a mapping "
-                            f"joint: degrees, got {describe(node)}")
+        reader.report(
+            node,
+            f"pose must be a pose name ({', '.join(robot.poses)}) or a mapping "
+            f"joint: degrees, got {describe(node)}",
+        )
         return None
     angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
     if angles is None or None in angles.values():
@@ -214,8 +270,9 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
     return angles, ""
 
 
-def _read_include(reader: Reader, item: Node, robot: Robot,
-                  chain: tuple[_Include, ...]) -> list[_Step]:
+def _read_include(
+    reader: Reader, item: Node, robot: Robot, chain: tuple[_Include, ...]
+) -> list[_Step]:
     what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
     fields = reader.fields(item, what, INCLUDE_KEYS, required=("include",))
     relative = reader.string(fields["include"].value, "include")
@@ -227,12 +284,16 @@ def _read_include(reader: Reader, item: Node, robot: Robot,
     link = _Include(path, reader.where(fields["include"].value))
     if any(path.resolve() == earlier.path.resolve() for earlier in chain):
         files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
-        reader.report(fields["include"].value, f"include cycle: {files}; a motion cannot "
-                                               f"include itself, directly or through others")
+        reader.report(
+            fields["include"].value,
+            f"include cycle: {files}; a motion cannot include itself, directly or through others",
+        )
         return []
     if not path.is_file():
-        reader.report(fields["include"].value, f"include: {path} does not exist (paths are "
-                                               f"relative to this file's folder)")
+        reader.report(
+            fields["include"].value,
+            f"include: {path} does not exist (paths are relative to this file's folder)",
+        )
         return []
     t_where = reader.where(fields["t"].value) if "t" in fields else None
     steps = _block(reader, _read_included(reader.problems, robot, (*chain, link)), timing, t_where)
@@ -257,22 +318,31 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
             reader.string(fields[key].value, key)
     for key in ("speed", "repeat"):
         if key in fields:
-            reader.report(fields[key].key_node, f"{key} is not allowed in an included file "
-                                                f"(included at {link.entry}): the including "
-                                                f"motion's {key} applies; remove it")
+            reader.report(
+                fields[key].key_node,
+                f"{key} is not allowed in an included file "
+                f"(included at {link.entry}): the including "
+                f"motion's {key} applies; remove it",
+            )
     robot_path = _find_robot_of(reader, fields["robot"]) if "robot" in fields else None
     if robot_path is not None and robot_path.resolve() != robot.path.resolve():
-        reader.report(fields["robot"].value,
-                      f"an included file must use the including motion's robot "
-                      f"{robot.name!r} ({robot.path}), not {robot_path} (included at {link.entry})")
+        reader.report(
+            fields["robot"].value,
+            f"an included file must use the including motion's robot "
+            f"{robot.name!r} ({robot.path}), not {robot_path} (included at {link.entry})",
+        )
         return []
     if robot_path is None or "keyframes" not in fields:
         return []
     return _read_steps(reader, fields["keyframes"], robot, chain)
 
 
-def _block(reader: Reader, steps: list[_Step], timing: tuple[float | None, float | None],
-           t_where: SourceLocation | None) -> list[_Step]:
+def _block(
+    reader: Reader,
+    steps: list[_Step],
+    timing: tuple[float | None, float | None],
+    t_where: SourceLocation | None,
+) -> list[_Step]:
     """Included steps as a block: its t values become after delays (keeping their spacing), and
     the include entry's timing, if any, replaces the first step's (``t_where``: its t's place).
 
@@ -290,13 +360,19 @@ def _block(reader: Reader, steps: list[_Step], timing: tuple[float | None, float
             continue
         previous = steps[index - 1]
         if step.t_s is None:
-            arrival_s = None if arrival_s is None or step.after_s is None else \
-                arrival_s + previous.hold_s + step.after_s
+            arrival_s = (
+                None
+                if arrival_s is None or step.after_s is None
+                else arrival_s + previous.hold_s + step.after_s
+            )
             block.append(step)
         elif arrival_s is None:
-            reader.problems.add(step.t_where, "t in an included file becomes an after delay, so "
-                                              f"the keyframe before it ({previous.where}) needs a "
-                                              "t or after too; give it one, or use after here")
+            reader.problems.add(
+                step.t_where,
+                "t in an included file becomes an after delay, so "
+                f"the keyframe before it ({previous.where}) needs a "
+                "t or after too; give it one, or use after here",
+            )
         else:
             after_s = step.t_s - arrival_s - previous.hold_s
             block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
@@ -304,12 +380,14 @@ def _block(reader: Reader, steps: list[_Step], timing: tuple[float | None, float
     return block
 
 
-def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot,
-                  steps: list[_Step]) -> list[_Step]:
+def _mirror_block(
+    reader: Reader, mirror_node: Node, robot: Robot, steps: list[_Step]
+) -> list[_Step]:
     """Steps mirrored with the robot's mirror pairs; mirrored angles must be inside the limits."""
     if not robot.mirror_pairs:
-        reader.report(mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' "
-                                   f"to {robot.path}")
+        reader.report(
+            mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' to {robot.path}"
+        )
         return steps
     mirrored: list[_Step] = []
     for step in steps:
@@ -317,9 +395,12 @@ def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot,
         for name, angle in angles.items():
             limits = robot.joint(name).limits
             if not limits.contains(angle):
-                reader.report(mirror_node, f"mirror: the keyframe at {step.where} mirrored puts "
-                                           f"{name} at {fmt(angle)}°, outside its limits "
-                                           f"{limits.range_text}")
+                reader.report(
+                    mirror_node,
+                    f"mirror: the keyframe at {step.where} mirrored puts "
+                    f"{name} at {fmt(angle)}°, outside its limits "
+                    f"{limits.range_text}",
+                )
         mirrored.append(replace(step, angles_deg=angles, label=""))
     return mirrored
 
@@ -329,10 +410,13 @@ def _check_times(reader: Reader, steps: list[_Step]) -> None:
     leave_s = 0.0  # the earliest time the previous keyframe can be left
     for index, step in enumerate(steps):
         if step.t_s is not None and index > 0 and step.t_s <= leave_s:
-            reader.problems.add(step.t_where, f"t {fmt(step.t_s)} goes backwards: the keyframe "
-                                              f"before it ({steps[index - 1].where}) cannot be "
-                                              f"left before {fmt(leave_s)} s; t values must "
-                                              f"increase along the file")
+            reader.problems.add(
+                step.t_where,
+                f"t {fmt(step.t_s)} goes backwards: the keyframe "
+                f"before it ({steps[index - 1].where}) cannot be "
+                f"left before {fmt(leave_s)} s; t values must "
+                f"increase along the file",
+            )
         arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
         leave_s = max(arrival_s, leave_s) + step.hold_s
 
@@ -343,8 +427,16 @@ def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
     keyframes = []
     for step in steps:
         current.update(step.angles_deg)
-        keyframes.append(Keyframe(
-            targets_deg=tuple(current[name] for name in robot.joint_names), where=step.where,
-            t_s=step.t_s, after_s=step.after_s, hold_s=step.hold_s, stop=step.stop,
-            velocity_scale=step.velocity_scale, label=step.label))
+        keyframes.append(
+            Keyframe(
+                targets_deg=tuple(current[name] for name in robot.joint_names),
+                where=step.where,
+                t_s=step.t_s,
+                after_s=step.after_s,
+                hold_s=step.hold_s,
+                stop=step.stop,
+                velocity_scale=step.velocity_scale,
+                label=step.label,
+            )
+        )
     return tuple(keyframes)

@@ -13,8 +13,8 @@ import json
 import os
 import re
 import textwrap
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import yaml
@@ -26,9 +26,17 @@ LINE_WIDTH = 100
 _PLAIN_TEXT = re.compile(r"[A-Za-z0-9][\w .,()/+-]*")  # needs no quotes in YAML
 
 
-def motion_text(robot: Robot, keyframes: Sequence[Keyframe], *, robot_ref: str,
-                description: str = "", speed: float = 1.0, repeat: int = 1,
-                header: Sequence[str] = (), comments: Mapping[int, str] | None = None) -> str:
+def motion_text(
+    robot: Robot,
+    keyframes: Sequence[Keyframe],
+    *,
+    robot_ref: str,
+    description: str = "",
+    speed: float = 1.0,
+    repeat: int = 1,
+    header: Sequence[str] = (),
+    comments: Mapping[int, str] | None = None,
+) -> str:
     """The YAML text of a motion of ``robot`` (named by ``robot_ref``) with these keyframes.
 
     ``header``: comment lines for the top of the file; ``comments``: keyframe index -> a comment
@@ -48,8 +56,11 @@ def motion_text(robot: Robot, keyframes: Sequence[Keyframe], *, robot_ref: str,
     for index, keyframe in enumerate(keyframes):
         keyframe_lines = _keyframe_lines(robot, keyframe, previous)
         comment = (comments or {}).get(index, "")
-        if comment and "\n" not in comment and \
-                len(keyframe_lines[-1]) + len(comment) + 4 <= LINE_WIDTH:
+        if (
+            comment
+            and "\n" not in comment
+            and len(keyframe_lines[-1]) + len(comment) + 4 <= LINE_WIDTH
+        ):
             keyframe_lines[-1] += f"  # {comment}"
         else:
             lines += [f"  # {line}".rstrip() for line in comment.splitlines()]
@@ -98,8 +109,11 @@ def _pose_text(robot: Robot, keyframe: Keyframe, previous: Sequence[float], inde
     for name in (*named, *robot.poses):
         if name in robot.poses and robot.pose_vector(name) == targets:
             return name
-    changed = [f"{joint}: {_number(angle)}" for joint, angle, before
-               in zip(robot.joint_names, targets, previous) if angle != before]
+    changed = [
+        f"{joint}: {_number(angle)}"
+        for joint, angle, before in zip(robot.joint_names, targets, previous)
+        if angle != before
+    ]
     return _flow_mapping(changed, indent)
 
 

@@ -118,8 +118,9 @@ class Trajectory:
         if times_s.ndim != 1:
             raise ValueError(f"times_s must be one-dimensional, got shape {times_s.shape}")
         if times_s.size and not times_s.min() >= 0:
-            raise ValueError(f"times_s must be >= 0 (the trajectory starts at 0), "
-                             f"got {times_s.min()}")
+            raise ValueError(
+                f"times_s must be >= 0 (the trajectory starts at 0), got {times_s.min()}"
+            )
         return times_s
 
     def _evaluate(self, times_s: np.ndarray, rates: bool) -> list[np.ndarray]:
@@ -136,8 +137,9 @@ class Trajectory:
         n = self.n_joints
         out = [np.empty((n, len(located))) for _ in range(3 if rates else 1)]
         for j in range(n):
-            counts = np.diff(np.searchsorted(located, self.knots_s[j], side="left"),
-                             append=len(located))
+            counts = np.diff(
+                np.searchsorted(located, self.knots_s[j], side="left"), append=len(located)
+            )
             dt = times_s - np.repeat(self.knots_s[j], counts)
             c = [np.repeat(column[j], counts) for column in self._taylor]
             for array, values in zip(out, _taylor_values(*c, dt, rates)):
@@ -211,17 +213,30 @@ def _played_keyframes(motion: Motion, speed: float) -> list[_Played]:
             if index == 0:
                 # The start waits for the first keyframe's time; a wrap reaches it again after
                 # its `after`, or as soon as the limits allow.
-                timing, value = ((_Timing.AT, origin_s) if rep == 0 else
-                                 (_Timing.AFTER, kf.after_s) if kf.after_s is not None else
-                                 (_Timing.ASAP, 0.0))
+                timing, value = (
+                    (_Timing.AT, origin_s)
+                    if rep == 0
+                    else (_Timing.AFTER, kf.after_s)
+                    if kf.after_s is not None
+                    else (_Timing.ASAP, 0.0)
+                )
             elif kf.t_s is not None:
                 timing, value = _Timing.AT, kf.t_s - origin_s
             elif kf.after_s is not None:
                 timing, value = _Timing.AFTER, kf.after_s
             else:
                 timing, value = _Timing.ASAP, 0.0
-            played.append(_Played(kf, timing, value / speed, anchor, kf.hold_s / speed,
-                                  rests=kf.stop or kf.hold_s > 0, speed=speed))
+            played.append(
+                _Played(
+                    kf,
+                    timing,
+                    value / speed,
+                    anchor,
+                    kf.hold_s / speed,
+                    rests=kf.stop or kf.hold_s > 0,
+                    speed=speed,
+                )
+            )
     played[0] = replace(played[0], rests=True)
     played[-1] = replace(played[-1], rests=True)
     return played
@@ -239,9 +254,11 @@ class _Limits:
     @staticmethod
     def of(robot: Robot, scale: float = 1.0, velocity_scale: float = 1.0) -> _Limits:
         lim = [j.limits for j in robot.joints]
-        return _Limits([x.vel_deg_s * scale * velocity_scale for x in lim],
-                       [x.acc_deg_s2 * scale for x in lim],
-                       [x.jerk_deg_s3 * scale for x in lim])
+        return _Limits(
+            [x.vel_deg_s * scale * velocity_scale for x in lim],
+            [x.acc_deg_s2 * scale for x in lim],
+            [x.jerk_deg_s3 * scale for x in lim],
+        )
 
 
 @dataclass(frozen=True)
@@ -267,8 +284,15 @@ class _Solver:
         self._output = RuckigTrajectory(n_joints)
         self._zero = [0.0] * n_joints
 
-    def duration_s(self, p0: list[float], v0: list[float], p1: list[float], v1: list[float],
-                   limits: _Limits, minimum_duration_s: float | None) -> float:
+    def duration_s(
+        self,
+        p0: list[float],
+        v0: list[float],
+        p1: list[float],
+        v1: list[float],
+        limits: _Limits,
+        minimum_duration_s: float | None,
+    ) -> float:
         inp = self._input
         inp.current_position = p0
         inp.current_velocity = v0
@@ -282,19 +306,32 @@ class _Solver:
         inp.minimum_duration = minimum_duration_s
         result = self._ruckig.calculate(inp, self._output)
         if result != Result.Working:
-            raise PlanningError(f"ruckig could not plan a segment ({result.name}) from "
-                                f"{np.round(p0, 3).tolist()} to {np.round(p1, 3).tolist()}")
+            raise PlanningError(
+                f"ruckig could not plan a segment ({result.name}) from "
+                f"{np.round(p0, 3).tolist()} to {np.round(p1, 3).tolist()}"
+            )
         return self._output.duration
 
-    def solve(self, p0: list[float], v0: list[float], p1: list[float], v1: list[float],
-              limits: _Limits, minimum_duration_s: float | None,
-              low: list[float], high: list[float]) -> _Segment:
+    def solve(
+        self,
+        p0: list[float],
+        v0: list[float],
+        p1: list[float],
+        v1: list[float],
+        limits: _Limits,
+        minimum_duration_s: float | None,
+        low: list[float],
+        high: list[float],
+    ) -> _Segment:
         """The segment; ``overshoot`` lists the joints leaving ``low..high`` (the range between
         the two keyframes, widened by a numerical margin)."""
         duration = self.duration_s(p0, v0, p1, v1, limits, minimum_duration_s)
         out = self._output
-        overshoot = [j for j, (e, lo, hi) in enumerate(zip(out.position_extrema, low, high))
-                     if e.min < lo or e.max > hi]
+        overshoot = [
+            j
+            for j, (e, lo, hi) in enumerate(zip(out.position_extrema, low, high))
+            if e.min < lo or e.max > hi
+        ]
         phase_s: list[float] = []
         jerk: list[float] = []
         for profile in out.profiles[0]:
@@ -315,8 +352,13 @@ def _ranges(positions: np.ndarray) -> tuple[list[list[float]], list[list[float]]
 
 
 # --- pass-through velocities -------------------------------------------------------------------
-def _pchip_velocities(positions: np.ndarray, arrive_s: np.ndarray, leave_s: np.ndarray,
-                      rests: np.ndarray, vel_cap: np.ndarray) -> np.ndarray:
+def _pchip_velocities(
+    positions: np.ndarray,
+    arrive_s: np.ndarray,
+    leave_s: np.ndarray,
+    rests: np.ndarray,
+    vel_cap: np.ndarray,
+) -> np.ndarray:
     """Fritsch–Butland (PCHIP) slopes at each keyframe, ``(m, n)`` deg/s: monotone between
     keyframes, zero where a joint reverses and where the motion rests; capped per keyframe."""
     m = len(positions)
@@ -362,8 +404,9 @@ class _Planner:
 
     def rest_to_rest_s(self, i: int) -> float:
         zero = [0.0] * len(self.robot.joints)
-        return self.solver.duration_s(self.pose_lists[i], zero, self.pose_lists[i + 1], zero,
-                                      self.segment_limits(i + 1), None)
+        return self.solver.duration_s(
+            self.pose_lists[i], zero, self.pose_lists[i + 1], zero, self.segment_limits(i + 1), None
+        )
 
     def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
         """Arrival and leave times as if every timing were met and ASAP keyframes were reached
@@ -391,8 +434,9 @@ class _Planner:
         m, n = self.positions.shape
         arrive_est, leave_est = self.estimated_times()
         rests = np.array([p.rests for p in self.played])
-        velocities = _pchip_velocities(self.positions, arrive_est, leave_est, rests,
-                                       self.velocity_caps())
+        velocities = _pchip_velocities(
+            self.positions, arrive_est, leave_est, rests, self.velocity_caps()
+        )
         damping = np.zeros((m, n), dtype=int)
         arrive = np.zeros(m)
         arrive[0] = self.played[0].value_s
@@ -403,11 +447,16 @@ class _Planner:
             leave = arrive[i] + self.holds_s[i]
             wanted = self.wanted_arrival(i + 1, arrive, shift)
             requested = None if wanted is None else wanted - leave
-            seg = self.solver.solve(self.pose_lists[i], velocities[i].tolist(),
-                                    self.pose_lists[i + 1], velocities[i + 1].tolist(),
-                                    self.segment_limits(i + 1),
-                                    None if requested is None else max(requested, 0.0),
-                                    self.low[i], self.high[i])
+            seg = self.solver.solve(
+                self.pose_lists[i],
+                velocities[i].tolist(),
+                self.pose_lists[i + 1],
+                velocities[i + 1].tolist(),
+                self.segment_limits(i + 1),
+                None if requested is None else max(requested, 0.0),
+                self.low[i],
+                self.high[i],
+            )
             if seg.overshoot:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
@@ -420,8 +469,9 @@ class _Planner:
             segments[i] = seg
             arrive[i + 1] = leave + seg.duration_s
             i += 1
-        stretches = [Stretch(self.played[k].keyframe.where, float(shift[k]))
-                     for k in np.flatnonzero(shift)]
+        stretches = [
+            Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
+        ]
         return segments, arrive, stretches
 
     def wanted_arrival(self, i: int, arrive: np.ndarray, shift: np.ndarray) -> float | None:
@@ -431,10 +481,9 @@ class _Planner:
         if p.timing is _Timing.AFTER:
             return arrive[i - 1] + self.holds_s[i - 1] + p.value_s
         # t values count from this repetition's first keyframe and move with earlier stretches
-        return arrive[p.anchor] + p.value_s + shift[p.anchor + 1:i].sum()
+        return arrive[p.anchor] + p.value_s + shift[p.anchor + 1 : i].sum()
 
-    def damp(self, i: int, joints: list[int], velocities: np.ndarray,
-             damping: np.ndarray) -> int:
+    def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
         to plan next (i again, or i - 1 when its start velocity had to change)."""
         last = len(VELOCITY_DAMPING) - 1
@@ -443,28 +492,41 @@ class _Planner:
             if movable:
                 factor_before = np.take(VELOCITY_DAMPING, damping[k, movable])
                 damping[k, movable] += 1
-                velocities[k, movable] *= np.take(VELOCITY_DAMPING, damping[k, movable]) / \
-                    factor_before
+                velocities[k, movable] *= (
+                    np.take(VELOCITY_DAMPING, damping[k, movable]) / factor_before
+                )
                 return i - back
-        raise PlanningError(f"{self.played[i + 1].keyframe.where}: internal error: the segment "
-                            f"overshoots even from rest to rest")
+        raise PlanningError(
+            f"{self.played[i + 1].keyframe.where}: internal error: the segment "
+            f"overshoots even from rest to rest"
+        )
 
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
         p = self.played[i]
         kf = p.keyframe
         joint = self.robot.joints[self.solver.limiting_joint()].name
         late_by = (earliest - wanted) * p.speed  # in the file's seconds
-        fix = (f"t >= {kf.t_s + late_by:.3f}" if p.timing is _Timing.AT and kf.t_s is not None
-               else f"after >= {(kf.after_s or 0.0) + late_by:.3f}")
+        fix = (
+            f"t >= {kf.t_s + late_by:.3f}"
+            if p.timing is _Timing.AT and kf.t_s is not None
+            else f"after >= {(kf.after_s or 0.0) + late_by:.3f}"
+        )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
-        return (f"{kf.where}: keyframe cannot be reached at {wanted:.3f} s{speed}: the "
-                f"velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
-                f"earliest; use {fix}, a lower speed, or stretch")
+        return (
+            f"{kf.where}: keyframe cannot be reached at {wanted:.3f} s{speed}: the "
+            f"velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
+            f"earliest; use {fix}, a lower speed, or stretch"
+        )
 
 
 # --- assembling the piecewise polynomial -------------------------------------------------------
-def _assemble(joint_names: tuple[str, ...], positions: np.ndarray, segments: list[_Segment],
-              arrive: np.ndarray, holds_s: np.ndarray) -> Trajectory:
+def _assemble(
+    joint_names: tuple[str, ...],
+    positions: np.ndarray,
+    segments: list[_Segment],
+    arrive: np.ndarray,
+    holds_s: np.ndarray,
+) -> Trajectory:
     """Phases in time order: a wait before the first keyframe, then per keyframe its hold (one
     constant phase) and the 7 phases to the next keyframe, then a rest at the last pose."""
     m, n = positions.shape
@@ -483,21 +545,28 @@ def _assemble(joint_names: tuple[str, ...], positions: np.ndarray, segments: lis
     seg_rows = (first_row[:-1] + has_hold[:-1])[:, None] + np.arange(PHASES)  # (m-1, 7)
     knots[seg_rows] = seg_knots
     poly[:, seg_rows] = seg_poly
-    return Trajectory(joint_names, float(arrive[-1] + holds_s[-1]),
-                      tuple(float(t) for t in arrive), np.ascontiguousarray(knots.T),
-                      np.ascontiguousarray(poly.transpose(0, 2, 1)))
+    return Trajectory(
+        joint_names,
+        float(arrive[-1] + holds_s[-1]),
+        tuple(float(t) for t in arrive),
+        np.ascontiguousarray(knots.T),
+        np.ascontiguousarray(poly.transpose(0, 2, 1)),
+    )
 
 
-def _integrate(leave_s: np.ndarray, segments: list[_Segment],
-               n: int) -> tuple[np.ndarray, np.ndarray]:
+def _integrate(
+    leave_s: np.ndarray, segments: list[_Segment], n: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Knots (S, 7, n) and (p, v, a, j) at each phase start (4, S, 7, n) of all segments."""
     if not segments:
         return np.empty((0, PHASES, n)), np.empty((4, 0, PHASES, n))
     shape = (len(segments), n, PHASES)
-    phase_s = np.fromiter(chain.from_iterable(s.phase_s for s in segments), float,
-                          math.prod(shape)).reshape(shape)
-    jerk = np.fromiter(chain.from_iterable(s.jerk for s in segments), float,
-                       math.prod(shape)).reshape(shape)
+    phase_s = np.fromiter(
+        chain.from_iterable(s.phase_s for s in segments), float, math.prod(shape)
+    ).reshape(shape)
+    jerk = np.fromiter(
+        chain.from_iterable(s.jerk for s in segments), float, math.prod(shape)
+    ).reshape(shape)
     p = np.array([s.p0 for s in segments])  # (S, n)
     v = np.array([s.v0 for s in segments])
     a = np.zeros_like(p)
@@ -516,8 +585,7 @@ def _integrate(leave_s: np.ndarray, segments: list[_Segment],
 
 
 # --- public entry points -----------------------------------------------------------------------
-def plan_motion(motion: Motion, *, speed: float | None = None,
-                stretch: bool = False) -> PlanResult:
+def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False) -> PlanResult:
     """The trajectory of a whole motion (``repeat`` unrolled, times divided by the speed).
 
     ``speed`` overrides ``motion.speed``. A keyframe time the limits cannot meet raises
@@ -535,8 +603,7 @@ def plan_motion(motion: Motion, *, speed: float | None = None,
     played = _played_keyframes(motion, speed)
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()
-    trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive,
-                           planner.holds_s)
+    trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
     for s in stretches:
         log.info("%s: stretched by %.3f s to fit the limits", s.where, s.shift_s)
     return PlanResult(trajectory, tuple(stretches))
@@ -556,27 +623,47 @@ def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3)
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
     for joint, angle in zip(robot.joints, target):
         if not joint.limits.contains(angle):
-            raise ValueError(f"target_deg: {joint.name} = {angle:g}° is outside its limits "
-                             f"{joint.limits.range_text}")
+            raise ValueError(
+                f"target_deg: {joint.name} = {angle:g}° is outside its limits "
+                f"{joint.limits.range_text}"
+            )
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
-    segment = _Solver(n).solve(start.tolist(), zero, target.tolist(), zero,
-                               _Limits.of(robot, limit_scale), None, low[0], high[0])
+    segment = _Solver(n).solve(
+        start.tolist(),
+        zero,
+        target.tolist(),
+        zero,
+        _Limits.of(robot, limit_scale),
+        None,
+        low[0],
+        high[0],
+    )
     if segment.overshoot:
-        raise PlanningError(f"internal error: the approach overshoots on "
-                            f"{', '.join(robot.joint_names[j] for j in segment.overshoot)}")
+        raise PlanningError(
+            f"internal error: the approach overshoots on "
+            f"{', '.join(robot.joint_names[j] for j in segment.overshoot)}"
+        )
     arrive = np.array([0.0, segment.duration_s])
-    trajectory = _assemble(robot.joint_names, np.stack([start, target]), [segment], arrive,
-                           np.zeros(2))
-    return Trajectory(trajectory.joint_names, trajectory.duration_s, (segment.duration_s,),
-                      trajectory.knots_s, trajectory.poly)
+    trajectory = _assemble(
+        robot.joint_names, np.stack([start, target]), [segment], arrive, np.zeros(2)
+    )
+    return Trajectory(
+        trajectory.joint_names,
+        trajectory.duration_s,
+        (segment.duration_s,),
+        trajectory.knots_s,
+        trajectory.poly,
+    )
 
 
 def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
     angles = np.asarray(angles_deg, dtype=float)
     if angles.shape != (len(robot.joints),):
-        raise ValueError(f"{name} needs one angle per joint ({', '.join(robot.joint_names)}), "
-                         f"got shape {angles.shape}")
+        raise ValueError(
+            f"{name} needs one angle per joint ({', '.join(robot.joint_names)}), "
+            f"got shape {angles.shape}"
+        )
     if not np.all(np.isfinite(angles)):
         raise ValueError(f"{name} must be finite, got {angles.tolist()}")
     return angles
@@ -585,16 +672,21 @@ def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
 def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
     """Keyframes inside the joint limits (the loader checks this; values built in code may not)."""
     n = len(robot.joints)
-    wrong_size = [f"{kf.where}: the keyframe has {len(kf.targets_deg)} targets for {n} joints"
-                  for kf in keyframes if len(kf.targets_deg) != n]
+    wrong_size = [
+        f"{kf.where}: the keyframe has {len(kf.targets_deg)} targets for {n} joints"
+        for kf in keyframes
+        if len(kf.targets_deg) != n
+    ]
     if wrong_size:
         raise PlanningError("\n".join(wrong_size))
     targets = np.array([kf.targets_deg for kf in keyframes], dtype=float)
     low = np.array([j.limits.min_deg for j in robot.joints])
     high = np.array([j.limits.max_deg for j in robot.joints])
     outside = ~((targets >= low) & (targets <= high))
-    problems = [f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
-                f"its limits {robot.joints[j].limits.range_text}"
-                for k, j in zip(*np.nonzero(outside))]
+    problems = [
+        f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
+        f"its limits {robot.joints[j].limits.range_text}"
+        for k, j in zip(*np.nonzero(outside))
+    ]
     if problems:
         raise PlanningError("\n".join(problems))

@@ -18,8 +18,8 @@ import enum
 import gc
 import logging
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -33,8 +33,8 @@ from .errors import (
     ProtocolError,
     ServoFault,
 )
-from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .planner import Trajectory, plan_approach
+from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .robot import Joint, Robot
 from .segments import MOVE_BYTES, START_BYTES, CompiledMotion, Tick, TickPlan, segment
 
@@ -156,11 +156,15 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
     if silent:
         problems.append(f"{len(silent)} servo(s) did not answer: {_names(silent)}")
     if garbled:
-        problems.append(f"{len(garbled)} servo(s) answered garbled, as when two servos share an "
-                        f"ID: {_names(garbled)}")
+        problems.append(
+            f"{len(garbled)} servo(s) answered garbled, as when two servos share an "
+            f"ID: {_names(garbled)}"
+        )
     if problems:
-        raise ChoreoError("; ".join(problems) + "; check power and wiring, or run `choreo scan` "
-                          "to see which IDs answer")
+        raise ChoreoError(
+            "; ".join(problems) + "; check power and wiring, or run `choreo scan` "
+            "to see which IDs answer"
+        )
     problems, pose, limits = [], [], {}
     for joint in robot.joints:
         position, servo_limits, joint_problems = _inspect(bus, joint)
@@ -187,21 +191,27 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
     mode = bus.read_mode(sid)
     problems = []
     if mode.motor:
-        problems.append(f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
-                        f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`")
+        problems.append(
+            f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
+            f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`"
+        )
     if not vin_limits.min_mv <= vin <= vin_limits.max_mv:
-        problems.append(f"{who}: supply {vin} mV is outside the servo's limits "
-                        f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply")
+        problems.append(
+            f"{who}: supply {vin} mV is outside the servo's limits "
+            f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply"
+        )
     if temp >= temp_limit:
-        problems.append(f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; "
-                        "let it cool down")
+        problems.append(
+            f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
+        )
     low, high = sorted((joint.to_units(joint.limits.min_deg), joint.to_units(joint.limits.max_deg)))
     if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
         problems.append(
             f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
             f" are narrower than the robot file's {round(low)}..{round(high)} units "
             f"({joint.limits.min_deg:g}..{joint.limits.max_deg:g}°); widen them with "
-            "`choreo servo limits` or narrow the joint limits in the robot file")
+            "`choreo servo limits` or narrow the joint limits in the robot file"
+        )
     return position, ServoLimits(vin_limits.min_mv, vin_limits.max_mv, temp_limit), problems
 
 
@@ -226,16 +236,24 @@ def packet_schedule(ticks: Sequence[Tick], robot: Robot) -> list[ScheduledPacket
 
     def stage(tick: Tick, at_ms: int, all_servos: bool) -> None:
         for joint, pos, time_ms in staged_moves(tick, robot, all_servos=all_servos):
-            packet = encode_request(Command.MOVE_TIME_WAIT_WRITE, joint.servo_id,
-                                    pos_units=pos, time_ms=time_ms)
-            schedule.append(ScheduledPacket(at_ms, packet, f"stage {joint.name} -> {pos} in {time_ms} ms"))
+            packet = encode_request(
+                Command.MOVE_TIME_WAIT_WRITE, joint.servo_id, pos_units=pos, time_ms=time_ms
+            )
+            schedule.append(
+                ScheduledPacket(at_ms, packet, f"stage {joint.name} -> {pos} in {time_ms} ms")
+            )
 
     if ticks:
         stage(ticks[0], ticks[0].start_ms, all_servos=True)
     for k, tick in enumerate(ticks):
         if k == 0 or any(tick.staged):  # a tick that changes no target needs no START
-            schedule.append(ScheduledPacket(tick.start_ms, encode_request(Command.MOVE_START, BROADCAST_ID),
-                                            f"START tick {k} ({tick.duration_ms} ms)"))
+            schedule.append(
+                ScheduledPacket(
+                    tick.start_ms,
+                    encode_request(Command.MOVE_START, BROADCAST_ID),
+                    f"START tick {k} ({tick.duration_ms} ms)",
+                )
+            )
         if k + 1 < len(ticks):
             stage(ticks[k + 1], tick.start_ms, all_servos=False)
     return schedule
@@ -245,18 +263,27 @@ def packet_schedule(ticks: Sequence[Tick], robot: Robot) -> list[ScheduledPacket
 class Player:
     """Streams ticks to the servos of ``robot`` on ``bus`` with deadlines from ``clock``."""
 
-    def __init__(self, bus: ServoBus, robot: Robot, clock: Clock, limits: dict[str, ServoLimits],
-                 options: PlayOptions = PlayOptions(),
-                 on_progress: Callable[[Progress], None] | None = None):
+    def __init__(
+        self,
+        bus: ServoBus,
+        robot: Robot,
+        clock: Clock,
+        limits: dict[str, ServoLimits],
+        options: PlayOptions = PlayOptions(),
+        on_progress: Callable[[Progress], None] | None = None,
+    ):
         self.bus, self.robot, self.clock, self.options = bus, robot, clock, options
         self.limits = limits
         self.on_progress = on_progress
         self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
         # Positions are checked most often; each round also reads one servo's VIN and temperature.
         n = len(robot.joints)
-        self._rotation = [item for c in range(n) for item in
-                          [(i, Reading.POSITION) for i in range(n)]
-                          + [(c, Reading.VIN), (c, Reading.TEMPERATURE)]]
+        self._rotation = [
+            item
+            for c in range(n)
+            for item in [(i, Reading.POSITION) for i in range(n)]
+            + [(c, Reading.VIN), (c, Reading.TEMPERATURE)]
+        ]
         self._next_read = 0
         self._suspect: int | None = None  # a joint whose last read went unanswered: read it next
 
@@ -324,10 +351,12 @@ class Player:
             self._suspect = index
             log.info("health read of %s missed: %s", joint.name, error)
             if health.missed_reads >= self.options.max_missed_reads:
-                raise PlaybackAborted(f"{joint.name} (ID {joint.servo_id}) stopped answering "
-                                      f"({health.missed_reads} reads in a row timed out or came "
-                                      "back garbled); check its cable, or allow a slow USB "
-                                      "adapter more time with --health-timeout-ms") from None
+                raise PlaybackAborted(
+                    f"{joint.name} (ID {joint.servo_id}) stopped answering "
+                    f"({health.missed_reads} reads in a row timed out or came "
+                    "back garbled); check its cable, or allow a slow USB "
+                    "adapter more time with --health-timeout-ms"
+                ) from None
             return True
         health.missed_reads = 0
         health.reads += 1
@@ -353,14 +382,18 @@ class Player:
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
             if not limits.min_vin_mv <= value <= limits.max_vin_mv:
-                raise ServoFault(f"{who} supply is {value} mV, outside "
-                                 f"{limits.min_vin_mv}..{limits.max_vin_mv} mV")
+                raise ServoFault(
+                    f"{who} supply is {value} mV, outside "
+                    f"{limits.min_vin_mv}..{limits.max_vin_mv} mV"
+                )
         else:
             error_deg = abs(joint.to_deg(value) - joint.to_deg(expected_units))
             health.record("position_error_deg", error_deg)
             if error_deg > self.options.max_position_error_deg:
-                raise PlaybackAborted(f"{who} is {error_deg:.1f}° away from where it should be "
-                                      f"(limit {self.options.max_position_error_deg:g}°): blocked or overloaded?")
+                raise PlaybackAborted(
+                    f"{who} is {error_deg:.1f}° away from where it should be "
+                    f"(limit {self.options.max_position_error_deg:g}°): blocked or overloaded?"
+                )
 
 
 class _Stream:
@@ -419,12 +452,20 @@ class _Stream:
         j = k + 1
         while j + 1 < len(ticks) and ready_ms >= ticks[j + 1].start_ms:
             j += 1
-        log.warning("fell behind by %.1f ms: re-targeting from tick %d to tick %d",
-                    (now - self.deadline(k)) * 1000, k, j)
+        log.warning(
+            "fell behind by %.1f ms: re-targeting from tick %d to tick %d",
+            (now - self.deadline(k)) * 1000,
+            k,
+            j,
+        )
         self.retargeted += 1
         start_ms = min(ready_ms, ticks[j].end_ms - 1)
-        ticks[j] = replace(ticks[j], start_ms=start_ms, duration_ms=ticks[j].end_ms - start_ms,
-                           staged=(True,) * len(ticks[j].staged))  # re-staged: needs its START
+        ticks[j] = replace(
+            ticks[j],
+            start_ms=start_ms,
+            duration_ms=ticks[j].end_ms - start_ms,
+            staged=(True,) * len(ticks[j].staged),
+        )  # re-staged: needs its START
         self.stage(ticks[j], all_servos=True)
         return j
 
@@ -473,8 +514,15 @@ class _Stream:
     def report_progress(self, k: int) -> None:
         if self.player.on_progress:
             now = self.player.clock.now() - self.t0
-            self.player.on_progress(Progress(now, self.planned_s, k + 1, len(self.ticks),
-                                             self.bytes_sent * BYTE_TIME_S / max(now, 1e-3)))
+            self.player.on_progress(
+                Progress(
+                    now,
+                    self.planned_s,
+                    k + 1,
+                    len(self.ticks),
+                    self.bytes_sent * BYTE_TIME_S / max(now, 1e-3),
+                )
+            )
 
     def finish(self, outcome: Outcome, reason: str) -> None:
         self.outcome, self.reason = outcome, reason
@@ -482,12 +530,18 @@ class _Stream:
 
     def report(self) -> PlayReport:
         return PlayReport(
-            outcome=self.outcome, reason=self.reason, ticks_played=self.played,
-            ticks_total=len(self.ticks), retargeted=self.retargeted,
-            lateness_ms=tuple(self.lateness_ms), bytes_sent=self.bytes_sent,
-            planned_s=self.planned_s, elapsed_s=self.end_s - self.t0, health=self.player.health,
-            start_time_s=self.t0)
-
+            outcome=self.outcome,
+            reason=self.reason,
+            ticks_played=self.played,
+            ticks_total=len(self.ticks),
+            retargeted=self.retargeted,
+            lateness_ms=tuple(self.lateness_ms),
+            bytes_sent=self.bytes_sent,
+            planned_s=self.planned_s,
+            elapsed_s=self.end_s - self.t0,
+            health=self.player.health,
+            start_time_s=self.t0,
+        )
 
 
 # --- a whole performance: approach, motion, exit -----------------------------------------------
@@ -507,8 +561,9 @@ class Performance:
     @property
     def ticks(self) -> tuple[Tick, ...]:
         offset = self.approach.duration_ms
-        return self.approach.ticks + tuple(replace(t, start_ms=t.start_ms + offset)
-                                           for t in self.motion.ticks)
+        return self.approach.ticks + tuple(
+            replace(t, start_ms=t.start_ms + offset) for t in self.motion.ticks
+        )
 
     def planned_deg(self, times_s: np.ndarray) -> np.ndarray:
         """The smooth plan (approach, then motion) at ``times_s`` from the first START."""
@@ -520,14 +575,22 @@ class Performance:
         return out
 
 
-def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float], *,
-            approach_limit_scale: float = APPROACH_LIMIT_SCALE) -> Performance:
+def prepare(
+    compiled: CompiledMotion,
+    start_pose_deg: Sequence[float],
+    *,
+    approach_limit_scale: float = APPROACH_LIMIT_SCALE,
+) -> Performance:
     """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose."""
     robot = compiled.robot
     first_pose = compiled.trajectory.at(0.0)[0]
     approach = plan_approach(robot, start_pose_deg, first_pose, approach_limit_scale)
-    return Performance(segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
-                       compiled.ticks, compiled.trajectory, approach)
+    return Performance(
+        segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
+        compiled.ticks,
+        compiled.trajectory,
+        approach,
+    )
 
 
 def go_to_pose(player: Player, pose: str) -> PlayReport:
@@ -538,4 +601,3 @@ def go_to_pose(player: Player, pose: str) -> PlayReport:
     trajectory = plan_approach(robot, start, robot.pose_vector(pose), APPROACH_LIMIT_SCALE)
     mover = Player(player.bus, robot, player.clock, player.limits, options)
     return mover.play(segment(trajectory, robot, tolerance_deg=options.tolerance_deg).ticks, start)
-

@@ -33,41 +33,66 @@ def plot_size_px(n_joints: int) -> tuple[int, int]:
     return WIDTH_PX, TOP_PX + BOTTOM_PX + ROW_PX * n_joints
 
 
-def plot_plan(trajectory: Trajectory, plan: TickPlan, robot: Robot, path: Path,
-              title: str = "") -> None:
+def plot_plan(
+    trajectory: Trajectory, plan: TickPlan, robot: Robot, path: Path, title: str = ""
+) -> None:
     """Write a PNG: one row per joint, position (left) and velocity (right) against time."""
     n = len(robot.joints)
     width, height = plot_size_px(n)
     figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
     FigureCanvasAgg(figure)
     axes = figure.subplots(n, 2, sharex=True, squeeze=False)
-    figure.subplots_adjust(left=0.09, right=0.985, top=1 - TOP_PX / height,
-                           bottom=BOTTOM_PX / height, hspace=0.12, wspace=0.16)
+    figure.subplots_adjust(
+        left=0.09,
+        right=0.985,
+        top=1 - TOP_PX / height,
+        bottom=BOTTOM_PX / height,
+        hspace=0.12,
+        wspace=0.16,
+    )
 
-    times_s = np.linspace(0.0, max(trajectory.duration_s, 1e-3),
-                          int(np.clip(trajectory.duration_s * 400, 2000, 40000)))
+    times_s = np.linspace(
+        0.0,
+        max(trajectory.duration_s, 1e-3),
+        int(np.clip(trajectory.duration_s * 400, 2000, 40000)),
+    )
     pos, vel, _ = trajectory.sample(times_s)
     bounds_s, tick_deg, tick_vel = _servo_path(trajectory, plan, robot)
 
     for j, joint in enumerate(robot.joints):
         ax_pos, ax_vel = axes[j]
         for ax in (ax_pos, ax_vel):
-            ax.vlines(trajectory.keyframe_times_s, 0, 1, transform=ax.get_xaxis_transform(),
-                      color=KEYFRAME_COLOR, linewidth=0.6, alpha=0.6, label="keyframe")
+            ax.vlines(
+                trajectory.keyframe_times_s,
+                0,
+                1,
+                transform=ax.get_xaxis_transform(),
+                color=KEYFRAME_COLOR,
+                linewidth=0.6,
+                alpha=0.6,
+                label="keyframe",
+            )
             ax.tick_params(labelsize=8)
             ax.grid(True, linewidth=0.3, alpha=0.5)
-        ax_pos.plot(times_s, pos[:, j], color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45,
-                    label="smooth plan")
-        ax_pos.plot(bounds_s, tick_deg[:, j], color=TICK_COLOR, linewidth=0.9, marker="o",
-                    markersize=2.2, label="servo ticks")
+        ax_pos.plot(
+            times_s, pos[:, j], color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45, label="smooth plan"
+        )
+        ax_pos.plot(
+            bounds_s,
+            tick_deg[:, j],
+            color=TICK_COLOR,
+            linewidth=0.9,
+            marker="o",
+            markersize=2.2,
+            label="servo ticks",
+        )
         _pad_flat_axis(ax_pos, pos[:, j], MIN_SPAN_DEG)
         ax_pos.set_ylabel(f"{joint.name}\n°", fontsize=9)
 
         limit = joint.limits.vel_deg_s
         ax_vel.plot(times_s, vel[:, j], color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45)
         if len(tick_vel):
-            ax_vel.stairs(tick_vel[:, j], bounds_s, color=TICK_COLOR, linewidth=0.9,
-                          baseline=None)
+            ax_vel.stairs(tick_vel[:, j], bounds_s, color=TICK_COLOR, linewidth=0.9, baseline=None)
         for sign in (-1, 1):
             ax_vel.axhline(sign * limit, color="black", linewidth=0.7, linestyle="--")
         ax_vel.set_ylim(-1.08 * limit, 1.08 * limit)
@@ -78,10 +103,23 @@ def plot_plan(trajectory: Trajectory, plan: TickPlan, robot: Robot, path: Path,
     for ax in axes[-1]:
         ax.set_xlabel("time (s)", fontsize=9)
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="upper right", bbox_to_anchor=(0.985, 1 - 6 / height),
-                  ncol=3, fontsize=9, frameon=False)
-    figure.suptitle(title or _default_title(trajectory, plan), x=0.09, y=1 - 12 / height,
-                    ha="left", va="top", fontsize=11)
+    figure.legend(
+        handles,
+        labels,
+        loc="upper right",
+        bbox_to_anchor=(0.985, 1 - 6 / height),
+        ncol=3,
+        fontsize=9,
+        frameon=False,
+    )
+    figure.suptitle(
+        title or _default_title(trajectory, plan),
+        x=0.09,
+        y=1 - 12 / height,
+        ha="left",
+        va="top",
+        fontsize=11,
+    )
     figure.savefig(path, format="png", dpi=DPI)
 
 
@@ -92,8 +130,9 @@ def _pad_flat_axis(ax, values, min_span: float) -> None:
         ax.set_ylim(middle - min_span / 2, middle + min_span / 2)
 
 
-def _servo_path(trajectory: Trajectory, plan: TickPlan,
-                robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _servo_path(
+    trajectory: Trajectory, plan: TickPlan, robot: Robot
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tick boundaries (s), the servos' positions there (degrees of the rounded targets, from
     the rounded start) and each tick's constant velocity."""
     start = trajectory.at(0.0)[0]
@@ -102,12 +141,17 @@ def _servo_path(trajectory: Trajectory, plan: TickPlan,
     tick_deg = np.array([[j.to_deg(u) for j, u in zip(robot.joints, row)] for row in units])
     bounds_s = np.array([0.0] + [t.end_ms / 1000 for t in plan.ticks])
     durations_s = np.diff(bounds_s)[:, None]
-    tick_vel = np.diff(tick_deg, axis=0) / durations_s if len(durations_s) else \
-        np.empty((0, len(robot.joints)))
+    tick_vel = (
+        np.diff(tick_deg, axis=0) / durations_s
+        if len(durations_s)
+        else np.empty((0, len(robot.joints)))
+    )
     return bounds_s, tick_deg, tick_vel
 
 
 def _default_title(trajectory: Trajectory, plan: TickPlan) -> str:
-    return (f"{trajectory.duration_s:.2f} s, {len(plan.ticks)} ticks, {plan.total_bytes} bytes, "
-            f"max deviation {plan.max_deviation_deg:.2f}° (tolerance {plan.tolerance_deg:g}° "
-            f"+ rounding)")
+    return (
+        f"{trajectory.duration_s:.2f} s, {len(plan.ticks)} ticks, {plan.total_bytes} bytes, "
+        f"max deviation {plan.max_deviation_deg:.2f}° (tolerance {plan.tolerance_deg:g}° "
+        f"+ rounding)"
+    )

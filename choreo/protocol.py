@@ -94,7 +94,9 @@ class CommandSpec:
     command: Command
     request: tuple[Field, ...] = ()
     reply: tuple[Field, ...] | None = None  # None: never answered
-    ordered_pair: tuple[str, str] | None = None  # (min field, max field) that must satisfy min < max
+    ordered_pair: tuple[str, str] | None = (
+        None  # (min field, max field) that must satisfy min < max
+    )
 
     @property
     def request_len(self) -> int:
@@ -124,21 +126,31 @@ SPECS: dict[Command, CommandSpec] = {
         CommandSpec(C.ANGLE_OFFSET_ADJUST, (Field("offset_units", "b", -125, 125),)),
         CommandSpec(C.ANGLE_OFFSET_WRITE),
         CommandSpec(C.ANGLE_OFFSET_READ, reply=(Field("offset_units", "b", -128, 127),)),
-        CommandSpec(C.ANGLE_LIMIT_WRITE, (_u16("min_units", 0, 1000), _u16("max_units", 0, 1000)),
-                    ordered_pair=("min_units", "max_units")),
+        CommandSpec(
+            C.ANGLE_LIMIT_WRITE,
+            (_u16("min_units", 0, 1000), _u16("max_units", 0, 1000)),
+            ordered_pair=("min_units", "max_units"),
+        ),
         CommandSpec(C.ANGLE_LIMIT_READ, reply=(_u16("min_units"), _u16("max_units"))),
-        CommandSpec(C.VIN_LIMIT_WRITE, (_u16("min_mv", 4500, 14000), _u16("max_mv", 4500, 14000)),
-                    ordered_pair=("min_mv", "max_mv")),
+        CommandSpec(
+            C.VIN_LIMIT_WRITE,
+            (_u16("min_mv", 4500, 14000), _u16("max_mv", 4500, 14000)),
+            ordered_pair=("min_mv", "max_mv"),
+        ),
         CommandSpec(C.VIN_LIMIT_READ, reply=(_u16("min_mv"), _u16("max_mv"))),
         CommandSpec(C.TEMP_MAX_LIMIT_WRITE, (_u8("temp_c", 50, 100),)),
         CommandSpec(C.TEMP_MAX_LIMIT_READ, reply=(_u8("temp_c"),)),
         CommandSpec(C.TEMP_READ, reply=(_u8("temp_c"),)),
         CommandSpec(C.VIN_READ, reply=(_u16("vin_mv"),)),
         CommandSpec(C.POS_READ, reply=(Field("pos_units", "h", -32768, 32767),)),
-        CommandSpec(C.OR_MOTOR_MODE_WRITE,
-                    (_u8("mode", 0, 1), _u8("reserved", 0, 0), Field("speed", "h", -1000, 1000))),
-        CommandSpec(C.OR_MOTOR_MODE_READ,
-                    reply=(_u8("mode"), _u8("reserved"), Field("speed", "h", -32768, 32767))),
+        CommandSpec(
+            C.OR_MOTOR_MODE_WRITE,
+            (_u8("mode", 0, 1), _u8("reserved", 0, 0), Field("speed", "h", -1000, 1000)),
+        ),
+        CommandSpec(
+            C.OR_MOTOR_MODE_READ,
+            reply=(_u8("mode"), _u8("reserved"), Field("speed", "h", -32768, 32767)),
+        ),
         CommandSpec(C.LOAD_OR_UNLOAD_WRITE, (_u8("loaded", 0, 1),)),
         CommandSpec(C.LOAD_OR_UNLOAD_READ, reply=(_u8("loaded"),)),
         CommandSpec(C.LED_CTRL_WRITE, (_u8("led_off", 0, 1),)),
@@ -324,7 +336,9 @@ def parse_ids(text: str) -> tuple[int, ...]:
         except ValueError:
             raise ValueError(f"servo IDs must look like '1-6,9', got {text!r}") from None
         if not 0 <= first <= last <= MAX_SERVO_ID:
-            raise ValueError(f"servo IDs must be in 0..{MAX_SERVO_ID} with low <= high, got {part!r}")
+            raise ValueError(
+                f"servo IDs must be in 0..{MAX_SERVO_ID} with low <= high, got {part!r}"
+            )
         ids.update(range(first, last + 1))
     return tuple(sorted(ids))
 

@@ -27,9 +27,10 @@ import json
 import logging
 import math
 import os
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import BinaryIO, Callable, Iterable, Sequence
+from typing import BinaryIO
 
 import numpy as np
 
@@ -116,12 +117,18 @@ def read_journal(path: Path) -> JournalContents:
     data = path.read_bytes()
     *lines, torn = data.split(b"\n")
     if torn:
-        log.warning("%s: dropping an incomplete last line (written when the recorder stopped)", path)
+        log.warning(
+            "%s: dropping an incomplete last line (written when the recorder stopped)", path
+        )
     if not lines:
         raise ChoreoError(f"{path}: empty journal: delete it and record again")
     header = _journal_line(path, 1, lines[0])
-    if header.get("format") != JOURNAL_FORMAT or header.get("version") != JOURNAL_VERSION or \
-            not isinstance(header.get("robot"), str) or not isinstance(header.get("joints"), list):
+    if (
+        header.get("format") != JOURNAL_FORMAT
+        or header.get("version") != JOURNAL_VERSION
+        or not isinstance(header.get("robot"), str)
+        or not isinstance(header.get("joints"), list)
+    ):
         raise ChoreoError(f"{path}:1: not a {JOURNAL_FORMAT} version {JOURNAL_VERSION} file")
     joint_names = tuple(header["joints"])
     captures: list[Capture] = []
@@ -130,10 +137,12 @@ def read_journal(path: Path) -> JournalContents:
         try:
             _replay(record, captures, joint_names)
         except (KeyError, TypeError, ValueError) as error:
-            raise ChoreoError(f"{path}:{number}: damaged journal line ({error}): {line[:80]!r}") \
-                from None
-    return JournalContents(Path(header["robot"]), joint_names, tuple(captures),
-                           len(data) - len(torn))
+            raise ChoreoError(
+                f"{path}:{number}: damaged journal line ({error}): {line[:80]!r}"
+            ) from None
+    return JournalContents(
+        Path(header["robot"]), joint_names, tuple(captures), len(data) - len(torn)
+    )
 
 
 def _journal_line(path: Path, number: int, line: bytes) -> dict:
@@ -142,7 +151,9 @@ def _journal_line(path: Path, number: int, line: bytes) -> dict:
     except ValueError:
         record = None
     if not isinstance(record, dict):
-        raise ChoreoError(f"{path}:{number}: damaged journal line, not a JSON object: {line[:80]!r}")
+        raise ChoreoError(
+            f"{path}:{number}: damaged journal line, not a JSON object: {line[:80]!r}"
+        )
     return record
 
 
@@ -155,8 +166,11 @@ def _replay(record: dict, captures: list[Capture], joint_names: tuple[str, ...])
     if record["capture"] != len(captures) + 1:
         raise ValueError(f"capture {record['capture']} follows capture {len(captures)}")
     angles = record["angles_deg"]
-    captures.append(Capture(tuple(float(angles[name]) for name in joint_names),
-                            record["after_s"], record["stream"]))
+    captures.append(
+        Capture(
+            tuple(float(angles[name]) for name in joint_names), record["after_s"], record["stream"]
+        )
+    )
 
 
 class Journal:
@@ -175,8 +189,14 @@ class Journal:
         except OSError as error:
             raise ChoreoError(f"cannot create {path}: {error.strerror}") from error
         journal = cls(path, file)
-        journal.append(dict(format=JOURNAL_FORMAT, version=JOURNAL_VERSION,
-                            robot=str(robot.path.resolve()), joints=list(robot.joint_names)))
+        journal.append(
+            dict(
+                format=JOURNAL_FORMAT,
+                version=JOURNAL_VERSION,
+                robot=str(robot.path.resolve()),
+                joints=list(robot.joint_names),
+            )
+        )
         fsync_directory(path.parent)  # the new file's name is durable too
         return journal
 
@@ -207,8 +227,9 @@ class SavedMotion:
 class Recording:
     """The captures of one recording into ``motion_path``, journaled as they come."""
 
-    def __init__(self, motion_path: Path, robot: Robot, journal: Journal,
-                 captures: Sequence[Capture] = ()):
+    def __init__(
+        self, motion_path: Path, robot: Robot, journal: Journal, captures: Sequence[Capture] = ()
+    ):
         self.motion_path = motion_path
         self.robot = robot
         self.journal = journal
@@ -222,8 +243,10 @@ class Recording:
         path = journal_path(motion_path)
         if path.exists():
             count = len(read_journal(path).captures)
-            raise ChoreoError(f"{path} holds {count} capture(s) of an unfinished recording: add "
-                              "--resume to continue it, or delete it to start over")
+            raise ChoreoError(
+                f"{path} holds {count} capture(s) of an unfinished recording: add "
+                "--resume to continue it, or delete it to start over"
+            )
         if motion_path.exists() and not overwrite:
             raise ChoreoError(f"{motion_path} exists: choose another file, or add --overwrite")
         return cls(motion_path, robot, Journal.create(path, robot))
@@ -234,8 +257,10 @@ class Recording:
         motion_path = Path(motion_path)
         path = journal_path(motion_path)
         if not path.exists():
-            raise ChoreoError(f"nothing to resume: {path} does not exist (a recording that was "
-                              "saved removes its journal)")
+            raise ChoreoError(
+                f"nothing to resume: {path} does not exist (a recording that was "
+                "saved removes its journal)"
+            )
         contents = read_journal(path)
         if robot is None:
             robot = load_robot(contents.robot_path)
@@ -243,11 +268,16 @@ class Recording:
                 raise ChoreoError(
                     f"{path} was recorded with the joints {', '.join(contents.joint_names)}, but "
                     f"{robot.path} now has {', '.join(robot.joint_names)}: its captures can't be "
-                    "matched to the joints; restore the robot file, or delete the journal")
-        elif robot.path.resolve() != contents.robot_path or robot.joint_names != contents.joint_names:
-            raise ChoreoError(f"{path} was recorded with the robot {contents.robot_path} (joints "
-                              f"{', '.join(contents.joint_names)}), not {robot.path}: resume "
-                              "with that robot, or delete the journal")
+                    "matched to the joints; restore the robot file, or delete the journal"
+                )
+        elif (
+            robot.path.resolve() != contents.robot_path or robot.joint_names != contents.joint_names
+        ):
+            raise ChoreoError(
+                f"{path} was recorded with the robot {contents.robot_path} (joints "
+                f"{', '.join(contents.joint_names)}), not {robot.path}: resume "
+                "with that robot, or delete the journal"
+            )
         return cls(motion_path, robot, Journal.reopen(path, contents.good_bytes), contents.captures)
 
     @property
@@ -261,8 +291,9 @@ class Recording:
         """Journal a capture (on disk when this returns); its number."""
         number = len(self._captures) + 1
         angles = dict(zip(self.robot.joint_names, capture.angles_deg))
-        self.journal.append(dict(capture=number, after_s=capture.after_s, stream=capture.stream,
-                                 angles_deg=angles))
+        self.journal.append(
+            dict(capture=number, after_s=capture.after_s, stream=capture.stream, angles_deg=angles)
+        )
         self._captures.append(capture)
         return number
 
@@ -282,10 +313,12 @@ class Recording:
         if not captures:
             return None
         keyframes = reduce_captures(captures, tolerance_deg)
-        text = motion_text(self.robot, as_keyframes(keyframes, self.motion_path),
-                           robot_ref=robot_reference(self.robot, self.motion_path),
-                           description=f"recorded by hand on {self.robot.name}: "
-                                       f"{len(captures)} capture(s)")
+        text = motion_text(
+            self.robot,
+            as_keyframes(keyframes, self.motion_path),
+            robot_ref=robot_reference(self.robot, self.motion_path),
+            description=f"recorded by hand on {self.robot.name}: {len(captures)} capture(s)",
+        )
         write_text_atomically(self.motion_path, text)
         self.journal.close()
         self.journal.path.unlink()
@@ -324,11 +357,15 @@ def taught_joints(robot: Robot, names: Iterable[str] | None) -> tuple[Joint, ...
     wanted = set(names)
     for name in wanted:
         if name not in robot.joint_names:
-            raise ValueError(f"unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
-                             f"{robot.name}'s joints are {', '.join(robot.joint_names)}")
+            raise ValueError(
+                f"unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
+                f"{robot.name}'s joints are {', '.join(robot.joint_names)}"
+            )
     if not wanted:
-        raise ValueError(f"name at least one joint to teach; {robot.name}'s joints are "
-                         f"{', '.join(robot.joint_names)}")
+        raise ValueError(
+            f"name at least one joint to teach; {robot.name}'s joints are "
+            f"{', '.join(robot.joint_names)}"
+        )
     return tuple(j for j in robot.joints if j.name in wanted)
 
 
@@ -336,8 +373,9 @@ def limit_problems(robot: Robot, angles_deg: Sequence[float]) -> list[str]:
     problems = []
     for joint, angle in zip(robot.joints, angles_deg):
         if not joint.limits.contains(angle):
-            problems.append(f"{joint.name} at {fmt(angle)}° is outside its limits "
-                            f"{joint.limits.range_text}")
+            problems.append(
+                f"{joint.name} at {fmt(angle)}° is outside its limits {joint.limits.range_text}"
+            )
     return problems
 
 
@@ -346,9 +384,16 @@ class Recorder:
     unloads the taught joints (the others hold); leaving loads them again, holding where they
     are, unless ``leave_unloaded``."""
 
-    def __init__(self, bus: ServoBus, recording: Recording, clock: Clock, *,
-                 taught: Iterable[str] | None = None, leave_unloaded: bool = False,
-                 on_event: Callable[[Event], None] = lambda event: None):
+    def __init__(
+        self,
+        bus: ServoBus,
+        recording: Recording,
+        clock: Clock,
+        *,
+        taught: Iterable[str] | None = None,
+        leave_unloaded: bool = False,
+        on_event: Callable[[Event], None] = lambda event: None,
+    ):
         self.bus = bus
         self.recording = recording
         self.robot = recording.robot
@@ -383,13 +428,19 @@ class Recorder:
         missing = [j for j in self.robot.joints if not self.bus.ping(j.servo_id, retries=2)]
         if missing:
             names = ", ".join(f"{j.name} (ID {j.servo_id})" for j in missing)
-            raise BusError(f"{len(missing)} servo(s) did not answer: {names}; check power and "
-                           "wiring, or run `choreo scan` to see which IDs answer")
+            raise BusError(
+                f"{len(missing)} servo(s) did not answer: {names}; check power and "
+                "wiring, or run `choreo scan` to see which IDs answer"
+            )
         spinning = [j for j in self.robot.joints if self.bus.read_mode(j.servo_id).motor]
         if spinning:
-            raise BusError("in motor mode: " + ", ".join(
-                f"{j.name} (stop it with `choreo servo motor --id {j.servo_id} --stop`)"
-                for j in spinning))
+            raise BusError(
+                "in motor mode: "
+                + ", ".join(
+                    f"{j.name} (stop it with `choreo servo motor --id {j.servo_id} --stop`)"
+                    for j in spinning
+                )
+            )
 
     def _hold_taught(self, *, quietly: bool) -> None:
         """Load the taught joints again (a LOAD holds the current position)."""
@@ -410,8 +461,10 @@ class Recorder:
     # --- captures ----------------------------------------------------------------------------------
     def read_pose(self) -> tuple[float, ...]:
         """Every joint's angle now, degrees in robot order (0.01° resolution)."""
-        return tuple(round(j.to_deg(self.bus.read_position(j.servo_id)), ANGLE_DECIMALS) + 0.0
-                     for j in self.robot.joints)
+        return tuple(
+            round(j.to_deg(self.bus.read_position(j.servo_id)), ANGLE_DECIMALS) + 0.0
+            for j in self.robot.joints
+        )
 
     def capture(self, stream: int | None = None) -> Captured | Refused:
         """Read every joint and journal the pose, unless a joint is outside its limits."""
@@ -497,8 +550,9 @@ class Recorder:
 
 
 # --- streams to keyframes ---------------------------------------------------------------------------
-def douglas_peucker(times_s: Sequence[float], angles_deg: Sequence[Sequence[float]],
-                    tolerance_deg: float) -> list[int]:
+def douglas_peucker(
+    times_s: Sequence[float], angles_deg: Sequence[Sequence[float]], tolerance_deg: float
+) -> list[int]:
     """Indices of the samples to keep (always the first and last) so that straight lines in time
     between kept samples pass within ``tolerance_deg`` of every sample, on every joint."""
     times = np.asarray(times_s, dtype=float)
@@ -514,10 +568,10 @@ def douglas_peucker(times_s: Sequence[float], angles_deg: Sequence[Sequence[floa
         if last - first < 2:
             continue
         duration = times[last] - times[first]
-        inner = times[first + 1:last] - times[first]
+        inner = times[first + 1 : last] - times[first]
         fraction = inner / duration if duration > 0 else np.zeros_like(inner)
         line = angles[first] + np.outer(fraction, angles[last] - angles[first])
-        errors = np.abs(angles[first + 1:last] - line).max(axis=1)
+        errors = np.abs(angles[first + 1 : last] - line).max(axis=1)
         worst = int(np.argmax(errors))
         if errors[worst] > tolerance_deg:
             middle = first + 1 + worst

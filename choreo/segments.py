@@ -88,8 +88,13 @@ def wire_time_ms(n_bytes: int) -> float:
     return n_bytes * BYTE_TIME_S * 1000
 
 
-def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
-            bus_margin_ms: float = DEFAULT_BUS_MARGIN_MS) -> TickPlan:
+def segment(
+    trajectory: Trajectory,
+    robot: Robot,
+    *,
+    tolerance_deg: float = 0.5,
+    bus_margin_ms: float = DEFAULT_BUS_MARGIN_MS,
+) -> TickPlan:
     """The fewest ticks (greedy farthest reach) that follow ``trajectory`` within
     ``tolerance_deg`` (plus rounding to whole units) and leave the bus time to stage each next
     tick: ``(10·N + 6)`` bytes at the robot's baud rate plus ``bus_margin_ms``, N counted as
@@ -103,14 +108,15 @@ def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
     if bus_margin_ms < 0:
         raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
     if trajectory.joint_names != robot.joint_names:
-        raise ValueError(f"the trajectory's joints {trajectory.joint_names} are not the robot's "
-                         f"{robot.joint_names}")
+        raise ValueError(
+            f"the trajectory's joints {trajectory.joint_names} are not the robot's "
+            f"{robot.joint_names}"
+        )
     end_ms = math.ceil(round(trajectory.duration_s * 1000, 6))
     if end_ms == 0:
         return TickPlan((), tolerance_deg, 0.0, 0, 0.0)
     servo = _ServoMap(robot)
-    floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints)))
-                         + bus_margin_ms)
+    floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints))) + bus_margin_ms)
     search = _Search(trajectory, tolerance_deg, end_ms)
     servo.check_range(search.samples_deg.T, search.step_ms)
     bounds, forced = search.ticks(floor_ms)
@@ -121,16 +127,24 @@ def segment(trajectory: Trajectory, robot: Robot, *, tolerance_deg: float = 0.5,
     bounds_ms = bounds * search.step_ms
     servo.check_targets(targets, bounds_ms)
     staged = targets[1:] != targets[:-1]
-    ticks = tuple(Tick(int(a), int(b - a), tuple(t.tolist()), tuple(s.tolist()))
-                  for a, b, t, s in zip(bounds_ms[:-1], bounds_ms[1:], targets[1:], staged))
+    ticks = tuple(
+        Tick(int(a), int(b - a), tuple(t.tolist()), tuple(s.tolist()))
+        for a, b, t, s in zip(bounds_ms[:-1], bounds_ms[1:], targets[1:], staged)
+    )
     deviation = search.max_deviation(bounds, servo.to_deg(targets))
     n_staged = staged.sum(axis=1)
     sent = np.where(n_staged > 0, n_staged * MOVE_BYTES + START_BYTES, 0)
     use = wire_time_ms(sent[1:]) / np.diff(bounds_ms)[:-1]
-    plan = TickPlan(ticks, tolerance_deg, deviation, int(sent.sum()),
-                    float(use.max()) if use.size else 0.0)
-    log.debug("%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)", len(ticks),
-              plan.total_bytes, deviation, search.step_ms)
+    plan = TickPlan(
+        ticks, tolerance_deg, deviation, int(sent.sum()), float(use.max()) if use.size else 0.0
+    )
+    log.debug(
+        "%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)",
+        len(ticks),
+        plan.total_bytes,
+        deviation,
+        search.step_ms,
+    )
     return plan
 
 
@@ -165,10 +179,12 @@ class _ServoMap:
         for j in np.flatnonzero(outside.any(axis=0)):
             joint = self.robot.joints[j]
             k = int(np.flatnonzero(outside[:, j])[0])
-            problems.append(f"{joint.name} (servo {joint.servo_id}) would need position "
-                            f"{units[k, j]} at {times_ms[k] / 1000:.3f} s, outside the servo's "
-                            f"{lo}..{hi}: check its zero ({joint.zero_units:g}), direction and "
-                            f"limits in {self.robot.path}")
+            problems.append(
+                f"{joint.name} (servo {joint.servo_id}) would need position "
+                f"{units[k, j]} at {times_ms[k] / 1000:.3f} s, outside the servo's "
+                f"{lo}..{hi}: check its zero ({joint.zero_units:g}), direction and "
+                f"limits in {self.robot.path}"
+            )
         if problems:
             raise PlanningError("; ".join(problems))
 
@@ -228,13 +244,13 @@ class _Search:
         finds every chord that fits, and the search stops once a joint's cone is closed.
         """
         n, samples, inv_d, tol_d = self.n, self.samples_pm, self.inv_d, self.tol_d
-        base = samples[:, start:start + 1]
+        base = samples[:, start : start + 1]
         best, first, carry = 0, 1, None
         while first <= limit:
             last = min(first + guess - 1, limit)
-            slope = samples[:, start + first:start + last + 1] - base
-            slope *= inv_d[first - 1:last]
-            bound = np.subtract(slope, tol_d[:, first - 1:last])
+            slope = samples[:, start + first : start + last + 1] - base
+            slope *= inv_d[first - 1 : last]
+            bound = np.subtract(slope, tol_d[:, first - 1 : last])
             np.maximum.accumulate(bound, axis=1, out=bound)
             if carry is not None:
                 np.maximum(bound, carry, out=bound)
@@ -268,8 +284,9 @@ def _lattice_step_ms(margin_deg: float, peak_acc_deg_s2: float) -> int:
     return max(1, min(MAX_STEP_MS, int(step_s * 1000)))
 
 
-def _check_forced(robot: Robot, search: _Search, bounds: np.ndarray, forced: list[int],
-                  floor_ms: int) -> None:
+def _check_forced(
+    robot: Robot, search: _Search, bounds: np.ndarray, forced: list[int], floor_ms: int
+) -> None:
     """Ticks stretched to the bus floor must still meet the tolerance (checked every ms)."""
     worst, worst_joint, worst_ms = 0.0, 0, 0
     for k in forced:
@@ -288,7 +305,8 @@ def _check_forced(robot: Robot, search: _Search, bounds: np.ndarray, forced: lis
         f"tolerance {search.tolerance_deg:g}° cannot be met at the bus rate: a tick must last at "
         f"least {floor_ms} ms to stage {len(robot.joints)} servos at 115200 baud, "
         f"and then {name} strays {worst:.3f}° at {worst_ms / 1000:.3f} s; use a tolerance of "
-        f"at least {math.ceil(worst * 100) / 100:g}° or lower {name}'s acceleration limit")
+        f"at least {math.ceil(worst * 100) / 100:g}° or lower {name}'s acceleration limit"
+    )
 
 
 # --- a whole motion: plan, then compile ---------------------------------------------------------
@@ -307,10 +325,14 @@ class CompiledMotion:
         return self.ticks.tolerance_deg
 
 
-def compile_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False,
-                   tolerance_deg: float = 0.5) -> CompiledMotion:
+def compile_motion(
+    motion: Motion, *, speed: float | None = None, stretch: bool = False, tolerance_deg: float = 0.5
+) -> CompiledMotion:
     """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
     plan = plan_motion(motion, speed=speed, stretch=stretch)
-    return CompiledMotion(motion.robot, plan.trajectory,
-                          segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
-                          plan.stretches)
+    return CompiledMotion(
+        motion.robot,
+        plan.trajectory,
+        segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
+        plan.stretches,
+    )

@@ -43,15 +43,26 @@ class ServoModel:
 
 
 # What a robot file's ``actuator:`` block may override per joint (the preview's servo model).
-ACTUATOR_FIELDS = ("stall_torque_nm", "kp_nm_rad", "damping_nm_s_rad", "armature_kg_m2",
-                   "no_load_speed_deg_s")
+ACTUATOR_FIELDS = (
+    "stall_torque_nm",
+    "kp_nm_rad",
+    "damping_nm_s_rad",
+    "armature_kg_m2",
+    "no_load_speed_deg_s",
+)
 
 
 SERVO_MODELS: dict[str, ServoModel] = {
     m.name: m
     for m in (
-        ServoModel("LX-16A", 17 * KGCM_TO_NM, 60 / 0.16, (6000, 8400),
-                   answers_wait_read=False, answers_dis_read=False),
+        ServoModel(
+            "LX-16A",
+            17 * KGCM_TO_NM,
+            60 / 0.16,
+            (6000, 8400),
+            answers_wait_read=False,
+            answers_dis_read=False,
+        ),
         ServoModel("LX-224HV", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
         ServoModel("LX-824HV", 17 * KGCM_TO_NM, 60 / 0.20, (9000, 12600)),
         ServoModel("HTD-35H", 35 * KGCM_TO_NM, 60 / 0.18, (9000, 12600)),

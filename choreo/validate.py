@@ -45,24 +45,30 @@ def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> Fi
         return FileCheck(path, list(error.problems))
     except PlanningError as error:  # one line per problem, each path:line:col
         return FileCheck(path, str(error).splitlines())
-    stretched = [f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
-                 for s in compiled.stretches]
+    stretched = [
+        f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
+        for s in compiled.stretches
+    ]
     if not physics:
         return FileCheck(path, warnings=stretched)
     found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)
     return FileCheck(path, found.problems, stretched + found.warnings)
 
 
-def _physics_check(path: Path, motion: Motion, arrivals_s: tuple[float, ...],
-                   stretch: bool) -> FileCheck:
+def _physics_check(
+    path: Path, motion: Motion, arrivals_s: tuple[float, ...], stretch: bool
+) -> FileCheck:
     from .preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
 
     results = run_checks(simulate_motion(motion, stretch=stretch))
-    lines = {r: f"{_heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}"
-             for r in results}
-    return FileCheck(path,
-                     [lines[r] for r in results if r.severity is Severity.ERROR],
-                     [lines[r] for r in results if r.severity is Severity.WARNING])
+    lines = {
+        r: f"{_heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}" for r in results
+    }
+    return FileCheck(
+        path,
+        [lines[r] for r in results if r.severity is Severity.ERROR],
+        [lines[r] for r in results if r.severity is Severity.WARNING],
+    )
 
 
 def _heading_for(motion: Motion, arrivals_s: tuple[float, ...], time_s: float) -> str:

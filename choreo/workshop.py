@@ -14,8 +14,9 @@ a broadcast ``ID_READ`` *and* a scan: a second servo would be renumbered too.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable
+from typing import Any
 
 from .bus import AngleLimits, Presence, ServoBus, VinLimits
 from .errors import BusError, BusTimeoutError, ProtocolError
@@ -85,47 +86,79 @@ def _warn_vin(bus: ServoBus, servo_id: int, limits: VinLimits) -> str | None:
     vin_mv = bus.read_vin(servo_id)
     if limits.min_mv <= vin_mv <= limits.max_mv:
         return None
-    return (f"the supply reads {vin_mv} mV now, outside the new limits: the servo will unload at "
-            "once and refuse to move until the supply is inside them")
+    return (
+        f"the supply reads {vin_mv} mV now, outside the new limits: the servo will unload at "
+        "once and refuse to move until the supply is inside them"
+    )
 
 
 def _warn_temp(bus: ServoBus, servo_id: int, temp_c: int) -> str | None:
     now_c = bus.read_temperature(servo_id)
     if now_c <= temp_c:
         return None
-    return (f"the servo is at {now_c} °C now, above the new limit: it will unload at once and "
-            "refuse to move until it has cooled down")
+    return (
+        f"the servo is at {now_c} °C now, above the new limit: it will unload at once and "
+        "refuse to move until it has cooled down"
+    )
 
 
 def _warn_angle(bus: ServoBus, servo_id: int, limits: AngleLimits) -> str | None:
     pos_units = bus.read_position(servo_id)
     if limits.min_units <= pos_units <= limits.max_units:
         return None
-    return (f"the servo stands at {pos_units}, outside the new limits: its next move will end at "
-            "the nearer limit")
+    return (
+        f"the servo stands at {pos_units}, outside the new limits: its next move will end at "
+        "the nearer limit"
+    )
 
 
 TEMP_LIMIT = Setting(
-    "temperature limit", Command.TEMP_MAX_LIMIT_WRITE, lambda c: dict(temp_c=c),
-    ServoBus.read_temp_limit, lambda c: f"{c} °C", _warn_temp)
+    "temperature limit",
+    Command.TEMP_MAX_LIMIT_WRITE,
+    lambda c: dict(temp_c=c),
+    ServoBus.read_temp_limit,
+    lambda c: f"{c} °C",
+    _warn_temp,
+)
 ANGLE_LIMITS = Setting(
-    "angle limits", Command.ANGLE_LIMIT_WRITE,
-    lambda v: dict(min_units=v.min_units, max_units=v.max_units), ServoBus.read_angle_limits,
-    lambda v: f"{show_units(v.min_units)}..{show_units(v.max_units)}", _warn_angle)
+    "angle limits",
+    Command.ANGLE_LIMIT_WRITE,
+    lambda v: dict(min_units=v.min_units, max_units=v.max_units),
+    ServoBus.read_angle_limits,
+    lambda v: f"{show_units(v.min_units)}..{show_units(v.max_units)}",
+    _warn_angle,
+)
 VIN_LIMITS = Setting(
-    "supply voltage limits", Command.VIN_LIMIT_WRITE,
-    lambda v: dict(min_mv=v.min_mv, max_mv=v.max_mv), ServoBus.read_vin_limits,
-    lambda v: f"{v.min_mv}..{v.max_mv} mV", _warn_vin)
+    "supply voltage limits",
+    Command.VIN_LIMIT_WRITE,
+    lambda v: dict(min_mv=v.min_mv, max_mv=v.max_mv),
+    ServoBus.read_vin_limits,
+    lambda v: f"{v.min_mv}..{v.max_mv} mV",
+    _warn_vin,
+)
 LED = Setting(
-    "LED", Command.LED_CTRL_WRITE, lambda on: dict(led_off=0 if on else 1), ServoBus.read_led,
-    lambda on: "on" if on else "off")
+    "LED",
+    Command.LED_CTRL_WRITE,
+    lambda on: dict(led_off=0 if on else 1),
+    ServoBus.read_led,
+    lambda on: "on" if on else "off",
+)
 LED_ERRORS = Setting(
-    "faults that flash the LED", Command.LED_ERROR_WRITE, lambda mask: dict(mask=int(mask)),
-    ServoBus.read_led_errors, show_error_mask)
+    "faults that flash the LED",
+    Command.LED_ERROR_WRITE,
+    lambda mask: dict(mask=int(mask)),
+    ServoBus.read_led_errors,
+    show_error_mask,
+)
 SAVED_OFFSET = Setting(
-    "saved offset", Command.ANGLE_OFFSET_WRITE, lambda units: {},
-    ServoBus.read_offset, lambda units: "unknown (servos report only the offset in use)" if units is None
-    else show_units(units))
+    "saved offset",
+    Command.ANGLE_OFFSET_WRITE,
+    lambda units: {},
+    ServoBus.read_offset,
+    lambda units: (
+        "unknown (servos report only the offset in use)" if units is None else show_units(units)
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -143,8 +176,10 @@ class Change:
         return self.old == self.new
 
     def __str__(self) -> str:
-        return (f"servo {self.servo_id}: {self.setting.name} {self.setting.show(self.old)} → "
-                f"{self.setting.show(self.new)}")
+        return (
+            f"servo {self.servo_id}: {self.setting.name} {self.setting.show(self.old)} → "
+            f"{self.setting.show(self.new)}"
+        )
 
 
 def plan_change(bus: ServoBus, servo_id: int, setting: Setting, new: Any) -> Change:
@@ -165,27 +200,46 @@ def apply_change(bus: ServoBus, change: Change) -> None:
     """Write, read back, and raise ``BusError`` naming the value unless it reads as written."""
     setting = change.setting
     bus.send(setting.command, change.servo_id, **setting.fields(change.new))
-    _verify(bus, change.servo_id, setting.name, setting.show(change.new),
-            lambda: setting.read(bus, change.servo_id), change.new, setting.show)
+    _verify(
+        bus,
+        change.servo_id,
+        setting.name,
+        setting.show(change.new),
+        lambda: setting.read(bus, change.servo_id),
+        change.new,
+        setting.show,
+    )
 
 
-def _verify(bus: ServoBus, servo_id: int, what: str, written: str, read: Callable[[], Any],
-            expected: Any, show: Callable[[Any], str]) -> None:
+def _verify(
+    bus: ServoBus,
+    servo_id: int,
+    what: str,
+    written: str,
+    read: Callable[[], Any],
+    expected: Any,
+    show: Callable[[Any], str],
+) -> None:
     try:
         actual = read()
     except (BusTimeoutError, ProtocolError) as error:
-        raise BusError(f"servo {servo_id}: wrote {what} {written} but could not read it back, so "
-                       f"it may not have taken: {error}") from error
+        raise BusError(
+            f"servo {servo_id}: wrote {what} {written} but could not read it back, so "
+            f"it may not have taken: {error}"
+        ) from error
     if actual != expected:
-        raise BusError(f"servo {servo_id}: {what} reads {show(actual)} after writing {written}: the "
-                       "write did not take (a packet lost on the wire?); check the wiring and try "
-                       "again")
+        raise BusError(
+            f"servo {servo_id}: {what} reads {show(actual)} after writing {written}: the "
+            "write did not take (a packet lost on the wire?); check the wiring and try "
+            "again"
+        )
 
 
 def _check_addressable(servo_id: int) -> None:
     if not 0 <= servo_id <= MAX_SERVO_ID:
-        raise ValueError(f"servo_id must be a servo's own ID 0..{MAX_SERVO_ID} (no broadcast), "
-                         f"got {servo_id}")
+        raise ValueError(
+            f"servo_id must be a servo's own ID 0..{MAX_SERVO_ID} (no broadcast), got {servo_id}"
+        )
 
 
 # --- the servo ID ------------------------------------------------------------------------------
@@ -228,22 +282,29 @@ def find_single_servo(bus: ServoBus, scan_ids: Iterable[int] = ALL_IDS) -> int:
         raise BusError("no servo answered a broadcast ID read nor the scan: check power and wiring")
     reasons = []
     if collided:
-        reasons.append("several servos answered a broadcast ID read at once (their replies collided)")
+        reasons.append(
+            "several servos answered a broadcast ID read at once (their replies collided)"
+        )
     answering = sorted(set(scan.found) | found)
     if answering:
         reasons.append(f"IDs {', '.join(map(str, answering))} answer")
     if scan.garbled:
-        reasons.append(f"replies at IDs {', '.join(map(str, scan.garbled))} are garbled (several "
-                       "servos share each of these IDs)")
+        reasons.append(
+            f"replies at IDs {', '.join(map(str, scan.garbled))} are garbled (several "
+            "servos share each of these IDs)"
+        )
     if not (answering or scan.garbled):
         reasons.append("no ID answers the scan alone")
-    raise BusError("setting an ID without --id needs exactly one servo on the bus, but "
-                   f"{'; '.join(reasons)}: connect only the servo to renumber, or give its "
-                   "current ID with --id")
+    raise BusError(
+        "setting an ID without --id needs exactly one servo on the bus, but "
+        f"{'; '.join(reasons)}: connect only the servo to renumber, or give its "
+        "current ID with --id"
+    )
 
 
-def plan_id_change(bus: ServoBus, new_id: int, current_id: int | None = None,
-                   scan_ids: Iterable[int] = ALL_IDS) -> IdChange:
+def plan_id_change(
+    bus: ServoBus, new_id: int, current_id: int | None = None, scan_ids: Iterable[int] = ALL_IDS
+) -> IdChange:
     """Check ``new_id`` and find the servo to renumber; refuse an ID already in use."""
     encode_request(Command.ID_WRITE, 0, new_id=new_id)  # ValueError with the valid range
     if current_id is None:
@@ -253,11 +314,15 @@ def plan_id_change(bus: ServoBus, new_id: int, current_id: int | None = None,
         _check_addressable(current_id)
         presence = bus.probe(current_id, retries=2)
         if presence is Presence.GARBLED:
-            raise BusError(f"replies at ID {current_id} are garbled: several servos share it, and "
-                           "ID_WRITE would renumber them all; connect only the servo to renumber")
+            raise BusError(
+                f"replies at ID {current_id} are garbled: several servos share it, and "
+                "ID_WRITE would renumber them all; connect only the servo to renumber"
+            )
         if presence is Presence.SILENT:
-            raise BusError(f"no servo answers at ID {current_id}: check the ID (`choreo scan`), "
-                           "power and wiring")
+            raise BusError(
+                f"no servo answers at ID {current_id}: check the ID (`choreo scan`), "
+                "power and wiring"
+            )
         change = IdChange(current_id, new_id, found_alone=False)
     if not change.unchanged and bus.probe(new_id, retries=1) is not Presence.SILENT:
         raise BusError(
@@ -274,9 +339,11 @@ def apply_id_change(bus: ServoBus, change: IdChange) -> None:
         return  # a reply from new_id carries new_id in its header and its data
     still = bus.ping(change.current_id, retries=1)
     where = f"it still answers at {change.current_id}" if still else "nor at its old ID"
-    raise BusError(f"servo ID {change.current_id}: wrote ID {change.new_id} but no servo answers "
-                   f"at {change.new_id} ({where}): the write did not take; check the wiring and "
-                   "try again")
+    raise BusError(
+        f"servo ID {change.current_id}: wrote ID {change.new_id} but no servo answers "
+        f"at {change.new_id} ({where}): the write did not take; check the wiring and "
+        "try again"
+    )
 
 
 # --- settings applied at once (not saved) ------------------------------------------------------
@@ -285,8 +352,10 @@ def offset_units_from_deg(offset_deg: float) -> int:
     lo, hi = field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
     units = round(offset_deg * UNITS_PER_DEG)
     if not lo <= units <= hi:
-        raise ValueError(f"an offset must be within {lo * DEG_PER_UNIT:+.1f}..{hi * DEG_PER_UNIT:+.1f}°"
-                         f" ({lo}..{hi} units), got {offset_deg:g}°")
+        raise ValueError(
+            f"an offset must be within {lo * DEG_PER_UNIT:+.1f}..{hi * DEG_PER_UNIT:+.1f}°"
+            f" ({lo}..{hi} units), got {offset_deg:g}°"
+        )
     return units
 
 
@@ -295,8 +364,15 @@ def adjust_offset(bus: ServoBus, servo_id: int, offset_units: int) -> None:
     encode_request(Command.ANGLE_OFFSET_ADJUST, 0, offset_units=offset_units)
     _check_addressable(servo_id)
     bus.adjust_offset(servo_id, offset_units)
-    _verify(bus, servo_id, "offset", show_units(offset_units), lambda: bus.read_offset(servo_id),
-            offset_units, show_units)
+    _verify(
+        bus,
+        servo_id,
+        "offset",
+        show_units(offset_units),
+        lambda: bus.read_offset(servo_id),
+        offset_units,
+        show_units,
+    )
 
 
 def position_units_from_deg(angle_deg: float) -> int:
@@ -304,8 +380,10 @@ def position_units_from_deg(angle_deg: float) -> int:
     lo, hi = field_range(Command.MOVE_TIME_WRITE, "pos_units")
     units = round(angle_deg * UNITS_PER_DEG)
     if not lo <= units <= hi:
-        raise ValueError(f"a servo angle must be in {lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}° "
-                         f"({lo}..{hi} units), got {angle_deg:g}°")
+        raise ValueError(
+            f"a servo angle must be in {lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}° "
+            f"({lo}..{hi} units), got {angle_deg:g}°"
+        )
     return units
 
 
@@ -322,8 +400,10 @@ def move(bus: ServoBus, servo_id: int, pos_units: int, time_ms: int) -> None:
             "choose a position inside them or widen them with `choreo servo limits`"
         )
     if bus.read_mode(servo_id).motor:
-        raise BusError(f"servo {servo_id} is in motor mode and ignores moves: run "
-                       f"`choreo servo motor --id {servo_id} --stop` first")
+        raise BusError(
+            f"servo {servo_id} is in motor mode and ignores moves: run "
+            f"`choreo servo motor --id {servo_id} --stop` first"
+        )
     bus.move(servo_id, pos_units, time_ms)
 
 
@@ -336,8 +416,10 @@ def set_torque(bus: ServoBus, servo_id: int, loaded: bool) -> None:
         bus.unload(servo_id)
     if bus.read_loaded(servo_id) != loaded:
         if loaded:
-            raise BusError(f"servo {servo_id} did not load: it refuses while over its temperature "
-                           "or outside its supply limits; see `choreo servo info`")
+            raise BusError(
+                f"servo {servo_id} did not load: it refuses while over its temperature "
+                "or outside its supply limits; see `choreo servo info`"
+            )
         raise BusError(f"servo {servo_id} still reports torque on after UNLOAD: try again")
 
 
@@ -348,8 +430,10 @@ def run_motor(bus: ServoBus, servo_id: int, speed: int) -> None:
     bus.set_motor_mode(servo_id, speed)
     mode = bus.read_mode(servo_id)
     if not mode.motor or mode.speed != speed:
-        raise BusError(f"servo {servo_id}: motor mode reads {mode} after setting speed {speed}: "
-                       "the write did not take; check the wiring and try again")
+        raise BusError(
+            f"servo {servo_id}: motor mode reads {mode} after setting speed {speed}: "
+            "the write did not take; check the wiring and try again"
+        )
 
 
 def stop_motor(bus: ServoBus, servo_id: int) -> None:
@@ -357,5 +441,6 @@ def stop_motor(bus: ServoBus, servo_id: int) -> None:
     _check_addressable(servo_id)
     bus.set_servo_mode(servo_id)
     if bus.read_mode(servo_id).motor:
-        raise BusError(f"servo {servo_id} is still in motor mode: the write did not take; "
-                       "try again")
+        raise BusError(
+            f"servo {servo_id} is still in motor mode: the write did not take; try again"
+        )

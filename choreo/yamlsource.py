@@ -11,9 +11,9 @@ from __future__ import annotations
 import difflib
 import math
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import yaml
 
@@ -151,14 +151,17 @@ class Reader:
                 self.report(key_node, f"{what}: keys must be names, got {describe(key_node)}")
             elif key_node.value in entries:
                 first = entries[key_node.value].key_node.start_mark.line + 1
-                self.report(key_node, f"{what}: {key_node.value!r} is given twice "
-                                      f"(first at line {first}); keep one")
+                self.report(
+                    key_node,
+                    f"{what}: {key_node.value!r} is given twice (first at line {first}); keep one",
+                )
             else:
                 entries[key_node.value] = Entry(key_node.value, key_node, value)
         return list(entries.values())
 
-    def fields(self, node: Node, what: str, allowed: Sequence[str],
-               required: Sequence[str] = ()) -> dict[str, Entry] | None:
+    def fields(
+        self, node: Node, what: str, allowed: Sequence[str], required: Sequence[str] = ()
+    ) -> dict[str, Entry] | None:
         """A mapping with a fixed set of keys: unknown keys and missing required keys reported."""
         entries = self.entries(node, what)
         if entries is None:
@@ -168,8 +171,11 @@ class Reader:
             if entry.key in allowed:
                 known[entry.key] = entry
             else:
-                self.report(entry.key_node, f"unknown key {entry.key!r} in {what}"
-                            f"{did_you_mean(entry.key, allowed)}; valid keys: {', '.join(allowed)}")
+                self.report(
+                    entry.key_node,
+                    f"unknown key {entry.key!r} in {what}"
+                    f"{did_you_mean(entry.key, allowed)}; valid keys: {', '.join(allowed)}",
+                )
         for key in required:
             if key not in known:
                 self.report(node, f"{what} is missing {key!r} (required)")
@@ -177,8 +183,9 @@ class Reader:
 
     def sequence(self, node: Node, what: str) -> list[Node] | None:
         if not isinstance(node, yaml.SequenceNode):
-            self.report(node, f"{what} must be a list (lines starting with '- '), "
-                              f"got {describe(node)}")
+            self.report(
+                node, f"{what} must be a list (lines starting with '- '), got {describe(node)}"
+            )
             return None
         return list(node.value)
 
@@ -191,13 +198,23 @@ class Reader:
         except yaml.constructor.ConstructorError:  # an unknown !tag
             return node
 
-    def number(self, node: Node, what: str, *, low: float | None = None,
-               high: float | None = None, low_open: bool = False) -> float | None:
+    def number(
+        self,
+        node: Node,
+        what: str,
+        *,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+    ) -> float | None:
         """A finite number in [low, high] (``(low, high]`` with ``low_open``)."""
         value = self._scalar(node)
         valid = _range_words(low, high, low_open)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
             self.report(node, f"{what} must be a number{valid}, got {describe(node)}")
             return None
         below = low is not None and (value <= low if low_open else value < low)
@@ -206,8 +223,9 @@ class Reader:
             return None
         return float(value)
 
-    def integer(self, node: Node, what: str, *, low: int | None = None,
-                high: int | None = None) -> int | None:
+    def integer(
+        self, node: Node, what: str, *, low: int | None = None, high: int | None = None
+    ) -> int | None:
         value = self._scalar(node)
         valid = _range_words(low, high, False)
         if isinstance(value, bool) or not isinstance(value, int):
@@ -231,16 +249,20 @@ class Reader:
             return None
         value = self._scalar(node)
         if not isinstance(value, str) or not value:
-            self.report(node, f"{what} must be a text{' or null' if optional else ''}, "
-                              f"got {describe(node)}")
+            self.report(
+                node, f"{what} must be a text{' or null' if optional else ''}, got {describe(node)}"
+            )
             return None
         return value
 
     def choice(self, node: Node, what: str, choices: Sequence[str]) -> str | None:
         value = self.string(node, what)
         if value is not None and value not in choices:
-            self.report(node, f"{what} {value!r} is not one of {', '.join(choices)}"
-                              f"{did_you_mean(value, choices)}")
+            self.report(
+                node,
+                f"{what} {value!r} is not one of {', '.join(choices)}"
+                f"{did_you_mean(value, choices)}",
+            )
             return None
         return value
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import contextlib
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.pty import PtyBridge
@@ -17,8 +17,10 @@ WAIT_S = 30
 
 def home_specs(robot: Robot) -> list[ServoSpec]:
     """The robot's servos, standing at its home pose."""
-    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-            for j, a in zip(robot.joints, robot.pose_vector("home"))]
+    return [
+        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+        for j, a in zip(robot.joints, robot.pose_vector("home"))
+    ]
 
 
 def wait_for(condition, what: str, timeout_s: float = WAIT_S) -> None:

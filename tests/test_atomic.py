@@ -12,7 +12,7 @@ def test_write_text_replaces_the_file_whole_and_leaves_nothing_else(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text("old\n")
     write_text_atomically(path, "keyframes: []  # 30°\n")
-    assert path.read_bytes() == "keyframes: []  # 30°\n".encode("utf-8")
+    assert path.read_bytes() == "keyframes: []  # 30°\n".encode()
     assert [p.name for p in tmp_path.iterdir()] == ["wave.yaml"]
 
 
@@ -42,6 +42,9 @@ def test_fsync_directory_accepts_a_folder(tmp_path):
 
 
 def test_a_missing_folder_is_a_clear_error_naming_it(tmp_path):
-    with pytest.raises(ChoreoError, match=r"cannot write .*nowhere/x.yaml: the folder .*nowhere "
-                                          r"does not exist"):
+    with pytest.raises(
+        ChoreoError,
+        match=r"cannot write .*nowhere/x.yaml: the folder .*nowhere "
+        r"does not exist",
+    ):
         write_text_atomically(tmp_path / "nowhere" / "x.yaml", "a: 1\n")

@@ -20,7 +20,6 @@ from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import BusTimeoutError, PortError, ProtocolError
 from choreo.protocol import BROADCAST_ID, Command, ErrorMask
 
-
 BYTE_TIME_S = 10 / 115200  # start + 8 data + stop bits at 115200 baud
 
 
@@ -29,8 +28,12 @@ def make_bus(ids=(1, 2, 3), *, echo=False, mode=EchoMode.AUTO, model="LX-224HV",
     return ServoBus(SimSerial.from_emulator(emulator), echo=mode, **kwargs), emulator
 
 
-ECHO_SETUPS = [(False, EchoMode.NONE), (False, EchoMode.AUTO), (True, EchoMode.AUTO),
-               (True, EchoMode.DISCARD)]
+ECHO_SETUPS = [
+    (False, EchoMode.NONE),
+    (False, EchoMode.AUTO),
+    (True, EchoMode.AUTO),
+    (True, EchoMode.DISCARD),
+]
 
 
 @pytest.fixture(params=ECHO_SETUPS, ids=lambda p: f"echo={int(p[0])}-{p[1].value}")
@@ -90,7 +93,11 @@ def test_scan_tries_each_id_once_with_the_bus_timeout():
 def test_servos_sharing_an_id_are_garbled_not_absent():
     emulator = BusEmulator([ServoSpec(1), ServoSpec(1), ServoSpec(2)], clock=VirtualClock())
     bus = ServoBus(SimSerial.from_emulator(emulator))
-    assert [bus.probe(i) for i in (1, 2, 3)] == [Presence.GARBLED, Presence.ANSWERS, Presence.SILENT]
+    assert [bus.probe(i) for i in (1, 2, 3)] == [
+        Presence.GARBLED,
+        Presence.ANSWERS,
+        Presence.SILENT,
+    ]
     assert bus.scan_presence(range(0, 5)) == ScanResult(found=(2,), garbled=(1,))
     assert bus.scan(range(0, 5)) == [2]
     with pytest.raises(ProtocolError, match="two servos may share ID 1"):
@@ -134,8 +141,11 @@ def test_corrupted_replies_are_retried():
 def test_exhausted_retries_raise_a_timeout_naming_the_servo():
     bus, emulator = make_bus(retries=1)
     emulator.servo(3).reply_faults = ReplyFaults(drop_next=2)
-    with pytest.raises(BusTimeoutError, match=r"^servo 3 did not answer POS_READ on sim:// "
-                       r"\(2 tries, 50 ms each\): check power and wiring, or run `choreo scan`$"):
+    with pytest.raises(
+        BusTimeoutError,
+        match=r"^servo 3 did not answer POS_READ on sim:// "
+        r"\(2 tries, 50 ms each\): check power and wiring, or run `choreo scan`$",
+    ):
         bus.read_position(3)
     assert isinstance(BusTimeoutError("x"), TimeoutError)
     assert bus.read_position(3) == 500  # the bus is usable again
@@ -152,7 +162,10 @@ def test_absent_servo_times_out_after_every_try_in_virtual_time():
 def test_persistent_corruption_is_a_protocol_error():
     bus, emulator = make_bus(retries=1)
     emulator.servo(2).reply_faults = ReplyFaults(corrupt_probability=1.0)
-    with pytest.raises(ProtocolError, match=r"servo 2: 2 replies to VIN_READ failed the checksum \(2 tries, 50 ms each\)"):
+    with pytest.raises(
+        ProtocolError,
+        match=r"servo 2: 2 replies to VIN_READ failed the checksum \(2 tries, 50 ms each\)",
+    ):
         bus.read_vin(2)
 
 
@@ -201,14 +214,20 @@ def test_discard_mode_without_echo_says_what_to_try():
 
 def test_silent_broadcast_says_no_servo_answered():
     bus, _ = make_bus(ids=(), retries=0)
-    with pytest.raises(BusTimeoutError, match=r"^no servo answered ID_READ on sim:// \(1 try of 50 ms\): check power"):
+    with pytest.raises(
+        BusTimeoutError,
+        match=r"^no servo answered ID_READ on sim:// \(1 try of 50 ms\): check power",
+    ):
         bus.read_id()
 
 
 def test_colliding_broadcast_replies_say_several_servos_answered():
     bus, _ = make_bus(ids=(1, 2), retries=0)
-    with pytest.raises(ProtocolError, match=r"^1 reply to a broadcast ID_READ failed the checksum "
-                       r"\(1 try of 50 ms\): several servos answered at once"):
+    with pytest.raises(
+        ProtocolError,
+        match=r"^1 reply to a broadcast ID_READ failed the checksum "
+        r"\(1 try of 50 ms\): several servos answered at once",
+    ):
         bus.read_id()
 
 
@@ -288,19 +307,28 @@ class UnpluggedPort:
     write = read = flush = reset_input_buffer = reset_output_buffer = close = _fail
 
 
-@pytest.mark.parametrize("error", [
-    serial.SerialException("write failed: [Errno 5] Input/output error"),
-    OSError(19, "No such device"),
-], ids=["SerialException", "OSError"])
-@pytest.mark.parametrize("use", [
-    lambda bus: bus.move(1, 500, 100),
-    lambda bus: bus.read_position(1),
-    lambda bus: bus.drain(),
-    lambda bus: bus.discard_output(),
-    lambda bus: bus.close(),
-], ids=["send", "request", "drain", "discard_output", "close"])
+@pytest.mark.parametrize(
+    "error",
+    [
+        serial.SerialException("write failed: [Errno 5] Input/output error"),
+        OSError(19, "No such device"),
+    ],
+    ids=["SerialException", "OSError"],
+)
+@pytest.mark.parametrize(
+    "use",
+    [
+        lambda bus: bus.move(1, 500, 100),
+        lambda bus: bus.read_position(1),
+        lambda bus: bus.drain(),
+        lambda bus: bus.discard_output(),
+        lambda bus: bus.close(),
+    ],
+    ids=["send", "request", "drain", "discard_output", "close"],
+)
 def test_a_port_lost_after_opening_is_a_port_error(use, error):
     bus = ServoBus(UnpluggedPort(error), retries=2)
-    with pytest.raises(PortError, match=r"^/dev/ttyUSB0: the port was lost \(.+\): check the USB cable$"):
+    with pytest.raises(
+        PortError, match=r"^/dev/ttyUSB0: the port was lost \(.+\): check the USB cable$"
+    ):
         use(bus)
-

@@ -12,8 +12,15 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
-from choreo.d6a import (ActionRow, export_d6a, import_d6a, keyframes_from_group,
-                        read_action_group, rows_from_motion, write_action_group)
+from choreo.d6a import (
+    ActionRow,
+    export_d6a,
+    import_d6a,
+    keyframes_from_group,
+    read_action_group,
+    rows_from_motion,
+    write_action_group,
+)
 from choreo.errors import SourceError
 from choreo.motion import Motion, load_motion
 from choreo.planner import plan_motion
@@ -40,7 +47,8 @@ def sqlite_rows(path: Path) -> list[tuple]:
 def table_sql(path: Path) -> str:
     with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as connection:
         return connection.execute(
-            "SELECT sql FROM sqlite_master WHERE name = 'ActionGroup'").fetchone()[0]
+            "SELECT sql FROM sqlite_master WHERE name = 'ActionGroup'"
+        ).fetchone()[0]
 
 
 def edited_copy(source: Path, target: Path, *updates: str) -> Path:
@@ -92,12 +100,14 @@ def test_every_vendor_file_plans_and_compiles_with_stretch(source, tonypi):
     """Some rows ask for more than a smooth plan within the servos' speed allows (wave flaps the
     elbow at 298 deg/s and reverses at once); stretched, every file plans and fits the bus."""
     group = read_action_group(source)
-    motion = Motion(name=source.stem, path=source, robot=tonypi,
-                    keyframes=keyframes_from_group(group, tonypi))
+    motion = Motion(
+        name=source.stem, path=source, robot=tonypi, keyframes=keyframes_from_group(group, tonypi)
+    )
     result = plan_motion(motion, stretch=True)
     rows_s = sum(row.time_ms for row in group.rows) / 1000
     assert result.trajectory.duration_s == pytest.approx(
-        rows_s + sum(s.shift_s for s in result.stretches), abs=1e-6)
+        rows_s + sum(s.shift_s for s in result.stretches), abs=1e-6
+    )
     assert segment(result.trajectory, tonypi).ticks
 
 
@@ -132,9 +142,12 @@ def test_the_shipped_tonypi_motions_are_plain_imports(shipped, tmp_path):
 
 
 def test_positions_outside_the_limits_are_all_reported_at_their_row_and_column(tmp_path, capsys):
-    bad = edited_copy(VENDOR / "wave.d6a", tmp_path / "bad.d6a",
-                      'UPDATE ActionGroup SET Servo16 = 1000 WHERE "Index" = 3',
-                      'UPDATE ActionGroup SET Servo3 = 990 WHERE "Index" = 5')
+    bad = edited_copy(
+        VENDOR / "wave.d6a",
+        tmp_path / "bad.d6a",
+        'UPDATE ActionGroup SET Servo16 = 1000 WHERE "Index" = 3',
+        'UPDATE ActionGroup SET Servo3 = 990 WHERE "Index" = 5',
+    )
     out = tmp_path / "bad.yaml"
     assert main(["import", "d6a", str(bad), "--robot", "tonypi", "-o", str(out)]) == 1
     assert capsys.readouterr().err.splitlines() == [
@@ -147,12 +160,16 @@ def test_positions_outside_the_limits_are_all_reported_at_their_row_and_column(t
 
 
 def test_a_failed_import_leaves_the_old_output_alone(tmp_path, tonypi):
-    bad = edited_copy(VENDOR / "stand.d6a", tmp_path / "bad.d6a",
-                      "UPDATE ActionGroup SET Servo2 = 'x'")
+    bad = edited_copy(
+        VENDOR / "stand.d6a", tmp_path / "bad.d6a", "UPDATE ActionGroup SET Servo2 = 'x'"
+    )
     out = tmp_path / "stand.yaml"
     out.write_text("old")
-    with pytest.raises(SourceError, match=r"row 1, column Servo2 \(joint left_ankle_pitch\): "
-                                          r"'x' is not a servo position"):
+    with pytest.raises(
+        SourceError,
+        match=r"row 1, column Servo2 \(joint left_ankle_pitch\): "
+        r"'x' is not a servo position",
+    ):
         import_d6a(bad, tonypi, out)
     assert out.read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.d6a", "stand.yaml"]
@@ -165,7 +182,8 @@ def test_a_file_that_is_not_sqlite_is_one_clear_line(tmp_path, capsys):
     assert main(["import", "d6a", str(text), "--robot", "tonypi", "-o", str(out)]) == 1
     assert capsys.readouterr().err.splitlines() == [
         f"choreo: error: {text}: not a Hiwonder action group: SQLite cannot read it (file is "
-        f"not a database)"]
+        f"not a database)"
+    ]
 
 
 def test_a_database_without_an_action_group_table_is_one_clear_line(tmp_path, capsys):
@@ -176,19 +194,35 @@ def test_a_database_without_an_action_group_table_is_one_clear_line(tmp_path, ca
     assert main(["import", "d6a", str(other), "--robot", "tonypi", "-o", str(out)]) == 1
     assert capsys.readouterr().err.splitlines() == [
         f"choreo: error: {other}: not a Hiwonder action group: it has no ActionGroup table "
-        f"(tables: Moves)"]
+        f"(tables: Moves)"
+    ]
 
 
 def test_a_missing_file_is_named(tmp_path, capsys):
-    assert main(["import", "d6a", str(tmp_path / "nope.d6a"), "--robot", "tonypi", "-o",
-                 str(tmp_path / "x.yaml")]) == 1
+    assert (
+        main(
+            [
+                "import",
+                "d6a",
+                str(tmp_path / "nope.d6a"),
+                "--robot",
+                "tonypi",
+                "-o",
+                str(tmp_path / "x.yaml"),
+            ]
+        )
+        == 1
+    )
     assert capsys.readouterr().err == f"choreo: error: {tmp_path / 'nope.d6a'}: no such file\n"
 
 
 def test_nulls_keep_the_previous_value_and_a_null_time_is_as_soon_as_possible(tmp_path):
-    source = edited_copy(VENDOR / "wave.d6a", tmp_path / "gaps.d6a",
-                         'UPDATE ActionGroup SET Servo14 = NULL WHERE "Index" = 4',
-                         'UPDATE ActionGroup SET Time = NULL WHERE "Index" = 5')
+    source = edited_copy(
+        VENDOR / "wave.d6a",
+        tmp_path / "gaps.d6a",
+        'UPDATE ActionGroup SET Servo14 = NULL WHERE "Index" = 4',
+        'UPDATE ActionGroup SET Time = NULL WHERE "Index" = 5',
+    )
     motion = load_motion(import_to(tmp_path, source))
     elbow = motion.robot.joint_names.index("right_elbow")
     assert motion.keyframes[3].targets_deg[elbow] == motion.keyframes[2].targets_deg[elbow] == 77.52
@@ -197,26 +231,39 @@ def test_nulls_keep_the_previous_value_and_a_null_time_is_as_soon_as_possible(tm
 
 
 def test_columns_for_servos_the_robot_lacks_are_errors_unless_empty(tmp_path, tonypi):
-    source = edited_copy(VENDOR / "stand.d6a", tmp_path / "extra.d6a",
-                         "ALTER TABLE ActionGroup ADD COLUMN Servo19 INT",
-                         "ALTER TABLE ActionGroup ADD COLUMN Servo20 INT",
-                         "UPDATE ActionGroup SET Servo19 = 500")
+    source = edited_copy(
+        VENDOR / "stand.d6a",
+        tmp_path / "extra.d6a",
+        "ALTER TABLE ActionGroup ADD COLUMN Servo19 INT",
+        "ALTER TABLE ActionGroup ADD COLUMN Servo20 INT",
+        "UPDATE ActionGroup SET Servo19 = 500",
+    )
     with pytest.raises(SourceError) as error:
         import_d6a(source, tonypi, tmp_path / "extra.yaml")
     assert error.value.problems == [
         f"{source}: column Servo19 (servo ID 19): robot 'tonypi' has no joint with servo ID 19 "
-        f"(its IDs: {', '.join(map(str, range(1, 19)))})"]
+        f"(its IDs: {', '.join(map(str, range(1, 19)))})"
+    ]
 
 
 def test_ids_map_columns_by_position(tmp_path):
     """A 3-column file read with --ids 2,4,6 drives arm6's shoulder, wrist_pitch and gripper."""
     source = tmp_path / "three.d6a"
-    write_action_group(source, ("Servo1", "Servo2", "Servo3"),
-                       (ActionRow(1, 500, (500, 500, 700)), ActionRow(2, 800, (625, 400, 580))))
+    write_action_group(
+        source,
+        ("Servo1", "Servo2", "Servo3"),
+        (ActionRow(1, 500, (500, 500, 700)), ActionRow(2, 800, (625, 400, 580))),
+    )
     motion = load_motion(import_to(tmp_path, source, "arm6", "--ids", "2,4,6"))
     targets = dict(zip(motion.robot.joint_names, motion.keyframes[1].targets_deg))
-    assert targets == {"base_yaw": 0, "shoulder": 30, "elbow": 0, "wrist_pitch": -24,
-                       "wrist_roll": 0, "gripper": 28.8}
+    assert targets == {
+        "base_yaw": 0,
+        "shoulder": 30,
+        "elbow": 0,
+        "wrist_pitch": -24,
+        "wrist_roll": 0,
+        "gripper": 28.8,
+    }
     assert motion.keyframes[1].after_s == 0.8
 
 
@@ -245,8 +292,10 @@ def test_arm6_wave_exports_a_row_per_keyframe_and_per_hold():
 
 def test_untimed_keyframes_take_the_planners_times(tmp_path):
     motion_file = tmp_path / "asap.yaml"
-    motion_file.write_text("robot: arm6\nkeyframes:\n  - pose: home\n  - pose: {shoulder: 40}\n"
-                           "  - pose: {elbow: 30}\n    after: 0.5\n")
+    motion_file.write_text(
+        "robot: arm6\nkeyframes:\n  - pose: home\n  - pose: {shoulder: 40}\n"
+        "  - pose: {elbow: 30}\n    after: 0.5\n"
+    )
     motion = load_motion(motion_file)
     arrive_s = plan_motion(motion).trajectory.keyframe_times_s
     _, rows = rows_from_motion(motion)
@@ -255,9 +304,11 @@ def test_untimed_keyframes_take_the_planners_times(tmp_path):
 
 def test_speed_and_repeat_are_written_out(tmp_path):
     motion_file = tmp_path / "twice.yaml"
-    motion_file.write_text("robot: arm6\nspeed: 2\nrepeat: 2\nkeyframes:\n"
-                           "  - pose: home\n    after: 0.4\n"
-                           "  - pose: {shoulder: 40}\n    t: 1.4\n    hold: 0.2\n")
+    motion_file.write_text(
+        "robot: arm6\nspeed: 2\nrepeat: 2\nkeyframes:\n"
+        "  - pose: home\n    after: 0.4\n"
+        "  - pose: {shoulder: 40}\n    t: 1.4\n    hold: 0.2\n"
+    )
     _, rows = rows_from_motion(load_motion(motion_file))
     # t 1.4 is 1.0 s after the first keyframe; halved by the speed; the wrap takes its after
     assert [row.time_ms for row in rows] == [200, 500, 100, 200, 500, 100]
@@ -265,9 +316,11 @@ def test_speed_and_repeat_are_written_out(tmp_path):
 
 def test_rows_too_short_or_too_long_are_reported_at_their_keyframes(tmp_path):
     motion_file = tmp_path / "quick.yaml"
-    motion_file.write_text("robot: arm6\nkeyframes:\n  - pose: home\n"
-                           "  - pose: {shoulder: 1}\n    after: 0.01\n"
-                           "  - pose: {shoulder: 2}\n    after: 31\n")
+    motion_file.write_text(
+        "robot: arm6\nkeyframes:\n  - pose: home\n"
+        "  - pose: {shoulder: 1}\n    after: 0.01\n"
+        "  - pose: {shoulder: 2}\n    after: 31\n"
+    )
     with pytest.raises(SourceError) as error:
         rows_from_motion(load_motion(motion_file))
     assert error.value.problems == [
@@ -282,14 +335,17 @@ def test_rows_too_short_or_too_long_are_reported_at_their_keyframes(tmp_path):
 
 def test_holds_are_rows_of_their_own_split_when_long_refused_when_too_short(tmp_path):
     motion_file = tmp_path / "holds.yaml"
-    motion_file.write_text("robot: arm6\nkeyframes:\n  - pose: home\n    after: 0.5\n"
-                           "    hold: 65\n  - pose: {shoulder: 10}\n    after: 1\n"
-                           "    hold: 0.01\n")
+    motion_file.write_text(
+        "robot: arm6\nkeyframes:\n  - pose: home\n    after: 0.5\n"
+        "    hold: 65\n  - pose: {shoulder: 10}\n    after: 1\n"
+        "    hold: 0.01\n"
+    )
     with pytest.raises(SourceError) as error:
         rows_from_motion(load_motion(motion_file))
     assert error.value.problems == [
         f"{motion_file}:6:5: this keyframe holds 0.01 s, but an action group row's Time must be "
-        f"20..30000 ms (the vendor editor's range): give it at least 0.02 s"]
+        f"20..30000 ms (the vendor editor's range): give it at least 0.02 s"
+    ]
     motion_file.write_text(motion_file.read_text().replace("hold: 0.01", "hold: 0.02"))
     _, rows = rows_from_motion(load_motion(motion_file))
     assert [row.time_ms for row in rows] == [500, 21667, 21667, 21666, 1000, 20]
@@ -305,6 +361,9 @@ def test_every_vendor_file_imports_and_validates_or_says_precisely_why_not(sourc
     assert main(["import", "d6a", str(source), "--robot", "tonypi", "-o", str(out)]) == 0
     result = check_file(out, physics=False)
     for problem in result.problems:
-        assert re.match(rf"^{re.escape(str(out))}:\d+:\d+: keyframe cannot be reached at [\d.]+ s"
-                        r".*limits of \w+ allow [\d.]+ s at the earliest", problem), problem
+        assert re.match(
+            rf"^{re.escape(str(out))}:\d+:\d+: keyframe cannot be reached at [\d.]+ s"
+            r".*limits of \w+ allow [\d.]+ s at the earliest",
+            problem,
+        ), problem
     assert check_file(out, physics=False, stretch=True).ok

@@ -9,15 +9,17 @@ from __future__ import annotations
 import pytest
 
 from choreo.clock import VirtualClock
-from choreo.errors import ChoreoError
 from choreo.emulator import BusEmulator, ReplyFate, ReplyFaults, ServoSpec, SimSerial
+from choreo.errors import ChoreoError
 from choreo.protocol import (
     BROADCAST_ID,
-    Command as C,
     PacketDecoder,
     decode_reply,
     encode_packet,
     encode_request,
+)
+from choreo.protocol import (
+    Command as C,
 )
 
 BYTE_S = 10 / 115200
@@ -320,7 +322,9 @@ def test_positions_beyond_1000_on_the_wire_are_clamped(bus):
 def test_writes_out_of_range_are_ignored(bus):
     bus.port.write(encode_packet(1, C.ANGLE_LIMIT_WRITE, bytes.fromhex("8403 6400")))  # 900 > 100
     bus.port.write(encode_packet(1, C.TEMP_MAX_LIMIT_WRITE, bytes((40,))))  # below 50
-    bus.port.write(encode_packet(1, C.ANGLE_OFFSET_ADJUST, (-126).to_bytes(1, "little", signed=True)))
+    bus.port.write(
+        encode_packet(1, C.ANGLE_OFFSET_ADJUST, (-126).to_bytes(1, "little", signed=True))
+    )
     assert bus.read(C.ANGLE_LIMIT_READ) == {"min_units": 0, "max_units": 1000}
     assert bus.read(C.TEMP_MAX_LIMIT_READ) == {"temp_c": 85}
     assert bus.read(C.ANGLE_OFFSET_READ) == {"offset_units": 0}
@@ -340,7 +344,9 @@ def test_staged_move_waits_for_start_by_own_id(bus):
 def test_broadcast_start_starts_every_staged_servo_at_the_same_instant():
     bus = Bus([1, 2, 3])
     for servo_id, pos_units in ((1, 100), (2, 200), (3, 300)):
-        bus.port.write(encode_request(C.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=pos_units, time_ms=200))
+        bus.port.write(
+            encode_request(C.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=pos_units, time_ms=200)
+        )
     bus.port.flush()
     bus.wait(0.001)  # protocol.md: leave >= 1 ms before START
     bus.send(C.MOVE_START, BROADCAST_ID)
@@ -581,7 +587,9 @@ def test_dropped_replies_time_out_then_the_servo_answers_again(bus):
     assert bus.raw_reply(C.POS_READ, 1) == b""
     assert bus.position() == 500
     assert [r.fate for r in bus.emulator.log.replies] == [
-        ReplyFate.DROPPED, ReplyFate.DROPPED, ReplyFate.SENT
+        ReplyFate.DROPPED,
+        ReplyFate.DROPPED,
+        ReplyFate.SENT,
     ]
 
 
@@ -596,7 +604,9 @@ def test_corrupted_replies_fail_the_checksum(bus):
 def test_random_reply_faults_are_reproducible_from_the_seed():
     def fates(seed):
         bus = Bus(seed=seed)
-        bus.emulator.servo(1).reply_faults = ReplyFaults(drop_probability=0.3, corrupt_probability=0.3)
+        bus.emulator.servo(1).reply_faults = ReplyFaults(
+            drop_probability=0.3, corrupt_probability=0.3
+        )
         for _ in range(60):
             bus.raw_reply(C.POS_READ, 1)
         return [r.fate for r in bus.emulator.log.replies]

@@ -53,13 +53,24 @@ from choreo.emulator.bus import STATE_FORMAT, STATE_VERSION
 from choreo.protocol import BROADCAST_ID, BYTE_TIME_S, Command, decode_request
 
 WAIT_S = 10  # bound on every wait; a passing test waits a few hundred ms at most
-READ_TIMEOUT_S = 0.5  # the drivers' read timeout: pylx16a's 20 ms default is tight on a busy machine
+READ_TIMEOUT_S = (
+    0.5  # the drivers' read timeout: pylx16a's 20 ms default is tight on a busy machine
+)
 NO_ANSWER_TIMEOUT_S = 0.05  # for reads that are expected to time out
 START_PACKET_S = 6 * BYTE_TIME_S
 
 # A servo whose every EEPROM value differs from the factory's, and its other readings.
-CUSTOM_EEPROM = Eeprom(1, offset_units=-10, angle_min_units=100, angle_max_units=900,
-                       vin_min_mv=5000, vin_max_mv=11000, temp_max_c=80, led_off=1, error_mask=3)
+CUSTOM_EEPROM = Eeprom(
+    1,
+    offset_units=-10,
+    angle_min_units=100,
+    angle_max_units=900,
+    vin_min_mv=5000,
+    vin_max_mv=11000,
+    temp_max_c=80,
+    led_off=1,
+    error_mask=3,
+)
 CUSTOM_POSITION_UNITS = 300
 CUSTOM_VIN_MV = 7400
 CUSTOM_TEMP_C = 41
@@ -89,13 +100,22 @@ def host(tmp_path):
             state_path = None
             if eeproms:
                 state_path = tmp_path / f"state{number}.json"
-                state_path.write_text(json.dumps({
-                    "format": STATE_FORMAT,
-                    "version": STATE_VERSION,
-                    "servos": [{"factory_id": s.servo_id, "model": model,
-                                "eeprom": asdict(eeproms.get(s.servo_id, Eeprom(s.servo_id)))}
-                               for s in specs],
-                }))
+                state_path.write_text(
+                    json.dumps(
+                        {
+                            "format": STATE_FORMAT,
+                            "version": STATE_VERSION,
+                            "servos": [
+                                {
+                                    "factory_id": s.servo_id,
+                                    "model": model,
+                                    "eeprom": asdict(eeproms.get(s.servo_id, Eeprom(s.servo_id))),
+                                }
+                                for s in specs
+                            ],
+                        }
+                    )
+                )
             emulator = BusEmulator(specs, model=model, clock=RealClock(), state_path=state_path)
             link = running.enter_context(served_on_a_pty(emulator, tmp_path / f"ttyEMU{number}"))
             return emulator, str(link)
@@ -146,9 +166,16 @@ def test_pylx16a_constructor_reads_every_register_then_loads_the_servo(host, pyl
     wait_for(lambda: emulator.servo(1).loaded, "servo 1 to be loaded")
     C = Command
     assert [p.packet.command for p in emulator.log.packets] == [
-        C.POS_READ, C.ANGLE_OFFSET_READ, C.ANGLE_LIMIT_READ, C.VIN_LIMIT_READ,
-        C.TEMP_MAX_LIMIT_READ, C.OR_MOTOR_MODE_READ, C.LOAD_OR_UNLOAD_READ, C.LED_CTRL_READ,
-        C.LED_ERROR_READ, C.LOAD_OR_UNLOAD_WRITE,
+        C.POS_READ,
+        C.ANGLE_OFFSET_READ,
+        C.ANGLE_LIMIT_READ,
+        C.VIN_LIMIT_READ,
+        C.TEMP_MAX_LIMIT_READ,
+        C.OR_MOTOR_MODE_READ,
+        C.LOAD_OR_UNLOAD_READ,
+        C.LED_CTRL_READ,
+        C.LED_ERROR_READ,
+        C.LOAD_OR_UNLOAD_WRITE,
     ]
     assert [r.fate for r in emulator.log.replies] == [ReplyFate.SENT] * 9
     assert decode_request(emulator.log.packets[-1].packet) == {"loaded": 1}
@@ -216,8 +243,16 @@ def test_pylx16a_writes_reach_the_eeprom_and_read_back(host, pylx16a_port):
     assert servo.is_led_power_on(poll_hardware=True) is False
     assert servo.get_led_error_triggers(poll_hardware=True) == (False, True, True)
     assert emulator.servo(1).eeprom == Eeprom(
-        1, offset_units=21, angle_min_units=125, angle_max_units=833, vin_min_mv=5000,
-        vin_max_mv=12000, temp_max_c=70, led_off=1, error_mask=6)
+        1,
+        offset_units=21,
+        angle_min_units=125,
+        angle_max_units=833,
+        vin_min_mv=5000,
+        vin_max_mv=12000,
+        temp_max_c=70,
+        led_off=1,
+        error_mask=6,
+    )
     servo.set_id(5)
     assert servo.get_id(poll_hardware=True) == 5 and emulator.servo(5).eeprom.servo_id == 5
 
@@ -254,7 +289,10 @@ def test_pylx16a_staged_moves_wait_for_start_then_start_one_start_packet_apart(h
     assert [p.packet.servo_id for p in starts] == [1, 2, 3]  # no broadcast START in pylx16a
     moves = list(emulator.log.moves)
     assert [(m.servo_id, m.command, m.to_units) for m in moves] == [
-        (1, Command.MOVE_START, 400), (2, Command.MOVE_START, 600), (3, Command.MOVE_START, 450)]
+        (1, Command.MOVE_START, 400),
+        (2, Command.MOVE_START, 600),
+        (3, Command.MOVE_START, 450),
+    ]
     assert [m.time_s for m in moves] == [p.time_s for p in starts]  # each at its own START
     assert moves[2].time_s - moves[0].time_s >= 2 * START_PACKET_S - 1e-9
     assert [s.get_physical_angle() for s in servos] == pytest.approx([96.0, 144.0, 108.0])
@@ -319,14 +357,23 @@ def test_lewansoul_writes_reach_the_eeprom_and_read_back(host, lewansoul):
     assert controller.is_led_on(1) is False and controller.get_led_errors(1) == 4
     assert controller.is_motor_on(1) is True and emulator.servo(1).loaded
     assert emulator.servo(1).eeprom == Eeprom(
-        1, offset_units=25, angle_min_units=200, angle_max_units=800, vin_min_mv=6000,
-        vin_max_mv=8400, temp_max_c=70, led_off=1, error_mask=4)
+        1,
+        offset_units=25,
+        angle_min_units=200,
+        angle_max_units=800,
+        vin_min_mv=6000,
+        vin_max_mv=8400,
+        temp_max_c=70,
+        led_off=1,
+        error_mask=4,
+    )
     controller.set_servo_id(1, 9)
     assert controller.get_servo_id(9) == 9 and emulator.servo(9).eeprom.servo_id == 9
 
 
 def test_lewansoul_broadcast_id_read_finds_a_lone_servo_and_times_out_on_a_collision(
-        host, lewansoul, caplog):
+    host, lewansoul, caplog
+):
     _, lone_link = host([7])
     assert lewansoul(lone_link).get_servo_id() == 7  # broadcast by default; the reply says 7
     emulator, crowd_link = host([1, 2, 3])
@@ -355,7 +402,11 @@ def test_lewansoul_move_time_write_gets_there(host, lewansoul):
     wait_for(lambda: at(emulator, {1: 450}), "servo 1 to reach 450")
     (move,) = emulator.log.moves
     assert (move.servo_id, move.command, move.from_units, move.to_units) == (
-        1, Command.MOVE_TIME_WRITE, 300, 450)
+        1,
+        Command.MOVE_TIME_WRITE,
+        300,
+        450,
+    )
     assert move.duration_s == pytest.approx(0.15)
     assert controller.get_position(1) == 450
     assert controller.is_motor_on(1) is True  # a move loads the servo
@@ -388,7 +439,10 @@ def emulate_process(tmp_path_factory):
     link = tmp_path_factory.mktemp("emulate") / "ttyEMU"
     process = subprocess.Popen(
         [sys.executable, "-m", "choreo", "emulate", "--pty", str(link), "--servos", "1-6"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     watchdog = threading.Timer(WAIT_S * 3, process.kill)  # a hung start fails instead of hanging
     watchdog.start()
     try:
@@ -414,7 +468,9 @@ def test_pylx16a_on_the_emulate_command(emulate_process, pylx16a_port):
     pylx16a_port(emulate_process)
     servos = [LX16A(i) for i in (1, 2, 3)]
     first = servos[0]
-    assert first.get_id(poll_hardware=True) == 1 and first.get_physical_angle() == pytest.approx(120.0)
+    assert first.get_id(poll_hardware=True) == 1 and first.get_physical_angle() == pytest.approx(
+        120.0
+    )
     assert first.get_angle_limits(poll_hardware=True) == pytest.approx((0.0, 240.0))
     assert first.get_vin_limits(poll_hardware=True) == (4500, 14000)
     assert first.get_vin() == 7200 and first.get_temp() == 30
@@ -444,4 +500,6 @@ def test_lewansoul_on_the_emulate_command(emulate_process, lewansoul):
     assert [controller.get_position(i) for i in targets] == [300, 500, 500]  # staged, not moving
     controller.move_start()
     for servo_id, units in targets.items():
-        wait_until_read(lambda: controller.get_position(servo_id), units, f"servo {servo_id} at {units}")
+        wait_until_read(
+            lambda: controller.get_position(servo_id), units, f"servo {servo_id} at {units}"
+        )

@@ -26,11 +26,17 @@ def timing(keyframe) -> tuple:
     return keyframe.t_s, keyframe.after_s, keyframe.hold_s, keyframe.stop, keyframe.velocity_scale
 
 
-@pytest.mark.parametrize("source", [ARM6 / "wave_both_ways.yaml", ARM6 / "dance.yaml",
-                                    ARM6 / "pick_and_place.yaml",
-                                    REPO / "motions" / "hexapod18" / "tripod_gait.yaml",
-                                    REPO / "motions" / "tonypi" / "left_kick.yaml"],
-                         ids=lambda p: f"{p.parent.name}/{p.stem}")
+@pytest.mark.parametrize(
+    "source",
+    [
+        ARM6 / "wave_both_ways.yaml",
+        ARM6 / "dance.yaml",
+        ARM6 / "pick_and_place.yaml",
+        REPO / "motions" / "hexapod18" / "tripod_gait.yaml",
+        REPO / "motions" / "tonypi" / "left_kick.yaml",
+    ],
+    ids=lambda p: f"{p.parent.name}/{p.stem}",
+)
 def test_mirroring_twice_gives_back_the_original(source, tmp_path):
     original = load_motion(source)
     once = load_motion(mirror(source, tmp_path / "once.yaml"))
@@ -50,15 +56,28 @@ def test_a_mirrored_arm6_wave_validates_and_turns_yaw_and_roll_the_other_way(tmp
     block = load_motion(mirror(ARM6 / "wave_block.yaml", tmp_path / "block_mirrored.yaml"))
     names = block.robot.joint_names
     yaw, roll = names.index("base_yaw"), names.index("wrist_roll")
-    assert [(k.targets_deg[yaw], k.targets_deg[roll]) for k in block.keyframes] == \
-        [(-60, 30)] * 5 + [(0, 0)]
+    assert [(k.targets_deg[yaw], k.targets_deg[roll]) for k in block.keyframes] == [
+        (-60, 30)
+    ] * 5 + [(0, 0)]
     assert main(["validate", "--no-physics", str(block.path)]) == 0, capsys.readouterr().out
 
 
 def test_tonypi_wave_with_the_right_arm_becomes_a_wave_with_the_left(tmp_path, capsys):
     source = tmp_path / "wave.yaml"
-    assert main(["import", "d6a", str(REPO.parent / "shared" / "data" / "tonypi" / "wave.d6a"),
-                 "--robot", "tonypi", "-o", str(source)]) == 0
+    assert (
+        main(
+            [
+                "import",
+                "d6a",
+                str(REPO.parent / "shared" / "data" / "tonypi" / "wave.d6a"),
+                "--robot",
+                "tonypi",
+                "-o",
+                str(source),
+            ]
+        )
+        == 0
+    )
     motion = load_motion(mirror(source, tmp_path / "wave_left.yaml"))
     raised = dict(zip(motion.robot.joint_names, motion.keyframes[1].targets_deg))
     assert raised["left_shoulder_pitch"] == 122.88 and raised["right_shoulder_pitch"] == 0
@@ -72,14 +91,18 @@ def test_timing_and_keyframe_options_are_kept(tmp_path):
         "  - pose: {base_yaw: 10}\n    after: 0.25\n"
         "  - pose: {base_yaw: -20, wrist_roll: 5}\n    t: 1.5\n    hold: 0.3\n"
         "  - pose: ready\n    after: 0.7\n    stop: true\n    velocity: 0.4\n"
-        "  - pose: home\n    velocity: 0.00001\n")  # YAML 1.1 would read 1e-05 as a string
+        "  - pose: home\n    velocity: 0.00001\n"
+    )  # YAML 1.1 would read 1e-05 as a string
     out = mirror(source, tmp_path / "timed_mirrored.yaml")
     motion = load_motion(out)
     yaw = motion.robot.joint_names.index("base_yaw")
     assert [k.targets_deg[yaw] for k in motion.keyframes] == [-10, 20, 0, 0]
     assert [timing(k) for k in motion.keyframes] == [
-        (None, 0.25, 0.0, False, 1.0), (1.5, None, 0.3, True, 1.0),
-        (None, 0.7, 0.0, True, 0.4), (None, None, 0.0, False, 0.00001)]
+        (None, 0.25, 0.0, False, 1.0),
+        (1.5, None, 0.3, True, 1.0),
+        (None, 0.7, 0.0, True, 0.4),
+        (None, None, 0.0, False, 0.00001),
+    ]
     assert (motion.speed, motion.repeat) == (1.5, 2)
     text = out.read_text()
     assert "  - pose: ready\n" in text and "  - pose: home\n" in text  # symmetric poses by name
@@ -91,13 +114,14 @@ def test_a_robot_without_mirror_pairs_is_an_error(tmp_path, capsys):
     shutil.copytree(DATA / "models" / "tiny", models)
     robot_file = models / "robot.yaml"
     text = robot_file.read_text()
-    robot_file.write_text(text[:text.index("mirror:")])
+    robot_file.write_text(text[: text.index("mirror:")])
     source = tmp_path / "swing.yaml"
     source.write_text("robot: tiny\nkeyframes:\n  - pose: wave\n")
     assert main(["mirror", str(source), "-o", str(tmp_path / "out.yaml")]) == 1
     assert capsys.readouterr().err == (
         f"choreo: error: {robot_file}: robot 'tiny' has no mirror pairs, so {source} cannot be "
-        f"mirrored; add 'mirror:' pairs to the robot\n")
+        f"mirrored; add 'mirror:' pairs to the robot\n"
+    )
     assert not (tmp_path / "out.yaml").exists()
 
 
@@ -105,10 +129,12 @@ def test_mirrored_angles_outside_the_partners_limits_are_reported(tmp_path):
     """tiny: left -60..120 and right -110..60, mirrored with sign -1: left 115 has no mirror
     image, left 90 / right -100 has one (right -90 / left 100)."""
     source = tmp_path / "reach.yaml"
-    source.write_text(f"robot: {DATA / 'models' / 'tiny' / 'robot.yaml'}\nkeyframes:\n"
-                      "  - pose: home\n  - pose: {left: 115}\n    after: 1\n"
-                      "  - pose: {left: 90, right: -100}\n    after: 1\n"
-                      "  - pose: {left: 112}\n    after: 1\n")
+    source.write_text(
+        f"robot: {DATA / 'models' / 'tiny' / 'robot.yaml'}\nkeyframes:\n"
+        "  - pose: home\n  - pose: {left: 115}\n    after: 1\n"
+        "  - pose: {left: 90, right: -100}\n    after: 1\n"
+        "  - pose: {left: 112}\n    after: 1\n"
+    )
     with pytest.raises(SourceError) as error:
         mirrored_keyframes(load_motion(source))
     assert error.value.problems == [

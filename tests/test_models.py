@@ -24,8 +24,9 @@ from choreo.robot import load_robot
 REPO = Path(__file__).resolve().parents[1]
 MODEL_DIRS = sorted(path.parent for path in (REPO / "models").glob("*/robot.yaml"))
 MOTION_FILES = sorted((REPO / "motions").glob("*/*.yaml"))
-MIRRORED_DIRS = [d for d in MODEL_DIRS
-                 if yaml.safe_load((d / "robot.yaml").read_text()).get("mirror")]
+MIRRORED_DIRS = [
+    d for d in MODEL_DIRS if yaml.safe_load((d / "robot.yaml").read_text()).get("mirror")
+]
 FOOT_SUFFIX = "_foot"  # geoms named so are the only ones meant to touch the floor
 PATH_SAMPLES = 4  # poses checked between two keyframes
 
@@ -52,8 +53,9 @@ def mjcf_joint_of(model_dir: Path) -> dict[str, str]:
 
 @functools.cache
 def scene_model(model_dir: Path) -> mujoco.MjModel:
-    return mujoco.MjModel.from_xml_path(str(model_dir / robot_file(model_dir).get("scene",
-                                                                                   "scene.xml")))
+    return mujoco.MjModel.from_xml_path(
+        str(model_dir / robot_file(model_dir).get("scene", "scene.xml"))
+    )
 
 
 def is_free_floating(model: mujoco.MjModel) -> bool:
@@ -72,18 +74,23 @@ def home_data(model_dir: Path) -> tuple[mujoco.MjModel, mujoco.MjData]:
     return model, data
 
 
-def set_joint_angles(model: mujoco.MjModel, data: mujoco.MjData,
-                     angles_deg: dict[str, float]) -> None:
+def set_joint_angles(
+    model: mujoco.MjModel, data: mujoco.MjData, angles_deg: dict[str, float]
+) -> None:
     """Set MJCF joints (by name) and the joints geared to them by <equality joint>, then
     recompute positions and contacts."""
     for name, angle_deg in angles_deg.items():
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = math.radians(angle_deg)
     for eq in range(model.neq):
         if model.eq_type[eq] == mujoco.mjtEq.mjEQ_JOINT and model.eq_active0[eq]:
-            follower, leader = (model.jnt_qposadr[model.eq_obj1id[eq]],
-                                model.jnt_qposadr[model.eq_obj2id[eq]])
+            follower, leader = (
+                model.jnt_qposadr[model.eq_obj1id[eq]],
+                model.jnt_qposadr[model.eq_obj2id[eq]],
+            )
             coefficients = model.eq_data[eq, :5]
-            data.qpos[follower] = sum(c * data.qpos[leader] ** k for k, c in enumerate(coefficients))
+            data.qpos[follower] = sum(
+                c * data.qpos[leader] ** k for k, c in enumerate(coefficients)
+            )
     mujoco.mj_forward(model, data)
 
 
@@ -94,7 +101,7 @@ def body_name(model: mujoco.MjModel, body_id: int) -> str:
 def self_contacts(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[str, str]]:
     """Touching pairs of robot bodies that are not joined to each other (floor excluded)."""
     pairs = []
-    for contact in data.contact[:data.ncon]:
+    for contact in data.contact[: data.ncon]:
         a, b = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
         if 0 in (a, b) or model.body_parentid[a] == b or model.body_parentid[b] == a:
             continue
@@ -105,7 +112,7 @@ def self_contacts(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[str,
 def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, float]:
     """Robot geom name (or its body's name) -> contact distance, for geoms touching the world."""
     touching = {}
-    for contact in data.contact[:data.ncon]:
+    for contact in data.contact[: data.ncon]:
         geoms = (contact.geom1, contact.geom2)
         bodies = [model.geom_bodyid[g] for g in geoms]
         if bodies.count(0) == 1:
@@ -122,8 +129,11 @@ def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, floa
 def test_scene_steps_one_second_at_home_without_warnings(model_dir):
     model, data = home_data(model_dir)
     mujoco.mj_step(model, data, nstep=round(1.0 / model.opt.timestep))
-    warnings = {name: data.warning[int(value)].number
-                for name, value in mujoco.mjtWarning.__members__.items() if name != "mjNWARNING"}
+    warnings = {
+        name: data.warning[int(value)].number
+        for name, value in mujoco.mjtWarning.__members__.items()
+        if name != "mjNWARNING"
+    }
     assert not any(warnings.values()), warnings
     assert np.isfinite(data.qpos).all()
 
@@ -139,9 +149,12 @@ def test_keyframes_named_after_poses_hold_those_poses(model_dir):
         for joint, mjcf_joint in mjcf_joint_of(model_dir).items():
             wanted = math.radians(poses[key.name][joint])
             assert key.qpos[model.jnt_qposadr[model.joint(mjcf_joint).id]] == pytest.approx(
-                wanted, abs=1e-3), (key.name, joint)
-            assert key.ctrl[model.actuator(mjcf_joint).id] == pytest.approx(
-                wanted, abs=1e-3), (key.name, joint)
+                wanted, abs=1e-3
+            ), (key.name, joint)
+            assert key.ctrl[model.actuator(mjcf_joint).id] == pytest.approx(wanted, abs=1e-3), (
+                key.name,
+                joint,
+            )
 
 
 @pytest.mark.parametrize("model_dir", MODEL_DIRS, ids=lambda d: d.name)
@@ -173,8 +186,11 @@ def test_nothing_touches_at_home_but_feet_on_the_floor(model_dir):
     on_floor = floor_contacts(model, data)
     assert all(name.endswith(FOOT_SUFFIX) for name in on_floor), on_floor
     if is_free_floating(model):
-        feet = [model.geom(g).name for g in range(model.ngeom)
-                if model.geom(g).name.endswith(FOOT_SUFFIX)]
+        feet = [
+            model.geom(g).name
+            for g in range(model.ngeom)
+            if model.geom(g).name.endswith(FOOT_SUFFIX)
+        ]
         assert len(feet) >= 3
         # the home keyframe's height puts every foot on the floor, not in it or above it
         assert sorted(on_floor) == sorted(feet)
@@ -216,8 +232,7 @@ def test_mirroring_a_pose_mirrors_the_robot(model_dir):
 # --- every motion -------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("motion_file", MOTION_FILES,
-                         ids=lambda p: f"{p.parent.name}/{p.stem}")
+@pytest.mark.parametrize("motion_file", MOTION_FILES, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_motion_poses_and_paths_are_free_of_collisions(motion_file):
     """Each keyframe pose, and poses on the straight joint-space path into it, touch nothing
     but the robot's own neighbours (and, for a fixed-base robot, not the floor).

@@ -84,8 +84,11 @@ def test_mirrored_include_moves_the_partner_joints():
     keyframes = load_motion(GOOD / "wave.yaml").keyframes
     mirrored = keyframes[6:9]
     # left 100/40/100 -> right -100/-40/-100; yaw 10 -> -10; left keeps its last target 100
-    assert [k.targets_deg for k in mirrored] == [(-10, 100, -100), (-10, 100, -40),
-                                                 (-10, 100, -100)]
+    assert [k.targets_deg for k in mirrored] == [
+        (-10, 100, -100),
+        (-10, 100, -40),
+        (-10, 100, -100),
+    ]
     # no timing on the include entry: the block's first t (1.0) becomes an after delay
     assert timing(mirrored[0]) == (4, None, 1.0, 0.0, False)
     assert keyframes[-1].targets_deg == (0, 0, 0) and keyframes[-1].stop is True
@@ -122,8 +125,10 @@ def test_robot_found_through_choreo_models(tmp_path, monkeypatch):
 
 def test_unknown_joint_with_did_you_mean():
     path, message = only_problem("unknown_joint.yaml")
-    assert message == (f"{path}:4:21: pose: unknown joint 'lefft' (did you mean 'left'?); "
-                       f"the robot's joints are yaw, left, right")
+    assert message == (
+        f"{path}:4:21: pose: unknown joint 'lefft' (did you mean 'left'?); "
+        f"the robot's joints are yaw, left, right"
+    )
 
 
 def test_angle_outside_the_joint_limits_says_the_valid_range():
@@ -133,14 +138,18 @@ def test_angle_outside_the_joint_limits_says_the_valid_range():
 
 def test_t_going_backwards():
     path, message = only_problem("t_backwards.yaml")
-    assert message == (f"{path}:6:8: t 1.5 goes backwards: the keyframe before it ({path}:3:5) "
-                       f"cannot be left before 2 s; t values must increase along the file")
+    assert message == (
+        f"{path}:6:8: t 1.5 goes backwards: the keyframe before it ({path}:3:5) "
+        f"cannot be left before 2 s; t values must increase along the file"
+    )
 
 
 def test_t_and_after_both_given():
     path, message = only_problem("t_and_after.yaml")
-    assert message == (f"{path}:5:5: give at most one of t (arrival time from the motion start) "
-                       f"and after (delay after the previous keyframe); remove one")
+    assert message == (
+        f"{path}:5:5: give at most one of t (arrival time from the motion start) "
+        f"and after (delay after the previous keyframe); remove one"
+    )
 
 
 def test_wrong_type():
@@ -150,28 +159,35 @@ def test_wrong_type():
 
 def test_unknown_key_with_did_you_mean():
     path, message = only_problem("unknown_key.yaml")
-    assert message == (f"{path}:4:5: unknown key 'hodl' in a keyframe (did you mean 'hold'?); "
-                       f"valid keys: pose, t, after, hold, stop, velocity")
+    assert message == (
+        f"{path}:4:5: unknown key 'hodl' in a keyframe (did you mean 'hold'?); "
+        f"valid keys: pose, t, after, hold, stop, velocity"
+    )
 
 
 def test_unknown_robot_lists_the_known_robots():
     path, message = only_problem("unknown_robot.yaml")
-    assert message.startswith(f"{path}:1:8: unknown robot 'tinny' (did you mean 'tiny'?); "
-                              f"known robots: ")
+    assert message.startswith(
+        f"{path}:1:8: unknown robot 'tinny' (did you mean 'tiny'?); known robots: "
+    )
     assert "tiny" in message.split("known robots: ")[1]
 
 
 def test_unknown_pose_with_did_you_mean():
     path, message = only_problem("unknown_pose.yaml")
-    assert message == (f"{path}:3:11: unknown pose 'wav' (did you mean 'wave'?); robot 'tiny' "
-                       f"has poses home, wave; or give joint angles as {{joint: degrees}}")
+    assert message == (
+        f"{path}:3:11: unknown pose 'wav' (did you mean 'wave'?); robot 'tiny' "
+        f"has poses home, wave; or give joint angles as {{joint: degrees}}"
+    )
 
 
 def test_include_cycle_names_the_chain():
     path, message = only_problem("include_cycle_a.yaml")
     b = BAD / "include_cycle_b.yaml"
-    assert message == (f"{b}:4:14: include cycle: {path} -> {b} -> {path}; a motion cannot "
-                       f"include itself, directly or through others")
+    assert message == (
+        f"{b}:4:14: include cycle: {path} -> {b} -> {path}; a motion cannot "
+        f"include itself, directly or through others"
+    )
 
 
 def test_malformed_yaml_is_a_message_not_a_traceback():
@@ -187,31 +203,38 @@ def test_empty_file():
 
 def test_speed_inside_an_included_file_is_refused():
     path, message = only_problem("include_speed.yaml")
-    assert message == (f"{BAD / 'parts' / 'fast_part.yaml'}:2:1: speed is not allowed in an "
-                       f"included file (included at {path}:3:14): the including motion's speed "
-                       f"applies; remove it")
+    assert message == (
+        f"{BAD / 'parts' / 'fast_part.yaml'}:2:1: speed is not allowed in an "
+        f"included file (included at {path}:3:14): the including motion's speed "
+        f"applies; remove it"
+    )
 
 
 def test_included_file_for_another_robot():
     path, message = only_problem("include_other_robot.yaml")
     part = BAD / "parts" / "other_robot_part.yaml"
-    assert message.startswith(f"{part}:1:8: an included file must use the including motion's "
-                              f"robot 'tiny'")
+    assert message.startswith(
+        f"{part}:1:8: an included file must use the including motion's robot 'tiny'"
+    )
     assert message.endswith(f"(included at {path}:3:14)")
 
 
 def test_mirrored_angle_outside_the_partner_limits():
     path, message = only_problem("mirror_outside_limits.yaml")
-    assert message == (f"{path}:5:13: mirror: the keyframe at {BAD / 'parts' / 'left_up.yaml'}:3:5 "
-                       f"mirrored puts right at -120°, outside its limits -110..60°")
+    assert message == (
+        f"{path}:5:13: mirror: the keyframe at {BAD / 'parts' / 'left_up.yaml'}:3:5 "
+        f"mirrored puts right at -120°, outside its limits -110..60°"
+    )
 
 
 def test_included_t_after_an_untimed_keyframe_cannot_become_a_delay():
     _, message = only_problem("included_t_after_untimed.yaml")
     part = BAD / "parts" / "untimed_then_t.yaml"
-    assert message == (f"{part}:6:8: t in an included file becomes an after delay, so the "
-                       f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
-                       f"or use after here")
+    assert message == (
+        f"{part}:6:8: t in an included file becomes an after delay, so the "
+        f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
+        f"or use after here"
+    )
 
 
 def test_no_keyframes():
@@ -221,9 +244,11 @@ def test_no_keyframes():
 
 def test_include_entry_takes_no_keyframe_options():
     path, message = only_problem("include_with_hold.yaml")
-    assert message == (f"{path}:4:5: unknown key 'hold' in an include entry (pose, hold, stop and "
-                       f"velocity go in the included keyframes); valid keys: include, mirror, t, "
-                       f"after")
+    assert message == (
+        f"{path}:4:5: unknown key 'hold' in an include entry (pose, hold, stop and "
+        f"velocity go in the included keyframes); valid keys: include, mirror, t, "
+        f"after"
+    )
 
 
 def test_mirrored_include_needs_mirror_pairs(tmp_path):
@@ -235,13 +260,15 @@ def test_mirrored_include_needs_mirror_pairs(tmp_path):
     motion = tmp_path / "m.yaml"
     motion.write_text("robot: tiny\nkeyframes:\n  - include: part.yaml\n    mirror: true\n")
     assert problems_of(motion) == [
-        f"{motion}:4:13: robot 'tiny' has no mirror pairs; add 'mirror:' to {robot_file}"]
+        f"{motion}:4:13: robot 'tiny' has no mirror pairs; add 'mirror:' to {robot_file}"
+    ]
 
 
 def test_missing_file(tmp_path):
     missing = tmp_path / "nothing.yaml"
     assert problems_of(missing) == [
-        f"{missing}:1:1: cannot read the file: No such file or directory"]
+        f"{missing}:1:1: cannot read the file: No such file or directory"
+    ]
 
 
 def test_every_problem_of_a_file_is_reported_at_once():
@@ -291,8 +318,9 @@ def test_validate_prints_every_problem_and_exits_1(capsys):
 
 # --- the shipped robots and motions (models/, motions/) ------------------------------------------
 
-SHIPPED = sorted((REPO / "models").glob("*/robot.yaml")) + \
-    sorted((REPO / "motions").glob("*/*.yaml"))
+SHIPPED = sorted((REPO / "models").glob("*/robot.yaml")) + sorted(
+    (REPO / "motions").glob("*/*.yaml")
+)
 
 
 def test_shipped_files_exist():
@@ -302,4 +330,3 @@ def test_shipped_files_exist():
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: str(p.relative_to(REPO)))
 def test_every_shipped_robot_and_motion_validates(path, capsys):
     assert main(["validate", str(path)]) == 0, capsys.readouterr().out
-

@@ -57,8 +57,9 @@ def test_approach_samples_match_ruckig_at_time():
 
 def test_sampling_unsorted_long_and_short_queries_agree():
     robot = make_robot(3)
-    motion = make_motion(robot, [kf([0, 0, 0], 1), kf([40, -30, 20], 2, t=0.6),
-                                 kf([-20, 10, 20], 3, t=1.2)])
+    motion = make_motion(
+        robot, [kf([0, 0, 0], 1), kf([40, -30, 20], 2, t=0.6), kf([-20, 10, 20], 3, t=1.2)]
+    )
     trajectory = plan_motion(motion).trajectory
     times = np.linspace(0, trajectory.duration_s, 3001)
     pos, vel, _ = trajectory.sample(times)
@@ -75,10 +76,10 @@ def test_peaks_are_the_sampled_maxima():
     motion = make_motion(robot, [kf([0, 0, 0], 1), kf([70, -30, 5], 2), kf([-60, 40, 5], 3)])
     trajectory = plan_motion(motion).trajectory
     _, vel, acc = trajectory.sample(np.linspace(0, trajectory.duration_s, 200001))
-    np.testing.assert_allclose(trajectory.peak_velocity_deg_s(), np.abs(vel).max(axis=0),
-                               rtol=1e-4)
-    np.testing.assert_allclose(trajectory.peak_acceleration_deg_s2(), np.abs(acc).max(axis=0),
-                               rtol=1e-3)
+    np.testing.assert_allclose(trajectory.peak_velocity_deg_s(), np.abs(vel).max(axis=0), rtol=1e-4)
+    np.testing.assert_allclose(
+        trajectory.peak_acceleration_deg_s2(), np.abs(acc).max(axis=0), rtol=1e-3
+    )
 
 
 def test_after_the_end_the_robot_rests_and_before_the_start_is_an_error():
@@ -94,13 +95,16 @@ def test_after_the_end_the_robot_rests_and_before_the_start_is_an_error():
 # --- timing ------------------------------------------------------------------------------------
 def test_timed_keyframes_are_reached_at_their_times_and_rest_at_stops_and_ends():
     robot = make_robot(3)
-    motion = make_motion(robot, [
-        kf([0, 0, 0], 1),
-        kf([30, -20, 10], 2, t=0.5),
-        kf([60, -10, -40], 3, t=1.0),
-        kf([10, 10, 10], 4, hold=0.3),
-        kf([0, 0, 0], 5, after=0.4),
-    ])
+    motion = make_motion(
+        robot,
+        [
+            kf([0, 0, 0], 1),
+            kf([30, -20, 10], 2, t=0.5),
+            kf([60, -10, -40], 3, t=1.0),
+            kf([10, 10, 10], 4, hold=0.3),
+            kf([0, 0, 0], 5, after=0.4),
+        ],
+    )
     trajectory = plan_motion(motion).trajectory
     times = trajectory.keyframe_times_s
     assert times[:3] == pytest.approx((0.0, 0.5, 1.0), abs=1e-9)
@@ -158,8 +162,12 @@ def test_velocity_scale_limits_the_segment_into_its_keyframe():
 
 def test_speed_divides_times_and_keeps_limits():
     robot = make_robot(2)
-    keyframes = [kf([0, 0], 1), kf([20, 10], 2, t=1.0), kf([40, 0], 3, after=1.0, hold=0.5),
-                 kf([0, 0], 4, t=4.0)]
+    keyframes = [
+        kf([0, 0], 1),
+        kf([20, 10], 2, t=1.0),
+        kf([40, 0], 3, after=1.0, hold=0.5),
+        kf([0, 0], 4, t=4.0),
+    ]
     normal = plan_motion(make_motion(robot, keyframes)).trajectory
     double = plan_motion(make_motion(robot, keyframes, speed=2.0)).trajectory
     override = plan_motion(make_motion(robot, keyframes, speed=2.0), speed=1.0).trajectory
@@ -189,8 +197,9 @@ def test_repeat_wraps_without_stopping_through_the_first_keyframe():
     times = trajectory.keyframe_times_s
     assert len(times) == 9
     for index, t in enumerate(times):
-        np.testing.assert_allclose(trajectory.at(t)[0], keyframes[index % 3].targets_deg,
-                                   atol=POS_EPS)
+        np.testing.assert_allclose(
+            trajectory.at(t)[0], keyframes[index % 3].targets_deg, atol=POS_EPS
+        )
     # joint 0 climbs from -30 through 0 to 30 across each wrap: it passes 0 moving
     assert trajectory.at(times[3])[1][0] > 10
     assert trajectory.at(times[6])[1][0] > 10
@@ -218,8 +227,7 @@ def test_single_keyframe_motion_is_a_rest():
     robot = make_robot(2)
     trajectory = plan_motion(make_motion(robot, [kf([10, -10], 1, hold=0.5)])).trajectory
     assert trajectory.duration_s == pytest.approx(0.5)
-    np.testing.assert_allclose(trajectory.positions(np.array([0.0, 0.25, 1.0])),
-                               [[10, -10]] * 3)
+    np.testing.assert_allclose(trajectory.positions(np.array([0.0, 0.25, 1.0])), [[10, -10]] * 3)
 
 
 # --- limits and errors -------------------------------------------------------------------------
@@ -252,8 +260,9 @@ def test_too_early_keyframe_names_its_line_joint_and_earliest_time():
 
 def test_stretch_shifts_later_timed_keyframes_by_the_same_amount():
     robot = make_robot(1)
-    motion = make_motion(robot, [kf([0], 1), kf([80], 2, t=0.2), kf([40], 3, t=1.0),
-                                 kf([60], 4, after=0.3)])
+    motion = make_motion(
+        robot, [kf([0], 1), kf([80], 2, t=0.2), kf([40], 3, t=1.0), kf([60], 4, after=0.3)]
+    )
     result = plan_motion(motion, stretch=True)
     times = result.trajectory.keyframe_times_s
     minimum = ruckig_rest_to_rest(robot, [0], [80]).duration
@@ -268,15 +277,19 @@ def test_stretch_shifts_later_timed_keyframes_by_the_same_amount():
 def test_keyframe_outside_the_limits_is_reported_where_it_is():
     robot = make_robot(2, span_deg=45)
     motion = make_motion(robot, [kf([0, 0], 1), kf([0, 50], 4)])
-    with pytest.raises(PlanningError, match=r"test_motion.yaml:4:5: j1 = 50° is outside its "
-                                            r"limits -45..45°"):
+    with pytest.raises(
+        PlanningError,
+        match=r"test_motion.yaml:4:5: j1 = 50° is outside its "
+        r"limits -45..45°",
+    ):
         plan_motion(motion)
     two = make_motion(robot, [kf([0, 0], 1), kf([0, 50], 4), kf([-60, 0], 6)])
     with pytest.raises(PlanningError) as caught:
         plan_motion(two)
     assert str(caught.value).splitlines() == [
         "test_motion.yaml:4:5: j1 = 50° is outside its limits -45..45°",
-        "test_motion.yaml:6:5: j0 = -60° is outside its limits -45..45°"]
+        "test_motion.yaml:6:5: j0 = -60° is outside its limits -45..45°",
+    ]
 
 
 def test_approach_starts_anywhere_and_arrives_gently():
@@ -337,8 +350,9 @@ def test_random_motions_stay_within_every_limit_and_meet_their_times(motion):
     assert np.all(pos <= np.array([x.max_deg for x in limits]) + POS_EPS)
     assert np.all(np.abs(vel) <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
     assert np.all(np.abs(acc) <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS))
-    assert np.all(trajectory.peak_velocity_deg_s()
-                  <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
+    assert np.all(
+        trajectory.peak_velocity_deg_s() <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS)
+    )
 
     played = list(motion.keyframes) * motion.repeat
     for t, keyframe in zip(times, played):
@@ -366,7 +380,10 @@ def test_shipped_motions_plan_on_time_within_limits(path):
     pos = trajectory.positions(dense_times(trajectory, 1000))
     assert np.all(pos >= np.array([x.min_deg for x in limits]) - POS_EPS)
     assert np.all(pos <= np.array([x.max_deg for x in limits]) + POS_EPS)
-    assert np.all(trajectory.peak_velocity_deg_s()
-                  <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS))
-    assert np.all(trajectory.peak_acceleration_deg_s2()
-                  <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS))
+    assert np.all(
+        trajectory.peak_velocity_deg_s() <= np.array([x.vel_deg_s for x in limits]) * (1 + VEL_EPS)
+    )
+    assert np.all(
+        trajectory.peak_acceleration_deg_s2()
+        <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS)
+    )

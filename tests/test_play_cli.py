@@ -14,20 +14,38 @@ from emulated import wait_for
 from choreo.cli import main
 from choreo.protocol import BROADCAST_ID, Command
 
+
 def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
     emulator, link = arm_on_a_pty
     # A generous read timeout: on a loaded machine the bridge thread may answer late, and this
     # test is about the stop, not about read latency.
     process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", str(link),
-         "--timeout-ms", "500", "--health-timeout-ms", "100"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-m",
+            "choreo",
+            "play",
+            "motions/arm6/dance.yaml",
+            "--port",
+            str(link),
+            "--timeout-ms",
+            "500",
+            "--health-timeout-ms",
+            "100",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
+
         def playing():
             if process.poll() is not None:
                 raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
             # list() copies at once: the bridge thread appends to the log meanwhile
-            starts = [p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_START]
+            starts = [
+                p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_START
+            ]
             return len(starts) >= 5
 
         wait_for(playing, "the motion to be playing")
@@ -68,7 +86,10 @@ def test_bad_arguments_are_usage_errors(capsys):
 
 
 def test_an_infeasible_motion_is_refused_before_any_port_is_opened(capsys):
-    assert main(["play", "motions/arm6/wave.yaml", "--speed", "4", "--port", "/dev/does-not-exist"]) == 1
+    assert (
+        main(["play", "motions/arm6/wave.yaml", "--speed", "4", "--port", "/dev/does-not-exist"])
+        == 1
+    )
     err = capsys.readouterr().err
     assert "keyframe cannot be reached at 0.250 s (at speed 4)" in err and "cannot open" not in err
 
@@ -80,11 +101,14 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
     from choreo.cli.arguments import bus_settings
     from choreo.robot import BusSettings, load_robot
 
-    robot = dataclasses.replace(load_robot("arm6"), bus=BusSettings(
-        port="/dev/ttyUSB7", timeout_s=0.1, retries=4, echo="none"))
+    robot = dataclasses.replace(
+        load_robot("arm6"),
+        bus=BusSettings(port="/dev/ttyUSB7", timeout_s=0.1, retries=4, echo="none"),
+    )
     nothing = argparse.Namespace(port=None, timeout_ms=None, retries=None, echo=None)
     assert bus_settings(nothing, robot) == robot.bus
     assert bus_settings(nothing) == BusSettings()  # no robot: the defaults, the built-in bus
     given = argparse.Namespace(port="sim://?ids=1-6", timeout_ms=80.0, retries=None, echo="auto")
-    assert bus_settings(given, robot) == BusSettings(port="sim://?ids=1-6", timeout_s=0.08,
-                                                     retries=4, echo="auto")
+    assert bus_settings(given, robot) == BusSettings(
+        port="sim://?ids=1-6", timeout_s=0.08, retries=4, echo="auto"
+    )

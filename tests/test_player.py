@@ -33,8 +33,11 @@ class Rig:
         self.robot = self.motion.robot
         self.clock = VirtualClock()
         angles = self.robot.pose_vector(pose)
-        specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-                 for j, a in zip(self.robot.joints, angles) if j.servo_id not in skip_ids]
+        specs = [
+            ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+            for j, a in zip(self.robot.joints, angles)
+            if j.servo_id not in skip_ids
+        ]
         self.emulator = BusEmulator(specs, clock=self.clock)
         self.bus = ServoBus(SimSerial.from_emulator(self.emulator))
 
@@ -50,8 +53,16 @@ class Rig:
         return [p for p in self.emulator.log.packets if p.packet.command == command]
 
 
-@pytest.mark.parametrize("motion", ["arm6/wave.yaml", "arm6/dance.yaml", "hexapod18/tripod_gait.yaml",
-                                    "tonypi/twist.yaml", "tonypi/turn_left.yaml"])  # with ticks that change nothing
+@pytest.mark.parametrize(
+    "motion",
+    [
+        "arm6/wave.yaml",
+        "arm6/dance.yaml",
+        "hexapod18/tripod_gait.yaml",
+        "tonypi/twist.yaml",
+        "tonypi/turn_left.yaml",
+    ],
+)  # with ticks that change nothing
 def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     rig = Rig(f"{MOTIONS}/{motion}")
     report = rig.play()
@@ -63,7 +74,8 @@ def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
     for joint, angle in zip(rig.robot.joints, final):
         assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
-            angle, abs=QUANTIZATION_DEG + 1e-6)
+            angle, abs=QUANTIZATION_DEG + 1e-6
+        )
 
 
 def test_all_servos_of_a_tick_start_at_the_same_instant():
@@ -79,7 +91,9 @@ def test_all_servos_of_a_tick_start_at_the_same_instant():
     assert set(by_time) <= {p.time_s for p in start_packets}
     assert max(len(ids) for ids in by_time.values()) == 18
     # each START arrives on its tick's deadline
-    deadlines = {round(rig.report.start_time_s + t.start_ms / 1000, 9) for t in rig.performance.ticks}
+    deadlines = {
+        round(rig.report.start_time_s + t.start_ms / 1000, 9) for t in rig.performance.ticks
+    }
     assert {round(p.time_s, 9) for p in start_packets} <= deadlines
 
 
@@ -102,8 +116,11 @@ def test_missing_servo_is_refused_by_name_before_anything_moves():
 def test_servo_limits_narrower_than_the_robot_file_are_refused():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     rig.bus.set_angle_limits(1, 300, 700)
-    with pytest.raises(ChoreoError, match=r"base_yaw \(ID 1\): the servo's own angle limits 300..700 "
-                                          r"are narrower than the robot file's 0..1000"):
+    with pytest.raises(
+        ChoreoError,
+        match=r"base_yaw \(ID 1\): the servo's own angle limits 300..700 "
+        r"are narrower than the robot file's 0..1000",
+    ):
         rig.play()
 
 
@@ -162,7 +179,9 @@ def test_position_error_aborts():
 
     report = rig.play(options=PlayOptions(max_position_error_deg=10), on_progress=hold_the_wrist)
     assert report.outcome is Outcome.ABORTED
-    assert "wrist_pitch (ID 4) is" in report.reason and "away from where it should be" in report.reason
+    assert (
+        "wrist_pitch (ID 4) is" in report.reason and "away from where it should be" in report.reason
+    )
     assert rig.packets(Command.MOVE_STOP)
 
 
@@ -187,7 +206,8 @@ def test_exit_pose_after_the_motion():
     rig.play(options=PlayOptions(exit_mode=ExitMode.POSE, exit_pose="rest"))
     for joint, angle in zip(rig.robot.joints, rig.robot.pose_vector("rest")):
         assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
-            angle, abs=QUANTIZATION_DEG + 1e-6)
+            angle, abs=QUANTIZATION_DEG + 1e-6
+        )
 
 
 def test_approach_from_anywhere_never_jumps():
@@ -216,7 +236,8 @@ def test_falling_behind_retargets_instead_of_replaying_stale_ticks():
     final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
     for joint, angle in zip(rig.robot.joints, final):  # the re-targeted START was not missed
         assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
-            angle, abs=QUANTIZATION_DEG + 1e-6)
+            angle, abs=QUANTIZATION_DEG + 1e-6
+        )
 
 
 def progress_time(rig, tick):
@@ -227,8 +248,11 @@ def test_dry_run_schedule_matches_what_is_sent():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     rig.play(options=PlayOptions(health_timeout_s=10.0))  # no time for health reads
     schedule = packet_schedule(rig.performance.ticks, rig.robot)
-    sent = [p.packet.encode() for p in rig.emulator.log.packets
-            if p.packet.command in (Command.MOVE_START, Command.MOVE_TIME_WAIT_WRITE)]
+    sent = [
+        p.packet.encode()
+        for p in rig.emulator.log.packets
+        if p.packet.command in (Command.MOVE_START, Command.MOVE_TIME_WAIT_WRITE)
+    ]
     assert [p.packet for p in schedule] == sent
 
 
@@ -243,8 +267,10 @@ def test_a_garbled_health_read_is_tolerated_but_a_run_of_them_aborts():
 
     report = rig.play(on_progress=noisy_wire)
     assert report.outcome is Outcome.ABORTED
-    assert "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled)" \
+    assert (
+        "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled)"
         in report.reason
+    )
     assert report.ticks_played >= 20  # the single garbled reply at tick 3 did not stop it
 
 
@@ -265,8 +291,11 @@ def test_a_servo_in_motor_mode_is_refused_before_anything_moves():
     # MOVE_STOP cannot stop a servo in motor mode, so play must not start with one.
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     rig.bus.set_motor_mode(5, 300)
-    with pytest.raises(ChoreoError, match=r"wrist_roll \(ID 5\): is in motor mode \(turning at "
-                                          r"duty 300\).*choreo servo motor --id 5 --stop"):
+    with pytest.raises(
+        ChoreoError,
+        match=r"wrist_roll \(ID 5\): is in motor mode \(turning at "
+        r"duty 300\).*choreo servo motor --id 5 --stop",
+    ):
         rig.play()
     assert not [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]
 
@@ -278,10 +307,12 @@ def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
     there = (here[0] + 40,) + here[1:]  # base_yaw 9.6° further, then 19.2°
     further = (here[0] + 80,) + here[1:]
     all_, none = (True,) * 6, (False,) * 6
-    ticks = [Tick(0, 100, there, all_),
-             Tick(100, 100, further, all_),
-             Tick(200, 400, further, none),  # stay: nothing to stage, no START needed
-             Tick(600, 100, here, all_)]  # then back
+    ticks = [
+        Tick(0, 100, there, all_),
+        Tick(100, 100, further, all_),
+        Tick(200, 400, further, none),  # stay: nothing to stage, no START needed
+        Tick(600, 100, here, all_),
+    ]  # then back
 
     def freeze(progress):
         if progress.tick == 1:
@@ -300,11 +331,16 @@ def test_two_servos_sharing_an_id_are_refused_as_such():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     rig.emulator = BusEmulator([*home_specs_of(rig.robot), ServoSpec(3)], clock=rig.clock)
     rig.bus = ServoBus(SimSerial.from_emulator(rig.emulator))
-    with pytest.raises(ChoreoError, match=r"1 servo\(s\) answered garbled, as when two servos "
-                                          r"share an ID: elbow \(ID 3\)"):
+    with pytest.raises(
+        ChoreoError,
+        match=r"1 servo\(s\) answered garbled, as when two servos "
+        r"share an ID: elbow \(ID 3\)",
+    ):
         rig.play()
 
 
 def home_specs_of(robot):
-    return [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-            for j, a in zip(robot.joints, robot.pose_vector("home"))]
+    return [
+        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+        for j, a in zip(robot.joints, robot.pose_vector("home"))
+    ]

@@ -102,8 +102,9 @@ def test_a_move_too_fast_for_the_motor_runs_at_its_no_load_speed():
 def test_a_servo_not_restaged_re_runs_its_preset_from_where_it_is():
     # servo 0 is staged (600 in 200 ms) at tick 0 only; tick 1 restages servo 1, and its START
     # re-runs servo 0's preset from 550 (half way): 50 units in 200 ms again
-    stream = stream_of(Tick(0, 200, (600, 500), (True, True)),
-                       Tick(100, 100, (600, 700), (False, True)))
+    stream = stream_of(
+        Tick(0, 200, (600, 500), (True, True)), Tick(100, 100, (600, 700), (False, True))
+    )
     bank = ServoBank(np.array([500.0, 500.0]), max_speed_units_s=None)
     bank.start(stream, 0, 0.0, np.array([500.0, 500.0]))
     bank.start(stream, 1, 0.1, bank.setpoint_units(0.1))
@@ -112,9 +113,11 @@ def test_a_servo_not_restaged_re_runs_its_preset_from_where_it_is():
 
 
 def test_the_first_tick_stages_every_servo_and_a_tick_that_stages_none_sends_no_start():
-    stream = stream_of(Tick(0, 100, (600, 500), (True, False)),
-                       Tick(100, 100, (600, 500), (False, False)),
-                       Tick(200, 100, (600, 550), (False, True)))
+    stream = stream_of(
+        Tick(0, 100, (600, 500), (True, False)),
+        Tick(100, 100, (600, 500), (False, False)),
+        Tick(200, 100, (600, 550), (False, True)),
+    )
     assert stream.staged[0].tolist() == [True, True]
     assert stream.started.tolist() == [True, False, True]
     assert stream.end_s == pytest.approx(0.3)
@@ -135,9 +138,10 @@ def test_the_command_stream_is_what_the_player_sends(arm3):
         elif command == Command.MOVE_START:
             sent_starts.append((item.time_ms, staged_ids))
             staged_ids = set()
-    mine = [(int(round(stream.start_s[k] * 1000)),
-             {ids[j] for j in np.flatnonzero(stream.staged[k])})
-            for k in np.flatnonzero(stream.started)]
+    mine = [
+        (int(round(stream.start_s[k] * 1000)), {ids[j] for j in np.flatnonzero(stream.staged[k])})
+        for k in np.flatnonzero(stream.started)
+    ]
     assert mine == sent_starts
 
 
@@ -152,13 +156,18 @@ def test_the_commanded_path_joins_the_tick_targets_in_straight_lines(arm3):
     assert path[:, 1] == pytest.approx([500] * 6)
 
 
-@pytest.mark.parametrize("ticks, message", [
-    ([Tick(0, 100, (500, 500), (True, True))], "needs 3 targets"),
-    ([Tick(100, 100, (500,) * 3, (True,) * 3), Tick(50, 100, (500,) * 3, (True,) * 3)],
-     "time order"),
-    ([Tick(0, 100, (500, 1001, 500), (True,) * 3)], "outside 0..1000"),
-    ([Tick(0, 30001, (500,) * 3, (True,) * 3)], "outside 0..30000"),
-])
+@pytest.mark.parametrize(
+    "ticks, message",
+    [
+        ([Tick(0, 100, (500, 500), (True, True))], "needs 3 targets"),
+        (
+            [Tick(100, 100, (500,) * 3, (True,) * 3), Tick(50, 100, (500,) * 3, (True,) * 3)],
+            "time order",
+        ),
+        ([Tick(0, 100, (500, 1001, 500), (True,) * 3)], "outside 0..1000"),
+        ([Tick(0, 30001, (500,) * 3, (True,) * 3)], "outside 0..30000"),
+    ],
+)
 def test_bad_ticks_are_refused_saying_which(ticks, message):
     with pytest.raises(ValueError, match=message):
         CommandStream.from_ticks(ticks, 3)
@@ -196,7 +205,8 @@ def test_the_compiled_model_gets_the_servo_model_whatever_the_mjcf_says(arm3):
         assert model.actuator_biasprm[a, 1] == pytest.approx(-LX16A_STALL_NM / 0.105)
         assert model.actuator_forcerange[a] == pytest.approx([-LX16A_STALL_NM, LX16A_STALL_NM])
         assert model.dof_damping[d] == pytest.approx(
-            LX16A_STALL_NM / math.radians(LX16A_NO_LOAD_DEG_S))
+            LX16A_STALL_NM / math.radians(LX16A_NO_LOAD_DEG_S)
+        )
         assert model.dof_armature[d] == pytest.approx(0.005)
         # the servo can aim anywhere in its 240°, so a target past a joint limit pushes on
         assert model.actuator_ctrlrange[a] == pytest.approx([-2 * math.pi / 3, 2 * math.pi / 3])
@@ -276,10 +286,13 @@ def tick_at(ticks, t_s: float) -> Tick:
     return next(tick for tick in ticks if tick.start_ms / 1000 <= t_s < tick.end_ms / 1000)
 
 
-@pytest.mark.parametrize("name, kind, bodies, touching", [
-    ("collide.yaml", CheckKind.SELF_COLLISION, ("base", "forearm"), {"base", "forearm"}),
-    ("floor.yaml", CheckKind.FLOOR_CONTACT, ("forearm", "floor"), {"forearm", "world"}),
-])
+@pytest.mark.parametrize(
+    "name, kind, bodies, touching",
+    [
+        ("collide.yaml", CheckKind.SELF_COLLISION, ("base", "forearm"), {"base", "forearm"}),
+        ("floor.yaml", CheckKind.FLOOR_CONTACT, ("forearm", "floor"), {"forearm", "world"}),
+    ],
+)
 def test_a_collision_is_caught_naming_the_bodies_within_a_tick(name, kind, bodies, touching):
     motion = load_motion(MOTIONS / name)
     trajectory = plan_motion(motion).trajectory
@@ -331,8 +344,11 @@ def test_a_weaker_servo_given_as_an_override_stalls_where_the_default_does_not(a
     ticks = linear_ticks(arm3, [0, 0, 0], [0, 80, 0], 800, 100)
     weak = SimSettings(actuator_overrides={"shoulder": {"stall_torque_nm": 0.1}})
     assert run_checks(simulate(arm3, ticks, [0, 0, 0])) == []
-    stalls = [r for r in run_checks(simulate(arm3, ticks, [0, 0, 0], settings=weak))
-              if r.kind is CheckKind.SATURATION]
+    stalls = [
+        r
+        for r in run_checks(simulate(arm3, ticks, [0, 0, 0], settings=weak))
+        if r.kind is CheckKind.SATURATION
+    ]
     assert [r.joint for r in stalls] == ["shoulder"]
     assert "0.10 N·m" in stalls[0].message
 
@@ -367,13 +383,17 @@ def test_a_hexapod_tipping_over_is_a_fall(hexapod):
 def test_lag_is_a_warning_and_lasting_tracking_error_an_error(arm3):
     # the command jumps 60° at once: the servo needs ~0.2 s to follow (a warning); then it is
     # asked for 110° which it cannot reach (yaw stops at its 90° limit: an error)
-    units = [tuple(int(round(j.to_units(a))) for j, a in zip(arm3.joints, angles))
-             for angles in ((60, 0, 0), (110, 0, 0))]
+    units = [
+        tuple(int(round(j.to_units(a))) for j, a in zip(arm3.joints, angles))
+        for angles in ((60, 0, 0), (110, 0, 0))
+    ]
     ticks = [Tick(0, 0, units[0], (True,) * 3), Tick(1000, 0, units[1], (True, False, False))]
     rollout = simulate(arm3, ticks, [0, 0, 0], settings=SimSettings(tail_s=1.0))
     tracking = [r for r in run_checks(rollout) if r.kind is CheckKind.TRACKING_ERROR]
     assert [(r.severity, r.time_s < 0.01) for r in tracking] == [
-        (Severity.WARNING, True), (Severity.ERROR, False)]
+        (Severity.WARNING, True),
+        (Severity.ERROR, False),
+    ]
     assert tracking[1].value == pytest.approx(110 - 60, abs=0.5)  # the jump itself
     assert rollout.position_deg[-1, 0] == pytest.approx(90, abs=0.5)  # stuck at the limit
 
@@ -421,11 +441,14 @@ def test_preview_report_writes_json(tmp_path, capsys):
     assert data["ok"] is True and data["robot"] == "arm3" and len(data["joints"]) == 3
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["-o", "out.avi"], "must end in .mp4, .gif, .png"),
-    (["-o", "out.mp4", "--size", "161x120"], "mp4 needs an even width and height"),
-    (["--check", "-o", "out.png"], "--check runs the checks only"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["-o", "out.avi"], "must end in .mp4, .gif, .png"),
+        (["-o", "out.mp4", "--size", "161x120"], "mp4 needs an even width and height"),
+        (["--check", "-o", "out.png"], "--check runs the checks only"),
+    ],
+)
 def test_preview_usage_errors_exit_2(argv, message, capsys):
     assert main(["preview", str(MOTIONS / "fine.yaml"), *argv]) == 2
     assert message in capsys.readouterr().err
@@ -448,8 +471,12 @@ def test_no_ticks_means_holding_the_first_pose(arm3):
 
 
 def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
-    absurd = {"kp_nm_rad": 1e9, "stall_torque_nm": 1e9, "armature_kg_m2": 1e-9,
-              "damping_nm_s_rad": 1e-9}
+    absurd = {
+        "kp_nm_rad": 1e9,
+        "stall_torque_nm": 1e9,
+        "armature_kg_m2": 1e-9,
+        "damping_nm_s_rad": 1e-9,
+    }
     settings = SimSettings(actuator_overrides={"shoulder": absurd})
     ticks = [Tick(0, 0, (500, 900, 500), (True,) * 3)]
     with pytest.raises(PreviewError, match="unstable .*last at shoulder"):
@@ -459,12 +486,19 @@ def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
 def test_the_robot_files_actuator_block_overrides_the_servo_model(arm3):
     assert ACTUATOR_FIELDS == tuple(f.name for f in dataclasses.fields(ActuatorParams))
     shoulder = dataclasses.replace(arm3.joint("shoulder"), actuator={"stall_torque_nm": 0.1})
-    weak_robot = dataclasses.replace(arm3, joints=tuple(
-        shoulder if j.name == "shoulder" else j for j in arm3.joints))
+    weak_robot = dataclasses.replace(
+        arm3, joints=tuple(shoulder if j.name == "shoulder" else j for j in arm3.joints)
+    )
     assert actuator_params(weak_robot)[1].stall_torque_nm == 0.1
     # the run-time override still wins over the file
-    assert actuator_params(weak_robot, {"shoulder": {"stall_torque_nm": 0.7}})[1].stall_torque_nm == 0.7
+    assert (
+        actuator_params(weak_robot, {"shoulder": {"stall_torque_nm": 0.7}})[1].stall_torque_nm
+        == 0.7
+    )
     ticks = linear_ticks(arm3, [0, 0, 0], [0, 80, 0], 800, 100)
-    stalls = [r for r in run_checks(simulate(weak_robot, ticks, [0, 0, 0]))
-              if r.kind is CheckKind.SATURATION]
+    stalls = [
+        r
+        for r in run_checks(simulate(weak_robot, ticks, [0, 0, 0]))
+        if r.kind is CheckKind.SATURATION
+    ]
     assert [r.joint for r in stalls] == ["shoulder"]

@@ -28,16 +28,72 @@ B = BROADCAST_ID
 
 # (command, servo id, request fields, request bytes, reply fields or None, reply bytes or None)
 GOLDEN = [
-    (C.MOVE_TIME_WRITE, 1, dict(pos_units=500, time_ms=1000), "55 55 01 07 01 F4 01 E8 03 16", None, None),
-    (C.MOVE_TIME_WRITE, 1, dict(pos_units=1000, time_ms=2000), "55 55 01 07 01 E8 03 D0 07 34", None, None),
-    (C.MOVE_TIME_WRITE, 1, dict(pos_units=500, time_ms=2000), "55 55 01 07 01 F4 01 D0 07 2A", None, None),
-    (C.OR_MOTOR_MODE_WRITE, 1, dict(mode=1, reserved=0, speed=-500), "55 55 01 07 1D 01 00 0C FE CF", None, None),
+    (
+        C.MOVE_TIME_WRITE,
+        1,
+        dict(pos_units=500, time_ms=1000),
+        "55 55 01 07 01 F4 01 E8 03 16",
+        None,
+        None,
+    ),
+    (
+        C.MOVE_TIME_WRITE,
+        1,
+        dict(pos_units=1000, time_ms=2000),
+        "55 55 01 07 01 E8 03 D0 07 34",
+        None,
+        None,
+    ),
+    (
+        C.MOVE_TIME_WRITE,
+        1,
+        dict(pos_units=500, time_ms=2000),
+        "55 55 01 07 01 F4 01 D0 07 2A",
+        None,
+        None,
+    ),
+    (
+        C.OR_MOTOR_MODE_WRITE,
+        1,
+        dict(mode=1, reserved=0, speed=-500),
+        "55 55 01 07 1D 01 00 0C FE CF",
+        None,
+        None,
+    ),
     (C.ANGLE_OFFSET_ADJUST, 1, dict(offset_units=-10), "55 55 01 04 11 F6 F3", None, None),
     (C.MOVE_START, B, {}, "55 55 FE 03 0B F3", None, None),
-    (C.MOVE_TIME_WRITE, B, dict(pos_units=0, time_ms=0), "55 55 FE 07 01 00 00 00 00 F9", None, None),
-    (C.MOVE_TIME_READ, 1, {}, "55 55 01 03 02 F9", dict(pos_units=500, time_ms=1000), "55 55 01 07 02 F4 01 E8 03 15"),
-    (C.MOVE_TIME_WAIT_WRITE, 2, dict(pos_units=300, time_ms=500), "55 55 02 07 07 2C 01 F4 01 CD", None, None),
-    (C.MOVE_TIME_WAIT_READ, 2, {}, "55 55 02 03 08 F2", dict(pos_units=300, time_ms=500), "55 55 02 07 08 2C 01 F4 01 CC"),
+    (
+        C.MOVE_TIME_WRITE,
+        B,
+        dict(pos_units=0, time_ms=0),
+        "55 55 FE 07 01 00 00 00 00 F9",
+        None,
+        None,
+    ),
+    (
+        C.MOVE_TIME_READ,
+        1,
+        {},
+        "55 55 01 03 02 F9",
+        dict(pos_units=500, time_ms=1000),
+        "55 55 01 07 02 F4 01 E8 03 15",
+    ),
+    (
+        C.MOVE_TIME_WAIT_WRITE,
+        2,
+        dict(pos_units=300, time_ms=500),
+        "55 55 02 07 07 2C 01 F4 01 CD",
+        None,
+        None,
+    ),
+    (
+        C.MOVE_TIME_WAIT_READ,
+        2,
+        {},
+        "55 55 02 03 08 F2",
+        dict(pos_units=300, time_ms=500),
+        "55 55 02 07 08 2C 01 F4 01 CC",
+    ),
     (C.MOVE_START, 2, {}, "55 55 02 03 0B EF", None, None),
     (C.MOVE_STOP, 1, {}, "55 55 01 03 0C EF", None, None),
     (C.ID_WRITE, 1, dict(new_id=5), "55 55 01 04 0D 05 E8", None, None),
@@ -45,11 +101,46 @@ GOLDEN = [
     (C.ID_READ, 5, {}, "55 55 05 03 0E E9", dict(servo_id=5), "55 55 05 04 0E 05 E3"),
     (C.ANGLE_OFFSET_ADJUST, 1, dict(offset_units=125), "55 55 01 04 11 7D 6C", None, None),
     (C.ANGLE_OFFSET_WRITE, 1, {}, "55 55 01 03 12 E9", None, None),
-    (C.ANGLE_OFFSET_READ, 1, {}, "55 55 01 03 13 E8", dict(offset_units=-10), "55 55 01 04 13 F6 F1"),
-    (C.ANGLE_LIMIT_WRITE, 1, dict(min_units=100, max_units=900), "55 55 01 07 14 64 00 84 03 F8", None, None),
-    (C.ANGLE_LIMIT_READ, 1, {}, "55 55 01 03 15 E6", dict(min_units=0, max_units=1000), "55 55 01 07 15 00 00 E8 03 F7"),
-    (C.VIN_LIMIT_WRITE, 1, dict(min_mv=4500, max_mv=12000), "55 55 01 07 16 94 11 E0 2E 2E", None, None),
-    (C.VIN_LIMIT_READ, 1, {}, "55 55 01 03 17 E4", dict(min_mv=4500, max_mv=14000), "55 55 01 07 17 94 11 B0 36 55"),
+    (
+        C.ANGLE_OFFSET_READ,
+        1,
+        {},
+        "55 55 01 03 13 E8",
+        dict(offset_units=-10),
+        "55 55 01 04 13 F6 F1",
+    ),
+    (
+        C.ANGLE_LIMIT_WRITE,
+        1,
+        dict(min_units=100, max_units=900),
+        "55 55 01 07 14 64 00 84 03 F8",
+        None,
+        None,
+    ),
+    (
+        C.ANGLE_LIMIT_READ,
+        1,
+        {},
+        "55 55 01 03 15 E6",
+        dict(min_units=0, max_units=1000),
+        "55 55 01 07 15 00 00 E8 03 F7",
+    ),
+    (
+        C.VIN_LIMIT_WRITE,
+        1,
+        dict(min_mv=4500, max_mv=12000),
+        "55 55 01 07 16 94 11 E0 2E 2E",
+        None,
+        None,
+    ),
+    (
+        C.VIN_LIMIT_READ,
+        1,
+        {},
+        "55 55 01 03 17 E4",
+        dict(min_mv=4500, max_mv=14000),
+        "55 55 01 07 17 94 11 B0 36 55",
+    ),
     (C.TEMP_MAX_LIMIT_WRITE, 1, dict(temp_c=85), "55 55 01 04 18 55 8D", None, None),
     (C.TEMP_MAX_LIMIT_READ, 1, {}, "55 55 01 03 19 E2", dict(temp_c=85), "55 55 01 04 19 55 8C"),
     (C.TEMP_READ, 1, {}, "55 55 01 03 1A E1", dict(temp_c=31), "55 55 01 04 1A 1F C1"),
@@ -57,9 +148,30 @@ GOLDEN = [
     (C.POS_READ, 1, {}, "55 55 01 03 1C DF", dict(pos_units=500), "55 55 01 05 1C F4 01 E8"),
     (C.POS_READ, 1, {}, "55 55 01 03 1C DF", dict(pos_units=-12), "55 55 01 05 1C F4 FF EA"),
     (C.POS_READ, 1, {}, "55 55 01 03 1C DF", dict(pos_units=1130), "55 55 01 05 1C 6A 04 6F"),
-    (C.OR_MOTOR_MODE_WRITE, 1, dict(mode=1, reserved=0, speed=1000), "55 55 01 07 1D 01 00 E8 03 EE", None, None),
-    (C.OR_MOTOR_MODE_WRITE, 1, dict(mode=0, reserved=0, speed=0), "55 55 01 07 1D 00 00 00 00 DA", None, None),
-    (C.OR_MOTOR_MODE_READ, 1, {}, "55 55 01 03 1E DD", dict(mode=1, reserved=0, speed=-500), "55 55 01 07 1E 01 00 0C FE CE"),
+    (
+        C.OR_MOTOR_MODE_WRITE,
+        1,
+        dict(mode=1, reserved=0, speed=1000),
+        "55 55 01 07 1D 01 00 E8 03 EE",
+        None,
+        None,
+    ),
+    (
+        C.OR_MOTOR_MODE_WRITE,
+        1,
+        dict(mode=0, reserved=0, speed=0),
+        "55 55 01 07 1D 00 00 00 00 DA",
+        None,
+        None,
+    ),
+    (
+        C.OR_MOTOR_MODE_READ,
+        1,
+        {},
+        "55 55 01 03 1E DD",
+        dict(mode=1, reserved=0, speed=-500),
+        "55 55 01 07 1E 01 00 0C FE CE",
+    ),
     (C.LOAD_OR_UNLOAD_WRITE, 1, dict(loaded=1), "55 55 01 04 1F 01 DA", None, None),
     (C.LOAD_OR_UNLOAD_WRITE, B, dict(loaded=0), "55 55 FE 04 1F 00 DE", None, None),
     (C.LOAD_OR_UNLOAD_READ, 1, {}, "55 55 01 03 20 DB", dict(loaded=1), "55 55 01 04 20 01 D9"),
@@ -98,23 +210,66 @@ def test_golden_reply(command, servo_id, fields, request_hex, reply_fields, repl
 
 
 def test_every_command_of_the_document_is_in_the_table():
-    assert sorted(SPECS) == [1, 2, 7, 8, 11, 12, 13, 14, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26,
-                             27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 48]
+    assert sorted(SPECS) == [
+        1,
+        2,
+        7,
+        8,
+        11,
+        12,
+        13,
+        14,
+        17,
+        18,
+        19,
+        20,
+        21,
+        22,
+        23,
+        24,
+        25,
+        26,
+        27,
+        28,
+        29,
+        30,
+        31,
+        32,
+        33,
+        34,
+        35,
+        36,
+        48,
+    ]
     assert SPECS[C.DIS_READ].reply_len == 7
-    assert SPECS[C.ANGLE_OFFSET_READ].reply_len == 4  # not "9 / length 7" as the English edition says
+    assert (
+        SPECS[C.ANGLE_OFFSET_READ].reply_len == 4
+    )  # not "9 / length 7" as the English edition says
 
 
 @pytest.mark.parametrize(
     "command, fields, message",
     [
-        (C.MOVE_TIME_WRITE, dict(pos_units=1001, time_ms=0), "pos_units must be in 0..1000, got 1001"),
+        (
+            C.MOVE_TIME_WRITE,
+            dict(pos_units=1001, time_ms=0),
+            "pos_units must be in 0..1000, got 1001",
+        ),
         (C.MOVE_TIME_WRITE, dict(pos_units=-1, time_ms=0), "pos_units must be in 0..1000, got -1"),
         (C.MOVE_TIME_WAIT_WRITE, dict(pos_units=0, time_ms=30001), "time_ms must be in 0..30000"),
         (C.ANGLE_OFFSET_ADJUST, dict(offset_units=126), "offset_units must be in -125..125"),
-        (C.ANGLE_LIMIT_WRITE, dict(min_units=900, max_units=100), "min_units must be less than max_units"),
+        (
+            C.ANGLE_LIMIT_WRITE,
+            dict(min_units=900, max_units=100),
+            "min_units must be less than max_units",
+        ),
         (C.VIN_LIMIT_WRITE, dict(min_mv=4000, max_mv=12000), "min_mv must be in 4500..14000"),
         (C.TEMP_MAX_LIMIT_WRITE, dict(temp_c=101), "temp_c must be in 50..100"),
-        (C.OR_MOTOR_MODE_WRITE, dict(mode=1, reserved=0, speed=1001), "speed must be in -1000..1000"),
+        (
+            C.OR_MOTOR_MODE_WRITE,
+            dict(mode=1, reserved=0, speed=1001),
+            "speed must be in -1000..1000",
+        ),
         (C.OR_MOTOR_MODE_WRITE, dict(mode=2, reserved=0, speed=0), "mode must be in 0..1"),
         (C.LED_ERROR_WRITE, dict(mask=8), "mask must be in 0..7"),
         (C.ID_WRITE, dict(new_id=254), "new_id must be in 0..253"),
@@ -131,8 +286,11 @@ def test_field_range_from_the_table_of_protocol_md():
     assert field_range(C.ANGLE_OFFSET_ADJUST, "offset_units") == (-125, 125)
     assert field_range(C.MOVE_TIME_WRITE, "time_ms") == (0, 30000)
     assert field_range(C.ID_WRITE, "new_id") == (0, 253)
-    with pytest.raises(ValueError, match=r"ANGLE_LIMIT_WRITE has no field 'min'; its fields: "
-                                         "min_units, max_units"):
+    with pytest.raises(
+        ValueError,
+        match=r"ANGLE_LIMIT_WRITE has no field 'min'; its fields: "
+        "min_units, max_units",
+    ):
         field_range(C.ANGLE_LIMIT_WRITE, "min")
 
 
@@ -142,7 +300,9 @@ def test_servo_id_range():
 
 
 # --- the stream decoder ------------------------------------------------------------------------
-GOOD = [bytes.fromhex(row[3]) for row in GOLDEN] + [bytes.fromhex(row[5]) for row in GOLDEN if row[5]]
+GOOD = [bytes.fromhex(row[3]) for row in GOLDEN] + [
+    bytes.fromhex(row[5]) for row in GOLDEN if row[5]
+]
 
 
 def test_resynchronizes_after_garbage_and_bad_checksum():

@@ -92,7 +92,7 @@ def test_sigterm_also_exits_cleanly_and_echo_works(link):
     finally:
         returncode, stderr = stop(process, signal.SIGTERM)
     assert data[: len(request)] == request
-    assert data[len(request):] == bytes.fromhex("55 55 01 04 1A 1E C2")  # 30 °C
+    assert data[len(request) :] == bytes.fromhex("55 55 01 04 1A 1E C2")  # 30 °C
     assert returncode == 0, stderr
     assert not os.path.lexists(link)
 

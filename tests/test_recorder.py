@@ -89,7 +89,10 @@ def test_poses_turned_by_hand_are_saved_as_keyframes_that_validate(tmp_path, cap
     assert recording.save() == SavedMotion(out, 2, 2)
     assert main(["validate", str(out)]) == 0
     motion = load_motion(out)
-    assert [k.targets_deg for k in motion.keyframes] == [(0, 24, 0, 0, 0, 0), (0, 24, -24, 0, 0, 30)]
+    assert [k.targets_deg for k in motion.keyframes] == [
+        (0, 24, 0, 0, 0, 0),
+        (0, 24, -24, 0, 0, 30),
+    ]
     assert motion.keyframes[0].after_s is None
     assert motion.keyframes[1].after_s == pytest.approx(1.5, abs=0.02)  # plus the reads' bus time
     assert "robot: arm6\n" in out.read_text()
@@ -114,9 +117,19 @@ def test_every_capture_is_on_disk_before_the_next_line_is_read(tmp_path):
     rig.record(out, typing())
     header, capture = seen[0]
     assert header["format"] == "choreo-record-journal" and header["joints"][0] == "base_yaw"
-    assert capture == {"capture": 1, "after_s": None, "stream": None,
-                       "angles_deg": {"base_yaw": -60.0, "shoulder": 0.0, "elbow": 0.0,
-                                      "wrist_pitch": 0.0, "wrist_roll": 0.0, "gripper": 0.0}}
+    assert capture == {
+        "capture": 1,
+        "after_s": None,
+        "stream": None,
+        "angles_deg": {
+            "base_yaw": -60.0,
+            "shoulder": 0.0,
+            "elbow": 0.0,
+            "wrist_pitch": 0.0,
+            "wrist_roll": 0.0,
+            "gripper": 0.0,
+        },
+    }
 
 
 def test_a_pose_outside_the_limits_is_refused_naming_joint_value_and_range(tmp_path):
@@ -208,8 +221,11 @@ def test_leave_unloaded_leaves_the_taught_joints_limp(tmp_path):
 def test_unknown_joint_names_are_refused_with_the_valid_names(tmp_path):
     rig = Rig()
     recording = Recording.start(tmp_path / "t.yaml", rig.robot)
-    with pytest.raises(ValueError, match="unknown joint 'elbw' \\(did you mean 'elbow'\\?\\); "
-                                         "arm6's joints are base_yaw, shoulder, elbow"):
+    with pytest.raises(
+        ValueError,
+        match="unknown joint 'elbw' \\(did you mean 'elbow'\\?\\); "
+        "arm6's joints are base_yaw, shoulder, elbow",
+    ):
         rig.recorder(recording, taught=["elbw"])
 
 
@@ -219,7 +235,9 @@ def test_a_missing_servo_stops_before_anything_is_unloaded(tmp_path):
     with pytest.raises(BusError, match="wrist_pitch \\(ID 4\\)"):
         with rig.recorder(recording):
             pass
-    assert not [p for p in rig.emulator.log.packets if p.packet.command == Command.LOAD_OR_UNLOAD_WRITE]
+    assert not [
+        p for p in rig.emulator.log.packets if p.packet.command == Command.LOAD_OR_UNLOAD_WRITE
+    ]
     recording.close()
     assert not journal_path(tmp_path / "t.yaml").exists()  # empty: nothing to resume
 
@@ -272,8 +290,11 @@ def test_a_damaged_journal_line_is_named(tmp_path):
     lines = journal_path(out).read_text().splitlines()
     lines[1] = lines[1].replace('"capture": 1', '"capture": 7')
     journal_path(out).write_text("\n".join(lines) + "\n")
-    with pytest.raises(ChoreoError, match=r"taught.yaml.journal:2: damaged journal line \(capture 7 "
-                                          r"follows capture 0\)"):
+    with pytest.raises(
+        ChoreoError,
+        match=r"taught.yaml.journal:2: damaged journal line \(capture 7 "
+        r"follows capture 0\)",
+    ):
         Recording.resume(out)
 
 
@@ -291,11 +312,14 @@ def test_starting_over_an_unfinished_journal_or_a_motion_file_is_refused(tmp_pat
     out = tmp_path / "taught.yaml"
     crashed, _ = rig.record(out, [""])
     crashed.journal.close()
-    with pytest.raises(ChoreoError, match="holds 1 capture\\(s\\) of an unfinished recording: add "
-                                          "--resume"):
+    with pytest.raises(
+        ChoreoError, match="holds 1 capture\\(s\\) of an unfinished recording: add --resume"
+    ):
         Recording.start(out, rig.robot)
     Recording.resume(out).save()
-    with pytest.raises(ChoreoError, match="taught.yaml exists: choose another file, or add --overwrite"):
+    with pytest.raises(
+        ChoreoError, match="taught.yaml exists: choose another file, or add --overwrite"
+    ):
         Recording.start(out, rig.robot)
     Recording.start(out, rig.robot, overwrite=True).close()
 
@@ -446,20 +470,39 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
     out = tmp_path / "taught.yaml"
     journal = journal_path(out)
     # A generous read timeout: on a loaded machine the bridge thread may answer late.
-    command = [sys.executable, "-m", "choreo", "record", str(out), "--robot", "arm6",
-               "--port", str(link), "--joints", "shoulder", "elbow", "--timeout-ms", "500"]
+    command = [
+        sys.executable,
+        "-m",
+        "choreo",
+        "record",
+        str(out),
+        "--robot",
+        "arm6",
+        "--port",
+        str(link),
+        "--joints",
+        "shoulder",
+        "elbow",
+        "--timeout-ms",
+        "500",
+    ]
 
     def running(process, condition):
         def check():
             if process.poll() is not None:
                 raise AssertionError(f"choreo record exited early: {process.communicate()[1]}")
             return condition()
+
         return check
 
     def unloads_of_elbow():
-        return sum(1 for p in list(emulator.log.packets)  # list(): one step, the bridge appends
-                   if p.packet.command == Command.LOAD_OR_UNLOAD_WRITE and p.packet.servo_id == 3
-                   and p.packet.params == b"\x00")
+        return sum(
+            1
+            for p in list(emulator.log.packets)  # list(): one step, the bridge appends
+            if p.packet.command == Command.LOAD_OR_UNLOAD_WRITE
+            and p.packet.servo_id == 3
+            and p.packet.params == b"\x00"
+        )
 
     def captures():
         return len(read_journal(journal).captures) if journal.exists() else 0
@@ -469,10 +512,13 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
         process.stdin.flush()
         wait_for(running(process, lambda: captures() == count), f"capture {count} in the journal")
 
-    first = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen(
+        command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
-        wait_for(running(first, lambda: unloads_of_elbow() == 1), "the recorder to unload the elbow")
+        wait_for(
+            running(first, lambda: unloads_of_elbow() == 1), "the recorder to unload the elbow"
+        )
         emulator.servo(2).move_by_hand(600)
         press_enter(first, 1)
         emulator.servo(3).move_by_hand(400)
@@ -483,14 +529,23 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
         first.kill()
     assert first.returncode == -signal.SIGKILL
     assert not out.exists()
-    assert [c.angles_deg for c in read_journal(journal).captures] == [(0, 24, 0, 0, 0, 0),
-                                                                     (0, 24, -24, 0, 0, 0)]
+    assert [c.angles_deg for c in read_journal(journal).captures] == [
+        (0, 24, 0, 0, 0, 0),
+        (0, 24, -24, 0, 0, 0),
+    ]
 
-    second = subprocess.Popen(command + ["--resume"], stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    second = subprocess.Popen(
+        command + ["--resume"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
-        wait_for(running(second, lambda: unloads_of_elbow() == 2),
-                 "the resumed recorder to unload the elbow")
+        wait_for(
+            running(second, lambda: unloads_of_elbow() == 2),
+            "the resumed recorder to unload the elbow",
+        )
         emulator.servo(2).move_by_hand(700)
         press_enter(second, 3)
         stdout, stderr = second.communicate("q\n", timeout=WAIT_S)
@@ -499,7 +554,10 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
     assert second.returncode == 0, stderr
     assert "resuming" in stdout and "2 capture(s) from" in stdout
     assert [k.targets_deg for k in load_motion(out).keyframes] == [
-        (0, 24, 0, 0, 0, 0), (0, 24, -24, 0, 0, 0), (0, 48, -24, 0, 0, 0)]
+        (0, 24, 0, 0, 0, 0),
+        (0, 24, -24, 0, 0, 0),
+        (0, 48, -24, 0, 0, 0),
+    ]
     assert not journal.exists()
     assert emulator.servo(2).loaded and emulator.servo(3).loaded
 
@@ -514,6 +572,9 @@ def test_resume_refuses_a_journal_whose_robot_changed_its_joints(tmp_path):
     text = (tiny / "robot.yaml").read_text()
     yaw = "  yaw:\n    id: 1\n    min: -90\n    max: 90\n"
     (tiny / "robot.yaml").write_text(text.replace(yaw, "").replace("poses:", yaw + "poses:"))
-    with pytest.raises(ChoreoError, match="was recorded with the joints yaw, left, right, but "
-                                          ".*robot.yaml now has left, right, yaw"):
+    with pytest.raises(
+        ChoreoError,
+        match="was recorded with the joints yaw, left, right, but "
+        ".*robot.yaml now has left, right, yaw",
+    ):
         Recording.resume(out)

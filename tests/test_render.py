@@ -22,12 +22,12 @@ from choreo.preview import (
     Severity,
     SimSettings,
     frame_times,
+    gl,
     render_frames,
     render_preview,
     run_checks,
     simulate_motion,
 )
-from choreo.preview import gl
 from choreo.preview.render import problem_text, status_text, track_camera
 from choreo.segments import segment
 
@@ -61,8 +61,9 @@ def test_an_offscreen_backend_works_on_this_machine():
 def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "")
     tried = []
-    monkeypatch.setattr(gl, "probe",
-                        lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None))
+    monkeypatch.setattr(
+        gl, "probe", lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None)
+    )
     assert gl.choose_backend() == "osmesa"
     assert tried == ["egl", "osmesa"]
 
@@ -101,6 +102,7 @@ def test_an_mp4_has_one_frame_per_tick_of_the_clock_and_shows_the_robot_moving(f
     frames = video_frames(path).astype(float)
     assert frames.shape == (expected, 120, 160, 3)
     assert min(frame.std() for frame in frames) > 10  # not blank
+
     # the arm is at home at 0 s and turned, leaning over at 1 s (fine.yaml's second keyframe):
     # the pixels it leaves and covers change, more than from one frame to the next
     def changed(a: int, b: int) -> float:
@@ -131,8 +133,11 @@ def test_a_png_is_a_contact_sheet_across_the_motion(fine, tmp_path):
     sheet = np.asarray(Image.open(path).convert("RGB")).astype(float)
     gap = 4
     assert sheet.shape == (2 * 120 + gap, 4 * 160 + 3 * gap, 3)  # 4 columns, 2 rows
-    tiles = [sheet[r * (120 + gap):r * (120 + gap) + 120, c * (160 + gap):c * (160 + gap) + 160]
-             for r in range(2) for c in range(4)]
+    tiles = [
+        sheet[r * (120 + gap) : r * (120 + gap) + 120, c * (160 + gap) : c * (160 + gap) + 160]
+        for r in range(2)
+        for c in range(4)
+    ]
     assert all(tile.std() > 10 for tile in tiles[:6])
     assert all((tile == 255).all() for tile in tiles[6:])  # unused places stay blank
 
@@ -156,11 +161,14 @@ def test_the_overlay_gives_the_time_and_the_keyframe_reached(fine):
 
 def test_the_overlay_lists_the_problems_under_way():
     stall = CheckResult(CheckKind.SATURATION, Severity.ERROR, "...", 1.0, 0.8, joint="elbow")
-    touch = CheckResult(CheckKind.SELF_COLLISION, Severity.ERROR, "...", 1.5, 0.0,
-                        bodies=("forearm", "base"))
+    touch = CheckResult(
+        CheckKind.SELF_COLLISION, Severity.ERROR, "...", 1.5, 0.0, bodies=("forearm", "base")
+    )
     assert problem_text([stall, touch], 0.9) == ("", "")
-    assert problem_text([stall, touch], 1.6) == ("error stall\nerror collision",
-                                                 "elbow\nforearm / base")
+    assert problem_text([stall, touch], 1.6) == (
+        "error stall\nerror collision",
+        "elbow\nforearm / base",
+    )
     # the stall is over at 1.8 s; the instant touch stays on screen for 0.5 s
     assert problem_text([stall, touch], 1.9) == ("error collision", "forearm / base")
     assert problem_text([stall, touch], 2.1) == ("", "")
@@ -171,7 +179,8 @@ def test_the_overlay_is_drawn_on_the_frames(fine):
     settings = RenderSettings(320, 240)
     plain, with_problem = (
         next(render_frames(rollout, np.array([0.0]), settings, results))
-        for results in ((), [CheckResult(CheckKind.FALL, Severity.ERROR, "...", 0.0)]))
+        for results in ((), [CheckResult(CheckKind.FALL, Severity.ERROR, "...", 0.0)])
+    )
     corner = (slice(0, 50), slice(0, 160))
     bottom = (slice(200, 240), slice(0, 160))
     assert plain[corner].max() > 200  # white text on the dark box
@@ -211,8 +220,16 @@ def test_preview_renders_a_contact_sheet_from_the_command_line(tmp_path, capsys)
 
 def test_rendering_a_motion_with_errors_still_writes_the_file_and_says_why(tmp_path, capsys):
     out = tmp_path / "collide.mp4"
-    argv = ["preview", str(DATA / "motions" / "collide.yaml"), "-o", str(out), "--size", "64x48",
-            "--fps", "5"]
+    argv = [
+        "preview",
+        str(DATA / "motions" / "collide.yaml"),
+        "-o",
+        str(out),
+        "--size",
+        "64x48",
+        "--fps",
+        "5",
+    ]
     assert main(argv) == 0
     assert "error: self-collision" in capsys.readouterr().out
     assert out.stat().st_size > 0

@@ -45,14 +45,17 @@ def test_tiny_robot_is_read_with_defaults_and_overrides():
     assert (left.zero_units, left.direction) == (625, -1)
     assert (left.limits.min_deg, left.limits.max_deg) == (-60, 120)
     # LX-16A: 80 % of 375 deg/s (servo-models.md: 300 deg/s), 3000 deg/s², 30000 deg/s³
-    assert (yaw.limits.vel_deg_s, yaw.limits.acc_deg_s2, yaw.limits.jerk_deg_s3) == \
-        pytest.approx((300, 3000, 30000))
+    assert (yaw.limits.vel_deg_s, yaw.limits.acc_deg_s2, yaw.limits.jerk_deg_s3) == pytest.approx(
+        (300, 3000, 30000)
+    )
     assert right.limits.vel_deg_s == 200  # overridden in the file
     assert left.to_units(120) == pytest.approx(125)  # 625 - 120 * 1000/240
     assert robot.pose_vector("wave") == (30, 90, 0)
     assert dict(robot.poses["home"]) == {"yaw": 0, "left": 0, "right": 0}
-    assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == \
-        [("left", "right", -1), ("yaw", "yaw", -1)]
+    assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == [
+        ("left", "right", -1),
+        ("yaw", "yaw", -1),
+    ]
     assert (robot.bus.port, robot.bus.timeout_s) == (None, 0.05)
     assert robot.mjcf_path.name == "tiny.xml" and robot.scene_path.name == "scene.xml"
     assert robot.free_floating is False
@@ -108,40 +111,51 @@ def test_unknown_name_lists_the_known_robots(tmp_path, monkeypatch):
 
 def test_duplicate_servo_id():
     path, message = only_problem("duplicate_id")
-    assert message == (f"{path}:9:14: joint 'left': servo id 2 is already used by joint 'yaw' "
-                       f"(line 8); each joint needs its own id 0..253")
+    assert message == (
+        f"{path}:9:14: joint 'left': servo id 2 is already used by joint 'yaw' "
+        f"(line 8); each joint needs its own id 0..253"
+    )
 
 
 def test_missing_home_pose():
     path, message = only_problem("missing_home")
-    assert message.startswith(f"{path}:11:1: poses: the 'home' pose is missing "
-                              f"(did you mean 'hom'?); it is required")
+    assert message.startswith(
+        f"{path}:11:1: poses: the 'home' pose is missing (did you mean 'hom'?); it is required"
+    )
 
 
 def test_limit_outside_servo_travel_says_the_reachable_range():
     path, message = only_problem("outside_travel")
-    assert message == (f"{path}:14:10: joint 'right': max 130° is outside the servo's travel: it "
-                       f"needs servo position 1166.7, outside 0..1000 (0..240°); with zero 625 "
-                       f"and direction 1 this joint can reach -150..90°")
+    assert message == (
+        f"{path}:14:10: joint 'right': max 130° is outside the servo's travel: it "
+        f"needs servo position 1166.7, outside 0..1000 (0..240°); with zero 625 "
+        f"and direction 1 this joint can reach -150..90°"
+    )
 
 
 def test_unknown_servo_model_lists_the_known_ones():
     path, message = only_problem("unknown_servo")
-    assert message == (f"{path}:6:10: defaults: servo: unknown servo model 'LX16A' (did you mean "
-                       f"'LX-16A'?); known models: LX-16A, LX-224HV, LX-824HV, HTD-35H, LX-224, "
-                       f"LX-225, LX-15D")
+    assert message == (
+        f"{path}:6:10: defaults: servo: unknown servo model 'LX16A' (did you mean "
+        f"'LX-16A'?); known models: LX-16A, LX-224HV, LX-824HV, HTD-35H, LX-224, "
+        f"LX-225, LX-15D"
+    )
 
 
 def test_velocity_above_the_servos_no_load_speed():
     path, message = only_problem("too_fast")
-    assert message == (f"{path}:8:45: joint 'yaw': velocity 400 deg/s is above the LX-16A's "
-                       f"no-load speed of 375 deg/s; give at most 375 (the default is 300)")
+    assert message == (
+        f"{path}:8:45: joint 'yaw': velocity 400 deg/s is above the LX-16A's "
+        f"no-load speed of 375 deg/s; give at most 375 (the default is 300)"
+    )
 
 
 def test_mirror_pair_naming_an_unknown_joint():
     path, message = only_problem("mirror_unknown_joint")
-    assert message == (f"{path}:14:25: mirror: right: unknown joint 'rigth' (did you mean "
-                       f"'right'?); the robot's joints are yaw, left, right")
+    assert message == (
+        f"{path}:14:25: mirror: right: unknown joint 'rigth' (did you mean "
+        f"'right'?); the robot's joints are yaw, left, right"
+    )
 
 
 def test_malformed_yaml_is_a_message_not_a_traceback():
@@ -152,32 +166,42 @@ def test_malformed_yaml_is_a_message_not_a_traceback():
 
 def test_mjcf_range_disagreeing_with_the_robot_file():
     path, message = only_problem("mjcf_range")
-    assert message.startswith(f"{path}:10:34: joint 'right': MJCF joint 'right' in tiny.xml has "
-                              f"range -1.9199 1.0472 rad (-110.0..60.0°) but the robot file says "
-                              f"-100..60°")
+    assert message.startswith(
+        f"{path}:10:34: joint 'right': MJCF joint 'right' in tiny.xml has "
+        f"range -1.9199 1.0472 rad (-110.0..60.0°) but the robot file says "
+        f"-100..60°"
+    )
     assert message.endswith('e.g. range="-1.7453 1.0472"')
 
 
 def test_mjcf_home_keyframe_disagreeing_with_the_home_pose():
     path, message = only_problem("mjcf_home")
-    assert message.startswith(f"{path}:12:3: pose 'home': yaw is 10° (0.1745 rad) but the 'home' "
-                              f"keyframe in tiny.xml has 0.0000 rad")
+    assert message.startswith(
+        f"{path}:12:3: pose 'home': yaw is 10° (0.1745 rad) but the 'home' "
+        f"keyframe in tiny.xml has 0.0000 rad"
+    )
 
 
 def test_actuated_mjcf_joint_that_no_joint_maps():
     path, message = only_problem("unmapped_actuator")
-    assert message == (f"{path}:7:1: tiny.xml: actuator 'right' drives joint 'right', which no "
-                       f"joint here maps; add a joint with mjcf_joint: right, or remove the "
-                       f"actuator")
+    assert message == (
+        f"{path}:7:1: tiny.xml: actuator 'right' drives joint 'right', which no "
+        f"joint here maps; add a joint with mjcf_joint: right, or remove the "
+        f"actuator"
+    )
 
 
 def test_mjcf_joint_that_does_not_exist():
     path = BAD / "unknown_mjcf_joint" / "robot.yaml"
     first, second = problems_of(path)
-    assert first == (f"{path}:7:1: tiny.xml: actuator 'left' drives joint 'left', which no joint "
-                     f"here maps; add a joint with mjcf_joint: left, or remove the actuator")
-    assert second == (f"{path}:9:75: joint 'left': tiny.xml has no joint 'lef' (did you mean "
-                      f"'left'?); its joints are yaw, left, right")
+    assert first == (
+        f"{path}:7:1: tiny.xml: actuator 'left' drives joint 'left', which no joint "
+        f"here maps; add a joint with mjcf_joint: left, or remove the actuator"
+    )
+    assert second == (
+        f"{path}:9:75: joint 'left': tiny.xml has no joint 'lef' (did you mean "
+        f"'left'?); its joints are yaw, left, right"
+    )
 
 
 def test_mjcf_that_does_not_compile_points_at_the_xml_line():
@@ -200,8 +224,9 @@ def test_pose_problems_each_reported():
 
 def test_name_must_equal_the_folder():
     path, message = only_problem("name_mismatch")
-    assert message.startswith(f"{path}:2:7: name 'tiny' must equal the robot's folder name "
-                              f"'name_mismatch'")
+    assert message.startswith(
+        f"{path}:2:7: name 'tiny' must equal the robot's folder name 'name_mismatch'"
+    )
 
 
 def test_every_problem_of_a_file_is_reported_at_once():
@@ -267,17 +292,26 @@ def test_a_joint_can_override_the_preview_actuator_of_its_servo(tmp_path):
     tiny = tmp_path / "tiny"
     shutil.copytree(DATA / "models" / "tiny", tiny)
     text = (tiny / "robot.yaml").read_text()
-    (tiny / "robot.yaml").write_text(text.replace(
-        "    velocity: 200\n",
-        "    velocity: 200\n    actuator: {stall_torque_nm: 0.8, damping_nm_s_rad: 0.1}\n"))
+    (tiny / "robot.yaml").write_text(
+        text.replace(
+            "    velocity: 200\n",
+            "    velocity: 200\n    actuator: {stall_torque_nm: 0.8, damping_nm_s_rad: 0.1}\n",
+        )
+    )
     robot = load_robot(tiny / "robot.yaml")
     assert dict(robot.joint("right").actuator) == {"stall_torque_nm": 0.8, "damping_nm_s_rad": 0.1}
     assert dict(robot.joint("left").actuator) == {}
-    (tiny / "robot.yaml").write_text(text.replace(
-        "    velocity: 200\n", "    velocity: 200\n    actuator: {stall_torque: 0.8, kp_nm_rad: 0}\n"))
+    (tiny / "robot.yaml").write_text(
+        text.replace(
+            "    velocity: 200\n",
+            "    velocity: 200\n    actuator: {stall_torque: 0.8, kp_nm_rad: 0}\n",
+        )
+    )
     with pytest.raises(SourceError) as error:
         load_robot(tiny / "robot.yaml")
     [unknown, zero] = error.value.problems
-    assert "unknown key 'stall_torque' in joint 'right': actuator (did you mean " \
-           "'stall_torque_nm'?)" in unknown
+    assert (
+        "unknown key 'stall_torque' in joint 'right': actuator (did you mean "
+        "'stall_torque_nm'?)" in unknown
+    )
     assert "joint 'right': actuator: kp_nm_rad must be > 0, got 0" in zero

@@ -56,8 +56,9 @@ def test_servo_models_in_the_schema_are_the_servo_table():
     assert servo["enum"] == list(SERVO_MODELS)
 
 
-GOOD_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml")) + \
-    sorted((DATA / "motions").glob("*.yaml"))
+GOOD_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml")) + sorted(
+    (DATA / "motions").glob("*.yaml")
+)
 GOOD_ROBOTS = sorted((REPO / "models").glob("*/robot.yaml")) + [DATA / "models/tiny/robot.yaml"]
 
 
@@ -77,22 +78,28 @@ def test_schema_accepts_good_robots(path):
 
 # The mistakes of shape; the others (unknown joints, limits, timing, includes, the MJCF) need the
 # robot and are for `choreo validate`.
-@pytest.mark.parametrize("name, words", [
-    ("unknown_key.yaml", "'hodl' was unexpected"),
-    ("t_and_after.yaml", "should not be valid under {'required': ['t', 'after']}"),
-    ("wrong_type.yaml", "'soon' is not of type 'number'"),
-    ("several_problems.yaml", "0 is less than or equal to the minimum of 0"),
-    ("empty.yaml", "None is not of type 'object'"),
-])
+@pytest.mark.parametrize(
+    "name, words",
+    [
+        ("unknown_key.yaml", "'hodl' was unexpected"),
+        ("t_and_after.yaml", "should not be valid under {'required': ['t', 'after']}"),
+        ("wrong_type.yaml", "'soon' is not of type 'number'"),
+        ("several_problems.yaml", "0 is less than or equal to the minimum of 0"),
+        ("empty.yaml", "None is not of type 'object'"),
+    ],
+)
 def test_schema_rejects_bad_motions(name, words):
     assert any(words in message for message in errors("motion", DATA / "bad_motions" / name))
 
 
-@pytest.mark.parametrize("case, words", [
-    ("missing_home", "'home' is a required property"),
-    ("unknown_servo", "'LX16A' is not one of"),
-    ("several_problems", "'discrad' is not one of"),
-])
+@pytest.mark.parametrize(
+    "case, words",
+    [
+        ("missing_home", "'home' is a required property"),
+        ("unknown_servo", "'LX16A' is not one of"),
+        ("several_problems", "'discrad' is not one of"),
+    ],
+)
 def test_schema_rejects_bad_robots(case, words):
     path = DATA / "bad_robots" / case / "robot.yaml"
     assert any(words in message for message in errors("robot", path))

@@ -88,8 +88,9 @@ def test_tick_bytes_count_only_staged_servos():
 # --- targets -----------------------------------------------------------------------------------
 def test_final_targets_are_the_servo_units_of_the_last_pose():
     robot = make_robot(3)  # zero 500, directions +1, -1, +1
-    trajectory = plan_motion(make_motion(robot, [kf([0, 0, 0], 1),
-                                                 kf([30, 30, -90], 2)])).trajectory
+    trajectory = plan_motion(
+        make_motion(robot, [kf([0, 0, 0], 1), kf([30, 30, -90], 2)])
+    ).trajectory
     plan = segment(trajectory, robot)
     # 500 + 30 * 1000/240 = 625; direction -1: 375; -90° = -375 units
     assert plan.ticks[-1].targets_units == (625, 375, 125)
@@ -98,8 +99,9 @@ def test_final_targets_are_the_servo_units_of_the_last_pose():
 
 def test_a_joint_that_never_moves_is_never_staged():
     robot = make_robot(3)
-    trajectory = plan_motion(make_motion(robot, [kf([0, 10, 0], 1), kf([40, 10, -20], 2),
-                                                 kf([-40, 10, 20], 3)])).trajectory
+    trajectory = plan_motion(
+        make_motion(robot, [kf([0, 10, 0], 1), kf([40, 10, -20], 2), kf([-40, 10, 20], 3)])
+    ).trajectory
     plan = segment(trajectory, robot)
     assert not any(t.staged[1] for t in plan.ticks)
     assert all(t.targets_units[1] == 458 for t in plan.ticks)  # 500 - 10 * 1000/240
@@ -108,8 +110,9 @@ def test_a_joint_that_never_moves_is_never_staged():
 
 def test_a_long_hold_is_split_into_moves_the_servo_accepts_and_costs_nothing():
     robot = make_robot(2)
-    trajectory = plan_motion(make_motion(robot, [kf([0, 0], 1), kf([20, 20], 2, hold=65.0),
-                                                 kf([0, 0], 3)])).trajectory
+    trajectory = plan_motion(
+        make_motion(robot, [kf([0, 0], 1), kf([20, 20], 2, hold=65.0), kf([0, 0], 3)])
+    ).trajectory
     plan = segment(trajectory, robot)
     assert max(t.duration_ms for t in plan.ticks) == MAX_TICK_MS
     idle = [t for t in plan.ticks if t.duration_ms == MAX_TICK_MS]
@@ -119,8 +122,10 @@ def test_a_long_hold_is_split_into_moves_the_servo_accepts_and_costs_nothing():
 
 def test_tighter_tolerance_needs_more_ticks():
     robot = make_robot(6)
-    motion = make_motion(robot, [kf([0] * 6, 1), kf([60, -40, 30, 10, -70, 20], 2),
-                                 kf([-50, 40, -30, 0, 70, -20], 3)])
+    motion = make_motion(
+        robot,
+        [kf([0] * 6, 1), kf([60, -40, 30, 10, -70, 20], 2), kf([-50, 40, -30, 0, 70, -20], 3)],
+    )
     trajectory = plan_motion(motion).trajectory
     coarse = segment(trajectory, robot, tolerance_deg=1.0)
     fine = segment(trajectory, robot, tolerance_deg=0.2)
@@ -141,17 +146,24 @@ def test_leaving_the_servo_range_is_an_error_not_a_clamp():
     robot = replace(robot, joints=(robot.joints[0], replace(robot.joints[1], zero_units=100.0)))
     # j1 has direction -1: +60° is 100 - 250 = -150 units
     trajectory = plan_motion(make_motion(robot, [kf([0, 0], 1), kf([0, 60], 2)])).trajectory
-    with pytest.raises(PlanningError, match=r"j1 \(servo 2\) would need position -\d+ .*"
-                                            r"outside the servo's 0..1000"):
+    with pytest.raises(
+        PlanningError,
+        match=r"j1 \(servo 2\) would need position -\d+ .*"
+        r"outside the servo's 0..1000",
+    ):
         segment(trajectory, robot)
 
 
 def test_a_tolerance_the_bus_cannot_reach_is_an_error_that_says_what_would_do():
     robot = make_robot(18, acc=60000, jerk=3_000_000, vel=300)
-    trajectory = plan_motion(make_motion(robot, [kf([-80] * 18, 1), kf([80] * 18, 2),
-                                                 kf([-80] * 18, 3)])).trajectory
-    with pytest.raises(PlanningError, match=r"tolerance 0.1° cannot be met at the bus rate: a "
-                                            r"tick must last at least 18 ms to stage 18 servos"):
+    trajectory = plan_motion(
+        make_motion(robot, [kf([-80] * 18, 1), kf([80] * 18, 2), kf([-80] * 18, 3)])
+    ).trajectory
+    with pytest.raises(
+        PlanningError,
+        match=r"tolerance 0.1° cannot be met at the bus rate: a "
+        r"tick must last at least 18 ms to stage 18 servos",
+    ):
         segment(trajectory, robot, tolerance_deg=0.1)
 
 
@@ -177,7 +189,7 @@ def fewest_ticks(trajectory, tolerance_deg, floor_ms, step_ms=1):
         if not np.isfinite(best[start]):
             continue
         d = np.arange(1, end - start + 1)[:, None]
-        slope = (grid[start + 1:] - grid[start]) / d
+        slope = (grid[start + 1 :] - grid[start]) / d
         lo = np.maximum.accumulate(slope - tolerance_deg / d, axis=0)
         hi = np.minimum.accumulate(slope + tolerance_deg / d, axis=0)
         fits = ((lo <= slope) & (slope <= hi)).all(axis=1)
@@ -190,9 +202,15 @@ def fewest_ticks(trajectory, tolerance_deg, floor_ms, step_ms=1):
 @pytest.mark.parametrize("tolerance_deg", [0.5, 0.2, 0.1])
 def test_greedy_is_within_one_tick_of_the_fewest(tolerance_deg):
     robot = make_robot(6)
-    motion = make_motion(robot, [kf([0] * 6, 1), kf([50, -30, 20, 0, -60, 10], 2, t=0.45),
-                                 kf([-20, 30, -30, 5, 40, -10], 3, t=1.0),
-                                 kf([0] * 6, 4, t=1.5)])
+    motion = make_motion(
+        robot,
+        [
+            kf([0] * 6, 1),
+            kf([50, -30, 20, 0, -60, 10], 2, t=0.45),
+            kf([-20, 30, -30, 5, 40, -10], 3, t=1.0),
+            kf([0] * 6, 4, t=1.5),
+        ],
+    )
     trajectory = plan_motion(motion).trajectory
     plan = segment(trajectory, robot, tolerance_deg=tolerance_deg)
     floor_ms = math.ceil(wire_time_ms(staging_bytes(6)) + 1.5)

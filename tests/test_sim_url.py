@@ -68,7 +68,9 @@ def test_url_options_configure_the_emulator(tmp_path):
     )
     emulator = port.emulator
     assert [(s.servo_id, s.model.name) for s in emulator.servos] == [
-        (1, "HTD-35H"), (2, "HTD-35H"), (5, "LX-224HV")
+        (1, "HTD-35H"),
+        (2, "HTD-35H"),
+        (5, "LX-224HV"),
     ]
     assert emulator.echo and emulator.turnaround_s == 0.002
     assert emulator.servos[0].start_gap_s == 0.0
@@ -99,8 +101,12 @@ def test_bad_urls_raise_serial_exceptions_that_say_what_is_valid(url, message):
 
 def test_parse_servo_specs():
     assert parse_servo_specs("1-3,9,12-13:LX-224HV") == [
-        ServoSpec(1), ServoSpec(2), ServoSpec(3), ServoSpec(9),
-        ServoSpec(12, "LX-224HV"), ServoSpec(13, "LX-224HV"),
+        ServoSpec(1),
+        ServoSpec(2),
+        ServoSpec(3),
+        ServoSpec(9),
+        ServoSpec(12, "LX-224HV"),
+        ServoSpec(13, "LX-224HV"),
     ]
     assert parse_servo_specs("2,2") == [ServoSpec(2), ServoSpec(2)]  # two servos share ID 2
     with pytest.raises(ValueError, match="low <= high"):

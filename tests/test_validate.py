@@ -27,8 +27,10 @@ def test_an_unreachable_keyframe_time_fails_with_its_line(tmp_path):
 
 def test_a_self_collision_is_reported_at_the_keyframe_heading_into_it():
     result = check_file(PREVIEW_MOTIONS / "collide.yaml")
-    assert any(p.startswith(f"{PREVIEW_MOTIONS / 'collide.yaml'}:6:5: preview: self-collision")
-               for p in result.problems)
+    assert any(
+        p.startswith(f"{PREVIEW_MOTIONS / 'collide.yaml'}:6:5: preview: self-collision")
+        for p in result.problems
+    )
 
 
 def test_physics_can_be_skipped(capsys):
@@ -48,6 +50,9 @@ def test_stretch_turns_an_unreachable_time_into_a_warning(tmp_path, capsys):
     result = check_file(path, stretch=True)
     assert result.ok
     [warning] = [w for w in result.warnings if "stretched" in w]
-    assert warning.startswith(f"{path}:4:5: stretched: reached 0.") and "s later than written" in warning
+    assert (
+        warning.startswith(f"{path}:4:5: stretched: reached 0.")
+        and "s later than written" in warning
+    )
     assert main(["validate", "--stretch", "--no-physics", str(path)]) == 0
     assert f"warning: {path}:4:5: stretched" in capsys.readouterr().out

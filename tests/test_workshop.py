@@ -45,16 +45,26 @@ def sent(emulator: BusEmulator, command: Command):
 # --- EEPROM settings ---------------------------------------------------------------------------
 SETTINGS = [
     (workshop.TEMP_LIMIT, 70, {"temp_max_c": 70}, "55 55 01 04 18 46 9C"),
-    (workshop.ANGLE_LIMITS, AngleLimits(100, 900), {"angle_min_units": 100, "angle_max_units": 900},
-     "55 55 01 07 14 64 00 84 03 F8"),
-    (workshop.VIN_LIMITS, VinLimits(4500, 12000), {"vin_min_mv": 4500, "vin_max_mv": 12000},
-     "55 55 01 07 16 94 11 E0 2E 2E"),
+    (
+        workshop.ANGLE_LIMITS,
+        AngleLimits(100, 900),
+        {"angle_min_units": 100, "angle_max_units": 900},
+        "55 55 01 07 14 64 00 84 03 F8",
+    ),
+    (
+        workshop.VIN_LIMITS,
+        VinLimits(4500, 12000),
+        {"vin_min_mv": 4500, "vin_max_mv": 12000},
+        "55 55 01 07 16 94 11 E0 2E 2E",
+    ),
     (workshop.LED, False, {"led_off": 1}, "55 55 01 04 21 01 D8"),
     (workshop.LED_ERRORS, ErrorMask(7), {"error_mask": 7}, "55 55 01 04 23 07 D0"),
 ]
 
 
-@pytest.mark.parametrize("setting, value, saved, packet_hex", SETTINGS, ids=lambda v: getattr(v, "name", ""))
+@pytest.mark.parametrize(
+    "setting, value, saved, packet_hex", SETTINGS, ids=lambda v: getattr(v, "name", "")
+)
 def test_a_setting_is_shown_old_to_new_written_and_saved(setting, value, saved, packet_hex):
     bus, emulator = make_bus()
     if setting is workshop.LED_ERRORS:
@@ -73,18 +83,22 @@ def test_a_setting_is_shown_old_to_new_written_and_saved(setting, value, saved, 
 def test_the_summary_reads_old_to_new():
     bus, _ = make_bus()
     change = workshop.plan_change(bus, 1, workshop.ANGLE_LIMITS, AngleLimits(100, 900))
-    assert str(change) == ("servo 1: angle limits 0 (0.0°)..1000 (240.0°) → "
-                           "100 (24.0°)..900 (216.0°)")
+    assert str(change) == (
+        "servo 1: angle limits 0 (0.0°)..1000 (240.0°) → 100 (24.0°)..900 (216.0°)"
+    )
 
 
-@pytest.mark.parametrize("setting, value, words", [
-    (workshop.TEMP_LIMIT, 101, "temp_c must be in 50..100"),
-    (workshop.TEMP_LIMIT, 49, "temp_c must be in 50..100"),
-    (workshop.ANGLE_LIMITS, AngleLimits(0, 1001), "max_units must be in 0..1000"),
-    (workshop.ANGLE_LIMITS, AngleLimits(600, 400), "min_units must be less than max_units"),
-    (workshop.VIN_LIMITS, VinLimits(4000, 9000), "min_mv must be in 4500..14000"),
-    (workshop.LED_ERRORS, 8, "mask must be in 0..7"),
-])
+@pytest.mark.parametrize(
+    "setting, value, words",
+    [
+        (workshop.TEMP_LIMIT, 101, "temp_c must be in 50..100"),
+        (workshop.TEMP_LIMIT, 49, "temp_c must be in 50..100"),
+        (workshop.ANGLE_LIMITS, AngleLimits(0, 1001), "max_units must be in 0..1000"),
+        (workshop.ANGLE_LIMITS, AngleLimits(600, 400), "min_units must be less than max_units"),
+        (workshop.VIN_LIMITS, VinLimits(4000, 9000), "min_mv must be in 4500..14000"),
+        (workshop.LED_ERRORS, 8, "mask must be in 0..7"),
+    ],
+)
 def test_out_of_range_values_are_refused_before_anything_is_sent(setting, value, words):
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match=words):
@@ -105,8 +119,10 @@ def test_a_warning_when_the_new_limit_stops_the_servo_at_once():
 def test_a_write_lost_on_the_wire_is_a_mismatch_naming_the_value():
     bus, emulator = make_bus(lost=(Command.TEMP_MAX_LIMIT_WRITE,))
     change = workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 70)
-    with pytest.raises(BusError, match="servo 1: temperature limit reads 85 °C after writing 70 °C: "
-                                       "the write did not take"):
+    with pytest.raises(
+        BusError,
+        match="servo 1: temperature limit reads 85 °C after writing 70 °C: the write did not take",
+    ):
         workshop.apply_change(bus, change)
     assert emulator.servo(1).eeprom.temp_max_c == 85
 
@@ -125,10 +141,16 @@ def test_broadcast_is_not_a_servo_to_configure():
         workshop.plan_change(bus, BROADCAST_ID, workshop.TEMP_LIMIT, 70)
 
 
-@pytest.mark.parametrize("text, mask", [
-    ("none", ErrorMask.NONE), ("all", ErrorMask(7)), ("5", ErrorMask(5)),
-    ("stalled", ErrorMask.STALLED), ("voltage, over-temperature", ErrorMask(3)),
-])
+@pytest.mark.parametrize(
+    "text, mask",
+    [
+        ("none", ErrorMask.NONE),
+        ("all", ErrorMask(7)),
+        ("5", ErrorMask(5)),
+        ("stalled", ErrorMask.STALLED),
+        ("voltage, over-temperature", ErrorMask(3)),
+    ],
+)
 def test_fault_masks_parse_by_name_or_number(text, mask):
     assert workshop.parse_error_mask(text) == mask
 
@@ -145,14 +167,19 @@ def test_offset_adjust_applies_at_once_and_save_persists():
     units = workshop.offset_units_from_deg(-2.4)
     assert units == -10
     workshop.adjust_offset(bus, 1, units)
-    assert sent(emulator, Command.ANGLE_OFFSET_ADJUST)[-1].encode() == bytes.fromhex("55 55 01 04 11 F6 F3")
+    assert sent(emulator, Command.ANGLE_OFFSET_ADJUST)[-1].encode() == bytes.fromhex(
+        "55 55 01 04 11 F6 F3"
+    )
     assert emulator.servo(1).offset_units == -10
     assert emulator.servo(1).eeprom.offset_units == 0  # not saved yet
     change = workshop.plan_offset_save(bus, 1)
-    assert str(change) == ("servo 1: saved offset unknown (servos report only the offset in use) "
-                           "→ -10 (-2.4°)")
+    assert str(change) == (
+        "servo 1: saved offset unknown (servos report only the offset in use) → -10 (-2.4°)"
+    )
     workshop.apply_change(bus, change)
-    assert sent(emulator, Command.ANGLE_OFFSET_WRITE)[-1].encode() == bytes.fromhex("55 55 01 03 12 E9")
+    assert sent(emulator, Command.ANGLE_OFFSET_WRITE)[-1].encode() == bytes.fromhex(
+        "55 55 01 03 12 E9"
+    )
     assert emulator.servo(1).eeprom.offset_units == -10
 
 
@@ -185,16 +212,21 @@ def test_set_id_finds_the_lone_servo_and_addresses_it_never_broadcast():
 
 def test_set_id_refuses_two_servos_whose_broadcast_replies_collide_listing_them():
     bus, emulator = make_bus(ids=(1, 2))
-    with pytest.raises(BusError, match="exactly one servo on the bus, but several servos answered "
-                                       r"a broadcast ID read at once \(their replies collided\); "
-                                       "IDs 1, 2 answer: connect only the servo"):
+    with pytest.raises(
+        BusError,
+        match="exactly one servo on the bus, but several servos answered "
+        r"a broadcast ID read at once \(their replies collided\); "
+        "IDs 1, 2 answer: connect only the servo",
+    ):
         workshop.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
 def test_set_id_refuses_two_servos_sharing_an_id():
     bus, emulator = make_bus(ids=(4, 4))
-    with pytest.raises(BusError, match=r"replies at IDs 4 are garbled \(several servos share each "):
+    with pytest.raises(
+        BusError, match=r"replies at IDs 4 are garbled \(several servos share each "
+    ):
         workshop.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
@@ -321,7 +353,8 @@ def test_motor_runs_and_stops():
     workshop.run_motor(bus, 1, -500)
     assert emulator.servo(1).motor_mode
     assert sent(emulator, Command.OR_MOTOR_MODE_WRITE)[-1].encode() == bytes.fromhex(
-        "55 55 01 07 1D 01 00 0C FE CF")
+        "55 55 01 07 1D 01 00 0C FE CF"
+    )
     workshop.stop_motor(bus, 1)
     assert not emulator.servo(1).motor_mode and emulator.servo(1).loaded
 
@@ -345,8 +378,9 @@ class Terminal(io.StringIO):
 def cli_emulator(monkeypatch):
     """`choreo servo ...` on an in-process emulator (servos 1 and 2), so tests can inspect it."""
     emulator = BusEmulator((1, 2), clock=VirtualClock())
-    monkeypatch.setattr(servo_commands, "open_bus",
-                        lambda args: ServoBus(SimSerial.from_emulator(emulator)))
+    monkeypatch.setattr(
+        servo_commands, "open_bus", lambda args: ServoBus(SimSerial.from_emulator(emulator))
+    )
     return emulator
 
 
@@ -376,8 +410,10 @@ def test_cli_without_a_terminal_or_yes_refuses(cli_emulator, monkeypatch, capsys
 
 def test_cli_led_errors_by_name_with_yes(cli_emulator, capsys):
     assert main(["servo", "led-errors", "--id", "1", "stalled,voltage", "--yes"]) == 0
-    assert "faults that flash the LED over-temperature, voltage, stalled → voltage, stalled" in \
-        capsys.readouterr().out
+    assert (
+        "faults that flash the LED over-temperature, voltage, stalled → voltage, stalled"
+        in capsys.readouterr().out
+    )
     assert cli_emulator.servo(1).eeprom.error_mask == 6
 
 
@@ -401,14 +437,26 @@ def test_cli_move_load_unload_motor(cli_emulator, capsys):
     assert not cli_emulator.servo(1).motor_mode
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["temp-limit", "--id", "1", "120"], "temperature limit must be a whole number in 50..100 °C"),
-    (["move", "--id", "1", "--pos", "1200"], "position must be a whole number in 0..1000 units"),
-    (["motor", "--id", "1", "--speed", "-2000"], "motor speed must be a whole number in -1000..1000"),
-    (["vin-limits", "--id", "1", "--min", "3000", "--max", "9000"], "4500..14000 mV"),
-    (["set-id", "254"], "a servo ID is a whole number 0-253"),
-    (["led-errors", "--id", "1", "hot"], "unknown fault 'hot'"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (
+            ["temp-limit", "--id", "1", "120"],
+            "temperature limit must be a whole number in 50..100 °C",
+        ),
+        (
+            ["move", "--id", "1", "--pos", "1200"],
+            "position must be a whole number in 0..1000 units",
+        ),
+        (
+            ["motor", "--id", "1", "--speed", "-2000"],
+            "motor speed must be a whole number in -1000..1000",
+        ),
+        (["vin-limits", "--id", "1", "--min", "3000", "--max", "9000"], "4500..14000 mV"),
+        (["set-id", "254"], "a servo ID is a whole number 0-253"),
+        (["led-errors", "--id", "1", "hot"], "unknown fault 'hot'"),
+    ],
+)
 def test_cli_bad_values_are_usage_errors_with_the_range(argv, words, capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["servo", *argv, "--port", "sim://?clock=virtual"])
@@ -416,11 +464,17 @@ def test_cli_bad_values_are_usage_errors_with_the_range(argv, words, capsys):
     assert words in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["limits", "--id", "1", "--min", "900", "--max", "100", "-y"], "min_units must be less than max_units"),
-    (["offset", "adjust", "--id", "1", "--deg", "40"], "within -30.0..+30.0°"),
-    (["move", "--id", "1", "--deg", "250"], "0..240°"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (
+            ["limits", "--id", "1", "--min", "900", "--max", "100", "-y"],
+            "min_units must be less than max_units",
+        ),
+        (["offset", "adjust", "--id", "1", "--deg", "40"], "within -30.0..+30.0°"),
+        (["move", "--id", "1", "--deg", "250"], "0..240°"),
+    ],
+)
 def test_cli_values_the_codec_refuses_are_one_line(argv, words, capsys):
     assert main(["servo", *argv, "--port", "sim://?clock=virtual"]) == 2
     err = capsys.readouterr().err
@@ -429,8 +483,12 @@ def test_cli_values_the_codec_refuses_are_one_line(argv, words, capsys):
 
 def test_cli_set_id_on_a_sim_url_renumbers_the_lone_servo(tmp_path, capsys):
     state = tmp_path / "servos.json"
-    assert main(["servo", "set-id", "5", "--yes", "--port",
-                 f"sim://?ids=1&clock=virtual&state={state}"]) == 0
+    assert (
+        main(
+            ["servo", "set-id", "5", "--yes", "--port", f"sim://?ids=1&clock=virtual&state={state}"]
+        )
+        == 0
+    )
     assert "servo ID 1 → 5 (the only servo on the bus)" in capsys.readouterr().out
     saved = json.loads(state.read_text())
     assert [s["eeprom"]["servo_id"] for s in saved["servos"]] == [5]
@@ -438,16 +496,40 @@ def test_cli_set_id_on_a_sim_url_renumbers_the_lone_servo(tmp_path, capsys):
 
 def test_cli_set_id_refuses_two_servos_on_a_sim_url(tmp_path, capsys):
     state = tmp_path / "servos.json"
-    assert main(["servo", "set-id", "5", "--yes", "--port",
-                 f"sim://?ids=1-2&clock=virtual&state={state}"]) == 1
+    assert (
+        main(
+            [
+                "servo",
+                "set-id",
+                "5",
+                "--yes",
+                "--port",
+                f"sim://?ids=1-2&clock=virtual&state={state}",
+            ]
+        )
+        == 1
+    )
     assert "several servos answered" in capsys.readouterr().err
     assert not state.exists()  # no EEPROM was written
 
 
 def test_cli_temp_limit_on_a_sim_url_persists(tmp_path, capsys):
     state = tmp_path / "servos.json"
-    assert main(["servo", "temp-limit", "--id", "3", "65", "-y", "--port",
-                 f"sim://?ids=1-6&clock=virtual&state={state}"]) == 0
+    assert (
+        main(
+            [
+                "servo",
+                "temp-limit",
+                "--id",
+                "3",
+                "65",
+                "-y",
+                "--port",
+                f"sim://?ids=1-6&clock=virtual&state={state}",
+            ]
+        )
+        == 0
+    )
     saved = json.loads(state.read_text())
     assert [s["eeprom"]["temp_max_c"] for s in saved["servos"]] == [85, 85, 65, 85, 85, 85]
 

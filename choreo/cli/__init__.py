@@ -10,14 +10,32 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
 from ..errors import ChoreoError
-from . import bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command
-from . import interop_commands, record_command, servo_commands
+from . import (
+    bus_commands,
+    emulate_command,
+    interop_commands,
+    motion_commands,
+    plan_commands,
+    play_command,
+    preview_command,
+    record_command,
+    servo_commands,
+)
 
-COMMAND_GROUPS = (bus_commands, emulate_command, motion_commands, plan_commands, play_command, preview_command,
-                  servo_commands, record_command, interop_commands)
+COMMAND_GROUPS = (
+    bus_commands,
+    emulate_command,
+    motion_commands,
+    plan_commands,
+    play_command,
+    preview_command,
+    servo_commands,
+    record_command,
+    interop_commands,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -51,7 +51,9 @@ def servo_id(text: str) -> int:
     except ValueError:
         value = -1
     if not 0 <= value <= MAX_SERVO_ID:
-        raise argparse.ArgumentTypeError(f"a servo ID is a whole number 0-{MAX_SERVO_ID}, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"a servo ID is a whole number 0-{MAX_SERVO_ID}, got {text!r}"
+        )
     return value
 
 
@@ -64,31 +66,55 @@ def id_ranges(text: str) -> tuple[int, ...]:
 
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview, play)."""
-    parser.add_argument("--speed", type=positive_float,
-                        help="time scale (overrides the file's speed): 2 plays twice as fast")
-    parser.add_argument("--stretch", action="store_true",
-                        help="move keyframes later where the limits can't meet their times "
-                             "(and say by how much) instead of failing")
-    parser.add_argument("--tolerance", type=positive_float, default=0.5, metavar="DEG",
-                        help="how far the servos' linear moves may leave the smooth plan "
-                             "(default 0.5°; rounding to whole servo units adds up to 0.12°)")
+    parser.add_argument(
+        "--speed",
+        type=positive_float,
+        help="time scale (overrides the file's speed): 2 plays twice as fast",
+    )
+    parser.add_argument(
+        "--stretch",
+        action="store_true",
+        help="move keyframes later where the limits can't meet their times "
+        "(and say by how much) instead of failing",
+    )
+    parser.add_argument(
+        "--tolerance",
+        type=positive_float,
+        default=0.5,
+        metavar="DEG",
+        help="how far the servos' linear moves may leave the smooth plan "
+        "(default 0.5°; rounding to whole servo units adds up to 0.12°)",
+    )
 
 
 def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     """--port, --timeout-ms, --retries, --echo; unset ones come from the robot file's ``bus:``
     section where a robot is involved, else from the defaults."""
     defaults = BusSettings()
-    parser.add_argument("--port", help="serial port or pyserial URL, e.g. /dev/ttyUSB0, COM3, "
-                        "sim://?ids=1-18 (default: the robot file's bus port, else the built-in "
-                        "emulated bus)")
-    parser.add_argument("--timeout-ms", type=positive_float,
-                        help=f"per-read timeout (default {defaults.timeout_s * 1000:g} ms; USB "
-                             "adapters add latency)")
-    parser.add_argument("--retries", type=int, choices=range(0, 10), metavar="N",
-                        help=f"retries per read, 0-9 (default {defaults.retries})")
-    parser.add_argument("--echo", choices=("none", "discard", "auto"),
-                        help="does the adapter echo the host's bytes (one-wire wiring)? "
-                             f"(default {defaults.echo})")
+    parser.add_argument(
+        "--port",
+        help="serial port or pyserial URL, e.g. /dev/ttyUSB0, COM3, "
+        "sim://?ids=1-18 (default: the robot file's bus port, else the built-in "
+        "emulated bus)",
+    )
+    parser.add_argument(
+        "--timeout-ms",
+        type=positive_float,
+        help=f"per-read timeout (default {defaults.timeout_s * 1000:g} ms; USB "
+        "adapters add latency)",
+    )
+    parser.add_argument(
+        "--retries",
+        type=int,
+        choices=range(0, 10),
+        metavar="N",
+        help=f"retries per read, 0-9 (default {defaults.retries})",
+    )
+    parser.add_argument(
+        "--echo",
+        choices=("none", "discard", "auto"),
+        help=f"does the adapter echo the host's bytes (one-wire wiring)? (default {defaults.echo})",
+    )
 
 
 def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSettings:
@@ -109,11 +135,14 @@ def open_bus(args: argparse.Namespace) -> ServoBus:
     if port is None:
         port = BUILT_IN_PORT
         print(f"no --port given: using the built-in emulated bus ({port})", file=sys.stderr)
-    return ServoBus(port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo)
+    return ServoBus(
+        port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo
+    )
 
 
-def open_robot_bus(args: argparse.Namespace, robot: Robot,
-                   doing: str) -> tuple[ServoBus, BusEmulator | None]:
+def open_robot_bus(
+    args: argparse.Namespace, robot: Robot, doing: str
+) -> tuple[ServoBus, BusEmulator | None]:
     """The bus of ``robot`` (command line over its file's ``bus:`` section), and the emulator
     behind it when no port is named anywhere: the robot's servos standing at home."""
     settings = bus_settings(args, robot)
@@ -121,8 +150,11 @@ def open_robot_bus(args: argparse.Namespace, robot: Robot,
     if port is None:
         emulator = built_in_emulator(robot)
         port = SimSerial.from_emulator(emulator)
-        print(f"no --port given: {doing} the built-in emulated bus ({len(robot.joints)} servos "
-              f"of {robot.name} at its home pose)", file=sys.stderr)
+        print(
+            f"no --port given: {doing} the built-in emulated bus ({len(robot.joints)} servos "
+            f"of {robot.name} at its home pose)",
+            file=sys.stderr,
+        )
     bus = ServoBus(port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo)
     return bus, emulator
 
@@ -130,6 +162,8 @@ def open_robot_bus(args: argparse.Namespace, robot: Robot,
 def built_in_emulator(robot: Robot) -> BusEmulator:
     """The robot's servos on an emulated bus in real time, standing at its home pose."""
     home = robot.pose_vector("home")
-    specs = [ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-             for j, a in zip(robot.joints, home)]
+    specs = [
+        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
+        for j, a in zip(robot.joints, home)
+    ]
     return BusEmulator(specs, clock=RealClock())

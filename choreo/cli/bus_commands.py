@@ -13,21 +13,19 @@ from ..protocol import MAX_SERVO_ID
 from ..servos import DEG_PER_UNIT
 from .arguments import add_port_arguments, id_ranges, open_bus
 
+
 def register(subparsers) -> None:
     scan = subparsers.add_parser("scan", help="list the servos that answer on the bus")
     add_port_arguments(scan)
-    scan.add_argument("--ids", type=id_ranges, default=tuple(range(MAX_SERVO_ID + 1)),
-                      metavar="RANGE", help="IDs to try, e.g. 1-18 (default 0-253)")
+    scan.add_argument(
+        "--ids",
+        type=id_ranges,
+        default=tuple(range(MAX_SERVO_ID + 1)),
+        metavar="RANGE",
+        help="IDs to try, e.g. 1-18 (default 0-253)",
+    )
     scan.add_argument("--json", action="store_true", help="machine-readable output")
     scan.set_defaults(handler=run_scan)
-
-
-
-
-
-
-
-
 
 
 def run_scan(args: argparse.Namespace) -> int:
@@ -35,26 +33,46 @@ def run_scan(args: argparse.Namespace) -> int:
         scan = bus.scan_presence(args.ids)
         statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
-        print(json.dumps({"servos": [dataclasses.asdict(s) for s in statuses],
-                          "garbled_ids": list(scan.garbled)}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "servos": [dataclasses.asdict(s) for s in statuses],
+                    "garbled_ids": list(scan.garbled),
+                },
+                indent=2,
+            )
+        )
         return 0
     for servo_id in scan.garbled:
-        print(f"ID {servo_id}: replies garbled: several servos share this ID (give them their own "
-              "IDs one at a time with `choreo servo set-id`), or the wiring is noisy")
+        print(
+            f"ID {servo_id}: replies garbled: several servos share this ID (give them their own "
+            "IDs one at a time with `choreo servo set-id`), or the wiring is noisy"
+        )
     if not statuses:
         if not scan.garbled:
-            print(f"no servo answered on IDs {_describe(args.ids)}: check power (the servos need "
-                  "their own supply), wiring and baud rate (115200)")
+            print(
+                f"no servo answered on IDs {_describe(args.ids)}: check power (the servos need "
+                "their own supply), wiring and baud rate (115200)"
+            )
         return 1
     table = Table(title=f"{len(statuses)} servo(s) on {bus.name}")
     for column in ("id", "position", "angle", "vin", "temp"):
         table.add_column(column, justify="right")
     for s in statuses:
-        table.add_row(str(s.servo_id), f"{s.pos_units}", f"{s.pos_units * DEG_PER_UNIT:.1f}°",
-                      f"{s.vin_mv / 1000:.2f} V", f"{s.temp_c} °C")
+        table.add_row(
+            str(s.servo_id),
+            f"{s.pos_units}",
+            f"{s.pos_units * DEG_PER_UNIT:.1f}°",
+            f"{s.vin_mv / 1000:.2f} V",
+            f"{s.temp_c} °C",
+        )
     Console().print(table)
     return 0
 
 
 def _describe(ids: tuple[int, ...]) -> str:
-    return f"{ids[0]}-{ids[-1]}" if ids == tuple(range(ids[0], ids[-1] + 1)) else ",".join(map(str, ids))
+    return (
+        f"{ids[0]}-{ids[-1]}"
+        if ids == tuple(range(ids[0], ids[-1] + 1))
+        else ",".join(map(str, ids))
+    )

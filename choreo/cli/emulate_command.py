@@ -12,7 +12,6 @@ from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
 from .arguments import non_negative_float
 
-
 EMULATE_LOG_LIMIT = 1000
 
 
@@ -23,19 +22,41 @@ def register(subparsers) -> None:
         description="Emulate servos on a pseudo-terminal that any program can open like a USB "
         "adapter (any baud setting works). Runs until Ctrl-C or SIGTERM.",
     )
-    parser.add_argument("--pty", required=True, metavar="PATH",
-                        help="create a symlink at PATH to the pseudo-terminal")
-    parser.add_argument("--servos", default="1-6", type=_servo_list, metavar="IDS",
-                        help="servo IDs, e.g. 1-6,9,12-14; a group may name its model: "
-                        "1-6,7:LX-224HV (default 1-6)")
-    parser.add_argument("--model", default="LX-16A", choices=sorted(SERVO_MODELS),
-                        help="servo model (default LX-16A)")
-    parser.add_argument("--echo", action="store_true",
-                        help="echo the host's bytes back, like one-wire DIY wiring")
-    parser.add_argument("--state", metavar="FILE",
-                        help="keep the servos' EEPROM (IDs, offsets, limits) in this JSON file")
-    parser.add_argument("--turnaround-ms", type=non_negative_float, default=DEFAULT_TURNAROUND_S * 1000,
-                        metavar="X", help="delay before a servo answers (default 0.6)")
+    parser.add_argument(
+        "--pty",
+        required=True,
+        metavar="PATH",
+        help="create a symlink at PATH to the pseudo-terminal",
+    )
+    parser.add_argument(
+        "--servos",
+        default="1-6",
+        type=_servo_list,
+        metavar="IDS",
+        help="servo IDs, e.g. 1-6,9,12-14; a group may name its model: "
+        "1-6,7:LX-224HV (default 1-6)",
+    )
+    parser.add_argument(
+        "--model",
+        default="LX-16A",
+        choices=sorted(SERVO_MODELS),
+        help="servo model (default LX-16A)",
+    )
+    parser.add_argument(
+        "--echo", action="store_true", help="echo the host's bytes back, like one-wire DIY wiring"
+    )
+    parser.add_argument(
+        "--state",
+        metavar="FILE",
+        help="keep the servos' EEPROM (IDs, offsets, limits) in this JSON file",
+    )
+    parser.add_argument(
+        "--turnaround-ms",
+        type=non_negative_float,
+        default=DEFAULT_TURNAROUND_S * 1000,
+        metavar="X",
+        help="delay before a servo answers (default 0.6)",
+    )
     parser.set_defaults(handler=run)
 
 

@@ -14,55 +14,90 @@ from .arguments import id_ranges
 
 
 def register(subparsers) -> None:
-    importer = subparsers.add_parser("import", help="turn another program's motion file into a "
-                                                    "choreo motion")
+    importer = subparsers.add_parser(
+        "import", help="turn another program's motion file into a choreo motion"
+    )
     formats = importer.add_subparsers(dest="format", metavar="FORMAT", required=True)
     d6a_in = formats.add_parser(
-        "d6a", help="a Hiwonder action group (.d6a, from the vendor's PC editor)",
+        "d6a",
+        help="a Hiwonder action group (.d6a, from the vendor's PC editor)",
         description="Each row becomes a keyframe reached `after` the row's Time (in seconds), so "
-                    "every time is kept to the millisecond; row 1 is reached by choreo's "
-                    "approach. Servo positions outside a joint's limits are all reported, never "
-                    "clamped.")
+        "every time is kept to the millisecond; row 1 is reached by choreo's "
+        "approach. Servo positions outside a joint's limits are all reported, never "
+        "clamped.",
+    )
     d6a_in.add_argument("file", type=Path, metavar="FILE.d6a", help="the action group")
-    d6a_in.add_argument("--robot", required=True,
-                        help="the robot: a name (models/<name>) or a path to its robot.yaml")
-    d6a_in.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.yaml",
-                        help="the motion file to write")
-    d6a_in.add_argument("--ids", type=id_ranges, metavar="IDS",
-                        help="the servo ID of each Servo column in order, e.g. 1-18,21-25 "
-                             "(default: ServoK is servo ID K)")
+    d6a_in.add_argument(
+        "--robot",
+        required=True,
+        help="the robot: a name (models/<name>) or a path to its robot.yaml",
+    )
+    d6a_in.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="OUT.yaml",
+        help="the motion file to write",
+    )
+    d6a_in.add_argument(
+        "--ids",
+        type=id_ranges,
+        metavar="IDS",
+        help="the servo ID of each Servo column in order, e.g. 1-18,21-25 "
+        "(default: ServoK is servo ID K)",
+    )
     d6a_in.set_defaults(handler=run_import_d6a)
 
-    exporter = subparsers.add_parser("export", help="write a choreo motion in another "
-                                                    "program's format")
+    exporter = subparsers.add_parser(
+        "export", help="write a choreo motion in another program's format"
+    )
     formats = exporter.add_subparsers(dest="format", metavar="FORMAT", required=True)
     d6a_out = formats.add_parser(
-        "d6a", help="a Hiwonder action group (.d6a) for the vendor's runner",
+        "d6a",
+        help="a Hiwonder action group (.d6a) for the vendor's runner",
         description="One row per keyframe (and one per hold) with column ServoK for servo ID K; "
-                    "a row's Time is the time between leaving the keyframe before and reaching "
-                    f"this one, {TIME_RANGE_MS[0]}..{TIME_RANGE_MS[1]} ms. The vendor's runner "
-                    "moves in straight lines between rows: stop, velocity and choreo's "
-                    "smoothing are not kept.")
+        "a row's Time is the time between leaving the keyframe before and reaching "
+        f"this one, {TIME_RANGE_MS[0]}..{TIME_RANGE_MS[1]} ms. The vendor's runner "
+        "moves in straight lines between rows: stop, velocity and choreo's "
+        "smoothing are not kept.",
+    )
     d6a_out.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
-    d6a_out.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.d6a",
-                         help="the action group file to write")
+    d6a_out.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="OUT.d6a",
+        help="the action group file to write",
+    )
     d6a_out.set_defaults(handler=run_export_d6a)
 
     mirror = subparsers.add_parser(
-        "mirror", help="write a motion mirrored left <-> right",
+        "mirror",
+        help="write a motion mirrored left <-> right",
         description="Swap left and right with the robot's mirror pairs; every keyframe keeps its "
-                    "timing, hold, stop and velocity (includes are written out in place).")
+        "timing, hold, stop and velocity (includes are written out in place).",
+    )
     mirror.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
-    mirror.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.yaml",
-                        help="the motion file to write")
+    mirror.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="OUT.yaml",
+        help="the motion file to write",
+    )
     mirror.set_defaults(handler=run_mirror)
 
 
 def run_import_d6a(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     keyframes = import_d6a(args.file, robot, args.output, args.ids)
-    print(f"wrote {args.output}: {_count(len(keyframes), 'keyframe')} for {robot.name} from "
-          f"{args.file}")
+    print(
+        f"wrote {args.output}: {_count(len(keyframes), 'keyframe')} for {robot.name} from "
+        f"{args.file}"
+    )
     return 0
 
 

@@ -13,17 +13,24 @@ def register(subparsers) -> None:
         "validate",
         help="check motion and robot files, reporting every problem",
         description="Check motion files and robot files (named robot.yaml) without moving "
-                    "anything: a motion is loaded, planned, compiled into servo ticks and "
-                    "simulated. Prints 'FILE: ok' per good file, else every problem as "
-                    "'path:line:col: message'; exits 1 if any file has a problem.",
+        "anything: a motion is loaded, planned, compiled into servo ticks and "
+        "simulated. Prints 'FILE: ok' per good file, else every problem as "
+        "'path:line:col: message'; exits 1 if any file has a problem.",
     )
-    validate.add_argument("--no-physics", action="store_true",
-                          help="skip the physics preview (faster; no collision or stall checks)")
-    validate.add_argument("--stretch", action="store_true",
-                          help="move keyframes later where the limits can't meet their times, as "
-                               "`choreo play --stretch` does, and warn instead of failing")
-    validate.add_argument("files", nargs="+", type=Path, metavar="FILE",
-                          help="a motion .yaml or a robot.yaml")
+    validate.add_argument(
+        "--no-physics",
+        action="store_true",
+        help="skip the physics preview (faster; no collision or stall checks)",
+    )
+    validate.add_argument(
+        "--stretch",
+        action="store_true",
+        help="move keyframes later where the limits can't meet their times, as "
+        "`choreo play --stretch` does, and warn instead of failing",
+    )
+    validate.add_argument(
+        "files", nargs="+", type=Path, metavar="FILE", help="a motion .yaml or a robot.yaml"
+    )
     validate.set_defaults(handler=run_validate)
 
 

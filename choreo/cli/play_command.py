@@ -43,23 +43,41 @@ EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130
 
 def register(subparsers) -> None:
     play = subparsers.add_parser(
-        "play", help="play a motion on the servos (default: the built-in emulated bus)",
+        "play",
+        help="play a motion on the servos (default: the built-in emulated bus)",
         description="Check every servo, approach the first pose slowly, then stream the motion: "
-                    "each tick is staged on the servos and started by one broadcast MOVE_START. "
-                    "Ctrl-C stops the servos at once.")
+        "each tick is staged on the servos and started by one broadcast MOVE_START. "
+        "Ctrl-C stops the servos at once.",
+    )
     play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
     add_port_arguments(play)
-    play.add_argument("--loop", type=positive_int, metavar="N",
-                      help="play the motion N times (overrides the file's repeat)")
-    play.add_argument("--dry-run", action="store_true",
-                      help="plan everything, open no port, print the packet schedule")
+    play.add_argument(
+        "--loop",
+        type=positive_int,
+        metavar="N",
+        help="play the motion N times (overrides the file's repeat)",
+    )
+    play.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="plan everything, open no port, print the packet schedule",
+    )
     add_planning_arguments(play)
-    play.add_argument("--exit", choices=[m.value for m in ExitMode], default="hold",
-                      help="after the motion or a stop: hold (default), go to the exit pose, unload")
+    play.add_argument(
+        "--exit",
+        choices=[m.value for m in ExitMode],
+        default="hold",
+        help="after the motion or a stop: hold (default), go to the exit pose, unload",
+    )
     play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
-    play.add_argument("--health-timeout-ms", type=positive_float, default=20.0, metavar="MS",
-                      help="timeout of the health reads made between ticks (default 20 ms; raise "
-                           "it for USB adapters with a long latency timer)")
+    play.add_argument(
+        "--health-timeout-ms",
+        type=positive_float,
+        default=20.0,
+        metavar="MS",
+        help="timeout of the health reads made between ticks (default 20 ms; raise "
+        "it for USB adapters with a long latency timer)",
+    )
     play.set_defaults(handler=run_play)
 
 
@@ -69,50 +87,75 @@ def run_play(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, repeat=args.loop)
     robot = motion.robot
     if args.exit_pose not in robot.poses:
-        print(f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
-              f"poses: {', '.join(robot.poses)}", file=sys.stderr)
+        print(
+            f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
+            f"poses: {', '.join(robot.poses)}",
+            file=sys.stderr,
+        )
         return 2
-    compiled = compile_motion(motion, speed=args.speed, stretch=args.stretch,
-                              tolerance_deg=args.tolerance)
+    compiled = compile_motion(
+        motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
+    )
     if args.dry_run:
         return dry_run(compiled)
     signal.signal(signal.SIGTERM, _interrupt)
-    options = PlayOptions(exit_mode=ExitMode(args.exit), exit_pose=args.exit_pose,
-                          tolerance_deg=args.tolerance,
-                          health_timeout_s=args.health_timeout_ms / 1000)
+    options = PlayOptions(
+        exit_mode=ExitMode(args.exit),
+        exit_pose=args.exit_pose,
+        tolerance_deg=args.tolerance,
+        health_timeout_s=args.health_timeout_ms / 1000,
+    )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
     with bus:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
-        report, exit_move = _play_with_progress(bus, robot, limits, options, performance, start_pose)
+        report, exit_move = _play_with_progress(
+            bus, robot, limits, options, performance, start_pose
+        )
         errors = None
         if emulator is not None:
             errors = measured_path_errors(emulator, robot, performance, report, start_pose)
     _print_report(report, robot, errors)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
-        print(f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
-              f"{exit_move.reason}", file=sys.stderr)
+        print(
+            f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
+            f"{exit_move.reason}",
+            file=sys.stderr,
+        )
     return EXIT_CODES[report.outcome]
 
 
-def measured_path_errors(emulator, robot: Robot, performance: Performance, report: PlayReport,
-                         start_pose) -> tuple[float, ...]:
+def measured_path_errors(
+    emulator, robot: Robot, performance: Performance, report: PlayReport, start_pose
+) -> tuple[float, ...]:
     """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms)."""
     times = np.arange(0.0, report.planned_s, 0.002)
     start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
-    return path_errors_deg(emulator.log.moves, robot, start_units, report.start_time_s, times,
-                           performance.planned_deg(times))
+    return path_errors_deg(
+        emulator.log.moves,
+        robot,
+        start_units,
+        report.start_time_s,
+        times,
+        performance.planned_deg(times),
+    )
 
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
-def _play_with_progress(bus, robot, limits, options, performance: Performance, start_pose) -> PlayReport:
+def _play_with_progress(
+    bus, robot, limits, options, performance: Performance, start_pose
+) -> PlayReport:
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
-    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"),
-               TimeElapsedColumn())
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[status]}"),
+        TimeElapsedColumn(),
+    )
     # No auto-refresh: its thread would take the GIL at random moments and make STARTs late.
     # The player calls ``update`` right after a START, in the time set aside for the bus.
     with Progress(*columns, console=console, auto_refresh=False) as progress:
@@ -121,9 +164,17 @@ def _play_with_progress(bus, robot, limits, options, performance: Performance, s
 
         def update(p) -> None:
             keyframe = bisect.bisect_right(keyframes, p.time_s)
-            stage = "approach" if p.time_s < performance.approach_s else f"keyframe {keyframe}/{len(keyframes)}"
-            progress.update(task, completed=p.tick, description=stage,
-                            status=f"{p.time_s:6.2f}/{p.duration_s:.2f} s  bus {p.bus_use:4.0%}")
+            stage = (
+                "approach"
+                if p.time_s < performance.approach_s
+                else f"keyframe {keyframe}/{len(keyframes)}"
+            )
+            progress.update(
+                task,
+                completed=p.tick,
+                description=stage,
+                status=f"{p.time_s:6.2f}/{p.duration_s:.2f} s  bus {p.bus_use:4.0%}",
+            )
             if p.time_s - last_refresh[0] >= 0.1 or p.tick == p.ticks:
                 last_refresh[0] = p.time_s
                 progress.refresh()
@@ -136,15 +187,19 @@ def _play_with_progress(bus, robot, limits, options, performance: Performance, s
 
 def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console = Console()
-    verdict = {Outcome.COMPLETED: "[green]completed[/]", Outcome.INTERRUPTED: "[yellow]stopped[/]",
-               Outcome.ABORTED: "[red]aborted[/]"}[report.outcome]
+    verdict = {
+        Outcome.COMPLETED: "[green]completed[/]",
+        Outcome.INTERRUPTED: "[yellow]stopped[/]",
+        Outcome.ABORTED: "[red]aborted[/]",
+    }[report.outcome]
     console.print(f"{verdict} {report.reason}".rstrip())
     console.print(
         f"ticks {report.ticks_played}/{report.ticks_total}, re-targeted {report.retargeted}; "
         f"START lateness p50 {report.lateness_percentile_ms(50):.2f} ms, "
         f"p99 {report.lateness_percentile_ms(99):.2f} ms, max {max(report.lateness_ms, default=0):.2f} ms; "
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
-        f"bus use {report.bus_use:.0%}")
+        f"bus use {report.bus_use:.0%}"
+    )
     table = Table(title="servo health")
     for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):
         table.add_column(column, justify="right")
@@ -164,6 +219,10 @@ def dry_run(compiled: CompiledMotion) -> int:
     for packet in packet_schedule(performance.ticks, robot):
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
     total = sum(len(p.packet) for p in packet_schedule(performance.ticks, robot))
-    print(f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
-          f"{total} bytes" if performance.ticks else "nothing to play")
+    print(
+        f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
+        f"{total} bytes"
+        if performance.ticks
+        else "nothing to play"
+    )
     return 0

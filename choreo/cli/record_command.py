@@ -31,41 +31,66 @@ KEYS = "Enter = capture every joint, u = undo the last capture, q = save and qui
 
 def register(subparsers) -> None:
     record = subparsers.add_parser(
-        "record", help="teach a motion by hand: pose the robot, capture keyframes",
+        "record",
+        help="teach a motion by hand: pose the robot, capture keyframes",
         description="Unload the joints to teach (the others hold), pose them by hand and capture "
-                    "keyframes; or sample a stream with --continuous. Every capture goes to "
-                    "OUT.yaml.journal at once, so nothing is lost if the program or the cable "
-                    "dies: --resume continues. The taught joints are loaded again at the end.")
+        "keyframes; or sample a stream with --continuous. Every capture goes to "
+        "OUT.yaml.journal at once, so nothing is lost if the program or the cable "
+        "dies: --resume continues. The taught joints are loaded again at the end.",
+    )
     record.add_argument("out", type=Path, metavar="OUT.yaml", help="the motion file to write")
-    record.add_argument("--robot", help="robot name or path to its robot.yaml (with --resume, "
-                        "default: the journal's robot)")
+    record.add_argument(
+        "--robot",
+        help="robot name or path to its robot.yaml (with --resume, default: the journal's robot)",
+    )
     add_port_arguments(record)
-    record.add_argument("--joints", nargs="+", metavar="JOINT",
-                        help="the joints to teach, unloaded (default: all); the others hold")
-    record.add_argument("--continuous", type=positive_float, metavar="HZ",
-                        help="sample every joint at HZ until Enter or q, then reduce the stream "
-                        "to keyframes")
-    record.add_argument("--tolerance", type=positive_float, default=1.0, metavar="DEG",
-                        help="how far the reduced keyframes may stray from the stream "
-                        "(default 1°)")
-    record.add_argument("--resume", action="store_true",
-                        help="continue an unfinished recording from OUT.yaml.journal")
+    record.add_argument(
+        "--joints",
+        nargs="+",
+        metavar="JOINT",
+        help="the joints to teach, unloaded (default: all); the others hold",
+    )
+    record.add_argument(
+        "--continuous",
+        type=positive_float,
+        metavar="HZ",
+        help="sample every joint at HZ until Enter or q, then reduce the stream to keyframes",
+    )
+    record.add_argument(
+        "--tolerance",
+        type=positive_float,
+        default=1.0,
+        metavar="DEG",
+        help="how far the reduced keyframes may stray from the stream (default 1°)",
+    )
+    record.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an unfinished recording from OUT.yaml.journal",
+    )
     record.add_argument("--overwrite", action="store_true", help="replace an existing OUT.yaml")
-    record.add_argument("--leave-unloaded", action="store_true",
-                        help="leave the taught joints limp at the end (default: load them)")
+    record.add_argument(
+        "--leave-unloaded",
+        action="store_true",
+        help="leave the taught joints limp at the end (default: load them)",
+    )
     record.set_defaults(handler=run_record)
 
 
 def run_record(args: argparse.Namespace) -> int:
     if args.robot is None and not args.resume:
-        print("choreo: error: --robot is required (unless --resume takes the journal's)",
-              file=sys.stderr)
+        print(
+            "choreo: error: --robot is required (unless --resume takes the journal's)",
+            file=sys.stderr,
+        )
         return 2
     robot = load_robot(args.robot) if args.robot else None
     if args.resume:
         recording = Recording.resume(args.out, robot)
-        print(f"resuming {args.out}: {len(recording.captures)} capture(s) from "
-              f"{recording.journal.path}")
+        print(
+            f"resuming {args.out}: {len(recording.captures)} capture(s) from "
+            f"{recording.journal.path}"
+        )
     else:
         recording = Recording.start(args.out, robot, overwrite=args.overwrite)
     previous_sigterm = signal.signal(signal.SIGTERM, _interrupt)
@@ -79,8 +104,10 @@ def run_record(args: argparse.Namespace) -> int:
         if not journal.exists() or not recording.captures:
             raise  # nothing kept to resume from (or the motion was saved already)
         reason = "interrupted" if isinstance(error, KeyboardInterrupt) else str(error)
-        raise ChoreoError(f"{reason}; the {len(recording.captures)} capture(s) so far are kept in "
-                          f"{journal}: run again with --resume") from error
+        raise ChoreoError(
+            f"{reason}; the {len(recording.captures)} capture(s) so far are kept in "
+            f"{journal}: run again with --resume"
+        ) from error
     finally:
         recording.close()
         signal.signal(signal.SIGTERM, previous_sigterm)
@@ -94,15 +121,25 @@ def _record(args: argparse.Namespace, recording: Recording) -> int:
     robot = recording.robot
     bus, emulator = open_robot_bus(args, robot, doing="recording on")
     if emulator is not None:
-        print("(nobody can turn emulated servos by hand, so every capture is the home pose)",
-              file=sys.stderr)
+        print(
+            "(nobody can turn emulated servos by hand, so every capture is the home pose)",
+            file=sys.stderr,
+        )
     printer = _EventPrinter(robot)
     with bus:
-        with Recorder(bus, recording, RealClock(), taught=_joint_names(args.joints),
-                      leave_unloaded=args.leave_unloaded, on_event=printer) as recorder:
+        with Recorder(
+            bus,
+            recording,
+            RealClock(),
+            taught=_joint_names(args.joints),
+            leave_unloaded=args.leave_unloaded,
+            on_event=printer,
+        ) as recorder:
             held = ", ".join(j.name for j in recorder.held) or "none"
-            print(f"unloaded, pose by hand: {', '.join(j.name for j in recorder.taught)}; "
-                  f"holding: {held}")
+            print(
+                f"unloaded, pose by hand: {', '.join(j.name for j in recorder.taught)}; "
+                f"holding: {held}"
+            )
             if args.continuous:
                 print(f"sampling at {args.continuous:g} Hz: press Enter (or q) to stop")
                 ending = recorder.run_stream(_StdinLines(), args.continuous)
@@ -114,10 +151,15 @@ def _record(args: argparse.Namespace, recording: Recording) -> int:
             if saved is None:
                 print(f"nothing captured: {args.out} not written")
             else:
-                print(f"saved {saved.path}: {saved.keyframes} keyframe(s) from {saved.captures} "
-                      "capture(s)")
-    print("taught joints left unloaded" if args.leave_unloaded
-          else "taught joints loaded again, holding where they are")
+                print(
+                    f"saved {saved.path}: {saved.keyframes} keyframe(s) from {saved.captures} "
+                    "capture(s)"
+                )
+    print(
+        "taught joints left unloaded"
+        if args.leave_unloaded
+        else "taught joints loaded again, holding where they are"
+    )
     if saved is None:
         return 1
     return 130 if ending is Ending.INTERRUPTED else 0
@@ -185,8 +227,11 @@ class _EventPrinter:
         raise TypeError(f"unknown event {event!r}")
 
     def _captured(self, event: Captured) -> str:
-        timing = "start" if event.capture.after_s is None else f"after {event.capture.after_s:.2f} s"
-        angles = "  ".join(f"{name} {angle:.1f}"
-                           for name, angle in zip(self.robot.joint_names, event.capture.angles_deg))
+        timing = (
+            "start" if event.capture.after_s is None else f"after {event.capture.after_s:.2f} s"
+        )
+        angles = "  ".join(
+            f"{name} {angle:.1f}"
+            for name, angle in zip(self.robot.joint_names, event.capture.angles_deg)
+        )
         return f"#{event.number} ({timing}): {angles}"
-

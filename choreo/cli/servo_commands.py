@@ -12,7 +12,7 @@ import dataclasses
 import functools
 import json
 import sys
-from typing import Callable
+from collections.abc import Callable
 
 from rich.console import Console
 from rich.table import Table
@@ -27,77 +27,148 @@ from .arguments import add_port_arguments, finite_float, id_ranges, open_bus, se
 
 def register(subparsers) -> None:
     servo = subparsers.add_parser(
-        "servo", help="read and configure one servo",
+        "servo",
+        help="read and configure one servo",
         description="Read and configure one servo. Settings the servo saves (ID, offset, limits, "
-                    "LED) show old → new and ask before writing; every write is read back.")
+        "LED) show old → new and ask before writing; every write is read back.",
+    )
     actions = servo.add_subparsers(dest="servo_command", metavar="ACTION", required=True)
 
     info = _action(actions, "info", "show every readable parameter of one servo", run_info)
     info.add_argument("--json", action="store_true", help="machine-readable output")
 
-    set_id = _action(actions, "set-id", "give a servo a new ID (saved)", run_set_id,
-                     needs_id=False, saves=True)
+    set_id = _action(
+        actions, "set-id", "give a servo a new ID (saved)", run_set_id, needs_id=False, saves=True
+    )
     set_id.add_argument("new_id", type=servo_id, metavar="NEW_ID", help="the new ID (0-253)")
-    set_id.add_argument("--id", type=servo_id, help="the servo's current ID; without it, the "
-                        "servo must be alone on the bus (found by a broadcast and a scan)")
-    set_id.add_argument("--scan-ids", type=id_ranges, default=tuple(workshop.ALL_IDS),
-                        metavar="RANGE", help="IDs the scan checks for other servos "
-                        "(default 0-253, about 10 s)")
+    set_id.add_argument(
+        "--id",
+        type=servo_id,
+        help="the servo's current ID; without it, the "
+        "servo must be alone on the bus (found by a broadcast and a scan)",
+    )
+    set_id.add_argument(
+        "--scan-ids",
+        type=id_ranges,
+        default=tuple(workshop.ALL_IDS),
+        metavar="RANGE",
+        help="IDs the scan checks for other servos (default 0-253, about 10 s)",
+    )
 
     offset = actions.add_parser("offset", help="trim the servo's zero (adjust, then save)")
     offset_actions = offset.add_subparsers(dest="offset_command", metavar="ACTION", required=True)
-    adjust = _action(offset_actions, "adjust", "set the offset now (not saved; the output moves)",
-                     run_offset_adjust)
+    adjust = _action(
+        offset_actions,
+        "adjust",
+        "set the offset now (not saved; the output moves)",
+        run_offset_adjust,
+    )
     lo, hi = workshop.field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
     amount = adjust.add_mutually_exclusive_group(required=True)
-    amount.add_argument("--units", type=_whole("offset", lo, hi, " units"),
-                        help=f"offset in units of 0.24° ({lo}..{hi})")
-    amount.add_argument("--deg", type=finite_float, help=f"offset in degrees "
-                        f"({lo * DEG_PER_UNIT:+.0f}..{hi * DEG_PER_UNIT:+.0f}), rounded to units")
-    _action(offset_actions, "save", "save the offset in use in the servo", run_offset_save,
-            saves=True)
+    amount.add_argument(
+        "--units",
+        type=_whole("offset", lo, hi, " units"),
+        help=f"offset in units of 0.24° ({lo}..{hi})",
+    )
+    amount.add_argument(
+        "--deg",
+        type=finite_float,
+        help=f"offset in degrees "
+        f"({lo * DEG_PER_UNIT:+.0f}..{hi * DEG_PER_UNIT:+.0f}), rounded to units",
+    )
+    _action(
+        offset_actions, "save", "save the offset in use in the servo", run_offset_save, saves=True
+    )
 
-    limits = _action(actions, "limits", "set the servo's own angle limits (saved)", run_limits,
-                     saves=True)
+    limits = _action(
+        actions, "limits", "set the servo's own angle limits (saved)", run_limits, saves=True
+    )
     lo, hi = workshop.field_range(Command.ANGLE_LIMIT_WRITE, "min_units")
-    limits.add_argument("--min", type=_whole("angle limit", lo, hi, " units"), required=True,
-                        metavar="UNITS", help=f"lowest position ({lo}..{hi}, 0.24° each)")
-    limits.add_argument("--max", type=_whole("angle limit", lo, hi, " units"), required=True,
-                        metavar="UNITS", help=f"highest position ({lo}..{hi}), above --min")
+    limits.add_argument(
+        "--min",
+        type=_whole("angle limit", lo, hi, " units"),
+        required=True,
+        metavar="UNITS",
+        help=f"lowest position ({lo}..{hi}, 0.24° each)",
+    )
+    limits.add_argument(
+        "--max",
+        type=_whole("angle limit", lo, hi, " units"),
+        required=True,
+        metavar="UNITS",
+        help=f"highest position ({lo}..{hi}), above --min",
+    )
 
-    vin = _action(actions, "vin-limits", "set the supply voltage limits (saved)", run_vin_limits,
-                  saves=True)
+    vin = _action(
+        actions, "vin-limits", "set the supply voltage limits (saved)", run_vin_limits, saves=True
+    )
     lo, hi = workshop.field_range(Command.VIN_LIMIT_WRITE, "min_mv")
-    vin.add_argument("--min", type=_whole("voltage limit", lo, hi, " mV"), required=True,
-                     metavar="MV", help=f"lowest supply, mV ({lo}..{hi})")
-    vin.add_argument("--max", type=_whole("voltage limit", lo, hi, " mV"), required=True,
-                     metavar="MV", help=f"highest supply, mV ({lo}..{hi}), above --min")
+    vin.add_argument(
+        "--min",
+        type=_whole("voltage limit", lo, hi, " mV"),
+        required=True,
+        metavar="MV",
+        help=f"lowest supply, mV ({lo}..{hi})",
+    )
+    vin.add_argument(
+        "--max",
+        type=_whole("voltage limit", lo, hi, " mV"),
+        required=True,
+        metavar="MV",
+        help=f"highest supply, mV ({lo}..{hi}), above --min",
+    )
 
-    temp = _action(actions, "temp-limit", "set the temperature limit (saved)", run_temp_limit,
-                   saves=True)
+    temp = _action(
+        actions, "temp-limit", "set the temperature limit (saved)", run_temp_limit, saves=True
+    )
     lo, hi = workshop.field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c")
-    temp.add_argument("celsius", type=_whole("temperature limit", lo, hi, " °C"), metavar="CELSIUS",
-                      help=f"the servo unloads above this ({lo}..{hi} °C; factory 85)")
+    temp.add_argument(
+        "celsius",
+        type=_whole("temperature limit", lo, hi, " °C"),
+        metavar="CELSIUS",
+        help=f"the servo unloads above this ({lo}..{hi} °C; factory 85)",
+    )
 
     led = _action(actions, "led", "turn the LED on or off (saved)", run_led, saves=True)
     led.add_argument("state", choices=("on", "off"))
 
-    led_errors = _action(actions, "led-errors", "choose the faults that flash the LED (saved)",
-                         run_led_errors, saves=True)
-    led_errors.add_argument("mask", type=_error_mask, metavar="FAULTS",
-                            help="none, all, or a comma-separated list of "
-                            f"{', '.join(workshop.ERROR_MASK_NAMES)} (or a number 0-7)")
+    led_errors = _action(
+        actions,
+        "led-errors",
+        "choose the faults that flash the LED (saved)",
+        run_led_errors,
+        saves=True,
+    )
+    led_errors.add_argument(
+        "mask",
+        type=_error_mask,
+        metavar="FAULTS",
+        help="none, all, or a comma-separated list of "
+        f"{', '.join(workshop.ERROR_MASK_NAMES)} (or a number 0-7)",
+    )
 
     move = _action(actions, "move", "move to a position (loads the servo)", run_move)
     lo, hi = workshop.field_range(Command.MOVE_TIME_WRITE, "pos_units")
     target = move.add_mutually_exclusive_group(required=True)
-    target.add_argument("--pos", type=_whole("position", lo, hi, " units"), metavar="UNITS",
-                        help=f"target position ({lo}..{hi}, 0.24° each)")
-    target.add_argument("--deg", type=finite_float, help=f"target servo angle "
-                        f"({lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}°), rounded to units")
+    target.add_argument(
+        "--pos",
+        type=_whole("position", lo, hi, " units"),
+        metavar="UNITS",
+        help=f"target position ({lo}..{hi}, 0.24° each)",
+    )
+    target.add_argument(
+        "--deg",
+        type=finite_float,
+        help=f"target servo angle "
+        f"({lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}°), rounded to units",
+    )
     lo, hi = workshop.field_range(Command.MOVE_TIME_WRITE, "time_ms")
-    move.add_argument("--time-ms", type=_whole("move time", lo, hi, " ms"), default=1000,
-                      help=f"how long the move takes ({lo}..{hi} ms, default 1000; 0 = full speed)")
+    move.add_argument(
+        "--time-ms",
+        type=_whole("move time", lo, hi, " ms"),
+        default=1000,
+        help=f"how long the move takes ({lo}..{hi} ms, default 1000; 0 = full speed)",
+    )
 
     _action(actions, "load", "torque on: hold the current position", run_load)
     _action(actions, "unload", "torque off: the servo can be turned by hand", run_unload)
@@ -105,21 +176,35 @@ def register(subparsers) -> None:
     motor = _action(actions, "motor", "turn continuously (motor mode, not saved)", run_motor)
     lo, hi = workshop.field_range(Command.OR_MOTOR_MODE_WRITE, "speed")
     speed = motor.add_mutually_exclusive_group(required=True)
-    speed.add_argument("--speed", type=_whole("motor speed", lo, hi, ""),
-                       help=f"duty {lo}..{hi}; negative turns the other way")
-    speed.add_argument("--stop", action="store_true",
-                       help="back to servo mode, holding where it stopped")
+    speed.add_argument(
+        "--speed",
+        type=_whole("motor speed", lo, hi, ""),
+        help=f"duty {lo}..{hi}; negative turns the other way",
+    )
+    speed.add_argument(
+        "--stop", action="store_true", help="back to servo mode, holding where it stopped"
+    )
 
 
-def _action(actions, name: str, help_text: str, handler: Callable, *, needs_id: bool = True,
-            saves: bool = False) -> argparse.ArgumentParser:
-    parser = actions.add_parser(name, help=help_text, description=help_text[0].upper() + help_text[1:] + ".")
+def _action(
+    actions,
+    name: str,
+    help_text: str,
+    handler: Callable,
+    *,
+    needs_id: bool = True,
+    saves: bool = False,
+) -> argparse.ArgumentParser:
+    parser = actions.add_parser(
+        name, help=help_text, description=help_text[0].upper() + help_text[1:] + "."
+    )
     add_port_arguments(parser)
     if needs_id:
         parser.add_argument("--id", type=servo_id, required=True, help="the servo's ID (0-253)")
     if saves:
-        parser.add_argument("-y", "--yes", action="store_true",
-                            help="write without asking for confirmation")
+        parser.add_argument(
+            "-y", "--yes", action="store_true", help="write without asking for confirmation"
+        )
     parser.set_defaults(handler=_bad_values_are_usage_errors(handler))
     return parser
 
@@ -132,7 +217,8 @@ def _whole(what: str, lo: int, hi: int, unit: str) -> Callable[[str], int]:
             value = None
         if value is None or not lo <= value <= hi:
             raise argparse.ArgumentTypeError(
-                f"{what} must be a whole number in {lo}..{hi}{unit}, got {text!r}")
+                f"{what} must be a whole number in {lo}..{hi}{unit}, got {text!r}"
+            )
         return value
 
     return parse
@@ -180,8 +266,10 @@ def _confirmed(yes: bool) -> bool:
     if yes:
         return True
     if not sys.stdin.isatty():
-        raise ChoreoError("nothing written: this change needs confirmation and stdin is not a "
-                          "terminal to ask on; add --yes to write without asking")
+        raise ChoreoError(
+            "nothing written: this change needs confirmation and stdin is not a "
+            "terminal to ask on; add --yes to write without asking"
+        )
     try:
         answer = input("write it to the servo? [y/N] ")
     except EOFError:
@@ -203,8 +291,11 @@ def run_info(args: argparse.Namespace) -> int:
 def run_set_id(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
         if args.id is None:
-            print(f"looking for the one servo on the bus: a broadcast ID read, then a scan of "
-                  f"{len(args.scan_ids)} IDs", file=sys.stderr)
+            print(
+                f"looking for the one servo on the bus: a broadcast ID read, then a scan of "
+                f"{len(args.scan_ids)} IDs",
+                file=sys.stderr,
+            )
         change = workshop.plan_id_change(bus, args.new_id, args.id, args.scan_ids)
         return _confirm_and_write(args, bus, change, workshop.apply_id_change)
 
@@ -213,8 +304,10 @@ def run_offset_adjust(args: argparse.Namespace) -> int:
     units = args.units if args.units is not None else workshop.offset_units_from_deg(args.deg)
     with open_bus(args) as bus:
         workshop.adjust_offset(bus, args.id, units)
-    print(f"servo {args.id}: offset {workshop.show_units(units)} in use (the output moved); "
-          f"not saved: `choreo servo offset save --id {args.id}` keeps it across power-off")
+    print(
+        f"servo {args.id}: offset {workshop.show_units(units)} in use (the output moved); "
+        f"not saved: `choreo servo offset save --id {args.id}` keeps it across power-off"
+    )
     return 0
 
 
@@ -279,15 +372,19 @@ def run_motor(args: argparse.Namespace) -> int:
             print(f"servo {args.id}: servo mode, holding where it stopped")
             return 0
         workshop.run_motor(bus, args.id, args.speed)
-    print(f"servo {args.id}: motor mode at speed {args.speed} (not saved); "
-          f"`choreo servo motor --id {args.id} --stop` ends it")
+    print(
+        f"servo {args.id}: motor mode at speed {args.speed} (not saved); "
+        f"`choreo servo motor --id {args.id} --stop` ends it"
+    )
     return 0
 
 
 # --- info output -------------------------------------------------------------------------------
 def _jsonable(info: ServoInfo) -> dict:
     values = dataclasses.asdict(info)
-    values["led_errors"] = [flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors]
+    values["led_errors"] = [
+        flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors
+    ]
     return values
 
 

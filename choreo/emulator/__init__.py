@@ -20,7 +20,7 @@ from .bus import (
     parse_servo_specs,
 )
 from .protocol_sim import SimSerial, emulator_from_url
-from .servo import EmulatedServo, Eeprom, MoveStart, ReplyFate, ReplyFaults
+from .servo import Eeprom, EmulatedServo, MoveStart, ReplyFate, ReplyFaults
 
 __all__ = [
     "BusEmulator",

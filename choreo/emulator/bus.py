@@ -32,16 +32,16 @@ import os
 import random
 import threading
 from collections import deque
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
 
 from ..atomic import write_text_atomically
 from ..clock import Clock, RealClock
 from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from ..servos import servo_model
-from .servo import DEFAULT_START_GAP_S, EmulatedServo, Eeprom, MoveStart, ReplyFate
+from .servo import DEFAULT_START_GAP_S, Eeprom, EmulatedServo, MoveStart, ReplyFate
 
 logger = logging.getLogger(__name__)
 
@@ -133,7 +133,9 @@ class BusEmulator:
         self._lock = threading.RLock()
         self._rng = random.Random(seed)
         self._decoder = PacketDecoder()
-        self._tx: deque[tuple[float, int]] = deque()  # host bytes: (time the last bit is sent, byte)
+        self._tx: deque[tuple[float, int]] = (
+            deque()
+        )  # host bytes: (time the last bit is sent, byte)
         self._in_flight: list[tuple[float, int, int]] = []  # heap of (arrival time, seq, byte)
         self._seq = 0
         self._arrived = bytearray()  # bytes the host can read
@@ -310,7 +312,9 @@ class BusEmulator:
         if replies:
             self._send_replies(replies, at_s)
 
-    def _send_replies(self, replies: list[tuple[EmulatedServo, bytes]], request_end_s: float) -> None:
+    def _send_replies(
+        self, replies: list[tuple[EmulatedServo, bytes]], request_end_s: float
+    ) -> None:
         sent = []
         for servo, data in replies:
             fate, data = self._apply_reply_faults(servo, data)
@@ -326,7 +330,7 @@ class BusEmulator:
             servo_ids = tuple(servo_id for servo_id, _, _ in sent)
             data, fate = _collide([data for _, data, _ in sent]), ReplyFate.COLLIDED
         else:
-            (servo_id, data, fate), = sent
+            ((servo_id, data, fate),) = sent
             servo_ids = (servo_id,)
         last_byte_s = request_end_s + self.turnaround_s + len(data) * BYTE_TIME_S
         self._schedule(last_byte_s, data)

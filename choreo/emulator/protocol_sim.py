@@ -171,7 +171,12 @@ class SimSerial(SerialBase):
             while True:
                 data += emulator.take_received(size - len(data))
                 now = emulator.clock.now()
-                if len(data) >= size or now >= deadline_s or self._read_cancelled or not self.is_open:
+                if (
+                    len(data) >= size
+                    or now >= deadline_s
+                    or self._read_cancelled
+                    or not self.is_open
+                ):
                     return bytes(data)
                 wake_s = min(deadline_s, emulator.next_event_s())
                 self._wakeup.wait(None if math.isinf(wake_s) else wake_s - now)

@@ -36,8 +36,8 @@ import functools
 import logging
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
-from typing import Callable
 
 from ..protocol import (
     BROADCAST_ID,
@@ -312,7 +312,9 @@ class EmulatedServo:
     @_at_now
     def temperature_c(self, now, temp_c: float) -> None:
         if not 0 <= temp_c <= 255:
-            raise ValueError(f"temperature_c must be in 0..255 (one byte on the wire), got {temp_c}")
+            raise ValueError(
+                f"temperature_c must be in 0..255 (one byte on the wire), got {temp_c}"
+            )
         self._temp_c = temp_c
         self._update_faults(now)
 
@@ -369,8 +371,9 @@ class EmulatedServo:
             logger.debug("servo %d ignores %s: %s", self._eeprom.servo_id, packet, error)
             return Outcome(self._eeprom)
         if not self._in_range(command, values):
-            logger.debug("servo %d ignores %s %s: out of range",
-                         self._eeprom.servo_id, command.name, values)
+            logger.debug(
+                "servo %d ignores %s %s: out of range", self._eeprom.servo_id, command.name, values
+            )
             return Outcome(self._eeprom)
         reply_values = self._HANDLERS[command](self, at_s, packet, **values)
         moves, self._moves_started = tuple(self._moves_started), []
@@ -394,7 +397,9 @@ class EmulatedServo:
         for f in spec.request:
             if f.name != "pos_units" and not f.lo <= values[f.name] <= f.hi:
                 return False
-        return spec.ordered_pair is None or values[spec.ordered_pair[0]] < values[spec.ordered_pair[1]]
+        return (
+            spec.ordered_pair is None or values[spec.ordered_pair[0]] < values[spec.ordered_pair[1]]
+        )
 
     # --- motion ----------------------------------------------------------------------------
     @property
@@ -428,7 +433,14 @@ class EmulatedServo:
         self._target_units = target_units
         self._set_motion(now, _Motion(now, start, velocity, now + duration_s))
         self._moves_started.append(
-            MoveStart(now, self._eeprom.servo_id, start - self._offset_units, target_units, duration_s, command)
+            MoveStart(
+                now,
+                self._eeprom.servo_id,
+                start - self._offset_units,
+                target_units,
+                duration_s,
+                command,
+            )
         )
 
     def _faults(self) -> ErrorMask:
@@ -498,8 +510,9 @@ class EmulatedServo:
             return
         first_byte_s = at_s - len(packet.encode()) * BYTE_TIME_S
         if first_byte_s - self._preset_end_s < self.start_gap_s:
-            logger.debug("servo %d missed MOVE_START sent too soon after its preset",
-                         self._eeprom.servo_id)
+            logger.debug(
+                "servo %d missed MOVE_START sent too soon after its preset", self._eeprom.servo_id
+            )
             return
         self._move(at_s, *self._preset, Command.MOVE_START)
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -10,8 +10,9 @@ from ..robot import Robot
 from .servo import MoveStart
 
 
-def executed_units(moves: Iterable[MoveStart], servo_id: int, start_units: float,
-                   times_s: np.ndarray) -> np.ndarray:
+def executed_units(
+    moves: Iterable[MoveStart], servo_id: int, start_units: float, times_s: np.ndarray
+) -> np.ndarray:
     """Position (POS_READ units) of one servo at ``times_s``, from its logged linear moves.
 
     A move runs from ``from_units`` to ``to_units`` over ``duration_s``; a later move starts from
@@ -28,19 +29,35 @@ def executed_units(moves: Iterable[MoveStart], servo_id: int, start_units: float
     begin = np.array([m.from_units for m in own])[index]
     end = np.array([m.to_units for m in own])[index]
     duration = np.array([m.duration_s for m in own])[index]
-    fraction = np.where(duration > 0, (times_s - starts[index]) / np.where(duration > 0, duration, 1), 1.0)
+    fraction = np.where(
+        duration > 0, (times_s - starts[index]) / np.where(duration > 0, duration, 1), 1.0
+    )
     path = begin + (end - begin) * np.clip(fraction, 0.0, 1.0)
     return np.where(before, float(start_units), path)
 
 
-def path_errors_deg(moves: Iterable[MoveStart], robot: Robot, start_units: Sequence[float],
-                    start_time_s: float, times_s: np.ndarray,
-                    planned_deg: np.ndarray) -> tuple[float, ...]:
+def path_errors_deg(
+    moves: Iterable[MoveStart],
+    robot: Robot,
+    start_units: Sequence[float],
+    start_time_s: float,
+    times_s: np.ndarray,
+    planned_deg: np.ndarray,
+) -> tuple[float, ...]:
     """Per joint, the largest distance between where the emulated servo went and
     ``planned_deg`` (``(len(times_s), n_joints)`` degrees at ``start_time_s + times_s``)."""
     moves = list(moves)
     return tuple(
-        float(np.max(np.abs(joint.to_deg(executed_units(moves, joint.servo_id, start,
-                                                        start_time_s + times_s))
-                            - planned_deg[:, j]), initial=0.0))
-        for j, (joint, start) in enumerate(zip(robot.joints, start_units)))
+        float(
+            np.max(
+                np.abs(
+                    joint.to_deg(
+                        executed_units(moves, joint.servo_id, start, start_time_s + times_s)
+                    )
+                    - planned_deg[:, j]
+                ),
+                initial=0.0,
+            )
+        )
+        for j, (joint, start) in enumerate(zip(robot.joints, start_units))
+    )

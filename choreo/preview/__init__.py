@@ -51,12 +51,22 @@ __all__ = [
 ]
 
 
-def simulate_motion(motion: Motion, settings: SimSettings = SimSettings(), *,
-                    speed: float | None = None, stretch: bool = False,
-                    tolerance_deg: float = 0.5) -> Rollout:
+def simulate_motion(
+    motion: Motion,
+    settings: SimSettings = SimSettings(),
+    *,
+    speed: float | None = None,
+    stretch: bool = False,
+    tolerance_deg: float = 0.5,
+) -> Rollout:
     """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), then
     play them to the simulated robot, starting at rest at the motion's first pose."""
     compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
     trajectory = compiled.trajectory
-    return simulate(motion.robot, compiled.ticks.ticks, trajectory.at(0.0)[0],
-                    keyframe_times_s=trajectory.keyframe_times_s, settings=settings)
+    return simulate(
+        motion.robot,
+        compiled.ticks.ticks,
+        trajectory.at(0.0)[0],
+        keyframe_times_s=trajectory.keyframe_times_s,
+        settings=settings,
+    )

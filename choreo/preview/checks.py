@@ -42,9 +42,13 @@ class CheckResult:
 
     def to_dict(self) -> dict:
         record = asdict(self)
-        record.update(kind=self.kind.value, severity=self.severity.value,
-                      bodies=list(self.bodies), time_s=round(self.time_s, 4),
-                      duration_s=round(self.duration_s, 4))
+        record.update(
+            kind=self.kind.value,
+            severity=self.severity.value,
+            bodies=list(self.bodies),
+            time_s=round(self.time_s, 4),
+            duration_s=round(self.duration_s, 4),
+        )
         if self.value is not None:
             record["value"] = round(self.value, 4)
         return record
@@ -66,12 +70,14 @@ class CheckThresholds:
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
         if not 0 < self.saturation_fraction <= 1:
-            raise ValueError(f"saturation_fraction must be in (0, 1], "
-                             f"got {self.saturation_fraction}")
+            raise ValueError(
+                f"saturation_fraction must be in (0, 1], got {self.saturation_fraction}"
+            )
 
 
-def run_checks(rollout: Rollout,
-               thresholds: CheckThresholds = CheckThresholds()) -> list[CheckResult]:
+def run_checks(
+    rollout: Rollout, thresholds: CheckThresholds = CheckThresholds()
+) -> list[CheckResult]:
     """Every problem found, in time order."""
     results = [
         *check_contacts(rollout, thresholds),
@@ -126,7 +132,7 @@ def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
         depth_by_step = np.zeros(len(rollout.times_s))
         np.maximum.at(depth_by_step, rollout.contact_step[mine], rollout.contact_depth_m[mine])
         for run in timeline.episodes(mask):
-            depth_mm = 1000 * float(depth_by_step[run[0]:run[1]].max())
+            depth_mm = 1000 * float(depth_by_step[run[0] : run[1]].max())
             when = f"at t={timeline.start(run):.2f} s for {timeline.duration(run):.2f} s"
             if pair.kind == "self":
                 kind = CheckKind.SELF_COLLISION
@@ -134,10 +140,17 @@ def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
             else:
                 kind = CheckKind.FLOOR_CONTACT
                 message = f"{pair.body_a} touches the {pair.body_b} {when}"
-            results.append(CheckResult(
-                kind, Severity.ERROR, f"{message} (up to {depth_mm:.1f} mm deep)",
-                timeline.start(run), timeline.duration(run),
-                bodies=(pair.body_a, pair.body_b), value=depth_mm))
+            results.append(
+                CheckResult(
+                    kind,
+                    Severity.ERROR,
+                    f"{message} (up to {depth_mm:.1f} mm deep)",
+                    timeline.start(run),
+                    timeline.duration(run),
+                    bodies=(pair.body_a, pair.body_b),
+                    value=depth_mm,
+                )
+            )
     return results
 
 
@@ -149,8 +162,10 @@ def check_joint_limits(rollout: Rollout, thresholds: CheckThresholds) -> list[Ch
     results = []
     for j, joint in enumerate(rollout.robot.joints):
         q, aim = rollout.position_deg[:, j], rollout.setpoint_deg[:, j]
-        for side, limit, sign in (("min", joint.limits.min_deg, -1),
-                                  ("max", joint.limits.max_deg, 1)):
+        for side, limit, sign in (
+            ("min", joint.limits.min_deg, -1),
+            ("max", joint.limits.max_deg, 1),
+        ):
             past_q = sign * (q - limit)  # > 0: beyond the limit
             past_aim = sign * (aim - limit)
             at_limit = past_q > -margin
@@ -161,18 +176,32 @@ def check_joint_limits(rollout: Rollout, thresholds: CheckThresholds) -> list[Ch
                 start, duration = timeline.start(run), timeline.duration(run)
                 if pushing[span].any():
                     worst = float(limit + sign * past_aim[span].max())
-                    results.append(CheckResult(
-                        CheckKind.JOINT_LIMIT, Severity.ERROR,
-                        f"{joint.name} hits its {side} limit {limit:g}° at t={start:.2f} s and "
-                        f"its servo pushes on towards {worst:.1f}° for {duration:.2f} s",
-                        start, duration, joint=joint.name, value=worst))
+                    results.append(
+                        CheckResult(
+                            CheckKind.JOINT_LIMIT,
+                            Severity.ERROR,
+                            f"{joint.name} hits its {side} limit {limit:g}° at t={start:.2f} s and "
+                            f"its servo pushes on towards {worst:.1f}° for {duration:.2f} s",
+                            start,
+                            duration,
+                            joint=joint.name,
+                            value=worst,
+                        )
+                    )
                 else:
                     worst = float(limit + sign * past_q[span].max())
-                    results.append(CheckResult(
-                        CheckKind.JOINT_LIMIT, Severity.WARNING,
-                        f"{joint.name} runs into its {side} limit {limit:g}° at t={start:.2f} s "
-                        f"(reaching {worst:.1f}°) for {duration:.2f} s",
-                        start, duration, joint=joint.name, value=worst))
+                    results.append(
+                        CheckResult(
+                            CheckKind.JOINT_LIMIT,
+                            Severity.WARNING,
+                            f"{joint.name} runs into its {side} limit {limit:g}° at t={start:.2f} s "
+                            f"(reaching {worst:.1f}°) for {duration:.2f} s",
+                            start,
+                            duration,
+                            joint=joint.name,
+                            value=worst,
+                        )
+                    )
     return results
 
 
@@ -186,11 +215,19 @@ def check_saturation(rollout: Rollout, thresholds: CheckThresholds) -> list[Chec
             start, duration = timeline.start(run), timeline.duration(run)
             if duration < thresholds.stall_after_s:
                 continue
-            results.append(CheckResult(
-                CheckKind.SATURATION, Severity.ERROR,
-                f"{joint.name} servo at its {stall[j]:.2f} N·m torque limit for {duration:.2f} s "
-                f"from t={start:.2f} s: it would stall (too fast for the load, or the load too "
-                f"heavy)", start, duration, joint=joint.name, value=float(stall[j])))
+            results.append(
+                CheckResult(
+                    CheckKind.SATURATION,
+                    Severity.ERROR,
+                    f"{joint.name} servo at its {stall[j]:.2f} N·m torque limit for {duration:.2f} s "
+                    f"from t={start:.2f} s: it would stall (too fast for the load, or the load too "
+                    f"heavy)",
+                    start,
+                    duration,
+                    joint=joint.name,
+                    value=float(stall[j]),
+                )
+            )
     return results
 
 
@@ -202,13 +239,20 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
     for j, joint in enumerate(rollout.robot.joints):
         for run in timeline.episodes(error[:, j] > limit):
             start, duration = timeline.start(run), timeline.duration(run)
-            worst = float(error[run[0]:run[1], j].max())
+            worst = float(error[run[0] : run[1], j].max())
             lasting = duration >= thresholds.tracking_error_after_s
-            results.append(CheckResult(
-                CheckKind.TRACKING_ERROR, Severity.ERROR if lasting else Severity.WARNING,
-                f"{joint.name} is {worst:.1f}° off its commanded path (more than {limit:g}°) "
-                f"from t={start:.2f} s for {duration:.2f} s",
-                start, duration, joint=joint.name, value=worst))
+            results.append(
+                CheckResult(
+                    CheckKind.TRACKING_ERROR,
+                    Severity.ERROR if lasting else Severity.WARNING,
+                    f"{joint.name} is {worst:.1f}° off its commanded path (more than {limit:g}°) "
+                    f"from t={start:.2f} s for {duration:.2f} s",
+                    start,
+                    duration,
+                    joint=joint.name,
+                    value=worst,
+                )
+            )
     return results
 
 
@@ -224,8 +268,18 @@ def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResul
     step = int(fallen[0])
     t = float(rollout.times_s[step])
     height, tilt = float(rollout.root_height_m[step]), float(rollout.root_tilt_deg[step])
-    why = (f"its height drops to {height:.3f} m (from {start_height:.3f} m)" if low[step]
-           else f"it tilts {tilt:.0f}° from upright")
-    return [CheckResult(CheckKind.FALL, Severity.ERROR,
-                        f"{rollout.root_body} falls at t={t:.2f} s: {why}", t,
-                        bodies=(rollout.root_body or "",), value=tilt if not low[step] else height)]
+    why = (
+        f"its height drops to {height:.3f} m (from {start_height:.3f} m)"
+        if low[step]
+        else f"it tilts {tilt:.0f}° from upright"
+    )
+    return [
+        CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{rollout.root_body} falls at t={t:.2f} s: {why}",
+            t,
+            bodies=(rollout.root_body or "",),
+            value=tilt if not low[step] else height,
+        )
+    ]

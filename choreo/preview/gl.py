@@ -20,8 +20,10 @@ from ..errors import PreviewError
 log = logging.getLogger(__name__)
 
 BACKENDS = ("egl", "osmesa")
-INSTALL_HINT = ("install Mesa's EGL and OSMesa, e.g. apt-get install libegl1 libgl1 libgles2 "
-                "libosmesa6 libgl1-mesa-dri")
+INSTALL_HINT = (
+    "install Mesa's EGL and OSMesa, e.g. apt-get install libegl1 libgl1 libgles2 "
+    "libosmesa6 libgl1-mesa-dri"
+)
 PROBE_TIMEOUT_S = 60
 
 _PROBE = """
@@ -34,6 +36,7 @@ model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></wor
 mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100).free()
 context.free()
 """
+
 
 @functools.cache
 def offscreen_backend() -> str:
@@ -59,16 +62,22 @@ def choose_backend() -> str:
         if problem is None:
             return backend
         failures.append(f"{backend}: {problem}")
-    raise PreviewError(f"cannot render offscreen: no OpenGL back-end works "
-                       f"({'; '.join(failures)}); {INSTALL_HINT}")
+    raise PreviewError(
+        f"cannot render offscreen: no OpenGL back-end works ({'; '.join(failures)}); {INSTALL_HINT}"
+    )
 
 
 def probe(backend: str) -> str | None:
     """None if ``backend`` can create a context and a MuJoCo render context, else why not."""
     env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
     try:
-        done = subprocess.run([sys.executable, "-c", _PROBE, backend], env=env,
-                              capture_output=True, text=True, timeout=PROBE_TIMEOUT_S)
+        done = subprocess.run(
+            [sys.executable, "-c", _PROBE, backend],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=PROBE_TIMEOUT_S,
+        )
     except subprocess.TimeoutExpired:
         return f"no answer within {PROBE_TIMEOUT_S} s"
     if done.returncode == 0:
@@ -87,6 +96,7 @@ def context_class(backend: str):
         else:
             from mujoco.osmesa import GLContext
     except (ImportError, OSError, AttributeError) as error:
-        raise PreviewError(f"cannot render offscreen with {backend}: {error}; "
-                           f"{INSTALL_HINT}") from None
+        raise PreviewError(
+            f"cannot render offscreen with {backend}: {error}; {INSTALL_HINT}"
+        ) from None
     return GLContext

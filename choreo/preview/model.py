@@ -6,8 +6,8 @@ armature from the servo model) on the compiled model, whatever the MJCF says.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -34,8 +34,9 @@ def load_model(robot: Robot) -> mujoco.MjModel:
     """The robot's scene (floor and light) or, without one, its bare MJCF."""
     path = robot.scene_path or robot.mjcf_path
     if path is None:
-        raise PreviewError(f"robot {robot.name} has no MuJoCo model: add mjcf (and scene) to "
-                           f"{robot.path}")
+        raise PreviewError(
+            f"robot {robot.name} has no MuJoCo model: add mjcf (and scene) to {robot.path}"
+        )
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as error:
@@ -47,22 +48,30 @@ def index_joints(model: mujoco.MjModel, robot: Robot) -> JointIndex:
     for joint in robot.joints:
         joint_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.mjcf_joint)
         if joint_id < 0:
-            raise PreviewError(f"joint {joint.name}: MJCF joint {joint.mjcf_joint!r} not found in "
-                               f"{robot.scene_path or robot.mjcf_path}")
-        drives = [a for a in range(model.nu)
-                  if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
-                  and model.actuator_trnid[a, 0] == joint_id]
+            raise PreviewError(
+                f"joint {joint.name}: MJCF joint {joint.mjcf_joint!r} not found in "
+                f"{robot.scene_path or robot.mjcf_path}"
+            )
+        drives = [
+            a
+            for a in range(model.nu)
+            if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+            and model.actuator_trnid[a, 0] == joint_id
+        ]
         if len(drives) != 1:
-            raise PreviewError(f"joint {joint.name}: MJCF joint {joint.mjcf_joint!r} needs exactly "
-                               f"one actuator, found {len(drives)}")
+            raise PreviewError(
+                f"joint {joint.name}: MJCF joint {joint.mjcf_joint!r} needs exactly "
+                f"one actuator, found {len(drives)}"
+            )
         qpos.append(model.jnt_qposadr[joint_id])
         dof.append(model.jnt_dofadr[joint_id])
         actuator.append(drives[0])
     return JointIndex(np.array(qpos), np.array(dof), np.array(actuator))
 
 
-def apply_servo_models(model: mujoco.MjModel, index: JointIndex,
-                       params: Sequence[ActuatorParams], to_deg: UnitsToDeg) -> None:
+def apply_servo_models(
+    model: mujoco.MjModel, index: JointIndex, params: Sequence[ActuatorParams], to_deg: UnitsToDeg
+) -> None:
     """Make every actuator the servo it stands for: a position servo with the servo model's
     kp, torque limit, damping and armature, able to aim anywhere in the servo's 0..1000 range
     (so a target past a joint limit pushes against the stop, as it would on the robot)."""
@@ -130,8 +139,7 @@ def link_name(model: mujoco.MjModel, link: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, link) or f"body {link}"
 
 
-def start_state(model: mujoco.MjModel, index: JointIndex,
-                initial_deg: np.ndarray) -> mujoco.MjData:
+def start_state(model: mujoco.MjModel, index: JointIndex, initial_deg: np.ndarray) -> mujoco.MjData:
     """The MJCF's ``home`` keyframe (for a free-floating robot: where its body stands), with the
     robot's joints at the motion's first pose."""
     data = mujoco.MjData(model)

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
 
 import mujoco
 import numpy as np
@@ -72,18 +72,22 @@ def frame_times(duration_s: float, fps: float) -> np.ndarray:
     return np.arange(int(math.floor(duration_s * fps + 1e-9)) + 1) / fps
 
 
-def render_preview(rollout: Rollout, path: str | Path, settings: RenderSettings = RenderSettings(),
-                   results: Sequence[CheckResult] = (),
-                   on_frame: ProgressCallback | None = None) -> RenderResult:
+def render_preview(
+    rollout: Rollout,
+    path: str | Path,
+    settings: RenderSettings = RenderSettings(),
+    results: Sequence[CheckResult] = (),
+    on_frame: ProgressCallback | None = None,
+) -> RenderResult:
     """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
-        raise ValueError(f"cannot render to {path.name}: the file must end in "
-                         f"{', '.join(FORMATS)}")
+        raise ValueError(f"cannot render to {path.name}: the file must end in {', '.join(FORMATS)}")
     if suffix == ".mp4" and (settings.width % 2 or settings.height % 2):
-        raise ValueError(f"mp4 needs an even width and height, got "
-                         f"{settings.width}x{settings.height}")
+        raise ValueError(
+            f"mp4 needs an even width and height, got {settings.width}x{settings.height}"
+        )
     fps = settings.fps or DEFAULT_FPS[suffix]
     if suffix == ".png":
         times = np.linspace(0.0, rollout.duration_s, settings.sheet_frames)
@@ -100,22 +104,33 @@ def render_preview(rollout: Rollout, path: str | Path, settings: RenderSettings 
     return RenderResult(path, len(times), backend)
 
 
-def render_frames(rollout: Rollout, times_s: np.ndarray, settings: RenderSettings,
-                  results: Sequence[CheckResult] = (), backend: str | None = None,
-                  on_frame: ProgressCallback | None = None) -> Iterator[np.ndarray]:
+def render_frames(
+    rollout: Rollout,
+    times_s: np.ndarray,
+    settings: RenderSettings,
+    results: Sequence[CheckResult] = (),
+    backend: str | None = None,
+    on_frame: ProgressCallback | None = None,
+) -> Iterator[np.ndarray]:
     """The frames (height, width, 3) uint8 at ``times_s``, one at a time."""
     model = load_model(rollout.robot)
     data = mujoco.MjData(model)
     steps = np.clip(np.searchsorted(rollout.times_s, times_s - 1e-9), 0, len(rollout.times_s) - 1)
     cameras = track_camera(model, rollout, steps)
-    with FrameRenderer(model, settings.width, settings.height, backend or offscreen_backend(),
-                       settings.high_quality) as renderer:
+    with FrameRenderer(
+        model,
+        settings.width,
+        settings.height,
+        backend or offscreen_backend(),
+        settings.high_quality,
+    ) as renderer:
         for k, step in enumerate(steps):
             data.qpos[:] = rollout.qpos[step]
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
-            yield renderer.render(data, cameras[k], status_text(rollout, t),
-                                  problem_text(results, t))
+            yield renderer.render(
+                data, cameras[k], status_text(rollout, t), problem_text(results, t)
+            )
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
 
@@ -134,8 +149,9 @@ def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
 
 def problem_text(results: Sequence[CheckResult], t: float) -> tuple[str, str]:
     """The overlay's (problems, where) columns at time ``t``: every problem under way."""
-    shown = [r for r in results
-             if r.time_s <= t + 1e-9 <= r.time_s + max(r.duration_s, PROBLEM_SHOWN_S)]
+    shown = [
+        r for r in results if r.time_s <= t + 1e-9 <= r.time_s + max(r.duration_s, PROBLEM_SHOWN_S)
+    ]
     kinds = [f"{r.severity.value} {SHORT_NAMES[r.kind]}" for r in shown]
     where = [r.joint or " / ".join(r.bodies) for r in shown]
     return "\n".join(kinds), "\n".join(where)
@@ -149,8 +165,7 @@ class CameraPose:
     elevation: float
 
 
-def track_camera(model: mujoco.MjModel, rollout: Rollout,
-                 steps: np.ndarray) -> list[CameraPose]:
+def track_camera(model: mujoco.MjModel, rollout: Rollout, steps: np.ndarray) -> list[CameraPose]:
     """A camera that keeps the whole robot in view: fixed on a fixed robot's working volume,
     following (smoothly) a free-floating robot's body."""
     data = mujoco.MjData(model)
@@ -167,8 +182,9 @@ def track_camera(model: mujoco.MjModel, rollout: Rollout,
         high = np.maximum(high, (points + radius).max(axis=0))
         if root is not None:
             anchors[k] = data.xpos[root]
-            reach = max(reach, float(np.max(np.linalg.norm(points - anchors[k], axis=1)
-                                            + radius[:, 0])))
+            reach = max(
+                reach, float(np.max(np.linalg.norm(points - anchors[k], axis=1) + radius[:, 0]))
+            )
     if root is None:
         centre = (low + high) / 2
         anchors[:] = centre
@@ -193,8 +209,14 @@ def _smooth(points: np.ndarray, times: np.ndarray, time_constant_s: float) -> np
 class FrameRenderer:
     """An offscreen GL context and MuJoCo render context for one model and image size."""
 
-    def __init__(self, model: mujoco.MjModel, width: int, height: int, backend: str,
-                 high_quality: bool = False):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int,
+        height: int,
+        backend: str,
+        high_quality: bool = False,
+    ):
         self._model = model
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
@@ -207,8 +229,11 @@ class FrameRenderer:
             raise
         except Exception as error:  # the GL libraries raise their own types
             raise PreviewError(f"cannot create an offscreen {backend} context: {error}") from None
-        font = (mujoco.mjtFontScale.mjFONTSCALE_100 if height < 400
-                else mujoco.mjtFontScale.mjFONTSCALE_150)
+        font = (
+            mujoco.mjtFontScale.mjFONTSCALE_100
+            if height < 400
+            else mujoco.mjtFontScale.mjFONTSCALE_150
+        )
         self._context = mujoco.MjrContext(model, font)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
@@ -223,21 +248,43 @@ class FrameRenderer:
         self._viewport = mujoco.MjrRect(0, 0, width, height)
         self._pixels = np.empty((height, width, 3), dtype=np.uint8)
 
-    def render(self, data: mujoco.MjData, camera: CameraPose, status: tuple[str, str],
-               problems: tuple[str, str]) -> np.ndarray:
+    def render(
+        self,
+        data: mujoco.MjData,
+        camera: CameraPose,
+        status: tuple[str, str],
+        problems: tuple[str, str],
+    ) -> np.ndarray:
         self._gl.make_current()
         self._camera.lookat[:] = camera.lookat
         self._camera.distance = camera.distance
         self._camera.azimuth = camera.azimuth
         self._camera.elevation = camera.elevation
-        mujoco.mjv_updateScene(self._model, data, self._option, self._perturb, self._camera,
-                               mujoco.mjtCatBit.mjCAT_ALL, self._scene)
+        mujoco.mjv_updateScene(
+            self._model,
+            data,
+            self._option,
+            self._perturb,
+            self._camera,
+            mujoco.mjtCatBit.mjCAT_ALL,
+            self._scene,
+        )
         mujoco.mjr_render(self._viewport, self._scene, self._context)
-        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT,
-                           self._viewport, *status, self._context)
+        mujoco.mjr_overlay(
+            mujoco.mjtFont.mjFONT_NORMAL,
+            mujoco.mjtGridPos.mjGRID_TOPLEFT,
+            self._viewport,
+            *status,
+            self._context,
+        )
         if problems[0]:
-            mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT,
-                               self._viewport, *problems, self._context)
+            mujoco.mjr_overlay(
+                mujoco.mjtFont.mjFONT_NORMAL,
+                mujoco.mjtGridPos.mjGRID_BOTTOMLEFT,
+                self._viewport,
+                *problems,
+                self._context,
+            )
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._context)
         return np.flipud(self._pixels).copy()
 
@@ -255,14 +302,23 @@ class FrameRenderer:
         self.close()
 
 
-def _write_mp4(path: Path, frames: Iterator[np.ndarray], fps: float,
-               settings: RenderSettings) -> None:
+def _write_mp4(
+    path: Path, frames: Iterator[np.ndarray], fps: float, settings: RenderSettings
+) -> None:
     import imageio_ffmpeg
 
     writer = imageio_ffmpeg.write_frames(
-        str(path), (settings.width, settings.height), fps=fps, codec="libx264",
-        pix_fmt_in="rgb24", pix_fmt_out="yuv420p", macro_block_size=1, quality=None,
-        ffmpeg_log_level="error", output_params=["-preset", "veryfast", "-crf", "23"])
+        str(path),
+        (settings.width, settings.height),
+        fps=fps,
+        codec="libx264",
+        pix_fmt_in="rgb24",
+        pix_fmt_out="yuv420p",
+        macro_block_size=1,
+        quality=None,
+        ffmpeg_log_level="error",
+        output_params=["-preset", "veryfast", "-crf", "23"],
+    )
     writer.send(None)
     try:
         for frame in frames:
@@ -275,8 +331,9 @@ def _write_gif(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
     from PIL import Image
 
     images = [Image.fromarray(frame).quantize(colors=256) for frame in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], loop=0,
-                   duration=round(1000 / fps))
+    images[0].save(
+        path, save_all=True, append_images=images[1:], loop=0, duration=round(1000 / fps)
+    )
 
 
 def _write_sheet(path: Path, frames: Iterator[np.ndarray], count: int) -> None:
@@ -287,10 +344,13 @@ def _write_sheet(path: Path, frames: Iterator[np.ndarray], count: int) -> None:
     columns = min(SHEET_COLUMNS, count)
     rows = math.ceil(count / columns)
     gap = 4
-    sheet = np.full((rows * height + (rows - 1) * gap, columns * width + (columns - 1) * gap, 3),
-                    255, dtype=np.uint8)
+    sheet = np.full(
+        (rows * height + (rows - 1) * gap, columns * width + (columns - 1) * gap, 3),
+        255,
+        dtype=np.uint8,
+    )
     for k, tile in enumerate(tiles):
         row, column = divmod(k, columns)
         top, left = row * (height + gap), column * (width + gap)
-        sheet[top:top + height, left:left + width] = tile
+        sheet[top : top + height, left : left + width] = tile
     Image.fromarray(sheet).save(path)

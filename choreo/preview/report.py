@@ -26,14 +26,16 @@ def joint_summaries(rollout: Rollout) -> list[JointSummary]:
     summaries = []
     for j, joint in enumerate(rollout.robot.joints):
         worst_error, peak = int(np.argmax(error[:, j])), int(np.argmax(torque[:, j]))
-        summaries.append(JointSummary(
-            joint=joint.name,
-            max_tracking_error_deg=round(float(error[worst_error, j]), 3),
-            max_tracking_error_time_s=round(float(rollout.times_s[worst_error]), 4),
-            peak_torque_nm=round(float(torque[peak, j]), 4),
-            peak_torque_time_s=round(float(rollout.times_s[peak]), 4),
-            stall_torque_nm=round(rollout.actuators[j].stall_torque_nm, 4),
-        ))
+        summaries.append(
+            JointSummary(
+                joint=joint.name,
+                max_tracking_error_deg=round(float(error[worst_error, j]), 3),
+                max_tracking_error_time_s=round(float(rollout.times_s[worst_error]), 4),
+                peak_torque_nm=round(float(torque[peak, j]), 4),
+                peak_torque_time_s=round(float(rollout.times_s[peak]), 4),
+                stall_torque_nm=round(rollout.actuators[j].stall_torque_nm, 4),
+            )
+        )
     return summaries
 
 

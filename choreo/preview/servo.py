@@ -13,8 +13,8 @@ physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``), as 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -36,20 +36,23 @@ class ActuatorParams:
     no_load_speed_deg_s: float
 
 
-
-
-def actuator_params(robot: Robot,
-                    overrides: Mapping[str, Mapping[str, float]] | None = None,
-                    ) -> tuple[ActuatorParams, ...]:
+def actuator_params(
+    robot: Robot,
+    overrides: Mapping[str, Mapping[str, float]] | None = None,
+) -> tuple[ActuatorParams, ...]:
     """Every joint's actuator model from its servo model, then its robot file's ``actuator:``
     values, then per-joint ``overrides`` (joint name -> {field of ``ActuatorParams``: value})."""
     overrides = dict(overrides or {})
     unknown = sorted(set(overrides) - set(robot.joint_names))
     if unknown:
-        raise ValueError(f"actuator overrides name unknown joints {', '.join(unknown)}; "
-                         f"joints of {robot.name}: {', '.join(robot.joint_names)}")
-    return tuple(_params_for(joint, {**joint.actuator, **overrides.get(joint.name, {})})
-                 for joint in robot.joints)
+        raise ValueError(
+            f"actuator overrides name unknown joints {', '.join(unknown)}; "
+            f"joints of {robot.name}: {', '.join(robot.joint_names)}"
+        )
+    return tuple(
+        _params_for(joint, {**joint.actuator, **overrides.get(joint.name, {})})
+        for joint in robot.joints
+    )
 
 
 def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
@@ -63,11 +66,14 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
     }
     for key, value in override.items():
         if key not in values:
-            raise ValueError(f"unknown actuator field {key!r} for joint {joint.name}; "
-                             f"valid fields: {', '.join(ACTUATOR_FIELDS)}")
+            raise ValueError(
+                f"unknown actuator field {key!r} for joint {joint.name}; "
+                f"valid fields: {', '.join(ACTUATOR_FIELDS)}"
+            )
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise ValueError(f"actuator field {key} of joint {joint.name} must be a number > 0, "
-                             f"got {value!r}")
+            raise ValueError(
+                f"actuator field {key} of joint {joint.name} must be a number > 0, got {value!r}"
+            )
         values[key] = float(value)
     return ActuatorParams(**values)
 
@@ -111,14 +117,19 @@ class CommandStream:
         for index, tick in enumerate(ticks):
             where = f"tick {index} (start {tick.start_ms} ms)"
             if len(tick.targets_units) != n_joints or len(tick.staged) != n_joints:
-                raise ValueError(f"{where}: needs {n_joints} targets and staged flags (one per "
-                                 f"joint), got {len(tick.targets_units)} and {len(tick.staged)}")
+                raise ValueError(
+                    f"{where}: needs {n_joints} targets and staged flags (one per "
+                    f"joint), got {len(tick.targets_units)} and {len(tick.staged)}"
+                )
             if tick.start_ms < previous_start:
-                raise ValueError(f"{where}: ticks must be in time order "
-                                 f"(the previous one starts at {previous_start} ms)")
+                raise ValueError(
+                    f"{where}: ticks must be in time order "
+                    f"(the previous one starts at {previous_start} ms)"
+                )
             if not 0 <= tick.duration_ms <= MAX_TICK_MS:
-                raise ValueError(f"{where}: duration {tick.duration_ms} ms is outside "
-                                 f"0..{MAX_TICK_MS}")
+                raise ValueError(
+                    f"{where}: duration {tick.duration_ms} ms is outside 0..{MAX_TICK_MS}"
+                )
             bad = [u for u in tick.targets_units if not low <= u <= high]
             if bad:
                 raise ValueError(f"{where}: servo positions {bad} are outside {low}..{high}")
@@ -128,8 +139,9 @@ class CommandStream:
         return cls(
             start_s=np.array([t.start_ms for t in ticks], dtype=float) / 1000.0,
             duration_s=np.array([t.duration_ms for t in ticks], dtype=float) / 1000.0,
-            targets_units=np.array([t.targets_units for t in ticks],
-                                   dtype=float).reshape(len(ticks), n_joints),
+            targets_units=np.array([t.targets_units for t in ticks], dtype=float).reshape(
+                len(ticks), n_joints
+            ),
             staged=staged,
             started=staged.any(axis=1),
         )
@@ -154,8 +166,9 @@ class ServoBank:
         self._rate_per_s = np.full(n, 1 / INSTANT_S)  # 1 / move duration
         self._max_speed_units_s = max_speed_units_s
 
-    def start(self, stream: CommandStream, tick: int, now_s: float,
-              position_units: np.ndarray) -> None:
+    def start(
+        self, stream: CommandStream, tick: int, now_s: float, position_units: np.ndarray
+    ) -> None:
         """Tick ``tick``'s presets arrive and its START runs every servo that has a preset."""
         staged = stream.staged[tick]
         self._preset_units[staged] = stream.targets_units[tick, staged]
@@ -183,8 +196,9 @@ def max_speed_units_s(params: Sequence[ActuatorParams]) -> np.ndarray:
     return np.array([p.no_load_speed_deg_s / DEG_PER_UNIT for p in params], dtype=float)
 
 
-def commanded_path_units(stream: CommandStream, initial_units: np.ndarray,
-                         times_s: np.ndarray) -> np.ndarray:
+def commanded_path_units(
+    stream: CommandStream, initial_units: np.ndarray, times_s: np.ndarray
+) -> np.ndarray:
     """Where a servo with no load, no lag and no speed cap would be at ``times_s``: the path the
     tick list asks for, as the reference for tracking errors. Shape (len(times_s), n_joints)."""
     bank = ServoBank(initial_units, max_speed_units_s=None)

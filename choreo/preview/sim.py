@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -117,16 +117,22 @@ class Rollout:
         return np.array([a.stall_torque_nm for a in self.actuators])
 
 
-def simulate(robot: Robot, ticks: Sequence[Tick], initial_deg: Sequence[float],
-             keyframe_times_s: Sequence[float] = (),
-             settings: SimSettings = SimSettings()) -> Rollout:
+def simulate(
+    robot: Robot,
+    ticks: Sequence[Tick],
+    initial_deg: Sequence[float],
+    keyframe_times_s: Sequence[float] = (),
+    settings: SimSettings = SimSettings(),
+) -> Rollout:
     """Play ``ticks`` (what the bus will send) to the simulated robot, starting at rest at
     ``initial_deg`` (robot joint order; the player approaches the first pose before starting)."""
     n_joints = len(robot.joints)
     initial_deg = np.asarray(initial_deg, dtype=float)
     if initial_deg.shape != (n_joints,):
-        raise ValueError(f"initial_deg needs {n_joints} angles (robot joint order), "
-                         f"got shape {initial_deg.shape}")
+        raise ValueError(
+            f"initial_deg needs {n_joints} angles (robot joint order), "
+            f"got shape {initial_deg.shape}"
+        )
     stream = CommandStream.from_ticks(ticks, n_joints)
     params = actuator_params(robot, settings.actuator_overrides)
     to_deg = UnitsToDeg.for_joints(robot.joints)
@@ -146,8 +152,20 @@ def simulate(robot: Robot, ticks: Sequence[Tick], initial_deg: Sequence[float],
     qpos_log = np.empty((n, model.nq))
     ctrl_log = np.empty((n, n_joints))
     torque_log = np.empty((n, n_joints))
-    _run(model, data, index, stream, servos, to_deg, settings.move_start, n, qpos_log, ctrl_log,
-         torque_log, contacts)
+    _run(
+        model,
+        data,
+        index,
+        stream,
+        servos,
+        to_deg,
+        settings.move_start,
+        n,
+        qpos_log,
+        ctrl_log,
+        torque_log,
+        contacts,
+    )
     _check_stable(model, data)
 
     times = np.arange(n) * dt
@@ -176,10 +194,20 @@ def simulate(robot: Robot, ticks: Sequence[Tick], initial_deg: Sequence[float],
     )
 
 
-def _run(model: mujoco.MjModel, data: mujoco.MjData, index, stream: CommandStream,
-         servos: ServoBank, to_deg: UnitsToDeg, move_start: MoveStart, n: int,
-         qpos_log: np.ndarray, ctrl_log: np.ndarray, torque_log: np.ndarray,
-         contacts: _ContactLog) -> None:
+def _run(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    index,
+    stream: CommandStream,
+    servos: ServoBank,
+    to_deg: UnitsToDeg,
+    move_start: MoveStart,
+    n: int,
+    qpos_log: np.ndarray,
+    ctrl_log: np.ndarray,
+    torque_log: np.ndarray,
+    contacts: _ContactLog,
+) -> None:
     """The step loop, kept lean (it runs ~500 times per simulated second): between two STARTs
     every set-point is a known function of time, so each stretch's controls are computed at
     once and the loop only steps and records."""
@@ -213,11 +241,15 @@ def _check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """MuJoCo resets the state when accelerations blow up; a rollout after that means nothing."""
     warning = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
     if warning.number:
-        joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT,
-                                  model.dof_jntid[warning.lastinfo]) or "a joint"
-        raise PreviewError(f"the simulation became unstable ({warning.number} bad accelerations, "
-                           f"last at {joint}): check the MJCF's masses, inertias and timestep, and "
-                           f"any actuator overrides")
+        joint = (
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.dof_jntid[warning.lastinfo])
+            or "a joint"
+        )
+        raise PreviewError(
+            f"the simulation became unstable ({warning.number} bad accelerations, "
+            f"last at {joint}): check the MJCF's masses, inertias and timestep, and "
+            f"any actuator overrides"
+        )
 
 
 def _root_pose(qpos: np.ndarray, address: int) -> tuple[np.ndarray, np.ndarray]:
@@ -272,5 +304,6 @@ class _ContactLog:
 
     def pairs(self) -> tuple[ContactPair, ...]:
         ordered = sorted(self._pair_ids, key=self._pair_ids.get)
-        return tuple(ContactPair("self" if kind == SELF_CONTACT else "floor", a, b)
-                     for kind, a, b in ordered)
+        return tuple(
+            ContactPair("self" if kind == SELF_CONTACT else "floor", a, b) for kind, a, b in ordered
+        )

@@ -23,8 +23,10 @@ def show_in_viewer(rollout: Rollout) -> None:
     """Loop the rollout in the viewer until its window is closed."""
     # mujoco's viewer kills the whole process when it cannot open a window: check first
     if not has_display():
-        raise PreviewError("the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
-                           "is set; render to a file instead: choreo preview MOTION -o out.mp4")
+        raise PreviewError(
+            "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
+            "is set; render to a file instead: choreo preview MOTION -o out.mp4"
+        )
     from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
 
     model = load_model(rollout.robot)
