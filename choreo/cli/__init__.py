@@ -12,6 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from .. import __version__
 from ..errors import ChoreoError
 from . import (
     bus_commands,
@@ -44,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Author, plan, preview and play motions on Hiwonder/LewanSoul bus servos.",
     )
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for group in COMMAND_GROUPS:
         group.register(subparsers)
