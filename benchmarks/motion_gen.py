@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from choreo.motion import Keyframe, Motion
-from choreo.robot import Joint, JointLimits, Robot, SourceLocation
+from choreo.robot import Joint, JointLimits, Robot
+from choreo.yamlsource import SourceLocation
 
 VELOCITY, ACCELERATION, JERK = 300.0, 3000.0, 30000.0  # LX-16A defaults (choreo.servos)
 

@@ -37,8 +37,8 @@ from .errors import SourceError
 from .motion import HOME_POSE, Keyframe, Motion
 from .motion_writer import motion_text, robot_reference
 from .planner import plan_approach, plan_motion
-from .robot import Joint, Robot, SourceLocation
-from .yamlsource import fmt
+from .robot import Joint, Robot
+from .yamlsource import SourceLocation, fmt
 
 log = logging.getLogger(__name__)
 

@@ -13,7 +13,9 @@ from pathlib import Path
 import yaml
 
 from .errors import SourceError
-from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
+from .robot import Robot, mirror_pose
+from .robot_file import load_robot, read_angles
+from .robot_lookup import find_robot_file
 from .yamlsource import (
     Entry,
     Node,

@@ -35,7 +35,8 @@ from ruckig import Trajectory as RuckigTrajectory
 
 from .errors import PlanningError
 from .motion import Keyframe, Motion
-from .robot import Robot, SourceLocation
+from .robot import Robot
+from .yamlsource import SourceLocation
 
 log = logging.getLogger(__name__)
 

@@ -41,7 +41,8 @@ from .clock import Clock
 from .errors import BusError, ChoreoError
 from .motion import Keyframe
 from .motion_writer import motion_text, robot_reference
-from .robot import Joint, Robot, load_robot
+from .robot import Joint, Robot
+from .robot_file import load_robot
 from .yamlsource import SourceLocation, did_you_mean, fmt
 
 log = logging.getLogger(__name__)

@@ -24,7 +24,7 @@ from choreo.d6a import (
 from choreo.errors import SourceError
 from choreo.motion import Motion, load_motion
 from choreo.planner import plan_motion
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 from choreo.segments import segment
 from choreo.validate import check_file
 

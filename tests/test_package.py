@@ -36,3 +36,43 @@ def test_the_version_is_written_once_and_the_type_hints_ship():
     assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "choreo.__version__"}
     assert "py.typed" in project["tool"]["setuptools"]["package-data"]["choreo"]
     assert (ROOT / "choreo" / "py.typed").is_file()
+
+
+HEAVY_MODULES = ("mujoco", "matplotlib")
+# Runs bus-only commands in one process, then names every heavy module they pulled in.
+BUS_ONLY_COMMANDS = """
+import contextlib, io, sys
+import choreo.cli
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    codes = [
+        choreo.cli.main(["scan", "--ids", "1-2"]),
+        choreo.cli.main(["servo", "info", "--id", "1"]),
+    ]
+    for args in (["emulate", "--help"], ["scan", "--help"]):
+        try:
+            choreo.cli.main(args)
+        except SystemExit as done:
+            codes.append(done.code)
+print(codes, sorted(m for m in {HEAVY} if m in sys.modules))
+""".replace("{HEAVY}", repr(HEAVY_MODULES))
+
+
+def test_bus_only_commands_never_import_mujoco_or_matplotlib():
+    result = subprocess.run(
+        [sys.executable, "-c", BUS_ONLY_COMMANDS],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (result.returncode, result.stdout) == (0, "[0, 0, 0, 0] []\n"), result.stderr
+
+
+def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
+    """The probe above would notice: loading a robot checks its MuJoCo model."""
+    probe = "import sys; from choreo.robot_file import load_robot; load_robot('arm6'); "
+    probe += "print('mujoco' in sys.modules)"
+    result = subprocess.run(
+        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert result.stdout == "True\n", result.stderr

@@ -41,7 +41,7 @@ from choreo.preview.servo import (
     commanded_path_units,
 )
 from choreo.protocol import Command
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 from choreo.segments import Tick, segment
 from choreo.servos import ACTUATOR_FIELDS
 

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from choreo.errors import SourceError
-from choreo.robot import load_robot, mirror_pose, mirror_targets
+from choreo.robot import mirror_pose, mirror_targets
+from choreo.robot_file import load_robot
 
 DATA = Path(__file__).parent / "data"
 TINY = DATA / "models" / "tiny" / "robot.yaml"

@@ -10,7 +10,8 @@ import jsonschema
 import pytest
 import yaml
 
-from choreo import motion, robot
+from choreo import motion
+from choreo import robot_file as robot
 from choreo.servos import SERVO_MODELS
 
 DATA = Path(__file__).parent / "data"
