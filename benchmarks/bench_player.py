@@ -26,9 +26,9 @@ from choreo.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.emulator.trace import path_errors_deg
 from choreo.motion import load_motion
+from choreo.pipeline import compile_motion
 from choreo.player import Player, packet_schedule, preflight, prepare
 from choreo.robot import Robot
-from choreo.segments import compile_motion
 
 MOTIONS = [
     "motions/arm6/wave.yaml",

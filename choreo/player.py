@@ -33,10 +33,11 @@ from .errors import (
     ProtocolError,
     ServoFault,
 )
+from .pipeline import CompiledMotion
 from .planner import Trajectory, plan_approach
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .robot import Joint, Robot
-from .segments import MOVE_BYTES, START_BYTES, CompiledMotion, Tick, TickPlan, segment
+from .segments import MOVE_BYTES, START_BYTES, Tick, TickPlan, segment
 
 log = logging.getLogger(__name__)
 

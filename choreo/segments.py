@@ -28,8 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import PlanningError
-from .motion import Motion
-from .planner import Stretch, Trajectory, plan_motion
+from .planner import Trajectory
 from .protocol import BYTE_TIME_S, SPECS, Command
 from .robot import Robot
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
@@ -306,33 +305,4 @@ def _check_forced(
         f"least {floor_ms} ms to stage {len(robot.joints)} servos at 115200 baud, "
         f"and then {name} strays {worst:.3f}° at {worst_ms / 1000:.3f} s; use a tolerance of "
         f"at least {math.ceil(worst * 100) / 100:g}° or lower {name}'s acceleration limit"
-    )
-
-
-# --- a whole motion: plan, then compile ---------------------------------------------------------
-@dataclass(frozen=True)
-class CompiledMotion:
-    """A motion planned and compiled into ticks: everything play, preview and validate need that
-    doesn't depend on where the robot is now."""
-
-    robot: Robot
-    trajectory: Trajectory
-    ticks: TickPlan
-    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
-
-    @property
-    def tolerance_deg(self) -> float:
-        return self.ticks.tolerance_deg
-
-
-def compile_motion(
-    motion: Motion, *, speed: float | None = None, stretch: bool = False, tolerance_deg: float = 0.5
-) -> CompiledMotion:
-    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
-    plan = plan_motion(motion, speed=speed, stretch=stretch)
-    return CompiledMotion(
-        motion.robot,
-        plan.trajectory,
-        segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
-        plan.stretches,
     )

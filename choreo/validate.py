@@ -14,9 +14,9 @@ from pathlib import Path
 
 from .errors import PlanningError, SourceError
 from .motion import Motion, load_motion
+from .pipeline import compile_motion
 from .robot_file import load_robot
 from .robot_lookup import ROBOT_FILE
-from .segments import compile_motion
 
 
 @dataclass(frozen=True)

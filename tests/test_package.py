@@ -5,6 +5,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 import choreo
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,3 +78,20 @@ def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
         [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
     )
     assert result.stdout == "True\n", result.stderr
+
+
+def test_the_public_api_resolves_and_import_choreo_stays_light():
+    probe = (
+        "import sys, choreo; light = sorted(m for m in ('numpy', 'yaml', 'serial', 'ruckig') "
+        "if m in sys.modules); missing = [n for n in choreo.__all__ if not hasattr(choreo, n)]; "
+        "print(light, missing, choreo.compile_motion.__module__, choreo.load_robot.__module__)"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert result.stdout == "[] [] choreo.pipeline choreo.robot_file\n", result.stderr
+
+
+def test_an_unknown_name_is_an_attribute_error():
+    with pytest.raises(AttributeError, match="no attribute 'compile'"):
+        choreo.compile  # noqa: B018

@@ -10,6 +10,7 @@ from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
 from choreo.motion import load_motion
+from choreo.pipeline import compile_motion
 from choreo.player import (
     ExitMode,
     Outcome,
@@ -20,7 +21,7 @@ from choreo.player import (
     prepare,
 )
 from choreo.protocol import BROADCAST_ID, Command, decode_request
-from choreo.segments import QUANTIZATION_DEG, Tick, compile_motion
+from choreo.segments import QUANTIZATION_DEG, Tick
 
 MOTIONS = "motions"
 

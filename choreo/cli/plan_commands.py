@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..motion import Motion, load_motion
-from ..segments import CompiledMotion, compile_motion
+from ..pipeline import CompiledMotion, compile_motion
 from .arguments import add_planning_arguments
 
 

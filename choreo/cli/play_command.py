@@ -17,6 +17,7 @@ from rich.table import Table
 from ..clock import RealClock
 from ..emulator.trace import path_errors_deg
 from ..motion import load_motion
+from ..pipeline import CompiledMotion, compile_motion
 from ..player import (
     ExitMode,
     Outcome,
@@ -29,7 +30,6 @@ from ..player import (
     prepare,
 )
 from ..robot import Robot
-from ..segments import CompiledMotion, compile_motion
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
