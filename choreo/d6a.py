@@ -36,7 +36,7 @@ from .atomic import atomic_output, write_text_atomically
 from .errors import SourceError
 from .motion import HOME_POSE, Keyframe, Motion
 from .motion_writer import motion_text, robot_reference
-from .planner import plan_approach, plan_motion
+from .planner import APPROACH_LIMIT_SCALE, plan_approach, plan_motion
 from .robot import Joint, Robot
 from .yamlsource import SourceLocation, fmt
 
@@ -48,7 +48,6 @@ TIME_COLUMN = "Time"
 SERVO_COLUMN = re.compile(r"Servo(\d+)", re.IGNORECASE)  # SQLite names ignore case
 TIME_RANGE_MS = (20, 30000)  # what the vendor's editor accepts
 ANGLE_DECIMALS = 4  # 0.0001° = 0.0004 units: exact enough that export gives back every unit
-APPROACH_LIMIT_SCALE = 0.3  # the player's approach, for an untimed first keyframe on export
 
 
 @dataclass(frozen=True)

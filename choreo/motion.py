@@ -394,15 +394,12 @@ def _mirror_block(
     mirrored: list[_Step] = []
     for step in steps:
         angles = mirror_pose(robot, step.angles_deg)
-        for name, angle in angles.items():
-            limits = robot.joint(name).limits
-            if not limits.contains(angle):
-                reader.report(
-                    mirror_node,
-                    f"mirror: the keyframe at {step.where} mirrored puts "
-                    f"{name} at {fmt(angle)}°, outside its limits "
-                    f"{limits.range_text}",
-                )
+        for outside in robot.limit_violations(angles):
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} mirrored puts {outside.joint.name} at "
+                f"{fmt(outside.angle_deg)}°, outside its limits {outside.joint.limits.range_text}",
+            )
         mirrored.append(replace(step, angles_deg=angles, label=""))
     return mirrored
 

@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 PHASES = 7  # constant-jerk phases of one ruckig profile
 DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
+APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
 _DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
 
@@ -610,7 +611,9 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     return PlanResult(trajectory, tuple(stretches))
 
 
-def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3) -> Trajectory:
+def plan_approach(
+    robot: Robot, start_deg, target_deg, limit_scale: float = APPROACH_LIMIT_SCALE
+) -> Trajectory:
     """From rest at any pose ``start_deg`` to rest at ``target_deg`` (normally the first keyframe)
     with every velocity, acceleration and jerk limit scaled by ``limit_scale``.
 
@@ -622,12 +625,12 @@ def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3)
     target = _pose_array(robot, target_deg, "target_deg")
     if not 0 < limit_scale <= 1:
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
-    for joint, angle in zip(robot.joints, target):
-        if not joint.limits.contains(angle):
-            raise ValueError(
-                f"target_deg: {joint.name} = {angle:g}° is outside its limits "
-                f"{joint.limits.range_text}"
-            )
+    outside = robot.limit_violations(target)
+    if outside:
+        joint, angle = outside[0].joint, outside[0].angle_deg
+        raise ValueError(
+            f"target_deg: {joint.name} = {angle:g}° is outside its limits {joint.limits.range_text}"
+        )
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
     segment = _Solver(n).solve(
@@ -681,9 +684,7 @@ def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
     if wrong_size:
         raise PlanningError("\n".join(wrong_size))
     targets = np.array([kf.targets_deg for kf in keyframes], dtype=float)
-    low = np.array([j.limits.min_deg for j in robot.joints])
-    high = np.array([j.limits.max_deg for j in robot.joints])
-    outside = ~((targets >= low) & (targets <= high))
+    outside = robot.outside_limits(targets)
     problems = [
         f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
         f"its limits {robot.joints[j].limits.range_text}"

@@ -34,14 +34,13 @@ from .errors import (
     ServoFault,
 )
 from .pipeline import CompiledMotion
-from .planner import Trajectory, plan_approach
+from .planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .robot import Joint, Robot
 from .segments import MOVE_BYTES, START_BYTES, Tick, TickPlan, segment
 
 log = logging.getLogger(__name__)
 
-APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].reply_len + 3
 
 
@@ -403,8 +402,7 @@ class _Stream:
     def __init__(self, player: Player, ticks: list[Tick], start_pose_deg: Sequence[float]):
         self.player = player
         self.ticks = ticks
-        joints = player.robot.joints
-        self.previous_units = np.array([j.to_units(a) for j, a in zip(joints, start_pose_deg)])
+        self.previous_units = player.robot.to_units(start_pose_deg)
         self.current_units = self.previous_units.copy()
         self.lateness_ms: list[float] = []
         self.retargeted = 0
@@ -414,7 +412,7 @@ class _Stream:
         self.outcome, self.reason = Outcome.COMPLETED, ""
         # Start once whatever was sent before has left and every servo of tick 0 is staged.
         player.bus.drain()
-        first_staging_s = len(joints) * MOVE_BYTES * BYTE_TIME_S
+        first_staging_s = len(player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
         self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
         self.end_s = self.t0
 

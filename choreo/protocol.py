@@ -15,6 +15,8 @@ import enum
 import struct
 from dataclasses import dataclass, field
 
+from .servos import POSITION_RANGE_UNITS
+
 HEADER = b"\x55\x55"
 BROADCAST_ID = 0xFE
 MAX_SERVO_ID = 253
@@ -84,7 +86,7 @@ def _u16(name: str, lo: int = 0, hi: int = 0xFFFF) -> Field:
     return Field(name, "H", lo, hi)
 
 
-_POS = _u16("pos_units", 0, 1000)
+_POS = _u16("pos_units", *POSITION_RANGE_UNITS)
 _TIME = _u16("time_ms", 0, 30000)
 _MOVE = (_POS, _TIME)
 
@@ -128,7 +130,7 @@ SPECS: dict[Command, CommandSpec] = {
         CommandSpec(C.ANGLE_OFFSET_READ, reply=(Field("offset_units", "b", -128, 127),)),
         CommandSpec(
             C.ANGLE_LIMIT_WRITE,
-            (_u16("min_units", 0, 1000), _u16("max_units", 0, 1000)),
+            (_u16("min_units", *POSITION_RANGE_UNITS), _u16("max_units", *POSITION_RANGE_UNITS)),
             ordered_pair=("min_units", "max_units"),
         ),
         CommandSpec(C.ANGLE_LIMIT_READ, reply=(_u16("min_units"), _u16("max_units"))),

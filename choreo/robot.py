@@ -7,13 +7,35 @@ Reading a robot.yaml into a ``Robot`` is ``choreo.robot_file.load_robot``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from types import MappingProxyType
+from typing import TypeVar
+
+import numpy as np
 
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
 from .yamlsource import fmt
+
+# A float, or a numpy array of them: the conversions and the limit check take either.
+Values = TypeVar("Values", float, np.ndarray)
+
+
+def deg_to_units(angle_deg: Values, zero_units: Values, direction: Values) -> Values:
+    """Servo position (not rounded) for a joint angle: the one formula, element-wise on arrays."""
+    return zero_units + direction * angle_deg * UNITS_PER_DEG
+
+
+def units_to_deg(position_units: Values, zero_units: Values, direction: Values) -> Values:
+    """Joint angle for a servo position (the inverse of ``deg_to_units``)."""
+    return (position_units - zero_units) * direction * DEG_PER_UNIT
+
+
+def within(angle_deg: Values, min_deg: Values, max_deg: Values) -> Values:
+    """The one joint-limit test, ends included (element-wise on arrays; NaN is never within)."""
+    return (min_deg <= angle_deg) & (angle_deg <= max_deg)
 
 
 @dataclass(frozen=True)
@@ -25,7 +47,7 @@ class JointLimits:
     jerk_deg_s3: float
 
     def contains(self, angle_deg: float) -> bool:
-        return self.min_deg <= angle_deg <= self.max_deg
+        return bool(within(angle_deg, self.min_deg, self.max_deg))
 
     @property
     def range_text(self) -> str:
@@ -50,11 +72,25 @@ class Joint:
 
     def to_units(self, angle_deg: float) -> float:
         """Servo position (not rounded) for a joint angle."""
-        return self.zero_units + self.direction * angle_deg * UNITS_PER_DEG
+        return deg_to_units(angle_deg, self.zero_units, self.direction)
 
     def to_deg(self, position_units: float) -> float:
         """Joint angle for a servo position."""
-        return (position_units - self.zero_units) * self.direction * DEG_PER_UNIT
+        return units_to_deg(position_units, self.zero_units, self.direction)
+
+
+@dataclass(frozen=True)
+class LimitViolation:
+    """A joint angle outside the joint's limits."""
+
+    joint: Joint
+    angle_deg: float
+
+    def __str__(self) -> str:
+        return (
+            f"{self.joint.name} at {fmt(self.angle_deg)}° is outside its limits "
+            f"{self.joint.limits.range_text}"
+        )
 
 
 @dataclass(frozen=True)
@@ -101,6 +137,55 @@ class Robot:
         """A named pose as degrees in joint order."""
         values = self.poses[pose]
         return tuple(values[j.name] for j in self.joints)
+
+    # --- every joint at once: arrays whose last axis is the robot's joint order ---
+
+    def to_units(self, angles_deg: np.ndarray | Sequence[float]) -> np.ndarray:
+        """Servo positions (not rounded) for joint angles."""
+        return deg_to_units(np.asarray(angles_deg, dtype=float), *self._servo_map)
+
+    def to_deg(self, positions_units: np.ndarray | Sequence[float]) -> np.ndarray:
+        """Joint angles for servo positions."""
+        return units_to_deg(np.asarray(positions_units, dtype=float), *self._servo_map)
+
+    def outside_limits(self, angles_deg: np.ndarray | Sequence[float]) -> np.ndarray:
+        """True where an angle is outside its joint's limits (or not a number)."""
+        return ~within(np.asarray(angles_deg, dtype=float), *self._limits_deg)
+
+    def limit_violations(
+        self, angles_deg: Mapping[str, float] | Sequence[float]
+    ) -> list[LimitViolation]:
+        """The angles of one pose outside their joints' limits, in the order given: a mapping
+        names some joints, a sequence gives every joint in robot joint order."""
+        if isinstance(angles_deg, Mapping):
+            joints = [self.joint(name) for name in angles_deg]
+            values = list(angles_deg.values())
+        else:
+            joints, values = list(self.joints), list(angles_deg)
+            if len(values) != len(joints):
+                raise ValueError(
+                    f"{len(values)} angles for the {len(joints)} joints of {self.name}"
+                )
+        low = np.array([j.limits.min_deg for j in joints])
+        high = np.array([j.limits.max_deg for j in joints])
+        inside = within(np.asarray(values, dtype=float), low, high)
+        return [LimitViolation(j, v) for j, v, ok in zip(joints, values, inside) if not ok]
+
+    @cached_property
+    def _servo_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """(zero_units, direction) per joint."""
+        return (
+            np.array([j.zero_units for j in self.joints], dtype=float),
+            np.array([j.direction for j in self.joints], dtype=float),
+        )
+
+    @cached_property
+    def _limits_deg(self) -> tuple[np.ndarray, np.ndarray]:
+        """(min_deg, max_deg) per joint."""
+        return (
+            np.array([j.limits.min_deg for j in self.joints], dtype=float),
+            np.array([j.limits.max_deg for j in self.joints], dtype=float),
+        )
 
 
 # --- mirroring ---------------------------------------------------------------------------------

@@ -12,9 +12,23 @@ import yaml
 
 from .errors import SourceError
 from .protocol import MAX_SERVO_ID
-from .robot import BusSettings, Joint, JointLimits, MirrorPair, Robot
+from .robot import (
+    BusSettings,
+    Joint,
+    JointLimits,
+    MirrorPair,
+    Robot,
+    deg_to_units,
+    units_to_deg,
+)
 from .robot_lookup import ROBOT_FILE, find_robot_file
-from .servos import ACTUATOR_FIELDS, DEG_PER_UNIT, SERVO_MODELS, UNITS_PER_DEG, ServoModel
+from .servos import (
+    ACTUATOR_FIELDS,
+    DEG_PER_UNIT,
+    POSITION_RANGE_UNITS,
+    SERVO_MODELS,
+    ServoModel,
+)
 from .yamlsource import (
     Entry,
     Node,
@@ -197,7 +211,7 @@ def _joint_from_fields(
 
     servo_id = reader.integer(fields["id"].value, labels["id"], low=0, high=MAX_SERVO_ID)
     model = _read_servo_model(reader, fields["servo"].value, labels["servo"])
-    zero = number("zero", 500.0, low=0, high=1000)
+    zero = number("zero", 500.0, low=POSITION_RANGE_UNITS[0], high=POSITION_RANGE_UNITS[1])
     direction = (
         _read_sign(reader, fields["direction"].value, labels["direction"])
         if "direction" in fields
@@ -289,21 +303,23 @@ def _check_travel(
     zero: float,
     direction: int,
 ) -> bool:
-    """min < max, and both limits map to servo positions inside 0..1000."""
+    """min < max, and both limits map to servo positions inside the servo's range."""
     if low >= high:
         reader.report(
             fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below max {fmt(high)}°"
         )
         return False
-    reach = sorted((position - zero) * direction * DEG_PER_UNIT for position in (0, 1000))
+    first, last = POSITION_RANGE_UNITS
+    reach = sorted(units_to_deg(position, zero, direction) for position in POSITION_RANGE_UNITS)
     ok = True
     for key, angle in (("min", low), ("max", high)):
-        units = zero + direction * angle * UNITS_PER_DEG
-        if not -TRAVEL_SLACK_UNITS <= units <= 1000 + TRAVEL_SLACK_UNITS:
+        units = deg_to_units(angle, zero, direction)
+        if not first - TRAVEL_SLACK_UNITS <= units <= last + TRAVEL_SLACK_UNITS:
             reader.report(
                 fields[key].value,
                 f"joint {name!r}: {key} {fmt(angle)}° is outside the servo's travel: it "
-                f"needs servo position {units:.1f}, outside 0..1000 (0..240°); with "
+                f"needs servo position {units:.1f}, outside {first}..{last} "
+                f"({fmt(first * DEG_PER_UNIT)}..{fmt(last * DEG_PER_UNIT)}°); with "
                 f"zero {fmt(zero)} and direction {direction} this joint can reach "
                 f"{fmt(reach[0])}..{fmt(reach[1])}°",
             )

@@ -79,26 +79,6 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
 
 
 @dataclass(frozen=True)
-class UnitsToDeg:
-    """``Joint.to_deg`` for all joints at once: the map is affine, deg = scale * units + offset."""
-
-    scale: np.ndarray  # (n_joints,)
-    offset: np.ndarray  # (n_joints,)
-
-    @classmethod
-    def for_joints(cls, joints: Sequence[Joint]) -> UnitsToDeg:
-        offset = np.array([j.to_deg(0.0) for j in joints])
-        scale = np.array([j.to_deg(1.0) for j in joints]) - offset
-        return cls(scale, offset)
-
-    def deg(self, units: np.ndarray) -> np.ndarray:
-        return units * self.scale + self.offset
-
-    def units(self, deg: np.ndarray) -> np.ndarray:
-        return (deg - self.offset) / self.scale
-
-
-@dataclass(frozen=True)
 class CommandStream:
     """The tick list as arrays, checked: what goes out on the bus, in time order."""
 
