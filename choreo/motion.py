@@ -13,6 +13,7 @@ from pathlib import Path
 import yaml
 
 from .errors import SourceError
+from .file_shape import mapping_shape
 from .robot import Robot, mirror_pose
 from .robot_file import load_robot, read_angles
 from .robot_lookup import find_robot_file
@@ -56,9 +57,10 @@ class Motion:
 
 # --- reading motion files ----------------------------------------------------------------------
 
-MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "keyframes")
-KEYFRAME_KEYS = ("pose", "t", "after", "hold", "stop", "velocity")
-INCLUDE_KEYS = ("include", "mirror", "t", "after")
+# The keys of each mapping, from the JSON Schema (the one description of the file's shape).
+MOTION = mapping_shape("motion")
+KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
+INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
 HOME_POSE = "home"
 
 
@@ -138,7 +140,7 @@ def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None
             "the file is empty; a motion needs robot and keyframes",
         )
         return None
-    return reader.fields(root, "the motion file", MOTION_KEYS, required=("robot", "keyframes"))
+    return reader.fields(root, "the motion file", MOTION.keys, required=MOTION.required)
 
 
 def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
@@ -186,7 +188,7 @@ def _read_steps(
 
 
 def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
-    fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS, required=("pose",))
+    fields = reader.fields(item, "a keyframe", KEYFRAME.keys, required=KEYFRAME.required)
     if fields is None or "pose" not in fields:
         return None
     pose = _read_pose(reader, fields["pose"].value, robot)
@@ -276,7 +278,7 @@ def _read_include(
     reader: Reader, item: Node, robot: Robot, chain: tuple[_Include, ...]
 ) -> list[_Step]:
     what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
-    fields = reader.fields(item, what, INCLUDE_KEYS, required=("include",))
+    fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
     timing = _read_timing(reader, fields)

@@ -11,6 +11,7 @@ from types import MappingProxyType
 import yaml
 
 from .errors import SourceError
+from .file_shape import choices, mapping_shape
 from .protocol import MAX_SERVO_ID
 from .robot import (
     BusSettings,
@@ -23,7 +24,6 @@ from .robot import (
 )
 from .robot_lookup import ROBOT_FILE, find_robot_file
 from .servos import (
-    ACTUATOR_FIELDS,
     DEG_PER_UNIT,
     POSITION_RANGE_UNITS,
     SERVO_MODELS,
@@ -40,30 +40,22 @@ from .yamlsource import (
     parse_yaml_file,
 )
 
-ROBOT_KEYS = ("name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror")
-JOINT_KEYS = (
-    "id",
-    "servo",
-    "zero",
-    "direction",
-    "min",
-    "max",
-    "velocity",
-    "acceleration",
-    "jerk",
-    "mjcf_joint",
-    "actuator",
-)
-DEFAULT_KEYS = JOINT_KEYS[1:]  # every joint needs its own id
+# The keys of each mapping, from the JSON Schema (the one description of the file's shape).
+ROBOT = mapping_shape("robot")
+JOINT = mapping_shape("robot", "#/properties/joints/additionalProperties")
+DEFAULTS = mapping_shape("robot", "#/$defs/jointSettings")  # a joint's keys but its own id
+BUS = mapping_shape("robot", "#/properties/bus")  # the baud rate is always 115200
+ECHO_MODES = choices("robot", "#/properties/bus/properties/echo")
+MIRROR_PAIR = mapping_shape("robot", "#/properties/mirror/items")
+ACTUATOR = mapping_shape("robot", "#/$defs/jointSettings/properties/actuator")
+# Required once the defaults are merged in (a shape the schema cannot say: they may come from
+# either), with what each is for.
 REQUIRED_JOINT_KEYS = {
     "id": f"its servo id, 0..{MAX_SERVO_ID}",
     "servo": "the servo model; give it here or under defaults",
     "min": "the lower joint limit in degrees",
     "max": "the upper joint limit in degrees",
 }
-BUS_KEYS = ("port", "timeout_ms", "retries", "echo")  # the baud rate is always 115200
-ECHO_MODES = ("none", "discard", "auto")
-MIRROR_KEYS = ("left", "right", "sign")
 RATE_KEYS = ("velocity", "acceleration", "jerk")
 TRAVEL_SLACK_UNITS = 1e-6  # float noise when a limit lands exactly on 0 or 1000
 
@@ -101,14 +93,14 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
             "the file is empty; a robot file needs name, joints and poses",
         )
         return None
-    fields = reader.fields(root, "the robot file", ROBOT_KEYS, required=("name", "joints", "poses"))
+    fields = reader.fields(root, "the robot file", ROBOT.keys, required=ROBOT.required)
     if fields is None:
         return None
     name = _read_name(reader, fields["name"]) if "name" in fields else None
     bus = _read_bus(reader, fields["bus"]) if "bus" in fields else BusSettings()
     defaults = {}
     if "defaults" in fields:
-        defaults = reader.fields(fields["defaults"].value, "defaults", DEFAULT_KEYS) or {}
+        defaults = reader.fields(fields["defaults"].value, "defaults", DEFAULTS.keys) or {}
     sources = _read_joints(reader, fields["joints"], defaults) if "joints" in fields else []
     joints = {source.name: source.joint for source in sources}
     poses = _read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
@@ -149,7 +141,7 @@ def _read_name(reader: Reader, entry: Entry) -> str | None:
 
 
 def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
-    fields = reader.fields(entry.value, "bus", BUS_KEYS) or {}
+    fields = reader.fields(entry.value, "bus", BUS.keys) or {}
     read = {
         "port": lambda node: reader.string(node, "bus: port", optional=True),
         "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
@@ -186,7 +178,7 @@ def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> li
 
 
 def _read_joint(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> JointSource:
-    own = reader.fields(entry.value, f"joint {entry.key!r}", JOINT_KEYS)
+    own = reader.fields(entry.value, f"joint {entry.key!r}", JOINT.keys)
     fields = {**defaults, **(own or {})}
     labels = {key: f"defaults: {key}" for key in defaults}
     labels.update({key: f"joint {entry.key!r}: {key}" for key in own or {}})
@@ -261,7 +253,7 @@ def _joint_from_fields(
 
 def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
     """Preview actuator overrides: each a number > 0 (a problem makes the whole block None)."""
-    entries = reader.fields(node, what, ACTUATOR_FIELDS)
+    entries = reader.fields(node, what, ACTUATOR.keys)
     if entries is None:
         return None
     values = {
@@ -412,8 +404,8 @@ def _read_mirror(
     pairs: list[MirrorPair] = []
     paired: dict[str, Node] = {}  # joint -> its pair
     for item in reader.sequence(entry.value, "mirror") or []:
-        fields = reader.fields(item, "a mirror pair", MIRROR_KEYS, required=MIRROR_KEYS)
-        if fields is None or len(fields) < len(MIRROR_KEYS):
+        fields = reader.fields(item, "a mirror pair", MIRROR_PAIR.keys, MIRROR_PAIR.required)
+        if fields is None or any(key not in fields for key in MIRROR_PAIR.required):
             continue
         left, right = (
             _read_joint_name(reader, fields[side].value, f"mirror: {side}", joints)
