@@ -158,18 +158,19 @@ class Robot:
         """The angles of one pose outside their joints' limits, in the order given: a mapping
         names some joints, a sequence gives every joint in robot joint order."""
         if isinstance(angles_deg, Mapping):
-            joints = [self.joint(name) for name in angles_deg]
+            index = [self.joint_names.index(name) for name in angles_deg]
             values = list(angles_deg.values())
         else:
-            joints, values = list(self.joints), list(angles_deg)
-            if len(values) != len(joints):
-                raise ValueError(
-                    f"{len(values)} angles for the {len(joints)} joints of {self.name}"
-                )
-        low = np.array([j.limits.min_deg for j in joints])
-        high = np.array([j.limits.max_deg for j in joints])
-        inside = within(np.asarray(values, dtype=float), low, high)
-        return [LimitViolation(j, v) for j, v, ok in zip(joints, values, inside) if not ok]
+            index, values = list(range(len(self.joints))), list(angles_deg)
+            if len(values) != len(index):
+                raise ValueError(f"{len(values)} angles for the {len(index)} joints of {self.name}")
+        low, high = self._limits_deg
+        inside = within(np.asarray(values, dtype=float), low[index], high[index])
+        return [
+            LimitViolation(self.joints[j], value)
+            for j, value, ok in zip(index, values, inside)
+            if not ok
+        ]
 
     @cached_property
     def _servo_map(self) -> tuple[np.ndarray, np.ndarray]:

@@ -13,22 +13,9 @@ import yaml
 from .errors import SourceError
 from .file_shape import choices, mapping_shape
 from .protocol import MAX_SERVO_ID
-from .robot import (
-    BusSettings,
-    Joint,
-    JointLimits,
-    MirrorPair,
-    Robot,
-    deg_to_units,
-    units_to_deg,
-)
+from .robot import BusSettings, Joint, JointLimits, MirrorPair, Robot, deg_to_units, units_to_deg
 from .robot_lookup import ROBOT_FILE, find_robot_file
-from .servos import (
-    DEG_PER_UNIT,
-    POSITION_RANGE_UNITS,
-    SERVO_MODELS,
-    ServoModel,
-)
+from .servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, SERVO_MODELS, ServoModel
 from .yamlsource import (
     Entry,
     Node,
