@@ -63,23 +63,33 @@ def test_python_block_runs(code):
     assert result.returncode == 0, result.stderr
 
 
-@pytest.mark.parametrize(
-    "command", [c for c in README_COMMANDS if not HARDWARE_PORT.search(c)], ids=str
-)
-def test_readme_command_runs(command, tmp_path):
-    """Run from a folder holding the repo's motions and models, so files it writes land there."""
+@pytest.fixture
+def workdir(tmp_path: Path) -> Path:
+    """A folder holding the repo's motions and models, so files a command writes land there."""
     for folder in ("motions", "models"):
         (tmp_path / folder).symlink_to(ROOT / folder)
+    return tmp_path
+
+
+def run_command(command: str, folder: Path) -> None:
+    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder``."""
     argv = [sys.executable, "-m", "choreo", *shlex.split(command)[1:]]
     result = subprocess.run(
         argv,
-        cwd=tmp_path,
+        cwd=folder,
         env=env_importing_this_checkout(),
         capture_output=True,
         text=True,
         timeout=300,
     )
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize(
+    "command", [c for c in README_COMMANDS if not HARDWARE_PORT.search(c)], ids=str
+)
+def test_readme_command_runs(command, workdir):
+    run_command(command, workdir)
 
 
 @pytest.mark.parametrize(
@@ -90,10 +100,18 @@ def test_readme_command_runs(command, tmp_path):
         "choreo validate --stretch motions/tonypi/bow.yaml",
         "choreo play motions/hexapod18/stand_up.yaml --dry-run",
         "choreo mirror motions/arm6/wave.yaml -o mirrored.yaml",
-        "choreo export d6a motions/arm6/wave.yaml -o wave.d6a",
     ],
 )
-def test_commands_the_readme_describes_run(command, tmp_path):
+def test_commands_the_readme_describes_run(command, workdir):
     """The README's table and text name these with placeholders; concrete cases, on the emulator
     where a port is needed (a serial port at /dev/... is what the emulator's URL stands for)."""
-    test_readme_command_runs(command, tmp_path)
+    run_command(command, workdir)
+
+
+def test_a_vendor_action_group_imports_and_validates_as_the_readme_says(workdir):
+    """`choreo import d6a FILE.d6a --robot R -o motion.yaml`, then `choreo validate --stretch`,
+    on an action group written by `choreo export d6a`."""
+    run_command("choreo export d6a motions/arm6/wave.yaml -o wave.d6a", workdir)
+    run_command("choreo import d6a wave.d6a --robot arm6 -o motion.yaml", workdir)
+    run_command("choreo validate --stretch motion.yaml", workdir)
+    assert "robot: arm6" in (workdir / "motion.yaml").read_text()
