@@ -218,7 +218,7 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
         return None
     angle = round(joint.to_deg(value), ANGLE_DECIMALS) + 0.0  # + 0.0: no -0.0
     if not limits.contains(angle):
-        low, high = sorted(round(joint.to_units(a), 1) for a in (limits.min_deg, limits.max_deg))
+        low, high = (round(units, 1) for units in joint.limits_units)
         problems.append(
             f"{where} (joint {joint.name}): {fmt(value)} units = {fmt(angle)}° is "
             f"outside the joint's limits {limits.range_text} "

@@ -204,7 +204,7 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
         problems.append(
             f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
         )
-    low, high = sorted((joint.to_units(joint.limits.min_deg), joint.to_units(joint.limits.max_deg)))
+    low, high = joint.limits_units
     if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
         problems.append(
             f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"

@@ -78,6 +78,12 @@ class Joint:
         """Joint angle for a servo position."""
         return units_to_deg(position_units, self.zero_units, self.direction)
 
+    @property
+    def limits_units(self) -> tuple[float, float]:
+        """The joint limits as servo positions (not rounded), the lower first."""
+        ends = self.to_units(self.limits.min_deg), self.to_units(self.limits.max_deg)
+        return min(ends), max(ends)
+
 
 @dataclass(frozen=True)
 class LimitViolation:

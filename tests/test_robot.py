@@ -52,6 +52,7 @@ def test_tiny_robot_is_read_with_defaults_and_overrides():
     )
     assert right.limits.vel_deg_s == 200  # overridden in the file
     assert left.to_units(120) == pytest.approx(125)  # 625 - 120 * 1000/240
+    assert left.limits_units == pytest.approx((125, 875))  # 120° and -60°: the lower first
     assert robot.pose_vector("wave") == (30, 90, 0)
     assert dict(robot.poses["home"]) == {"yaw": 0, "left": 0, "right": 0}
     assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == [
