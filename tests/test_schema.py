@@ -14,7 +14,8 @@ from choreo import motion
 from choreo import robot_file as robot
 from choreo.bus import EchoMode
 from choreo.file_shape import Shape, mapping_shape
-from choreo.servos import ACTUATOR_FIELDS, SERVO_MODELS
+from choreo.protocol import MAX_SERVO_ID
+from choreo.servos import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 
 DATA = Path(__file__).parent / "data"
 REPO = Path(__file__).resolve().parents[1]
@@ -61,6 +62,14 @@ def test_the_loaders_take_their_keys_from_the_schemas():
 
 def test_the_preview_knows_every_actuator_key_of_the_schema():
     assert robot.ACTUATOR.keys == ACTUATOR_FIELDS
+
+
+def test_the_ranges_the_robot_schema_repeats_are_the_codes():
+    settings = schema("robot")["$defs"]["jointSettings"]["properties"]
+    joint = schema("robot")["properties"]["joints"]["additionalProperties"]
+    assert joint["properties"]["id"]["maximum"] == MAX_SERVO_ID
+    zero = settings["zero"]
+    assert (zero["minimum"], zero["maximum"]) == POSITION_RANGE_UNITS
 
 
 def test_a_pointer_to_no_mapping_is_refused():
