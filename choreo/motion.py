@@ -14,6 +14,7 @@ import yaml
 
 from .errors import SourceError
 from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
+from .timing import backward_times, played_keyframes
 from .yamlsource import (
     Entry,
     Node,
@@ -407,18 +408,17 @@ def _mirror_block(
 
 def _check_times(reader: Reader, steps: list[_Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
-    leave_s = 0.0  # the earliest time the previous keyframe can be left
-    for index, step in enumerate(steps):
-        if step.t_s is not None and index > 0 and step.t_s <= leave_s:
-            reader.problems.add(
-                step.t_where,
-                f"t {fmt(step.t_s)} goes backwards: the keyframe "
-                f"before it ({steps[index - 1].where}) cannot be "
-                f"left before {fmt(leave_s)} s; t values must "
-                f"increase along the file",
-            )
-        arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
-        leave_s = max(arrival_s, leave_s) + step.hold_s
+    if not steps:
+        return
+    for index, leave_s in backward_times(played_keyframes(steps)):
+        step = steps[index]
+        reader.problems.add(
+            step.t_where,
+            f"t {fmt(step.t_s)} goes backwards: the keyframe "
+            f"before it ({steps[index - 1].where}) cannot be "
+            f"left before {fmt(leave_s)} s; t values must "
+            f"increase along the file",
+        )
 
 
 def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
