@@ -4,7 +4,7 @@ An action group is an SQLite database with one table, ``ActionGroup``: per row a
 (play order), a ``Time`` (milliseconds to move from the previous row's pose into this row's)
 and one ``ServoK`` column per servo holding its target position in units (0..1000). The
 vendor's runner sends every row as linear moves of ``Time`` ms and sleeps ``Time``; row 1 starts
-from wherever the robot is. See ``shared/docs/d6a.md``.
+from wherever the robot is. See ``docs/d6a.md``.
 
 Import: each row becomes a keyframe arriving ``after: Time/1000`` seconds after the one before,
 so every time is kept to the millisecond. Row 1 is reached by choreo's approach (from wherever

@@ -1,6 +1,6 @@
 """The LX bus-servo protocol as data: command table, encoding, checksum, stream decoder.
 
-Pure: no I/O. ``shared/docs/protocol.md`` is the reference (the vendor document's mistakes are
+Pure: no I/O. ``docs/protocol.md`` is the reference (the vendor document's mistakes are
 corrected there). A packet is ``55 55 ID LEN CMD P1..Pn CHK`` with ``LEN = n + 3`` and
 ``CHK = ~(ID + LEN + CMD + P1 + ... + Pn) & 0xFF``; multi-byte values are little-endian.
 

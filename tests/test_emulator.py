@@ -1,7 +1,7 @@
 """The servo emulator driven by raw packets on a virtual clock.
 
-Golden reply bytes come from the verified packets of shared/docs/protocol.md; speeds and times
-from shared/docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 s).
+Golden reply bytes come from the verified packets of docs/protocol.md; speeds and times
+from docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 s).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The codec against the 58 verified packets of shared/docs/protocol.md (from the vendor manual
+"""The codec against the 58 verified packets of docs/protocol.md (from the vendor manual
 and two independent drivers), plus property tests of the stream decoder."""
 
 from __future__ import annotations

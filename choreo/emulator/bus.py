@@ -1,6 +1,6 @@
 """The emulated bus: host bytes in, servo replies out, on a wire with real timing.
 
-Timing model (``shared/docs/protocol.md``):
+Timing model (``docs/protocol.md``):
 
 - Every byte takes ``BYTE_TIME_S`` (10 bits at 115200 baud). The host's writes queue on the wire
   one after another, starting no earlier than the moment they are written.

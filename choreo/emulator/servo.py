@@ -1,6 +1,6 @@
 """One emulated LX bus servo: its EEPROM, its motion, its faults, and its answer to each command.
 
-Behaviour follows ``shared/docs/protocol.md`` ("Behaviour of a real servo"). Choices made where the
+Behaviour follows ``docs/protocol.md`` ("What a servo does"). Choices made where the
 servo's behaviour is undocumented:
 
 - **Positions and the offset.** The servo has an *output* position (where the horn really is, in
@@ -24,7 +24,7 @@ servo's behaviour is undocumented:
 - Writes with a parameter outside its documented range are ignored (the servo cannot answer NAK),
   except positions, which are clamped to the angle limits like any other target.
 - A MOVE_START whose first byte comes less than ``start_gap_s`` after the end of the servo's own
-  MOVE_TIME_WAIT_WRITE is missed (protocol.md: "leave a small gap (≥ 1 ms)").
+  MOVE_TIME_WAIT_WRITE is missed (docs/protocol.md: leave at least 1 ms).
 - DIS_READ (models that answer it) reports the distance the output has travelled since power-up,
   forwards and backwards alike, at 4096 pulses per turn.
 """
