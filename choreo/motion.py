@@ -408,15 +408,12 @@ def _mirror_block(
 
 def _check_times(reader: Reader, steps: list[_Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
-    if not steps:
-        return
-    for index, leave_s in backward_times(played_keyframes(steps)):
-        step = steps[index]
+    for backward in backward_times(played_keyframes(steps)):
         reader.problems.add(
-            step.t_where,
-            f"t {fmt(step.t_s)} goes backwards: the keyframe "
-            f"before it ({steps[index - 1].where}) cannot be "
-            f"left before {fmt(leave_s)} s; t values must "
+            steps[backward.index].t_where,
+            f"t {fmt(backward.t_s)} goes backwards: the keyframe "
+            f"before it ({steps[backward.index - 1].where}) cannot be "
+            f"left before {fmt(backward.earliest_leave_s)} s; t values must "
             f"increase along the file",
         )
 

@@ -68,6 +68,8 @@ def played_keyframes(
 ) -> list[PlayedKeyframe[K]]:
     """The keyframes in playing order; a keyframe rests if it says stop or hold, and so do the
     very first and the very last (not the ends of inner repetitions: the wrap flows)."""
+    if not keyframes:
+        return []
     first = keyframes[0]
     origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
     played: list[PlayedKeyframe[K]] = []
@@ -140,14 +142,25 @@ def estimated_arrivals_s(
     return arrive
 
 
-def backward_times(played: Sequence[PlayedKeyframe]) -> list[tuple[int, float]]:
-    """(index, leave_s of the keyframe before) of every keyframe after the first whose ``t`` is
-    not after the earliest time the keyframe before it can be left."""
+@dataclass(frozen=True)
+class BackwardTime:
+    """A keyframe whose ``t`` is not after the earliest time the keyframe before can be left."""
+
+    index: int
+    t_s: float  # the time it asks for (played seconds)
+    earliest_leave_s: float  # when the keyframe before it can be left, at the earliest
+
+
+def backward_times(played: Sequence[PlayedKeyframe]) -> list[BackwardTime]:
+    """Every keyframe after the first whose ``t`` is not later than the keyframe before it can
+    be left (keyframes timed "as soon as possible" counted as taking no time)."""
+    if not played:
+        return []
     arrive = estimated_arrivals_s(played)
     backward = []
     for i in range(1, len(played)):
         leave_s = float(arrive[i - 1] + played[i - 1].hold_s)
         wanted = wanted_arrival_s(played, i, arrive)
         if played[i].timing is Timing.AT and wanted is not None and wanted <= leave_s:
-            backward.append((i, leave_s))
+            backward.append(BackwardTime(i, wanted, leave_s))
     return backward

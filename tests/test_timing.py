@@ -71,4 +71,9 @@ def test_only_the_very_ends_and_stops_and_holds_rest():
 def test_a_t_not_after_the_keyframe_before_is_left_goes_backwards():
     keyframes = [Kf(t_s=1.0, hold_s=0.5), Kf(t_s=1.5), Kf(after_s=1.0), Kf(t_s=2.4), Kf(t_s=3.0)]
     # 1.5 is when the first is left (t must be later); the third arrives at 2.5
-    assert backward_times(played_keyframes(keyframes)) == [(1, 1.5), (3, 2.5)]
+    backward = backward_times(played_keyframes(keyframes))
+    assert [(b.index, b.t_s, b.earliest_leave_s) for b in backward] == [
+        (1, 1.5, 1.5),
+        (3, 2.4, 2.5),
+    ]
+    assert backward_times(played_keyframes([])) == []
