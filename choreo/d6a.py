@@ -38,7 +38,7 @@ from .motion import HOME_POSE, Keyframe, Motion
 from .motion_writer import motion_text, robot_reference
 from .planner import plan_approach, plan_motion
 from .robot import Joint, Robot, SourceLocation
-from .timing import PlayedKeyframe, Timing, estimated_arrivals_s, played_keyframes
+from .timing import PlayedKeyframe, known_arrivals_s, played_keyframes
 from .yamlsource import fmt
 
 log = logging.getLogger(__name__)
@@ -385,9 +385,10 @@ def _played(motion: Motion) -> tuple[list[PlayedKeyframe[Keyframe]], list[float]
     """The played keyframes and their arrival times: from their own t/after where every keyframe
     has one (the first may go without), else from the planner."""
     played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=motion.speed)
-    if any(p.timing is Timing.ASAP for p in played):
+    own = known_arrivals_s(played)
+    if None in own:
         return played, list(plan_motion(motion).trajectory.keyframe_times_s)
-    return played, estimated_arrivals_s(played).tolist()
+    return played, [arrival for arrival in own if arrival is not None]
 
 
 # --- writing -----------------------------------------------------------------------------------

@@ -14,7 +14,7 @@ import yaml
 
 from .errors import SourceError
 from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
-from .timing import backward_times, played_keyframes
+from .timing import backward_times, known_arrivals_s, played_keyframes
 from .yamlsource import (
     Entry,
     Node,
@@ -350,24 +350,18 @@ def _block(
     The included file's time starts when the keyframe before the include is left; an untimed
     first step is the origin of its t values.
     """
-    block: list[_Step] = []
-    arrival_s: float | None = 0.0  # the previous step's time in the included file, if known
-    for index, step in enumerate(steps):
-        if index == 0:
-            arrival_s = step.t_s if step.t_s is not None else step.after_s or 0.0
-            own = step.t_s if step.t_s is not None else step.after_s
-            t_s, after_s = timing if timing != (None, None) else (None, own)
-            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where))
-            continue
-        previous = steps[index - 1]
+    if not steps:
+        return []
+    arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
+    first = steps[0]
+    own = first.t_s if first.t_s is not None else first.after_s
+    t_s, after_s = timing if timing != (None, None) else (None, own)
+    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where)]
+    for index, step in enumerate(steps[1:], start=1):
+        previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
         if step.t_s is None:
-            arrival_s = (
-                None
-                if arrival_s is None or step.after_s is None
-                else arrival_s + previous.hold_s + step.after_s
-            )
             block.append(step)
-        elif arrival_s is None:
+        elif previous_arrival_s is None:
             reader.problems.add(
                 step.t_where,
                 "t in an included file becomes an after delay, so "
@@ -375,9 +369,8 @@ def _block(
                 "t or after too; give it one, or use after here",
             )
         else:
-            after_s = step.t_s - arrival_s - previous.hold_s
+            after_s = step.t_s - previous_arrival_s - previous.hold_s
             block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
-            arrival_s = step.t_s
     return block
 
 

@@ -142,6 +142,19 @@ def estimated_arrivals_s(
     return arrive
 
 
+def known_arrivals_s(played: Sequence[PlayedKeyframe]) -> list[float | None]:
+    """Arrival times the keyframes' own ``t`` and ``after`` fix, nothing planned: ``None`` for a
+    keyframe timed "as soon as possible" and for those counting from one."""
+    arrive: list[float | None] = []
+    for i, p in enumerate(played):
+        counts_from = i - 1 if p.timing is Timing.AFTER else p.anchor
+        if p.timing is Timing.ASAP or (counts_from is not None and arrive[counts_from] is None):
+            arrive.append(None)
+        else:
+            arrive.append(wanted_arrival_s(played, i, arrive))  # type: ignore[arg-type]
+    return arrive
+
+
 @dataclass(frozen=True)
 class BackwardTime:
     """A keyframe whose ``t`` is not after the earliest time the keyframe before can be left."""

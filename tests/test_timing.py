@@ -10,6 +10,7 @@ from choreo.timing import (
     Timing,
     backward_times,
     estimated_arrivals_s,
+    known_arrivals_s,
     played_keyframes,
     wanted_arrival_s,
 )
@@ -77,3 +78,17 @@ def test_a_t_not_after_the_keyframe_before_is_left_goes_backwards():
         (3, 2.4, 2.5),
     ]
     assert backward_times(played_keyframes([])) == []
+
+
+def test_known_arrivals_are_what_t_and_after_fix_without_planning():
+    keyframes = [Kf(t_s=1.0), Kf(), Kf(after_s=0.5), Kf(t_s=3.0, hold_s=0.5), Kf(after_s=1.0)]
+    played = played_keyframes(keyframes, speed=2.0)
+    # the untimed keyframe and the `after` counting from it are unknown; t is known again
+    assert known_arrivals_s(played) == [0.5, None, None, 1.5, 2.25]
+
+
+def test_known_arrivals_of_repetitions_count_from_their_first_keyframe():
+    played = played_keyframes([Kf(after_s=1.0), Kf(t_s=2.0)], repeat=2)
+    assert known_arrivals_s(played) == [1.0, 2.0, 3.0, 4.0]
+    untimed_wrap = played_keyframes([Kf(), Kf(t_s=2.0)], repeat=2)
+    assert known_arrivals_s(untimed_wrap) == [0.0, 2.0, None, None]
