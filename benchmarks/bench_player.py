@@ -24,8 +24,8 @@ import numpy as np
 from choreo.bus import ServoBus
 from choreo.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
-from choreo.emulator.trace import path_errors_deg
 from choreo.motion import load_motion
+from choreo.path_errors import path_errors_deg
 from choreo.pipeline import compile_motion
 from choreo.player import Player, packet_schedule, preflight, prepare
 from choreo.robot import Robot

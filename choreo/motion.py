@@ -17,6 +17,7 @@ from .file_shape import mapping_shape
 from .robot import Robot, mirror_pose
 from .robot_file import load_robot, read_angles
 from .robot_lookup import find_robot_file
+from .timing import backward_times, known_arrivals_s, played_keyframes
 from .yamlsource import (
     Entry,
     Node,
@@ -353,24 +354,18 @@ def _block(
     The included file's time starts when the keyframe before the include is left; an untimed
     first step is the origin of its t values.
     """
-    block: list[_Step] = []
-    arrival_s: float | None = 0.0  # the previous step's time in the included file, if known
-    for index, step in enumerate(steps):
-        if index == 0:
-            arrival_s = step.t_s if step.t_s is not None else step.after_s or 0.0
-            own = step.t_s if step.t_s is not None else step.after_s
-            t_s, after_s = timing if timing != (None, None) else (None, own)
-            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where))
-            continue
-        previous = steps[index - 1]
+    if not steps:
+        return []
+    arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
+    first = steps[0]
+    own = first.t_s if first.t_s is not None else first.after_s
+    t_s, after_s = timing if timing != (None, None) else (None, own)
+    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where)]
+    for index, step in enumerate(steps[1:], start=1):
+        previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
         if step.t_s is None:
-            arrival_s = (
-                None
-                if arrival_s is None or step.after_s is None
-                else arrival_s + previous.hold_s + step.after_s
-            )
             block.append(step)
-        elif arrival_s is None:
+        elif previous_arrival_s is None:
             reader.problems.add(
                 step.t_where,
                 "t in an included file becomes an after delay, so "
@@ -378,9 +373,8 @@ def _block(
                 "t or after too; give it one, or use after here",
             )
         else:
-            after_s = step.t_s - arrival_s - previous.hold_s
+            after_s = step.t_s - previous_arrival_s - previous.hold_s
             block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
-            arrival_s = step.t_s
     return block
 
 
@@ -408,18 +402,14 @@ def _mirror_block(
 
 def _check_times(reader: Reader, steps: list[_Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
-    leave_s = 0.0  # the earliest time the previous keyframe can be left
-    for index, step in enumerate(steps):
-        if step.t_s is not None and index > 0 and step.t_s <= leave_s:
-            reader.problems.add(
-                step.t_where,
-                f"t {fmt(step.t_s)} goes backwards: the keyframe "
-                f"before it ({steps[index - 1].where}) cannot be "
-                f"left before {fmt(leave_s)} s; t values must "
-                f"increase along the file",
-            )
-        arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
-        leave_s = max(arrival_s, leave_s) + step.hold_s
+    for backward in backward_times(played_keyframes(steps)):
+        reader.problems.add(
+            steps[backward.index].t_where,
+            f"t {fmt(backward.t_s)} goes backwards: the keyframe "
+            f"before it ({steps[backward.index - 1].where}) cannot be "
+            f"left before {fmt(backward.earliest_leave_s)} s; t values must "
+            f"increase along the file",
+        )
 
 
 def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:

@@ -14,18 +14,16 @@ segment that cannot be done in the time asked (we compare durations ourselves); 
 waypoints call a cloud service (never used: one calculation per interval); the result is read
 back as seven constant-jerk phases per joint, which ``Trajectory`` evaluates with numpy.
 
-Times: a played keyframe's ``t`` counts from the motion start (the first keyframe's pose, where
-the approach leaves the robot), divided by the speed. With ``repeat``, the first keyframe is
-reached again from the last one (after its ``after`` if it has one, else as soon as the limits
-allow) and each repetition keeps the file's spacing of ``t`` values from there.
+Times: the keyframe timing rules (``t``, ``after``, ``hold``, ``repeat``, speed) are
+``choreo.timing``'s; the motion start is the first keyframe's pose, where the approach leaves
+the robot.
 """
 
 from __future__ import annotations
 
-import enum
 import logging
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from itertools import chain
 from typing import NamedTuple
 
@@ -36,6 +34,13 @@ from ruckig import Trajectory as RuckigTrajectory
 from .errors import PlanningError
 from .motion import Keyframe, Motion
 from .robot import Robot
+from .timing import (
+    PlayedKeyframe,
+    Timing,
+    estimated_arrivals_s,
+    played_keyframes,
+    wanted_arrival_s,
+)
 from .yamlsource import SourceLocation
 
 log = logging.getLogger(__name__)
@@ -181,69 +186,6 @@ class PlanResult:
     stretches: tuple[Stretch, ...] = ()
 
 
-# --- the played keyframe sequence --------------------------------------------------------------
-class _Timing(enum.Enum):
-    ASAP = enum.auto()  # as soon as the limits allow
-    AFTER = enum.auto()  # a delay after the previous keyframe is left
-    AT = enum.auto()  # a time after the repetition's first keyframe
-
-
-@dataclass(frozen=True)
-class _Played:
-    """A keyframe as played: repeat unrolled, speed applied (all times in played seconds)."""
-
-    keyframe: Keyframe
-    timing: _Timing
-    value_s: float  # AFTER: the delay; AT: the time after the anchor's arrival (the very first
-    #                 keyframe: after the start)
-    anchor: int  # AT: index of the played keyframe this repetition's t values count from
-    hold_s: float
-    rests: bool  # velocity zero here: stop, hold, or an end of the whole play
-    speed: float
-
-
-def _played_keyframes(motion: Motion, speed: float) -> list[_Played]:
-    """The keyframes in playing order; a keyframe rests if it says stop or hold, and so do the
-    very first and the very last (not the ends of inner repetitions: the wrap flows)."""
-    keyframes = motion.keyframes
-    first = keyframes[0]
-    origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
-    played: list[_Played] = []
-    for rep in range(motion.repeat):
-        anchor = len(played)
-        for index, kf in enumerate(keyframes):
-            if index == 0:
-                # The start waits for the first keyframe's time; a wrap reaches it again after
-                # its `after`, or as soon as the limits allow.
-                timing, value = (
-                    (_Timing.AT, origin_s)
-                    if rep == 0
-                    else (_Timing.AFTER, kf.after_s)
-                    if kf.after_s is not None
-                    else (_Timing.ASAP, 0.0)
-                )
-            elif kf.t_s is not None:
-                timing, value = _Timing.AT, kf.t_s - origin_s
-            elif kf.after_s is not None:
-                timing, value = _Timing.AFTER, kf.after_s
-            else:
-                timing, value = _Timing.ASAP, 0.0
-            played.append(
-                _Played(
-                    kf,
-                    timing,
-                    value / speed,
-                    anchor,
-                    kf.hold_s / speed,
-                    rests=kf.stop or kf.hold_s > 0,
-                    speed=speed,
-                )
-            )
-    played[0] = replace(played[0], rests=True)
-    played[-1] = replace(played[-1], rests=True)
-    return played
-
-
 # --- one segment -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Limits:
@@ -384,7 +326,7 @@ class _Planner:
     """Plans the segments in time order; backs up one segment when a pass-through velocity it
     already used has to be lowered."""
 
-    def __init__(self, robot: Robot, played: list[_Played], stretch: bool):
+    def __init__(self, robot: Robot, played: list[PlayedKeyframe[Keyframe]], stretch: bool):
         self.robot = robot
         self.played = played
         self.stretch = stretch
@@ -413,18 +355,7 @@ class _Planner:
     def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
         """Arrival and leave times as if every timing were met and ASAP keyframes were reached
         from rest: good enough to choose pass-through velocities."""
-        m = len(self.played)
-        arrive = np.zeros(m)
-        arrive[0] = self.played[0].value_s
-        for i in range(1, m):
-            leave = arrive[i - 1] + self.holds_s[i - 1]
-            p = self.played[i]
-            if p.timing is _Timing.AT:
-                arrive[i] = arrive[p.anchor] + p.value_s
-            elif p.timing is _Timing.AFTER:
-                arrive[i] = leave + p.value_s
-            if p.timing is _Timing.ASAP or arrive[i] <= leave:
-                arrive[i] = leave + self.rest_to_rest_s(i - 1)
+        arrive = estimated_arrivals_s(self.played, lambda i: self.rest_to_rest_s(i - 1))
         return arrive, arrive + self.holds_s
 
     def velocity_caps(self) -> np.ndarray:
@@ -441,13 +372,13 @@ class _Planner:
         )
         damping = np.zeros((m, n), dtype=int)
         arrive = np.zeros(m)
-        arrive[0] = self.played[0].value_s
+        arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
         segments: list[_Segment] = [None] * (m - 1)  # type: ignore[list-item]
         i = 0
         while i < m - 1:
             leave = arrive[i] + self.holds_s[i]
-            wanted = self.wanted_arrival(i + 1, arrive, shift)
+            wanted = wanted_arrival_s(self.played, i + 1, arrive, shift)
             requested = None if wanted is None else wanted - leave
             seg = self.solver.solve(
                 self.pose_lists[i],
@@ -476,15 +407,6 @@ class _Planner:
         ]
         return segments, arrive, stretches
 
-    def wanted_arrival(self, i: int, arrive: np.ndarray, shift: np.ndarray) -> float | None:
-        p = self.played[i]
-        if p.timing is _Timing.ASAP:
-            return None
-        if p.timing is _Timing.AFTER:
-            return arrive[i - 1] + self.holds_s[i - 1] + p.value_s
-        # t values count from this repetition's first keyframe and move with earlier stretches
-        return arrive[p.anchor] + p.value_s + shift[p.anchor + 1 : i].sum()
-
     def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
         to plan next (i again, or i - 1 when its start velocity had to change)."""
@@ -510,7 +432,7 @@ class _Planner:
         late_by = (earliest - wanted) * p.speed  # in the file's seconds
         fix = (
             f"t >= {kf.t_s + late_by:.3f}"
-            if p.timing is _Timing.AT and kf.t_s is not None
+            if p.timing is Timing.AT and kf.t_s is not None
             else f"after >= {(kf.after_s or 0.0) + late_by:.3f}"
         )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
@@ -602,7 +524,7 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
     _check_targets(robot, motion.keyframes)
-    played = _played_keyframes(motion, speed)
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=speed)
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()
     trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)

@@ -1,7 +1,7 @@
 """The servo emulator driven by raw packets on a virtual clock.
 
-Golden reply bytes come from the verified packets of shared/docs/protocol.md; speeds and times
-from shared/docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 s).
+Golden reply bytes come from the verified packets of docs/protocol.md; speeds and times
+from docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 s).
 """
 
 from __future__ import annotations
@@ -638,3 +638,20 @@ def test_log_records_packets_with_arrival_times_and_moves(bus):
     assert stop.time_s - write.time_s == pytest.approx(0.02 + 6 * BYTE_S)
     (move,) = log.moves
     assert (move.servo_id, move.from_units, move.to_units, move.duration_s) == (1, 500, 600, 0.4)
+
+
+def test_the_emulator_depends_on_nothing_above_the_bus():
+    """The emulator is the servos' side of the wire: robots, motions and players are built on
+    top of it, never inside it (choreo.path_errors reads its log through a robot)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, choreo.emulator, choreo.emulator.trace, choreo.emulator.pty\n"
+        "print(' '.join(sorted(m for m in sys.modules if m.startswith('choreo'))))"
+    )
+    loaded = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    above = {"choreo.robot", "choreo.motion", "choreo.planner", "choreo.player", "choreo.cli"}
+    assert above.isdisjoint(loaded), loaded

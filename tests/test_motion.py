@@ -237,6 +237,23 @@ def test_included_t_after_an_untimed_keyframe_cannot_become_a_delay():
     )
 
 
+def test_only_the_included_t_whose_keyframe_before_is_untimed_is_refused(tmp_path):
+    """A later t counts from an earlier t: its keyframe before it has a time."""
+    robot = (BAD.parent / "models" / "tiny" / "robot.yaml").resolve()
+    part = tmp_path / "part.yaml"
+    part.write_text(
+        f"robot: {robot}\nkeyframes:\n  - pose: home\n  - pose: wave\n"
+        "  - pose: home\n    t: 3.0\n  - pose: wave\n    t: 4.0\n"
+    )
+    motion = tmp_path / "motion.yaml"
+    motion.write_text(f"robot: {robot}\nkeyframes:\n  - include: part.yaml\n")
+    assert problems_of(motion) == [
+        f"{part}:6:8: t in an included file becomes an after delay, so the "
+        f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
+        f"or use after here"
+    ]
+
+
 def test_no_keyframes():
     path, message = only_problem("no_keyframes.yaml")
     assert message == f"{path}:2:1: keyframes: the motion has no keyframes; give at least one"

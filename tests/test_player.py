@@ -5,11 +5,11 @@ from __future__ import annotations
 import pytest
 
 from choreo.bus import ServoBus
-from choreo.cli.play_command import measured_path_errors
 from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
 from choreo.motion import load_motion
+from choreo.path_errors import measured_path_errors
 from choreo.pipeline import compile_motion
 from choreo.player import (
     ExitMode,
@@ -69,7 +69,9 @@ def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     report = rig.play()
     assert report.outcome is Outcome.COMPLETED
     assert report.retargeted == 0 and max(report.lateness_ms) == 0.0  # virtual time is exact
-    errors = measured_path_errors(rig.emulator, rig.robot, rig.performance, report, rig.start)
+    errors = measured_path_errors(
+        rig.emulator.log.moves, rig.robot, rig.performance, report, rig.start
+    )
     assert max(errors) <= 0.5 + QUANTIZATION_DEG + 1e-6
     # and the servos end where the motion ends
     final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]

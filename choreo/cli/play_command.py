@@ -9,14 +9,13 @@ import signal
 import sys
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..clock import RealClock
-from ..emulator.trace import path_errors_deg
 from ..motion import load_motion
+from ..path_errors import measured_path_errors
 from ..pipeline import CompiledMotion, compile_motion
 from ..player import (
     ExitMode,
@@ -114,7 +113,9 @@ def run_play(args: argparse.Namespace) -> int:
         )
         errors = None
         if emulator is not None:
-            errors = measured_path_errors(emulator, robot, performance, report, start_pose)
+            errors = measured_path_errors(
+                emulator.log.moves, robot, performance, report, start_pose
+            )
     _print_report(report, robot, errors)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         print(
@@ -123,22 +124,6 @@ def run_play(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return EXIT_CODES[report.outcome]
-
-
-def measured_path_errors(
-    emulator, robot: Robot, performance: Performance, report: PlayReport, start_pose
-) -> tuple[float, ...]:
-    """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms)."""
-    times = np.arange(0.0, report.planned_s, 0.002)
-    start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
-    return path_errors_deg(
-        emulator.log.moves,
-        robot,
-        start_units,
-        report.start_time_s,
-        times,
-        performance.planned_deg(times),
-    )
 
 
 def _interrupt(signum, frame):

@@ -1,17 +1,17 @@
-"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts."""
+"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts
+(servo IDs and units only: ``choreo.path_errors`` reads them through a robot's joints)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 
 import numpy as np
 
-from ..robot import Robot
-from .servo import MoveStart
+from .servo import StartedMove
 
 
 def executed_units(
-    moves: Iterable[MoveStart], servo_id: int, start_units: float, times_s: np.ndarray
+    moves: Iterable[StartedMove], servo_id: int, start_units: float, times_s: np.ndarray
 ) -> np.ndarray:
     """Position (POS_READ units) of one servo at ``times_s``, from its logged linear moves.
 
@@ -34,30 +34,3 @@ def executed_units(
     )
     path = begin + (end - begin) * np.clip(fraction, 0.0, 1.0)
     return np.where(before, float(start_units), path)
-
-
-def path_errors_deg(
-    moves: Iterable[MoveStart],
-    robot: Robot,
-    start_units: Sequence[float],
-    start_time_s: float,
-    times_s: np.ndarray,
-    planned_deg: np.ndarray,
-) -> tuple[float, ...]:
-    """Per joint, the largest distance between where the emulated servo went and
-    ``planned_deg`` (``(len(times_s), n_joints)`` degrees at ``start_time_s + times_s``)."""
-    moves = list(moves)
-    return tuple(
-        float(
-            np.max(
-                np.abs(
-                    joint.to_deg(
-                        executed_units(moves, joint.servo_id, start, start_time_s + times_s)
-                    )
-                    - planned_deg[:, j]
-                ),
-                initial=0.0,
-            )
-        )
-        for j, (joint, start) in enumerate(zip(robot.joints, start_units))
-    )

@@ -1,7 +1,7 @@
 """What the servos do with the ticks they receive: their own linear moves, and the actuator model.
 
 Plain numpy, no MuJoCo: the simulation asks a ``ServoBank`` for every servo's set-point at each
-physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``), as the player sends:
+physics step. Hardware behaviour modelled (see ``docs/protocol.md``), as the player sends:
 
 - a staged move (position, time) is a preset; every tick's broadcast START runs each servo's
   preset, so a servo that was not re-staged re-runs its previous one (the first tick is staged on
