@@ -20,6 +20,7 @@ from . import (
     motion_commands,
     plan_commands,
     play_command,
+    ports_command,
     preview_command,
     record_command,
     servo_commands,
@@ -27,6 +28,7 @@ from . import (
 
 COMMAND_GROUPS = (
     bus_commands,
+    ports_command,
     emulate_command,
     motion_commands,
     plan_commands,
