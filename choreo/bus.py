@@ -225,7 +225,7 @@ class ServoBus:
         if not echo_seen:  # DISCARD mode, and not one try saw its request come back
             raise ProtocolError(
                 f"{self.name}: expected the echo of the request, got "
-                f"{received[:ECHO_REPORT_BYTES].hex(' ') or 'nothing'}: is the bus really wired "
+                f"{received.hex(' ') or 'nothing'}: is the bus really wired "
                 "one-wire? try echo mode 'none' or 'auto'"
             )
         tries = (
@@ -282,23 +282,26 @@ class ServoBus:
         deadline_s = time.monotonic() + timeout_s
         reply_len = SPECS[command].reply_len + 3
         echo_seen = self.echo is not EchoMode.DISCARD  # DISCARD: a reply only after our echo
-        wanted, wait_s = reply_len, timeout_s
+        wanted, wait_s, overdue = reply_len, timeout_s, False
         received = bytearray()
-        while wait_s > 0:
+        while True:
             port.timeout = wait_s
             data = port.read(wanted)
-            received += data
+            received += data[: ECHO_REPORT_BYTES - len(received)]  # for an error message
             for reply in self._decoder.feed(data):
                 if reply.encode() == packet:
                     echo_seen = True  # the echo of our own request
                 elif echo_seen and self._is_reply(reply, command, servo_id):
                     return _Attempt(decode_reply(command, reply), echo_seen, bytes(received))
-            if len(data) < wanted:
+            if len(data) < wanted or overdue:
                 break  # the port waited out the rest of the timeout
-            # Ask only for the rest of the frame begun: asking for a whole reply again after an
-            # echo or a stray packet would wait for bytes that never come.
-            wanted = self._decoder.bytes_to_complete(reply_len)
             wait_s = deadline_s - time.monotonic()
+            if wait_s > 0:
+                # Ask only for the rest of the frame begun: asking for a whole reply again after
+                # an echo or a stray packet would wait for bytes that never come.
+                wanted = self._decoder.bytes_to_complete(reply_len)
+            else:  # the host ran late (descheduled): look at what has arrived, without waiting
+                overdue, wait_s, wanted = True, 0, max(port.in_waiting, 1)
         return _Attempt(None, echo_seen, bytes(received))
 
     def _is_reply(self, reply, command: Command, servo_id: int) -> bool:

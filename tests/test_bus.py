@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import types
+
 import pytest
 import serial
 
@@ -249,6 +251,31 @@ class StrayByteBeforeEachRequest(SimSerial):
         if len(data) == 6:  # a read request
             self.emulator._schedule(self.emulator.clock.now(), b"\x00")
         return super().write(data)
+
+
+class DescheduledAfterFirstRead(SimSerial):
+    """The host loses the CPU for 0.5 s right after its first read returns."""
+
+    reads = 0
+
+    def read(self, size=1):
+        data = super().read(size)
+        self.reads += 1
+        if self.reads == 1:
+            self.emulator.clock.advance(0.5)
+        return data
+
+
+def test_a_reply_that_arrived_while_the_host_was_descheduled_is_taken(monkeypatch):
+    # Past its deadline the attempt still looks at what has already arrived: the reply is there.
+    emulator = BusEmulator(range(1, 19), clock=VirtualClock(), echo=True)
+    host_time = types.SimpleNamespace(monotonic=emulator.clock.now)  # host time = wire time
+    monkeypatch.setattr("choreo.bus.time", host_time)
+    bus = ServoBus(DescheduledAfterFirstRead.from_emulator(emulator), retries=0, timeout_s=0.02)
+    for servo_id in range(1, 19):
+        bus.stage_move(servo_id, 450, 300)
+    bus.drain()
+    assert bus.read_position(3) == 500
 
 
 @pytest.mark.parametrize("mode", [EchoMode.DISCARD, EchoMode.AUTO], ids=lambda m: m.value)
