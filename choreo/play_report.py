@@ -9,6 +9,7 @@ the servos' real paths strayed from the smooth plan.
 from __future__ import annotations
 
 import json
+import os
 import urllib.parse
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -53,6 +54,8 @@ def check_report_path(path: Path) -> None:
         raise ChoreoError(
             f"--report {path}: the folder {path.parent} does not exist; create it first"
         )
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise ChoreoError(f"--report {path}: the folder {path.parent} is not writable")
 
 
 def report_document(

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
 
 import pytest
+from emulated import wait_for
 
 from choreo.bus import ServoBus
 from choreo.cli import main
@@ -44,6 +48,40 @@ def test_play_writes_a_report_that_reads_back(tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["wave.json"]  # no temporary left behind
 
 
+def test_an_interrupted_play_on_a_serial_port_reports_it(arm_on_a_pty, tmp_path):
+    # A real port (a pty): kind "serial", nothing to measure the path error with.
+    emulator, link = arm_on_a_pty
+    path = tmp_path / "r.json"
+    command = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--report", str(path)]
+    slow_host = ["--timeout-ms", "500", "--health-timeout-ms", "100"]  # a loaded machine
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", *command, *slow_host],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+
+        def playing():
+            if process.poll() is not None:
+                raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
+            packets = list(emulator.log.packets)  # copied at once: the bridge appends meanwhile
+            return sum(p.packet.command == Command.MOVE_START for p in packets) >= 5
+
+        wait_for(playing, "the motion to be playing")
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 130, stderr
+    report = json.loads(path.read_text())
+    assert report["outcome"] == "interrupted"
+    assert report["transport"] == {"kind": "serial", "port": str(link), "emulated": False}
+    assert 5 <= report["ticks"]["played"] < report["ticks"]["total"]
+    assert report["start_skew_ms"] == {"max": 0.0, "measured": False}
+    assert report["path_error_deg_max"] is None
+
+
 def test_a_report_in_a_missing_folder_is_refused_before_anything_plays(tmp_path, capsys):
     path = tmp_path / "no-such-folder" / "r.json"
     assert main(["play", "motions/arm6/wave.yaml", "--report", str(path)]) == 1
@@ -52,6 +90,16 @@ def test_a_report_in_a_missing_folder_is_refused_before_anything_plays(tmp_path,
     assert "built-in emulated bus" not in captured.err and captured.out == ""
     assert main(["play", "motions/arm6/wave.yaml", "--report", str(tmp_path)]) == 1
     assert "is a folder" in capsys.readouterr().err
+
+
+def test_a_report_in_a_folder_it_cannot_write_is_refused_before_anything_plays(
+    tmp_path, monkeypatch, capsys
+):
+    # (Tests may run as root, for whom every folder is writable: the permission is faked.)
+    monkeypatch.setattr("choreo.play_report.os.access", lambda path, mode: False)
+    assert main(["play", "motions/arm6/wave.yaml", "--report", str(tmp_path / "r.json")]) == 1
+    captured = capsys.readouterr()
+    assert f"the folder {tmp_path} is not writable" in captured.err and captured.out == ""
 
 
 def test_a_report_of_a_dry_run_is_a_usage_error(tmp_path, capsys):
