@@ -41,9 +41,9 @@ class Transport:
     start_skew_ms: float = 0.0
 
 
-def transport_of(port_name: str, *, emulated: bool) -> Transport:
+def transport_of(port_name: str) -> Transport:
     scheme = urllib.parse.urlsplit(port_name).scheme.lower() if "://" in port_name else ""
-    return Transport(kind=scheme or "serial", port=port_name, emulated=emulated)
+    return Transport(kind=scheme or "serial", port=port_name, emulated=scheme == "sim")
 
 
 def check_report_path(path: Path) -> None:

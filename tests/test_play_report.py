@@ -133,7 +133,7 @@ def test_the_report_of_an_aborted_echoing_play_in_virtual_time(tmp_path):
         aborted,
         motion="tripod_gait.yaml",
         robot=robot.name,
-        transport=transport_of("sim://?ids=1-18&echo=1", emulated=True),
+        transport=transport_of("sim://?ids=1-18&echo=1"),
         measured_start_skew_ms=start_skew_ms(emulator.log.moves),
     )
     path = tmp_path / "r.json"
@@ -158,8 +158,9 @@ def test_the_report_of_an_aborted_echoing_play_in_virtual_time(tmp_path):
     ],
 )
 def test_the_transport_is_the_ports_scheme(port, kind):
-    transport = transport_of(port, emulated=False)
+    transport = transport_of(port)
     assert (transport.kind, transport.port, transport.start_skew_ms) == (kind, port, 0.0)
+    assert transport.emulated is (kind == "sim")
 
 
 def test_an_unmeasured_skew_is_the_transports_own():

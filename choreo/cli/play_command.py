@@ -126,8 +126,8 @@ def run_play(args: argparse.Namespace) -> int:
         report, exit_move = _play_with_progress(
             bus, robot, limits, options, performance, start_pose
         )
-        if emulator is None and isinstance(bus.port, SimSerial):  # a sim:// URL
-            emulator = bus.port.emulator
+        if isinstance(bus.port, SimSerial) and isinstance(bus.port.clock, RealClock):
+            emulator = bus.port.emulator  # also a sim:// URL's, on the player's time base
         errors = skew_ms = None
         if emulator is not None:
             errors = measured_path_errors(emulator, robot, performance, report, start_pose)
@@ -139,7 +139,7 @@ def run_play(args: argparse.Namespace) -> int:
             report,
             motion=str(args.motion),
             robot=robot.name,
-            transport=transport_of(bus.name, emulated=emulator is not None),
+            transport=transport_of(bus.name),
             measured_start_skew_ms=skew_ms,
             path_errors_deg=errors,
         )
