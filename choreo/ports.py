@@ -113,7 +113,7 @@ def identify_serial(record: SerialRecord, *, on_board: bool) -> FoundPort:
         return found(
             "CH340 USB serial adapter, commonly a BusLinker-style bus adapter (unverified)",
             (device,),
-            "raw LX bus; add --echo discard if it is DIY one-wire wiring that echoes",
+            "the raw LX bus, 115200 baud",
         )
     if on_board and device in PI_UARTS:
         return found(
