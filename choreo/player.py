@@ -99,6 +99,7 @@ class ServoHealth:
     position_error_deg_max: float | None = None
     reads: int = 0
     missed_reads: int = 0  # in a row, reset by an answer
+    missed_total: int = 0  # in the whole play
 
     def record(self, name: str, value: float) -> None:
         low, high = getattr(self, f"{name}_min", None), getattr(self, f"{name}_max")
@@ -136,6 +137,11 @@ class PlayReport:
 
     def lateness_percentile_ms(self, q: float) -> float:
         return float(np.percentile(self.lateness_ms, q)) if self.lateness_ms else 0.0
+
+    @property
+    def missed_reads(self) -> int:
+        """Health reads that went unanswered or came back garbled, over every servo."""
+        return sum(h.missed_total for h in self.health)
 
     @property
     def end_error_ms(self) -> float:
@@ -348,6 +354,7 @@ class Player:
             value = self.bus.request(command, joint.servo_id, retries=0, timeout_s=timeout_s)[name]
         except (BusTimeoutError, ProtocolError) as error:  # one bad read is noise; a run is not
             health.missed_reads += 1
+            health.missed_total += 1
             self._suspect = index
             log.info("health read of %s missed: %s", joint.name, error)
             if health.missed_reads >= self.options.max_missed_reads:

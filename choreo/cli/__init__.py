@@ -21,6 +21,7 @@ from . import (
     motion_commands,
     plan_commands,
     play_command,
+    ports_command,
     preview_command,
     record_command,
     servo_commands,
@@ -28,6 +29,7 @@ from . import (
 
 COMMAND_GROUPS = (
     bus_commands,
+    ports_command,
     emulate_command,
     motion_commands,
     plan_commands,

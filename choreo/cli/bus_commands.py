@@ -15,7 +15,13 @@ from .arguments import add_port_arguments, id_ranges, open_bus
 
 
 def register(subparsers) -> None:
-    scan = subparsers.add_parser("scan", help="list the servos that answer on the bus")
+    scan = subparsers.add_parser(
+        "scan",
+        help="list the servos that answer on the bus",
+        description="Try each ID with ID_READ, --retries more times when no valid reply comes "
+        "back: an absent ID costs --timeout-ms × (1 + --retries); use --retries 0 for a quick "
+        "look.",
+    )
     add_port_arguments(scan)
     scan.add_argument(
         "--ids",
@@ -30,7 +36,9 @@ def register(subparsers) -> None:
 
 def run_scan(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        scan = bus.scan_presence(args.ids)
+        # --retries counts here as for every read: one damaged reply must not make a present
+        # servo look like two servos sharing its ID.
+        scan = bus.scan_presence(args.ids, retries=bus.retries)
         statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
         print(

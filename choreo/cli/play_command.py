@@ -14,9 +14,12 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..clock import RealClock
+from ..emulator import SimSerial
+from ..emulator.trace import start_skew_ms
 from ..motion import load_motion
 from ..path_errors import measured_path_errors
 from ..pipeline import CompiledMotion, compile_motion
+from ..play_report import check_report_path, report_document, transport_of, write_report
 from ..player import (
     ExitMode,
     Outcome,
@@ -77,6 +80,13 @@ def register(subparsers) -> None:
         help="timeout of the health reads made between ticks (default 20 ms; raise "
         "it for USB adapters with a long latency timer)",
     )
+    play.add_argument(
+        "--report",
+        type=Path,
+        metavar="FILE.json",
+        help="also write the report as JSON (outcome, timing, bytes, health per servo; "
+        "on the emulator the path error against the plan)",
+    )
     play.set_defaults(handler=run_play)
 
 
@@ -92,6 +102,11 @@ def run_play(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.report is not None:
+        if args.dry_run:
+            print("choreo: error: --report needs a play; --dry-run plays nothing", file=sys.stderr)
+            return 2
+        check_report_path(args.report)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
@@ -111,12 +126,26 @@ def run_play(args: argparse.Namespace) -> int:
         report, exit_move = _play_with_progress(
             bus, robot, limits, options, performance, start_pose
         )
-        errors = None
+        if isinstance(bus.port, SimSerial) and isinstance(bus.port.clock, RealClock):
+            emulator = bus.port.emulator  # also a sim:// URL's, on the player's time base
+        errors = skew_ms = None
         if emulator is not None:
             errors = measured_path_errors(
                 emulator.log.moves, robot, performance, report, start_pose
             )
+            end_s = report.start_time_s + report.elapsed_s
+            skew_ms = start_skew_ms(emulator.log.moves, report.start_time_s, end_s)
     _print_report(report, robot, errors)
+    if args.report is not None:
+        document = report_document(
+            report,
+            motion=str(args.motion),
+            robot=robot.name,
+            transport=transport_of(bus.name),
+            measured_start_skew_ms=skew_ms,
+            path_errors_deg=errors,
+        )
+        write_report(args.report, document)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         print(
             f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
@@ -183,7 +212,7 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
         f"START lateness p50 {report.lateness_percentile_ms(50):.2f} ms, "
         f"p99 {report.lateness_percentile_ms(99):.2f} ms, max {max(report.lateness_ms, default=0):.2f} ms; "
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
-        f"bus use {report.bus_use:.0%}"
+        f"bus use {report.bus_use:.0%}, {report.missed_reads} health reads missed"
     )
     table = Table(title="servo health")
     for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):

@@ -23,8 +23,11 @@ servo's behaviour is undocumented:
   in motor mode); after a voltage fault it stays unloaded until a LOAD or a move.
 - Writes with a parameter outside its documented range are ignored (the servo cannot answer NAK),
   except positions, which are clamped to the angle limits like any other target.
-- A MOVE_START whose first byte comes less than ``start_gap_s`` after the end of the servo's own
-  MOVE_TIME_WAIT_WRITE is missed (docs/protocol.md: leave at least 1 ms).
+- The START gap is a fault, off by default (``start_gap_s`` 0): docs/protocol.md says only that a
+  MOVE_START sent right after the preset *can* be missed, and drivers that stage and start back
+  to back work on real servos. With ``start_gap_s`` > 0, a MOVE_START whose first byte comes less
+  than that after the end of the servo's own MOVE_TIME_WAIT_WRITE is missed, to check that a
+  host leaves the gap (choreo's player does: ``start_gap_ms=1`` in ``sim://``).
 - DIS_READ (models that answer it) reports the distance the output has travelled since power-up,
   forwards and backwards alike, at 4096 pulses per turn.
 """
@@ -58,7 +61,7 @@ UNITS_PER_TURN = 1500  # 1500 × 0.24° = 360°
 READ_MIN_UNITS = -250  # readings wrap into READ_MIN_UNITS .. READ_MIN_UNITS + UNITS_PER_TURN - 1
 DIS_PULSES_PER_TURN = 4096
 FACTORY_TEMP_C = 30.0
-DEFAULT_START_GAP_S = 0.001  # protocol.md: leave >= 1 ms between a preset and MOVE_START
+DEFAULT_START_GAP_S = 0.0  # off: a START right after its preset is taken (see the docstring)
 
 
 # EEPROM field -> its valid range: that of the write command's field (one source of truth: SPECS).

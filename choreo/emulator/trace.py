@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -34,3 +35,23 @@ def executed_units(
     )
     path = begin + (end - begin) * np.clip(fraction, 0.0, 1.0)
     return np.where(before, float(start_units), path)
+
+
+def start_skew_ms(
+    moves: Iterable[StartedMove],
+    since_s: float = -math.inf,
+    until_s: float = math.inf,
+    group_gap_s: float = 0.005,
+) -> float:
+    """The largest first-to-last spread of move starts within one burst (starts less than
+    ``group_gap_s`` after the previous one), between ``since_s`` and ``until_s``: 0 when every
+    tick starts all its servos at once, the forwarding time when they start one after another."""
+    times = sorted(m.time_s for m in moves if since_s <= m.time_s <= until_s)
+    skew_s, group_start_s, last_s = 0.0, -math.inf, -math.inf
+    for time_s in times:
+        if time_s - last_s > group_gap_s:
+            group_start_s = time_s
+        skew_s = max(skew_s, time_s - group_start_s)
+        last_s = time_s
+    return skew_s * 1000
+
