@@ -19,7 +19,14 @@ import yaml
 
 from .errors import SourceError
 from .protocol import MAX_SERVO_ID
-from .servos import ACTUATOR_FIELDS, DEG_PER_UNIT, SERVO_MODELS, UNITS_PER_DEG, ServoModel
+from .servos import (
+    ACTUATOR_FIELDS,
+    DEG_PER_UNIT,
+    SERVO_MODELS,
+    UNITS_PER_DEG,
+    ZERO_OK_ACTUATOR_FIELDS,
+    ServoModel,
+)
 from .yamlsource import (
     Entry,
     Node,
@@ -86,6 +93,7 @@ class BusSettings:
     timeout_s: float = 0.05
     retries: int = 2
     echo: str = "auto"  # none | discard | auto
+    supply_v: float | None = None  # servo supply voltage (preview); None: each model's rated one
 
 
 @dataclass(frozen=True)
@@ -200,7 +208,7 @@ REQUIRED_JOINT_KEYS = {
     "min": "the lower joint limit in degrees",
     "max": "the upper joint limit in degrees",
 }
-BUS_KEYS = ("port", "timeout_ms", "retries", "echo")  # the baud rate is always 115200
+BUS_KEYS = ("port", "timeout_ms", "retries", "echo", "supply_v")  # the baud rate is always 115200
 ECHO_MODES = ("none", "discard", "auto")
 MIRROR_KEYS = ("left", "right", "sign")
 RATE_KEYS = ("velocity", "acceleration", "jerk")
@@ -290,6 +298,7 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
         "retries": lambda node: reader.integer(node, "bus: retries", low=0),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
+        "supply_v": lambda node: reader.number(node, "bus: supply_v", low=0, low_open=True),
     }
     values = {key: read[key](entry.value) for key, entry in fields.items()}
     if "timeout_ms" in values:
@@ -395,12 +404,15 @@ def _joint_from_fields(
 
 
 def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
-    """Preview actuator overrides: each a number > 0 (a problem makes the whole block None)."""
+    """Preview actuator overrides: each a number > 0 (dead band and backlash >= 0; a problem
+    makes the whole block None)."""
     entries = reader.fields(node, what, ACTUATOR_FIELDS)
     if entries is None:
         return None
     values = {
-        key: reader.number(entry.value, f"{what}: {key}", low=0, low_open=True)
+        key: reader.number(
+            entry.value, f"{what}: {key}", low=0, low_open=key not in ZERO_OK_ACTUATOR_FIELDS
+        )
         for key, entry in entries.items()
     }
     return None if None in values.values() else values

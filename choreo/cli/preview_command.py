@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import re
 import sys
@@ -12,6 +13,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from ..motion import load_motion
+from ..scene import StartPosture
 from .arguments import add_planning_arguments, positive_float, positive_int
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
@@ -102,6 +104,19 @@ def register(subparsers) -> None:
         help="... or below this fraction of its starting height (default 0.5)",
     )
     preview.add_argument(
+        "--from",
+        dest="start_pose",
+        metavar="POSE",
+        help="the pose the robot is in before the approach: a pose of the robot, or 'first' "
+        "for the motion's first keyframe (default: home; first for a motion that starts lying)",
+    )
+    preview.add_argument(
+        "--start",
+        choices=["standing", "lying", "lying_front", "lying_back"],
+        help="how a free-floating robot rests on the floor before the motion (default: the "
+        "motion's start: key, else standing)",
+    )
+    preview.add_argument(
         "--move-start",
         choices=["setpoint", "position"],
         default="setpoint",
@@ -144,6 +159,8 @@ def run_preview(args: argparse.Namespace) -> int:
     from .. import preview  # imports mujoco: only when this command runs
 
     motion = load_motion(args.motion)
+    if args.start is not None:
+        motion = dataclasses.replace(motion, start=StartPosture(args.start))
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,
@@ -151,10 +168,23 @@ def run_preview(args: argparse.Namespace) -> int:
         fall_height_fraction=args.fall_height,
     )
     settings = preview.SimSettings(move_start=preview.MoveStart(args.move_start))
+    poses = [*motion.robot.poses, preview.FIRST_KEYFRAME]
+    if args.start_pose is not None and args.start_pose not in poses:
+        return _usage_error(
+            f"--from {args.start_pose}: {motion.robot.name} has no such pose; "
+            f"valid: {', '.join(poses)}"
+        )
     rollout = preview.simulate_motion(
-        motion, settings, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
+        motion,
+        settings,
+        speed=args.speed,
+        stretch=args.stretch,
+        tolerance_deg=args.tolerance,
+        start_pose=args.start_pose,
     )
     results = preview.run_checks(rollout, thresholds)
+    for line in preview.start_lines(rollout):
+        print(f"{args.motion}: {line}")
     for result in results:
         print(f"{args.motion}: {result.severity.value}: {result.message}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
@@ -164,7 +194,9 @@ def run_preview(args: argparse.Namespace) -> int:
     )
 
     if args.report is not None:
-        report = preview.preview_report(rollout, results, motion=str(args.motion))
+        report = preview.preview_report(
+            rollout, results, motion=str(args.motion), thresholds=thresholds
+        )
         args.report.write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n")
         print(f"wrote {args.report}")
     if output is not None:
