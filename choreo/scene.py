@@ -100,7 +100,7 @@ def _vector(
         reader.number(item, what, low=0, low_open=True) if positive else reader.number(item, what)
         for item in items
     ]
-    if None in values:
-        return None
     x, y, z = values
+    if x is None or y is None or z is None:
+        return None
     return (x, y, z)

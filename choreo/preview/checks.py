@@ -429,6 +429,7 @@ def _ground_contacts(
     (while it still lies, anything may rest on the floor)."""
     timeline = _Timeline(rollout, thresholds)
     height, tilt = rollout.root_height_m, rollout.root_tilt_deg
+    assert height is not None and tilt is not None  # check_fall's caller made sure
     start_height = float(height[s0])
     for pair_index, pair in enumerate(rollout.contact_pairs):
         if pair.kind != "ground":

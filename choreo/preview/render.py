@@ -190,8 +190,8 @@ def frame_camera(model: mujoco.MjModel, rollout: Rollout, aspect: float) -> Came
     # |x| <= (D + d) tan(half the field of view)
     needed = np.maximum(np.abs(offset[:, 0]) / tan_h, np.abs(offset[:, 1]) / tan_v)
     distance = float(np.max(needed * FRAME_MARGIN - offset[:, 2]))
-    lookat = middle @ axes
-    return CameraPose(tuple(float(c) for c in lookat), max(distance, 1e-3), azimuth, elevation)
+    x, y, z = (float(c) for c in middle @ axes)
+    return CameraPose((x, y, z), max(distance, 1e-3), azimuth, elevation)
 
 
 def _camera_axes(azimuth_deg: float, elevation_deg: float):

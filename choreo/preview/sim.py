@@ -222,7 +222,7 @@ def simulate(
     index = index_joints(model, robot)
     apply_servo_models(model, index, params, to_deg)
     root = free_joint(model)
-    feet = ()
+    feet: tuple[int, ...] = ()
     if root is not None and "home" in robot.poses:
         feet = foot_links(model, index, robot.pose_vector("home"))
     data = start_state(model, index, initial_deg, posture)
