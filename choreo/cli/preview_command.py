@@ -23,12 +23,14 @@ def register(subparsers) -> None:
     preview = subparsers.add_parser(
         "preview",
         help="simulate a motion in MuJoCo: check it and render it",
-        description="Play the motion's ticks (what the servos will receive) to a MuJoCo model of "
-        "the robot whose actuators behave like the servos (lag, torque limit), then "
-        "report self-collisions, floor contact, joint limit hits, stalls, tracking "
-        "errors and falls. -o renders offscreen (no display or GPU needed): .mp4, "
-        ".gif, or .png for a contact sheet. Without -o or --viewer only the checks "
-        "run; they exit 1 if any finds an error.",
+        description="Start the robot at rest in its start pose (a walking robot put down on the "
+        "floor and settled), play the player's approach and then the motion's ticks (what "
+        "the servos will receive) to a MuJoCo model of the robot whose actuators behave like "
+        "the servos (lag, torque limit, supply, dead band, backlash), then report "
+        "self-collisions, floor contact, overlapping neighbours, joint limit hits, stalls, "
+        "lag, near misses, tracking errors and falls. -o renders offscreen (no display or GPU "
+        "needed): .mp4, .gif, or .png for a contact sheet. Without -o or --viewer only the "
+        "checks run; they exit 1 if any finds an error. See docs/preview.md.",
     )
     preview.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
     preview.add_argument(
@@ -87,7 +89,8 @@ def register(subparsers) -> None:
         type=positive_float,
         default=0.25,
         metavar="S",
-        help="report a servo at its torque limit this long as a stall (default 0.25 s)",
+        help="report a servo at its torque limit and barely moving this long as a stall, and "
+        "one at its limit while moving this long as lagging (default 0.25 s)",
     )
     preview.add_argument(
         "--fall-tilt",

@@ -1,7 +1,7 @@
 """Preview a motion in MuJoCo: what the servos will really do with the ticks they receive,
 checked for problems and rendered offscreen.
 
-    rollout = simulate_motion(motion)          # plan -> segment -> simulate the tick stream
+    rollout = simulate_motion(motion)          # start pose -> approach -> the motion's ticks
     results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
     render_preview(rollout, "out.mp4", results=results)
 
