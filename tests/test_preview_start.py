@@ -8,6 +8,7 @@ measured in issue 11."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import shutil
 from pathlib import Path
 
@@ -395,3 +396,16 @@ def test_the_cli_says_how_it_started_and_what_it_assumed(capsys):
     assert "servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash" in out
     assert main(["preview", "--check", str(motion), "--from", "nope"]) == 2
     assert "--from nope: tonypi has no such pose; valid: home" in capsys.readouterr().err
+
+
+def test_the_cli_can_start_a_motion_lying_and_writes_the_start_to_the_report(tmp_path, capsys):
+    motion = REPO / "motions" / "tonypi" / "stand.yaml"
+    report = tmp_path / "report.json"
+    argv = ["preview", str(motion), "--start", "lying_back", "--from", "first"]
+    assert main([*argv, "--report", str(report)]) == 0
+    assert "start: lying_back on the floor; settled for" in capsys.readouterr().out
+    written = json.loads(report.read_text())
+    assert written["start"]["posture"] == "lying_back"
+    assert written["approach_start_s"] == 0 and written["start_s"] < 0
+    assert "0.5° backlash" in written["assumptions"]["summary"]
+    assert {"peak_torque_pct", "near_limit_s", "supply_v"} <= set(written["joints"][0])

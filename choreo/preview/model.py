@@ -124,12 +124,6 @@ def free_joint(model: mujoco.MjModel) -> int | None:
     return None
 
 
-def free_root_body(model: mujoco.MjModel) -> int | None:
-    """The body carrying the model's free joint, if it has one."""
-    joint_id = free_joint(model)
-    return None if joint_id is None else int(model.jnt_bodyid[joint_id])
-
-
 def link_of_body(model: mujoco.MjModel) -> np.ndarray:
     """Each body's link: the body its rigid group hangs from. Bodies welded to the world (a
     fixed robot's base) form the link of the robot's root body; the world itself is link 0."""
