@@ -93,6 +93,14 @@ def register(subparsers) -> None:
         "one at its limit while moving this long as lagging (default 0.25 s)",
     )
     preview.add_argument(
+        "--near-miss",
+        type=fraction,
+        default=0.8,
+        metavar="FRACTION",
+        help="warn of a servo working at this share of its stall torque or more for 0.1 s "
+        "(default 0.8)",
+    )
+    preview.add_argument(
         "--fall-tilt",
         type=positive_float,
         default=30.0,
@@ -139,6 +147,13 @@ def image_size(text: str) -> tuple[int, int]:
     return int(match[1]), int(match[2])
 
 
+def fraction(text: str) -> float:
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"expected a fraction in (0, 1], got {text!r}")
+    return value
+
+
 def _usage_error(message: str) -> int:
     print(f"choreo preview: error: {message}", file=sys.stderr)
     return 2
@@ -167,6 +182,7 @@ def run_preview(args: argparse.Namespace) -> int:
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,
+        near_miss_fraction=args.near_miss,
         fall_tilt_deg=args.fall_tilt,
         fall_height_fraction=args.fall_height,
     )

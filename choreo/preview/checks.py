@@ -249,7 +249,8 @@ def check_saturation(rollout: Rollout, thresholds: CheckThresholds) -> list[Chec
     lag = np.abs(rollout.position_deg - rollout.command_deg)
     results = []
     for j in range(len(rollout.robot.joints)):
-        for run in timeline.episodes(share[:, j] >= thresholds.near_miss_fraction):
+        near = min(thresholds.near_miss_fraction, thresholds.saturation_fraction)
+        for run in timeline.episodes(share[:, j] >= near):
             span = slice(*run)
             result = (
                 _stall(rollout, timeline, thresholds, j, run, saturated[span, j] & still[span, j])

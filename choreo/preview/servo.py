@@ -67,7 +67,7 @@ def actuator_params(
             f"actuator overrides name unknown joints {', '.join(unknown)}; "
             f"joints of {robot.name}: {', '.join(robot.joint_names)}"
         )
-    supply = getattr(robot.bus, "supply_v", None)
+    supply = robot.bus.supply_v
     return tuple(
         _params_for(
             joint,
