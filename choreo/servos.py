@@ -1,11 +1,12 @@
 """Servo model specifications and the defaults derived from them (one table, overridable).
 
-Source: ``shared/docs/servo-models.md``. Velocity limit for planning = 80 % of no-load speed;
+Source: the vendor's datasheets, as tabled in ``docs/servo-model.md`` with every value below and
+where it comes from. Velocity limit for planning = 80 % of no-load speed;
 acceleration and jerk have no vendor figure (3000 °/s², 30000 °/s³ as a starting point).
 MuJoCo actuator: forcerange = ± stall torque, damping = stall / no-load speed,
 kp = stall / 0.105 rad (saturates at ~6° of error), armature 0.005 kg·m².
 
-Assumptions with no vendor figure (docs/servo-model.md): the datasheet torque and speed hold at
+Assumptions with no vendor figure: the datasheet torque and speed hold at
 the rated supply (7.4 V for the LX-16A, 11.1 V for the HV models) and scale in proportion to the
 supply; a dead band of one position unit (0.24°) and 0.5° of gear backlash.
 """
