@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
+from choreo.motion import load_motion
+from choreo.preview import simulate_motion
 
 VENDOR = Path(__file__).parent / "data" / "tonypi"
 # rows the joint limits cannot reach in the vendor's time (test_d6a names each keyframe)
@@ -32,7 +34,7 @@ WARNING = (
 SCENES = {
     "stand_up_front": "start: lying_front\n",
     "sit_ups": "start: lying_back\n",
-    "climb_stairs": "props:\n  - {name: step, size_m: [0.3, 0.4, 0.018], at_m: [0.2, 0, 0]}\n",
+    "climb_stairs": "props:\n  - {name: step, size_m: [0.3, 0.4, 0.015], at_m: [0.2, 0, 0]}\n",
 }
 
 
@@ -56,6 +58,19 @@ def test_every_vendor_action_group_previews_without_an_error(source, tmp_path, c
     for line in out.splitlines():
         if ": warning: " in line:
             assert re.search(WARNING, line), line
+
+
+def test_climb_stairs_really_climbs_its_step(tmp_path):
+    imported = tmp_path / "climb_stairs.yaml"
+    source = VENDOR / "climb_stairs.d6a"
+    assert main(["import", "d6a", str(source), "--robot", "tonypi", "-o", str(imported)]) == 0
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        f"robot: tonypi\n{SCENES['climb_stairs']}keyframes:\n  - include: {imported.name}\n"
+    )
+    rollout = simulate_motion(load_motion(scene), stretch=True)
+    height = rollout.root_height_m
+    assert height[-1] - height[rollout.start_step] == pytest.approx(0.015, abs=0.003)
 
 
 def test_the_vendor_files_are_all_here():
