@@ -406,6 +406,7 @@ def test_the_cli_can_start_a_motion_lying_and_writes_the_start_to_the_report(tmp
     assert "start: lying_back on the floor; settled for" in capsys.readouterr().out
     written = json.loads(report.read_text())
     assert written["start"]["posture"] == "lying_back"
+    assert written["start"]["feet"] == ["left_foot", "right_foot"]
     assert written["approach_start_s"] == 0 and written["start_s"] < 0
     assert "0.5° backlash" in written["assumptions"]["summary"]
     assert {"peak_torque_pct", "near_limit_s", "supply_v"} <= set(written["joints"][0])

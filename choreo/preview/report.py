@@ -124,6 +124,7 @@ def preview_report(
             "still": settling.still if settling else True,
             "drop_mm": round(1000 * settling.drop_m, 2) if settling else 0.0,
             "tilt_deg": round(settling.tilt_deg, 2) if settling else 0.0,
+            "feet": list(rollout.feet),  # what may touch the ground (a free-floating robot)
         },
         "assumptions": {
             "move_start": rollout.move_start.value,
