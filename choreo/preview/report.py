@@ -134,5 +134,8 @@ def preview_report(
         "errors": errors,
         "warnings": len(results) - errors,
         "checks": [r.to_dict() for r in results],
-        "joints": [asdict(s) for s in joint_summaries(rollout, thresholds.near_miss_fraction)],
+        # judged like the checks: from the start, after settling
+        "joints": [
+            asdict(s) for s in joint_summaries(rollout.since_start(), thresholds.near_miss_fraction)
+        ],
     }
