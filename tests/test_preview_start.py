@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -394,6 +395,7 @@ def test_the_cli_says_how_it_started_and_what_it_assumed(capsys):
     assert "start: standing on the floor; settled for" in out
     assert "approach: " in out and "as the player plays it" in out
     assert "servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash" in out
+    assert re.search(r"hardest-working servo: \w+ at up to \d+ % of its stall torque", out)
     assert main(["preview", "--check", str(motion), "--from", "nope"]) == 2
     assert "--from nope: tonypi has no such pose; valid: home" in capsys.readouterr().err
 

@@ -207,6 +207,7 @@ def run_preview(args: argparse.Namespace) -> int:
     for result in results:
         print(f"{args.motion}: {result.severity.value}: {result.message}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
+    print(f"{args.motion}: {preview.busiest_line(rollout, thresholds.near_miss_fraction)}")
     print(
         f"{args.motion}: {rollout.duration_s:.2f} s simulated, {errors} error(s), "
         f"{len(results) - errors} warning(s)"

@@ -22,7 +22,7 @@ from .checks import (
     run_checks,
 )
 from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
-from .report import JointSummary, joint_summaries, preview_report, start_lines
+from .report import JointSummary, busiest_line, joint_summaries, preview_report, start_lines
 from .servo import ActuatorParams, actuator_params
 from .sim import MoveStart, Rollout, Settling, SimSettings, simulate
 from .viewer import has_display, show_in_viewer
@@ -43,6 +43,7 @@ __all__ = [
     "Settling",
     "SimSettings",
     "actuator_params",
+    "busiest_line",
     "frame_times",
     "has_display",
     "joint_summaries",

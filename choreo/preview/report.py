@@ -78,6 +78,16 @@ def start_lines(rollout: Rollout) -> list[str]:
     return lines
 
 
+def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
+    """The servo working hardest, for the CLI (every joint's figures are in the report)."""
+    summaries = joint_summaries(rollout.since_start(), near_miss_fraction)
+    worst = max(summaries, key=lambda s: (s.peak_torque_pct, s.near_limit_s))
+    return (
+        f"hardest-working servo: {worst.joint} at up to {worst.peak_torque_pct:.0f} % of its "
+        f"stall torque ({worst.near_limit_s:.2f} s at {100 * near_miss_fraction:.0f} % or more)"
+    )
+
+
 def assumptions_text(rollout: Rollout) -> str:
     """The servo model's assumptions, each value once with the joints that differ named."""
     parts = []
