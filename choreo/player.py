@@ -10,6 +10,13 @@ the servos are re-targeted to where the plan is now instead of replaying stale t
 Preflight refuses servos that MOVE_STOP could not stop (motor mode). Every exit path other than
 completion stops the servos (broadcast MOVE_STOP); then they are left as configured: holding
 (torque on), moved slowly to an exit pose, or unloaded.
+
+Through a controller board that cannot stage (``bus.capabilities.staged_start`` false: the RRC
+and LOBOT boards) each tick goes out at its deadline as one multi-servo move frame with the tick's
+duration (a tick's moves share one duration), timed so the first servo starts on the deadline;
+the board forwards it one servo at a time, and the report gives the first-to-last start skew
+that causes. Preflight, health reads and the stop use only what the transport offers
+(``capabilities``); preflight checks it cannot make are listed by :func:`unchecked`.
 """
 
 from __future__ import annotations
@@ -81,9 +88,9 @@ class PlayOptions:
 class ServoLimits:
     """What preflight read from a servo: the bounds the health checks enforce."""
 
-    min_vin_mv: int
-    max_vin_mv: int
-    max_temp_c: int
+    min_vin_mv: int | None  # None: the transport cannot read it
+    max_vin_mv: int | None
+    max_temp_c: int | None
 
 
 @dataclass
@@ -129,6 +136,8 @@ class PlayReport:
     elapsed_s: float
     health: tuple[ServoHealth, ...]
     start_time_s: float  # clock time of the first START's deadline
+    transport: str = "raw LX bus"
+    start_skew_ms: float = 0.0  # first-to-last start of a tick's moves (a board forwarding them)
 
     @property
     def bus_use(self) -> float:
@@ -173,9 +182,27 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
         problems += joint_problems
     if problems:
         raise ChoreoError("refusing to play:\n  " + "\n  ".join(problems))
-    for joint in robot.joints:
-        bus.load(joint.servo_id)
+    if bus.capabilities.load:  # else the approach's first move powers the servos
+        for joint in robot.joints:
+            bus.load(joint.servo_id)
     return tuple(pose), limits
+
+
+PREFLIGHT_READS = {
+    Command.VIN_READ: "supply voltage",
+    Command.VIN_LIMIT_READ: "voltage limits",
+    Command.TEMP_READ: "temperature",
+    Command.TEMP_MAX_LIMIT_READ: "temperature limit",
+    Command.ANGLE_LIMIT_READ: "angle limits",
+    Command.OR_MOTOR_MODE_READ: "motor mode",
+}
+
+
+def unchecked(bus: ServoBus) -> list[str]:
+    """What preflight and the health reads cannot check through this transport."""
+    return [
+        what for command, what in PREFLIGHT_READS.items() if not bus.capabilities.supports(command)
+    ]
 
 
 def _names(joints: Sequence[Joint]) -> str:
@@ -184,35 +211,50 @@ def _names(joints: Sequence[Joint]) -> str:
 
 def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
     sid, who = joint.servo_id, f"{joint.name} (ID {joint.servo_id})"
+
+    def read(command: Command, reader):
+        return reader(sid) if bus.capabilities.supports(command) else None
+
     position = bus.read_position(sid)
-    vin, vin_limits = bus.read_vin(sid), bus.read_vin_limits(sid)
-    temp, temp_limit = bus.read_temperature(sid), bus.read_temp_limit(sid)
-    angle_limits = bus.read_angle_limits(sid)
-    mode = bus.read_mode(sid)
+    vin, vin_limits = (
+        read(Command.VIN_READ, bus.read_vin),
+        read(Command.VIN_LIMIT_READ, bus.read_vin_limits),
+    )
+    temp = read(Command.TEMP_READ, bus.read_temperature)
+    temp_limit = read(Command.TEMP_MAX_LIMIT_READ, bus.read_temp_limit)
+    angle_limits = read(Command.ANGLE_LIMIT_READ, bus.read_angle_limits)
+    mode = read(Command.OR_MOTOR_MODE_READ, bus.read_mode)
     problems = []
-    if mode.motor:
+    if mode is not None and mode.motor:
         problems.append(
             f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
             f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`"
         )
-    if not vin_limits.min_mv <= vin <= vin_limits.max_mv:
+    if (
+        vin is not None
+        and vin_limits is not None
+        and not vin_limits.min_mv <= vin <= vin_limits.max_mv
+    ):
         problems.append(
             f"{who}: supply {vin} mV is outside the servo's limits "
             f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply"
         )
-    if temp >= temp_limit:
+    if temp is not None and temp_limit is not None and temp >= temp_limit:
         problems.append(
             f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
         )
     low, high = sorted((joint.to_units(joint.limits.min_deg), joint.to_units(joint.limits.max_deg)))
-    if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
+    if angle_limits is not None and (
+        angle_limits.min_units > round(low) or angle_limits.max_units < round(high)
+    ):
         problems.append(
             f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
             f" are narrower than the robot file's {round(low)}..{round(high)} units "
             f"({joint.limits.min_deg:g}..{joint.limits.max_deg:g}°); widen them with "
             "`choreo servo limits` or narrow the joint limits in the robot file"
         )
-    return position, ServoLimits(vin_limits.min_mv, vin_limits.max_mv, temp_limit), problems
+    vin_low, vin_high = (vin_limits.min_mv, vin_limits.max_mv) if vin_limits else (None, None)
+    return position, ServoLimits(vin_low, vin_high, temp_limit), problems
 
 
 # --- the packets of a tick ---------------------------------------------------------------------
@@ -278,11 +320,13 @@ class Player:
         self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
         # Positions are checked most often; each round also reads one servo's VIN and temperature.
         n = len(robot.joints)
+        readable = bus.capabilities.supports
         self._rotation = [
             item
             for c in range(n)
             for item in [(i, Reading.POSITION) for i in range(n)]
             + [(c, Reading.VIN), (c, Reading.TEMPERATURE)]
+            if readable(item[1].value[0])
         ]
         self._next_read = 0
         self._suspect: int | None = None  # a joint whose last read went unanswered: read it next
@@ -309,13 +353,14 @@ class Player:
         return stream.report()
 
     def stop(self) -> None:
-        """Broadcast MOVE_STOP: every servo holds where it is.
+        """Stop every servo by the transport's best means (``capabilities.stop``: a broadcast
+        MOVE_STOP on the raw bus).
 
-        Staged moves still waiting in the output buffer are dropped so the STOP goes out first.
+        Moves still waiting in the output buffer are dropped so the stop goes out first.
         """
         try:
             self.bus.discard_output()
-            self.bus.stop(BROADCAST_ID)
+            self.bus.stop_servos([j.servo_id for j in self.robot.joints])
             self.bus.drain()
         except (BusError, OSError) as error:  # the port itself may be gone
             log.error("could not send MOVE_STOP: %s", error)
@@ -377,11 +422,15 @@ class Player:
         who = f"{joint.name} (ID {joint.servo_id})"
         if reading is Reading.TEMPERATURE:
             health.record("temp_c", value)
-            if value >= limits.max_temp_c - self.options.temp_margin_c:
+            if limits.max_temp_c is not None and (
+                value >= limits.max_temp_c - self.options.temp_margin_c
+            ):
                 raise ServoFault(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
-            if not limits.min_vin_mv <= value <= limits.max_vin_mv:
+            if limits.min_vin_mv is not None and not (
+                limits.min_vin_mv <= value <= limits.max_vin_mv
+            ):
                 raise ServoFault(
                     f"{who} supply is {value} mV, outside "
                     f"{limits.min_vin_mv}..{limits.max_vin_mv} mV"
@@ -409,6 +458,9 @@ class _Stream:
         self.retargeted = 0
         self.bytes_sent = 0
         self.wire_free_s = -np.inf  # when the bytes sent so far will have left the host
+        self.capabilities = player.bus.capabilities
+        self.staging = self.capabilities.staged_start  # else one move frame per tick
+        self.most_moved = 0  # servos in the largest move frame (for the start skew)
         self.played = 0
         self.outcome, self.reason = Outcome.COMPLETED, ""
         # Start once whatever was sent before has left and every servo of tick 0 is staged.
@@ -447,7 +499,11 @@ class _Stream:
         now = clock.now()
         if k + 1 >= len(ticks) or now < self.deadline(k + 1):
             return k
-        restage_s = len(self.player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
+        restage_s = (
+            len(self.player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
+            if self.staging
+            else self.frame_lead_s(len(self.player.robot.joints))
+        )
         ready_ms = math.ceil((now + restage_s + self.player.options.start_guard_s - self.t0) * 1000)
         j = k + 1
         while j + 1 < len(ticks) and ready_ms >= ticks[j + 1].start_ms:
@@ -474,19 +530,42 @@ class _Stream:
 
         A tick that changes no target sends nothing: every servo is already there.
         """
-        clock = self.player.clock
-        send_at = self.deadline(k) - START_BYTES * BYTE_TIME_S
+        clock, tick = self.player.clock, self.ticks[k]
+        moves = [
+            (joint.servo_id, pos)
+            for joint, pos, _ in staged_moves(tick, self.player.robot, all_servos=k == 0)
+        ]
+        lead_s = START_BYTES * BYTE_TIME_S if self.staging else self.frame_lead_s(len(moves))
+        send_at = self.deadline(k) - lead_s
         clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
-        if k == 0 or any(self.ticks[k].staged):
+        if moves:
             self.lateness_ms.append((clock.now() - send_at) * 1000)
-            self.player.bus.start(BROADCAST_ID)
-            self.sent(START_BYTES)
+            if self.staging:
+                self.player.bus.start(BROADCAST_ID)
+                self.sent(START_BYTES)
+            else:
+                sent = self.player.bus.move_many(moves, tick.duration_ms)
+                self.most_moved = max(self.most_moved, len(moves))
+                self.sent(sent, busy_s=self.frame_busy_s(sent, len(moves)))
         self.previous_units = self.current_units
         self.current_units = np.asarray(self.ticks[k].targets_units, dtype=float)
         self.played = k + 1
         self.report_progress(k)
 
+    def frame_lead_s(self, servos: int) -> float:
+        """From sending a board's move frame until its first servo starts moving."""
+        cap = self.capabilities
+        frame_bytes = cap.move_frame_bytes + 3 * servos
+        return frame_bytes * cap.host_byte_time_s + cap.forward_s_per_servo
+
+    def frame_busy_s(self, frame_bytes: int, servos: int) -> float:
+        """How long a move frame keeps the board's link and servo bus busy."""
+        cap = self.capabilities
+        return frame_bytes * cap.host_byte_time_s + servos * cap.forward_s_per_servo
+
     def stage(self, tick: Tick, *, all_servos: bool) -> None:
+        if not self.staging:
+            return  # the move frame at the tick's deadline carries its targets
         bus = self.player.bus
         for joint, pos, time_ms in staged_moves(tick, self.player.robot, all_servos=all_servos):
             bus.stage_move(joint.servo_id, pos, time_ms)
@@ -496,19 +575,23 @@ class _Stream:
         """Health reads until the next START's guard time (never delaying it)."""
         clock, next_start = self.player.clock, self.deadline(k + 1)
         tick = self.ticks[k]
+        # A board's link carries the read's request and reply too (~16 bytes; 17 ms at 9600 baud).
+        link_s = 0.0 if self.staging else 16 * self.capabilities.host_byte_time_s
         for _ in range(len(self.player.robot.joints)):  # bounded: at most one round per tick
             now = clock.now()
-            budget = next_start - max(now, self.wire_free_s)
+            budget = next_start - max(now, self.wire_free_s) - link_s
             fraction = np.clip((now - self.deadline(k)) / (tick.duration_ms / 1000), 0.0, 1.0)
             expected = self.previous_units + fraction * (self.current_units - self.previous_units)
             if not self.player.read_health(budget, expected):
                 return
             self.sent(READ_BYTES)
 
-    def sent(self, count: int) -> None:
-        """Account for bytes put on the wire: it sends them one after another at 115200 baud."""
+    def sent(self, count: int, busy_s: float | None = None) -> None:
+        """Account for bytes put on the wire: it sends them one after another at 115200 baud
+        (``busy_s``: how long they keep a board busy instead)."""
         now = self.player.clock.now()
-        self.wire_free_s = max(now, self.wire_free_s) + count * BYTE_TIME_S
+        busy_s = count * BYTE_TIME_S if busy_s is None else busy_s
+        self.wire_free_s = max(now, self.wire_free_s) + busy_s
         self.bytes_sent += count
 
     def report_progress(self, k: int) -> None:
@@ -541,6 +624,8 @@ class _Stream:
             elapsed_s=self.end_s - self.t0,
             health=self.player.health,
             start_time_s=self.t0,
+            transport=self.capabilities.transport,
+            start_skew_ms=self.capabilities.start_skew_s(self.most_moved) * 1000,
         )
 
 

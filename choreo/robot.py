@@ -86,6 +86,7 @@ class BusSettings:
     timeout_s: float = 0.05
     retries: int = 2
     echo: str = "auto"  # none | discard | auto
+    direction: str | None = None  # GPIO direction lines of a Pi/Jetson UART: preset or rx=N,tx=N
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,7 @@ REQUIRED_JOINT_KEYS = {
     "min": "the lower joint limit in degrees",
     "max": "the upper joint limit in degrees",
 }
-BUS_KEYS = ("port", "timeout_ms", "retries", "echo")  # the baud rate is always 115200
+BUS_KEYS = ("port", "timeout_ms", "retries", "echo", "direction")  # the port string sets the baud
 ECHO_MODES = ("none", "discard", "auto")
 MIRROR_KEYS = ("left", "right", "sign")
 RATE_KEYS = ("velocity", "acceleration", "jerk")
@@ -290,12 +291,26 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
         "retries": lambda node: reader.integer(node, "bus: retries", low=0),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
+        "direction": lambda node: _read_direction(reader, node),
     }
     values = {key: read[key](entry.value) for key, entry in fields.items()}
     if "timeout_ms" in values:
         timeout_ms = values.pop("timeout_ms")
         values["timeout_s"] = timeout_ms / 1000 if timeout_ms is not None else None
     return BusSettings(**values)
+
+
+def _read_direction(reader: Reader, node) -> str | None:
+    from .transports.direction import parse_direction  # no GPIO library is imported by this
+
+    text = reader.string(node, "bus: direction", optional=True)
+    if text is not None:
+        try:
+            parse_direction(text)
+        except ValueError as error:
+            reader.report(node, f"bus: direction: {error}")
+            return None
+    return text
 
 
 def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> list[_JointSource]:

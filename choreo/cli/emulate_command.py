@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import signal
+import sys
 
 from ..clock import RealClock
 from ..emulator import BusEmulator, parse_servo_specs
+from ..emulator.boards import BOARDS
 from ..emulator.bus import DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
@@ -57,6 +59,12 @@ def register(subparsers) -> None:
         metavar="X",
         help="delay before a servo answers (default 0.6)",
     )
+    parser.add_argument(
+        "--board",
+        choices=sorted(BOARDS),
+        help="put an emulated controller board in front of the servos: rrc (open it as "
+        "rrc://PATH) or lobot (its UART: lobot://PATH)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -69,7 +77,10 @@ def _servo_list(text: str) -> tuple[str, list]:
 
 def run(args) -> int:
     servos_text, specs = args.servos
-    emulator = BusEmulator(
+    if args.board and args.echo:
+        print("choreo: error: --echo: a board's link does not echo", file=sys.stderr)
+        return 2
+    emulator = (BOARDS[args.board] if args.board else BusEmulator)(
         specs,
         model=args.model,
         clock=RealClock(),
@@ -87,7 +98,8 @@ def run(args) -> int:
         }
         try:
             print(
-                f"emulating servos {servos_text} ({args.model}) on {args.pty} -> "
+                f"emulating servos {servos_text} ({args.model}) "
+                f"{f'behind the {args.board} board ' if args.board else ''}on {args.pty} -> "
                 f"{bridge.slave_name}; Ctrl-C to stop",
                 flush=True,
             )

@@ -27,6 +27,7 @@ from ..player import (
     packet_schedule,
     preflight,
     prepare,
+    unchecked,
 )
 from ..robot import Robot
 from ..segments import CompiledMotion, compile_motion
@@ -98,7 +99,8 @@ def run_play(args: argparse.Namespace) -> int:
     )
     if args.dry_run:
         return dry_run(compiled)
-    signal.signal(signal.SIGTERM, _interrupt)
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal stops like Ctrl-C
+        signal.signal(signum, _interrupt)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
@@ -107,12 +109,20 @@ def run_play(args: argparse.Namespace) -> int:
     )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
     with bus:
+        missing = unchecked(bus)
+        if missing:
+            print(
+                f"note: the {bus.capabilities.transport} cannot read the servos' "
+                f"{', '.join(missing)}: not checked",
+                file=sys.stderr,
+            )
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
         report, exit_move = _play_with_progress(
             bus, robot, limits, options, performance, start_pose
         )
         errors = None
+        emulator = emulator or getattr(bus.port, "emulator", None)  # sim:// URLs too
         if emulator is not None:
             errors = measured_path_errors(emulator, robot, performance, report, start_pose)
     _print_report(report, robot, errors)
@@ -200,6 +210,11 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
         f"bus use {report.bus_use:.0%}"
     )
+    if report.start_skew_ms:
+        console.print(
+            f"transport {report.transport}: no staged start, each tick is one move frame the "
+            f"board forwards servo by servo: first-to-last start skew {report.start_skew_ms:.1f} ms"
+        )
     table = Table(title="servo health")
     for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):
         table.add_column(column, justify="right")
