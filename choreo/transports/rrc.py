@@ -153,7 +153,7 @@ def write_frame(command: Command, servo_id: int, fields: dict[str, int]) -> byte
         # 0B unloads and 0C loads, whatever the vendor SDK's parameter is called
         sub = LOAD if fields["loaded"] else UNLOAD
         return encode_frame(FUNC_BUS_SERVO, bytes((sub, servo_id)))
-    params = pack_fields(SPECS[command].params, fields)
+    params = pack_fields(SPECS[command].request, fields)
     return encode_frame(FUNC_BUS_SERVO, bytes((WRITE_SUBS[command], servo_id)) + params)
 
 
