@@ -13,9 +13,9 @@ completion stops the servos (broadcast MOVE_STOP); then they are left as configu
 
 Through a controller board that cannot stage (``bus.capabilities.staged_start`` false: the RRC
 and LOBOT boards) each tick goes out at its deadline as one multi-servo move frame with the tick's
-duration (a tick's moves share one duration), timed so the first servo starts on the deadline;
-the board forwards it one servo at a time, and the report gives the first-to-last start skew
-that causes. Preflight, health reads and the stop use only what the transport offers
+duration (a tick's moves share one duration); the board forwards it one servo at a time, so
+the frame is sent early enough for those starts to be centred on the deadline, and the report
+gives the first-to-last start skew. Preflight, health reads and the stop use only what the transport offers
 (``capabilities``); preflight checks it cannot make are listed by :func:`unchecked`.
 """
 
@@ -535,7 +535,10 @@ class _Stream:
             (joint.servo_id, pos)
             for joint, pos, _ in staged_moves(tick, self.player.robot, all_servos=k == 0)
         ]
-        lead_s = START_BYTES * BYTE_TIME_S if self.staging else self.frame_lead_s(len(moves))
+        if self.staging:
+            lead_s = START_BYTES * BYTE_TIME_S
+        else:  # the board's one-servo-at-a-time starts are centred on the deadline
+            lead_s = self.frame_lead_s(len(moves)) + self.capabilities.start_skew_s(len(moves)) / 2
         send_at = self.deadline(k) - lead_s
         clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
         if moves:
