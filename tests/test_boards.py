@@ -165,3 +165,38 @@ def test_lobot_stop_holds_the_servos_where_they_are():
         assert [m.packet.servo_id for m in held] == [1, 2, 3, 4, 5, 6]
         for servo_id in range(1, 7):
             assert 250 < emulator.servo(servo_id).position_units < 450  # stopped on its way
+
+
+def test_recording_by_hand_through_the_rrc_board(tmp_path):
+    from choreo.recorder import Ending, Recorder, Recording
+    from choreo.robot import load_robot
+
+    robot = load_robot("arm6")
+    emulator = BOARDS["rrc"](home_specs(robot), clock=VirtualClock())
+    bus = ServoBus(SimSerial.from_emulator(emulator))
+    recording = Recording.start(tmp_path / "taught.yaml", robot)
+
+    def typing():
+        assert [emulator.servo(i).loaded for i in (1, 2, 3)] == [True, False, True]
+        emulator.servo(2).move_by_hand(600)  # shoulder: 24°
+        yield ""
+        yield "q"
+
+    with Recorder(bus, recording, emulator.clock, taught=["shoulder"]) as recorder:
+        assert recorder.run_keyframes(typing()) is Ending.QUIT
+    recording.save()
+    assert "24" in (tmp_path / "taught.yaml").read_text()
+    assert emulator.servo(2).loaded  # held again (0C through the board)
+
+
+def test_recording_through_the_lobot_controller_is_refused_naming_it(tmp_path):
+    from choreo.recorder import Recorder, Recording
+    from choreo.robot import load_robot
+
+    robot = load_robot("arm6")
+    emulator = BOARDS["lobot"](home_specs(robot), clock=VirtualClock())
+    bus = ServoBus(SimSerial.from_emulator(emulator))
+    recording = Recording.start(tmp_path / "taught.yaml", robot)
+    with pytest.raises(UnsupportedByTransport, match="LOBOT controller cannot load"):
+        with Recorder(bus, recording, emulator.clock, taught=["shoulder"]):
+            pass
