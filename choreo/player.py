@@ -428,9 +428,8 @@ class Player:
                 raise ServoFault(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
-            if limits.min_vin_mv is not None and not (
-                limits.min_vin_mv <= value <= limits.max_vin_mv
-            ):
+            low, high = limits.min_vin_mv, limits.max_vin_mv
+            if low is not None and high is not None and not low <= value <= high:
                 raise ServoFault(
                     f"{who} supply is {value} mV, outside "
                     f"{limits.min_vin_mv}..{limits.max_vin_mv} mV"

@@ -34,6 +34,8 @@ BATTERY_MV = 7400
 class BoardEmulator(BusEmulator):
     """Common part: frames in from the host, LX packets out to the servos one at a time."""
 
+    _frames: rrc.FrameDecoder | lobot.FrameDecoder  # the board's own framing
+
     def __init__(self, *args, **kwargs):
         kwargs["echo"] = False  # the board's link does not echo
         super().__init__(*args, **kwargs)
@@ -61,7 +63,8 @@ class BoardEmulator(BusEmulator):
         end_s = at_s + len(data) * BYTE_TIME_S
         self._heard = None
         self._handle(PacketDecoder().feed(data)[0], end_s)
-        heard, self._heard = self._heard or [], None
+        heard: list = self._heard or []
+        self._heard = None
         if not heard:
             return end_s, None, end_s + SERVO_REPLY_TIMEOUT_S
         sent = []

@@ -35,6 +35,7 @@ from collections import deque
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..atomic import write_text_atomically
 from ..clock import Clock, RealClock
@@ -42,6 +43,9 @@ from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from ..servos import servo_model
 from .servo import DEFAULT_START_GAP_S, Eeprom, EmulatedServo, MoveStart, ReplyFate
+
+if TYPE_CHECKING:
+    from .direction import FakeDirectionLines
 
 logger = logging.getLogger(__name__)
 
@@ -148,7 +152,7 @@ class BusEmulator:
         self._seq = 0
         self._arrived = bytearray()  # bytes the host can read
         self._wire_free_s = -math.inf
-        self.direction = None
+        self.direction: FakeDirectionLines | None = None
         self._layout = [(spec.servo_id, spec.model or model) for spec in specs]
         self._eeproms = self._load_state() or [Eeprom(servo_id) for servo_id, _ in self._layout]
         self.servos: tuple[EmulatedServo, ...] = tuple(

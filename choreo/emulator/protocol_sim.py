@@ -12,7 +12,8 @@ Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`
 advances the clock to exactly when the ``n``-th byte arrives, or by the whole timeout, so timeouts
 cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush`` advances
 it to when the wire is free. On any other clock the port waits in real time. The baud rate and
-other line settings are accepted and ignored: the emulated wire always runs at 115200 baud.
+other line settings are accepted and ignored: the emulated wire always runs at 115200 baud (an
+emulated board's link at the board's own speed).
 ``inter_byte_timeout`` is not supported (ignored).
 """
 

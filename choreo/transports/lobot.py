@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from ..errors import PortError, UnsupportedByTransport
-from ..protocol import Command
+from ..protocol import BROADCAST_ID, Command
 from . import Capabilities, Connection, open_serial, path_of
 
 log = logging.getLogger(__name__)
@@ -66,7 +66,8 @@ class FrameDecoder:
 
     def feed(self, data: bytes) -> list[Frame]:
         self._buffer += data
-        frames, buf = [], self._buffer
+        frames: list[Frame] = []
+        buf = self._buffer
         while True:
             start = buf.find(HEADER)
             if start < 0:
@@ -182,6 +183,11 @@ class LobotBoard:
 
     def request(self, command: Command, servo_id: int, timeout_s: float) -> dict[str, int] | None:
         """POS_READ; ID_READ is answered by a position read of that ID (a servo is there)."""
+        if servo_id == BROADCAST_ID:
+            raise UnsupportedByTransport(
+                f"{getattr(self.port, 'name', 'lobot')}: the LOBOT controller cannot ask every "
+                "servo at once; name the servo's ID, or connect the servos to the raw LX bus"
+            )
         found = self.read_positions([servo_id], timeout_s) or {}
         if servo_id not in found:
             return None

@@ -104,7 +104,7 @@ class FrameDecoder:
 
     def feed(self, data: bytes) -> list[Frame]:
         self._buffer += data
-        frames = []
+        frames: list[Frame] = []
         buf = self._buffer
         while True:
             start = buf.find(HEADER)
@@ -118,7 +118,7 @@ class FrameDecoder:
             if len(buf) < 4 or len(buf) < 5 + buf[3]:
                 return frames
             total = 5 + buf[3]
-            if crc8(buf[2 : total - 1]) != buf[total - 1]:
+            if crc8(bytes(buf[2 : total - 1])) != buf[total - 1]:
                 self.bad_crcs += 1
                 del buf[:1]
                 continue
@@ -163,7 +163,9 @@ def read_frame(command: Command, servo_id: int) -> bytes:
 
 def reply_total(command: Command) -> int:
     """Bytes of the whole reply frame to a read: header, FUNC, LEN, id sub status value, CRC."""
-    return 5 + 3 + SPECS[Command(command)].reply_len - 3
+    reply_len = SPECS[Command(command)].reply_len
+    assert reply_len is not None, "reply_total is for reads"
+    return 5 + reply_len
 
 
 def battery_mv(frame: Frame) -> int | None:
@@ -237,6 +239,6 @@ class RrcBoard:
         if data[2] != 0:
             return {}
         reply = SPECS[Command(command)].reply
-        if len(data) != reply_total(command) - 5:
+        if reply is None or len(data) != reply_total(command) - 5:
             return None
         return unpack_fields(reply, data[3:])
