@@ -109,3 +109,26 @@ def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty):
         assert after[start].time_s - pressed_s < 0.050
         hold = decode_request(after[start + 6].packet)
         assert hold["time_ms"] == 0
+
+
+@pytest.mark.parametrize("board", BOARDS)
+def test_the_emulate_command_serves_a_board_that_its_scheme_reaches(board, tmp_path, capsys):
+    link = tmp_path / "ttyBOARD"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "emulate", "--pty", str(link), "--servos", "1-3"]
+        + ["--board", board],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        ready = process.stdout.readline()
+        assert ready.startswith(f"emulating servos 1-3 (LX-16A) behind the {board} board"), (
+            process.stderr.read()
+        )
+        assert main(["scan", "--port", f"{board}://{link}", "--ids", "0-4"]) == 0
+        assert "3 servo(s)" in capsys.readouterr().out
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.communicate(timeout=30)
+    assert process.returncode == 0
