@@ -70,7 +70,8 @@ def board_on_a_pty(request, tmp_path):
         yield board, emulator, f"{board}://{link}"
 
 
-def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty):
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGHUP])
+def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty, signum):
     board, emulator, port = board_on_a_pty
     process = subprocess.Popen(
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
@@ -89,7 +90,7 @@ def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty):
 
         wait_for(playing, "the motion to be playing")
         pressed_s = time.monotonic()
-        process.send_signal(signal.SIGINT)
+        process.send_signal(signum)
         _, stderr = process.communicate(timeout=30)
     finally:
         process.kill()

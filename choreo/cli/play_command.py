@@ -47,7 +47,8 @@ def register(subparsers) -> None:
         "play",
         help="play a motion on the servos (default: the built-in emulated bus)",
         description="Check every servo, approach the first pose slowly, then stream the motion: "
-        "each tick is staged on the servos and started by one broadcast MOVE_START. "
+        "each tick is staged on the servos and started by one broadcast MOVE_START (through a "
+        "controller board that cannot stage: one move frame per tick). "
         "Ctrl-C stops the servos at once.",
     )
     play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
