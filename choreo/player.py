@@ -462,10 +462,15 @@ class _Stream:
         self.most_moved = 0  # servos in the largest move frame (for the start skew)
         self.played = 0
         self.outcome, self.reason = Outcome.COMPLETED, ""
-        # Start once whatever was sent before has left and every servo of tick 0 is staged.
+        # Start once whatever was sent before has left and every servo of tick 0 is staged
+        # (through a board: once tick 0's move frame can reach its servos on time).
         player.bus.drain()
-        first_staging_s = len(joints) * MOVE_BYTES * BYTE_TIME_S
-        self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
+        n = len(joints)
+        if self.staging:
+            first_s = n * MOVE_BYTES * BYTE_TIME_S
+        else:
+            first_s = self.frame_lead_s(n) + self.capabilities.start_skew_s(n) / 2
+        self.t0 = player.clock.now() + first_s + player.options.lead_s
         self.end_s = self.t0
 
     @property
@@ -493,9 +498,10 @@ class _Stream:
 
     def catch_up(self, k: int) -> int:
         """If tick k's time is already over, jump to the tick the plan will be in once every
-        servo is re-staged (and the servos' start gap has passed), shortened to end on time."""
+        servo is re-staged (and the servos' start gap has passed), shortened to end on time.
+        Through a board, a link still busy with earlier frames counts as behind too."""
         clock, ticks = self.player.clock, self.ticks
-        now = clock.now()
+        now = clock.now() if self.staging else max(clock.now(), self.wire_free_s)
         if k + 1 >= len(ticks) or now < self.deadline(k + 1):
             return k
         restage_s = (
@@ -541,7 +547,9 @@ class _Stream:
         send_at = self.deadline(k) - lead_s
         clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
         if moves:
-            self.lateness_ms.append((clock.now() - send_at) * 1000)
+            # through a board, the frame leaves once the link is free of the frames before it
+            leaves_s = clock.now() if self.staging else max(clock.now(), self.wire_free_s)
+            self.lateness_ms.append((leaves_s - send_at) * 1000)
             if self.staging:
                 self.player.bus.start(BROADCAST_ID)
                 self.sent(START_BYTES)

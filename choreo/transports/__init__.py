@@ -118,6 +118,11 @@ def connect(port: str | serial.SerialBase, timeout_s: float, direction=None) -> 
         port = open_serial(port, timeout_s, RAW_BAUDRATE)
     board_kind = getattr(getattr(port, "emulator", None), "board_kind", None)
     if board_kind is not None:  # an emulated board: it talks its own protocol, not raw LX
+        if direction is not None:
+            raise PortError(
+                f"{getattr(port, 'name', port)}: direction control is for the raw bus on a UART; "
+                f"the {board_kind} board drives its own servo bus"
+            )
         module = importlib.import_module(f".{board_kind}", __name__)
         return Connection(port, module.board_on(port))
     if direction is not None:
