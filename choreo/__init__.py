@@ -11,6 +11,7 @@ from .errors import (
     ProtocolError,
     ServoFault,
     SourceError,
+    UnsupportedByTransport,
 )
 
 __all__ = [
@@ -24,5 +25,6 @@ __all__ = [
     "ProtocolError",
     "ServoFault",
     "SourceError",
+    "UnsupportedByTransport",
 ]
 __version__ = "0.1.0"

@@ -200,3 +200,36 @@ def test_recording_through_the_lobot_controller_is_refused_naming_it(tmp_path):
     with pytest.raises(UnsupportedByTransport, match="LOBOT controller cannot load"):
         with Recorder(bus, recording, emulator.clock, taught=["shoulder"]):
             pass
+
+
+def test_the_rrc_port_opens_at_1_mbaud_with_rts_and_dtr_low(monkeypatch):
+    import serial
+
+    opened = []
+    real = serial.serial_for_url
+
+    def spy(url, **settings):
+        port = real("sim://?board=rrc&ids=1&clock=virtual", **settings)
+        opened.append((url, settings))
+        port_open = port.open
+
+        def open_and_record():
+            opened.append(("lines at open", port.rts, port.dtr))
+            port_open()
+
+        port.open = open_and_record
+        return port
+
+    monkeypatch.setattr(serial, "serial_for_url", spy)
+    with ServoBus("rrc:///dev/ttyAMA0") as bus:
+        assert bus.read_position(1) == 500
+    (url, settings), lines = opened
+    assert url == "/dev/ttyAMA0" and settings["baudrate"] == 1_000_000
+    assert lines == ("lines at open", False, False)
+
+
+def test_direction_control_is_refused_for_a_board():
+    from choreo.errors import PortError
+
+    with pytest.raises(PortError, match="the rrc board drives its own servo bus"):
+        ServoBus("sim://?board=rrc&ids=1&clock=virtual", direction="tonypi")
