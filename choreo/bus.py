@@ -1,6 +1,6 @@
 """``ServoBus``: one half-duplex LX servo bus behind any pyserial URL.
 
-The only module that opens serial ports. One lock is held across each request and its reply;
+Ports are opened by ``choreo.transports``. One lock is held across each request and its reply;
 stale input is flushed before every request; each read has a timeout and bounded retries; a reply
 is accepted only with the expected servo id, command and length, so the echo of a request (itself
 a valid packet) is never taken for its reply. ``sim://`` opens the built-in emulator.

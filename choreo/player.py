@@ -15,8 +15,9 @@ Through a controller board that cannot stage (``bus.capabilities.staged_start`` 
 and LOBOT boards) each tick goes out at its deadline as one multi-servo move frame with the tick's
 duration (a tick's moves share one duration); the board forwards it one servo at a time, so
 the frame is sent early enough for those starts to be centred on the deadline, and the report
-gives the first-to-last start skew. Preflight, health reads and the stop use only what the transport offers
-(``capabilities``); preflight checks it cannot make are listed by :func:`unchecked`.
+gives the first-to-last start skew. Preflight, health reads and the stop use only what the
+transport offers (``capabilities``); preflight checks it cannot make are listed by
+:func:`unchecked`.
 """
 
 from __future__ import annotations

@@ -5,7 +5,8 @@
 model: ``1-6,7:LX-224HV``; ``board`` puts an emulated controller board in front of the servos,
 and the port then talks that board's protocol at the board's link speed: see
 ``choreo.emulator.boards``). pyserial finds this module once
-``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator with :meth:`SimSerial.from_emulator`.
+``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator
+with :meth:`SimSerial.from_emulator`.
 
 Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`` has passed
 (``timeout=0``: what is there now; ``None``: wait for all ``n``). On a ``VirtualClock`` a read
