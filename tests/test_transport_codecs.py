@@ -188,6 +188,7 @@ def test_lobot_hid_report_port_adds_the_report_id_and_drops_the_padding():
             self.reports.append(h("55 55 06 15 01 01 F4 01") + bytes(56))
 
         def read(self, size, timeout_ms):
+            assert timeout_ms > 0  # hidapi would block for good on 0
             return self.reports.pop(0) if self.reports else b""
 
     device = FakeHid()

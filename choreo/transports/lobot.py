@@ -239,7 +239,8 @@ class HidReportPort:
 
     def read(self, size: int = 1) -> bytes:
         if len(self._buffer) < size:
-            report = bytes(self.device.read(HID_REPORT, int((self.timeout or 0) * 1000)))
+            # hidapi blocks without end for a timeout of 0 ms: wait at least 1 ms
+            report = bytes(self.device.read(HID_REPORT, max(1, round((self.timeout or 0) * 1000))))
             if report[:2] == HEADER and len(report) >= 3:
                 self._buffer += report[: 2 + report[2]]  # the frame, not the report's padding
         data = bytes(self._buffer[:size])
@@ -248,7 +249,7 @@ class HidReportPort:
 
     def reset_input_buffer(self) -> None:
         self._buffer.clear()
-        while self.device.read(HID_REPORT, 0):
+        while self.device.read(HID_REPORT, 1):  # what is waiting (0 ms would block)
             pass
 
     def reset_output_buffer(self) -> None:
