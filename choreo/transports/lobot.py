@@ -223,6 +223,11 @@ class HidReportPort:
                 "lobot://hid needs the hidapi package: pip install 'choreo[lobot]' "
                 "(or use the controller's UART as lobot:///dev/ttyUSB0)"
             ) from None
+        if not hasattr(hid, "device"):  # the `hid` package also installs a module named hid
+            raise PortError(
+                "lobot://hid needs the hidapi package (module hid with hid.device), not the "
+                "package named hid: pip install 'choreo[lobot]'"
+            )
         device = hid.device()
         try:
             device.open(HID_VID, HID_PID)
