@@ -302,6 +302,23 @@ def packet_schedule(ticks: Sequence[Tick], robot: Robot) -> list[ScheduledPacket
     return schedule
 
 
+def frame_schedule(ticks: Sequence[Tick], robot: Robot, move_frame) -> list[ScheduledPacket]:
+    """The dry run through a board that cannot stage: one move frame per tick that changes a
+    target, built by the board's ``move_frame(moves, time_ms)``, at the tick's start."""
+    schedule = []
+    for k, tick in enumerate(ticks):
+        moves = [(j.servo_id, pos) for j, pos, _ in staged_moves(tick, robot, all_servos=k == 0)]
+        if moves:
+            schedule.append(
+                ScheduledPacket(
+                    tick.start_ms,
+                    move_frame(moves, tick.duration_ms),
+                    f"tick {k}: move {len(moves)} servo(s) in {tick.duration_ms} ms",
+                )
+            )
+    return schedule
+
+
 # --- playing -----------------------------------------------------------------------------------
 class Player:
     """Streams ticks to the servos of ``robot`` on ``bus`` with deadlines from ``clock``."""

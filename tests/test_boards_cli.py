@@ -3,6 +3,7 @@ robots' motions, a refused command, and Ctrl-C on a board served on a pty (real 
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -133,3 +134,19 @@ def test_the_emulate_command_serves_a_board_that_its_scheme_reaches(board, tmp_p
         process.send_signal(signal.SIGINT)
         process.communicate(timeout=30)
     assert process.returncode == 0
+
+
+def test_the_dry_run_through_a_board_prints_its_move_frames(capsys):
+    from choreo.transports import rrc
+
+    assert (
+        main(["play", "motions/arm6/wave.yaml", "--dry-run", "--port", "rrc:///dev/nothing"]) == 0
+    )
+    out = capsys.readouterr().out
+    assert "through the RRC board: no staging, one move frame per tick" in out
+    rows = [re.match(r"\s*\d+ ms  ([0-9a-f ]+?)  tick \d+:", line) for line in out.splitlines()]
+    frames = [bytes.fromhex(row[1]) for row in rows if row]
+    assert len(frames) > 10
+    decoded = [rrc.FrameDecoder().feed(f) for f in frames]
+    assert all(len(d) == 1 and d[0].data[0] == rrc.MOVE for d in decoded)  # CRCs hold
+    assert decoded[0][0].data[3] == 6  # the first tick moves every servo

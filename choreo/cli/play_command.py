@@ -24,6 +24,7 @@ from ..player import (
     Player,
     PlayOptions,
     PlayReport,
+    frame_schedule,
     packet_schedule,
     preflight,
     prepare,
@@ -31,9 +32,11 @@ from ..player import (
 )
 from ..robot import Robot
 from ..segments import CompiledMotion, compile_motion
+from ..transports import board_module
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
+    bus_settings,
     open_robot_bus,
     positive_float,
     positive_int,
@@ -99,7 +102,7 @@ def run_play(args: argparse.Namespace) -> int:
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
     if args.dry_run:
-        return dry_run(compiled)
+        return dry_run(compiled, board_module(bus_settings(args, robot).port))
     for signum in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal stops like Ctrl-C
         signal.signal(signum, _interrupt)
     options = PlayOptions(
@@ -228,13 +231,22 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(compiled: CompiledMotion) -> int:
+def dry_run(compiled: CompiledMotion, board=None) -> int:
+    """Print every packet (through a board: every move frame) with its time."""
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
-    for packet in packet_schedule(performance.ticks, robot):
+    if board is None:
+        schedule = packet_schedule(performance.ticks, robot)
+    else:
+        print(
+            f"through the {board.CAPABILITIES.transport}: no staging, one move frame per tick, "
+            "forwarded one servo at a time"
+        )
+        schedule = frame_schedule(performance.ticks, robot, board.move_frame)
+    for packet in schedule:
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
-    total = sum(len(p.packet) for p in packet_schedule(performance.ticks, robot))
+    total = sum(len(p.packet) for p in schedule)
     print(
         f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
         f"{total} bytes"

@@ -132,6 +132,18 @@ def connect(port: str | serial.SerialBase, timeout_s: float, direction=None) -> 
     return Connection(port, None)
 
 
+def board_module(port: str | None):
+    """The module of the board a port string names (``rrc://``, ``lobot://``, ``sim://?board=``),
+    without opening anything; None for the raw bus."""
+    if port is None or "://" not in port:
+        return None
+    parts = urllib.parse.urlsplit(port)
+    name = SCHEMES.get(parts.scheme.lower())
+    if parts.scheme.lower() == "sim":
+        name = SCHEMES.get(urllib.parse.parse_qs(parts.query).get("board", [""])[-1])
+    return importlib.import_module(f".{name}", __name__) if name else None
+
+
 def open_serial(
     url: str, timeout_s: float, baudrate: int, *, quiet_lines: bool = False
 ) -> serial.SerialBase:
