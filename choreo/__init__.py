@@ -25,6 +25,7 @@ from .errors import (
     ProtocolError,
     ServoFault,
     SourceError,
+    UnsupportedByTransport,
 )
 
 __version__ = "0.1.0"
@@ -85,6 +86,7 @@ __all__ = [
     "preflight",
     "prepare",
     "simulate_motion",
+    "UnsupportedByTransport",
 ]
 
 

@@ -1,11 +1,17 @@
 """``ServoBus``: one half-duplex LX servo bus behind any pyserial URL.
 
-The only module that opens serial ports. One lock is held across each request and its reply;
-earlier writes are let out and stale input is flushed before every request; each read attempt
-waits up to its timeout and is retried a bounded number of times; a reply is accepted only with
-the expected servo id, command and length, so echoes (of the request, itself a valid packet, or of
-earlier writes on a one-wire bus) and stray bytes are skipped, never taken for the reply.
-``sim://`` opens the built-in emulator.
+The only module that sends and receives servo commands; ports are opened by
+``choreo.transports``. One lock is held across each request and its reply; earlier writes are let
+out and stale input is flushed before every request; each read attempt waits up to its timeout
+and is retried a bounded number of times; a reply is accepted only with the expected servo id,
+command and length, so echoes (of the request, itself a valid packet, or of earlier writes on a
+one-wire bus) and stray bytes are skipped, never taken for the reply. ``sim://`` opens the
+built-in emulator.
+
+The port string names the transport (``choreo.transports``): on the raw bus LX packets go out as
+they are; through a controller board (``rrc://``, ``lobot://``) each command is carried by the
+board's own protocol, and a command the board cannot carry raises ``UnsupportedByTransport``.
+``bus.capabilities`` says what the transport can do.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from dataclasses import dataclass
 
 import serial
 
-from . import emulator
+from . import transports
 from .errors import BusTimeoutError, PortError, ProtocolError
 from .protocol import (
     BROADCAST_ID,
@@ -97,38 +103,42 @@ class MotorMode:
 
 @dataclass(frozen=True)
 class ServoStatus:
-    """What ``choreo scan`` shows: facts every model answers."""
+    """What ``choreo scan`` shows: facts every model answers (None: the transport cannot read
+    it)."""
 
     servo_id: int
     pos_units: int
-    vin_mv: int
-    temp_c: int
+    vin_mv: int | None
+    temp_c: int | None
 
 
 @dataclass(frozen=True)
 class ServoInfo:
-    """Every readable parameter of one servo; None where this model does not answer."""
+    """Every readable parameter of one servo; None where this model does not answer or the
+    transport cannot read it (``ServoBus.capabilities`` tells which)."""
 
     servo_id: int
     pos_units: int
-    move: MoveTime
+    move: MoveTime | None
     staged_move: MoveTime | None
-    offset_units: int
-    angle_limits: AngleLimits
-    vin_limits: VinLimits
-    temp_limit_c: int
-    temp_c: int
-    vin_mv: int
-    mode: MotorMode
-    loaded: bool
-    led_on: bool
-    led_errors: ErrorMask
+    offset_units: int | None
+    angle_limits: AngleLimits | None
+    vin_limits: VinLimits | None
+    temp_limit_c: int | None
+    temp_c: int | None
+    vin_mv: int | None
+    mode: MotorMode | None
+    loaded: bool | None
+    led_on: bool | None
+    led_errors: ErrorMask | None
     distance: int | None
 
 
 class ServoBus:
-    """A servo bus on ``port`` (a pyserial URL such as ``/dev/ttyUSB0`` or ``sim://?ids=1-6``, or
-    an already open serial object). Use as a context manager so the port is always released."""
+    """A servo bus on ``port`` (a port string such as ``/dev/ttyUSB0``, ``sim://?ids=1-6``,
+    ``rrc:///dev/ttyAMA0`` or ``lobot://hid``, or an already open serial object). ``direction``:
+    GPIO direction control for a raw bus on a Pi/Jetson UART (a preset name such as ``tonypi``,
+    or ``rx=4,tx=27``). Use as a context manager so the port is always released."""
 
     def __init__(
         self,
@@ -137,6 +147,7 @@ class ServoBus:
         timeout_s: float = 0.05,
         retries: int = 2,
         echo: EchoMode | str = EchoMode.AUTO,
+        direction=None,
     ):
         if timeout_s <= 0:
             raise ValueError(f"timeout_s must be > 0, got {timeout_s}")
@@ -147,7 +158,9 @@ class ServoBus:
         self.echo = EchoMode(echo)
         self._lock = threading.RLock()
         self._decoder = PacketDecoder()
-        self.port = _open(port, timeout_s) if isinstance(port, str) else port
+        connection = transports.connect(port, timeout_s, direction)
+        self.port, self.board = connection.port, connection.board
+        self.capabilities = connection.capabilities
         self.name = port if isinstance(port, str) else getattr(port, "name", None) or repr(port)
 
     # --- lifetime ------------------------------------------------------------------------------
@@ -182,8 +195,12 @@ class ServoBus:
                 "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
                 "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
             )
-        packet = encode_request(spec.command, servo_id, **fields)
+        packet = encode_request(spec.command, servo_id, **fields)  # checks every field's range
+        self._require(spec.command)
         with self._lock, self._port_io():
+            if self.board is not None:
+                self.board.send(spec.command, servo_id, fields)
+                return
             self.port.write(packet)  # its echo, if any, is skipped by the next request
 
     def request(
@@ -201,6 +218,7 @@ class ServoBus:
             raise ValueError(f"{spec.command.name} has no reply: use send()")
         if servo_id == BROADCAST_ID and spec.command != Command.ID_READ:
             raise ValueError(f"only ID_READ is answered on broadcast, not {spec.command.name}")
+        self._require(spec.command)
         attempts = 1 + (self.retries if retries is None else retries)
         timeout_s = self.timeout_s if timeout_s is None else timeout_s
         packet = encode_request(spec.command, servo_id)
@@ -209,7 +227,11 @@ class ServoBus:
             echo_seen, received = False, b""
             for attempt in range(attempts):
                 with self._port_io():
-                    result = self._exchange(packet, spec.command, servo_id, timeout_s)
+                    if self.board is not None:  # the board's link has no echo
+                        fields = self.board.request(spec.command, servo_id, timeout_s)
+                        result = _Attempt(fields, echo_seen=True, received=b"")
+                    else:
+                        result = self._exchange(packet, spec.command, servo_id, timeout_s)
                 if result.fields is not None:
                     return result.fields
                 echo_seen |= result.echo_seen
@@ -252,6 +274,10 @@ class ServoBus:
             f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
             "or run `choreo scan`"
         )
+
+    def _require(self, command: Command) -> None:
+        if not self.capabilities.supports(command):
+            raise self.capabilities.refuse(command, self.name)
 
     @contextlib.contextmanager
     def _port_io(self) -> Iterator[None]:
@@ -425,6 +451,34 @@ class ServoBus:
         """DIS_READ: rotation distance, 4096 pulses per turn; only some models answer."""
         return self.request(Command.DIS_READ, servo_id)["distance"]
 
+    # --- several servos at once ----------------------------------------------------------------
+    def move_many(self, moves: Iterable[tuple[int, int]], time_ms: int) -> int:
+        """Move each (servo_id, pos_units) now over one shared ``time_ms``: one frame through a
+        board, one MOVE_TIME_WRITE per servo on the raw bus. Returns the bytes sent."""
+        moves = list(moves)
+        for servo_id, pos_units in moves:  # every range checked before anything is sent
+            encode_request(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+        with self._lock, self._port_io():
+            if self.board is not None:
+                return self.board.move_many(moves, time_ms)
+            data = b"".join(
+                encode_request(Command.MOVE_TIME_WRITE, i, pos_units=p, time_ms=time_ms)
+                for i, p in moves
+            )
+            self.port.write(data)
+            if self.echo is EchoMode.DISCARD:
+                self._echo_owed += len(data)
+            return len(data)
+
+    def stop_servos(self, servo_ids: Iterable[int]) -> None:
+        """Stop these servos by the best means the transport has (``capabilities.stop``): a
+        broadcast MOVE_STOP on the raw bus."""
+        if self.board is None:
+            self.stop(BROADCAST_ID)
+            return
+        with self._lock, self._port_io():
+            self.board.stop_many(list(servo_ids))
+
     # --- several commands ----------------------------------------------------------------------
     def probe(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> Presence:
         """Whether a servo answers ID_READ at ``servo_id``, stays silent, or answers garbled.
@@ -479,32 +533,45 @@ class ServoBus:
         return list(self.scan_presence(ids, timeout_s=timeout_s, retries=retries).found)
 
     def read_status(self, servo_id: int) -> ServoStatus:
+        can = self.capabilities.supports
         return ServoStatus(
             servo_id,
             self.read_position(servo_id),
-            self.read_vin(servo_id),
-            self.read_temperature(servo_id),
+            self.read_vin(servo_id) if can(Command.VIN_READ) else None,
+            self.read_temperature(servo_id) if can(Command.TEMP_READ) else None,
         )
 
     def read_info(self, servo_id: int) -> ServoInfo:
-        """Every readable parameter; commands this model ignores give None (one short try)."""
+        """Every readable parameter; commands this model ignores give None (one short try), and
+        so do those the transport cannot carry."""
+
+        def read(command: Command, reader):
+            return reader(servo_id) if self.capabilities.supports(command) else None
+
+        C = Command
         return ServoInfo(
             servo_id=servo_id,
             pos_units=self.read_position(servo_id),
-            move=self.read_move(servo_id),
-            staged_move=_maybe(MoveTime, self._try_request(Command.MOVE_TIME_WAIT_READ, servo_id)),
-            offset_units=self.read_offset(servo_id),
-            angle_limits=self.read_angle_limits(servo_id),
-            vin_limits=self.read_vin_limits(servo_id),
-            temp_limit_c=self.read_temp_limit(servo_id),
-            temp_c=self.read_temperature(servo_id),
-            vin_mv=self.read_vin(servo_id),
-            mode=self.read_mode(servo_id),
-            loaded=self.read_loaded(servo_id),
-            led_on=self.read_led(servo_id),
-            led_errors=self.read_led_errors(servo_id),
-            distance=_maybe(int, self._try_request(Command.DIS_READ, servo_id), "distance"),
+            move=read(C.MOVE_TIME_READ, self.read_move),
+            staged_move=_maybe(MoveTime, read(C.MOVE_TIME_WAIT_READ, self._try_staged_move)),
+            offset_units=read(C.ANGLE_OFFSET_READ, self.read_offset),
+            angle_limits=read(C.ANGLE_LIMIT_READ, self.read_angle_limits),
+            vin_limits=read(C.VIN_LIMIT_READ, self.read_vin_limits),
+            temp_limit_c=read(C.TEMP_MAX_LIMIT_READ, self.read_temp_limit),
+            temp_c=read(C.TEMP_READ, self.read_temperature),
+            vin_mv=read(C.VIN_READ, self.read_vin),
+            mode=read(C.OR_MOTOR_MODE_READ, self.read_mode),
+            loaded=read(C.LOAD_OR_UNLOAD_READ, self.read_loaded),
+            led_on=read(C.LED_CTRL_READ, self.read_led),
+            led_errors=read(C.LED_ERROR_READ, self.read_led_errors),
+            distance=_maybe(int, read(C.DIS_READ, self._try_distance), "distance"),
         )
+
+    def _try_staged_move(self, servo_id: int) -> dict[str, int] | None:
+        return self._try_request(Command.MOVE_TIME_WAIT_READ, servo_id)
+
+    def _try_distance(self, servo_id: int) -> dict[str, int] | None:
+        return self._try_request(Command.DIS_READ, servo_id)
 
     def _try_request(self, command: Command, servo_id: int) -> dict[str, int] | None:
         """One try of a read that some models ignore."""
@@ -518,22 +585,3 @@ def _maybe(make, fields: dict[str, int] | None, key: str | None = None):
     if fields is None:
         return None
     return make(fields[key]) if key else make(**fields)
-
-
-def _open(url: str, timeout_s: float) -> serial.SerialBase:
-    emulator.register_url_handler()
-    try:
-        return serial.serial_for_url(
-            url,
-            baudrate=BAUDRATE,
-            bytesize=serial.EIGHTBITS,
-            parity=serial.PARITY_NONE,
-            stopbits=serial.STOPBITS_ONE,
-            timeout=timeout_s,
-            exclusive=True,
-        )
-    except (serial.SerialException, ValueError, OSError) as error:
-        raise PortError(
-            f"cannot open {url}: {error}. Is another program using it? "
-            "List ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
-        ) from error

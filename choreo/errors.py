@@ -52,3 +52,8 @@ class PreviewError(ChoreoError):
 
 class PlaybackAborted(ChoreoError):
     """Playback stopped for safety (fault, lost servo, position error)."""
+
+
+class UnsupportedByTransport(BusError):
+    """The transport (a controller board between host and servos) cannot do this command; the
+    message names the transport and what to use instead."""

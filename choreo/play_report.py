@@ -12,7 +12,7 @@ import json
 import os
 import urllib.parse
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,11 +39,17 @@ class Transport:
     port: str
     emulated: bool
     start_skew_ms: float = 0.0
+    name: str = "raw LX bus"  # what carries the commands: the raw bus or a controller board
 
 
-def transport_of(port_name: str) -> Transport:
+def transport_of(port_name: str, report: PlayReport | None = None) -> Transport:
+    """The transport of ``port_name``; ``report`` adds the player's name for it and the start
+    skew its way of starting a tick costs."""
     scheme = urllib.parse.urlsplit(port_name).scheme.lower() if "://" in port_name else ""
-    return Transport(kind=scheme or "serial", port=port_name, emulated=scheme == "sim")
+    transport = Transport(kind=scheme or "serial", port=port_name, emulated=scheme == "sim")
+    if report is None:
+        return transport
+    return replace(transport, name=report.transport, start_skew_ms=report.start_skew_ms)
 
 
 def check_report_path(path: Path) -> None:
@@ -79,6 +85,7 @@ def report_document(
         "reason": report.reason,
         "transport": {
             "kind": transport.kind,
+            "name": transport.name,
             "port": transport.port,
             "emulated": transport.emulated,
         },

@@ -10,6 +10,14 @@ the servos are re-targeted to where the plan is now instead of replaying stale t
 Preflight refuses servos that MOVE_STOP could not stop (motor mode). Every exit path other than
 completion stops the servos (broadcast MOVE_STOP); then they are left as configured: holding
 (torque on), moved slowly to an exit pose, or unloaded.
+
+Through a controller board that cannot stage (``bus.capabilities.staged_start`` false: the RRC
+and LOBOT boards) each tick goes out at its deadline as one multi-servo move frame with the tick's
+duration (a tick's moves share one duration); the board forwards it one servo at a time, so
+the frame is sent early enough for those starts to be centred on the deadline, and the report
+gives the first-to-last start skew. Preflight, health reads and the stop use only what the
+transport offers (``capabilities``); preflight checks it cannot make are listed by
+:func:`unchecked`.
 """
 
 from __future__ import annotations
@@ -81,9 +89,9 @@ class PlayOptions:
 class ServoLimits:
     """What preflight read from a servo: the bounds the health checks enforce."""
 
-    min_vin_mv: int
-    max_vin_mv: int
-    max_temp_c: int
+    min_vin_mv: int | None  # None: the transport cannot read it
+    max_vin_mv: int | None
+    max_temp_c: int | None
 
 
 @dataclass
@@ -130,6 +138,8 @@ class PlayReport:
     elapsed_s: float
     health: tuple[ServoHealth, ...]
     start_time_s: float  # clock time of the first START's deadline
+    transport: str = "raw LX bus"
+    start_skew_ms: float = 0.0  # first-to-last start of a tick's moves (a board forwarding them)
 
     @property
     def bus_use(self) -> float:
@@ -179,9 +189,27 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
         problems += joint_problems
     if problems:
         raise ChoreoError("refusing to play:\n  " + "\n  ".join(problems))
-    for joint in robot.joints:
-        bus.load(joint.servo_id)
+    if bus.capabilities.load:  # else the approach's first move powers the servos
+        for joint in robot.joints:
+            bus.load(joint.servo_id)
     return tuple(pose), limits
+
+
+PREFLIGHT_READS = {
+    Command.VIN_READ: "supply voltage",
+    Command.VIN_LIMIT_READ: "voltage limits",
+    Command.TEMP_READ: "temperature",
+    Command.TEMP_MAX_LIMIT_READ: "temperature limit",
+    Command.ANGLE_LIMIT_READ: "angle limits",
+    Command.OR_MOTOR_MODE_READ: "motor mode",
+}
+
+
+def unchecked(bus: ServoBus) -> list[str]:
+    """What preflight and the health reads cannot check through this transport."""
+    return [
+        what for command, what in PREFLIGHT_READS.items() if not bus.capabilities.supports(command)
+    ]
 
 
 def _names(joints: Sequence[Joint]) -> str:
@@ -190,35 +218,50 @@ def _names(joints: Sequence[Joint]) -> str:
 
 def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
     sid, who = joint.servo_id, f"{joint.name} (ID {joint.servo_id})"
+
+    def read(command: Command, reader):
+        return reader(sid) if bus.capabilities.supports(command) else None
+
     position = bus.read_position(sid)
-    vin, vin_limits = bus.read_vin(sid), bus.read_vin_limits(sid)
-    temp, temp_limit = bus.read_temperature(sid), bus.read_temp_limit(sid)
-    angle_limits = bus.read_angle_limits(sid)
-    mode = bus.read_mode(sid)
+    vin, vin_limits = (
+        read(Command.VIN_READ, bus.read_vin),
+        read(Command.VIN_LIMIT_READ, bus.read_vin_limits),
+    )
+    temp = read(Command.TEMP_READ, bus.read_temperature)
+    temp_limit = read(Command.TEMP_MAX_LIMIT_READ, bus.read_temp_limit)
+    angle_limits = read(Command.ANGLE_LIMIT_READ, bus.read_angle_limits)
+    mode = read(Command.OR_MOTOR_MODE_READ, bus.read_mode)
     problems = []
-    if mode.motor:
+    if mode is not None and mode.motor:
         problems.append(
             f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
             f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`"
         )
-    if not vin_limits.min_mv <= vin <= vin_limits.max_mv:
+    if (
+        vin is not None
+        and vin_limits is not None
+        and not vin_limits.min_mv <= vin <= vin_limits.max_mv
+    ):
         problems.append(
             f"{who}: supply {vin} mV is outside the servo's limits "
             f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply"
         )
-    if temp >= temp_limit:
+    if temp is not None and temp_limit is not None and temp >= temp_limit:
         problems.append(
             f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
         )
     low, high = joint.limits_units
-    if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
+    if angle_limits is not None and (
+        angle_limits.min_units > round(low) or angle_limits.max_units < round(high)
+    ):
         problems.append(
             f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
             f" are narrower than the robot file's {round(low)}..{round(high)} units "
             f"({joint.limits.min_deg:g}..{joint.limits.max_deg:g}°); widen them with "
             "`choreo servo limits` or narrow the joint limits in the robot file"
         )
-    return position, ServoLimits(vin_limits.min_mv, vin_limits.max_mv, temp_limit), problems
+    vin_low, vin_high = (vin_limits.min_mv, vin_limits.max_mv) if vin_limits else (None, None)
+    return position, ServoLimits(vin_low, vin_high, temp_limit), problems
 
 
 # --- the packets of a tick ---------------------------------------------------------------------
@@ -265,6 +308,23 @@ def packet_schedule(ticks: Sequence[Tick], robot: Robot) -> list[ScheduledPacket
     return schedule
 
 
+def frame_schedule(ticks: Sequence[Tick], robot: Robot, move_frame) -> list[ScheduledPacket]:
+    """The dry run through a board that cannot stage: one move frame per tick that changes a
+    target, built by the board's ``move_frame(moves, time_ms)``, at the tick's start."""
+    schedule = []
+    for k, tick in enumerate(ticks):
+        moves = [(j.servo_id, pos) for j, pos, _ in staged_moves(tick, robot, all_servos=k == 0)]
+        if moves:
+            schedule.append(
+                ScheduledPacket(
+                    tick.start_ms,
+                    move_frame(moves, tick.duration_ms),
+                    f"tick {k}: move {len(moves)} servo(s) in {tick.duration_ms} ms",
+                )
+            )
+    return schedule
+
+
 # --- playing -----------------------------------------------------------------------------------
 class Player:
     """Streams ticks to the servos of ``robot`` on ``bus`` with deadlines from ``clock``."""
@@ -284,11 +344,13 @@ class Player:
         self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
         # Positions are checked most often; each round also reads one servo's VIN and temperature.
         n = len(robot.joints)
+        readable = bus.capabilities.supports
         self._rotation = [
             item
             for c in range(n)
             for item in [(i, Reading.POSITION) for i in range(n)]
             + [(c, Reading.VIN), (c, Reading.TEMPERATURE)]
+            if readable(item[1].value[0])
         ]
         self._next_read = 0
         self._suspect: int | None = None  # a joint whose last read went unanswered: read it next
@@ -315,13 +377,14 @@ class Player:
         return stream.report()
 
     def stop(self) -> None:
-        """Broadcast MOVE_STOP: every servo holds where it is.
+        """Stop every servo by the transport's best means (``capabilities.stop``: a broadcast
+        MOVE_STOP on the raw bus).
 
-        Staged moves still waiting in the output buffer are dropped so the STOP goes out first.
+        Moves still waiting in the output buffer are dropped so the stop goes out first.
         """
         try:
             self.bus.discard_output()
-            self.bus.stop(BROADCAST_ID)
+            self.bus.stop_servos([j.servo_id for j in self.robot.joints])
             self.bus.drain()
         except (BusError, OSError) as error:  # the port itself may be gone
             log.error("could not send MOVE_STOP: %s", error)
@@ -384,11 +447,14 @@ class Player:
         who = f"{joint.name} (ID {joint.servo_id})"
         if reading is Reading.TEMPERATURE:
             health.record("temp_c", value)
-            if value >= limits.max_temp_c - self.options.temp_margin_c:
+            if limits.max_temp_c is not None and (
+                value >= limits.max_temp_c - self.options.temp_margin_c
+            ):
                 raise ServoFault(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
-            if not limits.min_vin_mv <= value <= limits.max_vin_mv:
+            low, high = limits.min_vin_mv, limits.max_vin_mv
+            if low is not None and high is not None and not low <= value <= high:
                 raise ServoFault(
                     f"{who} supply is {value} mV, outside "
                     f"{limits.min_vin_mv}..{limits.max_vin_mv} mV"
@@ -415,12 +481,20 @@ class _Stream:
         self.retargeted = 0
         self.bytes_sent = 0
         self.wire_free_s = -np.inf  # when the bytes sent so far will have left the host
+        self.capabilities = player.bus.capabilities
+        self.staging = self.capabilities.staged_start  # else one move frame per tick
+        self.most_moved = 0  # servos in the largest move frame (for the start skew)
         self.played = 0
         self.outcome, self.reason = Outcome.COMPLETED, ""
-        # Start once whatever was sent before has left and every servo of tick 0 is staged.
+        # Start once whatever was sent before has left and every servo of tick 0 is staged
+        # (through a board: once tick 0's move frame can reach its servos on time).
         player.bus.drain()
-        first_staging_s = len(player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
-        self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
+        n = len(player.robot.joints)
+        if self.staging:
+            first_s = n * MOVE_BYTES * BYTE_TIME_S
+        else:
+            first_s = self.frame_lead_s(n) + self.capabilities.start_skew_s(n) / 2
+        self.t0 = player.clock.now() + first_s + player.options.lead_s
         self.end_s = self.t0
 
     @property
@@ -448,12 +522,17 @@ class _Stream:
 
     def catch_up(self, k: int) -> int:
         """If tick k's time is already over, jump to the tick the plan will be in once every
-        servo is re-staged (and the servos' start gap has passed), shortened to end on time."""
+        servo is re-staged (and the servos' start gap has passed), shortened to end on time.
+        Through a board, a link still busy with earlier frames counts as behind too."""
         clock, ticks = self.player.clock, self.ticks
-        now = clock.now()
+        now = clock.now() if self.staging else max(clock.now(), self.wire_free_s)
         if k + 1 >= len(ticks) or now < self.deadline(k + 1):
             return k
-        restage_s = len(self.player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
+        restage_s = (
+            len(self.player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
+            if self.staging
+            else self.frame_lead_s(len(self.player.robot.joints))
+        )
         ready_ms = math.ceil((now + restage_s + self.player.options.start_guard_s - self.t0) * 1000)
         j = k + 1
         while j + 1 < len(ticks) and ready_ms >= ticks[j + 1].start_ms:
@@ -480,19 +559,47 @@ class _Stream:
 
         A tick that changes no target sends nothing: every servo is already there.
         """
-        clock = self.player.clock
-        send_at = self.deadline(k) - START_BYTES * BYTE_TIME_S
+        clock, tick = self.player.clock, self.ticks[k]
+        moves = [
+            (joint.servo_id, pos)
+            for joint, pos, _ in staged_moves(tick, self.player.robot, all_servos=k == 0)
+        ]
+        if self.staging:
+            lead_s = START_BYTES * BYTE_TIME_S
+        else:  # the board's one-servo-at-a-time starts are centred on the deadline
+            lead_s = self.frame_lead_s(len(moves)) + self.capabilities.start_skew_s(len(moves)) / 2
+        send_at = self.deadline(k) - lead_s
         clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
-        if k == 0 or any(self.ticks[k].staged):
-            self.lateness_ms.append((clock.now() - send_at) * 1000)
-            self.player.bus.start(BROADCAST_ID)
-            self.sent(START_BYTES)
+        if moves:
+            # through a board, the frame leaves once the link is free of the frames before it
+            leaves_s = clock.now() if self.staging else max(clock.now(), self.wire_free_s)
+            self.lateness_ms.append((leaves_s - send_at) * 1000)
+            if self.staging:
+                self.player.bus.start(BROADCAST_ID)
+                self.sent(START_BYTES)
+            else:
+                sent = self.player.bus.move_many(moves, tick.duration_ms)
+                self.most_moved = max(self.most_moved, len(moves))
+                self.sent(sent, busy_s=self.frame_busy_s(sent, len(moves)))
         self.previous_units = self.current_units
         self.current_units = np.asarray(self.ticks[k].targets_units, dtype=float)
         self.played = k + 1
         self.report_progress(k)
 
+    def frame_lead_s(self, servos: int) -> float:
+        """From sending a board's move frame until its first servo starts moving."""
+        cap = self.capabilities
+        frame_bytes = cap.move_frame_bytes + 3 * servos
+        return frame_bytes * cap.host_byte_time_s + cap.forward_s_per_servo
+
+    def frame_busy_s(self, frame_bytes: int, servos: int) -> float:
+        """How long a move frame keeps the board's link and servo bus busy."""
+        cap = self.capabilities
+        return frame_bytes * cap.host_byte_time_s + servos * cap.forward_s_per_servo
+
     def stage(self, tick: Tick, *, all_servos: bool) -> None:
+        if not self.staging:
+            return  # the move frame at the tick's deadline carries its targets
         bus = self.player.bus
         for joint, pos, time_ms in staged_moves(tick, self.player.robot, all_servos=all_servos):
             bus.stage_move(joint.servo_id, pos, time_ms)
@@ -502,19 +609,23 @@ class _Stream:
         """Health reads until the next START's guard time (never delaying it)."""
         clock, next_start = self.player.clock, self.deadline(k + 1)
         tick = self.ticks[k]
+        # A board's link carries the read's request and reply too (~16 bytes; 17 ms at 9600 baud).
+        link_s = 0.0 if self.staging else 16 * self.capabilities.host_byte_time_s
         for _ in range(len(self.player.robot.joints)):  # bounded: at most one round per tick
             now = clock.now()
-            budget = next_start - max(now, self.wire_free_s)
+            budget = next_start - max(now, self.wire_free_s) - link_s
             fraction = np.clip((now - self.deadline(k)) / (tick.duration_ms / 1000), 0.0, 1.0)
             expected = self.previous_units + fraction * (self.current_units - self.previous_units)
             if not self.player.read_health(budget, expected):
                 return
             self.sent(READ_BYTES)
 
-    def sent(self, count: int) -> None:
-        """Account for bytes put on the wire: it sends them one after another at 115200 baud."""
+    def sent(self, count: int, busy_s: float | None = None) -> None:
+        """Account for bytes put on the wire: it sends them one after another at 115200 baud
+        (``busy_s``: how long they keep a board busy instead)."""
         now = self.player.clock.now()
-        self.wire_free_s = max(now, self.wire_free_s) + count * BYTE_TIME_S
+        busy_s = count * BYTE_TIME_S if busy_s is None else busy_s
+        self.wire_free_s = max(now, self.wire_free_s) + busy_s
         self.bytes_sent += count
 
     def report_progress(self, k: int) -> None:
@@ -547,6 +658,8 @@ class _Stream:
             elapsed_s=self.end_s - self.t0,
             health=self.player.health,
             start_time_s=self.t0,
+            transport=self.capabilities.transport,
+            start_skew_ms=self.capabilities.start_skew_s(self.most_moved) * 1000,
         )
 
 

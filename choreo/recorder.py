@@ -41,6 +41,7 @@ from .clock import Clock
 from .errors import BusError, ChoreoError
 from .motion import Keyframe
 from .motion_writer import motion_text, robot_reference
+from .protocol import Command
 from .robot import Joint, Robot
 from .robot_file import load_robot
 from .yamlsource import SourceLocation, did_you_mean
@@ -427,6 +428,8 @@ class Recorder:
                 f"{len(missing)} servo(s) did not answer: {names}; check power and "
                 "wiring, or run `choreo scan` to see which IDs answer"
             )
+        if not self.bus.capabilities.supports(Command.OR_MOTOR_MODE_READ):
+            return  # a board without the read (RRC): the mode cannot be checked
         spinning = [j for j in self.robot.joints if self.bus.read_mode(j.servo_id).motor]
         if spinning:
             raise BusError(

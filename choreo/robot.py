@@ -113,6 +113,7 @@ class BusSettings:
     retries: int = 2
     echo: str = "auto"  # none | discard | auto
     supply_v: float | None = None  # servo supply voltage (preview); None: each model's rated one
+    direction: str | None = None  # GPIO direction lines of a Pi/Jetson UART: preset or rx=N,tx=N
 
 
 @dataclass(frozen=True)

@@ -141,12 +141,26 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         "retries": lambda node: reader.integer(node, "bus: retries", low=0),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
         "supply_v": lambda node: reader.number(node, "bus: supply_v", low=0, low_open=True),
+        "direction": lambda node: _read_direction(reader, node),
     }
     values = {key: read[key](entry.value) for key, entry in fields.items()}
     if "timeout_ms" in values:
         timeout_ms = values.pop("timeout_ms")
         values["timeout_s"] = timeout_ms / 1000 if timeout_ms is not None else None
     return BusSettings(**values)
+
+
+def _read_direction(reader: Reader, node: Node) -> str | None:
+    from .transports.direction import parse_direction  # no GPIO library is imported by this
+
+    text = reader.string(node, "bus: direction", optional=True)
+    if text is not None:
+        try:
+            parse_direction(text)
+        except ValueError as error:
+            reader.report(node, f"bus: direction: {error}")
+            return None
+    return text
 
 
 def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> list[JointSource]:

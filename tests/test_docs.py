@@ -6,8 +6,10 @@ from __future__ import annotations
 import os
 import re
 import shlex
+import signal
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -31,13 +33,49 @@ PYTHON_BLOCKS = [
     for path in DOCS
     for line, code in code_blocks(path, "python")
 ]
-README_COMMANDS = [
-    command.strip()
-    for _, block in code_blocks(ROOT / "README.md", "sh")
-    for line in block.splitlines()
-    for command in line.split("#")[0].split("&&")
-    if command.strip().startswith("choreo ")
-]
+
+
+@dataclass(frozen=True)
+class Command:
+    """A `choreo ...` line of a README shell block: ``background`` when it ends with ``&`` (a
+    server the block's next lines use); ``error`` when the README shows it failing, as the
+    ``# choreo: error: ...`` line right after it."""
+
+    text: str
+    block: int
+    background: bool = False
+    error: str | None = None
+
+
+def readme_commands() -> list[Command]:
+    commands: list[Command] = []
+    for block_index, (_, block) in enumerate(code_blocks(ROOT / "README.md", "sh")):
+        lines = block.splitlines()
+        for i, line in enumerate(lines):
+            error = _error_shown_after(lines[i + 1 :])
+            for part in line.split("#")[0].split("&&"):
+                text = part.strip()
+                if text.startswith("choreo "):
+                    background = text.endswith("&")
+                    text = text.rstrip("&").strip()
+                    commands.append(Command(text, block_index, background, error))
+    return commands
+
+
+def _error_shown_after(lines: list[str]) -> str | None:
+    """The ``# choreo: error: ...`` comment opening ``lines``, joined over its ``# `` lines."""
+    if not lines or not lines[0].strip().startswith("# choreo: error:"):
+        return None
+    shown = [lines[0].strip()[2:]]
+    for line in lines[1:]:
+        if not line.startswith("# ") or line.startswith("# choreo"):
+            break
+        shown.append(line[2:].strip())
+    return " ".join(shown)
+
+
+README_COMMANDS = [c.text for c in readme_commands()]
+SERVED_BLOCKS = {c.block for c in readme_commands() if c.background}
 
 
 def env_importing_this_checkout() -> dict[str, str]:
@@ -71,8 +109,9 @@ def workdir(tmp_path: Path) -> Path:
     return tmp_path
 
 
-def run_command(command: str, folder: Path) -> None:
-    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder``."""
+def run_command(command: str, folder: Path, error: str | None = None) -> None:
+    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder``; it succeeds,
+    or fails with exactly ``error`` when that is given."""
     argv = [sys.executable, "-m", "choreo", *shlex.split(command)[1:]]
     result = subprocess.run(
         argv,
@@ -82,14 +121,53 @@ def run_command(command: str, folder: Path) -> None:
         text=True,
         timeout=300,
     )
-    assert result.returncode == 0, result.stderr
+    if error is None:
+        assert result.returncode == 0, result.stderr
+    else:
+        assert result.returncode == 1, result.stderr
+        assert result.stderr.strip() == error
 
 
 @pytest.mark.parametrize(
-    "command", [c for c in README_COMMANDS if not HARDWARE_PORT.search(c)], ids=str
+    "command",
+    [
+        c
+        for c in readme_commands()
+        if c.block not in SERVED_BLOCKS and not HARDWARE_PORT.search(c.text)
+    ],
+    ids=lambda c: c.text,
 )
 def test_readme_command_runs(command, workdir):
-    run_command(command, workdir)
+    run_command(command.text, workdir, command.error)
+
+
+@pytest.mark.parametrize("block", sorted(SERVED_BLOCKS))
+def test_readme_block_with_a_server_runs(block, workdir):
+    """A block that starts a server with ``&`` (``choreo emulate --pty PATH``): it is started,
+    the block's other commands run against it, then it is stopped as Ctrl-C would."""
+    commands = [c for c in readme_commands() if c.block == block]
+    servers = []
+    try:
+        for command in commands:
+            if command.background:
+                argv = [sys.executable, "-m", "choreo", *shlex.split(command.text)[1:]]
+                server = subprocess.Popen(
+                    argv,
+                    cwd=workdir,
+                    env=env_importing_this_checkout(),
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE,
+                    text=True,
+                )
+                servers.append(server)
+                assert server.stdout is not None
+                assert "emulating" in server.stdout.readline(), server.stderr
+            elif not HARDWARE_PORT.search(command.text):
+                run_command(command.text, workdir, command.error)
+    finally:
+        for server in servers:
+            server.send_signal(signal.SIGINT)
+            server.wait(timeout=30)
 
 
 @pytest.mark.parametrize(

@@ -106,10 +106,14 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
         load_robot("arm6"),
         bus=BusSettings(port="/dev/ttyUSB7", timeout_s=0.1, retries=4, echo="none"),
     )
-    nothing = argparse.Namespace(port=None, timeout_ms=None, retries=None, echo=None)
+    nothing = argparse.Namespace(
+        port=None, timeout_ms=None, retries=None, echo=None, direction=None
+    )
     assert bus_settings(nothing, robot) == robot.bus
     assert bus_settings(nothing) == BusSettings()  # no robot: the defaults, the built-in bus
-    given = argparse.Namespace(port="sim://?ids=1-6", timeout_ms=80.0, retries=None, echo="auto")
+    given = argparse.Namespace(
+        port="sim://?ids=1-6", timeout_ms=80.0, retries=None, echo="auto", direction="ainex"
+    )
     assert bus_settings(given, robot) == BusSettings(
-        port="sim://?ids=1-6", timeout_s=0.08, retries=4, echo="auto"
+        port="sim://?ids=1-6", timeout_s=0.08, retries=4, echo="auto", direction="ainex"
     )

@@ -33,7 +33,12 @@ def test_play_writes_a_report_that_reads_back(tmp_path, capsys):
     report = json.loads(path.read_text())
     assert report["format"] == "choreo-play-report" and report["version"] == 1
     assert report["outcome"] == "completed" and report["robot"] == "arm6"
-    assert report["transport"] == {"kind": "sim", "port": "sim://", "emulated": True}
+    assert report["transport"] == {
+        "kind": "sim",
+        "name": "raw LX bus",
+        "port": "sim://",
+        "emulated": True,
+    }
     ticks = report["ticks"]
     assert ticks["played"] == ticks["total"] > 10
     assert report["start_lateness_ms"]["starts"] >= 1
@@ -76,7 +81,12 @@ def test_an_interrupted_play_on_a_serial_port_reports_it(arm_on_a_pty, tmp_path)
     assert process.returncode == 130, stderr
     report = json.loads(path.read_text())
     assert report["outcome"] == "interrupted"
-    assert report["transport"] == {"kind": "serial", "port": str(link), "emulated": False}
+    assert report["transport"] == {
+        "kind": "serial",
+        "name": "raw LX bus",
+        "port": str(link),
+        "emulated": False,
+    }
     assert 5 <= report["ticks"]["played"] < report["ticks"]["total"]
     assert report["start_skew_ms"] == {"max": 0.0, "measured": False}
     assert report["path_error_deg_max"] is None
@@ -187,3 +197,18 @@ def _empty_report():
     from choreo.player import PlayReport
 
     return PlayReport(Outcome.COMPLETED, "", 0, 0, 0, (), 0, 0.0, 0.0, (), 0.0)
+
+
+def test_a_report_through_a_board_names_it_and_its_start_skew(tmp_path):
+    """Through the emulated RRC board a tick's servos start one after another: the report names
+    the board and the skew measured on the servos' wire log."""
+    path = tmp_path / "rrc.json"
+    port = "sim://?board=rrc&ids=1-6"
+    assert main(["play", "motions/arm6/wave.yaml", "--port", port, "--report", str(path)]) == 0
+    report = json.loads(path.read_text())
+    assert report["transport"]["name"] == "RRC board"
+    assert report["transport"]["kind"] == "sim" and report["transport"]["emulated"]
+    # forwarded at about 0.87 ms a servo: not 0 as with a broadcast START, at most ~4.3 ms
+    # for six servos (a tick that moves fewer of them is shorter)
+    assert report["start_skew_ms"]["measured"]
+    assert 0.8 < report["start_skew_ms"]["max"] < 6 * 0.87 + 0.5

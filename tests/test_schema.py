@@ -56,7 +56,9 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     assert robot.ROBOT.required == ("name", "joints", "poses")
     assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
     assert robot.JOINT.required == ("id",)
-    assert robot.BUS == Shape(("port", "timeout_ms", "retries", "echo", "supply_v"), ())
+    assert robot.BUS == Shape(
+        ("port", "timeout_ms", "retries", "echo", "supply_v", "direction"), ()
+    )
     assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
     assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)

@@ -11,6 +11,7 @@ from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
 from ..protocol import MAX_SERVO_ID, parse_ids
 from ..robot import BusSettings, Robot
+from ..transports.direction import PRESETS, parse_direction
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 
@@ -64,6 +65,14 @@ def id_ranges(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
+def _direction(text: str) -> str:
+    try:
+        parse_direction(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
+
+
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview, play)."""
     parser.add_argument(
@@ -94,7 +103,8 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--port",
         help="serial port or pyserial URL, e.g. /dev/ttyUSB0, COM3, "
-        "sim://?ids=1-18 (default: the robot file's bus port, else the built-in "
+        "sim://?ids=1-18; through a controller board rrc:///dev/ttyAMA0, lobot://hid, "
+        "lobot:///dev/ttyUSB0 (default: the robot file's bus port, else the built-in "
         "emulated bus)",
     )
     parser.add_argument(
@@ -115,6 +125,13 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("none", "discard", "auto"),
         help=f"does the adapter echo the host's bytes (one-wire wiring)? (default {defaults.echo})",
     )
+    parser.add_argument(
+        "--direction",
+        type=_direction,
+        metavar="PINS",
+        help="GPIO half-duplex direction lines of a Pi/Jetson UART: "
+        f"{', '.join(PRESETS)}, or rx=N,tx=N[,chip=PATH] (needs choreo[pi])",
+    )
 
 
 def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSettings:
@@ -125,6 +142,7 @@ def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSet
         timeout_s=args.timeout_ms / 1000 if args.timeout_ms is not None else base.timeout_s,
         retries=args.retries if args.retries is not None else base.retries,
         echo=args.echo if args.echo is not None else base.echo,
+        direction=args.direction if args.direction is not None else base.direction,
     )
 
 
@@ -136,7 +154,11 @@ def open_bus(args: argparse.Namespace) -> ServoBus:
         port = BUILT_IN_PORT
         print(f"no --port given: using the built-in emulated bus ({port})", file=sys.stderr)
     return ServoBus(
-        port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo
+        port,
+        timeout_s=settings.timeout_s,
+        retries=settings.retries,
+        echo=settings.echo,
+        direction=settings.direction,
     )
 
 
@@ -155,7 +177,13 @@ def open_robot_bus(
             f"of {robot.name} at its home pose)",
             file=sys.stderr,
         )
-    bus = ServoBus(port, timeout_s=settings.timeout_s, retries=settings.retries, echo=settings.echo)
+    bus = ServoBus(
+        port,
+        timeout_s=settings.timeout_s,
+        retries=settings.retries,
+        echo=settings.echo,
+        direction=settings.direction,
+    )
     return bus, emulator
 
 

@@ -71,10 +71,12 @@ def run_scan(args: argparse.Namespace) -> int:
             str(s.servo_id),
             f"{s.pos_units}",
             f"{s.pos_units * DEG_PER_UNIT:.1f}°",
-            f"{s.vin_mv / 1000:.2f} V",
-            f"{s.temp_c} °C",
+            "-" if s.vin_mv is None else f"{s.vin_mv / 1000:.2f} V",
+            "-" if s.temp_c is None else f"{s.temp_c} °C",
         )
     Console().print(table)
+    if None in (statuses[0].vin_mv, statuses[0].temp_c):
+        print(f"-: the {bus.capabilities.transport} cannot read this")
     return 0
 
 

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import signal
+import sys
 
 from ..clock import RealClock
 from ..emulator import BusEmulator, parse_servo_specs
+from ..emulator.boards import BOARDS
 from ..emulator.bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
@@ -65,6 +67,12 @@ def register(subparsers) -> None:
         help="fault: a servo misses a MOVE_START that comes less than X ms after its staged "
         "move, as real servos can (default 0: never missed)",
     )
+    parser.add_argument(
+        "--board",
+        choices=sorted(BOARDS),
+        help="put an emulated controller board in front of the servos: rrc (open it as "
+        "rrc://PATH) or lobot (its UART: lobot://PATH)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -76,9 +84,9 @@ def _servo_list(text: str) -> tuple[str, list]:
 
 
 def build_emulator(args) -> BusEmulator:
-    """The emulator the command line describes, in real time."""
+    """The emulator the command line describes, in real time: the servos, or a board in front."""
     _, specs = args.servos
-    return BusEmulator(
+    return (BOARDS[args.board] if args.board else BusEmulator)(
         specs,
         model=args.model,
         clock=RealClock(),
@@ -94,6 +102,9 @@ def build_emulator(args) -> BusEmulator:
 
 def run(args) -> int:
     servos_text, _ = args.servos
+    if args.board and args.echo:
+        print("choreo: error: --echo: a board's link does not echo", file=sys.stderr)
+        return 2
     emulator = build_emulator(args)
     with PtyBridge(emulator, args.pty) as bridge:
         previous = {
@@ -102,7 +113,8 @@ def run(args) -> int:
         }
         try:
             print(
-                f"emulating servos {servos_text} ({args.model}) on {args.pty} -> "
+                f"emulating servos {servos_text} ({args.model}) "
+                f"{f'behind the {args.board} board ' if args.board else ''}on {args.pty} -> "
                 f"{bridge.slave_name}; Ctrl-C to stop",
                 flush=True,
             )

@@ -14,7 +14,6 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..clock import RealClock
-from ..emulator import SimSerial
 from ..emulator.trace import start_skew_ms
 from ..motion import load_motion
 from ..path_errors import measured_path_errors
@@ -27,14 +26,18 @@ from ..player import (
     Player,
     PlayOptions,
     PlayReport,
+    frame_schedule,
     packet_schedule,
     preflight,
     prepare,
+    unchecked,
 )
 from ..robot import Robot
+from ..transports import board_module
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
+    bus_settings,
     open_robot_bus,
     positive_float,
     positive_int,
@@ -48,7 +51,8 @@ def register(subparsers) -> None:
         "play",
         help="play a motion on the servos (default: the built-in emulated bus)",
         description="Check every servo, approach the first pose slowly, then stream the motion: "
-        "each tick is staged on the servos and started by one broadcast MOVE_START. "
+        "each tick is staged on the servos and started by one broadcast MOVE_START (through a "
+        "controller board that cannot stage: one move frame per tick). "
         "Ctrl-C stops the servos at once.",
     )
     play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
@@ -111,8 +115,9 @@ def run_play(args: argparse.Namespace) -> int:
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
     if args.dry_run:
-        return dry_run(compiled)
-    signal.signal(signal.SIGTERM, _interrupt)
+        return dry_run(compiled, board_module(bus_settings(args, robot).port))
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal stops like Ctrl-C
+        signal.signal(signum, _interrupt)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
@@ -121,13 +126,21 @@ def run_play(args: argparse.Namespace) -> int:
     )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
     with bus:
+        missing = unchecked(bus)
+        if missing:
+            print(
+                f"note: the {bus.capabilities.transport} cannot read the servos' "
+                f"{', '.join(missing)}: not checked",
+                file=sys.stderr,
+            )
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
         report, exit_move = _play_with_progress(
             bus, robot, limits, options, performance, start_pose
         )
-        if isinstance(bus.port, SimSerial) and isinstance(bus.port.clock, RealClock):
-            emulator = bus.port.emulator  # also a sim:// URL's, on the player's time base
+        port_emulator = getattr(bus.port, "emulator", None)  # sim:// URLs too
+        if port_emulator is not None and isinstance(getattr(bus.port, "clock", None), RealClock):
+            emulator = port_emulator  # on the player's time base
         errors = skew_ms = None
         if emulator is not None:
             errors = measured_path_errors(
@@ -141,7 +154,7 @@ def run_play(args: argparse.Namespace) -> int:
             report,
             motion=str(args.motion),
             robot=robot.name,
-            transport=transport_of(bus.name),
+            transport=transport_of(bus.name, report),
             measured_start_skew_ms=skew_ms,
             path_errors_deg=errors,
         )
@@ -214,6 +227,11 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
         f"bus use {report.bus_use:.0%}, {report.missed_reads} health reads missed"
     )
+    if report.start_skew_ms:
+        console.print(
+            f"transport {report.transport}: no staged start, each tick is one move frame the "
+            f"board forwards servo by servo: first-to-last start skew {report.start_skew_ms:.1f} ms"
+        )
     table = Table(title="servo health")
     for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):
         table.add_column(column, justify="right")
@@ -226,13 +244,22 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(compiled: CompiledMotion) -> int:
+def dry_run(compiled: CompiledMotion, board=None) -> int:
+    """Print every packet (through a board: every move frame) with its time."""
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
-    for packet in packet_schedule(performance.ticks, robot):
+    if board is None:
+        schedule = packet_schedule(performance.ticks, robot)
+    else:
+        print(
+            f"through the {board.CAPABILITIES.transport}: no staging, one move frame per tick, "
+            "forwarded one servo at a time"
+        )
+        schedule = frame_schedule(performance.ticks, robot, board.move_frame)
+    for packet in schedule:
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
-    total = sum(len(p.packet) for p in packet_schedule(performance.ticks, robot))
+    total = sum(len(p.packet) for p in schedule)
     print(
         f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
         f"{total} bytes"

@@ -22,6 +22,7 @@ from ..bus import AngleLimits, ServoBus, ServoInfo, VinLimits
 from ..errors import ChoreoError
 from ..protocol import Command
 from ..servos import DEG_PER_UNIT
+from ..transports import Capabilities
 from .arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
 
 
@@ -284,7 +285,7 @@ def run_info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(_jsonable(info), indent=2))
     else:
-        Console().print(_info_table(info))
+        Console().print(_info_table(info, bus.capabilities))
     return 0
 
 
@@ -382,31 +383,63 @@ def run_motor(args: argparse.Namespace) -> int:
 # --- info output -------------------------------------------------------------------------------
 def _jsonable(info: ServoInfo) -> dict:
     values = dataclasses.asdict(info)
-    values["led_errors"] = [
-        flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors
-    ]
+    if info.led_errors is not None:
+        values["led_errors"] = [
+            flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors
+        ]
     return values
 
 
-def _info_table(info: ServoInfo) -> Table:
-    def move(m):
-        return "not answered by this model" if m is None else f"{m.pos_units} in {m.time_ms} ms"
+def _info_table(info: ServoInfo, capabilities: Capabilities) -> Table:
+    def move(m, command: Command):
+        if m is None:
+            return shown(None, command, str)
+        return f"{m.pos_units} in {m.time_ms} ms"
 
+    def shown(value, command: Command, show) -> str:
+        if value is not None:
+            return show(value)
+        if not capabilities.supports(command):
+            return f"not readable through the {capabilities.transport}"
+        return "not answered by this model"
+
+    C = Command
     rows = [
         ("position", f"{info.pos_units} ({info.pos_units * DEG_PER_UNIT:.1f}°)"),
-        ("last move", move(info.move)),
-        ("staged move", move(info.staged_move)),
-        ("offset", f"{info.offset_units} ({info.offset_units * DEG_PER_UNIT:+.1f}°)"),
-        ("angle limits", f"{info.angle_limits.min_units}..{info.angle_limits.max_units}"),
-        ("vin limits", f"{info.vin_limits.min_mv}..{info.vin_limits.max_mv} mV"),
-        ("temperature limit", f"{info.temp_limit_c} °C"),
-        ("temperature", f"{info.temp_c} °C"),
-        ("vin", f"{info.vin_mv} mV"),
-        ("mode", f"motor, speed {info.mode.speed}" if info.mode.motor else "servo"),
-        ("torque", "loaded" if info.loaded else "unloaded"),
-        ("led", "on" if info.led_on else "off"),
-        ("led flashes on", workshop.show_error_mask(info.led_errors)),
-        ("distance", "not answered by this model" if info.distance is None else str(info.distance)),
+        ("last move", move(info.move, C.MOVE_TIME_READ)),
+        ("staged move", move(info.staged_move, C.MOVE_TIME_WAIT_READ)),
+        (
+            "offset",
+            shown(
+                info.offset_units, C.ANGLE_OFFSET_READ, lambda o: f"{o} ({o * DEG_PER_UNIT:+.1f}°)"
+            ),
+        ),
+        (
+            "angle limits",
+            shown(info.angle_limits, C.ANGLE_LIMIT_READ, lambda a: f"{a.min_units}..{a.max_units}"),
+        ),
+        (
+            "vin limits",
+            shown(info.vin_limits, C.VIN_LIMIT_READ, lambda v: f"{v.min_mv}..{v.max_mv} mV"),
+        ),
+        ("temperature limit", shown(info.temp_limit_c, C.TEMP_MAX_LIMIT_READ, "{} °C".format)),
+        ("temperature", shown(info.temp_c, C.TEMP_READ, "{} °C".format)),
+        ("vin", shown(info.vin_mv, C.VIN_READ, "{} mV".format)),
+        (
+            "mode",
+            shown(
+                info.mode,
+                C.OR_MOTOR_MODE_READ,
+                lambda m: f"motor, speed {m.speed}" if m.motor else "servo",
+            ),
+        ),
+        (
+            "torque",
+            shown(info.loaded, C.LOAD_OR_UNLOAD_READ, lambda v: "loaded" if v else "unloaded"),
+        ),
+        ("led", shown(info.led_on, C.LED_CTRL_READ, lambda v: "on" if v else "off")),
+        ("led flashes on", shown(info.led_errors, C.LED_ERROR_READ, workshop.show_error_mask)),
+        ("distance", shown(info.distance, C.DIS_READ, str)),
     ]
     table = Table(title=f"servo {info.servo_id}", show_header=False)
     table.add_column(style="bold")

@@ -35,6 +35,7 @@ from collections import deque
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..atomic import write_text_atomically
 from ..clock import Clock, RealClock
@@ -42,6 +43,9 @@ from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from ..servos import servo_model
 from .servo import DEFAULT_START_GAP_S, Eeprom, EmulatedServo, ReplyFate, StartedMove
+
+if TYPE_CHECKING:
+    from .direction import FakeDirectionLines
 
 logger = logging.getLogger(__name__)
 
@@ -106,7 +110,15 @@ class WireLog:
 
 
 class BusEmulator:
-    """Servos on one half-duplex bus. Thread-safe: every public method holds one lock."""
+    """Servos on one half-duplex bus. Thread-safe: every public method holds one lock.
+
+    ``direction``: optional GPIO enable lines in front of the host (a test's
+    :class:`~choreo.emulator.direction.FakeDirectionLines`): a host byte is lost unless transmit
+    was on while it crossed, a byte for the host is lost unless receive was on.
+    """
+
+    board_kind: str | None = None  # a controller board in front of the servos (boards.py)
+    host_byte_time_s = BYTE_TIME_S  # the host's link: the servo bus itself here
 
     def __init__(
         self,
@@ -140,6 +152,7 @@ class BusEmulator:
         self._seq = 0
         self._arrived = bytearray()  # bytes the host can read
         self._wire_free_s = -math.inf
+        self.direction: FakeDirectionLines | None = None
         self._layout = [(spec.servo_id, spec.model or model) for spec in specs]
         self._eeproms = self._load_state() or [Eeprom(servo_id) for servo_id, _ in self._layout]
         self.servos: tuple[EmulatedServo, ...] = tuple(
@@ -191,9 +204,9 @@ class BusEmulator:
             self.catch_up()
             start = max(now, self._wire_free_s)
             for index, byte in enumerate(data):
-                self._tx.append((start + (index + 1) * BYTE_TIME_S, byte))
+                self._tx.append((start + (index + 1) * self.host_byte_time_s, byte))
             if data:
-                self._wire_free_s = start + len(data) * BYTE_TIME_S
+                self._wire_free_s = start + len(data) * self.host_byte_time_s
 
     @property
     def wire_free_s(self) -> float:
@@ -213,7 +226,7 @@ class BusEmulator:
         with self._lock:
             self.catch_up()
             now = self.clock.now()
-            while self._tx and self._tx[-1][0] - BYTE_TIME_S >= now:
+            while self._tx and self._tx[-1][0] - self.host_byte_time_s >= now:
                 self._tx.pop()
             self._wire_free_s = self._tx[-1][0] if self._tx else now
 
@@ -277,21 +290,32 @@ class BusEmulator:
             if min(tx_s, rx_s) > time_s:
                 return
             if rx_s <= tx_s:
-                self._arrived.append(heapq.heappop(self._in_flight)[2])
+                arrival_s, _, byte = heapq.heappop(self._in_flight)
+                if self._passes(arrival_s, "rx"):
+                    self._arrived.append(byte)
             else:
                 self._deliver_host_byte(*self._tx.popleft())
 
+    def _passes(self, end_s: float, line: str) -> bool:
+        """Whether the direction lines let a byte crossing until ``end_s`` through."""
+        if self.direction is None:
+            return True
+        return self.direction.open_throughout(end_s - self.host_byte_time_s, end_s, line)
+
     def _deliver_host_byte(self, time_s: float, byte: int) -> None:
+        if not self._passes(time_s, "tx"):
+            return  # transmit was off: the byte never reached the bus
         if self._echo:
             self._schedule(time_s, bytes((byte,)))
         for packet in self._decoder.feed(bytes((byte,))):
             self._handle(packet, time_s)
 
     def _schedule(self, last_byte_s: float, data: bytes) -> None:
-        first_byte_s = last_byte_s - (len(data) - 1) * BYTE_TIME_S
+        byte_s = self.host_byte_time_s
+        first_byte_s = last_byte_s - (len(data) - 1) * byte_s
         for index, byte in enumerate(data):
             self._seq += 1
-            heapq.heappush(self._in_flight, (first_byte_s + index * BYTE_TIME_S, self._seq, byte))
+            heapq.heappush(self._in_flight, (first_byte_s + index * byte_s, self._seq, byte))
 
     # --- servos acting on a packet ---------------------------------------------------------
     def _handle(self, packet: Packet, at_s: float) -> None:

@@ -1,9 +1,11 @@
 """The ``sim://`` pyserial URL handler: a serial port wired to a :class:`BusEmulator`.
 
 ``sim://?ids=1-6&model=LX-16A&echo=1&state=FILE&turnaround_ms=0.6&clock=real|virtual&seed=0
-&start_gap_ms=0`` (all optional; ids like ``1-6,9,12-14``, a group may name its model:
-``1-6,7:LX-224HV``; ``start_gap_ms`` > 0 is a fault: a MOVE_START less than that after the
-servo's staged move is missed). pyserial finds this module once
+&start_gap_ms=0&board=rrc|lobot`` (all optional; ids like ``1-6,9,12-14``, a group may name
+its model: ``1-6,7:LX-224HV``; ``start_gap_ms`` > 0 is a fault: a MOVE_START less than that after
+the servo's staged move is missed; ``board`` puts an emulated controller board in front of the
+servos, and the port then talks that board's protocol at the board's link speed: see
+``choreo.emulator.boards``). pyserial finds this module once
 ``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator
 with :meth:`SimSerial.from_emulator`.
 
@@ -12,7 +14,8 @@ Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`
 advances the clock to exactly when the ``n``-th byte arrives, or by the whole timeout, so timeouts
 cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush`` advances
 it to when the wire is free. On any other clock the port waits in real time. The baud rate and
-other line settings are accepted and ignored: the emulated wire always runs at 115200 baud.
+other line settings are accepted and ignored: the emulated wire always runs at 115200 baud (an
+emulated board's link at the board's own speed).
 ``inter_byte_timeout`` is not supported (ignored).
 """
 
@@ -26,9 +29,20 @@ from serial import SerialBase, SerialException
 from serial.serialutil import PortNotOpenError, to_bytes
 
 from ..clock import RealClock, VirtualClock
+from .boards import BOARDS
 from .bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S, BusEmulator, parse_servo_specs
 
-URL_OPTIONS = ("ids", "model", "echo", "state", "turnaround_ms", "clock", "seed", "start_gap_ms")
+URL_OPTIONS = (
+    "ids",
+    "model",
+    "echo",
+    "state",
+    "turnaround_ms",
+    "clock",
+    "seed",
+    "start_gap_ms",
+    "board",
+)
 
 
 def emulator_from_url(url: str) -> BusEmulator:
@@ -47,7 +61,12 @@ def emulator_from_url(url: str) -> BusEmulator:
     echo = options.get("echo", "0")
     if echo not in ("0", "1"):
         raise ValueError(f"echo must be 0 or 1, got {echo!r}")
-    return BusEmulator(
+    board = options.get("board")
+    if board is not None and board not in BOARDS:
+        raise ValueError(f"board must be one of {', '.join(BOARDS)}, got {board!r}")
+    if board is not None and echo == "1":
+        raise ValueError("a board's link does not echo: leave out echo=1")
+    return (BOARDS[board] if board else BusEmulator)(
         parse_servo_specs(options.get("ids", "1-6")),
         model=options.get("model", "LX-16A"),
         clock=VirtualClock() if clock_name == "virtual" else RealClock(),
