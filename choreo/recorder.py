@@ -546,7 +546,9 @@ class Recorder:
 
 # --- streams to keyframes ---------------------------------------------------------------------------
 def douglas_peucker(
-    times_s: Sequence[float], angles_deg: Sequence[Sequence[float]], tolerance_deg: float
+    times_s: Sequence[float] | np.ndarray,
+    angles_deg: Sequence[Sequence[float]],
+    tolerance_deg: float,
 ) -> list[int]:
     """Indices of the samples to keep (always the first and last) so that straight lines in time
     between kept samples pass within ``tolerance_deg`` of every sample, on every joint."""
@@ -581,8 +583,8 @@ def reduce_captures(captures: Sequence[Capture], tolerance_deg: float) -> list[C
     if not tolerance_deg > 0:
         raise ValueError(f"tolerance_deg must be > 0, got {tolerance_deg}")
     keyframes: list[Capture] = []
-    for stream, group in itertools.groupby(captures, key=lambda c: c.stream):
-        group = list(group)
+    for stream, members in itertools.groupby(captures, key=lambda c: c.stream):
+        group = list(members)
         if stream is None:
             keyframes += group
             continue
