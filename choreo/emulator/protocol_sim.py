@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import threading
 import urllib.parse
+from typing import Any
 
 from serial import SerialBase, SerialException
 from serial.serialutil import PortNotOpenError, to_bytes
@@ -71,7 +72,9 @@ def _number(options: dict[str, str], name: str, default: float) -> float:
 class SimSerial(SerialBase):
     """A pyserial port on an emulated servo bus (``port.emulator``, ``port.clock``)."""
 
-    def __init__(self, *args, **kwargs):
+    is_open: bool  # SerialBase's (pyserial has no type hints)
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         self.emulator: BusEmulator | None = None
         self._given_emulator: BusEmulator | None = None
         self._wakeup = threading.Condition()
@@ -109,7 +112,7 @@ class SimSerial(SerialBase):
     def close(self) -> None:
         # Not io.RawIOBase.close(): it would flush() a port that is already closed.
         if self.is_open:
-            self.emulator.catch_up()  # what has crossed the wire by now has been acted on
+            self._open_emulator().catch_up()  # what has crossed the wire by now has been acted on
             self.is_open = False
             with self._wakeup:
                 self._wakeup.notify_all()
