@@ -333,7 +333,7 @@ class Recording:
             path.unlink()
 
 
-# --- the live side: servos and input ----------------------------------------------------------------
+# --- the live side: servos and input --------------------------------------------------------------
 class _EndOfInput(Exception):
     pass
 
@@ -453,7 +453,7 @@ class Recorder:
         else:
             raise BusError(message)
 
-    # --- captures ----------------------------------------------------------------------------------
+    # --- captures ---------------------------------------------------------------------------------
     def read_pose(self) -> tuple[float, ...]:
         """Every joint's angle now, degrees in robot order (0.01° resolution)."""
         return tuple(
@@ -486,7 +486,7 @@ class Recorder:
         self._times.pop()
         return Undone(number, len(self.recording.captures))
 
-    # --- sessions ------------------------------------------------------------------------------------
+    # --- sessions ---------------------------------------------------------------------------------
     def run_keyframes(self, lines: LineSource) -> Ending:
         """Enter (an empty line) captures, ``u`` undoes, ``q`` quits; until q or end of input."""
         read = _line_reader(lines)
@@ -544,7 +544,7 @@ class Recorder:
             return Ending.INTERRUPTED
 
 
-# --- streams to keyframes ---------------------------------------------------------------------------
+# --- streams to keyframes -------------------------------------------------------------------------
 def douglas_peucker(
     times_s: Sequence[float] | np.ndarray,
     angles_deg: Sequence[Sequence[float]],
@@ -598,7 +598,7 @@ def reduce_captures(captures: Sequence[Capture], tolerance_deg: float) -> list[C
     return keyframes
 
 
-# --- the motion file ---------------------------------------------------------------------------------
+# --- the motion file ------------------------------------------------------------------------------
 def as_keyframes(captures: Sequence[Capture], motion_path: Path) -> list[Keyframe]:
     """Captures as the motion file's keyframes (they have no source line yet: the file's top)."""
     where = SourceLocation(motion_path, 1, 1)

@@ -10,9 +10,10 @@ with :meth:`SimSerial.from_emulator`.
 Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`` has passed
 (``timeout=0``: what is there now; ``None``: wait for all ``n``). On a ``VirtualClock`` a read
 advances the clock to exactly when the ``n``-th byte arrives, or by the whole timeout, so timeouts
-cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush`` advances
-it to when the wire is free. On any other clock the port waits in real time. The baud rate and
-other line settings are accepted and ignored: the emulated wire always runs at 115200 baud.
+cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush``
+advances it to when the wire is free. On any other clock the port waits in real time. The baud
+rate and other line settings are accepted and ignored: the emulated wire always runs at 115200
+baud.
 ``inter_byte_timeout`` is not supported (ignored).
 """
 
@@ -83,7 +84,8 @@ class SimSerial(SerialBase):
 
     @classmethod
     def from_emulator(cls, emulator: BusEmulator, **settings) -> SimSerial:
-        """An open port on an existing emulator; ``settings`` as for ``serial.Serial`` (timeout...)."""
+        """An open port on an existing emulator; ``settings`` as for ``serial.Serial``
+        (``timeout``...)."""
         port = cls(None, **settings)
         port._given_emulator = emulator
         port.port = "sim://"

@@ -102,7 +102,8 @@ class Eeprom:
         for low, high in (("angle_min_units", "angle_max_units"), ("vin_min_mv", "vin_max_mv")):
             if getattr(self, low) >= getattr(self, high):
                 raise ValueError(
-                    f"{low} must be less than {high}, got {getattr(self, low)} >= {getattr(self, high)}"
+                    f"{low} must be less than {high}, "
+                    f"got {getattr(self, low)} >= {getattr(self, high)}"
                 )
 
 
