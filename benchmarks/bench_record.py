@@ -82,10 +82,8 @@ def journal_append_ms(robot) -> list[float]:
 
 def summary(times: list[float]) -> str:
     ordered = sorted(times)
-    return (
-        f"median {statistics.median(ordered):.2f} ms, p95 {ordered[int(0.95 * len(ordered))]:.2f} ms, "
-        f"max {ordered[-1]:.2f} ms"
-    )
+    p95 = ordered[int(0.95 * len(ordered))]
+    return f"median {statistics.median(ordered):.2f} ms, p95 {p95:.2f} ms, max {ordered[-1]:.2f} ms"
 
 
 def main() -> None:

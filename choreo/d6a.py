@@ -31,6 +31,7 @@ import sqlite3
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeGuard
 
 from .atomic import atomic_output, write_text_atomically
 from .errors import SourceError
@@ -133,7 +134,7 @@ def column_servo_ids(group: ActionGroup, ids: Sequence[int] | None = None) -> tu
     """The servo ID of each servo column: ``ServoK`` is ID K, or with ``ids``, the K-th column
     (in table order) is ``ids[K-1]`` (e.g. SpiderPi-style files: IDs 1..18, 21..25)."""
     if ids is None:
-        return tuple(int(SERVO_COLUMN.fullmatch(name).group(1)) for name in group.servo_columns)
+        return tuple(_column_number(name) for name in group.servo_columns)
     if len(ids) != len(group.servo_columns) or len(set(ids)) != len(ids):
         raise SourceError(
             f"{group.path}: {len(group.servo_columns)} servo columns but "
@@ -229,7 +230,15 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
     return angle
 
 
-def _is_number(value) -> bool:
+def _column_number(name: str) -> int:
+    """K of a ``ServoK`` column (reading an action group keeps only columns named so)."""
+    match = SERVO_COLUMN.fullmatch(name)
+    if match is None:
+        raise ValueError(f"{name!r} is not a servo column (ServoK)")
+    return int(match.group(1))
+
+
+def _is_number(value: object) -> TypeGuard[float]:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,10 +16,19 @@ import yaml
 from .yamlsource import Entry, Node, Reader, SourceLocation, did_you_mean, fmt
 
 if TYPE_CHECKING:
+    from .robot import Joint
     from .robot_file import JointSource
 
 RANGE_TOLERANCE_RAD = 0.01
 HOME_TOLERANCE_RAD = 1e-3  # a keyframe written with 4 decimals in radians
+
+
+@dataclass(frozen=True)
+class MappedJoint:
+    """A robot joint read without problems, and where it was written."""
+
+    joint: Joint
+    source: JointSource
 
 
 def check_model(
@@ -40,9 +50,10 @@ def check_model(
     if "home" in poses:
         home_node = next(key for key, _ in fields["poses"].value.value if key.value == "home")
         _check_home(reader, model, mjcf_path.name, mapped, poses["home"], home_node)
-    scene = _compile(reader, scene_path) if scene_path is not None else None
-    if scene is not None:
-        _check_scene_holds_robot(reader, scene, scene_path, model, mjcf_path.name)
+    if scene_path is not None:
+        scene = _compile(reader, scene_path)
+        if scene is not None:
+            _check_scene_holds_robot(reader, scene, scene_path, model, mjcf_path.name)
     return any(
         model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
         and model.body_parentid[model.jnt_bodyid[j]] == 0
@@ -70,9 +81,9 @@ def _joint_names(model: mujoco.MjModel) -> list[str]:
 
 def _map_mjcf_joints(
     reader: Reader, model: mujoco.MjModel, file: str, sources: list[JointSource]
-) -> dict[int, JointSource]:
+) -> dict[int, MappedJoint]:
     """MJCF joint id -> the robot joint driving it; missing, shared or unfit joints reported."""
-    mapped: dict[int, JointSource] = {}
+    mapped: dict[int, MappedJoint] = {}
     for source in sources:
         joint = source.joint
         if joint is None:
@@ -93,18 +104,18 @@ def _map_mjcf_joints(
             reader.report(
                 node,
                 f"joint {joint.name!r}: MJCF joint {joint.mjcf_joint!r} is "
-                f"already driven by joint {mapped[joint_id].name!r}",
+                f"already driven by joint {mapped[joint_id].joint.name!r}",
             )
         else:
-            mapped[joint_id] = source
-            _check_hinge(reader, model, file, joint_id, source)
+            mapped[joint_id] = MappedJoint(joint, source)
+            _check_hinge(reader, model, file, joint_id, mapped[joint_id])
     return mapped
 
 
 def _check_hinge(
-    reader: Reader, model: mujoco.MjModel, file: str, joint_id: int, source: JointSource
+    reader: Reader, model: mujoco.MjModel, file: str, joint_id: int, driver: MappedJoint
 ) -> None:
-    joint = source.joint
+    joint, source = driver.joint, driver.source
     what = f"joint {joint.name!r}: MJCF joint {joint.mjcf_joint!r} in {file}"
     wanted = (math.radians(joint.limits.min_deg), math.radians(joint.limits.max_deg))
     wanted_words = f'range="{wanted[0]:.4f} {wanted[1]:.4f}"'
@@ -144,7 +155,7 @@ def _check_actuators(
     reader: Reader,
     model: mujoco.MjModel,
     file: str,
-    mapped: dict[int, JointSource],
+    mapped: dict[int, MappedJoint],
     refused: set[str],
     joints_node: Node,
 ) -> None:
@@ -174,12 +185,12 @@ def _check_actuators(
             )
         else:
             drivers[joint_id].append(name)
-    for joint_id, source in mapped.items():
-        _check_drivers(reader, file, source, drivers[joint_id])
+    for joint_id, driver in mapped.items():
+        _check_drivers(reader, file, driver, drivers[joint_id])
 
 
-def _check_drivers(reader: Reader, file: str, source: JointSource, names: list[str]) -> None:
-    mjcf_joint = source.joint.mjcf_joint
+def _check_drivers(reader: Reader, file: str, driver: MappedJoint, names: list[str]) -> None:
+    source, mjcf_joint = driver.source, driver.joint.mjcf_joint
     what = f"joint {source.name!r}: MJCF joint {mjcf_joint!r}"
     if not names:
         reader.report(
@@ -202,7 +213,7 @@ def _check_home(
     reader: Reader,
     model: mujoco.MjModel,
     file: str,
-    mapped: dict[int, JointSource],
+    mapped: dict[int, MappedJoint],
     home: Mapping[str, float],
     home_node: Node,
 ) -> None:
@@ -215,16 +226,17 @@ def _check_home(
             f"this pose in radians",
         )
         return
-    for joint_id, source in mapped.items():
-        wanted = math.radians(home[source.name])
+    for joint_id, driver in mapped.items():
+        joint = driver.joint
+        wanted = math.radians(home[joint.name])
         found = float(model.key_qpos[key_id, model.jnt_qposadr[joint_id]])
         if abs(found - wanted) > HOME_TOLERANCE_RAD:
             reader.report(
                 home_node,
-                f"pose 'home': {source.name} is {fmt(home[source.name])}° "
+                f"pose 'home': {joint.name} is {fmt(home[joint.name])}° "
                 f"({wanted:.4f} rad) but the 'home' keyframe in {file} has "
                 f"{found:.4f} rad ({fmt(math.degrees(found))}°) for "
-                f"{source.joint.mjcf_joint!r}; make them agree",
+                f"{joint.mjcf_joint!r}; make them agree",
             )
 
 

@@ -29,20 +29,15 @@ def path_errors_deg(
     """Per joint, the largest distance between where the emulated servo went and
     ``planned_deg`` (``(len(times_s), n_joints)`` degrees at ``start_time_s + times_s``)."""
     moves = list(moves)
-    return tuple(
-        float(
-            np.max(
-                np.abs(
-                    joint.to_deg(
-                        executed_units(moves, joint.servo_id, start, start_time_s + times_s)
-                    )
-                    - planned_deg[:, j]
-                ),
-                initial=0.0,
-            )
-        )
-        for j, (joint, start) in enumerate(zip(robot.joints, start_units))
-    )
+    executed = np.stack(
+        [
+            executed_units(moves, joint.servo_id, start, start_time_s + times_s)
+            for joint, start in zip(robot.joints, start_units)
+        ],
+        axis=-1,
+    )  # (len(times_s), n_joints), like planned_deg
+    errors = np.abs(robot.to_deg(executed) - planned_deg)
+    return tuple(float(e) for e in np.max(errors, axis=0, initial=0.0))
 
 
 def measured_path_errors(

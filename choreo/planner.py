@@ -66,6 +66,11 @@ class Trajectory:
     # poly[:, j, k]. Each row of knots_s is sorted, starts at 0 and ends with a rest phase.
     knots_s: np.ndarray = field(repr=False)
     poly: np.ndarray = field(repr=False)
+    # Derived from knots_s and poly in __post_init__, for evaluating many times at once.
+    _taylor: np.ndarray = field(init=False, repr=False)
+    _offsets: np.ndarray = field(init=False, repr=False)
+    _flat_knots: np.ndarray = field(init=False, repr=False)
+    _taylor_rows: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.knots_s.flags.writeable = False
@@ -148,13 +153,20 @@ class Trajectory:
                 np.searchsorted(located, self.knots_s[j], side="left"), append=len(located)
             )
             dt = times_s - np.repeat(self.knots_s[j], counts)
-            c = [np.repeat(column[j], counts) for column in self._taylor]
-            for array, values in zip(out, _taylor_values(*c, dt, rates)):
+            p, v, a_half, j_sixth = (np.repeat(column[j], counts) for column in self._taylor)
+            for array, values in zip(out, _taylor_values(p, v, a_half, j_sixth, dt, rates)):
                 array[j] = values
         return out
 
 
-def _taylor_values(p, v, a_half, j_sixth, dt, rates: bool) -> list[np.ndarray]:
+def _taylor_values(
+    p: np.ndarray,
+    v: np.ndarray,
+    a_half: np.ndarray,
+    j_sixth: np.ndarray,
+    dt: np.ndarray,
+    rates: bool,
+) -> list[np.ndarray]:
     pos = j_sixth * dt
     pos += a_half
     pos *= dt
@@ -374,7 +386,7 @@ class _Planner:
         arrive = np.zeros(m)
         arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
-        segments: list[_Segment] = [None] * (m - 1)  # type: ignore[list-item]
+        segments: dict[int, _Segment] = {}  # by index: damping may plan one again
         i = 0
         while i < m - 1:
             leave = arrive[i] + self.holds_s[i]
@@ -394,18 +406,18 @@ class _Planner:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
             shift[i + 1] = 0.0
-            if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
+            if wanted is not None and seg.duration_s > wanted - leave + DURATION_EPS_S:
                 if not self.stretch:
                     earliest = leave + seg.duration_s
                     raise PlanningError(self.too_early_message(i + 1, wanted, earliest))
-                shift[i + 1] = seg.duration_s - requested
+                shift[i + 1] = seg.duration_s - (wanted - leave)
             segments[i] = seg
             arrive[i + 1] = leave + seg.duration_s
             i += 1
         stretches = [
             Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
         ]
-        return segments, arrive, stretches
+        return [segments[k] for k in range(m - 1)], arrive, stretches
 
     def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
@@ -547,7 +559,7 @@ def plan_approach(
     target = _pose_array(robot, target_deg, "target_deg")
     if not 0 < limit_scale <= 1:
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
-    outside = robot.limit_violations(target)
+    outside = robot.limit_violations(target.tolist())
     if outside:
         joint, angle = outside[0].joint, outside[0].angle_deg
         raise ValueError(

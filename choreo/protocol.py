@@ -178,7 +178,7 @@ class Packet:
         return encode_packet(self.servo_id, self.command, self.params)
 
 
-def checksum(body: bytes) -> int:
+def checksum(body: bytes | bytearray) -> int:
     """``~(ID + LEN + CMD + params) & 0xFF`` over ``body`` = ID LEN CMD params."""
     return ~sum(body) & 0xFF
 

@@ -334,7 +334,7 @@ class Recording:
             path.unlink()
 
 
-# --- the live side: servos and input ----------------------------------------------------------------
+# --- the live side: servos and input --------------------------------------------------------------
 class _EndOfInput(Exception):
     pass
 
@@ -456,7 +456,7 @@ class Recorder:
         else:
             raise BusError(message)
 
-    # --- captures ----------------------------------------------------------------------------------
+    # --- captures ---------------------------------------------------------------------------------
     def read_pose(self) -> tuple[float, ...]:
         """Every joint's angle now, degrees in robot order (0.01° resolution)."""
         return tuple(
@@ -489,7 +489,7 @@ class Recorder:
         self._times.pop()
         return Undone(number, len(self.recording.captures))
 
-    # --- sessions ------------------------------------------------------------------------------------
+    # --- sessions ---------------------------------------------------------------------------------
     def run_keyframes(self, lines: LineSource) -> Ending:
         """Enter (an empty line) captures, ``u`` undoes, ``q`` quits; until q or end of input."""
         read = _line_reader(lines)
@@ -547,9 +547,11 @@ class Recorder:
             return Ending.INTERRUPTED
 
 
-# --- streams to keyframes ---------------------------------------------------------------------------
+# --- streams to keyframes -------------------------------------------------------------------------
 def douglas_peucker(
-    times_s: Sequence[float], angles_deg: Sequence[Sequence[float]], tolerance_deg: float
+    times_s: Sequence[float] | np.ndarray,
+    angles_deg: Sequence[Sequence[float]],
+    tolerance_deg: float,
 ) -> list[int]:
     """Indices of the samples to keep (always the first and last) so that straight lines in time
     between kept samples pass within ``tolerance_deg`` of every sample, on every joint."""
@@ -584,8 +586,8 @@ def reduce_captures(captures: Sequence[Capture], tolerance_deg: float) -> list[C
     if not tolerance_deg > 0:
         raise ValueError(f"tolerance_deg must be > 0, got {tolerance_deg}")
     keyframes: list[Capture] = []
-    for stream, group in itertools.groupby(captures, key=lambda c: c.stream):
-        group = list(group)
+    for stream, members in itertools.groupby(captures, key=lambda c: c.stream):
+        group = list(members)
         if stream is None:
             keyframes += group
             continue
@@ -599,7 +601,7 @@ def reduce_captures(captures: Sequence[Capture], tolerance_deg: float) -> list[C
     return keyframes
 
 
-# --- the motion file ---------------------------------------------------------------------------------
+# --- the motion file ------------------------------------------------------------------------------
 def as_keyframes(captures: Sequence[Capture], motion_path: Path) -> list[Keyframe]:
     """Captures as the motion file's keyframes (they have no source line yet: the file's top)."""
     where = SourceLocation(motion_path, 1, 1)

@@ -106,12 +106,15 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
         from .model_check import check_model  # mujoco (slow to import): only with a model
 
         free_floating = check_model(reader, mjcf_path, scene_path, sources, fields, poses)
-    if reader.problems:
+    read = tuple(s.joint for s in sources if s.joint is not None)
+    # The name or a joint is None only when refused, which is reported: the two tests after
+    # `reader.problems` only say so to the type checker.
+    if reader.problems or name is None or len(read) < len(sources):
         return None
     return Robot(
         name=name,
         path=reader.path,
-        joints=tuple(s.joint for s in sources),
+        joints=read,
         poses=poses,
         mirror_pairs=mirror,
         bus=bus,
@@ -135,19 +138,36 @@ def _read_name(reader: Reader, entry: Entry) -> str | None:
 
 def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
     fields = reader.fields(entry.value, "bus", BUS.keys) or {}
-    read = {
-        "port": lambda node: reader.string(node, "bus: port", optional=True),
-        "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
-        "retries": lambda node: reader.integer(node, "bus: retries", low=0),
-        "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
-        "supply_v": lambda node: reader.number(node, "bus: supply_v", low=0, low_open=True),
-        "direction": lambda node: _read_direction(reader, node),
-    }
-    values = {key: read[key](entry.value) for key, entry in fields.items()}
-    if "timeout_ms" in values:
-        timeout_ms = values.pop("timeout_ms")
-        values["timeout_s"] = timeout_ms / 1000 if timeout_ms is not None else None
-    return BusSettings(**values)
+    # A refused value is reported (so the robot is refused too); its default stands in for it.
+    default = BusSettings()
+    port = default.port
+    if "port" in fields:
+        port = reader.string(fields["port"].value, "bus: port", optional=True)
+    timeout_ms = None
+    if "timeout_ms" in fields:
+        timeout_ms = reader.number(
+            fields["timeout_ms"].value, "bus: timeout_ms", low=0, low_open=True
+        )
+    retries = None
+    if "retries" in fields:
+        retries = reader.integer(fields["retries"].value, "bus: retries", low=0)
+    echo = None
+    if "echo" in fields:
+        echo = reader.choice(fields["echo"].value, "bus: echo", ECHO_MODES)
+    supply_v = None
+    if "supply_v" in fields:
+        supply_v = reader.number(fields["supply_v"].value, "bus: supply_v", low=0, low_open=True)
+    direction = None
+    if "direction" in fields:
+        direction = _read_direction(reader, fields["direction"].value)
+    return BusSettings(
+        port=port,
+        timeout_s=default.timeout_s if timeout_ms is None else timeout_ms / 1000,
+        retries=default.retries if retries is None else retries,
+        echo=default.echo if echo is None else echo,
+        supply_v=supply_v,
+        direction=direction,
+    )
 
 
 def _read_direction(reader: Reader, node: Node) -> str | None:
@@ -204,10 +224,17 @@ def _read_joint(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> Joi
 def _joint_from_fields(
     reader: Reader, name: str, fields: dict[str, Entry], labels: dict[str, str]
 ) -> Joint | None:
-    def number(key: str, default: float | None, **bounds: float | bool) -> float | None:
+    def number(
+        key: str,
+        default: float | None,
+        *,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+    ) -> float | None:
         if key not in fields:
             return default
-        return reader.number(fields[key].value, labels[key], **bounds)
+        return reader.number(fields[key].value, labels[key], low=low, high=high, low_open=low_open)
 
     servo_id = reader.integer(fields["id"].value, labels["id"], low=0, high=MAX_SERVO_ID)
     model = _read_servo_model(reader, fields["servo"].value, labels["servo"])
@@ -229,8 +256,16 @@ def _joint_from_fields(
         if "actuator" in fields
         else {}
     )
-    if None in (servo_id, model, zero, direction, low, high, mjcf_joint, actuator) or any(
-        rates[key] is None for key in RATE_KEYS if key in fields
+    if (
+        servo_id is None
+        or model is None
+        or zero is None
+        or direction is None
+        or low is None
+        or high is None
+        or mjcf_joint is None
+        or actuator is None
+        or any(rates[key] is None for key in RATE_KEYS if key in fields)
     ):
         return None
     # rates are > 0 when given; the servo model's defaults otherwise
@@ -271,7 +306,13 @@ def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | 
         )
         for key, entry in entries.items()
     }
-    return None if None in values.values() else values
+    return _all_given(values)
+
+
+def _all_given(values: Mapping[str, float | None]) -> dict[str, float] | None:
+    """``values`` when none of them was refused (None), else None."""
+    given = {key: value for key, value in values.items() if value is not None}
+    return given if len(given) == len(values) else None
 
 
 def _read_servo_model(reader: Reader, node: Node, what: str) -> ServoModel | None:
@@ -396,8 +437,8 @@ def _read_poses(
                 pose.key_node,
                 f"{what} does not give {', '.join(missing)}; every pose names every joint",
             )
-        elif None not in angles.values():
-            poses[pose.key] = MappingProxyType({name: angles[name] for name in joints})
+        elif (given := _all_given(angles)) is not None:
+            poses[pose.key] = MappingProxyType({name: given[name] for name in joints})
     names = [pose.key for pose in pose_entries or []]
     if pose_entries is not None and "home" not in names:
         reader.report(

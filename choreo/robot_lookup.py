@@ -50,13 +50,14 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
         if not path.is_file():
             raise LookupError(f"robot file {str(ref)!r} not found (looked for {path})")
         return path
+    name = str(ref)  # a name (a Path is always a path, above)
     search_dirs = robot_search_dirs(base)
     for folder in search_dirs:
-        if (folder / ref / ROBOT_FILE).is_file():
-            return folder / ref / ROBOT_FILE
+        if (folder / name / ROBOT_FILE).is_file():
+            return folder / name / ROBOT_FILE
     known = known_robots(search_dirs)
     raise LookupError(
-        f"unknown robot {ref!r}{did_you_mean(ref, known)}; known robots: "
+        f"unknown robot {name!r}{did_you_mean(name, known)}; known robots: "
         f"{', '.join(known) or 'none'} (looked for <name>/{ROBOT_FILE} in "
         f"{', '.join(map(str, search_dirs)) or 'no models folder'}; "
         f"set CHOREO_MODELS to add a folder, or give a path to a {ROBOT_FILE})"

@@ -30,7 +30,7 @@ import numpy as np
 from .errors import PlanningError
 from .planner import Trajectory
 from .protocol import BYTE_TIME_S, SPECS, Command
-from .robot import Robot
+from .robot import Robot, Values
 from .servos import DEG_PER_UNIT, POSITION_RANGE_UNITS
 
 log = logging.getLogger(__name__)
@@ -82,7 +82,8 @@ def staging_bytes(n_staged: int) -> int:
     return n_staged * MOVE_BYTES + START_BYTES if n_staged else 0
 
 
-def wire_time_ms(n_bytes: int) -> float:
+def wire_time_ms(n_bytes: Values) -> Values:
+    """Time on the wire of ``n_bytes`` (element-wise on arrays)."""
     return n_bytes * BYTE_TIME_S * 1000
 
 
@@ -248,7 +249,7 @@ class _Search:
             np.maximum.accumulate(bound, axis=1, out=bound)
             if carry is not None:
                 np.maximum(bound, carry, out=bound)
-            fits = (bound <= slope).all(axis=0).nonzero()[0]
+            fits = np.flatnonzero((bound <= slope).all(axis=0))
             if len(fits):
                 best = first + int(fits[-1])
             carry = bound[:, -1:]

@@ -18,6 +18,7 @@ All times here are played seconds (speed applied). Keyframes are anything with `
 from __future__ import annotations
 
 import enum
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Generic, Protocol, TypeVar
@@ -146,12 +147,16 @@ def known_arrivals_s(played: Sequence[PlayedKeyframe]) -> list[float | None]:
     """Arrival times the keyframes' own ``t`` and ``after`` fix, nothing planned: ``None`` for a
     keyframe timed "as soon as possible" and for those counting from one."""
     arrive: list[float | None] = []
+    # The same with NaN for None: wanted_arrival_s only reads the arrival that keyframe i counts
+    # from, which the test just before has found known.
+    known_s: list[float] = []
     for i, p in enumerate(played):
         counts_from = i - 1 if p.timing is Timing.AFTER else p.anchor
-        if p.timing is Timing.ASAP or (counts_from is not None and arrive[counts_from] is None):
-            arrive.append(None)
-        else:
-            arrive.append(wanted_arrival_s(played, i, arrive))  # type: ignore[arg-type]
+        arrival = None
+        if p.timing is not Timing.ASAP and (counts_from is None or arrive[counts_from] is not None):
+            arrival = wanted_arrival_s(played, i, known_s)
+        arrive.append(arrival)
+        known_s.append(math.nan if arrival is None else arrival)
     return arrive
 
 

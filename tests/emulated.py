@@ -24,7 +24,8 @@ def home_specs(robot: Robot) -> list[ServoSpec]:
 
 
 def wait_for(condition, what: str, timeout_s: float = WAIT_S) -> None:
-    """Poll ``condition`` until it holds; fail the test after ``timeout_s`` (never a fixed sleep)."""
+    """Poll ``condition`` until it holds; fail the test after ``timeout_s`` (never a fixed
+    sleep)."""
     deadline = time.monotonic() + timeout_s
     while not condition():
         if time.monotonic() > deadline:

@@ -33,6 +33,7 @@ What the drivers cannot do (their bugs or limits, not the emulator's):
 from __future__ import annotations
 
 import contextlib
+import functools
 import itertools
 import json
 import signal
@@ -135,7 +136,8 @@ def pylx16a_port():
 
 @pytest.fixture
 def lewansoul():
-    """``lewansoul(link, timeout=...)`` -> a ServoController on a pyserial port, closed afterwards."""
+    """``lewansoul(link, timeout=...)`` -> a ServoController on a pyserial port, closed
+    afterwards."""
     ports = []
 
     def open_controller(link, timeout=READ_TIMEOUT_S):
@@ -500,6 +502,5 @@ def test_lewansoul_on_the_emulate_command(emulate_process, lewansoul):
     assert [controller.get_position(i) for i in targets] == [300, 500, 500]  # staged, not moving
     controller.move_start()
     for servo_id, units in targets.items():
-        wait_until_read(
-            lambda: controller.get_position(servo_id), units, f"servo {servo_id} at {units}"
-        )
+        read = functools.partial(controller.get_position, servo_id)
+        wait_until_read(read, units, f"servo {servo_id} at {units}")

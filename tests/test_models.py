@@ -3,8 +3,9 @@
 Each model folder: the scene compiles and steps 1 s holding ``home`` without warnings; the
 ``home`` keyframe (and any other named after a pose) is robot.yaml's pose; home holds (a
 free-floating robot stays up); nothing touches in home except feet on the floor; and mirroring a
-pose with robot.yaml's mirror pairs mirrors the model. Each motion: no self-collision at its keyframes or on the straight joint-space
-paths between them (and no floor contact for a fixed-base robot).
+pose with robot.yaml's mirror pairs mirrors the model. Each motion: no self-collision at its
+keyframes or on the straight joint-space paths between them (and no floor contact for a
+fixed-base robot).
 """
 
 from __future__ import annotations

@@ -44,7 +44,8 @@ class Rig:
         self.emulator = BusEmulator(specs, clock=self.clock, echo=echo, start_gap_s=start_gap_s)
         self.bus = ServoBus(SimSerial.from_emulator(self.emulator), echo=bus_echo)
 
-    def play(self, options=PlayOptions(), on_progress=None, **prepare_args):
+    def play(self, options=None, on_progress=None, **prepare_args):
+        options = PlayOptions() if options is None else options
         self.start, limits = preflight(self.bus, self.robot)
         self.performance = prepare(compile_motion(self.motion, **prepare_args), self.start)
         player = Player(self.bus, self.robot, self.clock, limits, options, on_progress)

@@ -1,4 +1,5 @@
-"""The sim:// URL handler: opening through serial.serial_for_url, URL options, pyserial semantics."""
+"""The sim:// URL handler: opening through serial.serial_for_url, URL options and pyserial
+semantics."""
 
 from __future__ import annotations
 

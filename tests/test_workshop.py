@@ -1,4 +1,5 @@
-"""Servo configuration (choreo.workshop and `choreo servo ...`) against the emulator in virtual time.
+"""Servo configuration (choreo.workshop and `choreo servo ...`) against the emulator in virtual
+time.
 
 Expected bytes come from docs/protocol.md's verified packets, not from the codec.
 """

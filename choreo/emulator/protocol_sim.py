@@ -12,10 +12,10 @@ with :meth:`SimSerial.from_emulator`.
 Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`` has passed
 (``timeout=0``: what is there now; ``None``: wait for all ``n``). On a ``VirtualClock`` a read
 advances the clock to exactly when the ``n``-th byte arrives, or by the whole timeout, so timeouts
-cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush`` advances
-it to when the wire is free. On any other clock the port waits in real time. The baud rate and
-other line settings are accepted and ignored: the emulated wire always runs at 115200 baud (an
-emulated board's link at the board's own speed).
+cost no real time; ``write`` leaves the clock alone (a real write is buffered) and ``flush``
+advances it to when the wire is free. On any other clock the port waits in real time. The baud
+rate and other line settings are accepted and ignored: the emulated wire always runs at 115200
+baud (an emulated board's link at the board's own speed).
 ``inter_byte_timeout`` is not supported (ignored).
 """
 
@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import threading
 import urllib.parse
+from typing import Any
 
 from serial import SerialBase, SerialException
 from serial.serialutil import PortNotOpenError, to_bytes
@@ -90,7 +91,9 @@ def _number(options: dict[str, str], name: str, default: float) -> float:
 class SimSerial(SerialBase):
     """A pyserial port on an emulated servo bus (``port.emulator``, ``port.clock``)."""
 
-    def __init__(self, *args, **kwargs):
+    is_open: bool  # SerialBase's (pyserial has no type hints)
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         self.emulator: BusEmulator | None = None
         self._given_emulator: BusEmulator | None = None
         self._wakeup = threading.Condition()
@@ -99,7 +102,8 @@ class SimSerial(SerialBase):
 
     @classmethod
     def from_emulator(cls, emulator: BusEmulator, **settings) -> SimSerial:
-        """An open port on an existing emulator; ``settings`` as for ``serial.Serial`` (timeout...)."""
+        """An open port on an existing emulator; ``settings`` as for ``serial.Serial``
+        (``timeout``...)."""
         port = cls(None, **settings)
         port._given_emulator = emulator
         port.port = "sim://"
@@ -128,7 +132,7 @@ class SimSerial(SerialBase):
     def close(self) -> None:
         # Not io.RawIOBase.close(): it would flush() a port that is already closed.
         if self.is_open:
-            self.emulator.catch_up()  # what has crossed the wire by now has been acted on
+            self._open_emulator().catch_up()  # what has crossed the wire by now has been acted on
             self.is_open = False
             with self._wakeup:
                 self._wakeup.notify_all()

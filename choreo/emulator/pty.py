@@ -64,6 +64,7 @@ class PtyBridge:
         while not self._stopping:
             self._write_to_host(emulator.take_received())
             wait_s = emulator.next_event_s() - emulator.clock.now()
+            timeout: float | None
             if wait_s <= SPIN_S:
                 timeout = 0.0  # poll, spinning until the next byte is due
             else:

@@ -41,6 +41,7 @@ import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
+from typing import ClassVar
 
 from ..protocol import (
     BROADCAST_ID,
@@ -101,7 +102,8 @@ class Eeprom:
         for low, high in (("angle_min_units", "angle_max_units"), ("vin_min_mv", "vin_max_mv")):
             if getattr(self, low) >= getattr(self, high):
                 raise ValueError(
-                    f"{low} must be less than {high}, got {getattr(self, low)} >= {getattr(self, high)}"
+                    f"{low} must be less than {high}, "
+                    f"got {getattr(self, low)} >= {getattr(self, high)}"
                 )
 
 
@@ -616,7 +618,9 @@ class EmulatedServo:
         return dict(distance=pulses & 0xFFFFFFFF)
 
     C = Command
-    _HANDLERS = {
+    # Each handler takes (self, at_s, packet, **request fields) and returns the reply's fields,
+    # or None when the command has no reply.
+    _HANDLERS: ClassVar[dict[Command, Callable[..., dict[str, int] | None]]] = {
         C.MOVE_TIME_WRITE: _move_time_write,
         C.MOVE_TIME_READ: _move_time_read,
         C.MOVE_TIME_WAIT_WRITE: _move_time_wait_write,
