@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from choreo.bus import ServoBus
-from choreo.cli.play_command import measured_path_errors
+from choreo.cli.play_commands import measured_path_errors
 from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError

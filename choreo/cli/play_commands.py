@@ -16,6 +16,7 @@ from rich.table import Table
 
 from ..clock import RealClock
 from ..emulator.trace import path_errors_deg
+from ..errors import UsageError
 from ..motion import load_motion
 from ..player import (
     ExitMode,
@@ -87,12 +88,10 @@ def run_play(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, repeat=args.loop)
     robot = motion.robot
     if args.exit_pose not in robot.poses:
-        print(
-            f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
-            f"poses: {', '.join(robot.poses)}",
-            file=sys.stderr,
+        raise UsageError(
+            f"--exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
+            f"poses: {', '.join(robot.poses)}"
         )
-        return 2
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )

@@ -10,7 +10,7 @@ import threading
 from pathlib import Path
 
 from ..clock import RealClock
-from ..errors import BusError, ChoreoError
+from ..errors import BusError, ChoreoError, UsageError
 from ..recorder import (
     Captured,
     Ending,
@@ -79,11 +79,7 @@ def register(subparsers) -> None:
 
 def run_record(args: argparse.Namespace) -> int:
     if args.robot is None and not args.resume:
-        print(
-            "choreo: error: --robot is required (unless --resume takes the journal's)",
-            file=sys.stderr,
-        )
-        return 2
+        raise UsageError("--robot is required (unless --resume takes the journal's)")
     robot = load_robot(args.robot) if args.robot else None
     if args.resume:
         recording = Recording.resume(args.out, robot)
@@ -97,8 +93,7 @@ def run_record(args: argparse.Namespace) -> int:
     try:
         return _record(args, recording)
     except ValueError as error:  # e.g. an unknown joint name
-        print(f"choreo: error: {error}", file=sys.stderr)
-        return 2
+        raise UsageError(str(error)) from error
     except (BusError, KeyboardInterrupt) as error:
         journal = journal_path(args.out)
         if not journal.exists() or not recording.captures:

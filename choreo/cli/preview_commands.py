@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import sys
 from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from ..errors import UsageError
 from ..motion import load_motion
 from .arguments import add_planning_arguments, positive_float, positive_int
 
@@ -121,25 +121,20 @@ def image_size(text: str) -> tuple[int, int]:
     return int(match[1]), int(match[2])
 
 
-def _usage_error(message: str) -> int:
-    print(f"choreo preview: error: {message}", file=sys.stderr)
-    return 2
-
-
 def run_preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
-        return _usage_error(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
+        raise UsageError(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
     if (
         output is not None
         and output.suffix.lower() == ".mp4"
         and (args.size[0] % 2 or args.size[1] % 2)
     ):
-        return _usage_error(
+        raise UsageError(
             f"--size {args.size[0]}x{args.size[1]}: mp4 needs an even width and height"
         )
     if args.check and (output is not None or args.viewer):
-        return _usage_error("--check runs the checks only: drop -o and --viewer, or --check")
+        raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
 
     from .. import preview  # imports mujoco: only when this command runs
 
