@@ -30,7 +30,7 @@ from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization
+from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
 from .errors import PlanningError
@@ -41,6 +41,11 @@ log = logging.getLogger(__name__)
 
 PHASES = 7  # constant-jerk phases of one ruckig profile
 DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
+# Longest time between leaving one keyframe and reaching the next. Ruckig 0.19.4 fails beyond
+# its numerical limits (RuckigError, or a result code its Python enum doesn't know) from a few
+# hundred seconds up when the joints pass through with some velocity; 300 s never failed in
+# randomized trials. Longer pauses are a `hold`, which ruckig never sees.
+MAX_SEGMENT_S = 300.0
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
 _DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
@@ -304,7 +309,13 @@ class _Solver:
         inp.max_acceleration = limits.acc
         inp.max_jerk = limits.jerk
         inp.minimum_duration = minimum_duration_s
-        result = self._ruckig.calculate(inp, self._output)
+        try:
+            result = self._ruckig.calculate(inp, self._output)
+        except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
+            raise PlanningError(
+                f"ruckig could not plan a segment from {np.round(p0, 3).tolist()} to "
+                f"{np.round(p1, 3).tolist()}: {str(error).strip().splitlines()[0]}"
+            ) from error
         if result != Result.Working:
             raise PlanningError(
                 f"ruckig could not plan a segment ({result.name}) from "
@@ -442,11 +453,14 @@ class _Planner:
         arrive[0] = self.played[0].value_s
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
         segments: list[_Segment] = [None] * (m - 1)  # type: ignore[list-item]
+        too_early: dict[int, str] = {}  # without stretch: planned on as if stretched, to say all
         i = 0
         while i < m - 1:
             leave = arrive[i] + self.holds_s[i]
             wanted = self.wanted_arrival(i + 1, arrive, shift)
             requested = None if wanted is None else wanted - leave
+            if requested is not None and requested > MAX_SEGMENT_S:
+                raise PlanningError(self.too_long_message(i + 1, requested))
             seg = self.solver.solve(
                 self.pose_lists[i],
                 velocities[i].tolist(),
@@ -461,14 +475,18 @@ class _Planner:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
             shift[i + 1] = 0.0
+            too_early.pop(i + 1, None)
             if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
                 if not self.stretch:
                     earliest = leave + seg.duration_s
-                    raise PlanningError(self.too_early_message(i + 1, wanted, earliest))
+                    asked = wanted - self.earlier_shift_s(i + 1, shift)
+                    too_early[i + 1] = self.too_early_message(i + 1, asked, earliest)
                 shift[i + 1] = seg.duration_s - requested
             segments[i] = seg
             arrive[i + 1] = leave + seg.duration_s
             i += 1
+        if too_early:
+            raise PlanningError("\n".join(too_early[k] for k in sorted(too_early)))
         stretches = [
             Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
         ]
@@ -482,6 +500,11 @@ class _Planner:
             return arrive[i - 1] + self.holds_s[i - 1] + p.value_s
         # t values count from this repetition's first keyframe and move with earlier stretches
         return arrive[p.anchor] + p.value_s + shift[p.anchor + 1 : i].sum()
+
+    def earlier_shift_s(self, i: int, shift: np.ndarray) -> float:
+        """How much of keyframe i's wanted time comes from stretching keyframes before it."""
+        p = self.played[i]
+        return float(shift[p.anchor + 1 : i].sum()) if p.timing is _Timing.AT else 0.0
 
     def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
@@ -499,6 +522,15 @@ class _Planner:
         raise PlanningError(
             f"{self.played[i + 1].keyframe.where}: internal error: the segment "
             f"overshoots even from rest to rest"
+        )
+
+    def too_long_message(self, i: int, requested_s: float) -> str:
+        p = self.played[i]
+        speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
+        return (
+            f"{p.keyframe.where}: keyframe reached {requested_s:.6g} s after leaving the one "
+            f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
+            f"hold the one before instead (hold: is not limited), or add keyframes in between"
         )
 
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:

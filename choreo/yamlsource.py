@@ -215,7 +215,9 @@ class Reader:
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
-            self.report(node, f"{what} must be a number{valid}, got {describe(node)}")
+            self.report(
+                node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
+            )
             return None
         below = low is not None and (value <= low if low_open else value < low)
         if below or (high is not None and value > high):
@@ -265,6 +267,21 @@ class Reader:
             )
             return None
         return value
+
+
+# YAML 1.1 (what PyYAML reads) takes an exponent as a number only with a dot before it and a
+# sign in it: 1.0e+12 is a number, 1e12 and 1.0e12 are text.
+_TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
+
+
+def _exponent_hint(node: Node) -> str:
+    """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
+    match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
+    if match is None or node.tag != "tag:yaml.org,2002:str":
+        return ""
+    whole, fraction, sign, exponent = match.groups()
+    number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"
+    return f" (YAML reads {node.value} as text: write {number})"
 
 
 def _range_words(low: float | None, high: float | None, low_open: bool) -> str:
