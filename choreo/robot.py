@@ -80,6 +80,12 @@ class MirrorPair:
     sign: int  # right = sign * left (and left = sign * right)
 
 
+# The ranges the command line and the robot file's ``bus:`` section both accept. A servo answers
+# within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a slow one.
+MAX_RETRIES = 9
+MAX_TIMEOUT_MS = 5000.0
+
+
 @dataclass(frozen=True)
 class BusSettings:
     port: str | None = None  # None: the built-in emulated bus
@@ -287,8 +293,10 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
     fields = reader.fields(entry.value, "bus", BUS_KEYS) or {}
     read = {
         "port": lambda node: reader.string(node, "bus: port", optional=True),
-        "timeout_ms": lambda node: reader.number(node, "bus: timeout_ms", low=0, low_open=True),
-        "retries": lambda node: reader.integer(node, "bus: retries", low=0),
+        "timeout_ms": lambda node: reader.number(
+            node, "bus: timeout_ms", low=0, high=MAX_TIMEOUT_MS, low_open=True
+        ),
+        "retries": lambda node: reader.integer(node, "bus: retries", low=0, high=MAX_RETRIES),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
     }
     values = {key: read[key](entry.value) for key, entry in fields.items()}

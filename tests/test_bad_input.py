@@ -145,3 +145,57 @@ def test_piping_into_head_exits_quietly():
                 timeout=120,
             )
         assert (process.returncode, process.stderr.decode()) == (1, ""), argv
+
+
+def usage_error_line(capsys, argv: list[str]) -> str:
+    """argparse's refusal: exit 2, its usage, then one line saying what is wrong."""
+    with pytest.raises(SystemExit) as exited:
+        main(argv)
+    assert exited.value.code == 2
+    return capsys.readouterr().err.splitlines()[-1]
+
+
+@pytest.mark.parametrize(
+    "argv, line",
+    [
+        (
+            ["scan", "--timeout-ms", "1e308"],
+            "choreo scan: error: argument --timeout-ms: expected a number > 0 and <= 5000 ms, "
+            "got '1e308'",
+        ),
+        (
+            ["play", str(WAVE), "--health-timeout-ms", "1e308"],
+            "choreo play: error: argument --health-timeout-ms: expected a number > 0 and "
+            "<= 5000 ms, got '1e308'",
+        ),
+        (
+            ["emulate", "--pty", "x", "--turnaround-ms", "1e308"],
+            "choreo emulate: error: argument --turnaround-ms: expected a number in 0..1000 ms, "
+            "got '1e308'",
+        ),
+        (
+            ["scan", "--retries", "10"],
+            "choreo scan: error: argument --retries: invalid choice: 10 (choose from 0, 1, 2, 3, "
+            "4, 5, 6, 7, 8, 9)",
+        ),
+    ],
+)
+def test_timer_options_are_bounded(capsys, argv, line):
+    assert usage_error_line(capsys, argv) == line
+
+
+def test_robot_file_bus_ranges_equal_the_command_line(tmp_path, capsys):
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = robot.read_text().replace(
+        "defaults:", "bus: {retries: 10, timeout_ms: 5001}\ndefaults:", 1
+    )
+    robot.write_text(text)
+    line = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("bus:"))
+    assert main(["validate", str(robot)]) == 1
+    assert capsys.readouterr().out.splitlines() == [
+        f"{robot}:{line}:16: bus: retries must be in 0..9, got 10",
+        f"{robot}:{line}:32: bus: timeout_ms must be in (0, 5000], got 5001",
+    ]

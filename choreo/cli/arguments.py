@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Callable
 
 from ..bus import ServoBus
 from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
 from ..protocol import MAX_SERVO_ID, parse_ids
-from ..robot import BusSettings, Robot
+from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 
@@ -37,6 +38,20 @@ def positive_float(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
     return value
+
+
+def float_in(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """A number in (low, high]: options whose huge values would overflow a timer."""
+
+    def parse(text: str) -> float:
+        value = finite_float(text)
+        if not low < value <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected a number > {low:g} and <= {high:g}{unit}, got {text!r}"
+            )
+        return value
+
+    return parse
 
 
 def positive_int(text: str) -> int:
@@ -99,16 +114,16 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--timeout-ms",
-        type=positive_float,
-        help=f"per-read timeout (default {defaults.timeout_s * 1000:g} ms; USB "
-        "adapters add latency)",
+        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
+        help=f"per-read timeout, up to {MAX_TIMEOUT_MS:g} (default "
+        f"{defaults.timeout_s * 1000:g} ms; USB adapters add latency)",
     )
     parser.add_argument(
         "--retries",
         type=int,
-        choices=range(0, 10),
+        choices=range(0, MAX_RETRIES + 1),
         metavar="N",
-        help=f"retries per read, 0-9 (default {defaults.retries})",
+        help=f"retries per read, 0-{MAX_RETRIES} (default {defaults.retries})",
     )
     parser.add_argument(
         "--echo",

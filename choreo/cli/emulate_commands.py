@@ -13,6 +13,7 @@ from ..servos import SERVO_MODELS
 from .arguments import non_negative_float
 
 EMULATE_LOG_LIMIT = 1000
+MAX_TURNAROUND_MS = 1000.0
 
 
 def register(subparsers) -> None:
@@ -52,12 +53,21 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--turnaround-ms",
-        type=non_negative_float,
+        type=turnaround_ms,
         default=DEFAULT_TURNAROUND_S * 1000,
         metavar="X",
-        help="delay before a servo answers (default 0.6)",
+        help=f"delay before a servo answers, 0-{MAX_TURNAROUND_MS:g} ms (default 0.6)",
     )
     parser.set_defaults(handler=run)
+
+
+def turnaround_ms(text: str) -> float:
+    value = non_negative_float(text)
+    if value > MAX_TURNAROUND_MS:  # a real servo answers in under a millisecond
+        raise argparse.ArgumentTypeError(
+            f"expected a number in 0..{MAX_TURNAROUND_MS:g} ms, got {text!r}"
+        )
+    return value
 
 
 def _servo_list(text: str) -> tuple[str, list]:

@@ -29,13 +29,13 @@ from ..player import (
     preflight,
     prepare,
 )
-from ..robot import Robot
+from ..robot import MAX_TIMEOUT_MS, Robot
 from ..segments import CompiledMotion, compile_motion
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
+    float_in,
     open_robot_bus,
-    positive_float,
     positive_int,
 )
 
@@ -73,7 +73,7 @@ def register(subparsers) -> None:
     play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
     play.add_argument(
         "--health-timeout-ms",
-        type=positive_float,
+        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
         default=20.0,
         metavar="MS",
         help="timeout of the health reads made between ticks (default 20 ms; raise "
