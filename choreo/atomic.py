@@ -14,17 +14,23 @@ from .errors import ChoreoError
 @contextlib.contextmanager
 def atomic_output(path: Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; it replaces ``path`` only when the block
-    finishes without an exception, so readers never see a half-written file. The data and the
-    new name are flushed to disk before returning (a crash right after loses nothing)."""
+    finishes without an exception (Ctrl-C included), so readers never see a half-written file
+    and a good old one is never lost. The temporary ends in ``path``'s suffix, for writers that
+    choose a format by it. The new file gets the permissions of any new file (0666 less the
+    umask), not mkstemp's 0600. The data and the new name are flushed to disk before returning
+    (a crash right after loses nothing)."""
     path = Path(path)
     if not path.parent.is_dir():
         raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    handle, temporary = tempfile.mkstemp(
+        prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent
+    )
     os.close(handle)
     try:
         yield Path(temporary)
         with open(temporary, "rb") as written:
             os.fsync(written.fileno())
+        os.chmod(temporary, 0o666 & ~current_umask())
         os.replace(temporary, path)
         fsync_directory(path.parent)
     finally:
@@ -35,6 +41,12 @@ def atomic_output(path: Path) -> Iterator[Path]:
 def write_text_atomically(path: Path, text: str) -> None:
     with atomic_output(path) as temporary:
         temporary.write_text(text, encoding="utf-8")
+
+
+def current_umask() -> int:
+    mask = os.umask(0o022)  # the only way to read it is to set it: put it straight back
+    os.umask(mask)
+    return mask
 
 
 def fsync_directory(folder: Path) -> None:

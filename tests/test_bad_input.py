@@ -6,8 +6,10 @@ Each test names the exact line a user sees and the exit code.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -199,3 +201,192 @@ def test_robot_file_bus_ranges_equal_the_command_line(tmp_path, capsys):
         f"{robot}:{line}:16: bus: retries must be in 0..9, got 10",
         f"{robot}:{line}:32: bus: timeout_ms must be in (0, 5000], got 5001",
     ]
+
+
+# --- lost work -----------------------------------------------------------------------------------
+ARM6_D6A_ROWS = (
+    ("Servo1", "Servo2", "Servo3"),
+    ((1, 500, (500, 500, 700)), (2, 800, (625, 400, 580))),
+)
+
+
+def write_d6a(path: Path) -> Path:
+    from choreo.d6a import ActionRow, write_action_group
+
+    columns, rows = ARM6_D6A_ROWS
+    write_action_group(path, columns, [ActionRow(*row) for row in rows])
+    return path
+
+
+def writing_commands(tmp_path: Path) -> dict[str, list[str]]:
+    """Each command that writes a file: its argv without -o."""
+    source = tmp_path / "in.yaml"
+    source.write_text(WAVE.read_text())
+    d6a = write_d6a(tmp_path / "in.d6a")
+    return {
+        "mirror": ["mirror", str(source)],
+        "export": ["export", "d6a", str(source)],
+        "import": ["import", "d6a", str(d6a), "--robot", "arm6", "--ids", "2,4,6"],
+    }
+
+
+@pytest.mark.parametrize("command", ["mirror", "export", "import"])
+def test_an_existing_output_is_kept_without_overwrite(tmp_path, capsys, command):
+    argv = writing_commands(tmp_path)[command]
+    out = tmp_path / "kept.out"
+    out.write_bytes(b"good work\n")
+    assert main([*argv, "-o", str(out)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {out} exists: choose another file, or add --overwrite"
+    )
+    assert out.read_bytes() == b"good work\n"
+    assert main([*argv, "-o", str(out), "--overwrite"]) == 0
+    assert out.read_bytes() != b"good work\n"
+
+
+def test_mirror_refuses_to_write_over_its_own_input(tmp_path, capsys):
+    source = tmp_path / "a.yaml"
+    source.write_text(WAVE.read_text())
+    assert main(["mirror", str(source), "-o", str(source)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {source} exists: choose another file, or add --overwrite"
+    )
+    assert source.read_text() == WAVE.read_text()
+
+
+@pytest.mark.parametrize("command", ["mirror", "export", "import"])
+def test_a_missing_output_folder_is_found_before_the_work(tmp_path, capsys, command):
+    out = tmp_path / "no" / "such" / "out.file"
+    assert main([*writing_commands(tmp_path)[command], "-o", str(out)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: cannot write {out}: the folder {out.parent} does not exist"
+    )
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["preview", str(WAVE), "-o", "{out}.mp4"],
+        ["preview", str(WAVE), "--report", "{out}.json"],
+        ["plan", str(WAVE), "--plot", "{out}.png"],
+    ],
+)
+def test_preview_and_plot_outputs_in_a_missing_folder_fail_before_the_work(tmp_path, capsys, argv):
+    out = tmp_path / "missing" / "x"
+    argv = [a.format(out=out) for a in argv]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    written = Path(argv[-1])
+    assert captured.err == (
+        f"choreo: error: cannot write {written}: the folder {written.parent} does not exist\n"
+    )
+    assert captured.out == ""  # nothing simulated, planned or rendered first
+
+
+def test_ctrl_c_while_rendering_keeps_the_old_video(tmp_path):
+    keep = tmp_path / "keep.mp4"
+    keep.write_bytes(b"a good video")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "preview", str(WAVE), "-o", str(keep)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # Ctrl-C reaches ffmpeg too: signal the whole group
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob(".keep.mp4.*")):  # rendering has begun
+            assert process.poll() is None and time.monotonic() < deadline
+            time.sleep(0.02)
+        os.killpg(process.pid, signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130
+    assert err.decode().strip() == "choreo: interrupted"
+    assert keep.read_bytes() == b"a good video"
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.mp4"]
+
+
+def test_preview_size_is_bounded(capsys):
+    assert usage_error_line(capsys, ["preview", str(WAVE), "--size", "100000x100000"]) == (
+        "choreo preview: error: argument --size: expected WIDTHxHEIGHT from 16x16 to "
+        "8192x8192, e.g. 640x480, got '100000x100000'"
+    )
+
+
+def test_a_frame_larger_than_the_gl_allows_is_a_preview_error():
+    from choreo.errors import PreviewError
+    from choreo.preview.gl import offscreen_backend
+    from choreo.preview.model import load_model
+    from choreo.preview.render import FrameRenderer
+    from choreo.robot import load_robot
+
+    model = load_model(load_robot("arm6"))
+    backend = offscreen_backend()
+    with pytest.raises(PreviewError) as raised:
+        FrameRenderer(model, 1 << 20, 16, backend)
+    assert str(raised.value).startswith(f"cannot render 1048576x16 frames with {backend}: ")
+    assert str(raised.value).endswith("; try a smaller --size")
+
+
+# --- messages (preview) --------------------------------------------------------------------------
+PREVIEW_MOTIONS = REPO / "tests" / "data" / "preview" / "motions"
+
+
+def test_preview_check_says_where_as_validate_does(capsys):
+    collide = PREVIEW_MOTIONS / "collide.yaml"
+    assert main(["preview", str(collide), "--check"]) == 1
+    finding = capsys.readouterr().out.splitlines()[0]
+    assert finding.startswith(f"{collide}:6:5: error: self-collision: base hits forearm")
+    assert main(["validate", str(collide)]) == 1
+    validated = capsys.readouterr().out.splitlines()[0]
+    assert validated == finding.replace(": error: ", ": preview: ", 1)
+
+
+def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, capsys):
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), "--viewer"]) == 1
+    assert error_line(capsys) == (
+        "choreo: error: the viewer cannot open a window on display ':99' (X11: Failed to open "
+        "display :99); render to a file instead: choreo preview MOTION -o out.mp4"
+    )
+
+
+# --- wrong results -------------------------------------------------------------------------------
+def test_the_shipped_dance_exports(tmp_path, capsys):
+    """Its first keyframe has `t: 0`: row 1 is reached by the approach, like an untimed one."""
+    out = tmp_path / "dance.d6a"
+    dance = REPO / "motions" / "arm6" / "dance.yaml"
+    assert main(["export", "d6a", str(dance), "-o", str(out)]) == 0
+    assert capsys.readouterr().out == f"wrote {out}: 17 rows, 10.02 s, from {dance}\n"
+
+
+def test_import_ids_keep_the_order_given(tmp_path):
+    """Column k is the k-th ID as written: 6,4,2 puts Servo1's 700 on the gripper (ID 6)."""
+    from choreo.motion import load_motion
+
+    out = tmp_path / "out.yaml"
+    d6a = write_d6a(tmp_path / "in.d6a")
+    argv = ["import", "d6a", str(d6a), "--robot", "arm6", "-o", str(out), "--ids", "6,4,2"]
+    assert main(argv) == 0
+    motion = load_motion(out)
+    first = dict(zip(motion.robot.joint_names, motion.keyframes[0].targets_deg))
+    # row 1: Servo1 500 -> gripper (zero 700, direction -1): +48°; Servo3 700 -> shoulder +48°
+    assert (first["gripper"], first["wrist_pitch"], first["shoulder"]) == (48.0, 0.0, 48.0)
+
+
+def test_an_open_ended_id_range_is_an_error(capsys):
+    assert usage_error_line(capsys, ["scan", "--ids", "1-"]) == (
+        "choreo scan: error: argument --ids: servo IDs must look like '1-6,9', got '1-'"
+    )
+
+
+def test_importing_a_folder_says_it_is_a_folder(tmp_path, capsys):
+    argv = ["import", "d6a", str(tmp_path), "--robot", "arm6", "-o", str(tmp_path / "o.yaml")]
+    assert main(argv) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {tmp_path}: is a folder, not an action group (.d6a) file"
+    )

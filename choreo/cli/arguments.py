@@ -6,11 +6,13 @@ import argparse
 import math
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 from ..bus import ServoBus
 from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
-from ..protocol import MAX_SERVO_ID, parse_ids
+from ..errors import ChoreoError
+from ..protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
@@ -73,10 +75,36 @@ def servo_id(text: str) -> int:
 
 
 def id_ranges(text: str) -> tuple[int, ...]:
+    """IDs to address, sorted and unique."""
     try:
         return parse_ids(text)
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def id_sequence(text: str) -> tuple[int, ...]:
+    """IDs in the order written: one per column of a file, say."""
+    try:
+        return parse_id_sequence(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def check_output(path: Path, *, overwrite: bool = True) -> None:
+    """Refuse an output file that can't be written, before any work is done: its folder is
+    missing, it is a folder, or (without ``overwrite``) it exists — the input file too."""
+    if path.is_dir():
+        raise ChoreoError(f"cannot write {path}: it is a folder")
+    if not path.parent.is_dir():
+        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
+    if not overwrite and path.exists():
+        raise ChoreoError(f"{path} exists: choose another file, or add --overwrite")
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:
+    """-o/--output FILE and --overwrite, for commands that write one file."""
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help_text)
+    parser.add_argument("--overwrite", action="store_true", help=f"replace an existing {metavar}")
 
 
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:

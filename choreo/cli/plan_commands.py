@@ -12,7 +12,7 @@ from rich.table import Table
 
 from ..motion import Motion, load_motion
 from ..segments import CompiledMotion, compile_motion
-from .arguments import add_planning_arguments
+from .arguments import add_planning_arguments, check_output
 
 
 def register(subparsers) -> None:
@@ -57,6 +57,8 @@ class JointFigures:
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    if args.plot is not None:
+        check_output(args.plot)
     motion = load_motion(args.motion)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
