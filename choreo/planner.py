@@ -34,7 +34,7 @@ from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
 from .errors import PlanningError
-from .motion import Keyframe, Motion
+from .motion import Keyframe, Motion, too_many_played
 from .robot import Robot, SourceLocation
 
 log = logging.getLogger(__name__)
@@ -632,6 +632,9 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
     _check_targets(robot, motion.keyframes)
+    unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
+    if unrolled is not None:
+        raise PlanningError(f"{motion.path}: {unrolled}")
     played = _played_keyframes(motion, speed)
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()

@@ -91,10 +91,22 @@ def fmt(value: float) -> str:
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
+# A 2,000-keyframe motion for 18 servos is well under 1 MiB; reading stops here, so a wrong path
+# (/dev/zero, a video) is refused instead of filling the memory.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+
+
 def parse_yaml_file(path: Path) -> Node | None:
     """The node tree of a one-document YAML file (``None`` if empty); ``SourceError`` otherwise."""
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as file:
+            data = file.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise SourceError(
+                f"{path}:1:1: cannot read the file: it is larger than "
+                f"{MAX_FILE_BYTES // (1024 * 1024)} MiB, the most a robot or motion file may be"
+            )
+        text = data.decode("utf-8")
     except (OSError, UnicodeDecodeError) as error:
         reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None

@@ -390,3 +390,43 @@ def test_importing_a_folder_says_it_is_a_folder(tmp_path, capsys):
     assert error_line(capsys) == (
         f"choreo: error: {tmp_path}: is a folder, not an action group (.d6a) file"
     )
+
+
+# --- unbounded -----------------------------------------------------------------------------------
+def test_validate_reads_at_most_16_mib(capsys):
+    assert main(["validate", "/dev/zero"]) == 1
+    assert capsys.readouterr().out == (
+        "/dev/zero:1:1: cannot read the file: it is larger than 16 MiB, the most a robot or "
+        "motion file may be\n"
+    )
+
+
+def test_repeat_is_bounded_at_its_line(tmp_path, capsys):
+    path = motion_file(
+        tmp_path, "  - pose: {shoulder: 30}\n    after: 1\n", head="repeat: 100000000\n"
+    )
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:3:9: repeat 100000000 x 2 keyframe(s) = 200000000 keyframes to "
+        "play; at most 10000 are played in one motion: repeat at most 5000"
+    )
+
+
+def test_play_loop_is_bounded(capsys):
+    assert main(["play", str(WAVE), "--loop", "100000000", "--dry-run"]) == 2
+    assert error_line(capsys) == (
+        "choreo: error: --loop 100000000 x 9 keyframe(s) = 900000000 keyframes to play; at most "
+        "10000 are played in one motion: --loop at most 1111"
+    )
+
+
+def test_the_planner_bounds_repeat_for_motions_made_in_code():
+    import dataclasses
+
+    from choreo.errors import PlanningError
+    from choreo.motion import load_motion
+    from choreo.planner import plan_motion
+
+    motion = dataclasses.replace(load_motion(WAVE), repeat=10**8)
+    with pytest.raises(PlanningError, match="at most 10000 are played in one motion"):
+        plan_motion(motion)

@@ -17,7 +17,7 @@ from rich.table import Table
 from ..clock import RealClock
 from ..emulator.trace import path_errors_deg
 from ..errors import UsageError
-from ..motion import load_motion
+from ..motion import load_motion, too_many_played
 from ..player import (
     ExitMode,
     Outcome,
@@ -85,6 +85,9 @@ def register(subparsers) -> None:
 def run_play(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
     if args.loop:
+        unrolled = too_many_played(len(motion.keyframes), args.loop, "--loop")
+        if unrolled is not None:
+            raise UsageError(unrolled)
         motion = dataclasses.replace(motion, repeat=args.loop)
     robot = motion.robot
     if args.exit_pose not in robot.poses:
