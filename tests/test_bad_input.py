@@ -430,3 +430,89 @@ def test_the_planner_bounds_repeat_for_motions_made_in_code():
     motion = dataclasses.replace(load_motion(WAVE), repeat=10**8)
     with pytest.raises(PlanningError, match="at most 10000 are played in one motion"):
         plan_motion(motion)
+
+
+# --- signals -------------------------------------------------------------------------------------
+def choreo_process(*argv: str, stdin=None) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "choreo", *argv],
+        cwd=REPO,
+        stdin=stdin,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def packets(emulator, command):
+    from choreo.protocol import Command
+
+    # list() copies at once: the bridge thread appends meanwhile
+    return [p for p in list(emulator.log.packets) if p.packet.command == Command[command]]
+
+
+def test_sighup_during_play_stops_the_servos_like_ctrl_c(arm_on_a_pty):
+    from emulated import wait_for
+
+    from choreo.protocol import BROADCAST_ID
+
+    emulator, link = arm_on_a_pty
+    argv = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--timeout-ms", "500"]
+    process = choreo_process(*argv, "--health-timeout-ms", "100")
+    try:
+
+        def playing():
+            assert process.poll() is None, process.communicate()
+            return len(packets(emulator, "MOVE_START")) >= 5
+
+        wait_for(playing, "the motion to be playing")
+        process.send_signal(signal.SIGHUP)
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, stderr
+    stops = packets(emulator, "MOVE_STOP")
+    assert stops and stops[0].packet.servo_id == BROADCAST_ID
+    assert "Traceback" not in stderr
+
+
+def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_path):
+    from emulated import wait_for
+
+    emulator, link = arm_on_a_pty
+    out = tmp_path / "taught.yaml"
+    argv = ["record", str(out), "--robot", "arm6", "--port", str(link), "--joints", "elbow"]
+    process = choreo_process(*argv, "--timeout-ms", "500", stdin=subprocess.PIPE)
+
+    def torque_of_elbow() -> list[bytes]:
+        return [
+            p.packet.params
+            for p in packets(emulator, "LOAD_OR_UNLOAD_WRITE")
+            if p.packet.servo_id == 3
+        ]
+
+    try:
+
+        def unloaded():
+            assert process.poll() is None, process.communicate()
+            return torque_of_elbow() == [b"\x00"]
+
+        wait_for(unloaded, "the recorder to unload the elbow")
+        process.send_signal(signal.SIGHUP)
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    # as after Ctrl-C at the prompt: the recording ends (nothing captured here, so exit 1)
+    assert process.returncode == 1, stderr
+    assert stdout.splitlines()[-2:] == [
+        f"nothing captured: {out} not written",
+        "taught joints loaded again, holding where they are",
+    ]
+    assert torque_of_elbow() == [b"\x00", b"\x01"]  # loaded again, holding where it is
+
+
+def test_emulate_with_an_empty_pty_path_says_so(capsys):
+    assert usage_error_line(capsys, ["emulate", "--pty", ""]) == (
+        "choreo emulate: error: argument --pty: the path is empty: give a path for the link, "
+        "e.g. /tmp/ttyCHOREO"
+    )

@@ -10,7 +10,7 @@ from ..emulator import BusEmulator, parse_servo_specs
 from ..emulator.bus import DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
-from .arguments import non_negative_float
+from .arguments import STOP_SIGNALS, non_negative_float
 
 EMULATE_LOG_LIMIT = 1000
 MAX_TURNAROUND_MS = 1000.0
@@ -25,6 +25,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--pty",
+        type=pty_path,
         required=True,
         metavar="PATH",
         help="create a symlink at PATH to the pseudo-terminal",
@@ -61,6 +62,14 @@ def register(subparsers) -> None:
     parser.set_defaults(handler=run)
 
 
+def pty_path(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            "the path is empty: give a path for the link, e.g. /tmp/ttyCHOREO"
+        )
+    return text
+
+
 def turnaround_ms(text: str) -> float:
     value = non_negative_float(text)
     if value > MAX_TURNAROUND_MS:  # a real servo answers in under a millisecond
@@ -90,10 +99,15 @@ def run(args) -> int:
         # replies for tens of milliseconds as it fills.
         log_limit=EMULATE_LOG_LIMIT,
     )
+    stopped_by: list[int] = []
+
+    def stop(signum, frame) -> None:
+        stopped_by.append(signum)
+        bridge.stop()
+
     with PtyBridge(emulator, args.pty) as bridge:
         previous = {
-            signum: signal.signal(signum, lambda *_: bridge.stop())
-            for signum in (signal.SIGINT, signal.SIGTERM)
+            signum: signal.signal(signum, stop) for signum in (signal.SIGINT, *STOP_SIGNALS)
         }
         try:
             print(
@@ -107,4 +121,5 @@ def run(args) -> int:
                 signal.signal(signum, handler)
     if args.state:
         emulator.save_state()
-    return 0
+    # as a shell reports a process ended by a signal: 130 after Ctrl-C, 143 after SIGTERM
+    return 128 + stopped_by[0] if stopped_by else 0

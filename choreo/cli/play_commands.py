@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import bisect
 import dataclasses
-import signal
 import sys
 from pathlib import Path
 
@@ -37,6 +36,7 @@ from .arguments import (
     float_in,
     open_robot_bus,
     positive_int,
+    stop_signals_as_ctrl_c,
 )
 
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
@@ -100,7 +100,6 @@ def run_play(args: argparse.Namespace) -> int:
     )
     if args.dry_run:
         return dry_run(compiled)
-    signal.signal(signal.SIGTERM, _interrupt)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
@@ -108,7 +107,7 @@ def run_play(args: argparse.Namespace) -> int:
         health_timeout_s=args.health_timeout_ms / 1000,
     )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
-    with bus:
+    with stop_signals_as_ctrl_c(), bus:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
         report, exit_move = _play_with_progress(
@@ -141,10 +140,6 @@ def measured_path_errors(
         times,
         performance.planned_deg(times),
     )
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
 
 
 def _play_with_progress(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import queue
-import signal
 import sys
 import threading
 from pathlib import Path
@@ -24,7 +23,7 @@ from ..recorder import (
     journal_path,
 )
 from ..robot import Robot, load_robot
-from .arguments import add_port_arguments, open_robot_bus, positive_float
+from .arguments import add_port_arguments, open_robot_bus, positive_float, stop_signals_as_ctrl_c
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
 
@@ -89,9 +88,9 @@ def run_record(args: argparse.Namespace) -> int:
         )
     else:
         recording = Recording.start(args.out, robot, overwrite=args.overwrite)
-    previous_sigterm = signal.signal(signal.SIGTERM, _interrupt)
     try:
-        return _record(args, recording)
+        with stop_signals_as_ctrl_c():
+            return _record(args, recording)
     except ValueError as error:  # e.g. an unknown joint name
         raise UsageError(str(error)) from error
     except (BusError, KeyboardInterrupt) as error:
@@ -105,11 +104,6 @@ def run_record(args: argparse.Namespace) -> int:
         ) from error
     finally:
         recording.close()
-        signal.signal(signal.SIGTERM, previous_sigterm)
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
 
 
 def _record(args: argparse.Namespace, recording: Recording) -> int:
