@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
+import errno
 import logging
 import threading
 from collections.abc import Iterable, Iterator
@@ -18,6 +19,11 @@ from dataclasses import dataclass
 import serial
 
 from . import emulator
+
+try:  # pyserial's POSIX port lets termios.error (not an OSError) out of flushes on a lost port
+    from termios import error as _TermiosError
+except ImportError:  # Windows
+    _TermiosError = OSError
 from .errors import BusTimeoutError, PortError, ProtocolError
 from .protocol import (
     BROADCAST_ID,
@@ -239,7 +245,7 @@ class ServoBus:
         """Turn the port failing under us (an unplugged USB adapter) into one clear PortError."""
         try:
             yield
-        except (serial.SerialException, OSError) as error:
+        except (serial.SerialException, OSError, _TermiosError) as error:
             raise PortError(
                 f"{self.name}: the port was lost ({error}): check the USB cable"
             ) from error
@@ -508,7 +514,26 @@ def _open(url: str, timeout_s: float) -> serial.SerialBase:
             exclusive=True,
         )
     except (serial.SerialException, ValueError, OSError) as error:
-        raise PortError(
-            f"cannot open {url}: {error}. Is another program using it? "
-            "List ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
-        ) from error
+        raise PortError(f"cannot open {url}: {_open_failure(error)}") from error
+
+
+_LIST_PORTS = (
+    "list ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
+)
+
+
+def _open_failure(error: Exception) -> str:
+    """Why a port did not open, in the user's terms, with the hint that fits the cause."""
+    code = getattr(error, "errno", None)
+    if code == errno.ENOENT:
+        return f"no such port; {_LIST_PORTS}"
+    if code == errno.EACCES:
+        return (
+            "permission denied; on Linux, join the dialout group (`sudo usermod -aG dialout "
+            "$USER`, then log in again)"
+        )
+    if code in (errno.EBUSY, errno.EAGAIN, errno.EWOULDBLOCK):
+        return "the port is busy. Is another program using it?"
+    if "Inappropriate ioctl" in str(error):
+        return f"it is not a serial port; {_LIST_PORTS}"
+    return f"{error}; {_LIST_PORTS}"

@@ -516,3 +516,78 @@ def test_emulate_with_an_empty_pty_path_says_so(capsys):
         "choreo emulate: error: argument --pty: the path is empty: give a path for the link, "
         "e.g. /tmp/ttyCHOREO"
     )
+
+
+def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
+    from emulated import home_specs, served_on_a_pty, wait_for
+
+    from choreo.clock import RealClock
+    from choreo.emulator import BusEmulator
+    from choreo.robot import load_robot
+
+    emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
+    with served_on_a_pty(emulator, tmp_path / "ttyARM") as link:
+        argv = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--timeout-ms", "500"]
+        process = choreo_process(*argv, "--health-timeout-ms", "100")
+
+        def playing():
+            assert process.poll() is None, process.communicate()
+            return len(packets(emulator, "MOVE_START")) >= 5
+
+        try:
+            wait_for(playing, "the motion to be playing")
+        except BaseException:
+            process.kill()
+            raise
+    # the pty is gone, as when the USB adapter is pulled
+    try:
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 1
+    assert "Traceback" not in stderr
+    last = stderr.strip().splitlines()[-1]
+    assert last.startswith(f"choreo: error: {link}: the port was lost (")
+    assert last.endswith("): check the USB cable")
+
+
+# --- port-open errors say the real cause ---------------------------------------------------------
+LIST_PORTS = (
+    "list ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
+)
+
+
+def scan_error(capsys, port: str) -> str:
+    assert main(["scan", "--port", port, "--ids", "1"]) == 1
+    return error_line(capsys)
+
+
+def test_a_missing_port_is_not_called_busy(capsys):
+    assert scan_error(capsys, "/dev/ttyNOPE") == (
+        f"choreo: error: cannot open /dev/ttyNOPE: no such port; {LIST_PORTS}"
+    )
+
+
+def test_a_file_that_is_not_a_port_says_so(tmp_path, capsys):
+    plain = tmp_path / "notes.txt"
+    plain.write_text("not a tty")
+    assert scan_error(capsys, str(plain)) == (
+        f"choreo: error: cannot open {plain}: it is not a serial port; {LIST_PORTS}"
+    )
+
+
+def test_only_a_busy_port_asks_about_another_program(capsys):
+    import pty
+
+    import serial
+
+    master, slave = pty.openpty()
+    name = os.ttyname(slave)
+    try:
+        with serial.Serial(name, exclusive=True):  # another program holds it
+            assert scan_error(capsys, name) == (
+                f"choreo: error: cannot open {name}: the port is busy. Is another program using it?"
+            )
+    finally:
+        os.close(master)
+        os.close(slave)
