@@ -98,6 +98,11 @@ def run_play(args: argparse.Namespace) -> int:
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
+    for stretch in compiled.stretches:  # said before anything moves
+        print(
+            f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written",
+            file=sys.stderr,
+        )
     if args.dry_run:
         return dry_run(compiled)
     options = PlayOptions(
@@ -107,11 +112,15 @@ def run_play(args: argparse.Namespace) -> int:
         health_timeout_s=args.health_timeout_ms / 1000,
     )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
+    # a sim:// URL's own emulator: its clock (clock=virtual must drive the player too, or the
+    # servos never move in time) and its log (the path errors)
+    emulator = emulator or getattr(bus.port, "emulator", None)
+    clock = emulator.clock if emulator is not None else RealClock()
     with stop_signals_as_ctrl_c(), bus:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
         report, exit_move = _play_with_progress(
-            bus, robot, limits, options, performance, start_pose
+            bus, robot, clock, limits, options, performance, start_pose
         )
         errors = None
         if emulator is not None:
@@ -129,8 +138,14 @@ def run_play(args: argparse.Namespace) -> int:
 def measured_path_errors(
     emulator, robot: Robot, performance: Performance, report: PlayReport, start_pose
 ) -> tuple[float, ...]:
-    """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms)."""
-    times = np.arange(0.0, report.planned_s, 0.002)
+    """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms), over
+    the part played: after a stop, the plan's remainder was never asked of the servos."""
+    played_s = (
+        report.planned_s
+        if report.outcome is Outcome.COMPLETED
+        else min(report.elapsed_s, report.planned_s)
+    )
+    times = np.arange(0.0, played_s, 0.002)
     start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
     return path_errors_deg(
         emulator.log.moves,
@@ -143,7 +158,7 @@ def measured_path_errors(
 
 
 def _play_with_progress(
-    bus, robot, limits, options, performance: Performance, start_pose
+    bus, robot, clock, limits, options, performance: Performance, start_pose
 ) -> PlayReport:
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
@@ -176,7 +191,7 @@ def _play_with_progress(
                 last_refresh[0] = p.time_s
                 progress.refresh()
 
-        player = Player(bus, robot, RealClock(), limits, options, on_progress=update)
+        player = Player(bus, robot, clock, limits, options, on_progress=update)
         report = player.play(performance.ticks, start_pose)
         exit_move = player.leave(report.outcome)
     return report, exit_move
