@@ -640,3 +640,10 @@ def test_play_stretch_says_how_much(tmp_path, capsys):
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert f"{path}:5:5: stretched: reached 0.367 s later than written\n" in err
+
+
+def test_plan_tolerance_has_a_maximum(capsys):
+    assert usage_error_line(capsys, ["plan", str(WAVE), "--tolerance", "1000"]) == (
+        "choreo plan: error: argument --tolerance: expected a number > 0 and <= 5°, got '1000'"
+    )
+    assert main(["plan", str(WAVE), "--tolerance", "5"]) == 0

@@ -18,6 +18,8 @@ from ..protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
+# Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
+MAX_TOLERANCE_DEG = 5.0
 
 
 def finite_float(text: str) -> float:
@@ -146,11 +148,11 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--tolerance",
-        type=positive_float,
+        type=float_in(0, MAX_TOLERANCE_DEG, "°"),
         default=0.5,
         metavar="DEG",
-        help="how far the servos' linear moves may leave the smooth plan "
-        "(default 0.5°; rounding to whole servo units adds up to 0.12°)",
+        help="how far the servos' linear moves may leave the smooth plan, up to "
+        f"{MAX_TOLERANCE_DEG:g}° (default 0.5°; rounding to whole servo units adds up to 0.12°)",
     )
 
 
