@@ -200,6 +200,9 @@ def _read_steps(
             steps.extend(_read_include(reader, item, robot, chain))
         else:
             step = _read_keyframe(reader, item, robot)
+            if step is not None and len(chain) > 1:  # say through which includes it came
+                entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
+                step = replace(step, where=replace(step.where, included_at=entries))
             steps += [step] if step is not None else []
     _check_times(reader, steps)
     return steps

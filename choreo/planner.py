@@ -528,7 +528,8 @@ class _Planner:
         p = self.played[i]
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
         return (
-            f"{p.keyframe.where}: keyframe reached {requested_s:.6g} s after leaving the one "
+            f"{p.keyframe.where}: keyframe{p.keyframe.where.through} reached {requested_s:.6g} s "
+            "after leaving the one "
             f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
             f"hold the one before instead (hold: is not limited), or add keyframes in between"
         )
@@ -545,7 +546,7 @@ class _Planner:
         )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
         return (
-            f"{kf.where}: keyframe cannot be reached at {wanted:.3f} s{speed}: the "
+            f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: the "
             f"velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
             f"earliest; use {fix}, a lower speed, or stretch"
         )

@@ -12,7 +12,7 @@ import difflib
 import math
 import re
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
@@ -29,9 +29,19 @@ class SourceLocation:
     path: Path
     line: int  # 1-based
     col: int  # 1-based
+    # for a keyframe of an included file: the include entries that brought it in, innermost
+    # first (not part of the place itself: equal places compare equal however reached)
+    included_at: tuple[SourceLocation, ...] = field(default=(), compare=False)
 
     def __str__(self) -> str:
         return f"{self.path}:{self.line}:{self.col}"
+
+    @property
+    def through(self) -> str:
+        """`` (included at b.yaml:4:5, included at a.yaml:7:5)``, or ``""``."""
+        if not self.included_at:
+            return ""
+        return " (" + ", ".join(f"included at {entry}" for entry in self.included_at) + ")"
 
 
 @dataclass(frozen=True)

@@ -647,3 +647,19 @@ def test_plan_tolerance_has_a_maximum(capsys):
         "choreo plan: error: argument --tolerance: expected a number > 0 and <= 5°, got '1000'"
     )
     assert main(["plan", str(WAVE), "--tolerance", "5"]) == 0
+
+
+def test_a_planning_error_inside_an_include_says_through_which(tmp_path, capsys):
+    (tmp_path / "part.yaml").write_text(
+        "robot: arm6\nkeyframes:\n  - pose: {shoulder: 0}\n"
+        "  - pose: {shoulder: 80}\n    after: 0.1\n"
+    )
+    main_file = motion_file(tmp_path, "  - include: part.yaml\n    after: 1.0\n", name="main.yaml")
+    outer = motion_file(tmp_path, "  - include: main.yaml\n", name="outer.yaml")
+    assert main(["plan", str(outer)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {tmp_path / 'part.yaml'}:4:5: keyframe (included at {main_file}:5:14, "
+        f"included at {outer}:5:14) cannot be reached at 1.100 s: the velocity, acceleration "
+        "and jerk limits of shoulder allow 1.467 s at the earliest; use after >= 0.467, a lower "
+        "speed, or stretch"
+    )
