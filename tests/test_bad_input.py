@@ -663,3 +663,31 @@ def test_a_planning_error_inside_an_include_says_through_which(tmp_path, capsys)
         "and jerk limits of shoulder allow 1.467 s at the earliest; use after >= 0.467, a lower "
         "speed, or stretch"
     )
+
+
+def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
+    """The bus, a joint, a pose and the model file: four sections, one run, every line."""
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = (
+        robot.read_text()
+        .replace("mjcf: arm6.xml", "mjcf: nothere.xml")
+        .replace("defaults:", "bus: {retries: 100}\ndefaults:", 1)
+        .replace(
+            "base_yaw:    {id: 1, zero: 500, direction: 1,",
+            "base_yaw:    {id: 1, zero: 500, direction: 2,",
+        )
+        .replace("rest:  {base_yaw: 0,", "rest:  {base_yw: 0,")
+    )
+    robot.write_text(text)
+    assert main(["validate", str(robot)]) == 1
+    assert [line.split(": ", 1)[1] for line in capsys.readouterr().out.splitlines()] == [
+        f"the MuJoCo model {robot.parent / 'nothere.xml'} does not exist",
+        "bus: retries must be in 0..9, got 100",
+        "joint 'base_yaw': direction must be 1 or -1, got 2",
+        "pose 'rest' does not give base_yaw; every pose names every joint",
+        "pose 'rest': unknown joint 'base_yw' (did you mean 'base_yaw'?); the robot's joints are "
+        "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper",
+    ]
