@@ -25,12 +25,14 @@ from . import (
     play_commands,
     preview_commands,
     record_commands,
+    robot_commands,
     servo_commands,
 )
 
 COMMAND_GROUPS = (
     bus_commands,
     emulate_commands,
+    robot_commands,
     motion_commands,
     plan_commands,
     play_commands,
