@@ -735,3 +735,23 @@ def test_robots_with_an_unknown_name_is_one_line(capsys):
     assert error_line(capsys).startswith(
         "choreo: error: unknown robot 'armx' (did you mean 'arm6'?)"
     )
+
+
+@pytest.mark.parametrize("terminal", [True, False])
+def test_scan_shows_progress_on_stderr_only_on_a_terminal(terminal):
+    env = {k: v for k, v in os.environ.items() if k not in ("FORCE_COLOR", "TTY_COMPATIBLE")}
+    if terminal:
+        env["FORCE_COLOR"] = "1"  # rich treats stderr as a terminal
+    process = subprocess.run(
+        [sys.executable, "-m", "choreo", "scan", "--port", "sim://?ids=1-3", "--ids", "0-9"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert process.returncode == 0, process.stderr
+    assert "3 servo(s) on sim://?ids=1-3" in process.stdout and "scanning" not in process.stdout
+    assert ("scanning ID" in process.stderr and "/10" in process.stderr) is terminal
+    if not terminal:
+        assert process.stderr == ""

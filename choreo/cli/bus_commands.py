@@ -7,8 +7,10 @@ import dataclasses
 import json
 
 from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 from rich.table import Table
 
+from ..bus import ScanResult, ServoBus
 from ..protocol import MAX_SERVO_ID
 from ..servos import DEG_PER_UNIT
 from .arguments import add_port_arguments, id_ranges, open_bus
@@ -30,7 +32,7 @@ def register(subparsers) -> None:
 
 def run_scan(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        scan = bus.scan_presence(args.ids)
+        scan = scan_with_progress(bus, args.ids)
         statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
         print(
@@ -68,6 +70,31 @@ def run_scan(args: argparse.Namespace) -> int:
         )
     Console().print(table)
     return 0
+
+
+def scan_with_progress(bus: ServoBus, ids: tuple[int, ...]) -> ScanResult:
+    """``bus.scan_presence`` one ID at a time, with a progress bar on stderr when it is a
+    terminal: a full 0-253 scan waits out a timeout per absent ID, seconds in all."""
+    console = Console(stderr=True)
+    found: list[int] = []
+    garbled: list[int] = []
+    columns = (
+        TextColumn("scanning {task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[found]}"),
+    )
+    with Progress(
+        *columns, console=console, transient=True, disable=not console.is_terminal
+    ) as progress:
+        task = progress.add_task("", total=len(ids), found="")
+        for servo_id in ids:
+            progress.update(task, description=f"ID {servo_id}")
+            one = bus.scan_presence([servo_id])
+            found += one.found
+            garbled += one.garbled
+            progress.update(task, advance=1, found=f"{len(found)} found" if found else "")
+    return ScanResult(found=tuple(found), garbled=tuple(garbled))
 
 
 def _describe(ids: tuple[int, ...]) -> str:
