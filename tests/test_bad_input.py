@@ -755,3 +755,48 @@ def test_scan_shows_progress_on_stderr_only_on_a_terminal(terminal):
     assert ("scanning ID" in process.stderr and "/10" in process.stderr) is terminal
     if not terminal:
         assert process.stderr == ""
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    import struct
+
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_plan_plot_draws_a_time_window(tmp_path, capsys):
+    from choreo.plot import plot_size_px
+
+    gait = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
+    whole, window = tmp_path / "whole.png", tmp_path / "window.png"
+    assert main(["plan", str(gait), "--plot", str(whole)]) == 0
+    assert main(["plan", str(gait), "--plot", str(window), "--from", "2", "--to", "4"]) == 0
+    assert png_size(window) == png_size(whole) == plot_size_px(18)
+    assert window.read_bytes() != whole.read_bytes()
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "extra, line",
+    [
+        (
+            ["--from", "20"],
+            "choreo: error: --from 20 is past the end of the motion: it lasts 4.900 s",
+        ),
+        (["--to", "9"], "choreo: error: --to 9 is past the end of the motion: it lasts 4.900 s"),
+        (["--from", "3", "--to", "2"], "choreo: error: --from 3 must be before --to 2"),
+    ],
+)
+def test_a_plot_window_outside_the_motion_is_refused_not_clamped(tmp_path, capsys, extra, line):
+    plot = tmp_path / "p.png"
+    assert main(["plan", str(WAVE), "--plot", str(plot), *extra]) == 2
+    assert capsys.readouterr().err == line + "\n"
+    assert not plot.exists()
+
+
+def test_a_plot_window_needs_a_plot(capsys):
+    assert main(["plan", str(WAVE), "--from", "1"]) == 2
+    assert error_line(capsys) == (
+        "choreo: error: --from and --to choose what --plot draws: add --plot FILE.png"
+    )
