@@ -546,8 +546,8 @@ class _Planner:
         )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
         return (
-            f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: the "
-            f"velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
+            f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: "
+            f"the velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
             f"earliest; use {fix}, a lower speed, or stretch"
         )
 
