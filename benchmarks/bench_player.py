@@ -23,12 +23,12 @@ import numpy as np
 
 from choreo.bus import ServoBus
 from choreo.clock import RealClock, VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial
-from choreo.emulator.trace import path_errors_deg
+from choreo.emulator import BusEmulator, ServoSpec, SimSerial, trace
 from choreo.motion import load_motion
+from choreo.path_errors import path_errors_deg
+from choreo.pipeline import compile_motion
 from choreo.player import Player, packet_schedule, preflight, prepare
 from choreo.robot import Robot
-from choreo.segments import compile_motion
 
 MOTIONS = [
     "motions/arm6/wave.yaml",
@@ -105,16 +105,9 @@ class Way:
     health_bytes: int = 0
 
 
-def start_skew_ms(emulator: BusEmulator, group_gap_s: float = 0.005) -> float:
+def start_skew_ms(emulator: BusEmulator) -> float:
     """Largest spread of move start times within one burst of commands."""
-    times = sorted(m.time_s for m in emulator.log.moves)
-    skew, group_start, last = 0.0, None, None
-    for t in times:
-        if last is None or t - last > group_gap_s:
-            group_start = t
-        skew = max(skew, t - group_start)
-        last = t
-    return skew * 1000
+    return trace.start_skew_ms(emulator.log.moves)
 
 
 def written_bytes(emulator: BusEmulator, since_s: float) -> int:

@@ -20,7 +20,7 @@ from choreo.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.emulator.pty import PtyBridge
 from choreo.recorder import Capture, Recorder, Recording
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 
 READS = 200
 

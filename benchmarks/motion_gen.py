@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from choreo.motion import Keyframe, Motion
-from choreo.robot import Joint, JointLimits, Robot, SourceLocation
+from choreo.robot import Joint, JointLimits, Robot
+from choreo.yamlsource import SourceLocation
 
 VELOCITY, ACCELERATION, JERK = 300.0, 3000.0, 30000.0  # LX-16A defaults (choreo.servos)
 
@@ -37,6 +38,9 @@ def dance(robot: Robot, n_keyframes: int, duration_s: float, *, seed: int = 0) -
     path = Path(f"{robot.name}_dance.yaml")
     n = len(robot.joints)
     pose = np.zeros(n)
+    # 10° inside every joint's limits (±80° on servo_robot's joints)
+    low = np.array([j.limits.min_deg for j in robot.joints]) + 10
+    high = np.array([j.limits.max_deg for j in robot.joints]) - 10
     mean_gap = duration_s / n_keyframes
     keyframes = [Keyframe(tuple(pose), SourceLocation(path, 1, 3), t_s=0.0, stop=True)]
     t = 0.0
@@ -46,7 +50,7 @@ def dance(robot: Robot, n_keyframes: int, duration_s: float, *, seed: int = 0) -
         # at most 80 % of what the jerk limit allows from rest in this gap: d = j·T³/32
         reach = min(30.0, 0.8 * JERK * gap**3 / 32)
         step = np.clip(rng.normal(0, reach / 2, n), -reach, reach) * moving
-        pose = np.clip(pose + step, -80, 80)
+        pose = np.clip(pose + step, low, high)
         hold = 0.2 if rng.random() < 1 / 40 else 0.0
         kind = rng.integers(3)
         timing = {"t_s": t + gap} if kind == 0 else {"after_s": gap} if kind == 1 else {}

@@ -1,9 +1,11 @@
 """``ServoBus``: one half-duplex LX servo bus behind any pyserial URL.
 
 The only module that opens serial ports. One lock is held across each request and its reply;
-stale input is flushed before every request; each read has a timeout and bounded retries; a reply
-is accepted only with the expected servo id, command and length, so the echo of a request (itself
-a valid packet) is never taken for its reply. ``sim://`` opens the built-in emulator.
+earlier writes are let out and stale input is flushed before every request; each read attempt
+waits up to its timeout and is retried a bounded number of times; a reply is accepted only with
+the expected servo id, command and length, so echoes (of the request, itself a valid packet, or of
+earlier writes on a one-wire bus) and stray bytes are skipped, never taken for the reply.
+``sim://`` opens the built-in emulator.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import enum
 import errno
 import logging
 import threading
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -38,13 +41,14 @@ from .protocol import (
 log = logging.getLogger(__name__)
 
 BAUDRATE = 115200
-MAX_READS_PER_ATTEMPT = 4  # bounds the wait when unexpected packets keep arriving
+ECHO_REPORT_BYTES = 16  # how much of what came back instead of an echo an error shows
 
 
 class EchoMode(enum.Enum):
     NONE = "none"  # the adapter does not echo (vendor BusLinker, Raspberry Pi HATs)
-    DISCARD = "discard"  # one-wire wiring: every request comes back first; it is read and checked
-    AUTO = "auto"  # skip the echo of a request if it shows up
+    DISCARD = "discard"  # one-wire wiring: a reply counts only after the request's own echo
+    AUTO = "auto"  # skip echoes if they show up
+    # In every mode, echoes of earlier writes and stray bytes before a reply are skipped.
 
 
 class Presence(enum.Enum):
@@ -61,6 +65,16 @@ class ScanResult:
 
     found: tuple[int, ...]
     garbled: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class _Attempt:
+    """One request and what came back: the reply's fields (None: no valid reply in time), whether
+    the echo of the request was seen (always True outside DISCARD mode), the bytes received."""
+
+    fields: dict[str, int] | None
+    echo_seen: bool
+    received: bytes
 
 
 @dataclass(frozen=True)
@@ -139,7 +153,6 @@ class ServoBus:
         self.echo = EchoMode(echo)
         self._lock = threading.RLock()
         self._decoder = PacketDecoder()
-        self._echo_owed = 0  # bytes of echo still to come back from writes (DISCARD mode)
         self.port = _open(port, timeout_s) if isinstance(port, str) else port
         self.name = port if isinstance(port, str) else getattr(port, "name", None) or repr(port)
 
@@ -163,7 +176,6 @@ class ServoBus:
         """Drop bytes written but not yet sent (before an emergency stop)."""
         with self._lock, self._port_io():
             self.port.reset_output_buffer()
-            self._echo_owed = 0  # what was dropped will not echo; the input is flushed anyway
 
     # --- transactions --------------------------------------------------------------------------
     def send(self, command: Command, servo_id: int, /, **fields: int) -> None:
@@ -178,9 +190,7 @@ class ServoBus:
             )
         packet = encode_request(spec.command, servo_id, **fields)
         with self._lock, self._port_io():
-            self.port.write(packet)
-            if self.echo is EchoMode.DISCARD:
-                self._echo_owed += len(packet)  # read back before the next request, not now
+            self.port.write(packet)  # its echo, if any, is skipped by the next request
 
     def request(
         self,
@@ -202,11 +212,14 @@ class ServoBus:
         packet = encode_request(spec.command, servo_id)
         with self._lock:
             bad_before = self._decoder.bad_checksums
+            echo_seen, received = False, b""
             for attempt in range(attempts):
                 with self._port_io():
-                    fields = self._exchange(packet, spec.command, servo_id, timeout_s)
-                if fields is not None:
-                    return fields
+                    result = self._exchange(packet, spec.command, servo_id, timeout_s)
+                if result.fields is not None:
+                    return result.fields
+                echo_seen |= result.echo_seen
+                received = received or result.received
                 log.debug(
                     "servo %d: no valid %s reply (try %d/%d)",
                     servo_id,
@@ -215,6 +228,12 @@ class ServoBus:
                     attempts,
                 )
             garbled = self._decoder.bad_checksums - bad_before
+        if not echo_seen:  # DISCARD mode, and not one try saw its request come back
+            raise ProtocolError(
+                f"{self.name}: expected the echo of the request, got "
+                f"{received.hex(' ') or 'nothing'}: is the bus really wired "
+                "one-wire? try echo mode 'none' or 'auto'"
+            )
         tries = (
             f"1 try of {timeout_s * 1000:.0f} ms"
             if attempts == 1
@@ -250,42 +269,48 @@ class ServoBus:
                 f"{self.name}: the port was lost ({error}): check the USB cable"
             ) from error
 
-    def _exchange(self, packet: bytes, command: Command, servo_id: int, timeout_s: float):
-        """One attempt: flush, write, read until the expected reply or a timeout."""
+    def _exchange(
+        self, packet: bytes, command: Command, servo_id: int, timeout_s: float
+    ) -> _Attempt:
+        """One attempt: let earlier writes leave, flush, write, then read until the expected reply
+        or until ``timeout_s`` has passed.
+
+        Whatever else arrives meanwhile (the echoes of earlier writes and of this request on a
+        one-wire bus, stray bytes, other packets) is skipped, so a read after any number of
+        writes works in every echo mode. Only a read that came back short ends the attempt
+        early, and pyserial returns short only once its timeout has passed.
+        """
         port = self.port
-        port.timeout = timeout_s
-        if self._echo_owed:
-            port.read(
-                self._echo_owed
-            )  # the echoes of earlier writes, so they aren't flushed mid-way
-            self._echo_owed = 0
+        port.flush()  # earlier writes (and so their echoes) are on the wire before the flush
         port.reset_input_buffer()
         self._decoder.reset()
         port.write(packet)
-        if self.echo is EchoMode.DISCARD:
-            echo = port.read(len(packet))
-            if echo != packet:
-                raise ProtocolError(
-                    f"{self.name}: expected the echo of the request, got {echo.hex(' ') or 'nothing'}:"
-                    " is the bus really wired one-wire? try echo mode 'none' or 'auto'"
-                )
+        deadline_s = time.monotonic() + timeout_s
         reply_len = SPECS[command].reply_len + 3
-        wanted = reply_len
-        for _ in range(MAX_READS_PER_ATTEMPT):
+        echo_seen = self.echo is not EchoMode.DISCARD  # DISCARD: a reply only after our echo
+        wanted, wait_s, overdue = reply_len, timeout_s, False
+        received = bytearray()
+        while True:
+            port.timeout = wait_s
             data = port.read(wanted)
+            received += data[: ECHO_REPORT_BYTES - len(received)]  # for an error message
             for reply in self._decoder.feed(data):
-                if self._is_reply(reply, packet, command, servo_id):
-                    return decode_reply(command, reply)
-            if len(data) < wanted:
-                return None  # the read timed out
-            # Ask only for the rest of the frame begun: an echo (or a stray packet) took part of
-            # this read, and asking for a whole reply again would wait out the timeout.
-            wanted = self._decoder.bytes_to_complete(reply_len)
-        return None
+                if reply.encode() == packet:
+                    echo_seen = True  # the echo of our own request
+                elif echo_seen and self._is_reply(reply, command, servo_id):
+                    return _Attempt(decode_reply(command, reply), echo_seen, bytes(received))
+            if len(data) < wanted or overdue:
+                break  # the port waited out the rest of the timeout
+            wait_s = deadline_s - time.monotonic()
+            if wait_s > 0:
+                # Ask only for the rest of the frame begun: asking for a whole reply again after
+                # an echo or a stray packet would wait for bytes that never come.
+                wanted = self._decoder.bytes_to_complete(reply_len)
+            else:  # the host ran late (descheduled): look at what has arrived, without waiting
+                overdue, wait_s, wanted = True, 0, max(port.in_waiting, 1)
+        return _Attempt(None, echo_seen, bytes(received))
 
-    def _is_reply(self, reply, request: bytes, command: Command, servo_id: int) -> bool:
-        if reply.encode() == request:
-            return False  # the echo of our own request
+    def _is_reply(self, reply, command: Command, servo_id: int) -> bool:
         expected_len = SPECS[command].reply_len
         is_match = (
             reply.command == command
@@ -410,8 +435,8 @@ class ServoBus:
     def probe(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> Presence:
         """Whether a servo answers ID_READ at ``servo_id``, stays silent, or answers garbled.
 
-        A ``ProtocolError`` that is not about garbled replies (a missing echo in DISCARD mode)
-        still raises: it is the bus set-up that is wrong, not this ID.
+        A ``ProtocolError`` that is not about garbled replies (no try saw its echo in DISCARD
+        mode) still raises: it is the bus set-up that is wrong, not this ID.
         """
         with self._lock:
             bad_before = self._decoder.bad_checksums

@@ -4,7 +4,7 @@ An action group is an SQLite database with one table, ``ActionGroup``: per row a
 (play order), a ``Time`` (milliseconds to move from the previous row's pose into this row's)
 and one ``ServoK`` column per servo holding its target position in units (0..1000). The
 vendor's runner sends every row as linear moves of ``Time`` ms and sleeps ``Time``; row 1 starts
-from wherever the robot is. See ``shared/docs/d6a.md``.
+from wherever the robot is. See ``docs/d6a.md``.
 
 Import: each row becomes a keyframe arriving ``after: Time/1000`` seconds after the one before,
 so every time is kept to the millisecond. Row 1 is reached by choreo's approach (from wherever
@@ -36,9 +36,10 @@ from .atomic import atomic_output, write_text_atomically
 from .errors import SourceError
 from .motion import HOME_POSE, Keyframe, Motion
 from .motion_writer import motion_text, robot_reference
-from .planner import plan_approach, plan_motion
-from .robot import Joint, Robot, SourceLocation
-from .yamlsource import fmt
+from .planner import APPROACH_LIMIT_SCALE, plan_approach, plan_motion
+from .robot import Joint, Robot
+from .timing import PlayedKeyframe, known_arrivals_s, played_keyframes
+from .yamlsource import SourceLocation, fmt
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +49,6 @@ TIME_COLUMN = "Time"
 SERVO_COLUMN = re.compile(r"Servo(\d+)", re.IGNORECASE)  # SQLite names ignore case
 TIME_RANGE_MS = (20, 30000)  # what the vendor's editor accepts
 ANGLE_DECIMALS = 4  # 0.0001° = 0.0004 units: exact enough that export gives back every unit
-APPROACH_LIMIT_SCALE = 0.3  # the player's approach, for an untimed first keyframe on export
 
 
 @dataclass(frozen=True)
@@ -221,7 +221,7 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
         return None
     angle = round(joint.to_deg(value), ANGLE_DECIMALS) + 0.0  # + 0.0: no -0.0
     if not limits.contains(angle):
-        low, high = sorted(round(joint.to_units(a), 1) for a in (limits.min_deg, limits.max_deg))
+        low, high = (round(units, 1) for units in joint.limits_units)
         problems.append(
             f"{where} (joint {joint.name}): {fmt(value)} units = {fmt(angle)}° is "
             f"outside the joint's limits {limits.range_text} "
@@ -300,15 +300,6 @@ def motion_yaml(
 # --- motion -> rows ----------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class _Played:
-    """A keyframe as played: repeat unrolled, times divided by the speed."""
-
-    keyframe: Keyframe
-    arrive_s: float
-    hold_s: float
-
-
 def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, ...]]:
     """(servo columns, rows) for a motion: ``ServoK`` for every servo ID K of the robot, rows
     as described in the module docstring. ``SourceError`` lists every keyframe whose Time would
@@ -317,12 +308,12 @@ def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, 
     joints = sorted(robot.joints, key=lambda joint: joint.servo_id)
     columns = tuple(f"Servo{joint.servo_id}" for joint in joints)
     order = [robot.joints.index(joint) for joint in joints]
-    played = _played(motion)
+    played, arrivals_s = _played(motion)
     rows: list[ActionRow] = []
     problems: list[str] = []
     left_ms = 0  # when the keyframe before was left; whole ms, so row times add up exactly
-    for k, p in enumerate(played):
-        arrive_ms = round(1000 * p.arrive_s)
+    for k, (p, arrive_s) in enumerate(zip(played, arrivals_s)):
+        arrive_ms = round(1000 * arrive_s)
         time_ms = arrive_ms - left_ms
         if k == 0 and (_untimed(p.keyframe) or time_ms == 0):
             # `t: 0` on the first keyframe is where the motion starts, like no time at all:
@@ -338,7 +329,7 @@ def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, 
             problems,
         )
         rows.append(ActionRow(len(rows) + 1, time_ms, positions))
-        left_ms = round(1000 * (p.arrive_s + p.hold_s))
+        left_ms = round(1000 * (arrive_s + p.hold_s))
         hold_ms = left_ms - arrive_ms  # rows of their own; a long one split, not refused
         if 0 < hold_ms < TIME_RANGE_MS[0]:
             _check_ms(hold_ms, p.keyframe, f"holds {fmt(hold_ms / 1000)} s", problems)
@@ -393,45 +384,14 @@ def _check_ms(time_ms: int, keyframe: Keyframe, what: str, problems: list[str]) 
         )
 
 
-def _played(motion: Motion) -> list[_Played]:
-    """Arrival times of the played keyframes: from their own t/after where every keyframe has
-    one (the first may go without), else from the planner."""
-    keyframes = motion.keyframes
-    speed = motion.speed
-    holds = [kf.hold_s / speed for kf in keyframes] * motion.repeat
-    played_keyframes = list(keyframes) * motion.repeat
-    if all(not _untimed(kf) for kf in keyframes[1:]) and (
-        motion.repeat == 1 or keyframes[0].after_s is not None
-    ):
-        arrivals = _own_arrivals(motion)
-    else:
-        arrivals = list(plan_motion(motion).trajectory.keyframe_times_s)
-    return [
-        _Played(kf, arrive, hold) for kf, arrive, hold in zip(played_keyframes, arrivals, holds)
-    ]
-
-
-def _own_arrivals(motion: Motion) -> list[float]:
-    """Arrival times from the keyframes' t and after (the planner's rules, nothing planned):
-    t counts from the first keyframe of its repetition, after from leaving the one before."""
-    keyframes = motion.keyframes
-    speed = motion.speed
-    first = keyframes[0]
-    origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
-    arrivals: list[float] = []
-    leave_s = 0.0
-    for rep in range(motion.repeat):
-        for index, kf in enumerate(keyframes):
-            if index == 0:
-                arrive = origin_s / speed if rep == 0 else leave_s + kf.after_s / speed
-                anchor = arrive
-            elif kf.t_s is not None:
-                arrive = anchor + (kf.t_s - origin_s) / speed
-            else:
-                arrive = leave_s + kf.after_s / speed
-            arrivals.append(arrive)
-            leave_s = arrive + kf.hold_s / speed
-    return arrivals
+def _played(motion: Motion) -> tuple[list[PlayedKeyframe[Keyframe]], list[float]]:
+    """The played keyframes and their arrival times: from their own t/after where every keyframe
+    has one (the first may go without), else from the planner."""
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=motion.speed)
+    own = known_arrivals_s(played)
+    if None in own:
+        return played, list(plan_motion(motion).trajectory.keyframe_times_s)
+    return played, [arrival for arrival in own if arrival is not None]
 
 
 # --- writing -----------------------------------------------------------------------------------

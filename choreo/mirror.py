@@ -32,12 +32,11 @@ def mirrored_keyframes(motion: Motion) -> tuple[Keyframe, ...]:
     mirrored = []
     for keyframe in motion.keyframes:
         targets = mirror_targets(robot, keyframe.targets_deg)
-        for joint, angle in zip(robot.joints, targets):
-            if not joint.limits.contains(angle):
-                problems.append(
-                    f"{keyframe.where}: mirrored, {joint.name} would be at "
-                    f"{fmt(angle)}°, outside its limits {joint.limits.range_text}"
-                )
+        for outside in robot.limit_violations(targets):
+            problems.append(
+                f"{keyframe.where}: mirrored, {outside.joint.name} would be at "
+                f"{fmt(outside.angle_deg)}°, outside its limits {outside.joint.limits.range_text}"
+            )
         mirrored.append(replace(keyframe, targets_deg=targets, label=""))
     if problems:
         raise SourceError(problems)

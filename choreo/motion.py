@@ -13,7 +13,11 @@ from pathlib import Path
 import yaml
 
 from .errors import SourceError
-from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
+from .file_shape import mapping_shape
+from .robot import Robot, mirror_pose
+from .robot_file import load_robot, read_angles
+from .robot_lookup import find_robot_file
+from .timing import backward_times, known_arrivals_s, played_keyframes
 from .yamlsource import (
     Entry,
     Node,
@@ -71,9 +75,10 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
     )
 
 
-MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "keyframes")
-KEYFRAME_KEYS = ("pose", "t", "after", "hold", "stop", "velocity")
-INCLUDE_KEYS = ("include", "mirror", "t", "after")
+# The keys of each mapping, from the JSON Schema (the one description of the file's shape).
+MOTION = mapping_shape("motion")
+KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
+INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
 HOME_POSE = "home"
 
 
@@ -158,7 +163,7 @@ def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None
             "the file is empty; a motion needs robot and keyframes",
         )
         return None
-    return reader.fields(root, "the motion file", MOTION_KEYS, required=("robot", "keyframes"))
+    return reader.fields(root, "the motion file", MOTION.keys, required=MOTION.required)
 
 
 def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
@@ -209,7 +214,7 @@ def _read_steps(
 
 
 def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
-    fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS, required=("pose",))
+    fields = reader.fields(item, "a keyframe", KEYFRAME.keys, required=KEYFRAME.required)
     if fields is None or "pose" not in fields:
         return None
     pose = _read_pose(reader, fields["pose"].value, robot)
@@ -299,7 +304,7 @@ def _read_include(
     reader: Reader, item: Node, robot: Robot, chain: tuple[_Include, ...]
 ) -> list[_Step]:
     what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
-    fields = reader.fields(item, what, INCLUDE_KEYS, required=("include",))
+    fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
     timing = _read_timing(reader, fields)
@@ -374,24 +379,18 @@ def _block(
     The included file's time starts when the keyframe before the include is left; an untimed
     first step is the origin of its t values.
     """
-    block: list[_Step] = []
-    arrival_s: float | None = 0.0  # the previous step's time in the included file, if known
-    for index, step in enumerate(steps):
-        if index == 0:
-            arrival_s = step.t_s if step.t_s is not None else step.after_s or 0.0
-            own = step.t_s if step.t_s is not None else step.after_s
-            t_s, after_s = timing if timing != (None, None) else (None, own)
-            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where))
-            continue
-        previous = steps[index - 1]
+    if not steps:
+        return []
+    arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
+    first = steps[0]
+    own = first.t_s if first.t_s is not None else first.after_s
+    t_s, after_s = timing if timing != (None, None) else (None, own)
+    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where)]
+    for index, step in enumerate(steps[1:], start=1):
+        previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
         if step.t_s is None:
-            arrival_s = (
-                None
-                if arrival_s is None or step.after_s is None
-                else arrival_s + previous.hold_s + step.after_s
-            )
             block.append(step)
-        elif arrival_s is None:
+        elif previous_arrival_s is None:
             reader.problems.add(
                 step.t_where,
                 "t in an included file becomes an after delay, so "
@@ -399,9 +398,8 @@ def _block(
                 "t or after too; give it one, or use after here",
             )
         else:
-            after_s = step.t_s - arrival_s - previous.hold_s
+            after_s = step.t_s - previous_arrival_s - previous.hold_s
             block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
-            arrival_s = step.t_s
     return block
 
 
@@ -417,33 +415,26 @@ def _mirror_block(
     mirrored: list[_Step] = []
     for step in steps:
         angles = mirror_pose(robot, step.angles_deg)
-        for name, angle in angles.items():
-            limits = robot.joint(name).limits
-            if not limits.contains(angle):
-                reader.report(
-                    mirror_node,
-                    f"mirror: the keyframe at {step.where} mirrored puts "
-                    f"{name} at {fmt(angle)}°, outside its limits "
-                    f"{limits.range_text}",
-                )
+        for outside in robot.limit_violations(angles):
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} mirrored puts {outside.joint.name} at "
+                f"{fmt(outside.angle_deg)}°, outside its limits {outside.joint.limits.range_text}",
+            )
         mirrored.append(replace(step, angles_deg=angles, label=""))
     return mirrored
 
 
 def _check_times(reader: Reader, steps: list[_Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
-    leave_s = 0.0  # the earliest time the previous keyframe can be left
-    for index, step in enumerate(steps):
-        if step.t_s is not None and index > 0 and step.t_s <= leave_s:
-            reader.problems.add(
-                step.t_where,
-                f"t {fmt(step.t_s)} goes backwards: the keyframe "
-                f"before it ({steps[index - 1].where}) cannot be "
-                f"left before {fmt(leave_s)} s; t values must "
-                f"increase along the file",
-            )
-        arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
-        leave_s = max(arrival_s, leave_s) + step.hold_s
+    for backward in backward_times(played_keyframes(steps)):
+        reader.problems.add(
+            steps[backward.index].t_where,
+            f"t {fmt(backward.t_s)} goes backwards: the keyframe "
+            f"before it ({steps[backward.index - 1].where}) cannot be "
+            f"left before {fmt(backward.earliest_leave_s)} s; t values must "
+            f"increase along the file",
+        )
 
 
 def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:

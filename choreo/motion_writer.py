@@ -20,7 +20,8 @@ import numpy as np
 import yaml
 
 from .motion import HOME_POSE, Keyframe
-from .robot import Robot, find_robot_file
+from .robot import Robot
+from .robot_lookup import find_robot_file
 
 LINE_WIDTH = 100
 _PLAIN_TEXT = re.compile(r"[A-Za-z0-9][\w .,()/+-]*")  # needs no quotes in YAML

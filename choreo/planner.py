@@ -14,18 +14,16 @@ segment that cannot be done in the time asked (we compare durations ourselves); 
 waypoints call a cloud service (never used: one calculation per interval); the result is read
 back as seven constant-jerk phases per joint, which ``Trajectory`` evaluates with numpy.
 
-Times: a played keyframe's ``t`` counts from the motion start (the first keyframe's pose, where
-the approach leaves the robot), divided by the speed. With ``repeat``, the first keyframe is
-reached again from the last one (after its ``after`` if it has one, else as soon as the limits
-allow) and each repetition keeps the file's spacing of ``t`` values from there.
+Times: the keyframe timing rules (``t``, ``after``, ``hold``, ``repeat``, speed) are
+``choreo.timing``'s; the motion start is the first keyframe's pose, where the approach leaves
+the robot.
 """
 
 from __future__ import annotations
 
-import enum
 import logging
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from itertools import chain
 from typing import NamedTuple
 
@@ -35,7 +33,15 @@ from ruckig import Trajectory as RuckigTrajectory
 
 from .errors import PlanningError
 from .motion import Keyframe, Motion, too_many_played
-from .robot import Robot, SourceLocation
+from .robot import Robot
+from .timing import (
+    PlayedKeyframe,
+    Timing,
+    estimated_arrivals_s,
+    played_keyframes,
+    wanted_arrival_s,
+)
+from .yamlsource import SourceLocation
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +53,7 @@ DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
 # randomized trials. Longer pauses are a `hold`, which ruckig never sees.
 MAX_SEGMENT_S = 300.0
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
+APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
 _DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
 
@@ -182,69 +189,6 @@ class Stretch(NamedTuple):
 class PlanResult:
     trajectory: Trajectory
     stretches: tuple[Stretch, ...] = ()
-
-
-# --- the played keyframe sequence --------------------------------------------------------------
-class _Timing(enum.Enum):
-    ASAP = enum.auto()  # as soon as the limits allow
-    AFTER = enum.auto()  # a delay after the previous keyframe is left
-    AT = enum.auto()  # a time after the repetition's first keyframe
-
-
-@dataclass(frozen=True)
-class _Played:
-    """A keyframe as played: repeat unrolled, speed applied (all times in played seconds)."""
-
-    keyframe: Keyframe
-    timing: _Timing
-    value_s: float  # AFTER: the delay; AT: the time after the anchor's arrival (the very first
-    #                 keyframe: after the start)
-    anchor: int  # AT: index of the played keyframe this repetition's t values count from
-    hold_s: float
-    rests: bool  # velocity zero here: stop, hold, or an end of the whole play
-    speed: float
-
-
-def _played_keyframes(motion: Motion, speed: float) -> list[_Played]:
-    """The keyframes in playing order; a keyframe rests if it says stop or hold, and so do the
-    very first and the very last (not the ends of inner repetitions: the wrap flows)."""
-    keyframes = motion.keyframes
-    first = keyframes[0]
-    origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
-    played: list[_Played] = []
-    for rep in range(motion.repeat):
-        anchor = len(played)
-        for index, kf in enumerate(keyframes):
-            if index == 0:
-                # The start waits for the first keyframe's time; a wrap reaches it again after
-                # its `after`, or as soon as the limits allow.
-                timing, value = (
-                    (_Timing.AT, origin_s)
-                    if rep == 0
-                    else (_Timing.AFTER, kf.after_s)
-                    if kf.after_s is not None
-                    else (_Timing.ASAP, 0.0)
-                )
-            elif kf.t_s is not None:
-                timing, value = _Timing.AT, kf.t_s - origin_s
-            elif kf.after_s is not None:
-                timing, value = _Timing.AFTER, kf.after_s
-            else:
-                timing, value = _Timing.ASAP, 0.0
-            played.append(
-                _Played(
-                    kf,
-                    timing,
-                    value / speed,
-                    anchor,
-                    kf.hold_s / speed,
-                    rests=kf.stop or kf.hold_s > 0,
-                    speed=speed,
-                )
-            )
-    played[0] = replace(played[0], rests=True)
-    played[-1] = replace(played[-1], rests=True)
-    return played
 
 
 # --- one segment -------------------------------------------------------------------------------
@@ -393,7 +337,7 @@ class _Planner:
     """Plans the segments in time order; backs up one segment when a pass-through velocity it
     already used has to be lowered."""
 
-    def __init__(self, robot: Robot, played: list[_Played], stretch: bool):
+    def __init__(self, robot: Robot, played: list[PlayedKeyframe[Keyframe]], stretch: bool):
         self.robot = robot
         self.played = played
         self.stretch = stretch
@@ -422,18 +366,7 @@ class _Planner:
     def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
         """Arrival and leave times as if every timing were met and ASAP keyframes were reached
         from rest: good enough to choose pass-through velocities."""
-        m = len(self.played)
-        arrive = np.zeros(m)
-        arrive[0] = self.played[0].value_s
-        for i in range(1, m):
-            leave = arrive[i - 1] + self.holds_s[i - 1]
-            p = self.played[i]
-            if p.timing is _Timing.AT:
-                arrive[i] = arrive[p.anchor] + p.value_s
-            elif p.timing is _Timing.AFTER:
-                arrive[i] = leave + p.value_s
-            if p.timing is _Timing.ASAP or arrive[i] <= leave:
-                arrive[i] = leave + self.rest_to_rest_s(i - 1)
+        arrive = estimated_arrivals_s(self.played, lambda i: self.rest_to_rest_s(i - 1))
         return arrive, arrive + self.holds_s
 
     def velocity_caps(self) -> np.ndarray:
@@ -450,14 +383,14 @@ class _Planner:
         )
         damping = np.zeros((m, n), dtype=int)
         arrive = np.zeros(m)
-        arrive[0] = self.played[0].value_s
+        arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
         segments: list[_Segment] = [None] * (m - 1)  # type: ignore[list-item]
         too_early: dict[int, str] = {}  # without stretch: planned on as if stretched, to say all
         i = 0
         while i < m - 1:
             leave = arrive[i] + self.holds_s[i]
-            wanted = self.wanted_arrival(i + 1, arrive, shift)
+            wanted = wanted_arrival_s(self.played, i + 1, arrive, shift)
             requested = None if wanted is None else wanted - leave
             if requested is not None and requested > MAX_SEGMENT_S:
                 raise PlanningError(self.too_long_message(i + 1, requested))
@@ -492,19 +425,10 @@ class _Planner:
         ]
         return segments, arrive, stretches
 
-    def wanted_arrival(self, i: int, arrive: np.ndarray, shift: np.ndarray) -> float | None:
-        p = self.played[i]
-        if p.timing is _Timing.ASAP:
-            return None
-        if p.timing is _Timing.AFTER:
-            return arrive[i - 1] + self.holds_s[i - 1] + p.value_s
-        # t values count from this repetition's first keyframe and move with earlier stretches
-        return arrive[p.anchor] + p.value_s + shift[p.anchor + 1 : i].sum()
-
     def earlier_shift_s(self, i: int, shift: np.ndarray) -> float:
         """How much of keyframe i's wanted time comes from stretching keyframes before it."""
         p = self.played[i]
-        return float(shift[p.anchor + 1 : i].sum()) if p.timing is _Timing.AT else 0.0
+        return float(shift[(p.anchor or 0) + 1 : i].sum()) if p.timing is Timing.AT else 0.0
 
     def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
@@ -541,7 +465,7 @@ class _Planner:
         late_by = (earliest - wanted) * p.speed  # in the file's seconds
         fix = (
             f"t >= {kf.t_s + late_by:.3f}"
-            if p.timing is _Timing.AT and kf.t_s is not None
+            if p.timing is Timing.AT and kf.t_s is not None
             else f"after >= {(kf.after_s or 0.0) + late_by:.3f}"
         )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
@@ -636,7 +560,7 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
     if unrolled is not None:
         raise PlanningError(f"{motion.path}: {unrolled}")
-    played = _played_keyframes(motion, speed)
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=speed)
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()
     trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
@@ -645,7 +569,9 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     return PlanResult(trajectory, tuple(stretches))
 
 
-def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3) -> Trajectory:
+def plan_approach(
+    robot: Robot, start_deg, target_deg, limit_scale: float = APPROACH_LIMIT_SCALE
+) -> Trajectory:
     """From rest at any pose ``start_deg`` to rest at ``target_deg`` (normally the first keyframe)
     with every velocity, acceleration and jerk limit scaled by ``limit_scale``.
 
@@ -657,12 +583,12 @@ def plan_approach(robot: Robot, start_deg, target_deg, limit_scale: float = 0.3)
     target = _pose_array(robot, target_deg, "target_deg")
     if not 0 < limit_scale <= 1:
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
-    for joint, angle in zip(robot.joints, target):
-        if not joint.limits.contains(angle):
-            raise ValueError(
-                f"target_deg: {joint.name} = {angle:g}° is outside its limits "
-                f"{joint.limits.range_text}"
-            )
+    outside = robot.limit_violations(target)
+    if outside:
+        joint, angle = outside[0].joint, outside[0].angle_deg
+        raise ValueError(
+            f"target_deg: {joint.name} = {angle:g}° is outside its limits {joint.limits.range_text}"
+        )
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
     segment = _Solver(n).solve(
@@ -716,9 +642,7 @@ def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
     if wrong_size:
         raise PlanningError("\n".join(wrong_size))
     targets = np.array([kf.targets_deg for kf in keyframes], dtype=float)
-    low = np.array([j.limits.min_deg for j in robot.joints])
-    high = np.array([j.limits.max_deg for j in robot.joints])
-    outside = ~((targets >= low) & (targets <= high))
+    outside = robot.outside_limits(targets)
     problems = [
         f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
         f"its limits {robot.joints[j].limits.range_text}"

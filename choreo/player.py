@@ -33,14 +33,14 @@ from .errors import (
     ProtocolError,
     ServoFault,
 )
-from .planner import Trajectory, plan_approach
+from .pipeline import CompiledMotion
+from .planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
 from .protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from .robot import Joint, Robot
-from .segments import MOVE_BYTES, START_BYTES, CompiledMotion, Tick, TickPlan, segment
+from .segments import MOVE_BYTES, START_BYTES, Tick, TickPlan, segment
 
 log = logging.getLogger(__name__)
 
-APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].reply_len + 3
 
 
@@ -99,6 +99,7 @@ class ServoHealth:
     position_error_deg_max: float | None = None
     reads: int = 0
     missed_reads: int = 0  # in a row, reset by an answer
+    missed_total: int = 0  # in the whole play
 
     def record(self, name: str, value: float) -> None:
         low, high = getattr(self, f"{name}_min", None), getattr(self, f"{name}_max")
@@ -136,6 +137,11 @@ class PlayReport:
 
     def lateness_percentile_ms(self, q: float) -> float:
         return float(np.percentile(self.lateness_ms, q)) if self.lateness_ms else 0.0
+
+    @property
+    def missed_reads(self) -> int:
+        """Health reads that went unanswered or came back garbled, over every servo."""
+        return sum(h.missed_total for h in self.health)
 
     @property
     def end_error_ms(self) -> float:
@@ -204,7 +210,7 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
         problems.append(
             f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
         )
-    low, high = sorted((joint.to_units(joint.limits.min_deg), joint.to_units(joint.limits.max_deg)))
+    low, high = joint.limits_units
     if angle_limits.min_units > round(low) or angle_limits.max_units < round(high):
         problems.append(
             f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
@@ -348,6 +354,7 @@ class Player:
             value = self.bus.request(command, joint.servo_id, retries=0, timeout_s=timeout_s)[name]
         except (BusTimeoutError, ProtocolError) as error:  # one bad read is noise; a run is not
             health.missed_reads += 1
+            health.missed_total += 1
             self._suspect = index
             log.info("health read of %s missed: %s", joint.name, error)
             if health.missed_reads >= self.options.max_missed_reads:
@@ -402,8 +409,7 @@ class _Stream:
     def __init__(self, player: Player, ticks: list[Tick], start_pose_deg: Sequence[float]):
         self.player = player
         self.ticks = ticks
-        joints = player.robot.joints
-        self.previous_units = np.array([j.to_units(a) for j, a in zip(joints, start_pose_deg)])
+        self.previous_units = player.robot.to_units(start_pose_deg)
         self.current_units = self.previous_units.copy()
         self.lateness_ms: list[float] = []
         self.retargeted = 0
@@ -413,7 +419,7 @@ class _Stream:
         self.outcome, self.reason = Outcome.COMPLETED, ""
         # Start once whatever was sent before has left and every servo of tick 0 is staged.
         player.bus.drain()
-        first_staging_s = len(joints) * MOVE_BYTES * BYTE_TIME_S
+        first_staging_s = len(player.robot.joints) * MOVE_BYTES * BYTE_TIME_S
         self.t0 = player.clock.now() + first_staging_s + player.options.lead_s
         self.end_s = self.t0
 

@@ -154,9 +154,8 @@ def _servo_path(
     """Tick boundaries (s), the servos' positions there (degrees of the rounded targets, from
     the rounded start) and each tick's constant velocity."""
     start = trajectory.at(0.0)[0]
-    units = [[round(j.to_units(a)) for j, a in zip(robot.joints, start)]]
-    units += [list(t.targets_units) for t in plan.ticks]
-    tick_deg = np.array([[j.to_deg(u) for j, u in zip(robot.joints, row)] for row in units])
+    units = np.array([np.rint(robot.to_units(start)), *(t.targets_units for t in plan.ticks)])
+    tick_deg = robot.to_deg(units)
     bounds_s = np.array([0.0] + [t.end_ms / 1000 for t in plan.ticks])
     durations_s = np.diff(bounds_s)[:, None]
     tick_vel = (

@@ -1,11 +1,12 @@
 """The LX bus-servo protocol as data: command table, encoding, checksum, stream decoder.
 
-Pure: no I/O. ``shared/docs/protocol.md`` is the reference (the vendor document's mistakes are
+Pure: no I/O. ``docs/protocol.md`` is the reference (the vendor document's mistakes are
 corrected there). A packet is ``55 55 ID LEN CMD P1..Pn CHK`` with ``LEN = n + 3`` and
 ``CHK = ~(ID + LEN + CMD + P1 + ... + Pn) & 0xFF``; multi-byte values are little-endian.
 
 Requests are built with :func:`encode_request`, which checks every argument against its field's
-valid range and raises ``ValueError`` naming the field; nothing is clamped. Replies are parsed with
+valid range and raises ``ValueError`` naming the field; nothing is clamped (:func:`check_request`
+is that check alone, for values a user confirms before they are sent). Replies are parsed with
 :func:`decode_reply`, which does not range-check (a servo may report -12 or 1130 as its position).
 """
 
@@ -14,6 +15,8 @@ from __future__ import annotations
 import enum
 import struct
 from dataclasses import dataclass, field
+
+from .servos import POSITION_RANGE_UNITS
 
 HEADER = b"\x55\x55"
 BROADCAST_ID = 0xFE
@@ -84,7 +87,7 @@ def _u16(name: str, lo: int = 0, hi: int = 0xFFFF) -> Field:
     return Field(name, "H", lo, hi)
 
 
-_POS = _u16("pos_units", 0, 1000)
+_POS = _u16("pos_units", *POSITION_RANGE_UNITS)
 _TIME = _u16("time_ms", 0, 30000)
 _MOVE = (_POS, _TIME)
 
@@ -128,7 +131,7 @@ SPECS: dict[Command, CommandSpec] = {
         CommandSpec(C.ANGLE_OFFSET_READ, reply=(Field("offset_units", "b", -128, 127),)),
         CommandSpec(
             C.ANGLE_LIMIT_WRITE,
-            (_u16("min_units", 0, 1000), _u16("max_units", 0, 1000)),
+            (_u16("min_units", *POSITION_RANGE_UNITS), _u16("max_units", *POSITION_RANGE_UNITS)),
             ordered_pair=("min_units", "max_units"),
         ),
         CommandSpec(C.ANGLE_LIMIT_READ, reply=(_u16("min_units"), _u16("max_units"))),
@@ -198,12 +201,20 @@ def _check_range(name: str, value: int, lo: int, hi: int) -> None:
 
 def pack_fields(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:
     """Check every value against its field's range and pack them little-endian."""
+    _check_fields(fields, values)
+    return _pack(fields, values)
+
+
+def _pack(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:
+    return struct.pack("<" + "".join(f.fmt for f in fields), *(values[f.name] for f in fields))
+
+
+def _check_fields(fields: tuple[Field, ...], values: dict[str, int]) -> None:
     expected = [f.name for f in fields]
     if sorted(values) != sorted(expected):
         raise ValueError(f"expected fields {expected}, got {sorted(values)}")
     for f in fields:
         _check_range(f.name, values[f.name], f.lo, f.hi)
-    return struct.pack("<" + "".join(f.fmt for f in fields), *(values[f.name] for f in fields))
 
 
 def unpack_fields(fields: tuple[Field, ...], params: bytes) -> dict[str, int]:
@@ -211,15 +222,22 @@ def unpack_fields(fields: tuple[Field, ...], params: bytes) -> dict[str, int]:
     return dict(zip((f.name for f in fields), values))
 
 
-def encode_request(command: Command, servo_id: int, /, **values: int) -> bytes:
-    """A request packet; ``ValueError`` naming the field if any argument is out of range."""
+def check_request(command: Command, /, **values: int) -> None:
+    """``ValueError`` naming the field if ``values`` cannot be sent with ``command`` (a field
+    missing or out of its range, or a min not below its max); checks before anything is sent."""
     spec = SPECS[Command(command)]
-    params = pack_fields(spec.request, values)
+    _check_fields(spec.request, values)
     if spec.ordered_pair:
         low, high = spec.ordered_pair
         if values[low] >= values[high]:
             raise ValueError(f"{low} must be less than {high}, got {values[low]} >= {values[high]}")
-    return encode_packet(servo_id, spec.command, params)
+
+
+def encode_request(command: Command, servo_id: int, /, **values: int) -> bytes:
+    """A request packet; ``ValueError`` naming the field if any argument is out of range."""
+    check_request(command, **values)
+    spec = SPECS[Command(command)]
+    return encode_packet(servo_id, spec.command, _pack(spec.request, values))
 
 
 def field_range(command: Command, name: str) -> tuple[int, int]:

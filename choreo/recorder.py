@@ -41,8 +41,9 @@ from .clock import Clock
 from .errors import BusError, ChoreoError
 from .motion import Keyframe
 from .motion_writer import motion_text, robot_reference
-from .robot import Joint, Robot, load_robot
-from .yamlsource import SourceLocation, did_you_mean, fmt
+from .robot import Joint, Robot
+from .robot_file import load_robot
+from .yamlsource import SourceLocation, did_you_mean
 
 log = logging.getLogger(__name__)
 
@@ -371,13 +372,7 @@ def taught_joints(robot: Robot, names: Iterable[str] | None) -> tuple[Joint, ...
 
 
 def limit_problems(robot: Robot, angles_deg: Sequence[float]) -> list[str]:
-    problems = []
-    for joint, angle in zip(robot.joints, angles_deg):
-        if not joint.limits.contains(angle):
-            problems.append(
-                f"{joint.name} at {fmt(angle)}° is outside its limits {joint.limits.range_text}"
-            )
-    return problems
+    return [str(outside) for outside in robot.limit_violations(angles_deg)]
 
 
 class Recorder:

@@ -28,18 +28,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import PlanningError
-from .motion import Motion
-from .planner import Stretch, Trajectory, plan_motion
+from .planner import Trajectory
 from .protocol import BYTE_TIME_S, SPECS, Command
 from .robot import Robot
-from .servos import DEG_PER_UNIT, UNITS_PER_DEG
+from .servos import DEG_PER_UNIT, POSITION_RANGE_UNITS
 
 log = logging.getLogger(__name__)
 
 _STAGE = SPECS[Command.MOVE_TIME_WAIT_WRITE]
 MOVE_BYTES = _STAGE.request_len + 3  # a whole staged-move packet: 10 bytes
 START_BYTES = SPECS[Command.MOVE_START].request_len + 3  # broadcast MOVE_START: 6 bytes
-POSITION_RANGE_UNITS = next((f.lo, f.hi) for f in _STAGE.request if f.name == "pos_units")
 MAX_TICK_MS = next(f.hi for f in _STAGE.request if f.name == "time_ms")
 DEFAULT_BUS_MARGIN_MS = 1.5  # slack per tick beyond the wire time (host jitter, START gap)
 QUANTIZATION_DEG = DEG_PER_UNIT / 2  # rounding a target to whole units
@@ -115,7 +113,7 @@ def segment(
     end_ms = math.ceil(round(trajectory.duration_s * 1000, 6))
     if end_ms == 0:
         return TickPlan((), tolerance_deg, 0.0, 0, 0.0)
-    servo = _ServoMap(robot)
+    servo = _ServoPositions(robot)
     floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints))) + bus_margin_ms)
     search = _Search(trajectory, tolerance_deg, end_ms)
     servo.check_range(search.samples_deg.T, search.step_ms)
@@ -131,7 +129,7 @@ def segment(
         Tick(int(a), int(b - a), tuple(t.tolist()), tuple(s.tolist()))
         for a, b, t, s in zip(bounds_ms[:-1], bounds_ms[1:], targets[1:], staged)
     )
-    deviation = search.max_deviation(bounds, servo.to_deg(targets))
+    deviation = search.max_deviation(bounds, robot.to_deg(targets))
     n_staged = staged.sum(axis=1)
     sent = np.where(n_staged > 0, n_staged * MOVE_BYTES + START_BYTES, 0)
     use = wire_time_ms(sent[1:]) / np.diff(bounds_ms)[:-1]
@@ -148,19 +146,15 @@ def segment(
     return plan
 
 
-class _ServoMap:
-    """Joint degrees <-> servo units for the whole robot at once."""
+class _ServoPositions:
+    """Joint degrees -> whole servo units for the whole robot at once, kept inside the servos'
+    range."""
 
     def __init__(self, robot: Robot):
         self.robot = robot
-        self.zero = np.array([j.zero_units for j in robot.joints])
-        self.direction = np.array([j.direction for j in robot.joints])
 
     def to_units(self, angles_deg: np.ndarray) -> np.ndarray:
-        return np.rint(self.zero + self.direction * angles_deg * UNITS_PER_DEG).astype(int)
-
-    def to_deg(self, units: np.ndarray) -> np.ndarray:
-        return (units - self.zero) * self.direction * DEG_PER_UNIT
+        return np.rint(self.robot.to_units(angles_deg)).astype(int)
 
     def check_range(self, samples_deg: np.ndarray, step_ms: int) -> None:
         """The smooth trajectory stays where the servos can go."""
@@ -306,33 +300,4 @@ def _check_forced(
         f"least {floor_ms} ms to stage {len(robot.joints)} servos at 115200 baud, "
         f"and then {name} strays {worst:.3f}° at {worst_ms / 1000:.3f} s; use a tolerance of "
         f"at least {math.ceil(worst * 100) / 100:g}° or lower {name}'s acceleration limit"
-    )
-
-
-# --- a whole motion: plan, then compile ---------------------------------------------------------
-@dataclass(frozen=True)
-class CompiledMotion:
-    """A motion planned and compiled into ticks: everything play, preview and validate need that
-    doesn't depend on where the robot is now."""
-
-    robot: Robot
-    trajectory: Trajectory
-    ticks: TickPlan
-    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
-
-    @property
-    def tolerance_deg(self) -> float:
-        return self.ticks.tolerance_deg
-
-
-def compile_motion(
-    motion: Motion, *, speed: float | None = None, stretch: bool = False, tolerance_deg: float = 0.5
-) -> CompiledMotion:
-    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
-    plan = plan_motion(motion, speed=speed, stretch=stretch)
-    return CompiledMotion(
-        motion.robot,
-        plan.trajectory,
-        segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
-        plan.stretches,
     )

@@ -1,6 +1,6 @@
 """Servo model specifications and the defaults derived from them (one table, overridable).
 
-Source: ``shared/docs/servo-models.md``. Velocity limit for planning = 80 % of no-load speed;
+Source: ``docs/servo-models.md``. Velocity limit for planning = 80 % of no-load speed;
 acceleration and jerk have no vendor figure (3000 °/s², 30000 °/s³ as a starting point).
 MuJoCo actuator: forcerange = ± stall torque, damping = stall / no-load speed,
 kp = stall / 0.105 rad (saturates at ~6° of error), armature 0.005 kg·m².

@@ -14,8 +14,9 @@ from pathlib import Path
 
 from .errors import PlanningError, SourceError
 from .motion import Motion, load_motion
-from .robot import ROBOT_FILE, load_robot
-from .segments import compile_motion
+from .pipeline import compile_motion
+from .robot_file import load_robot
+from .robot_lookup import ROBOT_FILE
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ from typing import Any
 
 from .bus import AngleLimits, Presence, ServoBus, VinLimits
 from .errors import BusError, BusTimeoutError, ProtocolError
-from .protocol import BROADCAST_ID, MAX_SERVO_ID, Command, ErrorMask, encode_request, field_range
+from .protocol import BROADCAST_ID, MAX_SERVO_ID, Command, ErrorMask, check_request, field_range
 from .servos import DEG_PER_UNIT, UNITS_PER_DEG
 
 log = logging.getLogger(__name__)
@@ -36,11 +36,12 @@ ERROR_MASK_NAMES = {
 # --- settings kept in EEPROM -------------------------------------------------------------------
 @dataclass(frozen=True)
 class Setting:
-    """One EEPROM setting: how to write it (command and fields), read it back and show it."""
+    """One EEPROM setting: how to check a new value, write it, read it back and show it."""
 
     name: str
-    command: Command
+    command: Command  # the write command: its fields' ranges say which values are valid
     fields: Callable[[Any], dict[str, int]]  # value -> the write command's fields
+    write: Callable[[ServoBus, int, Any], None]  # the bus's typed setter
     read: Callable[[ServoBus, int], Any]
     show: Callable[[Any], str]
     # A warning about what the new value does at once (e.g. a limit the servo already exceeds).
@@ -48,7 +49,7 @@ class Setting:
 
     def check(self, value: Any) -> None:
         """``ValueError`` naming the field and its valid range if ``value`` cannot be written."""
-        encode_request(self.command, 0, **self.fields(value))
+        check_request(self.command, **self.fields(value))
 
 
 def show_units(units: int) -> str:
@@ -116,6 +117,7 @@ TEMP_LIMIT = Setting(
     "temperature limit",
     Command.TEMP_MAX_LIMIT_WRITE,
     lambda c: dict(temp_c=c),
+    ServoBus.set_temp_limit,
     ServoBus.read_temp_limit,
     lambda c: f"{c} °C",
     _warn_temp,
@@ -124,6 +126,7 @@ ANGLE_LIMITS = Setting(
     "angle limits",
     Command.ANGLE_LIMIT_WRITE,
     lambda v: dict(min_units=v.min_units, max_units=v.max_units),
+    lambda bus, servo_id, v: bus.set_angle_limits(servo_id, v.min_units, v.max_units),
     ServoBus.read_angle_limits,
     lambda v: f"{show_units(v.min_units)}..{show_units(v.max_units)}",
     _warn_angle,
@@ -132,6 +135,7 @@ VIN_LIMITS = Setting(
     "supply voltage limits",
     Command.VIN_LIMIT_WRITE,
     lambda v: dict(min_mv=v.min_mv, max_mv=v.max_mv),
+    lambda bus, servo_id, v: bus.set_vin_limits(servo_id, v.min_mv, v.max_mv),
     ServoBus.read_vin_limits,
     lambda v: f"{v.min_mv}..{v.max_mv} mV",
     _warn_vin,
@@ -140,6 +144,7 @@ LED = Setting(
     "LED",
     Command.LED_CTRL_WRITE,
     lambda on: dict(led_off=0 if on else 1),
+    ServoBus.set_led,
     ServoBus.read_led,
     lambda on: "on" if on else "off",
 )
@@ -147,6 +152,7 @@ LED_ERRORS = Setting(
     "faults that flash the LED",
     Command.LED_ERROR_WRITE,
     lambda mask: dict(mask=int(mask)),
+    ServoBus.set_led_errors,
     ServoBus.read_led_errors,
     show_error_mask,
 )
@@ -154,6 +160,7 @@ SAVED_OFFSET = Setting(
     "saved offset",
     Command.ANGLE_OFFSET_WRITE,
     lambda units: {},
+    lambda bus, servo_id, units: bus.save_offset(servo_id),
     ServoBus.read_offset,
     lambda units: (
         "unknown (servos report only the offset in use)" if units is None else show_units(units)
@@ -199,7 +206,7 @@ def plan_offset_save(bus: ServoBus, servo_id: int) -> Change:
 def apply_change(bus: ServoBus, change: Change) -> None:
     """Write, read back, and raise ``BusError`` naming the value unless it reads as written."""
     setting = change.setting
-    bus.send(setting.command, change.servo_id, **setting.fields(change.new))
+    setting.write(bus, change.servo_id, change.new)
     _verify(
         bus,
         change.servo_id,
@@ -306,7 +313,7 @@ def plan_id_change(
     bus: ServoBus, new_id: int, current_id: int | None = None, scan_ids: Iterable[int] = ALL_IDS
 ) -> IdChange:
     """Check ``new_id`` and find the servo to renumber; refuse an ID already in use."""
-    encode_request(Command.ID_WRITE, 0, new_id=new_id)  # ValueError with the valid range
+    check_request(Command.ID_WRITE, new_id=new_id)  # ValueError with the valid range
     if current_id is None:
         current_id = find_single_servo(bus, scan_ids)
         change = IdChange(current_id, new_id, found_alone=True)
@@ -361,7 +368,7 @@ def offset_units_from_deg(offset_deg: float) -> int:
 
 def adjust_offset(bus: ServoBus, servo_id: int, offset_units: int) -> None:
     """ANGLE_OFFSET_ADJUST (the output moves at once; lost at power-off unless saved), verified."""
-    encode_request(Command.ANGLE_OFFSET_ADJUST, 0, offset_units=offset_units)
+    check_request(Command.ANGLE_OFFSET_ADJUST, offset_units=offset_units)
     _check_addressable(servo_id)
     bus.adjust_offset(servo_id, offset_units)
     _verify(
@@ -390,7 +397,7 @@ def position_units_from_deg(angle_deg: float) -> int:
 def move(bus: ServoBus, servo_id: int, pos_units: int, time_ms: int) -> None:
     """MOVE_TIME_WRITE, refused where the servo would silently not do it: outside its own angle
     limits (it would stop at the limit) or in motor mode (it ignores moves)."""
-    encode_request(Command.MOVE_TIME_WRITE, 0, pos_units=pos_units, time_ms=time_ms)
+    check_request(Command.MOVE_TIME_WRITE, pos_units=pos_units, time_ms=time_ms)
     _check_addressable(servo_id)
     limits = bus.read_angle_limits(servo_id)
     if not limits.min_units <= pos_units <= limits.max_units:
@@ -425,7 +432,7 @@ def set_torque(bus: ServoBus, servo_id: int, loaded: bool) -> None:
 
 def run_motor(bus: ServoBus, servo_id: int, speed: int) -> None:
     """Continuous rotation at ``speed`` (-1000..1000, not saved), verified."""
-    encode_request(Command.OR_MOTOR_MODE_WRITE, 0, mode=1, reserved=0, speed=speed)
+    check_request(Command.OR_MOTOR_MODE_WRITE, mode=1, reserved=0, speed=speed)
     _check_addressable(servo_id)
     bus.set_motor_mode(servo_id, speed)
     mode = bus.read_mode(servo_id)

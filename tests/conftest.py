@@ -7,7 +7,7 @@ from emulated import home_specs, served_on_a_pty
 
 from choreo.clock import RealClock
 from choreo.emulator import BusEmulator
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 
 
 @pytest.fixture

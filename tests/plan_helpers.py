@@ -7,7 +7,8 @@ from pathlib import Path
 from hypothesis import strategies as st
 
 from choreo.motion import Keyframe, Motion
-from choreo.robot import Joint, JointLimits, Robot, SourceLocation
+from choreo.robot import Joint, JointLimits, Robot
+from choreo.yamlsource import SourceLocation
 
 MOTION_PATH = Path("test_motion.yaml")
 

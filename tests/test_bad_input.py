@@ -322,7 +322,7 @@ from choreo.errors import PreviewError
 from choreo.preview.gl import offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.render import FrameRenderer
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 
 try:
     FrameRenderer(load_model(load_robot("arm6")), 1 << 20, 16, offscreen_backend())
@@ -539,7 +539,7 @@ def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
 
     from choreo.clock import RealClock
     from choreo.emulator import BusEmulator
-    from choreo.robot import load_robot
+    from choreo.robot_file import load_robot
 
     emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
     with served_on_a_pty(emulator, tmp_path / "ttyARM") as link:
@@ -611,12 +611,12 @@ def test_only_a_busy_port_asks_about_another_program(capsys):
 
 def test_after_a_stop_the_path_error_covers_only_the_part_played():
     from choreo.bus import ServoBus
-    from choreo.cli.play_commands import measured_path_errors
     from choreo.clock import VirtualClock
     from choreo.emulator import BusEmulator, SimSerial
     from choreo.motion import load_motion
+    from choreo.path_errors import measured_path_errors
+    from choreo.pipeline import compile_motion
     from choreo.player import Outcome, Player, PlayOptions, preflight, prepare
-    from choreo.segments import compile_motion
 
     def play(stop_at_tick: int | None):
         motion = load_motion(REPO / "motions" / "arm6" / "dance.yaml")
@@ -634,7 +634,7 @@ def test_after_a_stop_the_path_error_covers_only_the_part_played():
 
         player = Player(bus, robot, clock, limits, PlayOptions(), ctrl_c)
         report = player.play(performance.ticks, start)
-        return report, measured_path_errors(emulator, robot, performance, report, start)
+        return report, measured_path_errors(emulator.log.moves, robot, performance, report, start)
 
     completed, whole = play(None)
     stopped, part = play(20)
@@ -721,7 +721,7 @@ def test_robots_lists_every_robot_with_its_joints_and_poses(capsys):
 
 
 def test_robots_name_shows_limits_and_pose_angles(capsys):
-    from choreo.robot import load_robot
+    from choreo.robot_file import load_robot
 
     assert main(["robots", "arm6"]) == 0
     out = capsys.readouterr().out.splitlines()

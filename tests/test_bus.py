@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import types
+
 import pytest
 import serial
 
@@ -204,6 +206,93 @@ def test_an_echoing_adapter_costs_wire_time_not_a_timeout_in_auto_mode():
         read(1)
         wire_s = (6 + reply_len) * BYTE_TIME_S + emulator.turnaround_s
         assert emulator.clock.now() - before == pytest.approx(wire_s, abs=BYTE_TIME_S / 2)
+
+
+ALL_ECHO_SETUPS = ECHO_SETUPS + [(True, EchoMode.NONE), (False, EchoMode.DISCARD)]
+
+
+@pytest.mark.parametrize("echo", [False, True], ids=["quiet-bus", "echoing-bus"])
+@pytest.mark.parametrize("mode", list(EchoMode), ids=lambda m: m.value)
+def test_a_read_right_after_many_staged_writes_is_answered(echo, mode):
+    # The player stages up to 18 moves and then reads health: on an echoing bus the echoes of
+    # those writes (180 bytes, 15.6 ms of wire) arrive before the reply, in every echo mode.
+    bus, emulator = make_bus(ids=range(1, 19), echo=echo, mode=mode, retries=0, timeout_s=0.02)
+    for servo_id in range(1, 19):
+        bus.stage_move(servo_id, 400 + servo_id, 300)
+    if echo or mode is not EchoMode.DISCARD:
+        assert bus.read_position(1) == 500
+        assert bus.read_vin(18) == emulator.servo(18).vin_mv
+    else:  # DISCARD on a bus that does not echo: the set-up is wrong, and it says so
+        with pytest.raises(ProtocolError, match="expected the echo of the request"):
+            bus.read_position(1)
+    assert [p.packet.command for p in emulator.log.packets].count(
+        Command.MOVE_TIME_WAIT_WRITE
+    ) == 18
+
+
+@pytest.mark.parametrize("echo,mode", ALL_ECHO_SETUPS, ids=lambda p: getattr(p, "value", p))
+def test_a_silent_servo_after_staged_writes_waits_every_timeout(echo, mode):
+    bus, emulator = make_bus(ids=range(1, 19), echo=echo, mode=mode, retries=2, timeout_s=0.02)
+    emulator.servo(7).connected = False
+    for servo_id in range(1, 19):
+        bus.stage_move(servo_id, 450, 300)
+    before = emulator.clock.now()
+    error = BusTimeoutError if echo or mode is not EchoMode.DISCARD else ProtocolError
+    with pytest.raises(error):
+        bus.read_position(7)
+    staging_s = 18 * 10 * BYTE_TIME_S
+    assert emulator.clock.now() - before >= staging_s + 3 * 0.02 * 0.99
+
+
+class StrayByteBeforeEachRequest(SimSerial):
+    """A line that picks up one noise byte as each request starts, so it precedes the echo."""
+
+    def write(self, data):
+        if len(data) == 6:  # a read request
+            self.emulator._schedule(self.emulator.clock.now(), b"\x00")
+        return super().write(data)
+
+
+class DescheduledAfterFirstRead(SimSerial):
+    """The host loses the CPU for 0.5 s right after its first read returns."""
+
+    reads = 0
+
+    def read(self, size=1):
+        data = super().read(size)
+        self.reads += 1
+        if self.reads == 1:
+            self.emulator.clock.advance(0.5)
+        return data
+
+
+def test_a_reply_that_arrived_while_the_host_was_descheduled_is_taken(monkeypatch):
+    # Past its deadline the attempt still looks at what has already arrived: the reply is there.
+    emulator = BusEmulator(range(1, 19), clock=VirtualClock(), echo=True)
+    host_time = types.SimpleNamespace(monotonic=emulator.clock.now)  # host time = wire time
+    monkeypatch.setattr("choreo.bus.time", host_time)
+    bus = ServoBus(DescheduledAfterFirstRead.from_emulator(emulator), retries=0, timeout_s=0.02)
+    for servo_id in range(1, 19):
+        bus.stage_move(servo_id, 450, 300)
+    bus.drain()
+    assert bus.read_position(3) == 500
+
+
+@pytest.mark.parametrize("mode", [EchoMode.DISCARD, EchoMode.AUTO], ids=lambda m: m.value)
+def test_a_stray_byte_before_the_echo_is_skipped_not_fatal(mode):
+    emulator = BusEmulator((1, 2, 3), clock=VirtualClock(), echo=True)
+    port = StrayByteBeforeEachRequest.from_emulator(emulator)
+    bus = ServoBus(port, echo=mode, retries=0)
+    assert bus.scan_presence(range(0, 6)) == ScanResult(found=(1, 2, 3), garbled=())
+    assert bus.read_position(2) == 500
+
+
+def test_scan_with_retries_finds_a_servo_whose_first_reply_was_corrupted():
+    bus, emulator = make_bus()
+    emulator.servo(2).reply_faults = ReplyFaults(corrupt_next=1)
+    assert bus.scan_presence(range(0, 5), retries=1) == ScanResult(found=(1, 2, 3), garbled=())
+    emulator.servo(2).reply_faults = ReplyFaults(corrupt_next=1)
+    assert bus.scan_presence(range(0, 5), retries=0) == ScanResult(found=(1, 3), garbled=(2,))
 
 
 def test_discard_mode_without_echo_says_what_to_try():

@@ -24,3 +24,28 @@ def test_scan_names_an_id_that_two_servos_share(capsys):
 def test_scan_with_nothing_on_the_bus_says_what_to_check(capsys):
     assert main(["scan", "--port", "sim://?ids=9&clock=virtual", "--ids", "0-5"]) == 1
     assert "no servo answered on IDs 0-5: check power" in capsys.readouterr().out
+
+
+def _corrupt_the_first_reply_of(monkeypatch, servo_id):
+    """Every sim:// bus opened from now on damages the first reply of ``servo_id``."""
+    from choreo.emulator import ReplyFaults, protocol_sim
+
+    build = protocol_sim.emulator_from_url
+
+    def with_fault(url):
+        emulator = build(url)
+        emulator.servo(servo_id).reply_faults = ReplyFaults(corrupt_next=1)
+        return emulator
+
+    monkeypatch.setattr(protocol_sim, "emulator_from_url", with_fault)
+
+
+def test_scan_honours_retries_so_one_damaged_reply_is_not_a_shared_id(monkeypatch, capsys):
+    _corrupt_the_first_reply_of(monkeypatch, 3)
+    port = ["--port", "sim://?ids=2-4&clock=virtual", "--ids", "0-5", "--json"]
+    assert main(["scan", *port, "--retries", "1"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [s["servo_id"] for s in report["servos"]] == [2, 3, 4]
+    assert report["garbled_ids"] == []
+    assert main(["scan", *port, "--retries", "0"]) == 0
+    assert json.loads(capsys.readouterr().out)["garbled_ids"] == [3]

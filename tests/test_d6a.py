@@ -1,5 +1,5 @@
 """Hiwonder action groups: the vendor's real TonyPi files in and out, bad files, and exports of
-choreo motions. The vendor files live in ``shared/data/tonypi`` beside the checkout."""
+choreo motions. The vendor files are copied unchanged into ``tests/data/tonypi``."""
 
 from __future__ import annotations
 
@@ -24,12 +24,12 @@ from choreo.d6a import (
 from choreo.errors import SourceError
 from choreo.motion import Motion, load_motion
 from choreo.planner import plan_motion
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 from choreo.segments import segment
 from choreo.validate import check_file
 
 REPO = Path(__file__).resolve().parents[1]
-VENDOR = Path(__file__).resolve().parents[2] / "shared" / "data" / "tonypi"
+VENDOR = REPO / "tests" / "data" / "tonypi"
 VENDOR_FILES = sorted(VENDOR.glob("*.d6a"))
 SHIPPED = REPO / "motions" / "tonypi"
 

@@ -69,7 +69,7 @@ def test_tonypi_wave_with_the_right_arm_becomes_a_wave_with_the_left(tmp_path, c
             [
                 "import",
                 "d6a",
-                str(REPO.parent / "shared" / "data" / "tonypi" / "wave.d6a"),
+                str(REPO / "tests" / "data" / "tonypi" / "wave.d6a"),
                 "--robot",
                 "tonypi",
                 "-o",

@@ -161,7 +161,7 @@ def test_unknown_key_with_did_you_mean():
     path, message = only_problem("unknown_key.yaml")
     assert message == (
         f"{path}:4:5: unknown key 'hodl' in a keyframe (did you mean 'hold'?); "
-        f"valid keys: pose, t, after, hold, stop, velocity"
+        f"valid keys: pose, hold, stop, velocity, t, after"
     )
 
 
@@ -235,6 +235,23 @@ def test_included_t_after_an_untimed_keyframe_cannot_become_a_delay():
         f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
         f"or use after here"
     )
+
+
+def test_only_the_included_t_whose_keyframe_before_is_untimed_is_refused(tmp_path):
+    """A later t counts from an earlier t: its keyframe before it has a time."""
+    robot = (BAD.parent / "models" / "tiny" / "robot.yaml").resolve()
+    part = tmp_path / "part.yaml"
+    part.write_text(
+        f"robot: {robot}\nkeyframes:\n  - pose: home\n  - pose: wave\n"
+        "  - pose: home\n    t: 3.0\n  - pose: wave\n    t: 4.0\n"
+    )
+    motion = tmp_path / "motion.yaml"
+    motion.write_text(f"robot: {robot}\nkeyframes:\n  - include: part.yaml\n")
+    assert problems_of(motion) == [
+        f"{part}:6:8: t in an included file becomes an after delay, so the "
+        f"keyframe before it ({part}:4:5) needs a t or after too; give it one, "
+        f"or use after here"
+    ]
 
 
 def test_no_keyframes():

@@ -99,7 +99,8 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
     import dataclasses
 
     from choreo.cli.arguments import bus_settings
-    from choreo.robot import BusSettings, load_robot
+    from choreo.robot import BusSettings
+    from choreo.robot_file import load_robot
 
     robot = dataclasses.replace(
         load_robot("arm6"),

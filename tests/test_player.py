@@ -5,11 +5,12 @@ from __future__ import annotations
 import pytest
 
 from choreo.bus import ServoBus
-from choreo.cli.play_commands import measured_path_errors
 from choreo.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
 from choreo.errors import ChoreoError
 from choreo.motion import load_motion
+from choreo.path_errors import measured_path_errors
+from choreo.pipeline import compile_motion
 from choreo.player import (
     ExitMode,
     Outcome,
@@ -20,7 +21,7 @@ from choreo.player import (
     prepare,
 )
 from choreo.protocol import BROADCAST_ID, Command, decode_request
-from choreo.segments import QUANTIZATION_DEG, Tick, compile_motion
+from choreo.segments import QUANTIZATION_DEG, Tick
 
 MOTIONS = "motions"
 
@@ -28,7 +29,9 @@ MOTIONS = "motions"
 class Rig:
     """A robot's servos on an emulated bus in virtual time, standing at ``pose``."""
 
-    def __init__(self, motion_path: str, pose: str = "home", skip_ids=()):
+    def __init__(
+        self, motion_path, pose="home", skip_ids=(), echo=False, bus_echo="auto", start_gap_s=0.0
+    ):
         self.motion = load_motion(motion_path)
         self.robot = self.motion.robot
         self.clock = VirtualClock()
@@ -38,8 +41,8 @@ class Rig:
             for j, a in zip(self.robot.joints, angles)
             if j.servo_id not in skip_ids
         ]
-        self.emulator = BusEmulator(specs, clock=self.clock)
-        self.bus = ServoBus(SimSerial.from_emulator(self.emulator))
+        self.emulator = BusEmulator(specs, clock=self.clock, echo=echo, start_gap_s=start_gap_s)
+        self.bus = ServoBus(SimSerial.from_emulator(self.emulator), echo=bus_echo)
 
     def play(self, options=PlayOptions(), on_progress=None, **prepare_args):
         self.start, limits = preflight(self.bus, self.robot)
@@ -68,7 +71,9 @@ def test_executed_path_stays_within_tolerance_of_the_plan(motion):
     report = rig.play()
     assert report.outcome is Outcome.COMPLETED
     assert report.retargeted == 0 and max(report.lateness_ms) == 0.0  # virtual time is exact
-    errors = measured_path_errors(rig.emulator, rig.robot, rig.performance, report, rig.start)
+    errors = measured_path_errors(
+        rig.emulator.log.moves, rig.robot, rig.performance, report, rig.start
+    )
     assert max(errors) <= 0.5 + QUANTIZATION_DEG + 1e-6
     # and the servos end where the motion ends
     final = rig.performance.trajectory.at(rig.performance.trajectory.duration_s)[0]
@@ -76,6 +81,30 @@ def test_executed_path_stays_within_tolerance_of_the_plan(motion):
         assert joint.to_deg(rig.emulator.servo(joint.servo_id).position_units) == pytest.approx(
             angle, abs=QUANTIZATION_DEG + 1e-6
         )
+
+
+@pytest.mark.parametrize("echo_mode", ["auto", "none", "discard"])
+def test_an_echoing_bus_plays_with_every_health_read_answered(echo_mode):
+    # One-wire wiring: every staged move comes back before the reply to the next health read.
+    rig = Rig(f"{MOTIONS}/hexapod18/tripod_gait.yaml", echo=True, bus_echo=echo_mode)
+    report = rig.play()
+    assert report.outcome is Outcome.COMPLETED, report.reason
+    assert report.missed_reads == 0
+    assert sum(h.reads for h in report.health) > 100
+
+
+@pytest.mark.parametrize("motion", ["arm6/wave.yaml", "hexapod18/tripod_gait.yaml"])
+def test_the_player_leaves_the_start_gap_so_no_start_is_missed(motion):
+    # With the emulator's START-gap fault on, a START sent right after a staged move is missed:
+    # the player must still get every servo moving exactly as with the fault off.
+    started = []
+    for start_gap_s in (0.0, 0.001):
+        rig = Rig(f"{MOTIONS}/{motion}", start_gap_s=start_gap_s)
+        assert rig.play().outcome is Outcome.COMPLETED
+        moves = [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]
+        started.append([(m.servo_id, m.time_s - rig.report.start_time_s) for m in moves])
+    assert len(started[0]) > 100
+    assert started[1] == started[0]
 
 
 def test_all_servos_of_a_tick_start_at_the_same_instant():

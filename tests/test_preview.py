@@ -37,11 +37,10 @@ from choreo.preview.servo import (
     ActuatorParams,
     CommandStream,
     ServoBank,
-    UnitsToDeg,
     commanded_path_units,
 )
 from choreo.protocol import Command
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 from choreo.segments import Tick, segment
 from choreo.servos import ACTUATOR_FIELDS
 
@@ -173,13 +172,6 @@ def test_bad_ticks_are_refused_saying_which(ticks, message):
         CommandStream.from_ticks(ticks, 3)
 
 
-def test_units_to_degrees_agrees_with_the_joints(hexapod):
-    convert = UnitsToDeg.for_joints(hexapod.joints)
-    units = np.array([123.0] * len(hexapod.joints))
-    assert convert.deg(units) == pytest.approx([j.to_deg(123.0) for j in hexapod.joints])
-    assert convert.units(convert.deg(units)) == pytest.approx(units)
-
-
 # --- the actuator model ------------------------------------------------------------------------
 def test_actuators_come_from_the_servo_model_and_overrides_replace_fields(arm3):
     default = actuator_params(arm3)[1]
@@ -199,7 +191,7 @@ def test_actuators_come_from_the_servo_model_and_overrides_replace_fields(arm3):
 def test_the_compiled_model_gets_the_servo_model_whatever_the_mjcf_says(arm3):
     model = load_model(arm3)  # the MJCF says kp 16, damping 0.25
     index = index_joints(model, arm3)
-    apply_servo_models(model, index, actuator_params(arm3), UnitsToDeg.for_joints(arm3.joints))
+    apply_servo_models(model, index, actuator_params(arm3), arm3)
     for a, d in zip(index.actuator, index.dof):
         assert model.actuator_gainprm[a, 0] == pytest.approx(LX16A_STALL_NM / 0.105)
         assert model.actuator_biasprm[a, 1] == pytest.approx(-LX16A_STALL_NM / 0.105)

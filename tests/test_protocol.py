@@ -1,4 +1,4 @@
-"""The codec against the 58 verified packets of shared/docs/protocol.md (from the vendor manual
+"""The codec against the 58 verified packets of docs/protocol.md (from the vendor manual
 and two independent drivers), plus property tests of the stream decoder."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from choreo.protocol import (
     Command,
     Packet,
     PacketDecoder,
+    check_request,
     checksum,
     decode_reply,
     decode_request,
@@ -280,6 +281,15 @@ def test_every_command_of_the_document_is_in_the_table():
 def test_out_of_range_arguments_name_the_field(command, fields, message):
     with pytest.raises(ValueError, match=message):
         encode_request(command, 1, **fields)
+    with pytest.raises(ValueError, match=message):  # the same check, before anything is sent
+        check_request(command, **fields)
+
+
+def test_check_request_accepts_what_encode_request_encodes():
+    assert check_request(C.ANGLE_LIMIT_WRITE, min_units=100, max_units=900) is None
+    assert encode_request(C.ANGLE_LIMIT_WRITE, 1, min_units=100, max_units=900) == bytes.fromhex(
+        "55 55 01 07 14 64 00 84 03 F8"
+    )
 
 
 def test_field_range_from_the_table_of_protocol_md():

@@ -122,3 +122,12 @@ def test_bad_servo_list_is_a_usage_error(link):
     _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
     assert process.returncode == 2
     assert "bad servo IDs" in stderr
+
+
+@pytest.mark.parametrize("option,gap_s", [((), 0.0), (("--start-gap-ms", "1.5"), 0.0015)])
+def test_the_start_gap_fault_is_an_emulate_option_off_by_default(option, gap_s):
+    from choreo.cli import build_parser
+    from choreo.cli.emulate_commands import build_emulator
+
+    args = build_parser().parse_args(["emulate", "--pty", "/tmp/unused", *option])
+    assert {s.start_gap_s for s in build_emulator(args).servos} == {gap_s}

@@ -37,7 +37,7 @@ from choreo.recorder import (
     journal_path,
     read_journal,
 )
-from choreo.robot import load_robot
+from choreo.robot_file import load_robot
 
 TINY = "tests/data/models/tiny/robot.yaml"
 

@@ -9,10 +9,12 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from choreo.errors import SourceError
-from choreo.robot import load_robot, mirror_pose, mirror_targets
+from choreo.robot import mirror_pose, mirror_targets
+from choreo.robot_file import load_robot
 
 DATA = Path(__file__).parent / "data"
 TINY = DATA / "models" / "tiny" / "robot.yaml"
@@ -50,6 +52,7 @@ def test_tiny_robot_is_read_with_defaults_and_overrides():
     )
     assert right.limits.vel_deg_s == 200  # overridden in the file
     assert left.to_units(120) == pytest.approx(125)  # 625 - 120 * 1000/240
+    assert left.limits_units == pytest.approx((125, 875))  # 120° and -60°: the lower first
     assert robot.pose_vector("wave") == (30, 90, 0)
     assert dict(robot.poses["home"]) == {"yaw": 0, "left": 0, "right": 0}
     assert [(p.left, p.right, p.sign) for p in robot.mirror_pairs] == [
@@ -65,6 +68,35 @@ def test_poses_cannot_be_changed_through_the_robot():
     robot = load_robot(TINY)
     with pytest.raises(TypeError):
         robot.poses["home"]["yaw"] = 5
+
+
+def test_the_robot_converts_every_joint_at_once():
+    robot = load_robot(TINY)  # zero/direction: yaw 500/+1, left 625/-1, right 625/+1
+    angles = [[24, 120, -60], [0, 0, 0]]
+    expected = [[600, 125, 375], [500, 625, 625]]  # zero + direction * angle * 1000/240
+    assert robot.to_units(angles) == pytest.approx(np.array(expected))
+    assert robot.to_deg(expected) == pytest.approx(np.array(angles))
+    assert robot.to_units(angles)[0].tolist() == [
+        j.to_units(a) for j, a in zip(robot.joints, angles[0])
+    ]
+
+
+def test_the_robot_checks_the_joint_limits_ends_included():
+    robot = load_robot(TINY)  # limits: yaw -90..90, left -60..120, right -110..60
+    poses = [[-90, 120, 60], [91, -61, 60], [float("nan"), 0, -110.5]]
+    assert robot.outside_limits(poses).tolist() == [
+        [False, False, False],
+        [True, True, False],
+        [True, False, True],
+    ]
+    assert [str(v) for v in robot.limit_violations(poses[1])] == [
+        "yaw at 91° is outside its limits -90..90°",
+        "left at -61° is outside its limits -60..120°",
+    ]
+    [outside] = robot.limit_violations({"right": 61, "yaw": 0})  # a partial pose, by name
+    assert (outside.joint.name, outside.angle_deg) == ("right", 61)
+    with pytest.raises(ValueError, match="2 angles for the 3 joints of tiny"):
+        robot.limit_violations([0, 0])
 
 
 # --- finding a robot by name ---------------------------------------------------------------------

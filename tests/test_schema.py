@@ -10,8 +10,12 @@ import jsonschema
 import pytest
 import yaml
 
-from choreo import motion, robot
-from choreo.servos import SERVO_MODELS
+from choreo import motion
+from choreo import robot_file as robot
+from choreo.bus import EchoMode
+from choreo.file_shape import Shape, mapping_shape
+from choreo.protocol import MAX_SERVO_ID
+from choreo.servos import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 
 DATA = Path(__file__).parent / "data"
 REPO = Path(__file__).resolve().parents[1]
@@ -37,18 +41,40 @@ def test_schemas_are_valid_draft_2020_12(name):
     jsonschema.Draft202012Validator.check_schema(schema(name))
 
 
-def test_schema_keys_are_the_loaders_keys():
-    motion_schema, robot_schema = schema("motion"), schema("robot")
-    defs = motion_schema["$defs"]
-    timing_keys = set(defs["timing"]["properties"])
-    assert set(motion_schema["properties"]) == set(motion.MOTION_KEYS)
-    assert set(defs["poseKeyframe"]["properties"]) | timing_keys == set(motion.KEYFRAME_KEYS)
-    assert set(defs["includeEntry"]["properties"]) | timing_keys == set(motion.INCLUDE_KEYS)
-    assert set(robot_schema["properties"]) == set(robot.ROBOT_KEYS)
-    assert set(robot_schema["$defs"]["jointSettings"]["properties"]) == set(robot.DEFAULT_KEYS)
-    joint = robot_schema["properties"]["joints"]["additionalProperties"]
-    assert set(joint["properties"]) | set(robot.DEFAULT_KEYS) == set(robot.JOINT_KEYS)
-    assert set(robot_schema["properties"]["bus"]["properties"]) == set(robot.BUS_KEYS)
+def test_the_loaders_take_their_keys_from_the_schemas():
+    """The keys as docs/motion-format.md lists them: own keys first, then the shared timing."""
+    assert motion.MOTION == mapping_shape("motion")
+    assert motion.MOTION.keys == ("name", "description", "robot", "speed", "repeat", "keyframes")
+    assert motion.MOTION.required == ("robot", "keyframes")
+    assert motion.KEYFRAME == Shape(("pose", "hold", "stop", "velocity", "t", "after"), ("pose",))
+    assert motion.INCLUDE == Shape(("include", "mirror", "t", "after"), ("include",))
+    assert robot.ROBOT.keys == (
+        "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror",
+    )  # fmt: skip
+    assert robot.ROBOT.required == ("name", "joints", "poses")
+    assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
+    assert robot.JOINT.required == ("id",)
+    assert robot.BUS == Shape(("port", "timeout_ms", "retries", "echo"), ())
+    assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
+    assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
+    assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)
+
+
+def test_the_preview_knows_every_actuator_key_of_the_schema():
+    assert robot.ACTUATOR.keys == ACTUATOR_FIELDS
+
+
+def test_the_ranges_the_robot_schema_repeats_are_the_codes():
+    settings = schema("robot")["$defs"]["jointSettings"]["properties"]
+    joint = schema("robot")["properties"]["joints"]["additionalProperties"]
+    assert joint["properties"]["id"]["maximum"] == MAX_SERVO_ID
+    zero = settings["zero"]
+    assert (zero["minimum"], zero["maximum"]) == POSITION_RANGE_UNITS
+
+
+def test_a_pointer_to_no_mapping_is_refused():
+    with pytest.raises(ValueError, match="describes no mapping"):
+        mapping_shape("motion", "#/$defs/seconds")
 
 
 def test_servo_models_in_the_schema_are_the_servo_table():

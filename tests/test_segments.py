@@ -70,7 +70,7 @@ def check_plan(robot, trajectory, plan, tolerance_deg, margin_ms=1.5):
     assert plan.max_deviation_deg <= tolerance_deg + QUANTIZATION_DEG + 1e-9
 
 
-# --- bus arithmetic: figures from shared/docs/protocol.md ----------------------------------------
+# --- bus arithmetic: figures from docs/protocol.md ------------------------------------------------
 def test_packet_sizes_and_wire_times_match_the_protocol_reference():
     assert (MOVE_BYTES, START_BYTES) == (10, 6)
     assert staging_bytes(6) == 66 and staging_bytes(0) == 0

@@ -180,3 +180,16 @@ def test_real_clock_round_trip():
     assert port.read(8) == POS_READ_500
     port.timeout = 0
     assert port.read(1) == b""
+
+
+@pytest.mark.parametrize(
+    "query,gap_s", [("", 0.0), ("&start_gap_ms=0", 0.0), ("&start_gap_ms=1", 0.001)]
+)
+def test_the_start_gap_fault_is_off_unless_the_url_sets_it(query, gap_s):
+    port = open_url(f"sim://?ids=1&clock=virtual{query}")
+    assert port.emulator.servos[0].start_gap_s == gap_s
+    port.write(encode_request(C.MOVE_TIME_WAIT_WRITE, 1, pos_units=300, time_ms=0))
+    port.write(encode_request(C.MOVE_START, 1))  # back to back
+    port.flush()
+    port.emulator.clock.advance(0.5)
+    assert round(port.emulator.servo(1).position_units) == (500 if gap_s else 300)

@@ -1,6 +1,6 @@
 """Servo configuration (choreo.workshop and `choreo servo ...`) against the emulator in virtual time.
 
-Expected bytes come from shared/docs/protocol.md's verified packets, not from the codec.
+Expected bytes come from docs/protocol.md's verified packets, not from the codec.
 """
 
 from __future__ import annotations

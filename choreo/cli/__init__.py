@@ -15,6 +15,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from .. import __version__
 from ..errors import ChoreoError, UsageError
 from . import (
     bus_commands,
@@ -23,6 +24,7 @@ from . import (
     motion_commands,
     plan_commands,
     play_commands,
+    ports_commands,
     preview_commands,
     record_commands,
     robot_commands,
@@ -31,6 +33,7 @@ from . import (
 
 COMMAND_GROUPS = (
     bus_commands,
+    ports_commands,
     emulate_commands,
     robot_commands,
     motion_commands,
@@ -49,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Author, plan, preview and play motions on Hiwonder/LewanSoul bus servos.",
     )
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for group in COMMAND_GROUPS:
         group.register(subparsers)

@@ -17,7 +17,13 @@ from .arguments import add_port_arguments, id_ranges, open_bus
 
 
 def register(subparsers) -> None:
-    scan = subparsers.add_parser("scan", help="list the servos that answer on the bus")
+    scan = subparsers.add_parser(
+        "scan",
+        help="list the servos that answer on the bus",
+        description="Try each ID with ID_READ, --retries more times when no valid reply comes "
+        "back: an absent ID costs --timeout-ms × (1 + --retries); use --retries 0 for a quick "
+        "look.",
+    )
     add_port_arguments(scan)
     scan.add_argument(
         "--ids",
@@ -32,6 +38,8 @@ def register(subparsers) -> None:
 
 def run_scan(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
+        # --retries counts here as for every read: one damaged reply must not make a present
+        # servo look like two servos sharing its ID.
         scan = scan_with_progress(bus, args.ids)
         statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
@@ -90,7 +98,7 @@ def scan_with_progress(bus: ServoBus, ids: tuple[int, ...]) -> ScanResult:
         task = progress.add_task("", total=len(ids), found="")
         for servo_id in ids:
             progress.update(task, description=f"ID {servo_id}")
-            one = bus.scan_presence([servo_id])
+            one = bus.scan_presence([servo_id], retries=bus.retries)
             found += one.found
             garbled += one.garbled
             progress.update(task, advance=1, found=f"{len(found)} found" if found else "")

@@ -7,7 +7,7 @@ import signal
 
 from ..clock import RealClock
 from ..emulator import BusEmulator, parse_servo_specs
-from ..emulator.bus import DEFAULT_TURNAROUND_S
+from ..emulator.bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
 from .arguments import STOP_SIGNALS, non_negative_float
@@ -59,6 +59,14 @@ def register(subparsers) -> None:
         metavar="X",
         help=f"delay before a servo answers, 0-{MAX_TURNAROUND_MS:g} ms (default 0.6)",
     )
+    parser.add_argument(
+        "--start-gap-ms",
+        type=non_negative_float,
+        default=DEFAULT_START_GAP_S * 1000,
+        metavar="X",
+        help="fault: a servo misses a MOVE_START that comes less than X ms after its staged "
+        "move, as real servos can (default 0: never missed)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -86,19 +94,26 @@ def _servo_list(text: str) -> tuple[str, list]:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def run(args) -> int:
-    servos_text, specs = args.servos
-    emulator = BusEmulator(
+def build_emulator(args) -> BusEmulator:
+    """The emulator the command line describes, in real time."""
+    _, specs = args.servos
+    return BusEmulator(
         specs,
         model=args.model,
         clock=RealClock(),
         turnaround_s=args.turnaround_ms / 1000,
         echo=args.echo,
+        start_gap_s=args.start_gap_ms / 1000,
         state_path=args.state,
         # Nothing reads this process's wire log; a long one makes the garbage collector stall
         # replies for tens of milliseconds as it fills.
         log_limit=EMULATE_LOG_LIMIT,
     )
+
+
+def run(args) -> int:
+    servos_text, _ = args.servos
+    emulator = build_emulator(args)
     stopped_by: list[int] = []
 
     def stop(signum, frame) -> None:

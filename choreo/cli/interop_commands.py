@@ -9,7 +9,7 @@ from pathlib import Path
 from ..d6a import TIME_RANGE_MS, export_d6a, import_d6a
 from ..mirror import write_mirrored
 from ..motion import load_motion
-from ..robot import load_robot
+from ..robot_file import load_robot
 from .arguments import add_output_arguments, check_output, id_sequence
 
 

@@ -12,7 +12,7 @@ from rich.table import Table
 
 from ..errors import UsageError
 from ..motion import Motion, load_motion
-from ..segments import CompiledMotion, compile_motion
+from ..pipeline import CompiledMotion, compile_motion
 from .arguments import add_planning_arguments, check_output, non_negative_float
 
 

@@ -8,15 +8,17 @@ import dataclasses
 import sys
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..clock import RealClock
-from ..emulator.trace import path_errors_deg
+from ..emulator.trace import start_skew_ms
 from ..errors import UsageError
 from ..motion import load_motion, too_many_played
+from ..path_errors import measured_path_errors
+from ..pipeline import CompiledMotion, compile_motion
+from ..play_report import check_report_path, report_document, transport_of, write_report
 from ..player import (
     ExitMode,
     Outcome,
@@ -29,7 +31,6 @@ from ..player import (
     prepare,
 )
 from ..robot import MAX_TIMEOUT_MS, Robot
-from ..segments import CompiledMotion, compile_motion
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
@@ -79,6 +80,13 @@ def register(subparsers) -> None:
         help="timeout of the health reads made between ticks (default 20 ms; raise "
         "it for USB adapters with a long latency timer)",
     )
+    play.add_argument(
+        "--report",
+        type=Path,
+        metavar="FILE.json",
+        help="also write the report as JSON (outcome, timing, bytes, health per servo; "
+        "on the emulator the path error against the plan)",
+    )
     play.set_defaults(handler=run_play)
 
 
@@ -95,6 +103,10 @@ def run_play(args: argparse.Namespace) -> int:
             f"--exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
             f"poses: {', '.join(robot.poses)}"
         )
+    if args.report is not None:
+        if args.dry_run:
+            raise UsageError("--report needs a play; --dry-run plays nothing")
+        check_report_path(args.report)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
@@ -122,10 +134,24 @@ def run_play(args: argparse.Namespace) -> int:
         report, exit_move = _play_with_progress(
             bus, robot, clock, limits, options, performance, start_pose
         )
-        errors = None
+        errors = skew_ms = None
         if emulator is not None:
-            errors = measured_path_errors(emulator, robot, performance, report, start_pose)
+            errors = measured_path_errors(
+                emulator.log.moves, robot, performance, report, start_pose
+            )
+            end_s = report.start_time_s + report.elapsed_s
+            skew_ms = start_skew_ms(emulator.log.moves, report.start_time_s, end_s)
     _print_report(report, robot, errors)
+    if args.report is not None:
+        document = report_document(
+            report,
+            motion=str(args.motion),
+            robot=robot.name,
+            transport=transport_of(bus.name),
+            measured_start_skew_ms=skew_ms,
+            path_errors_deg=errors,
+        )
+        write_report(args.report, document)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         print(
             f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
@@ -133,28 +159,6 @@ def run_play(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return EXIT_CODES[report.outcome]
-
-
-def measured_path_errors(
-    emulator, robot: Robot, performance: Performance, report: PlayReport, start_pose
-) -> tuple[float, ...]:
-    """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms), over
-    the part played: after a stop, the plan's remainder was never asked of the servos."""
-    played_s = (
-        report.planned_s
-        if report.outcome is Outcome.COMPLETED
-        else min(report.elapsed_s, report.planned_s)
-    )
-    times = np.arange(0.0, played_s, 0.002)
-    start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
-    return path_errors_deg(
-        emulator.log.moves,
-        robot,
-        start_units,
-        report.start_time_s,
-        times,
-        performance.planned_deg(times),
-    )
 
 
 def _play_with_progress(
@@ -210,7 +214,7 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
         f"START lateness p50 {report.lateness_percentile_ms(50):.2f} ms, "
         f"p99 {report.lateness_percentile_ms(99):.2f} ms, max {max(report.lateness_ms, default=0):.2f} ms; "
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
-        f"bus use {report.bus_use:.0%}"
+        f"bus use {report.bus_use:.0%}, {report.missed_reads} health reads missed"
     )
     table = Table(title="servo health")
     for column in ("joint", "id", "temp °C", "vin V", "max pos err °", "path err °"):

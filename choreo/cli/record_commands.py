@@ -22,7 +22,8 @@ from ..recorder import (
     UnknownInput,
     journal_path,
 )
-from ..robot import Robot, load_robot
+from ..robot import Robot
+from ..robot_file import load_robot
 from .arguments import add_port_arguments, open_robot_bus, positive_float, stop_signals_as_ctrl_c
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"

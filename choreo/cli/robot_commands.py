@@ -10,7 +10,9 @@ from rich.console import Console
 from rich.table import Table
 
 from ..errors import SourceError
-from ..robot import Robot, known_robots, load_robot, robot_search_dirs
+from ..robot import Robot
+from ..robot_file import load_robot
+from ..robot_lookup import known_robots, robot_search_dirs
 
 
 def register(subparsers) -> None:

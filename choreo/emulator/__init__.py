@@ -20,13 +20,13 @@ from .bus import (
     parse_servo_specs,
 )
 from .protocol_sim import SimSerial, emulator_from_url
-from .servo import Eeprom, EmulatedServo, MoveStart, ReplyFate, ReplyFaults
+from .servo import Eeprom, EmulatedServo, ReplyFate, ReplyFaults, StartedMove
 
 __all__ = [
     "BusEmulator",
     "EmulatedServo",
     "Eeprom",
-    "MoveStart",
+    "StartedMove",
     "ReceivedPacket",
     "ReplyFate",
     "ReplyFaults",

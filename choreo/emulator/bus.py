@@ -1,6 +1,6 @@
 """The emulated bus: host bytes in, servo replies out, on a wire with real timing.
 
-Timing model (``shared/docs/protocol.md``):
+Timing model (``docs/protocol.md``):
 
 - Every byte takes ``BYTE_TIME_S`` (10 bits at 115200 baud). The host's writes queue on the wire
   one after another, starting no earlier than the moment they are written.
@@ -41,7 +41,7 @@ from ..clock import Clock, RealClock
 from ..errors import ChoreoError
 from ..protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from ..servos import servo_model
-from .servo import DEFAULT_START_GAP_S, Eeprom, EmulatedServo, MoveStart, ReplyFate
+from .servo import DEFAULT_START_GAP_S, Eeprom, EmulatedServo, ReplyFate, StartedMove
 
 logger = logging.getLogger(__name__)
 
@@ -102,7 +102,7 @@ class WireLog:
     def __init__(self, limit: int = DEFAULT_LOG_LIMIT):
         self.packets: deque[ReceivedPacket] = deque(maxlen=limit)
         self.replies: deque[SentReply] = deque(maxlen=limit)
-        self.moves: deque[MoveStart] = deque(maxlen=limit)
+        self.moves: deque[StartedMove] = deque(maxlen=limit)
 
 
 class BusEmulator:

@@ -1,9 +1,11 @@
 """The ``sim://`` pyserial URL handler: a serial port wired to a :class:`BusEmulator`.
 
 ``sim://?ids=1-6&model=LX-16A&echo=1&state=FILE&turnaround_ms=0.6&clock=real|virtual&seed=0
-&start_gap_ms=1`` (all optional; ids like ``1-6,9,12-14``, a group may name its model:
-``1-6,7:LX-224HV``). pyserial finds this module once ``choreo.emulator.register_url_handler()``
-has run; tests can also wrap an existing emulator with :meth:`SimSerial.from_emulator`.
+&start_gap_ms=0`` (all optional; ids like ``1-6,9,12-14``, a group may name its model:
+``1-6,7:LX-224HV``; ``start_gap_ms`` > 0 is a fault: a MOVE_START less than that after the
+servo's staged move is missed). pyserial finds this module once
+``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator
+with :meth:`SimSerial.from_emulator`.
 
 Reads follow pyserial: ``read(n)`` returns ``n`` bytes, or fewer once ``timeout`` has passed
 (``timeout=0``: what is there now; ``None``: wait for all ``n``). On a ``VirtualClock`` a read

@@ -1,6 +1,6 @@
 """One emulated LX bus servo: its EEPROM, its motion, its faults, and its answer to each command.
 
-Behaviour follows ``shared/docs/protocol.md`` ("Behaviour of a real servo"). Choices made where the
+Behaviour follows ``docs/protocol.md`` ("What a servo does"). Choices made where the
 servo's behaviour is undocumented:
 
 - **Positions and the offset.** The servo has an *output* position (where the horn really is, in
@@ -23,8 +23,11 @@ servo's behaviour is undocumented:
   in motor mode); after a voltage fault it stays unloaded until a LOAD or a move.
 - Writes with a parameter outside its documented range are ignored (the servo cannot answer NAK),
   except positions, which are clamped to the angle limits like any other target.
-- A MOVE_START whose first byte comes less than ``start_gap_s`` after the end of the servo's own
-  MOVE_TIME_WAIT_WRITE is missed (protocol.md: "leave a small gap (≥ 1 ms)").
+- The START gap is a fault, off by default (``start_gap_s`` 0): docs/protocol.md says only that a
+  MOVE_START sent right after the preset *can* be missed, and drivers that stage and start back
+  to back work on real servos. With ``start_gap_s`` > 0, a MOVE_START whose first byte comes less
+  than that after the end of the servo's own MOVE_TIME_WAIT_WRITE is missed, to check that a
+  host leaves the gap (choreo's player does: ``start_gap_ms=1`` in ``sim://``).
 - DIS_READ (models that answer it) reports the distance the output has travelled since power-up,
   forwards and backwards alike, at 4096 pulses per turn.
 """
@@ -58,7 +61,7 @@ UNITS_PER_TURN = 1500  # 1500 × 0.24° = 360°
 READ_MIN_UNITS = -250  # readings wrap into READ_MIN_UNITS .. READ_MIN_UNITS + UNITS_PER_TURN - 1
 DIS_PULSES_PER_TURN = 4096
 FACTORY_TEMP_C = 30.0
-DEFAULT_START_GAP_S = 0.001  # protocol.md: leave >= 1 ms between a preset and MOVE_START
+DEFAULT_START_GAP_S = 0.0  # off: a START right after its preset is taken (see the docstring)
 
 
 # EEPROM field -> its valid range: that of the write command's field (one source of truth: SPECS).
@@ -128,7 +131,7 @@ class ReplyFaults:
 
 
 @dataclass(frozen=True)
-class MoveStart:
+class StartedMove:
     """A servo-mode move began: logged by the bus for tests of timing and synchronization."""
 
     time_s: float
@@ -140,13 +143,13 @@ class MoveStart:
 
 
 @dataclass(frozen=True)
-class Outcome:
+class HandledPacket:
     """What handling one packet produced: the reply bytes (if any), the moves started, and the
     EEPROM afterwards (for the bus to persist)."""
 
     eeprom: Eeprom
     reply: bytes | None = None
-    moves: tuple[MoveStart, ...] = ()
+    moves: tuple[StartedMove, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -227,7 +230,7 @@ class EmulatedServo:
         self._resume_when_cool = False
         self._travelled_units = 0.0
         self._motion = _Motion(now(), position_units + self._offset_units)
-        self._moves_started: list[MoveStart] = []
+        self._moves_started: list[StartedMove] = []
 
     # --- what tests and users see ----------------------------------------------------------
     @property
@@ -362,25 +365,25 @@ class EmulatedServo:
     def hears(self, packet: Packet) -> bool:
         return self._connected and packet.servo_id in (self._eeprom.servo_id, BROADCAST_ID)
 
-    def handle(self, packet: Packet, at_s: float) -> Outcome:
+    def handle(self, packet: Packet, at_s: float) -> HandledPacket:
         """Execute ``packet`` (already known to be heard) whose last byte arrived at ``at_s``."""
         try:
             command = Command(packet.command)
             values = decode_request(packet)
         except ValueError as error:
             logger.debug("servo %d ignores %s: %s", self._eeprom.servo_id, packet, error)
-            return Outcome(self._eeprom)
+            return HandledPacket(self._eeprom)
         if not self._in_range(command, values):
             logger.debug(
                 "servo %d ignores %s %s: out of range", self._eeprom.servo_id, command.name, values
             )
-            return Outcome(self._eeprom)
+            return HandledPacket(self._eeprom)
         reply_values = self._HANDLERS[command](self, at_s, packet, **values)
         moves, self._moves_started = tuple(self._moves_started), []
         if reply_values is None or not self._answers(command, packet):
-            return Outcome(self._eeprom, None, moves)
+            return HandledPacket(self._eeprom, None, moves)
         reply = encode_reply(command, self._eeprom.servo_id, **reply_values)
-        return Outcome(self._eeprom, reply, moves)
+        return HandledPacket(self._eeprom, reply, moves)
 
     def _answers(self, command: Command, packet: Packet) -> bool:
         if packet.servo_id == BROADCAST_ID and command is not Command.ID_READ:
@@ -433,7 +436,7 @@ class EmulatedServo:
         self._target_units = target_units
         self._set_motion(now, _Motion(now, start, velocity, now + duration_s))
         self._moves_started.append(
-            MoveStart(
+            StartedMove(
                 now,
                 self._eeprom.servo_id,
                 start - self._offset_units,

@@ -1,17 +1,18 @@
-"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts."""
+"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts
+(servo IDs and units only: ``choreo.path_errors`` reads them through a robot's joints)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import math
+from collections.abc import Iterable
 
 import numpy as np
 
-from ..robot import Robot
-from .servo import MoveStart
+from .servo import StartedMove
 
 
 def executed_units(
-    moves: Iterable[MoveStart], servo_id: int, start_units: float, times_s: np.ndarray
+    moves: Iterable[StartedMove], servo_id: int, start_units: float, times_s: np.ndarray
 ) -> np.ndarray:
     """Position (POS_READ units) of one servo at ``times_s``, from its logged linear moves.
 
@@ -36,28 +37,21 @@ def executed_units(
     return np.where(before, float(start_units), path)
 
 
-def path_errors_deg(
-    moves: Iterable[MoveStart],
-    robot: Robot,
-    start_units: Sequence[float],
-    start_time_s: float,
-    times_s: np.ndarray,
-    planned_deg: np.ndarray,
-) -> tuple[float, ...]:
-    """Per joint, the largest distance between where the emulated servo went and
-    ``planned_deg`` (``(len(times_s), n_joints)`` degrees at ``start_time_s + times_s``)."""
-    moves = list(moves)
-    return tuple(
-        float(
-            np.max(
-                np.abs(
-                    joint.to_deg(
-                        executed_units(moves, joint.servo_id, start, start_time_s + times_s)
-                    )
-                    - planned_deg[:, j]
-                ),
-                initial=0.0,
-            )
-        )
-        for j, (joint, start) in enumerate(zip(robot.joints, start_units))
-    )
+def start_skew_ms(
+    moves: Iterable[StartedMove],
+    since_s: float = -math.inf,
+    until_s: float = math.inf,
+    group_gap_s: float = 0.005,
+) -> float:
+    """The largest first-to-last spread of move starts within one burst (starts less than
+    ``group_gap_s`` after the previous one), between ``since_s`` and ``until_s``: 0 when every
+    tick starts all its servos at once, the forwarding time when they start one after another."""
+    times = sorted(m.time_s for m in moves if since_s <= m.time_s <= until_s)
+    skew_s, group_start_s, last_s = 0.0, -math.inf, -math.inf
+    for time_s in times:
+        if time_s - last_s > group_gap_s:
+            group_start_s = time_s
+        skew_s = max(skew_s, time_s - group_start_s)
+        last_s = time_s
+    return skew_s * 1000
+

@@ -5,13 +5,14 @@ checked for problems and rendered offscreen.
     results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
     render_preview(rollout, "out.mp4", results=results)
 
-The package is the only place besides the robot loader that imports ``mujoco``.
+The package is the only place besides ``choreo.model_check`` (the robot loader's MJCF checks)
+that imports ``mujoco``.
 """
 
 from __future__ import annotations
 
 from ..motion import Motion
-from ..segments import compile_motion
+from ..pipeline import compile_motion
 from .checks import (
     CheckKind,
     CheckResult,

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import PreviewError
 from ..robot import Robot
 from ..servos import POSITION_RANGE_UNITS
-from .servo import ActuatorParams, UnitsToDeg
+from .servo import ActuatorParams
 
 HOME_KEY = "home"
 NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT = 0, 1, 2
@@ -70,12 +70,12 @@ def index_joints(model: mujoco.MjModel, robot: Robot) -> JointIndex:
 
 
 def apply_servo_models(
-    model: mujoco.MjModel, index: JointIndex, params: Sequence[ActuatorParams], to_deg: UnitsToDeg
+    model: mujoco.MjModel, index: JointIndex, params: Sequence[ActuatorParams], robot: Robot
 ) -> None:
     """Make every actuator the servo it stands for: a position servo with the servo model's
     kp, torque limit, damping and armature, able to aim anywhere in the servo's 0..1000 range
     (so a target past a joint limit pushes against the stop, as it would on the robot)."""
-    servo_range_rad = np.radians(to_deg.deg(np.array(POSITION_RANGE_UNITS, dtype=float)[:, None]))
+    servo_range_rad = np.radians(robot.to_deg(np.array(POSITION_RANGE_UNITS, dtype=float)[:, None]))
     for j, p in enumerate(params):
         a, d = index.actuator[j], index.dof[j]
         model.actuator_dyntype[a] = mujoco.mjtDyn.mjDYN_NONE

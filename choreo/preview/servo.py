@@ -1,7 +1,7 @@
 """What the servos do with the ticks they receive: their own linear moves, and the actuator model.
 
 Plain numpy, no MuJoCo: the simulation asks a ``ServoBank`` for every servo's set-point at each
-physics step. Hardware behaviour modelled (see ``shared/docs/protocol.md``), as the player sends:
+physics step. Hardware behaviour modelled (see ``docs/protocol.md``), as the player sends:
 
 - a staged move (position, time) is a preset; every tick's broadcast START runs each servo's
   preset, so a servo that was not re-staged re-runs its previous one (the first tick is staged on
@@ -76,26 +76,6 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
             )
         values[key] = float(value)
     return ActuatorParams(**values)
-
-
-@dataclass(frozen=True)
-class UnitsToDeg:
-    """``Joint.to_deg`` for all joints at once: the map is affine, deg = scale * units + offset."""
-
-    scale: np.ndarray  # (n_joints,)
-    offset: np.ndarray  # (n_joints,)
-
-    @classmethod
-    def for_joints(cls, joints: Sequence[Joint]) -> UnitsToDeg:
-        offset = np.array([j.to_deg(0.0) for j in joints])
-        scale = np.array([j.to_deg(1.0) for j in joints]) - offset
-        return cls(scale, offset)
-
-    def deg(self, units: np.ndarray) -> np.ndarray:
-        return units * self.scale + self.offset
-
-    def units(self, deg: np.ndarray) -> np.ndarray:
-        return (deg - self.offset) / self.scale
 
 
 @dataclass(frozen=True)

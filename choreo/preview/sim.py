@@ -37,7 +37,6 @@ from .servo import (
     ActuatorParams,
     CommandStream,
     ServoBank,
-    UnitsToDeg,
     actuator_params,
     commanded_path_units,
     max_speed_units_s,
@@ -135,18 +134,17 @@ def simulate(
         )
     stream = CommandStream.from_ticks(ticks, n_joints)
     params = actuator_params(robot, settings.actuator_overrides)
-    to_deg = UnitsToDeg.for_joints(robot.joints)
 
     model = load_model(robot)
     index = index_joints(model, robot)
-    apply_servo_models(model, index, params, to_deg)
+    apply_servo_models(model, index, params, robot)
     data = start_state(model, index, initial_deg)
     dt = float(model.opt.timestep)
     for _ in range(round(settings.settle_s / dt)):  # ctrl holds the first pose
         mujoco.mj_step(model, data)
 
     n = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
-    initial_units = to_deg.units(initial_deg)
+    initial_units = robot.to_units(initial_deg)
     servos = ServoBank(initial_units, max_speed_units_s(params))
     contacts = _ContactLog(model, settings.min_contact_depth_m)
     qpos_log = np.empty((n, model.nq))
@@ -158,7 +156,7 @@ def simulate(
         index,
         stream,
         servos,
-        to_deg,
+        robot,
         settings.move_start,
         n,
         qpos_log,
@@ -178,7 +176,7 @@ def simulate(
         times_s=times,
         position_deg=np.degrees(qpos_log[:, index.qpos]),
         setpoint_deg=np.degrees(ctrl_log),
-        command_deg=to_deg.deg(commanded_path_units(stream, initial_units, times)),
+        command_deg=robot.to_deg(commanded_path_units(stream, initial_units, times)),
         torque_nm=torque_log,
         qpos=qpos_log,
         actuators=params,
@@ -200,7 +198,7 @@ def _run(
     index,
     stream: CommandStream,
     servos: ServoBank,
-    to_deg: UnitsToDeg,
+    robot: Robot,
     move_start: MoveStart,
     n: int,
     qpos_log: np.ndarray,
@@ -213,7 +211,6 @@ def _run(
     once and the loop only steps and records."""
     dt = float(model.opt.timestep)
     times = np.arange(n) * dt
-    ctrl_scale, ctrl_offset = np.radians(to_deg.scale), np.radians(to_deg.offset)
     started = np.flatnonzero(stream.started)
     # the step at which each START happens: the first step at or after its time
     start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
@@ -222,11 +219,11 @@ def _run(
     for begin, end in zip(boundaries[:-1], boundaries[1:]):
         for tick in started[start_steps == begin]:
             if move_start is MoveStart.POSITION:
-                position_units = to_deg.units(np.degrees(data.qpos[index.qpos]))
+                position_units = robot.to_units(np.degrees(data.qpos[index.qpos]))
             else:
                 position_units = servos.setpoint_units(times[begin])
             servos.start(stream, tick, times[begin], position_units)
-        ctrl = servos.setpoint_units(times[begin:end]) * ctrl_scale + ctrl_offset
+        ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
         ctrl_log[begin:end] = ctrl
         for step in range(begin, end):
             data.ctrl[actuators] = ctrl[step - begin]

@@ -1,0 +1,97 @@
+"""The package as users get it: its version, its type hints, and a start-up that stays light."""
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import choreo
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_choreo(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "choreo", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_version_prints_the_package_version():
+    result = run_choreo("--version")
+    assert (result.returncode, result.stdout, result.stderr) == (
+        0,
+        f"choreo {choreo.__version__}\n",
+        "",
+    )
+
+
+def test_the_version_is_written_once_and_the_type_hints_ship():
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert "version" not in project["project"]
+    assert "version" in project["project"]["dynamic"]
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "choreo.__version__"}
+    assert "py.typed" in project["tool"]["setuptools"]["package-data"]["choreo"]
+    assert (ROOT / "choreo" / "py.typed").is_file()
+
+
+HEAVY_MODULES = ("mujoco", "matplotlib")
+# Runs bus-only commands in one process, then names every heavy module they pulled in.
+BUS_ONLY_COMMANDS = """
+import contextlib, io, sys
+import choreo.cli
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    codes = [
+        choreo.cli.main(["scan", "--ids", "1-2"]),
+        choreo.cli.main(["servo", "info", "--id", "1"]),
+    ]
+    for args in (["emulate", "--help"], ["scan", "--help"]):
+        try:
+            choreo.cli.main(args)
+        except SystemExit as done:
+            codes.append(done.code)
+print(codes, sorted(m for m in {HEAVY} if m in sys.modules))
+""".replace("{HEAVY}", repr(HEAVY_MODULES))
+
+
+def test_bus_only_commands_never_import_mujoco_or_matplotlib():
+    result = subprocess.run(
+        [sys.executable, "-c", BUS_ONLY_COMMANDS],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (result.returncode, result.stdout) == (0, "[0, 0, 0, 0] []\n"), result.stderr
+
+
+def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
+    """The probe above would notice: loading a robot checks its MuJoCo model."""
+    probe = "import sys; from choreo.robot_file import load_robot; load_robot('arm6'); "
+    probe += "print('mujoco' in sys.modules)"
+    result = subprocess.run(
+        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert result.stdout == "True\n", result.stderr
+
+
+def test_the_public_api_resolves_and_import_choreo_stays_light():
+    probe = (
+        "import sys, choreo; light = sorted(m for m in ('numpy', 'yaml', 'serial', 'ruckig') "
+        "if m in sys.modules); missing = [n for n in choreo.__all__ if not hasattr(choreo, n)]; "
+        "print(light, missing, choreo.compile_motion.__module__, choreo.load_robot.__module__)"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert result.stdout == "[] [] choreo.pipeline choreo.robot_file\n", result.stderr
+
+
+def test_an_unknown_name_is_an_attribute_error():
+    with pytest.raises(AttributeError, match="no attribute 'compile'"):
+        choreo.compile  # noqa: B018
