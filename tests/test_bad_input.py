@@ -5,6 +5,7 @@ Each test names the exact line a user sees and the exit code.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -816,3 +817,20 @@ def test_a_plot_window_needs_a_plot(capsys):
     assert error_line(capsys) == (
         "choreo: error: --from and --to choose what --plot draws: add --plot FILE.png"
     )
+
+
+def test_a_closed_stdout_does_not_lose_the_play_report(tmp_path):
+    report = tmp_path / "play.json"
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    argv = ["play", str(WAVE), "--port", "sim://?ids=1-6&clock=virtual", "--report", str(report)]
+    with os.fdopen(write_end, "wb") as closed_pipe:
+        done = subprocess.run(
+            [sys.executable, "-m", "choreo", *argv],
+            cwd=REPO,
+            stdout=closed_pipe,
+            stderr=subprocess.PIPE,
+            timeout=120,
+        )
+    assert done.returncode == 1 and b"Traceback" not in done.stderr
+    assert json.loads(report.read_text())["outcome"] == "completed"

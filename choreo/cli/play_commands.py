@@ -141,8 +141,7 @@ def run_play(args: argparse.Namespace) -> int:
             )
             end_s = report.start_time_s + report.elapsed_s
             skew_ms = start_skew_ms(emulator.log.moves, report.start_time_s, end_s)
-    _print_report(report, robot, errors)
-    if args.report is not None:
+    if args.report is not None:  # before printing: a closed stdout pipe must not lose it
         document = report_document(
             report,
             motion=str(args.motion),
@@ -152,6 +151,7 @@ def run_play(args: argparse.Namespace) -> int:
             path_errors_deg=errors,
         )
         write_report(args.report, document)
+    _print_report(report, robot, errors)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         print(
             f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
