@@ -16,8 +16,8 @@ import dataclasses
 from choreo.bus import EchoMode, ServoBus
 from choreo.clock import RealClock
 from choreo.motion import load_motion
+from choreo.pipeline import compile_motion
 from choreo.player import Player, preflight, prepare
-from choreo.segments import compile_motion
 
 PORT = "sim://?ids=1-18&model=LX-224HV&echo=1"
 

@@ -17,6 +17,7 @@ from .file_shape import mapping_shape
 from .robot import Robot, mirror_pose
 from .robot_file import load_robot, read_angles
 from .robot_lookup import find_robot_file
+from .scene import Prop, StartPosture, read_props, read_start
 from .timing import backward_times, known_arrivals_s, played_keyframes
 from .yamlsource import (
     Entry,
@@ -54,6 +55,8 @@ class Motion:
     repeat: int = (
         1  # times to play; the planner wraps seamlessly from the last keyframe to the first
     )
+    start: StartPosture = StartPosture.STANDING  # how the robot rests before it (preview)
+    props: tuple[Prop, ...] = ()  # boxes around the robot (preview)
 
 
 # --- reading motion files ----------------------------------------------------------------------
@@ -134,11 +137,15 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         else 1.0
     )
     repeat = reader.integer(fields["repeat"].value, "repeat", low=1) if "repeat" in fields else 1
+    start = (
+        read_start(reader, fields["start"].value) if "start" in fields else StartPosture.STANDING
+    )
+    props = read_props(reader, fields["props"].value) if "props" in fields else ()
     if robot is None or "keyframes" not in fields:
         return None
     chain = (_Include(reader.path, None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
-    if None in (name, description, speed, repeat) or reader.problems:
+    if None in (name, description, speed, repeat, start, props) or reader.problems:
         return None
     keyframes = _fill_poses(robot, steps)
     unrolled = too_many_played(len(keyframes), repeat)
@@ -153,6 +160,8 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         description=description,
         speed=speed,
         repeat=repeat,
+        start=start,
+        props=props,
     )
 
 
@@ -333,7 +342,8 @@ def _read_include(
 
 
 def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]) -> list[_Step]:
-    """The steps of an included file, whose robot must be ``robot``; no speed or repeat."""
+    """The steps of an included file, whose robot must be ``robot``; no speed, repeat, start or
+    props."""
     link = chain[-1]
     reader = Reader(link.path, problems)
     try:
@@ -346,7 +356,7 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
     for key in ("name", "description"):
         if key in fields:
             reader.string(fields[key].value, key)
-    for key in ("speed", "repeat"):
+    for key in ("speed", "repeat", "start", "props"):
         if key in fields:
             reader.report(
                 fields[key].key_node,

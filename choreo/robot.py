@@ -118,6 +118,7 @@ class BusSettings:
     timeout_s: float = 0.05
     retries: int = 2
     echo: str = "auto"  # none | discard | auto
+    supply_v: float | None = None  # servo supply voltage (preview); None: each model's rated one
 
 
 @dataclass(frozen=True)

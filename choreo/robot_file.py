@@ -25,7 +25,13 @@ from .robot import (
     units_to_deg,
 )
 from .robot_lookup import ROBOT_FILE, find_robot_file
-from .servos import DEG_PER_UNIT, POSITION_RANGE_UNITS, SERVO_MODELS, ServoModel
+from .servos import (
+    DEG_PER_UNIT,
+    POSITION_RANGE_UNITS,
+    SERVO_MODELS,
+    ZERO_OK_ACTUATOR_FIELDS,
+    ServoModel,
+)
 from .yamlsource import (
     Entry,
     Node,
@@ -146,6 +152,7 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         ),
         "retries": lambda node: reader.integer(node, "bus: retries", low=0, high=MAX_RETRIES),
         "echo": lambda node: reader.choice(node, "bus: echo", ECHO_MODES),
+        "supply_v": lambda node: reader.number(node, "bus: supply_v", low=0, low_open=True),
     }
     values = {key: read[key](entry.value) for key, entry in fields.items()}
     if "timeout_ms" in values:
@@ -251,12 +258,15 @@ def _joint_from_fields(
 
 
 def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
-    """Preview actuator overrides: each a number > 0 (a problem makes the whole block None)."""
+    """Preview actuator overrides: each a number > 0 (dead band and backlash >= 0; a problem
+    makes the whole block None)."""
     entries = reader.fields(node, what, ACTUATOR.keys)
     if entries is None:
         return None
     values = {
-        key: reader.number(entry.value, f"{what}: {key}", low=0, low_open=True)
+        key: reader.number(
+            entry.value, f"{what}: {key}", low=0, low_open=key not in ZERO_OK_ACTUATOR_FIELDS
+        )
         for key, entry in entries.items()
     }
     return None if None in values.values() else values

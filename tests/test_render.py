@@ -3,6 +3,7 @@ they fail (CI installs Mesa's EGL and OSMesa), they never skip."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import imageio_ffmpeg
@@ -28,7 +29,8 @@ from choreo.preview import (
     run_checks,
     simulate_motion,
 )
-from choreo.preview.render import problem_text, status_text, track_camera
+from choreo.preview.model import load_model
+from choreo.preview.render import frame_camera, problem_text, status_text
 from choreo.segments import segment
 
 DATA = Path(__file__).parent / "data" / "preview"
@@ -96,7 +98,8 @@ def test_an_mp4_has_one_frame_per_tick_of_the_clock_and_shows_the_robot_moving(f
     fps = 12
     path = tmp_path / "fine.mp4"
     done = render_preview(rollout, path, RenderSettings(160, 120, fps=fps))
-    expected = int(duration_s * fps) + 1  # frames at 0, 1/fps, ... up to the end
+    # frames from the start of the settling before t = 0, every 1/fps, up to the end
+    expected = int((duration_s - rollout.start_s) * fps + 1e-9) + 1
     assert done.frames == expected
     assert imageio_ffmpeg.count_frames_and_secs(str(path))[0] == expected
     frames = video_frames(path).astype(float)
@@ -108,8 +111,9 @@ def test_an_mp4_has_one_frame_per_tick_of_the_clock_and_shows_the_robot_moving(f
     def changed(a: int, b: int) -> float:
         return (np.abs(frames[a] - frames[b]).max(axis=2) > 30).mean()
 
-    assert changed(fps, 0) > 0.005
-    assert changed(fps, 0) > 3 * changed(1, 0)
+    zero = int(math.ceil(-rollout.start_s * fps - 1e-9))  # the first frame of the motion
+    assert changed(zero + fps, zero) > 0.005
+    assert changed(zero + fps, zero) > 3 * changed(zero + 1, zero)
 
 
 def test_a_gif_has_the_frames_and_their_timing(fine, tmp_path):
@@ -187,26 +191,65 @@ def test_the_overlay_is_drawn_on_the_frames(fine):
     assert np.abs(plain[bottom].astype(int) - with_problem[bottom]).sum() > 1000
 
 
-def test_the_camera_follows_a_free_floating_body():
-    motion = load_motion(REPO / "motions" / "hexapod18" / "tripod_gait.yaml")
-    rollout = simulate_motion(motion)
-    model = mujoco.MjModel.from_xml_path(str(motion.robot.scene_path))
-    steps = np.arange(0, len(rollout.times_s), 25)
-    cameras = track_camera(model, rollout, steps)
-    lookat = np.array([c.lookat for c in cameras])
-    torso = rollout.qpos[steps, :3]
-    travelled = np.linalg.norm(torso[-1, :2] - torso[0, :2])
-    assert travelled > 0.05  # the gait walks
-    assert np.linalg.norm(lookat[-1, :2] - lookat[0, :2]) > 0.8 * travelled
-    assert np.linalg.norm(lookat - torso, axis=1).max() < 0.03
-    assert len({c.distance for c in cameras}) == 1  # same zoom all along
+def mujoco_view(model, camera, aspect: float):
+    """MuJoCo's own camera for a pose (mjv_updateScene): position, axes and the frustum's half
+    width and height at unit depth."""
+    scene = mujoco.MjvScene(model, maxgeom=10)
+    free = mujoco.MjvCamera()
+    free.type = mujoco.mjtCamera.mjCAMERA_FREE
+    free.lookat[:], free.distance = camera.lookat, camera.distance
+    free.azimuth, free.elevation = camera.azimuth, camera.elevation
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    mujoco.mjv_updateScene(
+        model, data, mujoco.MjvOption(), None, free, mujoco.mjtCatBit.mjCAT_ALL, scene
+    )
+    gl = scene.camera[0]
+    forward, up = np.array(gl.forward), np.array(gl.up)
+    half_height = math.tan(math.radians(model.vis.global_.fovy) / 2)
+    return np.array(gl.pos), np.cross(forward, up), up, forward, half_height * aspect, half_height
 
 
-def test_the_camera_holds_still_on_a_fixed_robot(fine):
-    rollout, _ = fine
-    model = mujoco.MjModel.from_xml_path(str(rollout.robot.scene_path))
-    cameras = track_camera(model, rollout, np.arange(0, len(rollout.times_s), 50))
-    assert len({c.lookat for c in cameras}) == 1
+def swept_geom_points(model, rollout, every: int = 10) -> np.ndarray:
+    data = mujoco.MjData(model)
+    points = []
+    for step in range(0, len(rollout.times_s), every):
+        data.qpos[:] = rollout.qpos[step]
+        mujoco.mj_kinematics(model, data)
+        points.append(data.geom_xpos[model.geom_bodyid != 0])
+    return np.concatenate(points)
+
+
+@pytest.mark.parametrize(
+    "motion_path, fill",
+    [
+        ("hexapod18/stand_up.yaml", 0.6),
+        ("hexapod18/tripod_gait.yaml", 0.6),
+        ("arm6/wave.yaml", 0.6),
+    ],
+)
+def test_one_camera_frames_the_whole_motion_and_fills_the_picture(motion_path, fill):
+    """Every geom centre over the whole rollout is inside MuJoCo's view of the camera, and
+    what the robot sweeps spans most of the picture's width or height."""
+    rollout = simulate_motion(load_motion(REPO / "motions" / motion_path))
+    model = load_model(rollout.robot, rollout.props)
+    camera = frame_camera(model, rollout, 4 / 3)
+    pos, right, up, forward, half_w, half_h = mujoco_view(model, camera, 4 / 3)
+    seen = swept_geom_points(model, rollout) - pos
+    depth = seen @ forward
+    x, y = (seen @ right) / depth, (seen @ up) / depth
+    assert (depth > 0).all()
+    assert np.abs(x).max() <= half_w and np.abs(y).max() <= half_h
+    assert max((x.max() - x.min()) / (2 * half_w), (y.max() - y.min()) / (2 * half_h)) > fill
+
+
+def test_the_frames_show_the_settling_and_the_approach_marked():
+    rollout = simulate_motion(load_motion(REPO / "motions" / "tonypi" / "squat.yaml"))
+    assert rollout.start_s < rollout.approach_start_s < 0
+    assert status_text(rollout, rollout.start_s)[1].splitlines()[1] == "settling"
+    assert status_text(rollout, rollout.approach_start_s / 2)[0] == "time\nbefore"
+    assert status_text(rollout, rollout.approach_start_s / 2)[1].endswith("approach")
+    assert status_text(rollout, 0.0) == ("time\nkeyframe", "0.00 s\n1 / 1")
 
 
 # --- the command line --------------------------------------------------------------------------

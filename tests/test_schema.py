@@ -44,7 +44,9 @@ def test_schemas_are_valid_draft_2020_12(name):
 def test_the_loaders_take_their_keys_from_the_schemas():
     """The keys as docs/motion-format.md lists them: own keys first, then the shared timing."""
     assert motion.MOTION == mapping_shape("motion")
-    assert motion.MOTION.keys == ("name", "description", "robot", "speed", "repeat", "keyframes")
+    assert motion.MOTION.keys == (
+        "name", "description", "robot", "speed", "repeat", "start", "props", "keyframes",
+    )  # fmt: skip
     assert motion.MOTION.required == ("robot", "keyframes")
     assert motion.KEYFRAME == Shape(("pose", "hold", "stop", "velocity", "t", "after"), ("pose",))
     assert motion.INCLUDE == Shape(("include", "mirror", "t", "after"), ("include",))
@@ -54,7 +56,7 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     assert robot.ROBOT.required == ("name", "joints", "poses")
     assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
     assert robot.JOINT.required == ("id",)
-    assert robot.BUS == Shape(("port", "timeout_ms", "retries", "echo"), ())
+    assert robot.BUS == Shape(("port", "timeout_ms", "retries", "echo", "supply_v"), ())
     assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
     assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)

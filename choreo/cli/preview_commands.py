@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import re
@@ -14,6 +15,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from ..atomic import atomic_output, write_text_atomically
 from ..errors import UsageError
 from ..motion import load_motion
+from ..scene import StartPosture
 from ..validate import heading_for
 from .arguments import add_planning_arguments, check_output, positive_float, positive_int
 
@@ -24,12 +26,14 @@ def register(subparsers) -> None:
     preview = subparsers.add_parser(
         "preview",
         help="simulate a motion in MuJoCo: check it and render it",
-        description="Play the motion's ticks (what the servos will receive) to a MuJoCo model of "
-        "the robot whose actuators behave like the servos (lag, torque limit), then "
-        "report self-collisions, floor contact, joint limit hits, stalls, tracking "
-        "errors and falls. -o renders offscreen (no display or GPU needed): .mp4, "
-        ".gif, or .png for a contact sheet. Without -o or --viewer only the checks "
-        "run; they exit 1 if any finds an error.",
+        description="Start the robot at rest in its start pose (a walking robot put down on the "
+        "floor and settled), play the player's approach and then the motion's ticks (what "
+        "the servos will receive) to a MuJoCo model of the robot whose actuators behave like "
+        "the servos (lag, torque limit, supply, dead band, backlash), then report "
+        "self-collisions, floor contact, overlapping neighbours, joint limit hits, stalls, "
+        "lag, near misses, tracking errors and falls. -o renders offscreen (no display or GPU "
+        "needed): .mp4, .gif, or .png for a contact sheet. Without -o or --viewer only the "
+        "checks run; they exit 1 if any finds an error. See docs/preview.md.",
     )
     preview.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
     preview.add_argument(
@@ -88,7 +92,16 @@ def register(subparsers) -> None:
         type=positive_float,
         default=0.25,
         metavar="S",
-        help="report a servo at its torque limit this long as a stall (default 0.25 s)",
+        help="report a servo at its torque limit and barely moving this long as a stall, and "
+        "one at its limit while moving this long as lagging (default 0.25 s)",
+    )
+    preview.add_argument(
+        "--near-miss",
+        type=fraction,
+        default=0.8,
+        metavar="FRACTION",
+        help="warn of a servo working at this share of its stall torque or more for 0.1 s "
+        "(default 0.8)",
     )
     preview.add_argument(
         "--fall-tilt",
@@ -103,6 +116,19 @@ def register(subparsers) -> None:
         default=0.5,
         metavar="FRACTION",
         help="... or below this fraction of its starting height (default 0.5)",
+    )
+    preview.add_argument(
+        "--from",
+        dest="start_pose",
+        metavar="POSE",
+        help="the pose the robot is in before the approach: a pose of the robot, or 'first' "
+        "for the motion's first keyframe (default: home; first for a motion that starts lying)",
+    )
+    preview.add_argument(
+        "--start",
+        choices=["standing", "lying", "lying_front", "lying_back"],
+        help="how a free-floating robot rests on the floor before the motion (default: the "
+        "motion's start: key, else standing)",
     )
     preview.add_argument(
         "--move-start",
@@ -128,6 +154,13 @@ def image_size(text: str) -> tuple[int, int]:
     return int(match[1]), int(match[2])
 
 
+def fraction(text: str) -> float:
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"expected a fraction in (0, 1], got {text!r}")
+    return value
+
+
 def run_preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
@@ -149,28 +182,47 @@ def run_preview(args: argparse.Namespace) -> int:
     from .. import preview  # imports mujoco: only when this command runs
 
     motion = load_motion(args.motion)
+    if args.start is not None:
+        motion = dataclasses.replace(motion, start=StartPosture(args.start))
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,
+        near_miss_fraction=args.near_miss,
         fall_tilt_deg=args.fall_tilt,
         fall_height_fraction=args.fall_height,
     )
     settings = preview.SimSettings(move_start=preview.MoveStart(args.move_start))
+    poses = [*motion.robot.poses, preview.FIRST_KEYFRAME]
+    if args.start_pose is not None and args.start_pose not in poses:
+        raise UsageError(
+            f"--from {args.start_pose}: {motion.robot.name} has no such pose; "
+            f"valid: {', '.join(poses)}"
+        )
     rollout = preview.simulate_motion(
-        motion, settings, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
+        motion,
+        settings,
+        speed=args.speed,
+        stretch=args.stretch,
+        tolerance_deg=args.tolerance,
+        start_pose=args.start_pose,
     )
     results = preview.run_checks(rollout, thresholds)
+    for line in preview.start_lines(rollout):
+        print(f"{args.motion}: {line}")
     for result in results:
         where = heading_for(motion, rollout.keyframe_times_s, result.time_s)
         print(f"{where}: {result.severity.value}: {result.message}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
+    print(f"{args.motion}: {preview.busiest_line(rollout, thresholds.near_miss_fraction)}")
     print(
         f"{args.motion}: {rollout.duration_s:.2f} s simulated, {errors} error(s), "
         f"{len(results) - errors} warning(s)"
     )
 
     if args.report is not None:
-        report = preview.preview_report(rollout, results, motion=str(args.motion))
+        report = preview.preview_report(
+            rollout, results, motion=str(args.motion), thresholds=thresholds
+        )
         write_text_atomically(args.report, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
         print(f"wrote {args.report}")
     if output is not None:

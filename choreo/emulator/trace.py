@@ -54,4 +54,3 @@ def start_skew_ms(
         skew_s = max(skew_s, time_s - group_start_s)
         last_s = time_s
     return skew_s * 1000
-

@@ -1,7 +1,7 @@
 """Preview a motion in MuJoCo: what the servos will really do with the ticks they receive,
 checked for problems and rendered offscreen.
 
-    rollout = simulate_motion(motion)          # plan -> segment -> simulate the tick stream
+    rollout = simulate_motion(motion)          # start pose -> approach -> the motion's ticks
     results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
     render_preview(rollout, "out.mp4", results=results)
 
@@ -11,8 +11,10 @@ that imports ``mujoco``.
 
 from __future__ import annotations
 
-from ..motion import Motion
+from ..motion import HOME_POSE, Motion
 from ..pipeline import compile_motion
+from ..player import prepare
+from ..scene import StartPosture
 from .checks import (
     CheckKind,
     CheckResult,
@@ -21,10 +23,12 @@ from .checks import (
     run_checks,
 )
 from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
-from .report import JointSummary, joint_summaries, preview_report
+from .report import JointSummary, busiest_line, joint_summaries, preview_report, start_lines
 from .servo import ActuatorParams, actuator_params
-from .sim import MoveStart, Rollout, SimSettings, simulate
+from .sim import MoveStart, Rollout, Settling, SimSettings, simulate
 from .viewer import has_display, show_in_viewer
+
+FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
 
 __all__ = [
     "ActuatorParams",
@@ -37,8 +41,10 @@ __all__ = [
     "RenderSettings",
     "Rollout",
     "Severity",
+    "Settling",
     "SimSettings",
     "actuator_params",
+    "busiest_line",
     "frame_times",
     "has_display",
     "joint_summaries",
@@ -49,25 +55,54 @@ __all__ = [
     "show_in_viewer",
     "simulate",
     "simulate_motion",
+    "start_pose_deg",
+    "start_lines",
+    "FIRST_KEYFRAME",
 ]
 
 
 def simulate_motion(
     motion: Motion,
-    settings: SimSettings = SimSettings(),
+    settings: SimSettings | None = None,
     *,
     speed: float | None = None,
     stretch: bool = False,
     tolerance_deg: float = 0.5,
+    start_pose: str | None = None,
 ) -> Rollout:
-    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), then
-    play them to the simulated robot, starting at rest at the motion's first pose."""
+    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), add the
+    approach the player would play from the start pose, and play it all to the simulated robot.
+
+    The start pose is the robot's pose ``start_pose``, or "first" for the motion's first
+    keyframe; by default ``home`` (the first keyframe for a motion that starts lying, or a
+    robot without a home pose).
+    """
     compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
-    trajectory = compiled.trajectory
+    start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
+    performance = prepare(compiled, start_deg)
     return simulate(
         motion.robot,
-        compiled.ticks.ticks,
-        trajectory.at(0.0)[0],
-        keyframe_times_s=trajectory.keyframe_times_s,
-        settings=settings,
+        performance.ticks,
+        start_deg,
+        keyframe_times_s=compiled.trajectory.keyframe_times_s,
+        settings=settings or SimSettings(),
+        motion_start_s=performance.approach_s,
+        posture=motion.start,
+        props=motion.props,
     )
+
+
+def start_pose_deg(motion: Motion, first_deg, start_pose: str | None) -> tuple[float, ...]:
+    """Where the robot is before the approach (see ``simulate_motion``)."""
+    robot = motion.robot
+    if start_pose is None:
+        lying = motion.start is not StartPosture.STANDING
+        start_pose = "first" if lying or HOME_POSE not in robot.poses else HOME_POSE
+    if start_pose == FIRST_KEYFRAME:
+        return tuple(float(a) for a in first_deg)
+    if start_pose not in robot.poses:
+        raise ValueError(
+            f"no pose {start_pose!r} in {robot.path}; start from one of "
+            f"{', '.join([*robot.poses, FIRST_KEYFRAME])}"
+        )
+    return robot.pose_vector(start_pose)

@@ -23,8 +23,11 @@ class Severity(str, Enum):
 class CheckKind(str, Enum):
     SELF_COLLISION = "self_collision"
     FLOOR_CONTACT = "floor_contact"
+    NEIGHBOUR_CONTACT = "neighbour_contact"  # parent and child links MuJoCo lets collide
     JOINT_LIMIT = "joint_limit"
-    SATURATION = "saturation"
+    SATURATION = "saturation"  # a stall: torque at the limit and the joint nearly still
+    CANT_KEEP_UP = "cant_keep_up"  # torque at the limit while moving: it lags
+    NEAR_MISS = "near_miss"  # torque close to the limit for a while
     TRACKING_ERROR = "tracking_error"
     FALL = "fall"
 
@@ -58,27 +61,30 @@ class CheckResult:
 class CheckThresholds:
     max_tracking_error_deg: float = 10.0  # joint angle vs the path the ticks ask for
     tracking_error_after_s: float = 0.5  # longer than this: an error, shorter: lag (a warning)
-    stall_after_s: float = 0.25  # torque at the servo's limit longer than this = a stall
+    stall_after_s: float = 0.25  # torque at the limit and nearly still this long = a stall
     saturation_fraction: float = 0.98  # |torque| >= this * stall torque counts as saturated
+    stall_speed_fraction: float = 0.1  # "nearly still": slower than this * no-load speed
+    near_miss_fraction: float = 0.8  # |torque| >= this * stall torque is a near miss ...
+    near_miss_after_s: float = 0.1  # ... when it lasts this long
     limit_margin_deg: float = 0.5  # this close to a joint limit counts as touching it
     fall_height_fraction: float = 0.5  # free-floating body below this * its start height
-    fall_tilt_deg: float = 30.0  # ... or tilted more than this from upright
+    fall_tilt_deg: float = 30.0  # ... or tilted more than this from upright (once upright)
     merge_gap_s: float = 0.05  # episodes closer than this are one
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
-        if not 0 < self.saturation_fraction <= 1:
-            raise ValueError(
-                f"saturation_fraction must be in (0, 1], got {self.saturation_fraction}"
-            )
+        for name in ("saturation_fraction", "near_miss_fraction"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
 
 
 def run_checks(
     rollout: Rollout, thresholds: CheckThresholds = CheckThresholds()
 ) -> list[CheckResult]:
-    """Every problem found, in time order."""
+    """Every problem found from the start (settled, before the approach), in time order."""
+    rollout = rollout.since_start()
     results = [
         *check_contacts(rollout, thresholds),
         *check_joint_limits(rollout, thresholds),
@@ -122,29 +128,50 @@ class _Timeline:
         return (run[1] - run[0]) * self.dt
 
 
+def contact_mask(rollout: Rollout, pair_index: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per step: whether the pair touches, and how deep (m)."""
+    mine = rollout.contact_pair == pair_index
+    mask = np.zeros(len(rollout.times_s), dtype=bool)
+    mask[rollout.contact_step[mine]] = True
+    depth = np.zeros(len(rollout.times_s))
+    np.maximum.at(depth, rollout.contact_step[mine], rollout.contact_depth_m[mine])
+    return mask, depth
+
+
 def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """Self-collisions, a fixed robot's links on the floor or a prop, and parent/child links
+    that MuJoCo lets collide (a free-floating robot on the ground: ``check_fall``)."""
     timeline = _Timeline(rollout, thresholds)
     results = []
     for pair_index, pair in enumerate(rollout.contact_pairs):
-        mine = rollout.contact_pair == pair_index
-        mask = np.zeros(len(rollout.times_s), dtype=bool)
-        mask[rollout.contact_step[mine]] = True
-        depth_by_step = np.zeros(len(rollout.times_s))
-        np.maximum.at(depth_by_step, rollout.contact_step[mine], rollout.contact_depth_m[mine])
+        if pair.kind == "ground":
+            continue
+        mask, depth_by_step = contact_mask(rollout, pair_index)
         for run in timeline.episodes(mask):
             depth_mm = 1000 * float(depth_by_step[run[0] : run[1]].max())
             when = f"at t={timeline.start(run):.2f} s for {timeline.duration(run):.2f} s"
+            deep = f"(up to {depth_mm:.1f} mm deep)"
             if pair.kind == "self":
                 kind = CheckKind.SELF_COLLISION
-                message = f"self-collision: {pair.body_a} hits {pair.body_b} {when}"
+                message = f"self-collision: {pair.body_a} hits {pair.body_b} {when} {deep}"
+            elif pair.kind == "neighbour":
+                kind = CheckKind.NEIGHBOUR_CONTACT
+                overlap = "overlap from the start" if run[0] == 0 else f"touch {when}"
+                message = (
+                    f"{pair.body_a} and {pair.body_b} {overlap} {deep}: they are parent and "
+                    f"child, which the self-collision check leaves alone, but MuJoCo simulates "
+                    f"this contact (one is fixed to the world) and pushes them apart; make "
+                    f"their geoms clear each other in the MJCF, or exclude the pair "
+                    f"(<contact><exclude body1=... body2=.../></contact>)"
+                )
             else:
                 kind = CheckKind.FLOOR_CONTACT
-                message = f"{pair.body_a} touches the {pair.body_b} {when}"
+                message = f"{pair.body_a} touches the {pair.body_b} {when} {deep}"
             results.append(
                 CheckResult(
                     kind,
                     Severity.ERROR,
-                    f"{message} (up to {depth_mm:.1f} mm deep)",
+                    message,
                     timeline.start(run),
                     timeline.duration(run),
                     bodies=(pair.body_a, pair.body_b),
@@ -194,8 +221,8 @@ def check_joint_limits(rollout: Rollout, thresholds: CheckThresholds) -> list[Ch
                         CheckResult(
                             CheckKind.JOINT_LIMIT,
                             Severity.WARNING,
-                            f"{joint.name} runs into its {side} limit {limit:g}° at t={start:.2f} s "
-                            f"(reaching {worst:.1f}°) for {duration:.2f} s",
+                            f"{joint.name} runs into its {side} limit {limit:g}° at "
+                            f"t={start:.2f} s (reaching {worst:.1f}°) for {duration:.2f} s",
                             start,
                             duration,
                             joint=joint.name,
@@ -206,29 +233,125 @@ def check_joint_limits(rollout: Rollout, thresholds: CheckThresholds) -> list[Ch
 
 
 def check_saturation(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """Per joint, each stretch of torque near the servo's limit is one of: a stall (at the limit
+    and nearly still for ``stall_after_s``: an error), can't keep up (at the limit but moving
+    for that long: a warning with the lag), or a near miss (near the limit for
+    ``near_miss_after_s``: a warning)."""
     timeline = _Timeline(rollout, thresholds)
     stall = rollout.stall_torque_nm
-    saturated = np.abs(rollout.torque_nm) >= thresholds.saturation_fraction * stall
+    share = np.abs(rollout.torque_nm) / stall
+    velocity = _velocity_deg_s(rollout)
+    # speed in the direction the servo pushes: being dragged backwards is not keeping up
+    forward = velocity * np.sign(rollout.torque_nm)
+    no_load = np.array([a.no_load_speed_deg_s for a in rollout.actuators])
+    saturated = share >= thresholds.saturation_fraction
+    still = forward < thresholds.stall_speed_fraction * no_load
+    lag = np.abs(rollout.position_deg - rollout.command_deg)
     results = []
-    for j, joint in enumerate(rollout.robot.joints):
-        for run in timeline.episodes(saturated[:, j]):
-            start, duration = timeline.start(run), timeline.duration(run)
-            if duration < thresholds.stall_after_s:
-                continue
-            results.append(
-                CheckResult(
-                    CheckKind.SATURATION,
-                    Severity.ERROR,
-                    f"{joint.name} servo at its {stall[j]:.2f} N·m torque limit for {duration:.2f} s "
-                    f"from t={start:.2f} s: it would stall (too fast for the load, or the load too "
-                    f"heavy)",
-                    start,
-                    duration,
-                    joint=joint.name,
-                    value=float(stall[j]),
+    for j in range(len(rollout.robot.joints)):
+        near = min(thresholds.near_miss_fraction, thresholds.saturation_fraction)
+        for run in timeline.episodes(share[:, j] >= near):
+            span = slice(*run)
+            result = (
+                _stall(rollout, timeline, thresholds, j, run, saturated[span, j] & still[span, j])
+                or _cant_keep_up(
+                    rollout, timeline, thresholds, j, run, saturated[span, j], lag, velocity
                 )
+                or _near_miss(rollout, timeline, thresholds, j, run, share, lag, velocity)
             )
+            if result is not None:
+                results.append(result)
     return results
+
+
+def _velocity_deg_s(rollout: Rollout) -> np.ndarray:
+    if len(rollout.times_s) < 2:
+        return np.zeros_like(rollout.position_deg)
+    return np.gradient(rollout.position_deg, rollout.times_s, axis=0)
+
+
+def _stall(rollout, timeline, thresholds, j, run, stalled) -> CheckResult | None:
+    long_runs = [
+        r for r in timeline.episodes(stalled) if timeline.duration(r) >= thresholds.stall_after_s
+    ]
+    if not long_runs:
+        return None
+    still_from = timeline.start((run[0] + long_runs[0][0], run[1]))
+    stall_run = (run[0], run[0] + long_runs[-1][1])  # from reaching the limit to the end
+    start, duration = timeline.start(stall_run), timeline.duration(stall_run)
+    joint, torque = rollout.robot.joints[j], rollout.actuators[j].stall_torque_nm
+    moving_first = f", barely moving from t={still_from:.2f} s on" if still_from > start else ""
+    return CheckResult(
+        CheckKind.SATURATION,
+        Severity.ERROR,
+        f"{joint.name} stalls: its servo is at its {torque:.2f} N·m torque limit for "
+        f"{duration:.2f} s from t={start:.2f} s{moving_first} (the load is too heavy, or the "
+        f"joint is pushed against something){_touching(rollout, j, stall_run)}",
+        start,
+        duration,
+        joint=joint.name,
+        value=torque,
+    )
+
+
+def _cant_keep_up(rollout, timeline, thresholds, j, run, saturated, lag, velocity):
+    at_limit_s = float(saturated.sum()) * timeline.dt
+    if at_limit_s < thresholds.stall_after_s:
+        return None
+    span = slice(*run)
+    start, duration = timeline.start(run), timeline.duration(run)
+    worst_lag = float(lag[span, j].max())
+    speed = float(np.abs(velocity[span, j]).max())
+    joint, params = rollout.robot.joints[j], rollout.actuators[j]
+    return CheckResult(
+        CheckKind.CANT_KEEP_UP,
+        Severity.WARNING,
+        f"{joint.name} can't keep up: its servo is at its {params.stall_torque_nm:.2f} N·m "
+        f"torque limit for {at_limit_s:.2f} s from t={start:.2f} s while moving (up to "
+        f"{speed:.0f}°/s, no-load speed {params.no_load_speed_deg_s:.0f}°/s), lagging up to "
+        f"{worst_lag:.1f}° behind its path{_touching(rollout, j, run)}",
+        start,
+        duration,
+        joint=joint.name,
+        value=worst_lag,
+    )
+
+
+def _near_miss(rollout, timeline, thresholds, j, run, share, lag, velocity):
+    start, duration = timeline.start(run), timeline.duration(run)
+    if duration < thresholds.near_miss_after_s:
+        return None
+    span = slice(*run)
+    peak = 100 * float(share[span, j].max())
+    joint = rollout.robot.joints[j]
+    return CheckResult(
+        CheckKind.NEAR_MISS,
+        Severity.WARNING,
+        f"{joint.name} near miss: its servo works at {100 * thresholds.near_miss_fraction:.0f}-"
+        f"{peak:.0f} % of its stall torque for {duration:.2f} s from t={start:.2f} s "
+        f"(moving up to {float(np.abs(velocity[span, j]).max()):.0f}°/s of its "
+        f"{rollout.actuators[j].no_load_speed_deg_s:.0f}°/s, lagging up to "
+        f"{float(lag[span, j].max()):.1f}°): little margin for a heavier load or a faster "
+        f"move{_touching(rollout, j, run)}",
+        start,
+        duration,
+        joint=joint.name,
+        value=peak,
+    )
+
+
+def _touching(rollout: Rollout, j: int, run: tuple[int, int]) -> str:
+    """ ", while A touches B" for a contact of the joint's link during ``run`` (the real cause
+    of a servo straining), or ""."""
+    if not rollout.joint_links:
+        return ""
+    link = rollout.joint_links[j]
+    during = (rollout.contact_step >= run[0]) & (rollout.contact_step < run[1])
+    for pair_index in np.unique(rollout.contact_pair[during]):
+        pair = rollout.contact_pairs[pair_index]
+        if link in (pair.body_a, pair.body_b):
+            return f", pushed by a contact: {pair.body_a} touches {pair.body_b}"
+    return ""
 
 
 def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
@@ -257,29 +380,79 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
 
 
 def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """A free-floating robot falling or collapsing after its start (the robot at rest before the
+    approach): a link other than a foot touching the ground when it did not at the start, its
+    body below ``fall_height_fraction`` of its start height, or tilted more than
+    ``fall_tilt_deg`` once it has been upright (so lying at the start is not a fall)."""
     if rollout.root_height_m is None or rollout.root_tilt_deg is None:
         return []
-    start_height = float(rollout.root_height_m[0])
-    low = rollout.root_height_m < thresholds.fall_height_fraction * start_height
-    tilted = rollout.root_tilt_deg > thresholds.fall_tilt_deg
-    fallen = np.flatnonzero(low | tilted)
-    if not len(fallen):
-        return []
-    step = int(fallen[0])
-    t = float(rollout.times_s[step])
-    height, tilt = float(rollout.root_height_m[step]), float(rollout.root_tilt_deg[step])
-    why = (
-        f"its height drops to {height:.3f} m (from {start_height:.3f} m)"
-        if low[step]
-        else f"it tilts {tilt:.0f}° from upright"
-    )
-    return [
-        CheckResult(
+    s0 = rollout.start_step
+    height, tilt = rollout.root_height_m, rollout.root_tilt_deg
+    start_height = float(height[s0])
+    after = np.arange(len(height)) >= s0
+    low = after & (height < thresholds.fall_height_fraction * start_height)
+    upright = tilt <= thresholds.fall_tilt_deg
+    been_upright = np.logical_or.accumulate(upright & after)
+    tilted = after & been_upright & ~upright
+    results = [*_ground_contacts(rollout, thresholds, s0, been_upright)]
+    body = rollout.root_body or ""
+    for mask, why in (
+        (
+            low,
+            lambda k: (
+                f"its height drops to {1000 * height[k]:.0f} mm "
+                f"(from {1000 * start_height:.0f} mm at the start)"
+            ),
+        ),
+        (tilted, lambda k: f"it tilts {tilt[k]:.0f}° from upright"),
+    ):
+        hits = np.flatnonzero(mask)
+        if len(hits):
+            k = int(hits[0])
+            t = float(rollout.times_s[k])
+            results.append(
+                CheckResult(
+                    CheckKind.FALL,
+                    Severity.ERROR,
+                    f"{body} falls at t={t:.2f} s: {why(k)}",
+                    t,
+                    bodies=(body,),
+                    value=float(tilt[k]) if mask is tilted else float(height[k]),
+                )
+            )
+    return results
+
+
+def _ground_contacts(
+    rollout: Rollout, thresholds: CheckThresholds, s0: int, been_upright: np.ndarray
+):
+    """Links other than feet on the ground after the start, once the robot has been upright
+    (while it still lies, anything may rest on the floor)."""
+    timeline = _Timeline(rollout, thresholds)
+    height, tilt = rollout.root_height_m, rollout.root_tilt_deg
+    assert height is not None and tilt is not None  # check_fall's caller made sure
+    start_height = float(height[s0])
+    for pair_index, pair in enumerate(rollout.contact_pairs):
+        if pair.kind != "ground":
+            continue
+        mask, _ = contact_mask(rollout, pair_index)
+        if mask[s0 : s0 + timeline.merge_steps + 1].any():
+            continue  # it rested there at the start (lying)
+        mask &= been_upright
+        runs = timeline.episodes(mask)
+        if not runs:
+            continue
+        k = runs[0][0]
+        t = timeline.start(runs[0])
+        yield CheckResult(
             CheckKind.FALL,
             Severity.ERROR,
-            f"{rollout.root_body} falls at t={t:.2f} s: {why}",
+            f"{pair.body_a} touches the {pair.body_b} at t={t:.2f} s: the robot collapses or "
+            f"falls ({rollout.root_body} {1000 * start_height:.0f} -> "
+            f"{1000 * float(height[k : runs[0][1]].min()):.0f} mm high, tilted up to "
+            f"{float(tilt[k : runs[0][1]].max()):.1f}°)",
             t,
-            bodies=(rollout.root_body or "",),
-            value=tilt if not low[step] else height,
+            timeline.duration(runs[0]),
+            bodies=(pair.body_a, pair.body_b),
+            value=float(tilt[k : runs[0][1]].max()),
         )
-    ]

@@ -14,11 +14,17 @@ import numpy as np
 
 from ..errors import PreviewError
 from ..robot import Robot
+from ..scene import Prop
 from ..servos import POSITION_RANGE_UNITS
 from .servo import ActuatorParams
 
 HOME_KEY = "home"
-NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT = 0, 1, 2
+# what a contact between two geoms means: nothing to report; two links that are not parent and
+# child; a fixed robot's link on a world geom; a parent and child link (the self-collision
+# check skips them, but MuJoCo simulates contacts with the world and its welded bodies); a
+# free-floating robot's link, other than a foot, on the floor or a prop
+NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT, NEIGHBOUR_CONTACT, GROUND_CONTACT = 0, 1, 2, 3, 4
+PROP_RGBA = (0.72, 0.55, 0.35, 1.0)
 
 
 @dataclass(frozen=True)
@@ -30,17 +36,35 @@ class JointIndex:
     actuator: np.ndarray
 
 
-def load_model(robot: Robot) -> mujoco.MjModel:
-    """The robot's scene (floor and light) or, without one, its bare MJCF."""
+def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
+    """The robot's scene (floor and light) or, without one, its bare MJCF; ``props`` are added
+    as boxes fixed in the world."""
     path = robot.scene_path or robot.mjcf_path
     if path is None:
         raise PreviewError(
             f"robot {robot.name} has no MuJoCo model: add mjcf (and scene) to {robot.path}"
         )
     try:
-        return mujoco.MjModel.from_xml_path(str(path))
+        if not props:
+            return mujoco.MjModel.from_xml_path(str(path))
+        spec = mujoco.MjSpec.from_file(str(path))
+        for prop in props:
+            _add_prop(spec, prop)
+        return spec.compile()
     except ValueError as error:
         raise PreviewError(f"{path}: MuJoCo cannot load it: {error}") from None
+
+
+def _add_prop(spec: mujoco.MjSpec, prop: Prop) -> None:
+    geom = spec.worldbody.add_geom()
+    geom.name = prop.name
+    geom.type = mujoco.mjtGeom.mjGEOM_BOX
+    geom.size = [size / 2 for size in prop.size_m]
+    x, y, z = prop.at_m
+    geom.pos = [x, y, z + prop.size_m[2] / 2]
+    half_yaw = np.radians(prop.yaw_deg) / 2
+    geom.quat = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
+    geom.rgba = PROP_RGBA
 
 
 def index_joints(model: mujoco.MjModel, robot: Robot) -> JointIndex:
@@ -100,12 +124,6 @@ def free_joint(model: mujoco.MjModel) -> int | None:
     return None
 
 
-def free_root_body(model: mujoco.MjModel) -> int | None:
-    """The body carrying the model's free joint, if it has one."""
-    joint_id = free_joint(model)
-    return None if joint_id is None else int(model.jnt_bodyid[joint_id])
-
-
 def link_of_body(model: mujoco.MjModel) -> np.ndarray:
     """Each body's link: the body its rigid group hangs from. Bodies welded to the world (a
     fixed robot's base) form the link of the robot's root body; the world itself is link 0."""
@@ -116,9 +134,11 @@ def link_of_body(model: mujoco.MjModel) -> np.ndarray:
     return links
 
 
-def contact_kinds(model: mujoco.MjModel, free_floating: bool) -> np.ndarray:
-    """(ngeom, ngeom) matrix: which geom pairs are a self-collision (links that are not parent
-    and child) or a floor contact (a fixed robot's link, other than its base, on a world geom)."""
+def contact_kinds(
+    model: mujoco.MjModel, free_floating: bool, feet: Sequence[int] = ()
+) -> np.ndarray:
+    """(ngeom, ngeom) matrix of what each geom pair's contact means (the ``*_CONTACT`` kinds);
+    ``feet`` are a free-floating robot's foot links, whose touching the ground is walking."""
     links = link_of_body(model)
     parent_link = np.array([links[model.body_parentid[link]] for link in range(model.nbody)])
     geom_link = links[model.geom_bodyid]
@@ -126,31 +146,22 @@ def contact_kinds(model: mujoco.MjModel, free_floating: bool) -> np.ndarray:
     on_world = model.geom_bodyid == 0
     world_a, world_b = on_world[:, None], on_world[None, :]
     robot_pair = ~world_a & ~world_b
-    adjacent = (a == b) | (parent_link[a] == b) | (parent_link[b] == a)
-    kinds = np.where(robot_pair & ~adjacent, SELF_CONTACT, NO_CONTACT)
-    if not free_floating:
+    neighbours = (parent_link[a] == b) | (parent_link[b] == a)
+    kinds = np.where(robot_pair & (a != b) & ~neighbours, SELF_CONTACT, NO_CONTACT)
+    kinds = np.where(robot_pair & (a != b) & neighbours, NEIGHBOUR_CONTACT, kinds)
+    robot_on_world = (world_a & ~world_b) | (world_b & ~world_a)
+    if free_floating:
+        foot = np.isin(geom_link, list(feet))
+        kinds = np.where(robot_on_world & ~(foot[None, :] | foot[:, None]), GROUND_CONTACT, kinds)
+    else:
         base = np.isin(geom_link, np.unique(model.body_rootid[1:]))
-        floor = (world_a & ~world_b & ~base[None, :]) | (world_b & ~world_a & ~base[:, None])
+        floor = robot_on_world & ~(base[None, :] | base[:, None])
         kinds = np.where(floor, FLOOR_CONTACT, kinds)
     return kinds.astype(np.int8)
 
 
 def link_name(model: mujoco.MjModel, link: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, link) or f"body {link}"
-
-
-def start_state(model: mujoco.MjModel, index: JointIndex, initial_deg: np.ndarray) -> mujoco.MjData:
-    """The MJCF's ``home`` keyframe (for a free-floating robot: where its body stands), with the
-    robot's joints at the motion's first pose."""
-    data = mujoco.MjData(model)
-    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY)
-    if key >= 0:
-        mujoco.mj_resetDataKeyframe(model, data, key)
-    data.qpos[index.qpos] = np.radians(initial_deg)
-    data.qvel[:] = 0.0
-    data.ctrl[index.actuator] = np.radians(initial_deg)
-    mujoco.mj_forward(model, data)
-    return data
 
 
 def geom_labels(model: mujoco.MjModel) -> list[str]:

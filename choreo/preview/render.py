@@ -1,8 +1,9 @@
 """Offscreen rendering of a rollout: mp4, gif, or a png contact sheet.
 
-Frames replay the recorded states (``Rollout.qpos``); the camera keeps the robot framed (it
-follows a free-floating robot's body) and every frame carries the time, the keyframe index and the
-problems the checks found at that moment.
+Frames replay the recorded states (``Rollout.qpos``), the settling and the approach before the
+motion included; a fixed camera frames everything the robot reaches over the whole rollout (so
+it neither bobs with the body nor leaves a fixed arm small), and every frame carries the time,
+the phase (settling, approach, motion), the keyframe index and the problems found at that moment.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 from ..errors import PreviewError
 from .checks import CheckKind, CheckResult
 from .gl import context_class, offscreen_backend
-from .model import free_root_body, load_model
+from .model import load_model
 from .sim import Rollout
 
 log = logging.getLogger(__name__)
@@ -28,12 +29,16 @@ FORMATS = (".mp4", ".gif", ".png")
 DEFAULT_FPS = {".mp4": 30.0, ".gif": 25.0, ".png": 30.0}
 SHEET_COLUMNS = 4
 PROBLEM_SHOWN_S = 0.5  # a problem shorter than this stays on screen this long
-CAMERA_SMOOTHING_S = 0.3  # time constant of the camera following a free-floating body
+FRAME_MARGIN = 1.12  # the framed volume fills this much less than the whole picture
+CAMERA_SAMPLES = 120  # robot states sampled to find the volume it sweeps
 SHORT_NAMES = {
     CheckKind.SELF_COLLISION: "collision",
     CheckKind.FLOOR_CONTACT: "floor",
     CheckKind.JOINT_LIMIT: "limit",
     CheckKind.SATURATION: "stall",
+    CheckKind.CANT_KEEP_UP: "can't keep up",
+    CheckKind.NEAR_MISS: "near miss",
+    CheckKind.NEIGHBOUR_CONTACT: "overlap",
     CheckKind.TRACKING_ERROR: "tracking",
     CheckKind.FALL: "fall",
 }
@@ -90,9 +95,9 @@ def render_preview(
         )
     fps = settings.fps or DEFAULT_FPS[suffix]
     if suffix == ".png":
-        times = np.linspace(0.0, rollout.duration_s, settings.sheet_frames)
+        times = np.linspace(rollout.start_s, rollout.duration_s, settings.sheet_frames)
     else:
-        times = frame_times(rollout.duration_s, fps)
+        times = rollout.start_s + frame_times(rollout.duration_s - rollout.start_s, fps)
     backend = offscreen_backend()
     frames = render_frames(rollout, times, settings, results, backend, on_frame)
     if suffix == ".mp4":
@@ -113,10 +118,10 @@ def render_frames(
     on_frame: ProgressCallback | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames (height, width, 3) uint8 at ``times_s``, one at a time."""
-    model = load_model(rollout.robot)
+    model = load_model(rollout.robot, rollout.props)
     data = mujoco.MjData(model)
     steps = np.clip(np.searchsorted(rollout.times_s, times_s - 1e-9), 0, len(rollout.times_s) - 1)
-    cameras = track_camera(model, rollout, steps)
+    camera = frame_camera(model, rollout, settings.width / settings.height)
     with FrameRenderer(
         model,
         settings.width,
@@ -128,19 +133,22 @@ def render_frames(
             data.qpos[:] = rollout.qpos[step]
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
-            yield renderer.render(
-                data, cameras[k], status_text(rollout, t), problem_text(results, t)
-            )
+            yield renderer.render(data, camera, status_text(rollout, t), problem_text(results, t))
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
 
 
 def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
-    """The overlay's (names, values) columns at time ``t``: the time and the keyframe index (of
-    the keyframe last reached, counting from 1)."""
+    """The overlay's (names, values) columns at time ``t``: the time, the phase (before the
+    motion: settling or approach) and the keyframe index (of the keyframe last reached,
+    counting from 1)."""
     names, values = ["time"], [f"{t:.2f} s"]
+    phase = rollout.phase(t)
+    if phase != "motion":
+        names.append("before")
+        values.append(phase)
     keyframes = rollout.keyframe_times_s
-    if keyframes:
+    if keyframes and phase == "motion":
         reached = int(np.searchsorted(keyframes, t + 1e-9, side="right"))
         names.append("keyframe")
         values.append(f"{max(reached, 1)} / {len(keyframes)}")
@@ -165,45 +173,68 @@ class CameraPose:
     elevation: float
 
 
-def track_camera(model: mujoco.MjModel, rollout: Rollout, steps: np.ndarray) -> list[CameraPose]:
-    """A camera that keeps the whole robot in view: fixed on a fixed robot's working volume,
-    following (smoothly) a free-floating robot's body."""
+def frame_camera(model: mujoco.MjModel, rollout: Rollout, aspect: float) -> CameraPose:
+    """One camera for the whole rollout, at the model's azimuth and elevation, aimed at the
+    middle of what the robot sweeps (every geom's bounding box over the whole rollout, props
+    included) and just close enough for all of it to fit the picture."""
+    points = _swept_corners(model, rollout)
+    azimuth, elevation = float(model.vis.global_.azimuth), float(model.vis.global_.elevation)
+    axes = np.stack(_camera_axes(azimuth, elevation))  # right, up, forward
+    seen = points @ axes.T  # each point in camera axes
+    low, high = seen.min(axis=0), seen.max(axis=0)
+    middle = (low + high) / 2
+    tan_v = math.tan(math.radians(model.vis.global_.fovy) / 2)
+    tan_h = tan_v * aspect
+    offset = seen - middle
+    # a point at depth d beyond the look-at point is seen at distance D + d: it fits when
+    # |x| <= (D + d) tan(half the field of view)
+    needed = np.maximum(np.abs(offset[:, 0]) / tan_h, np.abs(offset[:, 1]) / tan_v)
+    distance = float(np.max(needed * FRAME_MARGIN - offset[:, 2]))
+    x, y, z = (float(c) for c in middle @ axes)
+    return CameraPose((x, y, z), max(distance, 1e-3), azimuth, elevation)
+
+
+def _camera_axes(azimuth_deg: float, elevation_deg: float):
+    """MuJoCo's free camera: looking along ``forward`` (azimuth about z from +x, elevation
+    negative looking down)."""
+    az, el = math.radians(azimuth_deg), math.radians(elevation_deg)
+    forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    right = np.array([math.sin(az), -math.cos(az), 0.0])
+    up = np.cross(right, forward)
+    return right, up, forward
+
+
+def _swept_corners(model: mujoco.MjModel, rollout: Rollout) -> np.ndarray:
+    """The world corners of every robot geom's bounding box at sampled steps, and the props'."""
     data = mujoco.MjData(model)
-    robot_geoms = np.flatnonzero(model.geom_bodyid != 0)
-    root = free_root_body(model)
-    low, high, reach = np.full(3, np.inf), np.full(3, -np.inf), 0.0
-    anchors = np.empty((len(steps), 3))
-    for k, step in enumerate(steps):
+    geoms = np.flatnonzero(model.geom_bodyid != 0)
+    prop_names = {p.name for p in rollout.props}
+    props = np.array(
+        [
+            g
+            for g in range(model.ngeom)
+            if not model.geom_bodyid[g] and model.geom(g).name in prop_names
+        ],
+        dtype=int,
+    )
+    unit = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    steps = np.unique(np.linspace(0, len(rollout.times_s) - 1, CAMERA_SAMPLES).astype(int))
+    points = []
+    for step in steps:
         data.qpos[:] = rollout.qpos[step]
         mujoco.mj_kinematics(model, data)
-        points = data.geom_xpos[robot_geoms]
-        radius = model.geom_rbound[robot_geoms][:, None]
-        low = np.minimum(low, (points - radius).min(axis=0))
-        high = np.maximum(high, (points + radius).max(axis=0))
-        if root is not None:
-            anchors[k] = data.xpos[root]
-            reach = max(
-                reach, float(np.max(np.linalg.norm(points - anchors[k], axis=1) + radius[:, 0]))
-            )
-    if root is None:
-        centre = (low + high) / 2
-        anchors[:] = centre
-        reach = float(np.linalg.norm(high - low)) / 2
-    else:
-        anchors = _smooth(anchors, rollout.times_s[steps], CAMERA_SMOOTHING_S)
-    half_fov = math.radians(model.vis.global_.fovy) / 2
-    distance = reach / math.sin(half_fov)
-    azimuth, elevation = float(model.vis.global_.azimuth), float(model.vis.global_.elevation)
-    return [CameraPose(tuple(a), distance, azimuth, elevation) for a in anchors]
+        points.append(_geom_corners(model, data, geoms, unit))
+    if len(props):
+        points.append(_geom_corners(model, data, props, unit))
+    return np.concatenate(points)
 
 
-def _smooth(points: np.ndarray, times: np.ndarray, time_constant_s: float) -> np.ndarray:
-    """Exponential low-pass along time, so the camera glides instead of shaking with the body."""
-    out = points.copy()
-    for k in range(1, len(points)):
-        alpha = 1.0 - math.exp(-max(times[k] - times[k - 1], 0.0) / time_constant_s)
-        out[k] = out[k - 1] + alpha * (points[k] - out[k - 1])
-    return out
+def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarray:
+    aabb = model.geom_aabb[geoms]  # (g, 6): centre and half sizes in the geom's frame
+    local = aabb[:, None, :3] + unit[None] * aabb[:, None, 3:]  # (g, 8, 3)
+    rotation = data.geom_xmat[geoms].reshape(-1, 3, 3)
+    world = np.einsum("gij,gkj->gki", rotation, local) + data.geom_xpos[geoms][:, None, :]
+    return world.reshape(-1, 3)
 
 
 class FrameRenderer:

@@ -1,4 +1,5 @@
-"""The ``--report`` JSON: every check result, and per joint the worst tracking error and torque."""
+"""The ``--report`` JSON: how the simulation started and what it assumed, every check result,
+and per joint the worst tracking error and torque (peak as % of stall, time near the limit)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .checks import CheckResult, Severity
+from .checks import CheckResult, CheckThresholds, Severity
 from .sim import Rollout
 
 
@@ -18,14 +19,24 @@ class JointSummary:
     peak_torque_nm: float
     peak_torque_time_s: float
     stall_torque_nm: float
+    peak_torque_pct: float  # of the stall torque
+    near_limit_s: float  # time spent at or above the near-miss share of the stall torque
+    supply_v: float
+    deadband_deg: float
+    backlash_deg: float
 
 
-def joint_summaries(rollout: Rollout) -> list[JointSummary]:
+def joint_summaries(
+    rollout: Rollout, near_miss_fraction: float = CheckThresholds().near_miss_fraction
+) -> list[JointSummary]:
     error = np.abs(rollout.position_deg - rollout.command_deg)
     torque = np.abs(rollout.torque_nm)
+    dt = float(rollout.times_s[1] - rollout.times_s[0]) if len(rollout.times_s) > 1 else 0.0
     summaries = []
     for j, joint in enumerate(rollout.robot.joints):
         worst_error, peak = int(np.argmax(error[:, j])), int(np.argmax(torque[:, j]))
+        params = rollout.actuators[j]
+        share = torque[:, j] / params.stall_torque_nm
         summaries.append(
             JointSummary(
                 joint=joint.name,
@@ -33,22 +44,108 @@ def joint_summaries(rollout: Rollout) -> list[JointSummary]:
                 max_tracking_error_time_s=round(float(rollout.times_s[worst_error]), 4),
                 peak_torque_nm=round(float(torque[peak, j]), 4),
                 peak_torque_time_s=round(float(rollout.times_s[peak]), 4),
-                stall_torque_nm=round(rollout.actuators[j].stall_torque_nm, 4),
+                stall_torque_nm=round(params.stall_torque_nm, 4),
+                peak_torque_pct=round(100 * float(share[peak]), 1),
+                near_limit_s=round(float(np.sum(share >= near_miss_fraction)) * dt, 4),
+                supply_v=params.supply_v,
+                deadband_deg=params.deadband_deg,
+                backlash_deg=params.backlash_deg,
             )
         )
     return summaries
 
 
-def preview_report(rollout: Rollout, results: list[CheckResult], motion: str = "") -> dict:
+def start_lines(rollout: Rollout) -> list[str]:
+    """How the simulation started and what it assumed, one line each, for the CLI."""
+    lines = []
+    settling = rollout.settling
+    if settling is not None:
+        still = "still" if settling.still else "still moving"
+        if rollout.root_body is not None:
+            lines.append(
+                f"start: {rollout.posture.value} on the floor; settled for "
+                f"{settling.duration_s:.2f} s until {still}: {rollout.root_body} dropped "
+                f"{1000 * settling.drop_m:.1f} mm and tilted {settling.tilt_deg:.1f}°"
+            )
+        else:
+            lines.append(f"start: held the start pose {settling.duration_s:.2f} s until {still}")
+    if rollout.approach_start_s < 0:
+        lines.append(
+            f"approach: {-rollout.approach_start_s:.2f} s into the first keyframe "
+            f"(from t={rollout.approach_start_s:.2f} s), as the player plays it"
+        )
+    lines.append(f"servo model: {assumptions_text(rollout)}")
+    return lines
+
+
+def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
+    """The servo working hardest, for the CLI (every joint's figures are in the report)."""
+    summaries = joint_summaries(rollout.since_start(), near_miss_fraction)
+    worst = max(summaries, key=lambda s: (s.peak_torque_pct, s.near_limit_s))
+    return (
+        f"hardest-working servo: {worst.joint} at up to {worst.peak_torque_pct:.0f} % of its "
+        f"stall torque ({worst.near_limit_s:.2f} s at {100 * near_miss_fraction:.0f} % or more)"
+    )
+
+
+def assumptions_text(rollout: Rollout) -> str:
+    """The servo model's assumptions, each value once with the joints that differ named."""
+    parts = []
+    for field, unit in (
+        ("supply_v", " V"),
+        ("deadband_deg", "° dead band"),
+        ("backlash_deg", "° backlash"),
+    ):
+        values = [getattr(a, field) for a in rollout.actuators]
+        common = max(set(values), key=values.count)
+        others = [
+            f"{joint.name} {value:g}"
+            for joint, value in zip(rollout.robot.joints, values)
+            if value != common
+        ]
+        text = f"{common:g}{unit}"
+        if field == "supply_v":
+            rated = sorted({a.rated_supply_v for a in rollout.actuators})
+            text = f"supply {text} (rated {', '.join(f'{r:g}' for r in rated)} V)"
+        parts.append(text + (f" ({', '.join(others)})" if others else ""))
+    parts.append(f"moves start from the {rollout.move_start.value} (--move-start)")
+    return ", ".join(parts)
+
+
+def preview_report(
+    rollout: Rollout,
+    results: list[CheckResult],
+    motion: str = "",
+    thresholds: CheckThresholds | None = None,
+) -> dict:
+    thresholds = thresholds or CheckThresholds()
     errors = sum(r.severity is Severity.ERROR for r in results)
+    settling = rollout.settling
     return {
         "robot": rollout.robot.name,
         "motion": motion,
+        "start_s": round(rollout.start_s, 4),
+        "approach_start_s": round(rollout.approach_start_s, 4),
         "duration_s": round(rollout.duration_s, 4),
         "commands_end_s": round(rollout.commands_end_s, 4),
+        "start": {
+            "posture": rollout.posture.value,
+            "settle_s": round(settling.duration_s, 4) if settling else 0.0,
+            "still": settling.still if settling else True,
+            "drop_mm": round(1000 * settling.drop_m, 2) if settling else 0.0,
+            "tilt_deg": round(settling.tilt_deg, 2) if settling else 0.0,
+            "feet": list(rollout.feet),  # what may touch the ground (a free-floating robot)
+        },
+        "assumptions": {
+            "move_start": rollout.move_start.value,
+            "summary": assumptions_text(rollout),
+        },
         "ok": errors == 0,
         "errors": errors,
         "warnings": len(results) - errors,
         "checks": [r.to_dict() for r in results],
-        "joints": [asdict(s) for s in joint_summaries(rollout)],
+        # judged like the checks: from the start, after settling
+        "joints": [
+            asdict(s) for s in joint_summaries(rollout.since_start(), thresholds.near_miss_fraction)
+        ],
     }

@@ -20,28 +20,46 @@ import numpy as np
 
 from ..robot import Joint, Robot
 from ..segments import MAX_TICK_MS, Tick
-from ..servos import ACTUATOR_FIELDS, DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
+from ..servos import (
+    ACTUATOR_FIELDS,
+    DEG_PER_UNIT,
+    POSITION_RANGE_UNITS,
+    ZERO_OK_ACTUATOR_FIELDS,
+    servo_model,
+)
 
 INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
 
 
 @dataclass(frozen=True)
 class ActuatorParams:
-    """One joint's servo as MuJoCo sees it (SI units), plus its speed cap."""
+    """One joint's servo as MuJoCo sees it (SI units) at its supply voltage, plus its speed cap
+    and the assumptions made (supply, dead band, backlash)."""
 
     stall_torque_nm: float
     kp_nm_rad: float
     damping_nm_s_rad: float
     armature_kg_m2: float
     no_load_speed_deg_s: float
+    supply_v: float
+    deadband_deg: float
+    backlash_deg: float
+    rated_supply_v: float = 0.0  # the supply the datasheet figures are for (0: not given)
+
+    @property
+    def dead_zone_deg(self) -> float:
+        """Half-width of the position error that makes no torque: half the dead band plus half
+        the backlash (the gears turn that far before the output feels the motor)."""
+        return (self.deadband_deg + self.backlash_deg) / 2
 
 
 def actuator_params(
     robot: Robot,
     overrides: Mapping[str, Mapping[str, float]] | None = None,
 ) -> tuple[ActuatorParams, ...]:
-    """Every joint's actuator model from its servo model, then its robot file's ``actuator:``
-    values, then per-joint ``overrides`` (joint name -> {field of ``ActuatorParams``: value})."""
+    """Every joint's actuator model from its servo model, then the robot file's ``bus:
+    supply_v`` and each joint's ``actuator:`` values, then per-joint ``overrides`` (joint name ->
+    {field of ``ActuatorParams``: value})."""
     overrides = dict(overrides or {})
     unknown = sorted(set(overrides) - set(robot.joint_names))
     if unknown:
@@ -49,13 +67,24 @@ def actuator_params(
             f"actuator overrides name unknown joints {', '.join(unknown)}; "
             f"joints of {robot.name}: {', '.join(robot.joint_names)}"
         )
+    supply = robot.bus.supply_v
     return tuple(
-        _params_for(joint, {**joint.actuator, **overrides.get(joint.name, {})})
+        _params_for(
+            joint,
+            {
+                **({"supply_v": supply} if supply else {}),
+                **joint.actuator,
+                **overrides.get(joint.name, {}),
+            },
+        )
         for joint in robot.joints
     )
 
 
 def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
+    """The servo model's figures with ``override`` applied; torque, gain and speed then scale
+    with the supply (a PWM servo's drive voltage is the supply times its duty; back-EMF
+    damping does not depend on it, so no-load speed = stall torque / damping scales too)."""
     model = servo_model(joint.servo_model)
     values = {
         "stall_torque_nm": model.stall_torque_nm,
@@ -63,6 +92,9 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
         "damping_nm_s_rad": model.damping_nm_s_rad,
         "armature_kg_m2": model.armature_kg_m2,
         "no_load_speed_deg_s": model.no_load_speed_deg_s,
+        "supply_v": model.rated_supply_v,
+        "deadband_deg": model.deadband_deg,
+        "backlash_deg": model.backlash_deg,
     }
     for key, value in override.items():
         if key not in values:
@@ -70,12 +102,22 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
                 f"unknown actuator field {key!r} for joint {joint.name}; "
                 f"valid fields: {', '.join(ACTUATOR_FIELDS)}"
             )
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        zero_ok = key in ZERO_OK_ACTUATOR_FIELDS
+        if not (
+            isinstance(value, (int, float))
+            and math.isfinite(value)
+            and (value >= 0 if zero_ok else value > 0)
+        ):
+            bound = ">= 0" if zero_ok else "> 0"
             raise ValueError(
-                f"actuator field {key} of joint {joint.name} must be a number > 0, got {value!r}"
+                f"actuator field {key} of joint {joint.name} must be a number {bound}, "
+                f"got {value!r}"
             )
         values[key] = float(value)
-    return ActuatorParams(**values)
+    scale = values["supply_v"] / model.rated_supply_v
+    for key in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
+        values[key] *= scale
+    return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)
 
 
 @dataclass(frozen=True)

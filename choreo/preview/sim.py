@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 
 import mujoco
@@ -19,9 +19,12 @@ import numpy as np
 
 from ..errors import PreviewError
 from ..robot import Robot
+from ..scene import Prop, StartPosture
 from ..segments import Tick
 from .model import (
     FLOOR_CONTACT,
+    GROUND_CONTACT,
+    NEIGHBOUR_CONTACT,
     NO_CONTACT,
     SELF_CONTACT,
     apply_servo_models,
@@ -30,8 +33,8 @@ from .model import (
     geom_labels,
     index_joints,
     link_name,
+    link_of_body,
     load_model,
-    start_state,
 )
 from .servo import (
     ActuatorParams,
@@ -41,6 +44,7 @@ from .servo import (
     commanded_path_units,
     max_speed_units_s,
 )
+from .start import foot_links, start_state
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +65,7 @@ class MoveStart(str, Enum):
 
 @dataclass(frozen=True)
 class SimSettings:
-    settle_s: float = 0.5  # servos hold the first pose this long before the motion starts
+    max_settle_s: float = 2.0  # the start pose is held until the robot is still, at most this
     move_start: MoveStart = MoveStart.SETPOINT
     tail_s: float = 0.5  # keep simulating after the last move is due to finish
     min_contact_depth_m: float = 0.0  # touches this shallow or shallower are not recorded
@@ -69,16 +73,30 @@ class SimSettings:
     actuator_overrides: Mapping[str, Mapping[str, float]] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("settle_s", "tail_s", "min_contact_depth_m"):
+        for name in ("max_settle_s", "tail_s", "min_contact_depth_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
 
 
+STILL_SPEED = 0.01  # m/s and rad/s: every degree of freedom slower than this is still
+STILL_FOR_S = 0.05  # ... for this long
+MIN_SETTLE_S = 0.02
+
+CONTACT_NAMES = {
+    SELF_CONTACT: "self",
+    FLOOR_CONTACT: "floor",
+    NEIGHBOUR_CONTACT: "neighbour",
+    GROUND_CONTACT: "ground",
+}
+
+
 @dataclass(frozen=True)
 class ContactPair:
-    """Two things touching that should not: ``kind`` is "self" (two links that are not parent
-    and child) or "floor" (a fixed robot's link on a world geom, named ``body_b``)."""
+    """Two things touching that may not: ``kind`` is "self" (two links that are not parent and
+    child), "neighbour" (a parent and child link MuJoCo lets collide), "floor" (a fixed robot's
+    link on a world geom, named ``body_b``) or "ground" (a free-floating robot's link other than
+    a foot on the floor or a prop, named ``body_b``)."""
 
     kind: str
     body_a: str
@@ -86,8 +104,20 @@ class ContactPair:
 
 
 @dataclass(frozen=True)
+class Settling:
+    """The start pose held until still, before the approach: how far the body dropped and
+    tilted doing so (a free-floating robot's root body; zeros for a fixed robot)."""
+
+    duration_s: float
+    drop_m: float
+    tilt_deg: float
+    still: bool  # False: still moving after SimSettings.max_settle_s
+
+
+@dataclass(frozen=True)
 class Rollout:
-    """What happened, sampled at every physics step from t = 0 (the motion's start)."""
+    """What happened, sampled at every physics step. Times count from the motion's start:
+    negative ones are the settling, then the approach (from ``approach_start_s``)."""
 
     robot: Robot
     times_s: np.ndarray  # (n,)
@@ -106,14 +136,60 @@ class Rollout:
     root_body: str | None = None  # free-floating robots: the body carrying the free joint
     root_height_m: np.ndarray | None = None  # (n,)
     root_tilt_deg: np.ndarray | None = None  # (n,) angle between its z axis and the vertical
+    approach_start_s: float = 0.0  # <= 0: when the approach into the first pose begins
+    settling: Settling | None = None
+    posture: StartPosture = StartPosture.STANDING
+    props: tuple[Prop, ...] = ()
+    feet: tuple[str, ...] = ()  # a free-floating robot's foot links
+    move_start: MoveStart = MoveStart.SETPOINT
+    joint_links: tuple[str, ...] = ()  # the link each joint moves (robot joint order)
 
     @property
     def duration_s(self) -> float:
         return float(self.times_s[-1])
 
     @property
+    def start_s(self) -> float:
+        return float(self.times_s[0])
+
+    @property
+    def start_step(self) -> int:
+        """The first step of the approach: the robot at rest in its start pose."""
+        return int(np.searchsorted(self.times_s, self.approach_start_s - 1e-9))
+
+    @property
     def stall_torque_nm(self) -> np.ndarray:
         return np.array([a.stall_torque_nm for a in self.actuators])
+
+    def since_start(self) -> Rollout:
+        """The rollout from the start (the robot at rest before the approach): what the checks
+        judge; the settling before it is the simulation finding its feet, reported apart."""
+        k = self.start_step
+        keep = self.contact_step >= k
+
+        def cut(signal):
+            return None if signal is None else signal[k:]
+
+        return replace(
+            self,
+            times_s=self.times_s[k:],
+            position_deg=self.position_deg[k:],
+            setpoint_deg=self.setpoint_deg[k:],
+            command_deg=self.command_deg[k:],
+            torque_nm=self.torque_nm[k:],
+            qpos=self.qpos[k:],
+            contact_step=self.contact_step[keep] - k,
+            contact_pair=self.contact_pair[keep],
+            contact_depth_m=self.contact_depth_m[keep],
+            root_height_m=cut(self.root_height_m),
+            root_tilt_deg=cut(self.root_tilt_deg),
+        )
+
+    def phase(self, t: float) -> str:
+        """ "settling", "approach" or "motion" at time ``t``."""
+        if t < self.approach_start_s - 1e-9:
+            return "settling"
+        return "approach" if t < -1e-9 else "motion"
 
 
 def simulate(
@@ -122,9 +198,14 @@ def simulate(
     initial_deg: Sequence[float],
     keyframe_times_s: Sequence[float] = (),
     settings: SimSettings = SimSettings(),
+    *,
+    motion_start_s: float = 0.0,
+    posture: StartPosture = StartPosture.STANDING,
+    props: Sequence[Prop] = (),
 ) -> Rollout:
-    """Play ``ticks`` (what the bus will send) to the simulated robot, starting at rest at
-    ``initial_deg`` (robot joint order; the player approaches the first pose before starting)."""
+    """Play ``ticks`` (what the bus will send) to the simulated robot, which starts at rest at
+    ``initial_deg`` (robot joint order), held there until still. The motion itself starts
+    ``motion_start_s`` into the ticks (after the approach), and times are counted from there."""
     n_joints = len(robot.joints)
     initial_deg = np.asarray(initial_deg, dtype=float)
     if initial_deg.shape != (n_joints,):
@@ -135,103 +216,150 @@ def simulate(
     stream = CommandStream.from_ticks(ticks, n_joints)
     params = actuator_params(robot, settings.actuator_overrides)
 
-    model = load_model(robot)
+    model = load_model(robot, props)
     index = index_joints(model, robot)
     apply_servo_models(model, index, params, robot)
-    data = start_state(model, index, initial_deg)
+    root = free_joint(model)
+    feet: tuple[int, ...] = ()
+    if root is not None and "home" in robot.poses:
+        feet = foot_links(model, index, robot.pose_vector("home"))
+    data = start_state(model, index, initial_deg, posture)
     dt = float(model.opt.timestep)
-    for _ in range(round(settings.settle_s / dt)):  # ctrl holds the first pose
-        mujoco.mj_step(model, data)
+    dead_zone = np.radians([p.dead_zone_deg for p in params])
 
-    n = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     initial_units = robot.to_units(initial_deg)
     servos = ServoBank(initial_units, max_speed_units_s(params))
-    contacts = _ContactLog(model, settings.min_contact_depth_m)
-    qpos_log = np.empty((n, model.nq))
-    ctrl_log = np.empty((n, n_joints))
-    torque_log = np.empty((n, n_joints))
-    _run(
-        model,
-        data,
-        index,
-        stream,
-        servos,
-        robot,
-        settings.move_start,
-        n,
-        qpos_log,
-        ctrl_log,
-        torque_log,
-        contacts,
-    )
+    contacts = _ContactLog(model, settings.min_contact_depth_m, feet)
+    max_settle = round(settings.max_settle_s / dt)
+    n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
+    record = _Log(max_settle + n_run, model.nq, n_joints)
+    loop = _Loop(model, data, index, dead_zone, contacts, record)
+    settled = loop.settle(np.radians(initial_deg), max_settle)
+    n_settle = record.count
+    loop.run(stream, servos, robot, settings.move_start, n_run)
     _check_stable(model, data)
 
-    times = np.arange(n) * dt
-    root = free_joint(model)
+    n = record.count
+    stream_times = (np.arange(n) - n_settle) * dt
     height = tilt = None
     if root is not None:
-        height, tilt = _root_pose(qpos_log, model.jnt_qposadr[root])
+        height, tilt = _root_pose(record.qpos[:n], model.jnt_qposadr[root])
+    settling = Settling(
+        duration_s=n_settle * dt,
+        drop_m=float(height[0] - height[n_settle]) if height is not None else 0.0,
+        tilt_deg=float(abs(tilt[n_settle] - tilt[0])) if tilt is not None else 0.0,
+        still=settled,
+    )
     return Rollout(
         robot=robot,
-        times_s=times,
-        position_deg=np.degrees(qpos_log[:, index.qpos]),
-        setpoint_deg=np.degrees(ctrl_log),
-        command_deg=robot.to_deg(commanded_path_units(stream, initial_units, times)),
-        torque_nm=torque_log,
-        qpos=qpos_log,
+        times_s=stream_times - motion_start_s,
+        position_deg=np.degrees(record.qpos[:n, index.qpos]),
+        setpoint_deg=np.degrees(record.ctrl[:n]),
+        command_deg=robot.to_deg(commanded_path_units(stream, initial_units, stream_times)),
+        torque_nm=record.torque[:n],
+        qpos=record.qpos[:n],
         actuators=params,
         contact_pairs=contacts.pairs(),
         contact_step=np.array(contacts.steps, dtype=int),
         contact_pair=np.array(contacts.pair_index, dtype=int),
         contact_depth_m=np.array(contacts.depths_m, dtype=float),
-        commands_end_s=stream.end_s,
+        commands_end_s=stream.end_s - motion_start_s,
         keyframe_times_s=tuple(float(t) for t in keyframe_times_s),
         root_body=link_name(model, int(model.jnt_bodyid[root])) if root is not None else None,
         root_height_m=height,
         root_tilt_deg=tilt,
+        approach_start_s=-motion_start_s,
+        settling=settling,
+        posture=posture,
+        props=tuple(props),
+        feet=tuple(link_name(model, link) for link in feet),
+        move_start=settings.move_start,
+        joint_links=_joint_links(model, robot),
     )
 
 
-def _run(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    index,
-    stream: CommandStream,
-    servos: ServoBank,
-    robot: Robot,
-    move_start: MoveStart,
-    n: int,
-    qpos_log: np.ndarray,
-    ctrl_log: np.ndarray,
-    torque_log: np.ndarray,
-    contacts: _ContactLog,
-) -> None:
-    """The step loop, kept lean (it runs ~500 times per simulated second): between two STARTs
-    every set-point is a known function of time, so each stretch's controls are computed at
-    once and the loop only steps and records."""
-    dt = float(model.opt.timestep)
-    times = np.arange(n) * dt
-    started = np.flatnonzero(stream.started)
-    # the step at which each START happens: the first step at or after its time
-    start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
-    boundaries = sorted({0, n, *[int(b) for b in start_steps if b < n]})
-    actuators = index.actuator
-    for begin, end in zip(boundaries[:-1], boundaries[1:]):
-        for tick in started[start_steps == begin]:
-            if move_start is MoveStart.POSITION:
-                position_units = robot.to_units(np.degrees(data.qpos[index.qpos]))
-            else:
-                position_units = servos.setpoint_units(times[begin])
-            servos.start(stream, tick, times[begin], position_units)
-        ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
-        ctrl_log[begin:end] = ctrl
-        for step in range(begin, end):
-            data.ctrl[actuators] = ctrl[step - begin]
-            qpos_log[step] = data.qpos
-            mujoco.mj_step(model, data)  # its forces and contacts belong to the state at t
-            torque_log[step] = data.actuator_force[actuators]
-            if data.ncon:
-                contacts.see(data, step)
+def _joint_links(model: mujoco.MjModel, robot: Robot) -> tuple[str, ...]:
+    links = link_of_body(model)
+    return tuple(
+        link_name(model, int(links[model.joint(joint.mjcf_joint).bodyid[0]]))
+        for joint in robot.joints
+    )
+
+
+class _Log:
+    """The recorded signals, one row per physics step."""
+
+    def __init__(self, capacity: int, nq: int, n_joints: int):
+        self.qpos = np.empty((capacity, nq))
+        self.ctrl = np.empty((capacity, n_joints))
+        self.torque = np.empty((capacity, n_joints))
+        self.count = 0
+
+
+class _Loop:
+    """The step loop, kept lean (it runs ~500 times per simulated second)."""
+
+    def __init__(self, model, data, index, dead_zone_rad: np.ndarray, contacts, log: _Log):
+        self.model, self.data, self.index = model, data, index
+        self.dead_zone = dead_zone_rad
+        self.contacts, self.log = contacts, log
+
+    def step(self, ctrl_rad: np.ndarray) -> None:
+        """One physics step with the servos aiming at ``ctrl_rad``: inside its dead zone (dead
+        band and backlash) a servo's position error makes no torque."""
+        data, log, k = self.data, self.log, self.log.count
+        position = data.qpos[self.index.qpos]
+        data.ctrl[self.index.actuator] = ctrl_rad - np.clip(
+            ctrl_rad - position, -self.dead_zone, self.dead_zone
+        )
+        log.ctrl[k] = ctrl_rad
+        log.qpos[k] = data.qpos
+        mujoco.mj_step(self.model, data)  # its forces and contacts belong to the state at t
+        log.torque[k] = data.actuator_force[self.index.actuator]
+        if data.ncon:
+            self.contacts.see(data, k)
+        log.count = k + 1
+
+    def settle(self, hold_rad: np.ndarray, max_steps: int) -> bool:
+        """Hold the start pose until every degree of freedom has been still for a while (True)
+        or ``max_steps`` have passed (False)."""
+        dt = float(self.model.opt.timestep)
+        min_steps, still_steps = round(MIN_SETTLE_S / dt), round(STILL_FOR_S / dt)
+        still_since = 0
+        for k in range(max_steps):
+            self.step(hold_rad)
+            if np.abs(self.data.qvel).max(initial=0.0) >= STILL_SPEED:
+                still_since = k + 1
+            elif k + 1 >= max(min_steps, still_since + still_steps):
+                return True
+        return max_steps == 0
+
+    def run(
+        self,
+        stream: CommandStream,
+        servos: ServoBank,
+        robot: Robot,
+        move_start: MoveStart,
+        n: int,
+    ) -> None:
+        """The tick stream: between two STARTs every set-point is a known function of time, so
+        each stretch's controls are computed at once."""
+        dt = float(self.model.opt.timestep)
+        times = np.arange(n) * dt
+        started = np.flatnonzero(stream.started)
+        # the step at which each START happens: the first step at or after its time
+        start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
+        boundaries = sorted({0, n, *[int(b) for b in start_steps if b < n]})
+        for begin, end in zip(boundaries[:-1], boundaries[1:]):
+            for tick in started[start_steps == begin]:
+                if move_start is MoveStart.POSITION:
+                    position_units = robot.to_units(np.degrees(self.data.qpos[self.index.qpos]))
+                else:
+                    position_units = servos.setpoint_units(times[begin])
+                servos.start(stream, tick, times[begin], position_units)
+            ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
+            for row in ctrl:
+                self.step(row)
 
 
 def _check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -262,8 +390,8 @@ class _ContactLog:
     """The contacts worth reporting, step by step. Most steps repeat the previous step's contact
     pairs (feet on the floor), so pairs are only classified when they change."""
 
-    def __init__(self, model: mujoco.MjModel, min_depth_m: float):
-        self._kinds = contact_kinds(model, free_floating=free_joint(model) is not None)
+    def __init__(self, model: mujoco.MjModel, min_depth_m: float, feet: Sequence[int] = ()):
+        self._kinds = contact_kinds(model, free_floating=free_joint(model) is not None, feet=feet)
         self._labels = geom_labels(model)
         self._on_world = model.geom_bodyid == 0
         self._min_depth_m = min_depth_m
@@ -293,7 +421,7 @@ class _ContactLog:
     def _pair_id(self, g1: int, g2: int) -> int:
         kind = int(self._kinds[g1, g2])
         a, b = self._labels[g1], self._labels[g2]
-        if kind == FLOOR_CONTACT:
+        if kind in (FLOOR_CONTACT, GROUND_CONTACT):
             names = (b, a) if self._on_world[g1] else (a, b)
         else:
             names = tuple(sorted((a, b)))
@@ -301,6 +429,4 @@ class _ContactLog:
 
     def pairs(self) -> tuple[ContactPair, ...]:
         ordered = sorted(self._pair_ids, key=self._pair_ids.get)
-        return tuple(
-            ContactPair("self" if kind == SELF_CONTACT else "floor", a, b) for kind, a, b in ordered
-        )
+        return tuple(ContactPair(CONTACT_NAMES[kind], a, b) for kind, a, b in ordered)

@@ -51,12 +51,13 @@ def show_in_viewer(rollout: Rollout) -> None:
     _check_window_system()
     from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
 
-    model = load_model(rollout.robot)
+    model = load_model(rollout.robot, rollout.props)
     data = mujoco.MjData(model)
     with mujoco_viewer.launch_passive(model, data) as viewer:
         started = time.monotonic()
         while viewer.is_running():
-            t = (time.monotonic() - started) % rollout.duration_s if rollout.duration_s else 0.0
+            span = rollout.duration_s - rollout.start_s
+            t = rollout.start_s + ((time.monotonic() - started) % span if span else 0.0)
             step = min(int(np.searchsorted(rollout.times_s, t)), len(rollout.times_s) - 1)
             data.qpos[:] = rollout.qpos[step]
             mujoco.mj_forward(model, data)
