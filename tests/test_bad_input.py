@@ -789,7 +789,9 @@ def test_plan_plot_draws_a_time_window(tmp_path, capsys):
     gait = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
     whole, window = tmp_path / "whole.png", tmp_path / "window.png"
     assert main(["plan", str(gait), "--plot", str(whole)]) == 0
-    assert main(["plan", str(gait), "--plot", str(window), "--from", "2", "--to", "4"]) == 0
+    assert (
+        main(["plan", str(gait), "--plot", str(window), "--plot-from", "2", "--plot-to", "4"]) == 0
+    )
     assert png_size(window) == png_size(whole) == plot_size_px(18)
     assert window.read_bytes() != whole.read_bytes()
     capsys.readouterr()
@@ -799,11 +801,17 @@ def test_plan_plot_draws_a_time_window(tmp_path, capsys):
     "extra, line",
     [
         (
-            ["--from", "20"],
-            "choreo: error: --from 20 is past the end of the motion: it lasts 4.900 s",
+            ["--plot-from", "20"],
+            "choreo: error: --plot-from 20 is past the end of the motion: it lasts 4.900 s",
         ),
-        (["--to", "9"], "choreo: error: --to 9 is past the end of the motion: it lasts 4.900 s"),
-        (["--from", "3", "--to", "2"], "choreo: error: --from 3 must be before --to 2"),
+        (
+            ["--plot-to", "9"],
+            "choreo: error: --plot-to 9 is past the end of the motion: it lasts 4.900 s",
+        ),
+        (
+            ["--plot-from", "3", "--plot-to", "2"],
+            "choreo: error: --plot-from 3 must be before --plot-to 2",
+        ),
     ],
 )
 def test_a_plot_window_outside_the_motion_is_refused_not_clamped(tmp_path, capsys, extra, line):
@@ -814,9 +822,9 @@ def test_a_plot_window_outside_the_motion_is_refused_not_clamped(tmp_path, capsy
 
 
 def test_a_plot_window_needs_a_plot(capsys):
-    assert main(["plan", str(WAVE), "--from", "1"]) == 2
+    assert main(["plan", str(WAVE), "--plot-from", "1"]) == 2
     assert error_line(capsys) == (
-        "choreo: error: --from and --to choose what --plot draws: add --plot FILE.png"
+        "choreo: error: --plot-from and --plot-to choose what --plot draws: add --plot FILE.png"
     )
 
 

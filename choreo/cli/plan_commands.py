@@ -36,16 +36,14 @@ def register(subparsers) -> None:
         help="draw position and velocity per joint: smooth plan against the ticks",
     )
     plan.add_argument(
-        "--from",
-        dest="plot_from",
+        "--plot-from",
         type=non_negative_float,
         metavar="S",
         help="with --plot: start the plot at S seconds (default 0), for a close look at a "
         "long motion",
     )
     plan.add_argument(
-        "--to",
-        dest="plot_to",
+        "--plot-to",
         type=non_negative_float,
         metavar="S",
         help="with --plot: end the plot at S seconds (default: the end of the motion)",
@@ -75,9 +73,11 @@ class JointFigures:
 def run_plan(args: argparse.Namespace) -> int:
     window_asked = args.plot_from is not None or args.plot_to is not None
     if window_asked and args.plot is None:
-        raise UsageError("--from and --to choose what --plot draws: add --plot FILE.png")
+        raise UsageError("--plot-from and --plot-to choose what --plot draws: add --plot FILE.png")
     if args.plot_from is not None and args.plot_to is not None and args.plot_from >= args.plot_to:
-        raise UsageError(f"--from {args.plot_from:g} must be before --to {args.plot_to:g}")
+        raise UsageError(
+            f"--plot-from {args.plot_from:g} must be before --plot-to {args.plot_to:g}"
+        )
     if args.plot is not None:
         check_output(args.plot)
     motion = load_motion(args.motion)
@@ -111,16 +111,17 @@ def run_plan(args: argparse.Namespace) -> int:
 
 
 def plot_window(args: argparse.Namespace, duration_s: float) -> tuple[float, float]:
-    """--from/--to as a time window of the planned motion, refused (not clamped) outside it."""
+    """--plot-from/--plot-to as a time window of the planned motion; refused outside it, not
+    clamped."""
     start_s = 0.0 if args.plot_from is None else args.plot_from
     end_s = duration_s if args.plot_to is None else args.plot_to
-    for option, value in (("--from", start_s), ("--to", end_s)):
+    for option, value in (("--plot-from", start_s), ("--plot-to", end_s)):
         if value > duration_s + 1e-9:
             raise UsageError(
                 f"{option} {value:g} is past the end of the motion: it lasts {duration_s:.3f} s"
             )
     if start_s >= end_s:
-        raise UsageError(f"--from {start_s:g} must be before the end, {end_s:.3f} s")
+        raise UsageError(f"--plot-from {start_s:g} must be before the end, {end_s:.3f} s")
     return start_s, end_s
 
 
