@@ -22,11 +22,6 @@ from dataclasses import dataclass
 import serial
 
 from . import emulator
-
-try:  # pyserial's POSIX port lets termios.error (not an OSError) out of flushes on a lost port
-    from termios import error as _TermiosError
-except ImportError:  # Windows
-    _TermiosError = OSError
 from .errors import BusTimeoutError, PortError, ProtocolError
 from .protocol import (
     BROADCAST_ID,
@@ -37,6 +32,16 @@ from .protocol import (
     decode_reply,
     encode_request,
 )
+
+# What a port failing under us raises. pyserial's POSIX port lets termios.error (not an
+# OSError) out of flushes on a lost port.
+_PORT_LOST: tuple[type[BaseException], ...] = (serial.SerialException, OSError)
+try:
+    import termios
+
+    _PORT_LOST += (termios.error,)
+except ImportError:  # Windows
+    pass
 
 log = logging.getLogger(__name__)
 
@@ -264,7 +269,7 @@ class ServoBus:
         """Turn the port failing under us (an unplugged USB adapter) into one clear PortError."""
         try:
             yield
-        except (serial.SerialException, OSError, _TermiosError) as error:
+        except _PORT_LOST as error:
             raise PortError(
                 f"{self.name}: the port was lost ({error}): check the USB cable"
             ) from error

@@ -148,7 +148,7 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
     if None in (name, description, speed, repeat, start, props) or reader.problems:
         return None
     keyframes = _fill_poses(robot, steps)
-    unrolled = too_many_played(len(keyframes), repeat)
+    unrolled = too_many_played(len(keyframes), repeat) if repeat is not None else None
     if unrolled is not None:
         reader.report(fields["repeat"].value, unrolled)
         return None

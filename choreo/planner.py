@@ -412,7 +412,7 @@ class _Planner:
             if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
                 if not self.stretch:
                     earliest = leave + seg.duration_s
-                    asked = wanted - self.earlier_shift_s(i + 1, shift)
+                    asked = requested + leave - self.earlier_shift_s(i + 1, shift)  # = wanted
                     too_early[i + 1] = self.too_early_message(i + 1, asked, earliest)
                 shift[i + 1] = seg.duration_s - requested
             segments[i] = seg
