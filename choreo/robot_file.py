@@ -216,6 +216,11 @@ def _joint_from_fields(
         else 1
     )
     low, high = number("min", None), number("max", None)
+    if low is not None and high is not None and low >= high:  # said even if other values fail
+        reader.report(
+            fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below max {fmt(high)}°"
+        )
+        low = None
     mjcf_joint = (
         reader.string(fields["mjcf_joint"].value, labels["mjcf_joint"])
         if "mjcf_joint" in fields
@@ -304,12 +309,8 @@ def _check_travel(
     zero: float,
     direction: int,
 ) -> bool:
-    """min < max, and both limits map to servo positions inside the servo's range."""
-    if low >= high:
-        reader.report(
-            fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below max {fmt(high)}°"
-        )
-        return False
+    """Both limits (min < max, checked as they are read) map to servo positions inside the
+    servo's range."""
     first, last = POSITION_RANGE_UNITS
     reach = sorted(units_to_deg(position, zero, direction) for position in POSITION_RANGE_UNITS)
     ok = True

@@ -684,7 +684,7 @@ def test_a_planning_error_inside_an_include_says_through_which(tmp_path, capsys)
 
 
 def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
-    """The bus, a joint, a pose and the model file: four sections, one run, every line."""
+    """The bus, a joint (two problems), a pose and the model file: one run, every line."""
     robot = tmp_path / "arm6" / "robot.yaml"
     robot.parent.mkdir()
     for source in (REPO / "models" / "arm6").iterdir():
@@ -694,8 +694,8 @@ def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
         .replace("mjcf: arm6.xml", "mjcf: nothere.xml")
         .replace("defaults:", "bus: {retries: 100}\ndefaults:", 1)
         .replace(
-            "base_yaw:    {id: 1, zero: 500, direction: 1,",
-            "base_yaw:    {id: 1, zero: 500, direction: 2,",
+            "base_yaw:    {id: 1, zero: 500, direction: 1, min: -120, max: 120}",
+            "base_yaw:    {id: 1, zero: 500, direction: 2, min: 120, max: -120}",
         )
         .replace("rest:  {base_yaw: 0,", "rest:  {base_yw: 0,")
     )
@@ -705,6 +705,7 @@ def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
         f"the MuJoCo model {robot.parent / 'nothere.xml'} does not exist",
         "bus: retries must be in 0..9, got 100",
         "joint 'base_yaw': direction must be 1 or -1, got 2",
+        "joint 'base_yaw': min 120° must be below max -120°",  # not hidden by the direction
         "pose 'rest' does not give base_yaw; every pose names every joint",
         "pose 'rest': unknown joint 'base_yw' (did you mean 'base_yaw'?); the robot's joints are "
         "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper",
