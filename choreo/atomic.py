@@ -20,8 +20,7 @@ def atomic_output(path: Path) -> Iterator[Path]:
     umask), not mkstemp's 0600. The data and the new name are flushed to disk before returning
     (a crash right after loses nothing)."""
     path = Path(path)
-    if not path.parent.is_dir():
-        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
+    check_writable(path)
     handle, temporary = tempfile.mkstemp(
         prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent
     )
@@ -36,6 +35,21 @@ def atomic_output(path: Path) -> Iterator[Path]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
+
+
+def check_writable(path: Path, *, overwrite: bool = True) -> None:
+    """``ChoreoError`` if ``path`` cannot be written: it is a folder, its folder is missing or
+    not writable, or (without ``overwrite``) it exists. Commands call it before their work, so
+    nothing is computed for an output that would fail at the end."""
+    path = Path(path)
+    if path.is_dir():
+        raise ChoreoError(f"cannot write {path}: it is a folder")
+    if not path.parent.is_dir():
+        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise ChoreoError(f"cannot write {path}: the folder {path.parent} is not writable")
+    if not overwrite and path.exists():
+        raise ChoreoError(f"{path} exists: choose another file, or add --overwrite")
 
 
 def write_text_atomically(path: Path, text: str) -> None:

@@ -13,7 +13,6 @@ from pathlib import Path
 from ..bus import ServoBus
 from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
-from ..errors import ChoreoError
 from ..protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
@@ -114,17 +113,6 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-
-
-def check_output(path: Path, *, overwrite: bool = True) -> None:
-    """Refuse an output file that can't be written, before any work is done: its folder is
-    missing, it is a folder, or (without ``overwrite``) it exists — the input file too."""
-    if path.is_dir():
-        raise ChoreoError(f"cannot write {path}: it is a folder")
-    if not path.parent.is_dir():
-        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
-    if not overwrite and path.exists():
-        raise ChoreoError(f"{path} exists: choose another file, or add --overwrite")
 
 
 def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..atomic import check_writable
 from ..d6a import TIME_RANGE_MS, export_d6a, import_d6a
 from ..mirror import write_mirrored
 from ..motion import load_motion
 from ..robot_file import load_robot
-from .arguments import add_output_arguments, check_output, id_sequence
+from .arguments import add_output_arguments, id_sequence
 
 
 def register(subparsers) -> None:
@@ -71,7 +72,7 @@ def register(subparsers) -> None:
 
 
 def run_import_d6a(args: argparse.Namespace) -> int:
-    check_output(args.output, overwrite=args.overwrite)
+    check_writable(args.output, overwrite=args.overwrite)
     robot = load_robot(args.robot)
     keyframes = import_d6a(args.file, robot, args.output, args.ids)
     print(
@@ -82,7 +83,7 @@ def run_import_d6a(args: argparse.Namespace) -> int:
 
 
 def run_export_d6a(args: argparse.Namespace) -> int:
-    check_output(args.output, overwrite=args.overwrite)
+    check_writable(args.output, overwrite=args.overwrite)
     motion = load_motion(args.motion)
     rows = export_d6a(motion, args.output)
     total_s = sum(row.time_ms for row in rows) / 1000
@@ -91,7 +92,7 @@ def run_export_d6a(args: argparse.Namespace) -> int:
 
 
 def run_mirror(args: argparse.Namespace) -> int:
-    check_output(args.output, overwrite=args.overwrite)
+    check_writable(args.output, overwrite=args.overwrite)
     motion = load_motion(args.motion)
     keyframes = write_mirrored(motion, args.output)
     print(f"wrote {args.output}: {_count(len(keyframes), 'keyframe')}, {motion.name} mirrored")

@@ -10,10 +10,11 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic import check_writable
 from ..errors import UsageError
 from ..motion import Motion, load_motion
 from ..pipeline import CompiledMotion, compile_motion
-from .arguments import add_planning_arguments, check_output, non_negative_float
+from .arguments import add_planning_arguments, non_negative_float
 
 
 def register(subparsers) -> None:
@@ -79,7 +80,7 @@ def run_plan(args: argparse.Namespace) -> int:
             f"--plot-from {args.plot_from:g} must be before --plot-to {args.plot_to:g}"
         )
     if args.plot is not None:
-        check_output(args.plot)
+        check_writable(args.plot)
     motion = load_motion(args.motion)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance

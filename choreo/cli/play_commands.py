@@ -12,13 +12,14 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from ..atomic import check_writable
 from ..clock import RealClock
 from ..emulator.trace import start_skew_ms
 from ..errors import UsageError
 from ..motion import load_motion, too_many_played
 from ..path_errors import measured_path_errors
 from ..pipeline import CompiledMotion, compile_motion
-from ..play_report import check_report_path, report_document, transport_of, write_report
+from ..play_report import report_document, transport_of, write_report
 from ..player import (
     ExitMode,
     Outcome,
@@ -106,7 +107,7 @@ def run_play(args: argparse.Namespace) -> int:
     if args.report is not None:
         if args.dry_run:
             raise UsageError("--report needs a play; --dry-run plays nothing")
-        check_report_path(args.report)
+        check_writable(args.report)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )

@@ -12,12 +12,12 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from ..atomic import atomic_output, write_text_atomically
+from ..atomic import atomic_output, check_writable, write_text_atomically
 from ..errors import UsageError
 from ..motion import load_motion
 from ..scene import StartPosture
 from ..validate import heading_for
-from .arguments import add_planning_arguments, check_output, positive_float, positive_int
+from .arguments import add_planning_arguments, positive_float, positive_int
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
 
@@ -177,7 +177,7 @@ def run_preview(args: argparse.Namespace) -> int:
         raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
     for path in (output, args.report):
         if path is not None:
-            check_output(path)
+            check_writable(path)
 
     from .. import preview  # imports mujoco: only when this command runs
 
