@@ -38,6 +38,16 @@ from .protocol import (
     encode_request,
 )
 
+# What a port failing under us raises. pyserial's POSIX port lets termios.error (not an
+# OSError) out of flushes on a lost port.
+_PORT_LOST: tuple[type[BaseException], ...] = (serial.SerialException, OSError)
+try:
+    import termios
+
+    _PORT_LOST += (termios.error,)
+except ImportError:  # Windows
+    pass
+
 log = logging.getLogger(__name__)
 
 BAUDRATE = 115200
@@ -284,7 +294,7 @@ class ServoBus:
         """Turn the port failing under us (an unplugged USB adapter) into one clear PortError."""
         try:
             yield
-        except (serial.SerialException, OSError) as error:
+        except _PORT_LOST as error:
             raise PortError(
                 f"{self.name}: the port was lost ({error}): check the USB cable"
             ) from error

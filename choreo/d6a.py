@@ -73,6 +73,8 @@ def read_action_group(path: str | Path) -> ActionGroup:
     """Read a .d6a file (opened read-only); ``SourceError`` with one line saying what is wrong
     if it is not an action group. Values are taken as they are; see ``keyframes_from_group``."""
     path = Path(path)
+    if path.is_dir():
+        raise SourceError(f"{path}: is a folder, not an action group (.d6a) file")
     if not path.is_file():
         raise SourceError(f"{path}: no such file")
     uri = f"{path.resolve().as_uri()}?mode=ro"
@@ -322,7 +324,9 @@ def rows_from_motion(motion: Motion) -> tuple[tuple[str, ...], tuple[ActionRow, 
     for k, (p, arrive_s) in enumerate(zip(played, arrivals_s)):
         arrive_ms = round(1000 * arrive_s)
         time_ms = arrive_ms - left_ms
-        if k == 0 and _untimed(p.keyframe):
+        if k == 0 and (_untimed(p.keyframe) or time_ms == 0):
+            # `t: 0` on the first keyframe is where the motion starts, like no time at all:
+            # row 1 is reached by the approach
             time_ms = _first_move_ms(robot, p.keyframe)
         positions = tuple(
             float(round(robot.joints[j].to_units(p.keyframe.targets_deg[j]))) for j in order

@@ -2,7 +2,7 @@
 
 Bad arguments to a function are plain ``ValueError`` (naming the field and its valid range).
 Everything a user can run into at the edges is a ``ChoreoError``; the CLI prints its message as
-one line and exits 1.
+one line and exits 1, or 2 for a ``UsageError``.
 """
 
 from __future__ import annotations
@@ -10,6 +10,11 @@ from __future__ import annotations
 
 class ChoreoError(Exception):
     """Base of every error choreo reports to a user."""
+
+
+class UsageError(ChoreoError):
+    """The command line asks for something that can't be done as written (a bad option value or
+    combination); the CLI prints it as one line and exits 2, as argparse does."""
 
 
 # --- the bus -----------------------------------------------------------------------------------

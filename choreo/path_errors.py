@@ -12,7 +12,7 @@ import numpy as np
 
 from .emulator.servo import StartedMove
 from .emulator.trace import executed_units
-from .player import Performance, PlayReport
+from .player import Outcome, Performance, PlayReport
 from .robot import Robot
 
 SAMPLE_S = 0.002  # the path is compared every 2 ms
@@ -48,8 +48,14 @@ def measured_path_errors(
     start_pose: Sequence[float],
 ) -> tuple[float, ...]:
     """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms) during
-    a play that started with the servos at ``start_pose`` (degrees)."""
-    times = np.arange(0.0, report.planned_s, SAMPLE_S)
+    a play that started with the servos at ``start_pose`` (degrees), over the part played:
+    after a stop, the plan's remainder was never asked of the servos."""
+    played_s = (
+        report.planned_s
+        if report.outcome is Outcome.COMPLETED
+        else min(report.elapsed_s, report.planned_s)
+    )
+    times = np.arange(0.0, played_s, SAMPLE_S)
     start_units = [j.to_units(a) for j, a in zip(robot.joints, start_pose)]
     return path_errors_deg(
         moves, robot, start_units, report.start_time_s, times, performance.planned_deg(times)

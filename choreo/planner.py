@@ -28,11 +28,11 @@ from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization
+from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
 from .errors import PlanningError
-from .motion import Keyframe, Motion
+from .motion import Keyframe, Motion, too_many_played
 from .robot import Robot
 from .timing import (
     PlayedKeyframe,
@@ -47,6 +47,11 @@ log = logging.getLogger(__name__)
 
 PHASES = 7  # constant-jerk phases of one ruckig profile
 DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
+# Longest time between leaving one keyframe and reaching the next. Ruckig 0.19.4 fails beyond
+# its numerical limits (RuckigError, or a result code its Python enum doesn't know) from a few
+# hundred seconds up when the joints pass through with some velocity; 300 s never failed in
+# randomized trials. Longer pauses are a `hold`, which ruckig never sees.
+MAX_SEGMENT_S = 300.0
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
 APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
@@ -260,7 +265,13 @@ class _Solver:
         inp.max_acceleration = limits.acc
         inp.max_jerk = limits.jerk
         inp.minimum_duration = minimum_duration_s
-        result = self._ruckig.calculate(inp, self._output)
+        try:
+            result = self._ruckig.calculate(inp, self._output)
+        except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
+            raise PlanningError(
+                f"ruckig could not plan a segment from {np.round(p0, 3).tolist()} to "
+                f"{np.round(p1, 3).tolist()}: {str(error).strip().splitlines()[0]}"
+            ) from error
         if result != Result.Working:
             raise PlanningError(
                 f"ruckig could not plan a segment ({result.name}) from "
@@ -387,11 +398,14 @@ class _Planner:
         arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
         segments: dict[int, _Segment] = {}  # by index: damping may plan one again
+        too_early: dict[int, str] = {}  # without stretch: planned on as if stretched, to say all
         i = 0
         while i < m - 1:
             leave = arrive[i] + self.holds_s[i]
             wanted = wanted_arrival_s(self.played, i + 1, arrive, shift)
             requested = None if wanted is None else wanted - leave
+            if requested is not None and requested > MAX_SEGMENT_S:
+                raise PlanningError(self.too_long_message(i + 1, requested))
             seg = self.solver.solve(
                 self.pose_lists[i],
                 velocities[i].tolist(),
@@ -406,18 +420,27 @@ class _Planner:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
             shift[i + 1] = 0.0
-            if wanted is not None and seg.duration_s > wanted - leave + DURATION_EPS_S:
+            too_early.pop(i + 1, None)
+            if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
                 if not self.stretch:
                     earliest = leave + seg.duration_s
-                    raise PlanningError(self.too_early_message(i + 1, wanted, earliest))
-                shift[i + 1] = seg.duration_s - (wanted - leave)
+                    asked = requested + leave - self.earlier_shift_s(i + 1, shift)  # = wanted
+                    too_early[i + 1] = self.too_early_message(i + 1, asked, earliest)
+                shift[i + 1] = seg.duration_s - requested
             segments[i] = seg
             arrive[i + 1] = leave + seg.duration_s
             i += 1
+        if too_early:
+            raise PlanningError("\n".join(too_early[k] for k in sorted(too_early)))
         stretches = [
             Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
         ]
         return [segments[k] for k in range(m - 1)], arrive, stretches
+
+    def earlier_shift_s(self, i: int, shift: np.ndarray) -> float:
+        """How much of keyframe i's wanted time comes from stretching keyframes before it."""
+        p = self.played[i]
+        return float(shift[(p.anchor or 0) + 1 : i].sum()) if p.timing is Timing.AT else 0.0
 
     def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
         """Lower the pass-through velocities that make segment i overshoot; return the segment
@@ -437,6 +460,16 @@ class _Planner:
             f"overshoots even from rest to rest"
         )
 
+    def too_long_message(self, i: int, requested_s: float) -> str:
+        p = self.played[i]
+        speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
+        return (
+            f"{p.keyframe.where}: keyframe{p.keyframe.where.through} reached {requested_s:.6g} s "
+            "after leaving the one "
+            f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
+            f"hold the one before instead (hold: is not limited), or add keyframes in between"
+        )
+
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
         p = self.played[i]
         kf = p.keyframe
@@ -449,8 +482,8 @@ class _Planner:
         )
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
         return (
-            f"{kf.where}: keyframe cannot be reached at {wanted:.3f} s{speed}: the "
-            f"velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
+            f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: "
+            f"the velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
             f"earliest; use {fix}, a lower speed, or stretch"
         )
 
@@ -536,6 +569,9 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
     _check_targets(robot, motion.keyframes)
+    unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
+    if unrolled is not None:
+        raise PlanningError(f"{motion.path}: {unrolled}")
     played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=speed)
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()

@@ -9,7 +9,6 @@ the servos' real paths strayed from the smooth plan.
 from __future__ import annotations
 
 import json
-import os
 import urllib.parse
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -17,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from .atomic import write_text_atomically
-from .errors import ChoreoError
 from .player import PlayReport
 
 REPORT_FORMAT = "choreo-play-report"
@@ -50,18 +48,6 @@ def transport_of(port_name: str, report: PlayReport | None = None) -> Transport:
     if report is None:
         return transport
     return replace(transport, name=report.transport, start_skew_ms=report.start_skew_ms)
-
-
-def check_report_path(path: Path) -> None:
-    """Refuse, before anything moves, a report that could not be written afterwards."""
-    if path.is_dir():
-        raise ChoreoError(f"--report {path}: is a folder; give a file name such as play.json")
-    if not path.parent.is_dir():
-        raise ChoreoError(
-            f"--report {path}: the folder {path.parent} does not exist; create it first"
-        )
-    if not os.access(path.parent, os.W_OK | os.X_OK):
-        raise ChoreoError(f"--report {path}: the folder {path.parent} is not writable")
 
 
 def report_document(

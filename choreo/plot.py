@@ -34,9 +34,15 @@ def plot_size_px(n_joints: int) -> tuple[int, int]:
 
 
 def plot_plan(
-    trajectory: Trajectory, plan: TickPlan, robot: Robot, path: Path, title: str = ""
+    trajectory: Trajectory,
+    plan: TickPlan,
+    robot: Robot,
+    path: Path,
+    title: str = "",
+    window_s: tuple[float, float] | None = None,
 ) -> None:
-    """Write a PNG: one row per joint, position (left) and velocity (right) against time."""
+    """Write a PNG: one row per joint, position (left) and velocity (right) against time;
+    ``window_s`` = (start, end) draws only that stretch of a long motion, in full detail."""
     n = len(robot.joints)
     width, height = plot_size_px(n)
     figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
@@ -51,13 +57,24 @@ def plot_plan(
         wspace=0.16,
     )
 
-    times_s = np.linspace(
-        0.0,
-        max(trajectory.duration_s, 1e-3),
-        int(np.clip(trajectory.duration_s * 400, 2000, 40000)),
-    )
+    start_s, end_s = window_s if window_s is not None else (0.0, trajectory.duration_s)
+    if not 0 <= start_s < end_s <= trajectory.duration_s + 1e-9 and window_s is not None:
+        raise ValueError(
+            f"window_s must lie within 0..{trajectory.duration_s:g} s with start < end, "
+            f"got {window_s}"
+        )
+    end_s = max(end_s, start_s + 1e-3)
+    times_s = np.linspace(start_s, end_s, int(np.clip((end_s - start_s) * 400, 2000, 40000)))
     pos, vel, _ = trajectory.sample(times_s)
     bounds_s, tick_deg, tick_vel = _servo_path(trajectory, plan, robot)
+    # the ticks in the window and one either side: the y axes fit what is shown
+    first = max(int(np.searchsorted(bounds_s, start_s, side="right")) - 1, 0)
+    last = min(int(np.searchsorted(bounds_s, end_s, side="left")) + 1, len(bounds_s))
+    bounds_s, tick_deg, tick_vel = (
+        bounds_s[first:last],
+        tick_deg[first:last],
+        tick_vel[first : max(last - 1, first)],
+    )
 
     for j, joint in enumerate(robot.joints):
         ax_pos, ax_vel = axes[j]
@@ -100,6 +117,7 @@ def plot_plan(
 
     axes[0, 0].set_title("position", fontsize=10)
     axes[0, 1].set_title("velocity (dashed: ±limit)", fontsize=10)
+    axes[0, 0].set_xlim(start_s, end_s)  # shared by every row
     for ax in axes[-1]:
         ax.set_xlabel("time (s)", fontsize=9)
     handles, labels = axes[0, 0].get_legend_handles_labels()

@@ -346,19 +346,25 @@ class PacketDecoder:
 
 def parse_ids(text: str) -> tuple[int, ...]:
     """Servo IDs from ``"1-6,9,12-14"``, sorted and unique; ``ValueError`` saying what is valid."""
-    ids: set[int] = set()
+    return tuple(sorted(set(parse_id_sequence(text))))
+
+
+def parse_id_sequence(text: str) -> tuple[int, ...]:
+    """Servo IDs from ``"9-16,1-8"`` in the order written (repeats kept, for the caller to
+    judge); ``ValueError`` saying what is valid."""
+    ids: list[int] = []
     for part in text.replace(" ", "").split(","):
-        low, _, high = part.partition("-")
+        low, dash, high = part.partition("-")
         try:
-            first, last = int(low), int(high or low)
+            first, last = int(low), int(high if dash else low)
         except ValueError:
             raise ValueError(f"servo IDs must look like '1-6,9', got {text!r}") from None
         if not 0 <= first <= last <= MAX_SERVO_ID:
             raise ValueError(
                 f"servo IDs must be in 0..{MAX_SERVO_ID} with low <= high, got {part!r}"
             )
-        ids.update(range(first, last + 1))
-    return tuple(sorted(ids))
+        ids.extend(range(first, last + 1))
+    return tuple(ids)
 
 
 def _command_or_int(value: int) -> int:

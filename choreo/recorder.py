@@ -53,6 +53,7 @@ JOURNAL_VERSION = 1
 JOURNAL_SUFFIX = ".journal"
 ANGLE_DECIMALS = 2  # a position unit is 0.24°, so 0.01° keeps every reading exact
 TIME_DECIMALS = 2  # seconds in the motion file (the journal keeps full precision)
+INPUT_POLL_S = 0.1  # how soon q or Enter ends a slowly sampled stream
 
 LineSource = Iterable["str | None"] | Callable[[], "str | None"]
 
@@ -515,7 +516,8 @@ class Recorder:
     def run_stream(self, lines: LineSource, rate_hz: float) -> Ending:
         """Sample every joint at ``rate_hz`` until Enter or q (or end of input, or Ctrl-C).
 
-        ``lines`` is asked once after each sample and must not block: None means nothing typed.
+        ``lines`` is asked after each sample (and every INPUT_POLL_S while a slow rate waits) and
+        must not block: None means nothing typed.
         Samples run on absolute deadlines; a sample that is late skips the slots it missed.
         A joint leaving its limits is reported once per excursion; those samples are dropped.
         """
@@ -533,18 +535,39 @@ class Recorder:
                 if isinstance(result, Captured) or not outside:
                     self.on_event(result)
                 outside = isinstance(result, Refused)
-                try:
-                    line = read()
-                except _EndOfInput:
-                    return Ending.END_OF_INPUT
-                if line is not None:
-                    if line.strip().lower() in ("", "q"):
-                        return Ending.QUIT
-                    self.on_event(UnknownInput(line))
+                ending = self._typed(read)
+                if ending is not None:
+                    return ending
                 slot = max(slot + 1, math.ceil((self.clock.now() - start_s) / period_s))
-                self.clock.sleep_until(start_s + slot * period_s)
+                ending = self._sleep_reading(start_s + slot * period_s, read)
+                if ending is not None:
+                    return ending
         except KeyboardInterrupt:
             return Ending.INTERRUPTED
+
+    def _typed(self, read: Callable[[], str | None]) -> Ending | None:
+        """How a line typed ends the stream (Enter or q), if one was typed."""
+        try:
+            line = read()
+        except _EndOfInput:
+            return Ending.END_OF_INPUT
+        if line is None:
+            return None
+        if line.strip().lower() in ("", "q"):
+            return Ending.QUIT
+        self.on_event(UnknownInput(line))
+        return None
+
+    def _sleep_reading(self, deadline_s: float, read: Callable[[], str | None]) -> Ending | None:
+        """Sleep until the next sample; a wait longer than INPUT_POLL_S (a slow rate) looks at
+        what was typed every INPUT_POLL_S, so q acts at once and not a whole period later."""
+        while deadline_s - self.clock.now() > INPUT_POLL_S:
+            self.clock.sleep_until(self.clock.now() + INPUT_POLL_S)
+            ending = self._typed(read)
+            if ending is not None:
+                return ending
+        self.clock.sleep_until(deadline_s)
+        return None
 
 
 # --- streams to keyframes -------------------------------------------------------------------------

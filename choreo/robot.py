@@ -106,6 +106,12 @@ class MirrorPair:
     sign: int  # right = sign * left (and left = sign * right)
 
 
+# The ranges the command line and the robot file's ``bus:`` section both accept. A servo answers
+# within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a slow one.
+MAX_RETRIES = 9
+MAX_TIMEOUT_MS = 5000.0
+
+
 @dataclass(frozen=True)
 class BusSettings:
     port: str | None = None  # None: the built-in emulated bus

@@ -13,7 +13,17 @@ import yaml
 from .errors import SourceError
 from .file_shape import choices, mapping_shape
 from .protocol import MAX_SERVO_ID
-from .robot import BusSettings, Joint, JointLimits, MirrorPair, Robot, deg_to_units, units_to_deg
+from .robot import (
+    MAX_RETRIES,
+    MAX_TIMEOUT_MS,
+    BusSettings,
+    Joint,
+    JointLimits,
+    MirrorPair,
+    Robot,
+    deg_to_units,
+    units_to_deg,
+)
 from .robot_lookup import ROBOT_FILE, find_robot_file
 from .servos import (
     DEG_PER_UNIT,
@@ -146,11 +156,15 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
     timeout_ms = None
     if "timeout_ms" in fields:
         timeout_ms = reader.number(
-            fields["timeout_ms"].value, "bus: timeout_ms", low=0, low_open=True
+            fields["timeout_ms"].value,
+            "bus: timeout_ms",
+            low=0,
+            high=MAX_TIMEOUT_MS,
+            low_open=True,
         )
     retries = None
     if "retries" in fields:
-        retries = reader.integer(fields["retries"].value, "bus: retries", low=0)
+        retries = reader.integer(fields["retries"].value, "bus: retries", low=0, high=MAX_RETRIES)
     echo = None
     if "echo" in fields:
         echo = reader.choice(fields["echo"].value, "bus: echo", ECHO_MODES)
@@ -245,6 +259,11 @@ def _joint_from_fields(
         else 1
     )
     low, high = number("min", None), number("max", None)
+    if low is not None and high is not None and low >= high:  # said even if other values fail
+        reader.report(
+            fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below max {fmt(high)}°"
+        )
+        low = None
     mjcf_joint = (
         reader.string(fields["mjcf_joint"].value, labels["mjcf_joint"])
         if "mjcf_joint" in fields
@@ -347,12 +366,8 @@ def _check_travel(
     zero: float,
     direction: int,
 ) -> bool:
-    """min < max, and both limits map to servo positions inside the servo's range."""
-    if low >= high:
-        reader.report(
-            fields["min"].value, f"joint {name!r}: min {fmt(low)}° must be below max {fmt(high)}°"
-        )
-        return False
+    """Both limits (min < max, checked as they are read) map to servo positions inside the
+    servo's range."""
     first, last = POSITION_RANGE_UNITS
     reach = sorted(units_to_deg(position, zero, direction) for position in POSITION_RANGE_UNITS)
     ok = True

@@ -63,7 +63,7 @@ def _physics_check(
 
     results = run_checks(simulate_motion(motion, stretch=stretch))
     lines = {
-        r: f"{_heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}" for r in results
+        r: f"{heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}" for r in results
     }
     return FileCheck(
         path,
@@ -72,8 +72,9 @@ def _physics_check(
     )
 
 
-def _heading_for(motion: Motion, arrivals_s: tuple[float, ...], time_s: float) -> str:
-    """Where the keyframe the robot is heading for at ``time_s`` was written."""
+def heading_for(motion: Motion, arrivals_s: tuple[float, ...], time_s: float) -> str:
+    """Where the keyframe the robot is heading for at ``time_s`` was written (``path:line:col``,
+    the place a preview finding is reported at)."""
     played = bisect.bisect_left(arrivals_s, time_s)
     keyframe = motion.keyframes[min(played, len(arrivals_s) - 1) % len(motion.keyframes)]
     return str(keyframe.where)

@@ -12,7 +12,7 @@ import difflib
 import math
 import re
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
@@ -29,9 +29,19 @@ class SourceLocation:
     path: Path
     line: int  # 1-based
     col: int  # 1-based
+    # for a keyframe of an included file: the include entries that brought it in, innermost
+    # first (not part of the place itself: equal places compare equal however reached)
+    included_at: tuple[SourceLocation, ...] = field(default=(), compare=False)
 
     def __str__(self) -> str:
         return f"{self.path}:{self.line}:{self.col}"
+
+    @property
+    def through(self) -> str:
+        """`` (included at b.yaml:4:5, included at a.yaml:7:5)``, or ``""``."""
+        if not self.included_at:
+            return ""
+        return " (" + ", ".join(f"included at {entry}" for entry in self.included_at) + ")"
 
 
 @dataclass(frozen=True)
@@ -91,10 +101,22 @@ def fmt(value: float) -> str:
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
+# A 2,000-keyframe motion for 18 servos is well under 1 MiB; reading stops here, so a wrong path
+# (/dev/zero, a video) is refused instead of filling the memory.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+
+
 def parse_yaml_file(path: Path) -> Node | None:
     """The node tree of a one-document YAML file (``None`` if empty); ``SourceError`` otherwise."""
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as file:
+            data = file.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise SourceError(
+                f"{path}:1:1: cannot read the file: it is larger than "
+                f"{MAX_FILE_BYTES // (1024 * 1024)} MiB, the most a robot or motion file may be"
+            )
+        text = data.decode("utf-8")
     except (OSError, UnicodeDecodeError) as error:
         reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
@@ -215,7 +237,9 @@ class Reader:
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
-            self.report(node, f"{what} must be a number{valid}, got {describe(node)}")
+            self.report(
+                node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
+            )
             return None
         below = low is not None and (value <= low if low_open else value < low)
         if below or (high is not None and value > high):
@@ -265,6 +289,21 @@ class Reader:
             )
             return None
         return value
+
+
+# YAML 1.1 (what PyYAML reads) takes an exponent as a number only with a dot before it and a
+# sign in it: 1.0e+12 is a number, 1e12 and 1.0e12 are text.
+_TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
+
+
+def _exponent_hint(node: Node) -> str:
+    """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
+    match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
+    if match is None or node.tag != "tag:yaml.org,2002:str":
+        return ""
+    whole, fraction, sign, exponent = match.groups()
+    number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"
+    return f" (YAML reads {node.value} as text: write {number})"
 
 
 def _range_words(low: float | None, high: float | None, low_open: bool) -> str:

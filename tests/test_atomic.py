@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import stat
+
 import pytest
 
 from choreo.atomic import atomic_output, fsync_directory, write_text_atomically
@@ -48,3 +51,20 @@ def test_a_missing_folder_is_a_clear_error_naming_it(tmp_path):
         r"does not exist",
     ):
         write_text_atomically(tmp_path / "nowhere" / "x.yaml", "a: 1\n")
+
+
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_a_written_file_respects_the_umask(tmp_path, umask, mode):
+    path = tmp_path / "wave.yaml"
+    previous = os.umask(umask)
+    try:
+        write_text_atomically(path, "keyframes: []\n")
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE(path.stat().st_mode) == mode
+
+
+def test_the_temporary_keeps_the_suffix_writers_choose_a_format_by(tmp_path):
+    with atomic_output(tmp_path / "keep.mp4") as temporary:
+        assert temporary.suffix == ".mp4"
+        temporary.write_bytes(b"video")

@@ -106,7 +106,7 @@ def test_a_report_in_a_folder_it_cannot_write_is_refused_before_anything_plays(
     tmp_path, monkeypatch, capsys
 ):
     # (Tests may run as root, for whom every folder is writable: the permission is faked.)
-    monkeypatch.setattr("choreo.play_report.os.access", lambda path, mode: False)
+    monkeypatch.setattr("choreo.atomic.os.access", lambda path, mode: False)
     assert main(["play", "motions/arm6/wave.yaml", "--report", str(tmp_path / "r.json")]) == 1
     captured = capsys.readouterr()
     assert f"the folder {tmp_path} is not writable" in captured.err and captured.out == ""

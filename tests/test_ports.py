@@ -6,7 +6,7 @@ from __future__ import annotations
 import functools
 import json
 
-from choreo.cli import main, ports_command
+from choreo.cli import main, ports_commands
 from choreo.ports import HidRecord, SerialRecord, list_ports
 
 # USB IDs from the vendors' udev rules and drivers (see the README's table).
@@ -89,7 +89,7 @@ def fake_system(monkeypatch, serial_records, hid_records):
     fake = functools.partial(
         list_ports, lambda: serial_records, lambda: hid_records, exists=lambda path: False
     )
-    monkeypatch.setattr(ports_command, "list_ports", fake)
+    monkeypatch.setattr(ports_commands, "list_ports", fake)
 
 
 def test_the_command_prints_each_port_and_its_port_string(monkeypatch, capsys):

@@ -75,10 +75,21 @@ def test_pos_read_over_the_pty_then_sigint_exits_cleanly(link, tmp_path):
     (packet,) = PacketDecoder().feed(reply)
     assert packet.servo_id == 7 and decode_reply(C.POS_READ, packet) == {"pos_units": 500}
     assert id_reply == bytes.fromhex("55 55 09 04 0E 09 DB")
-    assert returncode == 0, stderr
+    assert returncode == 130, stderr  # as a shell reports Ctrl-C; cleaned up all the same
     assert not os.path.lexists(link)
     saved = json.loads(state.read_text())
     assert [s["eeprom"]["servo_id"] for s in saved["servos"]] == [1, 9, 3, 7]
+
+
+def test_sighup_exits_cleanly_like_sigterm(link, tmp_path):
+    state = tmp_path / "state.json"
+    process = start_emulator("--pty", str(link), "--servos", "1", "--state", str(state))
+    try:
+        ready_line(process)
+    finally:
+        returncode, stderr = stop(process, signal.SIGHUP)
+    assert (returncode, stderr) == (128 + signal.SIGHUP, "")
+    assert not os.path.lexists(link) and state.exists()
 
 
 def test_sigterm_also_exits_cleanly_and_echo_works(link):
@@ -93,7 +104,7 @@ def test_sigterm_also_exits_cleanly_and_echo_works(link):
         returncode, stderr = stop(process, signal.SIGTERM)
     assert data[: len(request)] == request
     assert data[len(request) :] == bytes.fromhex("55 55 01 04 1A 1E C2")  # 30 °C
-    assert returncode == 0, stderr
+    assert returncode == 128 + signal.SIGTERM, stderr
     assert not os.path.lexists(link)
 
 
@@ -116,7 +127,7 @@ def test_bad_servo_list_is_a_usage_error(link):
 @pytest.mark.parametrize("option,gap_s", [((), 0.0), (("--start-gap-ms", "1.5"), 0.0015)])
 def test_the_start_gap_fault_is_an_emulate_option_off_by_default(option, gap_s):
     from choreo.cli import build_parser
-    from choreo.cli.emulate_command import build_emulator
+    from choreo.cli.emulate_commands import build_emulator
 
     args = build_parser().parse_args(["emulate", "--pty", "/tmp/unused", *option])
     assert {s.start_gap_s for s in build_emulator(args).servos} == {gap_s}

@@ -23,6 +23,7 @@ from choreo.errors import BusError, ChoreoError
 from choreo.motion import load_motion
 from choreo.protocol import Command
 from choreo.recorder import (
+    INPUT_POLL_S,
     Captured,
     Ending,
     NothingToUndo,
@@ -438,6 +439,24 @@ def test_a_late_sample_skips_the_slots_it_missed(tmp_path):
         recorder.run_stream(hand, 20)
     gaps = [round(c.after_s, 6) for c in recording.captures[1:]]
     assert gaps == [0.05, 0.05, 0.15, 0.05, 0.05, 0.05, 0.05]
+
+
+def test_a_slow_stream_ends_at_once_when_q_is_typed(tmp_path):
+    """At 0.1 Hz the next sample is 10 s away: q typed 0.35 s in is seen within the input poll
+    (0.1 s; the first sample's reads take a few ms of bus time), not at the next sample."""
+    rig = Rig()
+    recording = Recording.start(tmp_path / "s.yaml", rig.robot)
+    start_s = rig.clock.now()
+    asked = []
+
+    def hand():
+        asked.append(rig.clock.now() - start_s)
+        return "q" if asked[-1] >= 0.35 else None
+
+    with rig.recorder(recording) as recorder:
+        assert recorder.run_stream(hand, 0.1) is Ending.QUIT
+    assert 0.35 <= asked[-1] <= 0.35 + INPUT_POLL_S + 0.01
+    assert len(recording.captures) == 1
 
 
 # --- the CLI -----------------------------------------------------------------------------------

@@ -264,7 +264,7 @@ def test_name_must_equal_the_folder():
 def test_every_problem_of_a_file_is_reported_at_once():
     path = BAD / "several_problems" / "robot.yaml"
     assert problems_of(path) == [
-        f"{path}:6:12: bus: retries must be a whole number >= 0, got 'fast'",
+        f"{path}:6:12: bus: retries must be a whole number in 0..9, got 'fast'",
         f"{path}:7:9: bus: echo 'discrad' is not one of none, discard, auto "
         f"(did you mean 'discard'?)",
         f"{path}:10:3: unknown key 'colour' in defaults; valid keys: servo, zero, direction, "

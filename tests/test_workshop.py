@@ -470,7 +470,11 @@ def test_cli_bad_values_are_usage_errors_with_the_range(argv, words, capsys):
     [
         (
             ["limits", "--id", "1", "--min", "900", "--max", "100", "-y"],
-            "min_units must be less than max_units",
+            "choreo: error: --min 900 must be below --max 100\n",
+        ),
+        (
+            ["vin-limits", "--id", "1", "--min", "9000", "--max", "6000", "-y"],
+            "choreo: error: --min 9000 mV must be below --max 6000 mV\n",
         ),
         (["offset", "adjust", "--id", "1", "--deg", "40"], "within -30.0..+30.0°"),
         (["move", "--id", "1", "--deg", "250"], "0..240°"),

@@ -2,41 +2,46 @@
 
 Each command group lives in its own module with ``register(subparsers)``; a command's handler
 takes the parsed args and returns an exit code. Exit codes: 0 ok, 1 a ``ChoreoError`` (one clear
-line, no traceback), 2 usage, 130 after Ctrl-C.
+line, no traceback), 2 usage (argparse's own, or a ``UsageError`` raised by a handler), 130 after
+Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C). Errors are turned into exit
+codes here and nowhere else.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from ..errors import ChoreoError
+from ..errors import ChoreoError, UsageError
 from . import (
     bus_commands,
-    emulate_command,
+    emulate_commands,
     interop_commands,
     motion_commands,
     plan_commands,
-    play_command,
-    ports_command,
-    preview_command,
-    record_command,
+    play_commands,
+    ports_commands,
+    preview_commands,
+    record_commands,
+    robot_commands,
     servo_commands,
 )
 
 COMMAND_GROUPS = (
     bus_commands,
-    ports_command,
-    emulate_command,
+    ports_commands,
+    emulate_commands,
+    robot_commands,
     motion_commands,
     plan_commands,
-    play_command,
-    preview_command,
+    play_commands,
+    preview_commands,
     servo_commands,
-    record_command,
+    record_commands,
     interop_commands,
 )
 
@@ -62,9 +67,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         format="%(levelname)s %(name)s: %(message)s",
     )
     try:
-        return args.handler(args)
+        code = args.handler(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's final flush
+        return code
+    except UsageError as error:
+        print(f"choreo: error: {error}", file=sys.stderr)
+        return 2
     except ChoreoError as error:
         print(f"choreo: error: {error}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:
+        # `choreo ... | head`: the reader has all it wanted. Quietly, and exit 1 as the Python
+        # docs' note on SIGPIPE and rich's consoles do: the output was cut short.
+        _silence_stdout()
         return 1
     except OSError as error:  # a file that can't be written, a port that went away
         print(f"choreo: error: {error}", file=sys.stderr)
@@ -72,3 +87,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("choreo: interrupted", file=sys.stderr)
         return 130
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush doesn't fail again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)

@@ -3,17 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import signal
 import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 from ..bus import ServoBus
 from ..clock import RealClock
 from ..emulator import BusEmulator, ServoSpec, SimSerial
-from ..protocol import MAX_SERVO_ID, parse_ids
-from ..robot import BusSettings, Robot
+from ..protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
+from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 from ..transports.direction import PRESETS, parse_direction
 
 BUILT_IN_PORT = "sim://?ids=1-6"
+# Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
+MAX_TOLERANCE_DEG = 5.0
 
 
 def finite_float(text: str) -> float:
@@ -40,6 +46,20 @@ def positive_float(text: str) -> float:
     return value
 
 
+def float_in(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """A number in (low, high]: options whose huge values would overflow a timer."""
+
+    def parse(text: str) -> float:
+        value = finite_float(text)
+        if not low < value <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected a number > {low:g} and <= {high:g}{unit}, got {text!r}"
+            )
+        return value
+
+    return parse
+
+
 def positive_int(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
@@ -59,6 +79,7 @@ def servo_id(text: str) -> int:
 
 
 def id_ranges(text: str) -> tuple[int, ...]:
+    """IDs to address, sorted and unique."""
     try:
         return parse_ids(text)
     except ValueError as error:
@@ -71,6 +92,42 @@ def _direction(text: str) -> str:
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
     return text
+
+
+def id_sequence(text: str) -> tuple[int, ...]:
+    """IDs in the order written: one per column of a file, say."""
+    try:
+        return parse_id_sequence(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+# Closing the terminal or losing the SSH link (SIGHUP) and `kill` (SIGTERM) must stop the servos
+# and leave them in a known state exactly as Ctrl-C does.
+STOP_SIGNALS = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
+@contextlib.contextmanager
+def stop_signals_as_ctrl_c() -> Iterator[None]:
+    """Inside, SIGTERM and SIGHUP raise KeyboardInterrupt as Ctrl-C does; restored after."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:
+    """-o/--output FILE and --overwrite, for commands that write one file."""
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help_text)
+    parser.add_argument("--overwrite", action="store_true", help=f"replace an existing {metavar}")
 
 
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
@@ -88,11 +145,11 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--tolerance",
-        type=positive_float,
+        type=float_in(0, MAX_TOLERANCE_DEG, "°"),
         default=0.5,
         metavar="DEG",
-        help="how far the servos' linear moves may leave the smooth plan "
-        "(default 0.5°; rounding to whole servo units adds up to 0.12°)",
+        help="how far the servos' linear moves may leave the smooth plan, up to "
+        f"{MAX_TOLERANCE_DEG:g}° (default 0.5°; rounding to whole servo units adds up to 0.12°)",
     )
 
 
@@ -109,16 +166,16 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--timeout-ms",
-        type=positive_float,
-        help=f"per-read timeout (default {defaults.timeout_s * 1000:g} ms; USB "
-        "adapters add latency)",
+        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
+        help=f"per-read timeout, up to {MAX_TIMEOUT_MS:g} (default "
+        f"{defaults.timeout_s * 1000:g} ms; USB adapters add latency)",
     )
     parser.add_argument(
         "--retries",
         type=int,
-        choices=range(0, 10),
+        choices=range(0, MAX_RETRIES + 1),
         metavar="N",
-        help=f"retries per read, 0-9 (default {defaults.retries})",
+        help=f"retries per read, 0-{MAX_RETRIES} (default {defaults.retries})",
     )
     parser.add_argument(
         "--echo",

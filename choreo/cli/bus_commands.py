@@ -7,8 +7,10 @@ import dataclasses
 import json
 
 from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 from rich.table import Table
 
+from ..bus import ScanResult, ServoBus
 from ..protocol import MAX_SERVO_ID
 from ..servos import DEG_PER_UNIT
 from .arguments import add_port_arguments, id_ranges, open_bus
@@ -38,7 +40,7 @@ def run_scan(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
         # --retries counts here as for every read: one damaged reply must not make a present
         # servo look like two servos sharing its ID.
-        scan = bus.scan_presence(args.ids, retries=bus.retries)
+        scan = scan_with_progress(bus, args.ids)
         statuses = [bus.read_status(i) for i in scan.found]
     if args.json:
         print(
@@ -78,6 +80,31 @@ def run_scan(args: argparse.Namespace) -> int:
     if None in (statuses[0].vin_mv, statuses[0].temp_c):
         print(f"-: the {bus.capabilities.transport} cannot read this")
     return 0
+
+
+def scan_with_progress(bus: ServoBus, ids: tuple[int, ...]) -> ScanResult:
+    """``bus.scan_presence`` one ID at a time, with a progress bar on stderr when it is a
+    terminal: a full 0-253 scan waits out a timeout per absent ID, seconds in all."""
+    console = Console(stderr=True)
+    found: list[int] = []
+    garbled: list[int] = []
+    columns = (
+        TextColumn("scanning {task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[found]}"),
+    )
+    with Progress(
+        *columns, console=console, transient=True, disable=not console.is_terminal
+    ) as progress:
+        task = progress.add_task("", total=len(ids), found="")
+        for servo_id in ids:
+            progress.update(task, description=f"ID {servo_id}")
+            one = bus.scan_presence([servo_id], retries=bus.retries)
+            found += one.found
+            garbled += one.garbled
+            progress.update(task, advance=1, found=f"{len(found)} found" if found else "")
+    return ScanResult(found=tuple(found), garbled=tuple(garbled))
 
 
 def _describe(ids: tuple[int, ...]) -> str:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..atomic import check_writable
 from ..d6a import TIME_RANGE_MS, export_d6a, import_d6a
 from ..mirror import write_mirrored
 from ..motion import load_motion
 from ..robot_file import load_robot
-from .arguments import id_ranges
+from .arguments import add_output_arguments, id_sequence
 
 
 def register(subparsers) -> None:
@@ -32,17 +33,10 @@ def register(subparsers) -> None:
         required=True,
         help="the robot: a name (models/<name>) or a path to its robot.yaml",
     )
-    d6a_in.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="OUT.yaml",
-        help="the motion file to write",
-    )
+    add_output_arguments(d6a_in, "OUT.yaml", "the motion file to write")
     d6a_in.add_argument(
         "--ids",
-        type=id_ranges,
+        type=id_sequence,
         metavar="IDS",
         help="the servo ID of each Servo column in order, e.g. 1-18,21-25 "
         "(default: ServoK is servo ID K)",
@@ -63,14 +57,7 @@ def register(subparsers) -> None:
         "smoothing are not kept.",
     )
     d6a_out.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
-    d6a_out.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="OUT.d6a",
-        help="the action group file to write",
-    )
+    add_output_arguments(d6a_out, "OUT.d6a", "the action group file to write")
     d6a_out.set_defaults(handler=run_export_d6a)
 
     mirror = subparsers.add_parser(
@@ -80,18 +67,12 @@ def register(subparsers) -> None:
         "timing, hold, stop and velocity (includes are written out in place).",
     )
     mirror.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
-    mirror.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="OUT.yaml",
-        help="the motion file to write",
-    )
+    add_output_arguments(mirror, "OUT.yaml", "the motion file to write")
     mirror.set_defaults(handler=run_mirror)
 
 
 def run_import_d6a(args: argparse.Namespace) -> int:
+    check_writable(args.output, overwrite=args.overwrite)
     robot = load_robot(args.robot)
     keyframes = import_d6a(args.file, robot, args.output, args.ids)
     print(
@@ -102,6 +83,7 @@ def run_import_d6a(args: argparse.Namespace) -> int:
 
 
 def run_export_d6a(args: argparse.Namespace) -> int:
+    check_writable(args.output, overwrite=args.overwrite)
     motion = load_motion(args.motion)
     rows = export_d6a(motion, args.output)
     total_s = sum(row.time_ms for row in rows) / 1000
@@ -110,6 +92,7 @@ def run_export_d6a(args: argparse.Namespace) -> int:
 
 
 def run_mirror(args: argparse.Namespace) -> int:
+    check_writable(args.output, overwrite=args.overwrite)
     motion = load_motion(args.motion)
     keyframes = write_mirrored(motion, args.output)
     print(f"wrote {args.output}: {_count(len(keyframes), 'keyframe')}, {motion.name} mirrored")

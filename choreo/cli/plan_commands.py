@@ -10,9 +10,11 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic import check_writable
+from ..errors import UsageError
 from ..motion import Motion, load_motion
 from ..pipeline import CompiledMotion, compile_motion
-from .arguments import add_planning_arguments
+from .arguments import add_planning_arguments, non_negative_float
 
 
 def register(subparsers) -> None:
@@ -33,6 +35,19 @@ def register(subparsers) -> None:
         type=png_path,
         metavar="FILE.png",
         help="draw position and velocity per joint: smooth plan against the ticks",
+    )
+    plan.add_argument(
+        "--plot-from",
+        type=non_negative_float,
+        metavar="S",
+        help="with --plot: start the plot at S seconds (default 0), for a close look at a "
+        "long motion",
+    )
+    plan.add_argument(
+        "--plot-to",
+        type=non_negative_float,
+        metavar="S",
+        help="with --plot: end the plot at S seconds (default: the end of the motion)",
     )
     add_planning_arguments(plan)
     plan.set_defaults(handler=run_plan)
@@ -57,10 +72,20 @@ class JointFigures:
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    window_asked = args.plot_from is not None or args.plot_to is not None
+    if window_asked and args.plot is None:
+        raise UsageError("--plot-from and --plot-to choose what --plot draws: add --plot FILE.png")
+    if args.plot_from is not None and args.plot_to is not None and args.plot_from >= args.plot_to:
+        raise UsageError(
+            f"--plot-from {args.plot_from:g} must be before --plot-to {args.plot_to:g}"
+        )
+    if args.plot is not None:
+        check_writable(args.plot)
     motion = load_motion(args.motion)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
+    window = plot_window(args, compiled.trajectory.duration_s) if window_asked else None
     speed = motion.speed if args.speed is None else args.speed
     report = plan_report(args.motion, motion, speed, compiled)
     if args.json:
@@ -77,11 +102,28 @@ def run_plan(args: argparse.Namespace) -> int:
             args.plot,
             title=f"{motion.name} ({args.motion}): {report['duration_s']:.2f} s, "
             f"{report['ticks']} ticks, {report['bytes']} bytes, max deviation "
-            f"{report['max_deviation_deg']:.2f}°",
+            f"{report['max_deviation_deg']:.2f}°"
+            + (f"; {window[0]:g}..{window[1]:g} s shown" if window else ""),
+            window_s=window,
         )
         if not args.json:
             print(f"wrote {args.plot}")
     return 0
+
+
+def plot_window(args: argparse.Namespace, duration_s: float) -> tuple[float, float]:
+    """--plot-from/--plot-to as a time window of the planned motion; refused outside it, not
+    clamped."""
+    start_s = 0.0 if args.plot_from is None else args.plot_from
+    end_s = duration_s if args.plot_to is None else args.plot_to
+    for option, value in (("--plot-from", start_s), ("--plot-to", end_s)):
+        if value > duration_s + 1e-9:
+            raise UsageError(
+                f"{option} {value:g} is past the end of the motion: it lasts {duration_s:.3f} s"
+            )
+    if start_s >= end_s:
+        raise UsageError(f"--plot-from {start_s:g} must be before the end, {end_s:.3f} s")
+    return start_s, end_s
 
 
 def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMotion) -> dict:

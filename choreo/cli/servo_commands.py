@@ -19,7 +19,7 @@ from rich.table import Table
 
 from .. import workshop
 from ..bus import AngleLimits, ServoBus, ServoInfo, VinLimits
-from ..errors import ChoreoError
+from ..errors import ChoreoError, UsageError
 from ..protocol import Command
 from ..servos import DEG_PER_UNIT
 from ..transports import Capabilities
@@ -233,15 +233,14 @@ def _error_mask(text: str):
 
 
 def _bad_values_are_usage_errors(handler: Callable[[argparse.Namespace], int]):
-    """A ValueError (a value the codec or workshop refuses) is one line and exit 2, like argparse."""
+    """A ValueError (a value the codec or workshop refuses) is a usage error, like argparse's."""
 
     @functools.wraps(handler)
     def run(args: argparse.Namespace) -> int:
         try:
             return handler(args)
         except ValueError as error:
-            print(f"choreo: error: {error}", file=sys.stderr)
-            return 2
+            raise UsageError(str(error)) from error
 
     return run
 
@@ -324,11 +323,19 @@ def _write_setting(args: argparse.Namespace, setting: workshop.Setting, value) -
         return _confirm_and_write(args, bus, change, workshop.apply_change)
 
 
+def _min_below_max(args: argparse.Namespace, unit: str) -> None:
+    """The codec's own message names its fields (min_units); the user typed --min and --max."""
+    if args.min >= args.max:
+        raise UsageError(f"--min {args.min}{unit} must be below --max {args.max}{unit}")
+
+
 def run_limits(args: argparse.Namespace) -> int:
+    _min_below_max(args, "")
     return _write_setting(args, workshop.ANGLE_LIMITS, AngleLimits(args.min, args.max))
 
 
 def run_vin_limits(args: argparse.Namespace) -> int:
+    _min_below_max(args, " mV")
     return _write_setting(args, workshop.VIN_LIMITS, VinLimits(args.min, args.max))
 
 

@@ -265,7 +265,14 @@ class FrameRenderer:
             if height < 400
             else mujoco.mjtFontScale.mjFONTSCALE_150
         )
-        self._context = mujoco.MjrContext(model, font)
+        try:
+            self._context = mujoco.MjrContext(model, font)
+        except mujoco.FatalError as error:  # e.g. a frame larger than the GL allows
+            self._gl.free()
+            raise PreviewError(
+                f"cannot render {width}x{height} frames with {backend}: {error}; "
+                "try a smaller --size"
+            ) from None
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         if not high_quality:

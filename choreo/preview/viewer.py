@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
+import re
 import time
+import warnings
 
 import mujoco
 import numpy as np
@@ -19,6 +21,25 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+def _check_window_system() -> None:
+    """PreviewError (one line) if GLFW cannot reach the display, e.g. a stale DISPLAY over SSH:
+    mujoco's viewer would print GLFW's warnings and exit the process instead."""
+    import glfw
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if glfw.init():
+            return
+    # GLFW's warnings read "(65550) b'X11: Failed to open display :99'"
+    reasons = [re.sub(r"^\(\d+\) b?'(.*)'$", r"\1", str(w.message)) for w in caught]
+    display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    raise PreviewError(
+        f"the viewer cannot open a window on display {display!r} "
+        f"({'; '.join(reasons) or 'GLFW could not start'}); render to a "
+        "file instead: choreo preview MOTION -o out.mp4"
+    )
+
+
 def show_in_viewer(rollout: Rollout) -> None:
     """Loop the rollout in the viewer until its window is closed."""
     # mujoco's viewer kills the whole process when it cannot open a window: check first
@@ -27,6 +48,7 @@ def show_in_viewer(rollout: Rollout) -> None:
             "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
             "is set; render to a file instead: choreo preview MOTION -o out.mp4"
         )
+    _check_window_system()
     from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
 
     model = load_model(rollout.robot, rollout.props)

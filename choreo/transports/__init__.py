@@ -20,6 +20,7 @@ object, or a HID report port) and, for a board, the :class:`Board` that speaks i
 
 from __future__ import annotations
 
+import errno
 import importlib
 import urllib.parse
 from collections.abc import Sequence
@@ -169,10 +170,27 @@ def open_serial(
         port.open()
         return port
     except (serial.SerialException, ValueError, OSError) as error:
-        raise PortError(
-            f"cannot open {url}: {error}. Is another program using it? "
-            "List ports with `python -m serial.tools.list_ports`; `sim://` is the built-in emulator"
-        ) from error
+        raise PortError(f"cannot open {url}: {_open_failure(error)}") from error
+
+
+_LIST_PORTS = "list ports with `choreo ports`; `sim://` is the built-in emulator"
+
+
+def _open_failure(error: Exception) -> str:
+    """Why a port did not open, in the user's terms, with the hint that fits the cause."""
+    code = getattr(error, "errno", None)
+    if code == errno.ENOENT:
+        return f"no such port; {_LIST_PORTS}"
+    if code == errno.EACCES:
+        return (
+            "permission denied; on Linux, join the dialout group (`sudo usermod -aG dialout "
+            "$USER`, then log in again)"
+        )
+    if code in (errno.EBUSY, errno.EAGAIN, errno.EWOULDBLOCK):
+        return "the port is busy. Is another program using it?"
+    if "Inappropriate ioctl" in str(error):
+        return f"it is not a serial port; {_LIST_PORTS}"
+    return f"{error}; {_LIST_PORTS}"
 
 
 def path_of(url: str) -> str:

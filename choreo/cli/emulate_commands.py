@@ -12,9 +12,10 @@ from ..emulator.boards import BOARDS
 from ..emulator.bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
 from ..emulator.pty import PtyBridge
 from ..servos import SERVO_MODELS
-from .arguments import non_negative_float
+from .arguments import STOP_SIGNALS, non_negative_float
 
 EMULATE_LOG_LIMIT = 1000
+MAX_TURNAROUND_MS = 1000.0
 
 
 def register(subparsers) -> None:
@@ -26,6 +27,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--pty",
+        type=pty_path,
         required=True,
         metavar="PATH",
         help="create a symlink at PATH to the pseudo-terminal",
@@ -54,10 +56,10 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--turnaround-ms",
-        type=non_negative_float,
+        type=turnaround_ms,
         default=DEFAULT_TURNAROUND_S * 1000,
         metavar="X",
-        help="delay before a servo answers (default 0.6)",
+        help=f"delay before a servo answers, 0-{MAX_TURNAROUND_MS:g} ms (default 0.6)",
     )
     parser.add_argument(
         "--start-gap-ms",
@@ -74,6 +76,23 @@ def register(subparsers) -> None:
         "rrc://PATH) or lobot (its UART: lobot://PATH)",
     )
     parser.set_defaults(handler=run)
+
+
+def pty_path(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            "the path is empty: give a path for the link, e.g. /tmp/ttyCHOREO"
+        )
+    return text
+
+
+def turnaround_ms(text: str) -> float:
+    value = non_negative_float(text)
+    if value > MAX_TURNAROUND_MS:  # a real servo answers in under a millisecond
+        raise argparse.ArgumentTypeError(
+            f"expected a number in 0..{MAX_TURNAROUND_MS:g} ms, got {text!r}"
+        )
+    return value
 
 
 def _servo_list(text: str) -> tuple[str, list]:
@@ -106,10 +125,15 @@ def run(args) -> int:
         print("choreo: error: --echo: a board's link does not echo", file=sys.stderr)
         return 2
     emulator = build_emulator(args)
+    stopped_by: list[int] = []
+
+    def stop(signum, frame) -> None:
+        stopped_by.append(signum)
+        bridge.stop()
+
     with PtyBridge(emulator, args.pty) as bridge:
         previous = {
-            signum: signal.signal(signum, lambda *_: bridge.stop())
-            for signum in (signal.SIGINT, signal.SIGTERM)
+            signum: signal.signal(signum, stop) for signum in (signal.SIGINT, *STOP_SIGNALS)
         }
         try:
             print(
@@ -124,4 +148,5 @@ def run(args) -> int:
                 signal.signal(signum, handler)
     if args.state:
         emulator.save_state()
-    return 0
+    # as a shell reports a process ended by a signal: 130 after Ctrl-C, 143 after SIGTERM
+    return 128 + stopped_by[0] if stopped_by else 0

@@ -5,15 +5,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import logging
 import re
-import sys
 from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from ..atomic import atomic_output, check_writable, write_text_atomically
+from ..errors import UsageError
 from ..motion import load_motion
 from ..scene import StartPosture
+from ..validate import heading_for
 from .arguments import add_planning_arguments, positive_float, positive_int
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
@@ -138,11 +141,15 @@ def register(subparsers) -> None:
     preview.set_defaults(handler=run_preview)
 
 
+MAX_SIDE_PX = 8192  # 8K; the GL's own limit may be lower (then a one-line PreviewError)
+
+
 def image_size(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"(\d+)[xX](\d+)", text.strip())
-    if not match or min(int(match[1]), int(match[2])) < 16:
+    if not match or not all(16 <= int(side) <= MAX_SIDE_PX for side in match.groups()):
         raise argparse.ArgumentTypeError(
-            f"expected WIDTHxHEIGHT of at least 16x16, e.g. 640x480, got {text!r}"
+            f"expected WIDTHxHEIGHT from 16x16 to {MAX_SIDE_PX}x{MAX_SIDE_PX}, e.g. 640x480, "
+            f"got {text!r}"
         )
     return int(match[1]), int(match[2])
 
@@ -154,25 +161,23 @@ def fraction(text: str) -> float:
     return value
 
 
-def _usage_error(message: str) -> int:
-    print(f"choreo preview: error: {message}", file=sys.stderr)
-    return 2
-
-
 def run_preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
-        return _usage_error(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
+        raise UsageError(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
     if (
         output is not None
         and output.suffix.lower() == ".mp4"
         and (args.size[0] % 2 or args.size[1] % 2)
     ):
-        return _usage_error(
+        raise UsageError(
             f"--size {args.size[0]}x{args.size[1]}: mp4 needs an even width and height"
         )
     if args.check and (output is not None or args.viewer):
-        return _usage_error("--check runs the checks only: drop -o and --viewer, or --check")
+        raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
+    for path in (output, args.report):
+        if path is not None:
+            check_writable(path)
 
     from .. import preview  # imports mujoco: only when this command runs
 
@@ -189,7 +194,7 @@ def run_preview(args: argparse.Namespace) -> int:
     settings = preview.SimSettings(move_start=preview.MoveStart(args.move_start))
     poses = [*motion.robot.poses, preview.FIRST_KEYFRAME]
     if args.start_pose is not None and args.start_pose not in poses:
-        return _usage_error(
+        raise UsageError(
             f"--from {args.start_pose}: {motion.robot.name} has no such pose; "
             f"valid: {', '.join(poses)}"
         )
@@ -205,7 +210,8 @@ def run_preview(args: argparse.Namespace) -> int:
     for line in preview.start_lines(rollout):
         print(f"{args.motion}: {line}")
     for result in results:
-        print(f"{args.motion}: {result.severity.value}: {result.message}")
+        where = heading_for(motion, rollout.keyframe_times_s, result.time_s)
+        print(f"{where}: {result.severity.value}: {result.message}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
     print(f"{args.motion}: {preview.busiest_line(rollout, thresholds.near_miss_fraction)}")
     print(
@@ -217,7 +223,7 @@ def run_preview(args: argparse.Namespace) -> int:
         report = preview.preview_report(
             rollout, results, motion=str(args.motion), thresholds=thresholds
         )
-        args.report.write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+        write_text_atomically(args.report, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
         print(f"wrote {args.report}")
     if output is not None:
         settings = preview.RenderSettings(
@@ -239,6 +245,9 @@ def run_preview(args: argparse.Namespace) -> int:
 
 
 def _render_with_progress(preview, rollout, output: Path, settings, results):
+    # imageio_ffmpeg warns "the written video is invalid" when stopped: the temporary is
+    # removed anyway, and an error reaches the user as one line
+    logging.getLogger("imageio_ffmpeg").setLevel(logging.ERROR)
     console = Console(stderr=True)
     columns = (
         TextColumn("rendering {task.description}"),
@@ -252,4 +261,6 @@ def _render_with_progress(preview, rollout, output: Path, settings, results):
         def on_frame(done: int, total: int) -> None:
             progress.update(task, completed=done, total=total)
 
-        return preview.render_preview(rollout, output, settings, results, on_frame=on_frame)
+        # rendered beside it and renamed at the end: Ctrl-C or a failure keeps an older file
+        with atomic_output(output) as temporary:
+            return preview.render_preview(rollout, temporary, settings, results, on_frame=on_frame)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import bisect
 import dataclasses
-import signal
 import sys
 from pathlib import Path
 
@@ -13,12 +12,14 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from ..atomic import check_writable
 from ..clock import RealClock
 from ..emulator.trace import start_skew_ms
-from ..motion import load_motion
+from ..errors import UsageError
+from ..motion import load_motion, too_many_played
 from ..path_errors import measured_path_errors
 from ..pipeline import CompiledMotion, compile_motion
-from ..play_report import check_report_path, report_document, transport_of, write_report
+from ..play_report import report_document, transport_of, write_report
 from ..player import (
     ExitMode,
     Outcome,
@@ -32,15 +33,16 @@ from ..player import (
     prepare,
     unchecked,
 )
-from ..robot import Robot
+from ..robot import MAX_TIMEOUT_MS, Robot
 from ..transports import board_module
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
     bus_settings,
+    float_in,
     open_robot_bus,
-    positive_float,
     positive_int,
+    stop_signals_as_ctrl_c,
 )
 
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
@@ -78,7 +80,7 @@ def register(subparsers) -> None:
     play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
     play.add_argument(
         "--health-timeout-ms",
-        type=positive_float,
+        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
         default=20.0,
         metavar="MS",
         help="timeout of the health reads made between ticks (default 20 ms; raise "
@@ -97,27 +99,30 @@ def register(subparsers) -> None:
 def run_play(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
     if args.loop:
+        unrolled = too_many_played(len(motion.keyframes), args.loop, "--loop")
+        if unrolled is not None:
+            raise UsageError(unrolled)
         motion = dataclasses.replace(motion, repeat=args.loop)
     robot = motion.robot
     if args.exit_pose not in robot.poses:
-        print(
-            f"choreo: error: --exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
-            f"poses: {', '.join(robot.poses)}",
-            file=sys.stderr,
+        raise UsageError(
+            f"--exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
+            f"poses: {', '.join(robot.poses)}"
         )
-        return 2
     if args.report is not None:
         if args.dry_run:
-            print("choreo: error: --report needs a play; --dry-run plays nothing", file=sys.stderr)
-            return 2
-        check_report_path(args.report)
+            raise UsageError("--report needs a play; --dry-run plays nothing")
+        check_writable(args.report)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
+    for stretch in compiled.stretches:  # said before anything moves
+        print(
+            f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written",
+            file=sys.stderr,
+        )
     if args.dry_run:
         return dry_run(compiled, board_module(bus_settings(args, robot).port))
-    for signum in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal stops like Ctrl-C
-        signal.signal(signum, _interrupt)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
@@ -125,7 +130,11 @@ def run_play(args: argparse.Namespace) -> int:
         health_timeout_s=args.health_timeout_ms / 1000,
     )
     bus, emulator = open_robot_bus(args, robot, doing="playing on")
-    with bus:
+    # a sim:// URL's own emulator: its clock (clock=virtual must drive the player too, or the
+    # servos never move in time) and its log (the path errors)
+    emulator = emulator or getattr(bus.port, "emulator", None)
+    clock = emulator.clock if emulator is not None else RealClock()
+    with stop_signals_as_ctrl_c(), bus:
         missing = unchecked(bus)
         if missing:
             print(
@@ -136,11 +145,8 @@ def run_play(args: argparse.Namespace) -> int:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
         report, exit_move = _play_with_progress(
-            bus, robot, limits, options, performance, start_pose
+            bus, robot, clock, limits, options, performance, start_pose
         )
-        port_emulator = getattr(bus.port, "emulator", None)  # sim:// URLs too
-        if port_emulator is not None and isinstance(getattr(bus.port, "clock", None), RealClock):
-            emulator = port_emulator  # on the player's time base
         errors = skew_ms = None
         if emulator is not None:
             errors = measured_path_errors(
@@ -148,8 +154,7 @@ def run_play(args: argparse.Namespace) -> int:
             )
             end_s = report.start_time_s + report.elapsed_s
             skew_ms = start_skew_ms(emulator.log.moves, report.start_time_s, end_s)
-    _print_report(report, robot, errors)
-    if args.report is not None:
+    if args.report is not None:  # before printing: a closed stdout pipe must not lose it
         document = report_document(
             report,
             motion=str(args.motion),
@@ -159,6 +164,7 @@ def run_play(args: argparse.Namespace) -> int:
             path_errors_deg=errors,
         )
         write_report(args.report, document)
+    _print_report(report, robot, errors)
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         print(
             f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
@@ -168,12 +174,8 @@ def run_play(args: argparse.Namespace) -> int:
     return EXIT_CODES[report.outcome]
 
 
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
 def _play_with_progress(
-    bus, robot, limits, options, performance: Performance, start_pose
+    bus, robot, clock, limits, options, performance: Performance, start_pose
 ) -> PlayReport:
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
@@ -206,7 +208,7 @@ def _play_with_progress(
                 last_refresh[0] = p.time_s
                 progress.refresh()
 
-        player = Player(bus, robot, RealClock(), limits, options, on_progress=update)
+        player = Player(bus, robot, clock, limits, options, on_progress=update)
         report = player.play(performance.ticks, start_pose)
         exit_move = player.leave(report.outcome)
     return report, exit_move

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import queue
-import signal
 import sys
 import threading
 from pathlib import Path
 
 from ..clock import RealClock
-from ..errors import BusError, ChoreoError
+from ..errors import BusError, ChoreoError, UsageError
 from ..recorder import (
     Captured,
     Ending,
@@ -25,7 +24,7 @@ from ..recorder import (
 )
 from ..robot import Robot
 from ..robot_file import load_robot
-from .arguments import add_port_arguments, open_robot_bus, positive_float
+from .arguments import add_port_arguments, open_robot_bus, positive_float, stop_signals_as_ctrl_c
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
 
@@ -80,11 +79,7 @@ def register(subparsers) -> None:
 
 def run_record(args: argparse.Namespace) -> int:
     if args.robot is None and not args.resume:
-        print(
-            "choreo: error: --robot is required (unless --resume takes the journal's)",
-            file=sys.stderr,
-        )
-        return 2
+        raise UsageError("--robot is required (unless --resume takes the journal's)")
     robot = load_robot(args.robot) if args.robot else None
     if args.resume:
         recording = Recording.resume(args.out, robot)
@@ -94,12 +89,11 @@ def run_record(args: argparse.Namespace) -> int:
         )
     else:
         recording = Recording.start(args.out, robot, overwrite=args.overwrite)
-    previous_sigterm = signal.signal(signal.SIGTERM, _interrupt)
     try:
-        return _record(args, recording)
+        with stop_signals_as_ctrl_c():
+            return _record(args, recording)
     except ValueError as error:  # e.g. an unknown joint name
-        print(f"choreo: error: {error}", file=sys.stderr)
-        return 2
+        raise UsageError(str(error)) from error
     except (BusError, KeyboardInterrupt) as error:
         journal = journal_path(args.out)
         if not journal.exists() or not recording.captures:
@@ -111,11 +105,6 @@ def run_record(args: argparse.Namespace) -> int:
         ) from error
     finally:
         recording.close()
-        signal.signal(signal.SIGTERM, previous_sigterm)
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
 
 
 def _record(args: argparse.Namespace, recording: Recording) -> int:
