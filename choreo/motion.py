@@ -14,6 +14,7 @@ import yaml
 
 from .errors import SourceError
 from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
+from .spatial import Spatial, expand_spatial, has_key, read_body, read_gait, read_sites
 from .yamlsource import (
     Entry,
     Node,
@@ -55,7 +56,8 @@ class Motion:
 # --- reading motion files ----------------------------------------------------------------------
 
 MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "keyframes")
-KEYFRAME_KEYS = ("pose", "t", "after", "hold", "stop", "velocity")
+KEYFRAME_KEYS = ("pose", "sites", "body", "t", "after", "hold", "stop", "velocity")
+GAIT_KEYS = ("gait",)
 INCLUDE_KEYS = ("include", "mirror", "t", "after")
 HOME_POSE = "home"
 
@@ -73,6 +75,7 @@ class _Step:
     velocity_scale: float
     label: str
     t_where: SourceLocation | None  # where its t was written, while it still has one
+    space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
 
 
 @dataclass(frozen=True)
@@ -117,6 +120,9 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
     chain = (_Include(reader.path, None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if None in (name, description, speed, repeat) or reader.problems:
+        return None
+    steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
+    if reader.problems:
         return None
     return Motion(
         name=name,
@@ -176,6 +182,8 @@ def _read_steps(
     for item in items:
         if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
             steps.extend(_read_include(reader, item, robot, chain))
+        elif has_key(item, "gait"):
+            steps += _read_gait_block(reader, item)
         else:
             step = _read_keyframe(reader, item, robot)
             steps += [step] if step is not None else []
@@ -184,10 +192,13 @@ def _read_steps(
 
 
 def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
-    fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS, required=("pose",))
-    if fields is None or "pose" not in fields:
+    fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS)
+    if fields is None:
         return None
-    pose = _read_pose(reader, fields["pose"].value, robot)
+    space = _read_space(reader, item, fields)
+    if space is False:
+        return None
+    pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
     timing = _read_timing(reader, fields)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
@@ -222,7 +233,32 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
         velocity_scale=velocity,
         label=label,
         t_where=t_where,
+        space=space or None,
     )
+
+
+def _read_space(reader: Reader, item: Node, fields: dict[str, Entry]) -> Spatial | None | bool:
+    """The keyframe's sites: or body: (at most one), None if neither, False if refused."""
+    given = [key for key in ("sites", "body") if key in fields]
+    if not given and "pose" not in fields:
+        reader.report(item, "a keyframe needs pose, sites or body (or a mix of pose and one)")
+        return False
+    if len(given) > 1:
+        reader.report(fields["body"].key_node, "give sites or body in a keyframe, not both")
+        return False
+    if not given:
+        return None
+    value = fields[given[0]].value
+    space = read_sites(reader, value) if given[0] == "sites" else read_body(reader, value)
+    return False if space is None else space
+
+
+def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
+    fields = reader.fields(item, "a gait block (only gait: {...})", GAIT_KEYS)
+    spec = read_gait(reader, fields["gait"].value) if fields and "gait" in fields else None
+    if spec is None:
+        return []
+    return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
 def _read_timing(
@@ -391,6 +427,12 @@ def _mirror_block(
         return steps
     mirrored: list[_Step] = []
     for step in steps:
+        if step.space is not None:
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} is given in space (sites, body or "
+                f"gait), which cannot be mirrored; mirror a file of joint keyframes",
+            )
         angles = mirror_pose(robot, step.angles_deg)
         for name, angle in angles.items():
             limits = robot.joint(name).limits

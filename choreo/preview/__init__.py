@@ -23,10 +23,12 @@ from .render import RenderResult, RenderSettings, frame_times, render_frames, re
 from .report import JointSummary, joint_summaries, preview_report
 from .servo import ActuatorParams, actuator_params
 from .sim import MoveStart, Rollout, SimSettings, simulate
+from .travel import BodyTravel, body_travel
 from .viewer import has_display, show_in_viewer
 
 __all__ = [
     "ActuatorParams",
+    "BodyTravel",
     "CheckKind",
     "CheckResult",
     "CheckThresholds",
@@ -38,6 +40,7 @@ __all__ = [
     "Severity",
     "SimSettings",
     "actuator_params",
+    "body_travel",
     "frame_times",
     "has_display",
     "joint_summaries",

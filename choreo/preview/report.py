@@ -8,6 +8,7 @@ import numpy as np
 
 from .checks import CheckResult, Severity
 from .sim import Rollout
+from .travel import body_travel
 
 
 @dataclass(frozen=True)
@@ -51,4 +52,5 @@ def preview_report(rollout: Rollout, results: list[CheckResult], motion: str = "
         "warnings": len(results) - errors,
         "checks": [r.to_dict() for r in results],
         "joints": [asdict(s) for s in joint_summaries(rollout)],
+        "body_travel": travel.to_dict() if (travel := body_travel(rollout)) else None,
     }

@@ -107,6 +107,7 @@ class Rollout:
     root_body: str | None = None  # free-floating robots: the body carrying the free joint
     root_height_m: np.ndarray | None = None  # (n,)
     root_tilt_deg: np.ndarray | None = None  # (n,) angle between its z axis and the vertical
+    root_qpos_address: int | None = None  # where its position and quaternion start in qpos
 
     @property
     def duration_s(self) -> float:
@@ -191,6 +192,7 @@ def simulate(
         root_body=link_name(model, int(model.jnt_bodyid[root])) if root is not None else None,
         root_height_m=height,
         root_tilt_deg=tilt,
+        root_qpos_address=int(model.jnt_qposadr[root]) if root is not None else None,
     )
 
 
