@@ -29,9 +29,9 @@ from .robot import Robot
 POSITION_TOLERANCE_MM = 0.5  # a solution this close (and within the angle tolerance) is reached
 ANGLE_TOLERANCE_DEG = 0.5
 _CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
-_ITERATIONS = 100
+_ITERATIONS = 400
 _RESTARTS = 20
-_DAMPING = 1e-3
+_DAMPING = 1e-4
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
 FEET_TEXT = "choreo:feet"  # MJCF <custom><text name=... data="site site ..."/>: a walker's feet
@@ -204,7 +204,9 @@ class Kinematics:
                 break
             step = _limited_step(jacobian[:, free], residual, q[free], low[free], high[free])
             q[free] = np.clip(q[free] + step, low[free], high[free])
-        return self._measure(goals, sites, np.degrees(q))
+        angles_deg = start_deg.copy()  # held joints exactly as given, not via radians
+        angles_deg[free] = np.degrees(q[free])
+        return self._measure(goals, sites, angles_deg)
 
     def _linearise(
         self, goals: Sequence[SiteGoal], sites: list[int]

@@ -194,10 +194,10 @@ def describe_travel(travel) -> str:
     x0, y0, _ = (round(v) + 0 for v in travel.start_mm)  # + 0: no "-0"
     x1, y1, _ = (round(v) + 0 for v in travel.end_mm)
     return (
-        f"{travel.body} went from ({x0:.0f}, {y0:.0f}) mm heading {travel.start_heading_deg:.0f}° "
-        f"to ({x1:.0f}, {y1:.0f}) mm heading {travel.end_heading_deg:.0f}°: "
+        f"{travel.body} went from ({x0}, {y0}) mm heading {round(travel.start_heading_deg) + 0}° "
+        f"to ({x1}, {y1}) mm heading {round(travel.end_heading_deg) + 0}°: "
         f"{travel.displacement_mm:.0f} mm away ({travel.path_mm:.0f} mm along its path), "
-        f"turned {travel.turned_deg:+.0f}°"
+        f"turned {round(travel.turned_deg) + 0:+d}°"
     )
 
 
