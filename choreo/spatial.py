@@ -274,7 +274,7 @@ class _Expander:
                 f"site {target.site!r} cannot reach {_point(goal.position_mm)} mm (base frame)"
                 f"{pitch}: the closest it gets is {_point(reached.position_mm)} mm{got_pitch}, "
                 f"{distance:.1f} mm away{off}, inside the joint limits{held_text}; "
-                f"move the target closer",
+                f"choose a target within reach",
             )
 
     # body: and gait: ------------------------------------------------------------------------
