@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .errors import ChoreoError
 from .robot import Robot
@@ -128,7 +129,7 @@ class Kinematics:
 
     # --- frames -------------------------------------------------------------------------------
 
-    def world_to_base_mm(self, world_mm: Sequence[float]) -> np.ndarray:
+    def world_to_base_mm(self, world_mm: npt.ArrayLike) -> np.ndarray:
         """A point given in the world (with the robot standing at home) in the base frame."""
         return self._base_rot.T @ (np.asarray(world_mm, dtype=float) / 1000 - self._base_pos) * 1000
 
@@ -145,7 +146,7 @@ class Kinematics:
         axis = self._base_rot.T @ self.data.site_xmat[site].reshape(3, 3)[:, 2]
         return position, axis
 
-    def site_pose(self, site: str, angles_deg: Sequence[float]) -> SitePose:
+    def site_pose(self, site: str, angles_deg: npt.ArrayLike) -> SitePose:
         self._set(np.asarray(angles_deg, dtype=float))
         position, axis = self._site_in_base(self._checked_site(site))
         return SitePose(position * 1000, _pitch_deg(axis))
@@ -161,8 +162,8 @@ class Kinematics:
     def solve(
         self,
         goals: Sequence[SiteGoal],
-        seed_deg: Sequence[float],
-        free: Sequence[bool] | None = None,
+        seed_deg: npt.ArrayLike,
+        free: npt.ArrayLike | None = None,
     ) -> Solution:
         """Joint angles putting every goal's site where it asks, starting from ``seed_deg``;
         only the ``free`` joints move (default: all). The best attempt if none reaches."""

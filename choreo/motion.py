@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import yaml
 
@@ -233,11 +234,13 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
         velocity_scale=velocity,
         label=label,
         t_where=t_where,
-        space=space or None,
+        space=space,
     )
 
 
-def _read_space(reader: Reader, item: Node, fields: dict[str, Entry]) -> Spatial | None | bool:
+def _read_space(
+    reader: Reader, item: Node, fields: dict[str, Entry]
+) -> Spatial | None | Literal[False]:
     """The keyframe's sites: or body: (at most one), None if neither, False if refused."""
     given = [key for key in ("sites", "body") if key in fields]
     if not given and "pose" not in fields:

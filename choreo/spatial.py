@@ -122,7 +122,8 @@ def read_body(reader: Reader, node: Node) -> BodySpec | None:
     if None in values.values():
         return None
     names = {"x": "x_mm", "y": "y_mm", "z": "z_mm"}
-    return BodySpec(BodyPose(**{names.get(k, f"{k}_deg"): v for k, v in values.items()}))
+    kwargs: dict[str, Any] = {names.get(k, f"{k}_deg"): v for k, v in values.items()}
+    return BodySpec(BodyPose(**kwargs))
 
 
 def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
@@ -137,15 +138,16 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
         else Pattern.TRIPOD.value
     )
     steps = reader.integer(fields["steps"].value, "gait: steps", low=1)
+    bounds: dict[str, dict[str, Any]] = {
+        "stride": {},
+        "sideways": {},
+        "turn": {"low": -45, "high": 45},
+        "lift": {"low": 0},
+        "period": {"low": 0, "low_open": True},
+    }
     numbers = {
-        key: reader.number(fields[key].value, f"gait: {key}", **bounds)
-        for key, bounds in (
-            ("stride", {}),
-            ("sideways", {}),
-            ("turn", {"low": -45, "high": 45}),
-            ("lift", {"low": 0}),
-            ("period", {"low": 0, "low_open": True}),
-        )
+        key: reader.number(fields[key].value, f"gait: {key}", **limits)
+        for key, limits in bounds.items()
         if key in fields
     }
     if pattern is None or steps is None or None in numbers.values():
@@ -160,11 +162,12 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
 
 
 class _Step(Protocol):
-    angles_deg: Any
-    where: SourceLocation
-    after_s: float | None
-    stop: bool
-    space: Spatial | None
+    @property
+    def angles_deg(self) -> Any: ...
+    @property
+    def where(self) -> SourceLocation: ...
+    @property
+    def space(self) -> Spatial | None: ...
 
 
 StepT = TypeVar("StepT", bound=_Step)
@@ -243,7 +246,7 @@ class _Expander:
                 )
                 return None
             at = target.at_mm if target.frame == "base" else self.kin.world_to_base_mm(target.at_mm)
-            goals.append(SiteGoal(target.site, tuple(float(v) for v in at), target.pitch_deg))
+            goals.append(SiteGoal(target.site, _xyz(at), target.pitch_deg))
         solution = self.kin.solve(goals, self.current, ~fixed)
         if not solution.ok:
             self._unreachable(spec.targets, goals, solution, fixed)
@@ -303,7 +306,7 @@ class _Expander:
     ) -> np.ndarray | None:
         from .kinematics import SiteGoal
 
-        goals = [SiteGoal(foot, tuple(float(v) for v in p)) for foot, p in zip(feet, feet_mm)]
+        goals = [SiteGoal(foot, _xyz(p)) for foot, p in zip(feet, feet_mm)]
         solution = self.kin.solve(goals, self.current, ~fixed)
         if solution.ok:
             return solution.angles_deg
@@ -346,7 +349,12 @@ class _Expander:
         return out
 
 
-def _point(mm: Sequence[float]) -> str:
+def _xyz(values: Any) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
+def _point(mm: Any) -> str:
     return "(" + ", ".join(f"{v:.1f}" for v in mm) + ")"
 
 

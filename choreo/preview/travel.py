@@ -43,8 +43,8 @@ def body_travel(rollout: Rollout) -> BodyTravel | None:
     start, end = position_mm[0], position_mm[-1]
     return BodyTravel(
         body=rollout.root_body or "",
-        start_mm=tuple(round(float(v), 1) + 0.0 for v in start),
-        end_mm=tuple(round(float(v), 1) + 0.0 for v in end),
+        start_mm=_rounded(start),
+        end_mm=_rounded(end),
         start_heading_deg=_heading_deg(heading[0]),
         end_heading_deg=_heading_deg(heading[-1]),
         turned_deg=round(float(np.degrees(heading[-1] - heading[0])), 1),
@@ -57,3 +57,8 @@ def _heading_deg(radians: float) -> float:
     """-180 < heading <= 180, rounded, with no -0."""
     degrees = -((180.0 - np.degrees(radians)) % 360.0) + 180.0
     return round(float(degrees), 1) + 0.0
+
+
+def _rounded(mm: np.ndarray) -> tuple[float, float, float]:
+    x, y, z = (round(float(v), 1) + 0.0 for v in mm)  # + 0.0: no "-0.0"
+    return x, y, z
