@@ -31,7 +31,8 @@ POSITION_TOLERANCE_MM = 0.5  # a solution this close (and within the angle toler
 ANGLE_TOLERANCE_DEG = 0.5
 _CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
 _ITERATIONS = 400
-_RESTARTS = 20
+_RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
+_RESTART_ITERATIONS = 60
 _DAMPING = 1e-4
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
@@ -171,17 +172,21 @@ class Kinematics:
         seed = np.clip(np.asarray(seed_deg, dtype=float), self.lower_deg, self.upper_deg)
         free_mask = np.ones(len(seed), bool) if free is None else np.asarray(free, bool)
         free_mask = free_mask & self._moving(sites)  # restarts must not stir unrelated joints
-        best = self._descend(goals, sites, seed, free_mask)
+        best = self._descend(goals, sites, seed, free_mask, _ITERATIONS)
         rng = np.random.default_rng(0)  # fixed restarts: the same file always gives the same pose
         for _ in range(_RESTARTS):
             if best.ok:
-                break
+                return best
             restart = seed.copy()
             restart[free_mask] = rng.uniform(self.lower_deg, self.upper_deg)[free_mask]
-            attempt = self._descend(goals, sites, restart, free_mask)
+            attempt = self._descend(goals, sites, restart, free_mask, _RESTART_ITERATIONS)
             if _cost(attempt) < _cost(best):
                 best = attempt
-        return best
+        if best.ok:
+            return best
+        # the best restart may only have been slow to converge (folded poses are): polish it
+        polished = self._descend(goals, sites, best.angles_deg, free_mask, _ITERATIONS)
+        return polished if _cost(polished) < _cost(best) else best
 
     def _moving(self, sites: list[int]) -> np.ndarray:
         """Which robot joints move any of ``sites``: those on the way from a site to the root."""
@@ -194,11 +199,16 @@ class Kinematics:
         return np.array([int(self.model.jnt_bodyid[j]) in chain for j in self._joint_ids])
 
     def _descend(
-        self, goals: Sequence[SiteGoal], sites: list[int], start_deg: np.ndarray, free: np.ndarray
+        self,
+        goals: Sequence[SiteGoal],
+        sites: list[int],
+        start_deg: np.ndarray,
+        free: np.ndarray,
+        iterations: int,
     ) -> Solution:
         q = np.radians(start_deg)
         low, high = np.radians(self.lower_deg), np.radians(self.upper_deg)
-        for _ in range(_ITERATIONS):
+        for _ in range(iterations):
             self._set(np.degrees(q))
             residual, jacobian, done = self._linearise(goals, sites)
             if done:

@@ -17,9 +17,16 @@ from choreo.robot import load_robot
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 POSITION_MM, ANGLE_DEG = 1.0, 1.0  # the acceptance tolerances
-# The arm stands on its table: random joint angles also curl the tool through the table and the
-# base, where the solver may (rarely: 1 in 1000) settle on a mirror-image pose that is not there.
+# The arm stands on its table: random joint angles also curl the tool through the table or into
+# its own base, targets no keyframe can mean (the solver sometimes stalls there, in a fold against
+# the joint limits). Targets are kept above the table and outside the base.
 ABOVE_TABLE_MM = 20.0
+BASE_RADIUS_MM, BASE_TOP_MM = 60.0, 100.0
+
+
+def on_the_table(position_mm: np.ndarray) -> bool:
+    x, y, z = position_mm
+    return z >= ABOVE_TABLE_MM and (np.hypot(x, y) >= BASE_RADIUS_MM or z >= BASE_TOP_MM)
 
 
 def kinematics_of(name: str) -> Kinematics:
@@ -78,7 +85,7 @@ PROPERTY = settings(max_examples=40, deadline=None, suppress_health_check=[Healt
 def test_arm_tool_position_and_pitch_from_home(arm6, seed):
     target = random_angles(arm6, seed)
     position, pitch = mujoco_site(arm6, "tool", target)
-    assume(position[2] >= ABOVE_TABLE_MM)
+    assume(on_the_table(position))
     home = arm6.robot.pose_vector("home")
     solution = arm6.solve([SiteGoal("tool", tuple(position), pitch)], home)
     assert solution.ok
@@ -94,7 +101,7 @@ def test_arm_held_joints_stay_as_given(arm6, seed):
     """wrist_roll and gripper held: the solution keeps them exactly, and still reaches."""
     target = random_angles(arm6, seed)
     position, pitch = mujoco_site(arm6, "tool", target)
-    assume(position[2] >= ABOVE_TABLE_MM)
+    assume(on_the_table(position))
     seed_deg = np.array(arm6.robot.pose_vector("ready"), dtype=float)
     held = [name in ("wrist_roll", "gripper") for name in arm6.robot.joint_names]
     seed_deg[held] = target[held]
