@@ -293,8 +293,8 @@ class _Expander:
             return None
         return feet
 
-    def _stance_mm(self, feet: Sequence[str]) -> np.ndarray:
-        return np.array([self.kin.site_pose(foot, self.stance).position_mm for foot in feet])
+    def _feet_mm(self, feet: Sequence[str], angles_deg: np.ndarray) -> np.ndarray:
+        return np.array([self.kin.site_pose(foot, angles_deg).position_mm for foot in feet])
 
     def _solve_feet(
         self,
@@ -324,7 +324,7 @@ class _Expander:
         feet = self._feet(step.where, "body:")
         if feet is None:
             return None
-        feet_mm = feet_under_body(self._stance_mm(feet), pose)
+        feet_mm = feet_under_body(self._feet_mm(feet, self.stance), pose)
         return self._solve_feet(feet, feet_mm, fixed, step.where, "body")
 
     def _gait(self, step: StepT, gait: Gait, fixed: np.ndarray) -> list[StepT]:
@@ -338,7 +338,8 @@ class _Expander:
             )
             return [step]
         out = []
-        frames = gait_keyframes(self._stance_mm(feet), gait)
+        # from the pose it is in (a body pose walks as it is), back to that pose at the end
+        frames = gait_keyframes(self._feet_mm(feet, self.current), gait)
         for index, frame in enumerate(frames):
             what = f"gait step {frame.step} of {gait.steps}"
             angles = self._solve_feet(feet, frame.feet_mm, fixed, step.where, what)
@@ -346,6 +347,7 @@ class _Expander:
                 return [step]
             last = index == len(frames) - 1
             out.append(self._joint_step(step, angles, after_s=gait.keyframe_s, t_s=None, stop=last))
+        self.stance = self.current.copy()  # the feet are planted anew
         return out
 
 

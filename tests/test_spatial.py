@@ -161,7 +161,8 @@ def test_validate_explains_an_ik_failure(tmp_path, capsys):
     captured = capsys.readouterr()
     err = captured.out + captured.err
     assert (
-        f"{path}:4:13: site 'tool' cannot reach (150.0, 0.0, 40.0) mm (base frame), pitch 60°" in err
+        f"{path}:4:13: site 'tool' cannot reach (150.0, 0.0, 40.0) mm (base frame), pitch 60°"
+        in err
     )
     assert "with wrist_roll held as given" in err
     assert "Traceback" not in err
@@ -275,3 +276,22 @@ def test_plan_json_lists_the_expanded_keyframes(capsys):
     assert listed[1]["after_s"] == pytest.approx(2.0 / 8)
     assert set(listed[1]["targets_deg"]) == set(motion.robot.joint_names)
     assert listed[-1]["stop"] is True
+
+
+def test_a_gait_walks_in_the_body_pose_it_starts_from(tmp_path):
+    """Body 20 mm up, then a walk: the walk ends in that raised pose, and a body pose after it
+    is relative to where the walk left the body."""
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - body: {z: 20}\n    after: 1\n"
+        "  - gait: {steps: 2, stride: 30}\n  - body: {z: 0}\n    after: 1\n",
+    )
+    motion = load_motion(path)
+    raised, *walk, after = motion.keyframes[1:]
+    np.testing.assert_allclose(walk[-1].targets_deg, raised.targets_deg, atol=0.05)
+    np.testing.assert_allclose(after.targets_deg, raised.targets_deg, atol=0.05)
+    kin = Kinematics(motion.robot)
+    home = motion.robot.pose_vector("home")
+    for foot in kin.feet():
+        dz = kin.site_pose(foot, raised.targets_deg).position_mm[2]
+        assert dz == pytest.approx(kin.site_pose(foot, home).position_mm[2] - 20, abs=POSITION_MM)
