@@ -223,7 +223,7 @@ class _Expander:
     def _joint_step(self, step: StepT, angles_deg: np.ndarray, **changes: Any) -> StepT:
         self.current = angles_deg.copy()
         angles = {name: round(float(a), 3) for name, a in zip(self.robot.joint_names, angles_deg)}
-        return replace(step, angles_deg=angles, space=None, **changes)  # type: ignore[type-var]
+        return replace(step, angles_deg=angles, space=None, label="", **changes)  # type: ignore[type-var]
 
     def _fail(self, where: SourceLocation, message: str) -> None:
         self.problems.add(where, message)
