@@ -11,8 +11,10 @@ elevation of its z axis (its approach direction) above the base frame's horizont
 
 IK is damped least squares on ``mj_jacSite``, inside the robot's joint limits (a joint at a limit
 that the step would push further drops out of the step), seeded by the caller (the previous
-keyframe), with a few fixed restarts if the seed gets stuck. ``mujoco`` is imported here only
-when a ``Kinematics`` is made: motions without Cartesian keyframes never load it.
+keyframe), with fixed random restarts if the seed gets stuck. ``mujoco`` is imported here only
+when a ``Kinematics`` is made: motions without Cartesian keyframes never load it. (mink, a QP
+IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these tasks — site
+positions, one axis' elevation, joint limits — are small enough for damped least squares.)
 """
 
 from __future__ import annotations

@@ -295,3 +295,14 @@ def test_a_gait_walks_in_the_body_pose_it_starts_from(tmp_path):
     for foot in kin.feet():
         dz = kin.site_pose(foot, raised.targets_deg).position_mm[2]
         assert dz == pytest.approx(kin.site_pose(foot, home).position_mm[2] - 20, abs=POSITION_MM)
+
+
+def test_a_body_pose_too_far_names_the_foot(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - body: {z: 150}\n    after: 1\n",
+    )
+    (message,) = load_error(path)
+    assert message.startswith(f"{path}:4:5: body: foot '")
+    assert "mm (body frame): the closest it gets is (" in message
+    assert message.endswith("ask for a smaller move")
