@@ -4,12 +4,14 @@ planted, and pick_and_place's tool goes down onto the block and lifts straight u
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
+from choreo.cli import main
 from choreo.motion import load_motion
 from choreo.preview import Severity, body_travel, run_checks, simulate_motion
 
@@ -88,3 +90,33 @@ def test_pick_and_place_reaches_the_block_and_lifts_straight_up():
     lift = tool[(times >= at[4] + 0.3) & (times <= at[6])]
     assert lift[-1, 2] - lift[0, 2] >= 40
     assert np.linalg.norm(lift[:, :2] - block, axis=1).max() <= 5
+
+
+def test_preview_reports_where_the_body_went(tmp_path, capsys):
+    report_path = tmp_path / "report.json"
+    motion = HEXAPOD / "turn_in_place.yaml"
+    assert main(["preview", "--check", "--report", str(report_path), str(motion)]) == 0
+    out = capsys.readouterr().out
+    travel = json.loads(report_path.read_text())["body_travel"]
+    assert travel["body"] == "torso"
+    assert set(travel) == {
+        "body",
+        "start_mm",
+        "end_mm",
+        "start_heading_deg",
+        "end_heading_deg",
+        "turned_deg",
+        "displacement_mm",
+        "path_mm",
+    }
+    assert travel["start_heading_deg"] == 0 and travel["end_heading_deg"] == travel["turned_deg"]
+    assert travel["start_mm"][2] == pytest.approx(85.9, abs=5)  # standing height
+    line = f"{motion}: torso went from (0, 0) mm heading 0° to "
+    assert line in out and f"turned +{round(travel['turned_deg'])}°" in out
+
+
+def test_a_fixed_robot_has_no_body_travel(tmp_path):
+    report_path = tmp_path / "report.json"
+    motion = REPO / "motions" / "arm6" / "wave.yaml"
+    assert main(["preview", "--check", "--report", str(report_path), str(motion)]) == 0
+    assert json.loads(report_path.read_text())["body_travel"] is None
