@@ -120,3 +120,8 @@ def test_a_fixed_robot_has_no_body_travel(tmp_path):
     motion = REPO / "motions" / "arm6" / "wave.yaml"
     assert main(["preview", "--check", "--report", str(report_path), str(motion)]) == 0
     assert json.loads(report_path.read_text())["body_travel"] is None
+
+
+def test_tonypi_hands_placed_in_space_play_cleanly():
+    rollout = simulate_motion(load_motion(DATA / "reach_and_clap.yaml"))
+    assert run_checks(rollout) == []  # no fall, no hands through each other
