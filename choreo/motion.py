@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import yaml
 
@@ -18,6 +19,7 @@ from .robot import Robot, mirror_pose
 from .robot_file import load_robot, read_angles
 from .robot_lookup import find_robot_file
 from .scene import Prop, StartPosture, read_props, read_start
+from .spatial import Spatial, expand_spatial, has_key, read_body, read_gait, read_sites
 from .timing import backward_times, known_arrivals_s, played_keyframes
 from .yamlsource import (
     Entry,
@@ -82,6 +84,7 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
 MOTION = mapping_shape("motion")
 KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
 INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
+GAIT = mapping_shape("motion", "#/$defs/gaitBlock")
 HOME_POSE = "home"
 
 
@@ -98,6 +101,7 @@ class _Step:
     velocity_scale: float
     label: str
     t_where: SourceLocation | None  # where its t was written, while it still has one
+    space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
 
 
 @dataclass(frozen=True)
@@ -146,6 +150,9 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
     chain = (_Include(reader.path, None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if None in (name, description, speed, repeat, start, props) or reader.problems:
+        return None
+    steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
+    if reader.problems:
         return None
     keyframes = _fill_poses(robot, steps)
     unrolled = too_many_played(len(keyframes), repeat) if repeat is not None else None
@@ -212,6 +219,8 @@ def _read_steps(
     for item in items:
         if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
             steps.extend(_read_include(reader, item, robot, chain))
+        elif has_key(item, "gait"):
+            steps += _read_gait_block(reader, item)
         else:
             step = _read_keyframe(reader, item, robot)
             if step is not None and len(chain) > 1:  # say through which includes it came
@@ -223,10 +232,13 @@ def _read_steps(
 
 
 def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
-    fields = reader.fields(item, "a keyframe", KEYFRAME.keys, required=KEYFRAME.required)
-    if fields is None or "pose" not in fields:
+    fields = reader.fields(item, "a keyframe", KEYFRAME.keys)
+    if fields is None:
         return None
-    pose = _read_pose(reader, fields["pose"].value, robot)
+    space = _read_space(reader, item, fields)
+    if space is False:
+        return None
+    pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
     timing = _read_timing(reader, fields)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
@@ -261,7 +273,34 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
         velocity_scale=velocity,
         label=label,
         t_where=t_where,
+        space=space,
     )
+
+
+def _read_space(
+    reader: Reader, item: Node, fields: dict[str, Entry]
+) -> Spatial | None | Literal[False]:
+    """The keyframe's sites: or body: (at most one), None if neither, False if refused."""
+    given = [key for key in ("sites", "body") if key in fields]
+    if not given and "pose" not in fields:
+        reader.report(item, "a keyframe needs pose, sites or body (or a mix of pose and one)")
+        return False
+    if len(given) > 1:
+        reader.report(fields["body"].key_node, "give sites or body in a keyframe, not both")
+        return False
+    if not given:
+        return None
+    value = fields[given[0]].value
+    space = read_sites(reader, value) if given[0] == "sites" else read_body(reader, value)
+    return False if space is None else space
+
+
+def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
+    fields = reader.fields(item, "a gait block (only gait: {...})", GAIT.keys)
+    spec = read_gait(reader, fields["gait"].value) if fields and "gait" in fields else None
+    if spec is None:
+        return []
+    return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
 def _read_timing(
@@ -424,6 +463,12 @@ def _mirror_block(
         return steps
     mirrored: list[_Step] = []
     for step in steps:
+        if step.space is not None:
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} is given in space (sites, body or "
+                f"gait), which cannot be mirrored; mirror a file of joint keyframes",
+            )
         angles = mirror_pose(robot, step.angles_deg)
         for outside in robot.limit_violations(angles):
             reader.report(

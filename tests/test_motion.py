@@ -161,7 +161,7 @@ def test_unknown_key_with_did_you_mean():
     path, message = only_problem("unknown_key.yaml")
     assert message == (
         f"{path}:4:5: unknown key 'hodl' in a keyframe (did you mean 'hold'?); "
-        f"valid keys: pose, hold, stop, velocity, t, after"
+        f"valid keys: pose, sites, body, hold, stop, velocity, t, after"
     )
 
 

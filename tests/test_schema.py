@@ -48,7 +48,10 @@ def test_the_loaders_take_their_keys_from_the_schemas():
         "name", "description", "robot", "speed", "repeat", "start", "props", "keyframes",
     )  # fmt: skip
     assert motion.MOTION.required == ("robot", "keyframes")
-    assert motion.KEYFRAME == Shape(("pose", "hold", "stop", "velocity", "t", "after"), ("pose",))
+    assert motion.KEYFRAME == Shape(
+        ("pose", "sites", "body", "hold", "stop", "velocity", "t", "after"), ()
+    )
+    assert motion.GAIT == Shape(("gait",), ("gait",))
     assert motion.INCLUDE == Shape(("include", "mirror", "t", "after"), ("include",))
     assert robot.ROBOT.keys == (
         "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror",

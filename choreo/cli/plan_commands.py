@@ -155,7 +155,25 @@ def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMoti
         "max_deviation_deg": ticks.max_deviation_deg,
         "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in compiled.stretches],
         "joints": [vars(j) for j in joints],
+        "expanded_keyframes": expanded_keyframes(motion),
     }
+
+
+def expanded_keyframes(motion: Motion) -> list[dict]:
+    """Every keyframe as the planner gets it (includes, gaits and IK expanded): joint angles."""
+    names = motion.robot.joint_names
+    return [
+        {
+            "where": str(k.where),
+            **({"label": k.label} if k.label else {}),
+            **({"t_s": k.t_s} if k.t_s is not None else {}),
+            **({"after_s": k.after_s} if k.after_s is not None else {}),
+            **({"hold_s": k.hold_s} if k.hold_s else {}),
+            "stop": k.stop,
+            "targets_deg": {name: round(a, 3) for name, a in zip(names, k.targets_deg)},
+        }
+        for k in motion.keyframes
+    ]
 
 
 def print_report(report: dict) -> None:

@@ -212,6 +212,9 @@ def run_preview(args: argparse.Namespace) -> int:
     for result in results:
         where = heading_for(motion, rollout.keyframe_times_s, result.time_s)
         print(f"{where}: {result.severity.value}: {result.message}")
+    travel = preview.body_travel(rollout)
+    if travel is not None:
+        print(f"{args.motion}: {describe_travel(travel)}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
     print(f"{args.motion}: {preview.busiest_line(rollout, thresholds.near_miss_fraction)}")
     print(
@@ -242,6 +245,18 @@ def run_preview(args: argparse.Namespace) -> int:
         preview.show_in_viewer(rollout)
     rendering = output is not None or args.viewer
     return 1 if errors and not rendering else 0
+
+
+def describe_travel(travel) -> str:
+    """One line: where a free-floating robot's body went."""
+    x0, y0, _ = (round(v) + 0 for v in travel.start_mm)  # + 0: no "-0"
+    x1, y1, _ = (round(v) + 0 for v in travel.end_mm)
+    return (
+        f"{travel.body} went from ({x0}, {y0}) mm heading {round(travel.start_heading_deg) + 0}° "
+        f"to ({x1}, {y1}) mm heading {round(travel.end_heading_deg) + 0}°: "
+        f"{travel.displacement_mm:.0f} mm away ({travel.path_mm:.0f} mm along its path), "
+        f"turned {round(travel.turned_deg) + 0:+d}°"
+    )
 
 
 def _render_with_progress(preview, rollout, output: Path, settings, results):

@@ -26,12 +26,14 @@ from .render import RenderResult, RenderSettings, frame_times, render_frames, re
 from .report import JointSummary, busiest_line, joint_summaries, preview_report, start_lines
 from .servo import ActuatorParams, actuator_params
 from .sim import MoveStart, Rollout, Settling, SimSettings, simulate
+from .travel import BodyTravel, body_travel
 from .viewer import has_display, show_in_viewer
 
 FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
 
 __all__ = [
     "ActuatorParams",
+    "BodyTravel",
     "CheckKind",
     "CheckResult",
     "CheckThresholds",
@@ -45,6 +47,7 @@ __all__ = [
     "SimSettings",
     "actuator_params",
     "busiest_line",
+    "body_travel",
     "frame_times",
     "has_display",
     "joint_summaries",

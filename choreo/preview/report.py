@@ -9,6 +9,7 @@ import numpy as np
 
 from .checks import CheckResult, CheckThresholds, Severity
 from .sim import Rollout
+from .travel import body_travel
 
 
 @dataclass(frozen=True)
@@ -148,4 +149,5 @@ def preview_report(
         "joints": [
             asdict(s) for s in joint_summaries(rollout.since_start(), thresholds.near_miss_fraction)
         ],
+        "body_travel": travel.to_dict() if (travel := body_travel(rollout)) else None,
     }

@@ -143,6 +143,7 @@ class Rollout:
     feet: tuple[str, ...] = ()  # a free-floating robot's foot links
     move_start: MoveStart = MoveStart.SETPOINT
     joint_links: tuple[str, ...] = ()  # the link each joint moves (robot joint order)
+    root_qpos_address: int | None = None  # where its position and quaternion start in qpos
 
     @property
     def duration_s(self) -> float:
@@ -275,6 +276,7 @@ def simulate(
         feet=tuple(link_name(model, link) for link in feet),
         move_start=settings.move_start,
         joint_links=_joint_links(model, robot),
+        root_qpos_address=int(model.jnt_qposadr[root]) if root is not None else None,
     )
 
 

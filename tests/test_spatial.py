@@ -1,0 +1,310 @@
+"""Keyframes written in space (sites:, body:, gait:) as motion files: every IK keyframe of the
+shipped motions checked with MuJoCo's forward kinematics; the messages for what cannot be done;
+what `choreo validate` and `choreo plan --json` show."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from choreo.cli import main
+from choreo.errors import SourceError
+from choreo.gait import BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
+from choreo.kinematics import Kinematics
+from choreo.motion import load_motion
+
+REPO = Path(__file__).resolve().parents[1]
+SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))
+# the shipped tonypi motions are all vendor imports: its hands are placed by IK in a test motion
+TEST_MOTIONS = sorted((Path(__file__).parent / "data" / "spatial").glob("*.yaml"))
+POSITION_MM, ANGLE_DEG = 1.0, 1.0
+
+_KINEMATICS: dict[str, Kinematics] = {}
+
+
+def kinematics(motion) -> Kinematics:
+    name = motion.robot.name
+    if name not in _KINEMATICS:
+        _KINEMATICS[name] = Kinematics(motion.robot)
+    return _KINEMATICS[name]
+
+
+def spatial_items(path: Path) -> list[tuple[int, dict]]:
+    """(line, item) of every keyframe list item with sites, body or gait."""
+    root = yaml.compose(path.read_text())
+    items = []
+    for key, value in root.value:
+        if key.value == "keyframes":
+            for node in value.value:
+                item = yaml.safe_load(yaml.serialize(node))
+                if {"sites", "body", "gait"} & set(item):
+                    items.append((node.start_mark.line + 1, item))
+    return items
+
+
+def spatial_motions() -> list[Path]:
+    return [path for path in SHIPPED + TEST_MOTIONS if spatial_items(path)]
+
+
+def test_shipped_motions_use_every_kind_of_spatial_keyframe():
+    kinds = {key for path in spatial_motions() for _, item in spatial_items(path) for key in item}
+    assert {"sites", "body", "gait"} <= kinds
+    names = {path.stem for path in spatial_motions()}
+    assert {"pick_and_place", "walk_forward", "turn_in_place", "side_step", "body_sway"} <= names
+
+
+@pytest.mark.parametrize("path", spatial_motions(), ids=lambda p: p.name)
+def test_every_ik_keyframe_of_the_shipped_motions_is_reached(path):
+    """FK (MuJoCo) of each solved keyframe puts its sites where the file asks: within 1 mm and
+    1°; body poses keep the feet where they stood; gaits put the feet where the gait says."""
+    motion = load_motion(path)
+    kin = kinematics(motion)
+    by_line: dict[int, list] = {}
+    for keyframe in motion.keyframes:
+        by_line.setdefault(keyframe.where.line, []).append(keyframe)
+    previous = np.array(motion.robot.pose_vector("home"), dtype=float)
+    stance = previous
+    checked = 0
+    for keyframe in motion.keyframes:
+        line = keyframe.where.line
+        item = dict(spatial_items(path)).get(line)
+        angles = np.array(keyframe.targets_deg)
+        assert np.all(angles >= kin.lower_deg) and np.all(angles <= kin.upper_deg)
+        if item is None:
+            stance = angles
+        elif "sites" in item:
+            for site, target in item["sites"].items():
+                reached = kin.site_pose(site, angles)
+                at = np.array(target["at"], dtype=float)
+                if target.get("frame") == "world":
+                    at = kin.world_to_base_mm(at)
+                assert np.linalg.norm(reached.position_mm - at) <= POSITION_MM, (line, site)
+                if "pitch" in target:
+                    assert abs(reached.pitch_deg - target["pitch"]) <= ANGLE_DEG, (line, site)
+                checked += 1
+            stance = angles
+        elif "body" in item:
+            pose = {"x": "x_mm", "y": "y_mm", "z": "z_mm"}
+            body = BodyPose(**{pose.get(k, f"{k}_deg"): v for k, v in item["body"].items()})
+            planted = np.array([kin.site_pose(f, stance).position_mm for f in kin.feet()])
+            expected = feet_under_body(planted, body)
+            for foot, want in zip(kin.feet(), expected):
+                assert np.linalg.norm(kin.site_pose(foot, angles).position_mm - want) <= 1.0
+            checked += 1
+        previous = angles
+    gait_lines = [(line, item["gait"]) for line, item in spatial_items(path) if "gait" in item]
+    for line, spec in gait_lines:
+        frames = by_line[line]
+        index = motion.keyframes.index(frames[0])
+        before = np.array(motion.keyframes[index - 1].targets_deg)
+        stance_mm = np.array([kin.site_pose(f, before).position_mm for f in kin.feet()])
+        gait = Gait(
+            Pattern(spec.get("pattern", "tripod")),
+            spec["steps"],
+            stride_mm=spec.get("stride", 40.0),
+            sideways_mm=spec.get("sideways", 0.0),
+            turn_deg=spec.get("turn", 0.0),
+            lift_mm=spec.get("lift", 30.0),
+        )
+        expected = gait_keyframes(stance_mm, gait)
+        assert len(frames) == len(expected)
+        for keyframe, want in zip(frames, expected):
+            for foot, point in zip(kin.feet(), want.feet_mm):
+                got = kin.site_pose(foot, keyframe.targets_deg).position_mm
+                assert np.linalg.norm(got - point) <= POSITION_MM
+            checked += 1
+        # ends standing: the last keyframe is the stance it started from
+        np.testing.assert_allclose(frames[-1].targets_deg, before, atol=0.05)
+        assert frames[-1].stop
+    assert checked
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "m.yaml"
+    path.write_text(text)
+    return path
+
+
+def load_error(path: Path) -> list[str]:
+    with pytest.raises(SourceError) as caught:
+        load_motion(path)
+    return caught.value.problems
+
+
+def test_unreachable_target_names_its_line_and_the_closest_point(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: arm6\nkeyframes:\n  - pose: home\n"
+        "  - sites: {tool: {at: [600, 0, 100]}}\n    after: 1\n",
+    )
+    (message,) = load_error(path)
+    assert message.startswith(f"{path}:4:13: site 'tool' cannot reach (600.0, 0.0, 100.0) mm ")
+    assert "the closest it gets is (" in message
+    # the arm reaches 335 mm from its shoulder axis (106 mm up): 265 mm short at best
+    distance = float(message.split(" mm away")[0].rsplit(", ", 1)[1])
+    assert 265 <= distance <= 266
+    closest = message.split("the closest it gets is (")[1].split(")")[0]
+    point = np.array([float(v) for v in closest.split(", ")])
+    assert np.linalg.norm(point - [600, 0, 100]) == pytest.approx(distance, abs=0.1)
+
+
+def test_validate_explains_an_ik_failure(tmp_path, capsys):
+    path = write(
+        tmp_path,
+        "robot: arm6\nkeyframes:\n  - pose: {gripper: 30}\n"
+        "  - sites: {tool: {at: [150, 0, 40], pitch: 60}}\n    pose: {wrist_roll: 0}\n"
+        "    after: 1\n",
+    )
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    captured = capsys.readouterr()
+    err = captured.out + captured.err
+    assert (
+        f"{path}:4:13: site 'tool' cannot reach (150.0, 0.0, 40.0) mm (base frame), pitch 60°"
+        in err
+    )
+    assert "with wrist_roll held as given" in err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    "keyframes, expected",
+    [
+        (
+            "  - sites: {toll: {at: [150, 0, 40]}}\n",
+            "3:13: robot 'arm6' has no site 'toll' (did you mean 'tool'?); its sites: tool",
+        ),
+        (
+            "  - body: {z: 10}\n",
+            "3:5: body: needs the robot's feet: robot 'arm6' lists none",
+        ),
+        (
+            "  - gait: {steps: 2}\n",
+            "3:5: gait: needs the robot's feet: robot 'arm6' lists none",
+        ),
+        (
+            "  - sites: {tool: {at: [150, 0]}}\n",
+            "3:24: sites: tool: at must be [x, y, z] in mm, got 2 numbers",
+        ),
+        (
+            "  - sites: {tool: {at: [150, 0, 40], frame: hand}}\n",
+            "3:45: sites: tool: frame 'hand' is not one of base, world",
+        ),
+        (
+            "  - sites: {tool: {at: [150, 0, 40]}}\n    body: {z: 1}\n",
+            "4:5: give sites or body in a keyframe, not both",
+        ),
+        (
+            "  - after: 1\n",
+            "3:5: a keyframe needs pose, sites or body",
+        ),
+    ],
+)
+def test_bad_spatial_keyframes(tmp_path, keyframes, expected):
+    path = write(tmp_path, "robot: arm6\nkeyframes:\n" + keyframes)
+    messages = load_error(path)
+    assert any(m.startswith(f"{path}:{expected}") for m in messages), messages
+
+
+def test_bad_gait_blocks(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n"
+        "  - gait: {pattern: tripd, steps: 0, period: 0}\n    after: 1\n",
+    )
+    messages = load_error(path)
+    assert f"{path}:4:21: gait: pattern 'tripd' is not one of tripod, ripple, wave" in messages[0]
+    assert any(":4:35: gait: steps must be" in m for m in messages)
+    assert any(":4:46: gait: period must be" in m for m in messages)
+    assert any(":5:5: unknown key 'after' in a gait block" in m for m in messages)
+
+
+def test_a_gait_too_long_for_the_legs_is_reported_with_the_step(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - gait: {steps: 3, stride: 400}\n",
+    )
+    (message,) = load_error(path)
+    assert message.startswith(f"{path}:4:5: gait step 1 of 3: foot ")
+    assert "the closest it gets is" in message
+
+
+def test_a_mirrored_include_of_spatial_keyframes_is_refused(tmp_path):
+    (tmp_path / "part.yaml").write_text(
+        "robot: arm6\nkeyframes:\n  - sites: {tool: {at: [150, 0, 40]}}\n"
+    )
+    path = write(tmp_path, "robot: arm6\nkeyframes:\n  - include: part.yaml\n    mirror: true\n")
+    messages = load_error(path)
+    assert any("cannot be mirrored" in m for m in messages)
+
+
+def test_joints_given_alongside_sites_stay_fixed(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: arm6\nkeyframes:\n  - pose: home\n"
+        "  - sites: {tool: {at: [160, 60, 60], pitch: -60}}\n"
+        "    pose: {wrist_roll: 25, gripper: 35}\n    after: 1.5\n",
+    )
+    motion = load_motion(path)
+    targets = dict(zip(motion.robot.joint_names, motion.keyframes[1].targets_deg))
+    assert targets["wrist_roll"] == 25 and targets["gripper"] == 35
+    reached = Kinematics(motion.robot).site_pose("tool", motion.keyframes[1].targets_deg)
+    assert np.linalg.norm(reached.position_mm - [160, 60, 60]) <= POSITION_MM
+
+
+def test_world_frame_targets_of_a_walker(tmp_path):
+    """The hexapod's torso stands 85.9 mm up at home: a foot at world z 10 is at base z -75.9."""
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n"
+        "  - sites: {lf_foot: {at: [200, 160, 30], frame: world}}\n    after: 1\n",
+    )
+    motion = load_motion(path)
+    reached = Kinematics(motion.robot).site_pose("lf_foot", motion.keyframes[1].targets_deg)
+    np.testing.assert_allclose(reached.position_mm, [200, 160, 30 - 85.9], atol=POSITION_MM)
+
+
+def test_plan_json_lists_the_expanded_keyframes(capsys):
+    path = REPO / "motions" / "hexapod18" / "walk_forward.yaml"
+    assert main(["plan", "--json", str(path)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    listed = report["expanded_keyframes"]
+    motion = load_motion(path)
+    assert len(listed) == len(motion.keyframes) == 1 + 6 * 2 * 4  # home + steps x groups x 4
+    assert listed[1]["where"] == f"{path}:9:5" or listed[1]["where"].endswith(":9:5")
+    assert listed[1]["after_s"] == pytest.approx(2.0 / 8)
+    assert set(listed[1]["targets_deg"]) == set(motion.robot.joint_names)
+    assert listed[-1]["stop"] is True
+
+
+def test_a_gait_walks_in_the_body_pose_it_starts_from(tmp_path):
+    """Body 20 mm up, then a walk: the walk ends in that raised pose, and a body pose after it
+    is relative to where the walk left the body."""
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - body: {z: 20}\n    after: 1\n"
+        "  - gait: {steps: 2, stride: 30}\n  - body: {z: 0}\n    after: 1\n",
+    )
+    motion = load_motion(path)
+    raised, *walk, after = motion.keyframes[1:]
+    np.testing.assert_allclose(walk[-1].targets_deg, raised.targets_deg, atol=0.05)
+    np.testing.assert_allclose(after.targets_deg, raised.targets_deg, atol=0.05)
+    kin = Kinematics(motion.robot)
+    home = motion.robot.pose_vector("home")
+    for foot in kin.feet():
+        dz = kin.site_pose(foot, raised.targets_deg).position_mm[2]
+        assert dz == pytest.approx(kin.site_pose(foot, home).position_mm[2] - 20, abs=POSITION_MM)
+
+
+def test_a_body_pose_too_far_names_the_foot(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - body: {z: 150}\n    after: 1\n",
+    )
+    (message,) = load_error(path)
+    assert message.startswith(f"{path}:4:5: body: foot '")
+    assert "mm (body frame): the closest it gets is (" in message
+    assert message.endswith("ask for a smaller move")
