@@ -13,6 +13,7 @@ from pathlib import Path
 import yaml
 
 from .errors import SourceError
+from .music import BeatRef, Music, read_beat_time, read_music
 from .robot import Robot, find_robot_file, load_robot, mirror_pose, read_angles
 from .yamlsource import (
     Entry,
@@ -37,6 +38,7 @@ class Keyframe:
     stop: bool = False  # come to rest here (implied by hold > 0, and at the ends)
     velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
     label: str = ""  # pose name, or "" for an inline pose
+    beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
 
 
 @dataclass(frozen=True)
@@ -50,13 +52,15 @@ class Motion:
     repeat: int = (
         1  # times to play; the planner wraps seamlessly from the last keyframe to the first
     )
+    music: Music | None = None  # the song it dances to (keyframe times are already in seconds)
 
 
 # --- reading motion files ----------------------------------------------------------------------
 
-MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "keyframes")
-KEYFRAME_KEYS = ("pose", "t", "after", "hold", "stop", "velocity")
-INCLUDE_KEYS = ("include", "mirror", "t", "after")
+MOTION_KEYS = ("name", "description", "robot", "speed", "repeat", "music", "keyframes")
+KEYFRAME_KEYS = ("pose", "t", "after", "beat", "bar", "hold", "stop", "velocity")
+INCLUDE_KEYS = ("include", "mirror", "t", "after", "beat", "bar")
+TIMING_KEYS = ("t", "after", "beat", "bar")  # bar and beat together are one time
 HOME_POSE = "home"
 
 
@@ -73,6 +77,7 @@ class _Step:
     velocity_scale: float
     label: str
     t_where: SourceLocation | None  # where its t was written, while it still has one
+    beat: BeatRef | None = None  # its t was written as a beat or bar
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,7 @@ class _Include:
 
     path: Path
     entry: SourceLocation | None  # None for the motion file itself
+    music: Music | None = None  # the including motion's music, inherited along the chain
 
 
 def load_motion(path: str | Path) -> Motion:
@@ -112,9 +118,16 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         else 1.0
     )
     repeat = reader.integer(fields["repeat"].value, "repeat", low=1) if "repeat" in fields else 1
+    music = read_music(reader, fields["music"]) if "music" in fields else None
+    if music is not None and speed not in (None, 1.0):
+        reader.report(
+            fields["speed"].value,
+            f"speed {fmt(speed)} would leave the music behind (the song plays at its own "
+            "tempo); remove speed, or the music block",
+        )
     if robot is None or "keyframes" not in fields:
         return None
-    chain = (_Include(reader.path, None),)
+    chain = (_Include(reader.path, None, music),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if None in (name, description, speed, repeat) or reader.problems:
         return None
@@ -126,6 +139,7 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         description=description,
         speed=speed,
         repeat=repeat,
+        music=music,
     )
 
 
@@ -177,18 +191,18 @@ def _read_steps(
         if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
             steps.extend(_read_include(reader, item, robot, chain))
         else:
-            step = _read_keyframe(reader, item, robot)
+            step = _read_keyframe(reader, item, robot, chain[0].music)
             steps += [step] if step is not None else []
     _check_times(reader, steps)
     return steps
 
 
-def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
+def _read_keyframe(reader: Reader, item: Node, robot: Robot, music: Music | None) -> _Step | None:
     fields = reader.fields(item, "a keyframe", KEYFRAME_KEYS, required=("pose",))
     if fields is None or "pose" not in fields:
         return None
     pose = _read_pose(reader, fields["pose"].value, robot)
-    timing = _read_timing(reader, fields)
+    timing = _read_timing(reader, fields, music)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
@@ -212,37 +226,51 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
     ):
         return None
     angles, label = pose
-    t_where = reader.where(fields["t"].value) if "t" in fields else None
+    t_s, after_s, beat = timing
     return _Step(
         angles,
         reader.where(item),
-        *timing,
+        t_s,
+        after_s,
         hold_s=hold_s,
         stop=bool(stop or hold_s),
         velocity_scale=velocity,
         label=label,
-        t_where=t_where,
+        t_where=_t_where(reader, fields),
+        beat=beat,
     )
 
 
+def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
+    """Where an absolute time (t, beat or bar) was written."""
+    key = next((k for k in ("t", "beat", "bar") if k in fields), None)
+    return reader.where(fields[key].value) if key else None
+
+
 def _read_timing(
-    reader: Reader, fields: dict[str, Entry]
-) -> tuple[float | None, float | None] | None:
-    """(t_s, after_s) of a keyframe or include entry; None if refused (reported)."""
-    if "t" in fields and "after" in fields:
-        later = max(fields["t"], fields["after"], key=lambda e: e.key_node.start_mark.index)
+    reader: Reader, fields: dict[str, Entry], music: Music | None
+) -> tuple[float | None, float | None, BeatRef | None] | None:
+    """(t_s, after_s, beat) of a keyframe or include entry; None if refused (reported).
+
+    A beat or bar becomes its t (seconds of the music's beat grid)."""
+    given = [fields[k] for k in TIMING_KEYS if k in fields]
+    if len({"t" if e.key == "t" else "after" if e.key == "after" else "beat" for e in given}) > 1:
+        later = max(given, key=lambda e: e.key_node.start_mark.index)
+        beat = ", beat/bar (a beat of the music)" if "beat" in fields or "bar" in fields else ""
         reader.report(
             later.key_node,
             "give at most one of t (arrival time from the motion "
-            "start) and after (delay after the previous keyframe); "
-            "remove one",
+            f"start){beat} and after (delay after the previous keyframe); remove one",
         )
         return None
+    if "beat" in fields or "bar" in fields:
+        resolved = read_beat_time(reader, fields, music)
+        return None if resolved is None else (resolved[0], None, resolved[1])
     t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
     after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
     if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
         return None
-    return t_s, after_s
+    return t_s, after_s, None
 
 
 def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float], str] | None:
@@ -277,11 +305,11 @@ def _read_include(
     fields = reader.fields(item, what, INCLUDE_KEYS, required=("include",))
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
-    timing = _read_timing(reader, fields)
+    timing = _read_timing(reader, fields, chain[0].music)
     if relative is None or mirror is None or timing is None:
         return []
     path = reader.path.parent / relative
-    link = _Include(path, reader.where(fields["include"].value))
+    link = _Include(path, reader.where(fields["include"].value), chain[0].music)
     if any(path.resolve() == earlier.path.resolve() for earlier in chain):
         files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
         reader.report(
@@ -295,8 +323,12 @@ def _read_include(
             f"include: {path} does not exist (paths are relative to this file's folder)",
         )
         return []
-    t_where = reader.where(fields["t"].value) if "t" in fields else None
-    steps = _block(reader, _read_included(reader.problems, robot, (*chain, link)), timing, t_where)
+    steps = _block(
+        reader,
+        _read_included(reader.problems, robot, (*chain, link)),
+        timing,
+        _t_where(reader, fields),
+    )
     if mirror:
         steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
     return steps
@@ -340,7 +372,7 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
 def _block(
     reader: Reader,
     steps: list[_Step],
-    timing: tuple[float | None, float | None],
+    timing: tuple[float | None, float | None, BeatRef | None],
     t_where: SourceLocation | None,
 ) -> list[_Step]:
     """Included steps as a block: its t values become after delays (keeping their spacing), and
@@ -355,8 +387,8 @@ def _block(
         if index == 0:
             arrival_s = step.t_s if step.t_s is not None else step.after_s or 0.0
             own = step.t_s if step.t_s is not None else step.after_s
-            t_s, after_s = timing if timing != (None, None) else (None, own)
-            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where))
+            t_s, after_s, beat = timing if timing[:2] != (None, None) else (None, own, None)
+            block.append(replace(step, t_s=t_s, after_s=after_s, t_where=t_where, beat=beat))
             continue
         previous = steps[index - 1]
         if step.t_s is None:
@@ -375,7 +407,7 @@ def _block(
             )
         else:
             after_s = step.t_s - arrival_s - previous.hold_s
-            block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
+            block.append(replace(step, t_s=None, after_s=after_s, t_where=None, beat=None))
             arrival_s = step.t_s
     return block
 
@@ -437,6 +469,7 @@ def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
                 stop=step.stop,
                 velocity_scale=step.velocity_scale,
                 label=step.label,
+                beat=step.beat,
             )
         )
     return tuple(keyframes)

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..motion import Motion, load_motion
+from ..music import Music
 from ..segments import CompiledMotion, compile_motion
 from .arguments import add_planning_arguments
 
@@ -106,6 +107,8 @@ def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMoti
         "speed": speed,
         "duration_s": trajectory.duration_s,
         "keyframes": len(trajectory.keyframe_times_s),
+        "keyframe_times_s": [float(t) for t in trajectory.keyframe_times_s],
+        "music": music_report(motion.music) if motion.music else None,
         "ticks": len(ticks.ticks),
         "bytes": ticks.total_bytes,
         "peak_bus_use": ticks.peak_bus_use,
@@ -113,6 +116,16 @@ def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMoti
         "max_deviation_deg": ticks.max_deviation_deg,
         "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in compiled.stretches],
         "joints": [vars(j) for j in joints],
+    }
+
+
+def music_report(music: Music) -> dict:
+    return {
+        "song": str(music.song),
+        "start_s": music.start_s,
+        "bpm": music.bpm,
+        "beats_per_bar": music.grid.beats_per_bar,
+        "beat_times_s": list(music.grid.beat_times_s),  # motion time of beat 1, 2, ...
     }
 
 
