@@ -174,7 +174,7 @@ def _read_tempo(reader: Reader, node: Node, fields: dict[str, Entry]) -> float |
 def _beat_times(audio, start_s: float, bpm: float | None, per_bar: int) -> tuple[float, ...]:
     if bpm is not None:
         period = 60.0 / bpm
-        count = math.floor((audio.duration_s - start_s) / period + 1e-9) + 1
+        count = math.floor((audio.duration_s - start_s) / period - 1e-9) + 1  # inside the song
         return tuple(k * period for k in range(count))
     from .beats import detect_beats
 
