@@ -14,9 +14,11 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from ..audio import Audio
 from ..clock import RealClock
 from ..emulator.trace import path_errors_deg
 from ..motion import load_motion
+from ..music import Music
 from ..player import (
     ExitMode,
     Outcome,
@@ -30,6 +32,14 @@ from ..player import (
 )
 from ..robot import Robot
 from ..segments import CompiledMotion, compile_motion
+from ..soundtrack import (
+    AudioSink,
+    NoAudioOutput,
+    SongCue,
+    SoundDeviceSink,
+    play_with_song,
+    song_for_output,
+)
 from .arguments import (
     add_planning_arguments,
     add_port_arguments,
@@ -78,7 +88,31 @@ def register(subparsers) -> None:
         help="timeout of the health reads made between ticks (default 20 ms; raise "
         "it for USB adapters with a long latency timer)",
     )
+    music = play.add_argument_group("music (for a motion with a music: block)")
+    music.add_argument("--no-audio", action="store_true", help="play without the song")
+    music.add_argument(
+        "--audio-device",
+        metavar="NAME",
+        help="audio output to play the song on (default: the system's)",
+    )
+    music.add_argument(
+        "--audio-latency-ms",
+        type=non_negative_float,
+        metavar="MS",
+        help="the output's latency to make up for, instead of what the device reports "
+        "(raise it if the song comes late, e.g. on Bluetooth speakers)",
+    )
     play.set_defaults(handler=run_play)
+
+
+def non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
+    return value
 
 
 def run_play(args: argparse.Namespace) -> int:
@@ -97,7 +131,7 @@ def run_play(args: argparse.Namespace) -> int:
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )
     if args.dry_run:
-        return dry_run(compiled)
+        return dry_run(compiled, None if args.no_audio else motion.music)
     signal.signal(signal.SIGTERM, _interrupt)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
@@ -109,8 +143,14 @@ def run_play(args: argparse.Namespace) -> int:
     with bus:
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
+        sink, song = _open_audio(args, motion.music)
+        if sink is not None:  # the stream needs its latency before the first START
+            options = dataclasses.replace(
+                options, lead_s=max(options.lead_s, sink.latency_s + 0.05)
+            )
+        cue = SongCue.of(motion.music, performance) if motion.music and sink else None
         report, exit_move = _play_with_progress(
-            bus, robot, limits, options, performance, start_pose
+            bus, robot, limits, options, performance, start_pose, (sink, song, cue)
         )
         errors = None
         if emulator is not None:
@@ -141,12 +181,30 @@ def measured_path_errors(
     )
 
 
+def _open_audio(args, music: Music | None) -> tuple[AudioSink | None, Audio | None]:
+    """The audio output and the song for it; without one, one line and the dance goes on."""
+    if music is None or args.no_audio:
+        return None, None
+    latency_s = None if args.audio_latency_ms is None else args.audio_latency_ms / 1000
+    try:
+        song = song_for_output(music)
+        return open_audio_output(args.audio_device, latency_s), song
+    except NoAudioOutput as error:
+        print(f"choreo: no audio output: {error}; playing without the music", file=sys.stderr)
+        return None, None
+
+
+def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
+    """The real output (tests put a recording sink here)."""
+    return SoundDeviceSink(device, latency_s)
+
+
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
 def _play_with_progress(
-    bus, robot, limits, options, performance: Performance, start_pose
+    bus, robot, limits, options, performance: Performance, start_pose, soundtrack
 ) -> PlayReport:
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
@@ -180,7 +238,7 @@ def _play_with_progress(
                 progress.refresh()
 
         player = Player(bus, robot, RealClock(), limits, options, on_progress=update)
-        report = player.play(performance.ticks, start_pose)
+        report = play_with_song(player, performance, start_pose, *soundtrack)
         exit_move = player.leave(report.outcome)
     return report, exit_move
 
@@ -212,12 +270,19 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(compiled: CompiledMotion) -> int:
+def dry_run(compiled: CompiledMotion, music: Music | None) -> int:
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
+    cue = SongCue.of(music, performance) if music is not None else None
+    song_ms = round(max(0.0, -cue.from_s) * 1000) if cue else None
     for packet in packet_schedule(performance.ticks, robot):
+        if cue and song_ms is not None and packet.time_ms > song_ms:
+            print(f"{song_ms:8d} ms  {cue.describe()}")
+            song_ms = None
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
+    if cue and song_ms is not None:
+        print(f"{song_ms:8d} ms  {cue.describe()}")
     total = sum(len(p.packet) for p in packet_schedule(performance.ticks, robot))
     print(
         f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
