@@ -89,3 +89,20 @@ def encode(audio: Audio, path: str | Path) -> Path:
     if result.returncode != 0:
         raise ChoreoError(f"cannot write {path}: {result.stderr.decode(errors='replace').strip()}")
     return path
+
+
+def add_song_to_video(video: Path, song: Path, start_s: float, duration_s: float) -> None:
+    """Put ``song`` (from ``start_s`` on) into the mp4 ``video`` as its audio track, in place:
+    the video's t=0 hears the song at ``start_s``; at most ``duration_s`` of it (the video's
+    length), and the video keeps every frame if the song ends first."""
+    muxed = video.with_name(f".{video.stem}.song{video.suffix}")
+    command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-y", "-i", str(video)]
+    command += ["-ss", f"{start_s:.6f}", "-t", f"{duration_s:.6f}", "-i", str(song)]
+    command += ["-map", "0:v", "-map", "1:a", "-c:v", "copy", "-c:a", "aac", "-b:a", "128k"]
+    command += [str(muxed)]
+    result = subprocess.run(command, capture_output=True, check=False)
+    if result.returncode != 0:
+        muxed.unlink(missing_ok=True)
+        reason = result.stderr.decode(errors="replace").strip()
+        raise ChoreoError(f"cannot add {song.name} to {video}: {reason}")
+    muxed.replace(video)

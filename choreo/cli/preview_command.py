@@ -175,7 +175,7 @@ def run_preview(args: argparse.Namespace) -> int:
             sheet_frames=args.frames,
             high_quality=args.hq,
         )
-        done = _render_with_progress(preview, rollout, output, settings, results)
+        done = _render_with_progress(preview, rollout, output, settings, results, motion)
         print(
             f"wrote {output} ({done.frames} frames of {args.size[0]}x{args.size[1]}, "
             f"rendered with {done.backend})"
@@ -186,7 +186,7 @@ def run_preview(args: argparse.Namespace) -> int:
     return 1 if errors and not rendering else 0
 
 
-def _render_with_progress(preview, rollout, output: Path, settings, results):
+def _render_with_progress(preview, rollout, output: Path, settings, results, motion):
     console = Console(stderr=True)
     columns = (
         TextColumn("rendering {task.description}"),
@@ -200,4 +200,6 @@ def _render_with_progress(preview, rollout, output: Path, settings, results):
         def on_frame(done: int, total: int) -> None:
             progress.update(task, completed=done, total=total)
 
-        return preview.render_preview(rollout, output, settings, results, on_frame=on_frame)
+        return preview.render_preview(
+            rollout, output, settings, results, on_frame=on_frame, music=motion.music
+        )

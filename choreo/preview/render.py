@@ -16,7 +16,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from ..audio import add_song_to_video
 from ..errors import PreviewError
+from ..music import BeatGrid, Music
 from .checks import CheckKind, CheckResult
 from .gl import context_class, offscreen_backend
 from .model import free_root_body, load_model
@@ -78,8 +80,10 @@ def render_preview(
     settings: RenderSettings = RenderSettings(),
     results: Sequence[CheckResult] = (),
     on_frame: ProgressCallback | None = None,
+    music: Music | None = None,
 ) -> RenderResult:
-    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet)."""
+    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet). With ``music``
+    every frame shows its bar and beat, and an mp4 carries the song from ``music.start_s``."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
@@ -94,9 +98,12 @@ def render_preview(
     else:
         times = frame_times(rollout.duration_s, fps)
     backend = offscreen_backend()
-    frames = render_frames(rollout, times, settings, results, backend, on_frame)
+    grid = music.grid if music is not None else None
+    frames = render_frames(rollout, times, settings, results, backend, on_frame, grid)
     if suffix == ".mp4":
         _write_mp4(path, frames, fps, settings)
+        if music is not None:
+            add_song_to_video(path, music.song, music.start_s, len(times) / fps)
     elif suffix == ".gif":
         _write_gif(path, frames, fps)
     else:
@@ -111,6 +118,7 @@ def render_frames(
     results: Sequence[CheckResult] = (),
     backend: str | None = None,
     on_frame: ProgressCallback | None = None,
+    grid: BeatGrid | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames (height, width, 3) uint8 at ``times_s``, one at a time."""
     model = load_model(rollout.robot)
@@ -129,21 +137,25 @@ def render_frames(
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
             yield renderer.render(
-                data, cameras[k], status_text(rollout, t), problem_text(results, t)
+                data, cameras[k], status_text(rollout, t, grid), problem_text(results, t)
             )
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
 
 
-def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
-    """The overlay's (names, values) columns at time ``t``: the time and the keyframe index (of
-    the keyframe last reached, counting from 1)."""
+def status_text(rollout: Rollout, t: float, grid: BeatGrid | None = None) -> tuple[str, str]:
+    """The overlay's (names, values) columns at time ``t``: the time, the keyframe index (of
+    the keyframe last reached, counting from 1) and, with music, the bar and beat under way."""
     names, values = ["time"], [f"{t:.2f} s"]
     keyframes = rollout.keyframe_times_s
     if keyframes:
         reached = int(np.searchsorted(keyframes, t + 1e-9, side="right"))
         names.append("keyframe")
         values.append(f"{max(reached, 1)} / {len(keyframes)}")
+    if grid is not None and grid.beats:
+        bar, beat = grid.bar_and_beat(math.floor(grid.beat_at(t) + 1e-6))
+        names.append("bar / beat")
+        values.append(f"{bar} / {beat:g}")
     return "\n".join(names), "\n".join(values)
 
 
