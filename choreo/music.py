@@ -9,7 +9,9 @@ file is read, so everything after loading (planner, player, exports) sees plain 
 
 from __future__ import annotations
 
+import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -183,6 +185,15 @@ def _beat_times(audio, start_s: float, bpm: float | None, per_bar: int) -> tuple
     if not times:
         raise ChoreoError(f"no beats were detected after start {fmt(start_s)} s of the song")
     return tuple(max(t, 0.0) for t in times)
+
+
+def music_text(music: Music, motion_path: Path) -> str:
+    """The music block as a YAML flow mapping for a motion file written at ``motion_path`` (the
+    song's path made relative to it). Keyframes written with it are in seconds (``t``)."""
+    song = Path(os.path.relpath(music.song.resolve(), motion_path.resolve().parent)).as_posix()
+    tempo = f"bpm: {fmt(music.bpm)}" if music.bpm is not None else "beats: auto"
+    meter = f", meter: {music.grid.beats_per_bar}/4" if music.grid.beats_per_bar != 4 else ""
+    return f"{{song: {json.dumps(song)}, start: {fmt(music.start_s)}, {tempo}{meter}}}"
 
 
 # --- keyframe times written in beats ----------------------------------------------------------

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
 from music_helpers import steady_times, write_clicks
 
+from choreo.audio import decode
+from choreo.beats import detect_beats
 from choreo.cli import main
 from choreo.errors import PlanningError, SourceError
 from choreo.motion import load_motion
@@ -259,3 +262,38 @@ def test_a_beat_needs_music_and_speed_would_leave_it_behind(tmp_path, song):
         f"{fast}:2:8: speed 2 would leave the music behind (the song plays at its own tempo); "
         "remove speed, or the music block"
     ]
+
+
+REPO = Path(__file__).resolve().parents[1]
+DANCES = [
+    REPO / "motions" / "arm6" / "dance.yaml",
+    REPO / "motions" / "tonypi" / "dance.yaml",
+    REPO / "motions" / "hexapod18" / "dance.yaml",
+]
+
+
+def test_the_shipped_dances_validate_and_keep_to_their_song(capsys):
+    assert main(["validate", *map(str, DANCES)]) == 0  # planned and simulated: no fall
+    song = REPO / "motions" / "songs" / "groove.ogg"
+    assert song.stat().st_size < 500_000
+    detected = detect_beats(decode(song))
+    for path in DANCES:
+        music = load_motion(path).music
+        assert music.song.resolve() == song.resolve()
+        # the written tempo and start are the song's own: beat n sounds where the detector hears it
+        heard = np.asarray(detected.beats_s)  # 36 kicks; the grid goes on into the last second
+        written = music.start_s + np.asarray(music.grid.beat_times_s[: len(heard)])
+        assert abs(detected.bpm - music.bpm) <= 0.5
+        assert len(heard) == 36 and np.max(np.abs(heard - written)) <= 0.015
+        assert detected.downbeats_s[0] == pytest.approx(music.start_s, abs=0.015)
+
+
+def test_a_mirrored_dance_keeps_its_song_and_times(tmp_path):
+    source = load_motion(DANCES[0])
+    out = tmp_path / "elsewhere" / "mirrored.yaml"
+    out.parent.mkdir()
+    assert main(["mirror", str(DANCES[0]), "-o", str(out)]) == 0
+    mirrored = load_motion(out)
+    assert mirrored.music.song.resolve() == source.music.song.resolve()
+    assert (mirrored.music.start_s, mirrored.music.bpm) == (0.5, 112)
+    assert [k.t_s for k in mirrored.keyframes] == [k.t_s for k in source.keyframes]
