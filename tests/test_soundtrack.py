@@ -3,18 +3,30 @@
 from __future__ import annotations
 
 import re
+import sys
+import time
+import types
 
+import numpy as np
 import pytest
 from music_helpers import steady_times, write_clicks
 from test_music import write
 from test_player import Rig
 
+from choreo.audio import Audio
 from choreo.cli import main, play_command
-from choreo.clock import RealClock
+from choreo.clock import RealClock, VirtualClock
 from choreo.player import Outcome, Player, PlayOptions, preflight, prepare
 from choreo.protocol import Command
 from choreo.segments import compile_motion
-from choreo.soundtrack import NoAudioOutput, RecordingSink, SongCue, play_with_song
+from choreo.soundtrack import (
+    OUTPUT_RATE_HZ,
+    NoAudioOutput,
+    RecordingSink,
+    SongCue,
+    SoundDeviceSink,
+    play_with_song,
+)
 
 SAME_TIME_S = 0.002
 LATENCY_S = 0.08
@@ -78,8 +90,6 @@ def test_ctrl_c_stops_the_song_and_the_servos_together(dance):
 
 
 def test_a_late_cue_skips_into_the_song_to_stay_in_sync():
-    from choreo.clock import VirtualClock
-
     clock = VirtualClock(10.0)
     sink = RecordingSink(clock, latency_s=0.1)
     sink.play(object(), from_s=2.0, sound_at_s=10.03)  # 70 ms too late for this output
@@ -127,3 +137,60 @@ def test_play_plays_the_song_on_the_output_and_stops_it(dance, capsys, monkeypat
     assert sink.sounds_at_s is not None and sink.stopped_at_s > sink.sounds_at_s
     assert main(["play", str(dance), "--no-audio"]) == 0
     assert len(sinks) == 1
+
+
+class FakeOutputStream:
+    """sounddevice.OutputStream's part the sink uses: its own time line 100 s ahead of the
+    monotonic clock, a reported latency of 50 ms, and a callback the test calls."""
+
+    latency = 0.05
+
+    def __init__(self, callback, **settings):
+        self.callback, self.settings = callback, settings
+        self.active = False
+
+    @property
+    def time(self):
+        return time.monotonic() + 100.0
+
+    def start(self):
+        self.active = True
+
+    def stop(self):
+        self.active = False
+
+    def close(self):
+        pass
+
+
+@pytest.fixture
+def fake_sounddevice(monkeypatch):
+    module = types.SimpleNamespace(OutputStream=FakeOutputStream)
+    monkeypatch.setitem(sys.modules, "sounddevice", module)
+    return module
+
+
+def played_song_time(sink, song, dac_s: float) -> float:
+    """Which song time the sink's callback puts first in a buffer that sounds at ``dac_s``."""
+    out = np.zeros((64, 2), np.float32)
+    timing = types.SimpleNamespace(outputBufferDacTime=dac_s, currentTime=0.0)
+    sink._stream.callback(out, 64, timing, None)
+    assert np.any(out), "the buffer is silent"
+    return float(out[0, 0])  # the test song's samples are their own times
+
+
+@pytest.mark.parametrize(("latency_ms", "correction_s"), [(None, 0.0), (80.0, 0.03)])
+def test_the_real_sink_puts_the_cued_sample_where_it_sounds_on_time(
+    fake_sounddevice, latency_ms, correction_s
+):
+    sink = SoundDeviceSink("hw:1", None if latency_ms is None else latency_ms / 1000)
+    assert sink._stream.settings["device"] == "hw:1" and sink._stream.active
+    assert sink.latency_s == pytest.approx(0.05 if latency_ms is None else 0.08)
+    times = np.arange(5 * OUTPUT_RATE_HZ, dtype=np.float32) / OUTPUT_RATE_HZ
+    song = Audio(np.stack([times, times], axis=1), OUTPUT_RATE_HZ)
+    sink.play(song, from_s=1.0, sound_at_s=50.0)
+    # a buffer the device says sounds at clock 50 s (stream 150 s) really sounds correction later
+    assert played_song_time(sink, song, 150.0 - correction_s) == pytest.approx(1.0, abs=1e-3)
+    assert played_song_time(sink, song, 150.5 - correction_s) == pytest.approx(1.5, abs=1e-3)
+    sink.stop()
+    assert not sink._stream.active
