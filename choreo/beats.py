@@ -108,18 +108,23 @@ def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndar
 
 
 def _extend(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndarray:
-    """Beats the tracker left out at either end: one period further, while an onset is there."""
+    """Beats the tracker left out at either end: one period further, while an onset is there
+    (at least half a period further, so the search always moves on)."""
     if len(beats) < 4:
         return beats
     threshold = 0.5 * np.median(envelope[np.round(beats * frame_rate).astype(int)])
+    times = [float(b) for b in beats]
     period = float(np.median(np.diff(beats[:4])))
-    beats = list(beats)
-    while (found := _onset_near(beats[0] - period, envelope, frame_rate, threshold)) is not None:
-        beats.insert(0, found)
+    while (found := _onset_near(times[0] - period, envelope, frame_rate, threshold)) is not None:
+        if found > times[0] - period / 2:
+            break
+        times.insert(0, found)
     period = float(np.median(np.diff(beats[-4:])))
-    while (found := _onset_near(beats[-1] + period, envelope, frame_rate, threshold)) is not None:
-        beats.append(found)
-    return np.asarray(beats)
+    while (found := _onset_near(times[-1] + period, envelope, frame_rate, threshold)) is not None:
+        if found < times[-1] + period / 2:
+            break
+        times.append(found)
+    return np.asarray(times)
 
 
 def _onset_near(t_s: float, envelope: np.ndarray, frame_rate: float, threshold: float):

@@ -119,7 +119,7 @@ def read_music(reader: Reader, entry: Entry) -> Music | None:
             f"({audio.duration_s:.3f} s); give a time inside the song",
         )
         return None
-    bpm = None if tempo == "auto" else tempo
+    bpm = tempo if isinstance(tempo, float) else None  # else "auto"
     try:
         beat_times = _beat_times(audio, start_s, bpm, per_bar)
     except ChoreoError as error:

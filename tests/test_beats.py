@@ -11,7 +11,7 @@ import pytest
 from music_helpers import click_track, steady_times, write_clicks
 from test_plan_cli import png_size
 
-from choreo.audio import decode
+from choreo.audio import Audio, decode
 from choreo.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.beats import detect_beats
 from choreo.cli import main
@@ -106,3 +106,12 @@ def test_without_librosa_the_error_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "librosa", None)  # import librosa now raises ImportError
     with pytest.raises(ChoreoError, match=r"pip install 'choreo\[music\]'"):
         detect_beats(click_track(steady_times(120, 0.5, 4), 5.0))
+
+
+def test_noise_and_a_buzz_give_increasing_beats_and_end():
+    rng = np.random.default_rng(0)
+    noise = Audio((0.3 * rng.standard_normal(22050 * 8)).astype(np.float32), 22050)
+    buzz = click_track(np.arange(0.0, 6.0, 0.02), 6.5)  # 3000 clicks a minute: below a beat
+    for audio in (noise, buzz):
+        beats = np.asarray(detect_beats(audio).beats_s)
+        assert np.all(np.diff(beats) > 0) and np.all((beats >= 0) & (beats <= audio.duration_s))
