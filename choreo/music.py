@@ -187,6 +187,15 @@ def _beat_times(audio, start_s: float, bpm: float | None, per_bar: int) -> tuple
     return tuple(max(t, 0.0) for t in times)
 
 
+def check_speed(music: Music | None, speed: float | None, what: str) -> None:
+    """Refuse a speed that would play the motion out of step with its song (ChoreoError)."""
+    if music is not None and speed is not None and speed != 1.0:
+        raise ChoreoError(
+            f"--speed {fmt(speed)} would leave {music.song.name} behind (the song plays at its "
+            f"own tempo); {what}"
+        )
+
+
 def music_text(music: Music, motion_path: Path) -> str:
     """The music block as a YAML flow mapping for a motion file written at ``motion_path`` (the
     song's path made relative to it). Keyframes written with it are in seconds (``t``)."""

@@ -96,3 +96,10 @@ def test_a_contact_sheet_marks_each_frames_beat(dance, tmp_path):
     changed_rows = np.flatnonzero(np.abs(with_beats - without).max(axis=1) > 64)
     # the bar / beat line is drawn below the other overlay lines of each tile's top-left
     assert len(changed_rows) > 0 and changed_rows.min() < 120
+
+
+def test_a_video_with_the_song_refuses_another_speed(dance, tmp_path, capsys):
+    video = tmp_path / "fast.mp4"
+    assert main(["preview", str(dance), "-o", str(video), "--speed", "2"]) == 1
+    assert "choreo: error: --speed 2 would leave song.ogg behind" in capsys.readouterr().err
+    assert not video.exists()

@@ -194,3 +194,14 @@ def test_the_real_sink_puts_the_cued_sample_where_it_sounds_on_time(
     assert played_song_time(sink, song, 150.5 - correction_s) == pytest.approx(1.5, abs=1e-3)
     sink.stop()
     assert not sink._stream.active
+
+
+def test_a_speed_that_would_leave_the_song_behind_is_refused(dance, capsys):
+    assert main(["play", str(dance), "--speed", "1.5", "--dry-run"]) == 1
+    assert capsys.readouterr().err == (
+        "choreo: error: --speed 1.5 would leave song.wav behind (the song plays at its own "
+        "tempo); drop --speed, or play without the song: --no-audio\n"
+    )
+    assert main(["play", str(dance), "--speed", "0.5", "--dry-run", "--no-audio"]) == 0
+    out = capsys.readouterr().out
+    assert "song" not in out

@@ -18,7 +18,7 @@ from ..audio import Audio
 from ..clock import RealClock
 from ..emulator.trace import path_errors_deg
 from ..motion import load_motion
-from ..music import Music
+from ..music import Music, check_speed
 from ..player import (
     ExitMode,
     Outcome,
@@ -117,6 +117,8 @@ def non_negative_float(text: str) -> float:
 
 def run_play(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
+    if not args.no_audio:
+        check_speed(motion.music, args.speed, "drop --speed, or play without the song: --no-audio")
     if args.loop:
         motion = dataclasses.replace(motion, repeat=args.loop)
     robot = motion.robot

@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from ..motion import load_motion
+from ..music import check_speed
 from .arguments import add_planning_arguments, positive_float, positive_int
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
@@ -144,6 +145,8 @@ def run_preview(args: argparse.Namespace) -> int:
     from .. import preview  # imports mujoco: only when this command runs
 
     motion = load_motion(args.motion)
+    if output is not None and output.suffix.lower() == ".mp4":
+        check_speed(motion.music, args.speed, "drop --speed for a video with the song")
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,
