@@ -444,13 +444,20 @@ def _check_times(reader: Reader, steps: list[_Step]) -> None:
         if step.t_s is not None and index > 0 and step.t_s <= leave_s:
             reader.problems.add(
                 step.t_where,
-                f"t {fmt(step.t_s)} goes backwards: the keyframe "
+                f"{_time_text(step.t_s, step.beat)} goes backwards: the keyframe "
                 f"before it ({steps[index - 1].where}) cannot be "
                 f"left before {fmt(leave_s)} s; t values must "
                 f"increase along the file",
             )
         arrival_s = step.t_s if step.t_s is not None else leave_s + (step.after_s or 0.0)
         leave_s = max(arrival_s, leave_s) + step.hold_s
+
+
+def _time_text(t_s: float, beat: BeatRef | None) -> str:
+    """'t 2.5', or for a keyframe written on a beat 'beat 6 (t 2.500)'."""
+    if beat is None:
+        return f"t {fmt(t_s)}"
+    return f"{beat.describe(beat.grid.beat_at(t_s))} (t {t_s:.3f})"
 
 
 def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:

@@ -297,3 +297,23 @@ def test_a_mirrored_dance_keeps_its_song_and_times(tmp_path):
     assert mirrored.music.song.resolve() == source.music.song.resolve()
     assert (mirrored.music.start_s, mirrored.music.bpm) == (0.5, 112)
     assert [k.t_s for k in mirrored.keyframes] == [k.t_s for k in source.keyframes]
+
+
+def test_a_beat_going_backwards_is_named_as_a_beat(tmp_path, song):
+    path = write(
+        tmp_path,
+        "back.yaml",
+        """
+        robot: arm6
+        music: {song: song.wav, start: 0.5, bpm: 120}
+        keyframes:
+          - pose: home
+            bar: 2
+          - pose: {shoulder: 20}
+            beat: 3.5
+        """,
+    )
+    assert problems_of(path) == [
+        f"{path}:7:11: beat 3.5 (t 1.250) goes backwards: the keyframe before it ({path}:4:5) "
+        "cannot be left before 2 s; t values must increase along the file"
+    ]
