@@ -168,7 +168,7 @@ class SoundDeviceSink:
         with self._lock:
             self._song = None
         try:
-            self._stream.stop()
+            self._stream.abort()  # at once: stop() would play out what is queued first
             self._stream.close()
         except Exception as error:  # the device went away: nothing left to silence
             log.info("closing the audio stream: %s", error)

@@ -156,7 +156,7 @@ class FakeOutputStream:
     def start(self):
         self.active = True
 
-    def stop(self):
+    def abort(self):
         self.active = False
 
     def close(self):
