@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 import textwrap
 from pathlib import Path
 
@@ -316,4 +317,24 @@ def test_a_beat_going_backwards_is_named_as_a_beat(tmp_path, song):
     assert problems_of(path) == [
         f"{path}:7:11: beat 3.5 (t 1.250) goes backwards: the keyframe before it ({path}:4:5) "
         "cannot be left before 2 s; t values must increase along the file"
+    ]
+
+
+def test_beats_auto_without_librosa_names_the_extra_at_the_line(tmp_path, song, monkeypatch):
+    monkeypatch.setitem(sys.modules, "librosa", None)  # import librosa now raises ImportError
+    path = write(
+        tmp_path,
+        "auto.yaml",
+        """
+        robot: arm6
+        music:
+          song: song.wav
+          beats: auto
+        keyframes:
+          - pose: home
+        """,
+    )
+    assert problems_of(path) == [
+        f"{path}:4:10: beat detection needs librosa: install the music extra, pip install "
+        "'choreo[music]'"
     ]
