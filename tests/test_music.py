@@ -7,8 +7,10 @@ import sys
 import textwrap
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
+import yaml
 from music_helpers import steady_times, write_clicks
 
 from choreo.audio import decode
@@ -338,3 +340,19 @@ def test_beats_auto_without_librosa_names_the_extra_at_the_line(tmp_path, song, 
         f"{path}:4:10: beat detection needs librosa: install the music extra, pip install "
         "'choreo[music]'"
     ]
+
+
+def test_the_schema_knows_the_music_block_and_beat_timing():
+    schema = json.loads((REPO / "choreo" / "schema" / "motion.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    for path in DANCES:
+        assert list(validator.iter_errors(yaml.safe_load(path.read_text()))) == []
+    bad = {
+        "robot": "arm6",
+        "music": {"song": "a.ogg", "bpm": 120, "beats": "auto"},
+        "keyframes": [{"pose": "home", "beat": 1, "t": 0}, {"pose": "home", "bar": 0}],
+    }
+    where = sorted(list(e.absolute_path) for e in validator.iter_errors(bad))
+    assert where == [["keyframes", 0], ["keyframes", 1, "bar"], ["music"]]
+    assert not validator.is_valid({"robot": "arm6", "music": {"song": "a.txt", "bpm": 1},
+                                   "keyframes": [{"pose": "home"}]})  # fmt: skip
