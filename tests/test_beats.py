@@ -87,6 +87,9 @@ def test_cli_text_names_tempo_and_beats(tmp_path, capsys):
     bpm = float(re.search(r"tempo ([\d.]+) BPM from 0.50", out).group(1))
     assert abs(bpm - 120) <= BPM_TOLERANCE
     assert "\nbeats (s):     0.50" in out and "\ndownbeats (s): 0.50" in out
+    assert re.search(
+        r"\nfor a motion: music: \{song: clicks.wav, start: 0.50\d, bpm: 12\d.\d\d\}", out
+    )
 
 
 def test_a_file_that_is_not_a_song_is_one_line(tmp_path, capsys):

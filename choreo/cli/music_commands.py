@@ -83,3 +83,12 @@ def print_beats(song: Path, analysis: BeatAnalysis) -> None:
         print(f"tempo {span.bpm:.2f} BPM from {span.start_s:.3f} s to {span.end_s:.3f} s")
     print("beats (s):     " + " ".join(f"{b:.3f}" for b in analysis.beats_s))
     print("downbeats (s): " + " ".join(f"{b:.3f}" for b in analysis.downbeats_s))
+    print(f"for a motion: music: {suggested_music(song, analysis)}")
+
+
+def suggested_music(song: Path, analysis: BeatAnalysis) -> str:
+    """A music block that starts on the first downbeat: a fixed tempo if the song keeps one."""
+    start = analysis.downbeats_s[0] if analysis.downbeats_s else analysis.beats_s[0]
+    tempo = f"bpm: {analysis.bpm:.2f}" if len(analysis.tempi) == 1 else "beats: auto"
+    meter = f", meter: {analysis.beats_per_bar}/4" if analysis.beats_per_bar != 4 else ""
+    return f"{{song: {song.name}, start: {start:.3f}, {tempo}{meter}}}"
