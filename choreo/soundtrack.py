@@ -117,7 +117,9 @@ class RecordingSink:
 # --- the real one: PortAudio through sounddevice -----------------------------------------------
 class SoundDeviceSink:
     """An output stream that runs (silent) from construction; ``play`` maps the clock onto the
-    stream's own time line and the callback puts each song sample where it must sound."""
+    stream's own time line and the callback puts each song sample where it must sound.
+
+    Clock times are ``time.monotonic`` (the player's ``RealClock``)."""
 
     def __init__(self, device: str | int | None = None, latency_s: float | None = None):
         sd = _import_sounddevice()
