@@ -14,6 +14,7 @@ from .atomic import write_text_atomically
 from .errors import SourceError
 from .motion import Keyframe, Motion
 from .motion_writer import motion_text, robot_reference
+from .music import music_text
 from .robot import mirror_targets
 from .yamlsource import fmt
 
@@ -64,6 +65,7 @@ def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
             speed=motion.speed,
             repeat=motion.repeat,
             header=header,
+            music=music_text(motion.music, out) if motion.music else "",
         ),
     )
     return keyframes

@@ -15,6 +15,7 @@ import yaml
 
 from .errors import SourceError
 from .file_shape import mapping_shape
+from .music import BeatRef, Music, read_beat_time, read_music
 from .robot import Robot, mirror_pose
 from .robot_file import load_robot, read_angles
 from .robot_lookup import find_robot_file
@@ -44,6 +45,7 @@ class Keyframe:
     stop: bool = False  # come to rest here (implied by hold > 0, and at the ends)
     velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
     label: str = ""  # pose name, or "" for an inline pose
+    beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
 
 
 @dataclass(frozen=True)
@@ -59,6 +61,7 @@ class Motion:
     )
     start: StartPosture = StartPosture.STANDING  # how the robot rests before it (preview)
     props: tuple[Prop, ...] = ()  # boxes around the robot (preview)
+    music: Music | None = None  # the song it dances to (keyframe times are already in seconds)
 
 
 # --- reading motion files ----------------------------------------------------------------------
@@ -85,6 +88,7 @@ MOTION = mapping_shape("motion")
 KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
 INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
 GAIT = mapping_shape("motion", "#/$defs/gaitBlock")
+TIMING_KEYS = ("t", "after", "beat", "bar")  # bar and beat together are one time
 HOME_POSE = "home"
 
 
@@ -102,6 +106,7 @@ class _Step:
     label: str
     t_where: SourceLocation | None  # where its t was written, while it still has one
     space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
+    beat: BeatRef | None = None  # its t was written as a beat or bar
 
 
 @dataclass(frozen=True)
@@ -110,6 +115,7 @@ class _Include:
 
     path: Path
     entry: SourceLocation | None  # None for the motion file itself
+    music: Music | None = None  # the including motion's music, inherited along the chain
 
 
 def load_motion(path: str | Path) -> Motion:
@@ -145,9 +151,16 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         read_start(reader, fields["start"].value) if "start" in fields else StartPosture.STANDING
     )
     props = read_props(reader, fields["props"].value) if "props" in fields else ()
+    music = read_music(reader, fields["music"]) if "music" in fields else None
+    if music is not None and speed not in (None, 1.0):
+        reader.report(
+            fields["speed"].value,
+            f"speed {fmt(speed)} would leave the music behind (the song plays at its own "
+            "tempo); remove speed, or the music block",
+        )
     if robot is None or "keyframes" not in fields:
         return None
-    chain = (_Include(reader.path, None),)
+    chain = (_Include(reader.path, None, music),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if None in (name, description, speed, repeat, start, props) or reader.problems:
         return None
@@ -169,6 +182,7 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         repeat=repeat,
         start=start,
         props=props,
+        music=music,
     )
 
 
@@ -222,7 +236,7 @@ def _read_steps(
         elif has_key(item, "gait"):
             steps += _read_gait_block(reader, item)
         else:
-            step = _read_keyframe(reader, item, robot)
+            step = _read_keyframe(reader, item, robot, chain[0].music)
             if step is not None and len(chain) > 1:  # say through which includes it came
                 entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
                 step = replace(step, where=replace(step.where, included_at=entries))
@@ -231,7 +245,7 @@ def _read_steps(
     return steps
 
 
-def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
+def _read_keyframe(reader: Reader, item: Node, robot: Robot, music: Music | None) -> _Step | None:
     fields = reader.fields(item, "a keyframe", KEYFRAME.keys)
     if fields is None:
         return None
@@ -239,7 +253,7 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
     if space is False:
         return None
     pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
-    timing = _read_timing(reader, fields)
+    timing = _read_timing(reader, fields, music)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
@@ -263,17 +277,19 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot) -> _Step | None:
     ):
         return None
     angles, label = pose
-    t_where = reader.where(fields["t"].value) if "t" in fields else None
+    t_s, after_s, beat = timing
     return _Step(
         angles,
         reader.where(item),
-        *timing,
+        t_s,
+        after_s,
         hold_s=hold_s,
         stop=bool(stop or hold_s),
         velocity_scale=velocity,
         label=label,
-        t_where=t_where,
+        t_where=_t_where(reader, fields),
         space=space,
+        beat=beat,
     )
 
 
@@ -303,24 +319,36 @@ def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
     return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
+def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
+    """Where an absolute time (t, beat or bar) was written."""
+    key = next((k for k in ("t", "beat", "bar") if k in fields), None)
+    return reader.where(fields[key].value) if key else None
+
+
 def _read_timing(
-    reader: Reader, fields: dict[str, Entry]
-) -> tuple[float | None, float | None] | None:
-    """(t_s, after_s) of a keyframe or include entry; None if refused (reported)."""
-    if "t" in fields and "after" in fields:
-        later = max(fields["t"], fields["after"], key=lambda e: e.key_node.start_mark.index)
+    reader: Reader, fields: dict[str, Entry], music: Music | None
+) -> tuple[float | None, float | None, BeatRef | None] | None:
+    """(t_s, after_s, beat) of a keyframe or include entry; None if refused (reported).
+
+    A beat or bar becomes its t (seconds of the music's beat grid)."""
+    given = [fields[k] for k in TIMING_KEYS if k in fields]
+    if len({"t" if e.key == "t" else "after" if e.key == "after" else "beat" for e in given}) > 1:
+        later = max(given, key=lambda e: e.key_node.start_mark.index)
+        beat = ", beat/bar (a beat of the music)" if "beat" in fields or "bar" in fields else ""
         reader.report(
             later.key_node,
             "give at most one of t (arrival time from the motion "
-            "start) and after (delay after the previous keyframe); "
-            "remove one",
+            f"start){beat} and after (delay after the previous keyframe); remove one",
         )
         return None
+    if "beat" in fields or "bar" in fields:
+        resolved = read_beat_time(reader, fields, music)
+        return None if resolved is None else (resolved[0], None, resolved[1])
     t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
     after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
     if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
         return None
-    return t_s, after_s
+    return t_s, after_s, None
 
 
 def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float], str] | None:
@@ -355,11 +383,11 @@ def _read_include(
     fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
-    timing = _read_timing(reader, fields)
+    timing = _read_timing(reader, fields, chain[0].music)
     if relative is None or mirror is None or timing is None:
         return []
     path = reader.path.parent / relative
-    link = _Include(path, reader.where(fields["include"].value))
+    link = _Include(path, reader.where(fields["include"].value), chain[0].music)
     if any(path.resolve() == earlier.path.resolve() for earlier in chain):
         files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
         reader.report(
@@ -373,8 +401,12 @@ def _read_include(
             f"include: {path} does not exist (paths are relative to this file's folder)",
         )
         return []
-    t_where = reader.where(fields["t"].value) if "t" in fields else None
-    steps = _block(reader, _read_included(reader.problems, robot, (*chain, link)), timing, t_where)
+    steps = _block(
+        reader,
+        _read_included(reader.problems, robot, (*chain, link)),
+        timing,
+        _t_where(reader, fields),
+    )
     if mirror:
         steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
     return steps
@@ -419,7 +451,7 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
 def _block(
     reader: Reader,
     steps: list[_Step],
-    timing: tuple[float | None, float | None],
+    timing: tuple[float | None, float | None, BeatRef | None],
     t_where: SourceLocation | None,
 ) -> list[_Step]:
     """Included steps as a block: its t values become after delays (keeping their spacing), and
@@ -433,8 +465,8 @@ def _block(
     arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
     first = steps[0]
     own = first.t_s if first.t_s is not None else first.after_s
-    t_s, after_s = timing if timing != (None, None) else (None, own)
-    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where)]
+    t_s, after_s, beat = timing if timing[:2] != (None, None) else (None, own, None)
+    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where, beat=beat)]
     for index, step in enumerate(steps[1:], start=1):
         previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
         if step.t_s is None:
@@ -448,7 +480,7 @@ def _block(
             )
         else:
             after_s = step.t_s - previous_arrival_s - previous.hold_s
-            block.append(replace(step, t_s=None, after_s=after_s, t_where=None))
+            block.append(replace(step, t_s=None, after_s=after_s, t_where=None, beat=None))
     return block
 
 
@@ -483,13 +515,21 @@ def _mirror_block(
 def _check_times(reader: Reader, steps: list[_Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
     for backward in backward_times(played_keyframes(steps)):
+        step = steps[backward.index]
         reader.problems.add(
-            steps[backward.index].t_where,
-            f"t {fmt(backward.t_s)} goes backwards: the keyframe "
+            step.t_where,
+            f"{_time_text(backward.t_s, step.beat)} goes backwards: the keyframe "
             f"before it ({steps[backward.index - 1].where}) cannot be "
             f"left before {fmt(backward.earliest_leave_s)} s; t values must "
             f"increase along the file",
         )
+
+
+def _time_text(t_s: float, beat: BeatRef | None) -> str:
+    """'t 2.5', or for a keyframe written on a beat 'beat 6 (t 2.500)'."""
+    if beat is None:
+        return f"t {fmt(t_s)}"
+    return f"{beat.describe(beat.grid.beat_at(t_s))} (t {t_s:.3f})"
 
 
 def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
@@ -508,6 +548,7 @@ def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
                 stop=step.stop,
                 velocity_scale=step.velocity_scale,
                 label=step.label,
+                beat=step.beat,
             )
         )
     return tuple(keyframes)

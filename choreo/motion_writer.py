@@ -37,12 +37,14 @@ def motion_text(
     repeat: int = 1,
     header: Sequence[str] = (),
     comments: Mapping[int, str] | None = None,
+    music: str = "",
 ) -> str:
     """The YAML text of a motion of ``robot`` (named by ``robot_ref``) with these keyframes.
 
     ``header``: comment lines for the top of the file; ``comments``: keyframe index -> a comment
     for that keyframe, at the end of its last line if it is one short line, else on the lines
-    before it. The motion's name is left to default to the file name.
+    before it; ``music``: the music block as one flow mapping (``choreo.music.music_text``).
+    The motion's name is left to default to the file name.
     """
     lines = [f"# {line}".rstrip() for line in header]
     if description:
@@ -52,6 +54,8 @@ def motion_text(
         lines.append(f"speed: {_number(speed)}")
     if repeat != 1:
         lines.append(f"repeat: {repeat}")
+    if music:
+        lines.append(f"music: {music}")
     lines.append("keyframes:")
     previous = robot.pose_vector(HOME_POSE)
     for index, keyframe in enumerate(keyframes):

@@ -480,6 +480,8 @@ class _Planner:
             if p.timing is Timing.AT and kf.t_s is not None
             else f"after >= {(kf.after_s or 0.0) + late_by:.3f}"
         )
+        if kf.beat is not None and p.timing is Timing.AT and kf.t_s is not None:
+            fix = kf.beat.earliest_fix(kf.t_s + late_by)  # the earliest beat that works
         speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
         return (
             f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: "

@@ -341,6 +341,9 @@ class Player:
         self.bus, self.robot, self.clock, self.options = bus, robot, clock, options
         self.limits = limits
         self.on_progress = on_progress
+        # Called once per play with the clock time of the first START, before anything is sent
+        # (the song is cued on it: choreo/soundtrack.py).
+        self.on_first_start: Callable[[float], None] | None = None
         self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
         # Positions are checked most often; each round also reads one servo's VIN and temperature.
         n = len(robot.joints)
@@ -508,6 +511,8 @@ class _Stream:
     def run(self) -> None:
         if not self.ticks:
             return
+        if self.player.on_first_start is not None:
+            self.player.on_first_start(self.t0)
         self.stage(self.ticks[0], all_servos=True)
         k = 0
         while k < len(self.ticks):

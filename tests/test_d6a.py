@@ -133,7 +133,10 @@ def test_stand_is_the_home_pose_and_says_how_row_one_is_reached(tmp_path):
     assert "robot: tonypi\n" in text
 
 
-@pytest.mark.parametrize("shipped", sorted(SHIPPED.glob("*.yaml")), ids=lambda p: p.stem)
+IMPORTED = [p for p in sorted(SHIPPED.glob("*.yaml")) if "choreo import d6a" in p.read_text()]
+
+
+@pytest.mark.parametrize("shipped", IMPORTED, ids=lambda p: p.stem)
 def test_the_shipped_tonypi_motions_are_plain_imports(shipped, tmp_path):
     assert import_to(tmp_path, VENDOR / f"{shipped.stem}.d6a").read_text() == shipped.read_text()
 

@@ -161,7 +161,7 @@ def test_unknown_key_with_did_you_mean():
     path, message = only_problem("unknown_key.yaml")
     assert message == (
         f"{path}:4:5: unknown key 'hodl' in a keyframe (did you mean 'hold'?); "
-        f"valid keys: pose, sites, body, hold, stop, velocity, t, after"
+        f"valid keys: pose, sites, body, hold, stop, velocity, t, after, beat, bar"
     )
 
 
@@ -264,7 +264,7 @@ def test_include_entry_takes_no_keyframe_options():
     assert message == (
         f"{path}:4:5: unknown key 'hold' in an include entry (pose, hold, stop and "
         f"velocity go in the included keyframes); valid keys: include, mirror, t, "
-        f"after"
+        f"after, beat, bar"
     )
 
 

@@ -45,14 +45,14 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     """The keys as docs/motion-format.md lists them: own keys first, then the shared timing."""
     assert motion.MOTION == mapping_shape("motion")
     assert motion.MOTION.keys == (
-        "name", "description", "robot", "speed", "repeat", "start", "props", "keyframes",
+        "name", "description", "robot", "speed", "repeat", "start", "props", "music", "keyframes",
     )  # fmt: skip
     assert motion.MOTION.required == ("robot", "keyframes")
     assert motion.KEYFRAME == Shape(
-        ("pose", "sites", "body", "hold", "stop", "velocity", "t", "after"), ()
+        ("pose", "sites", "body", "hold", "stop", "velocity", "t", "after", "beat", "bar"), ()
     )
     assert motion.GAIT == Shape(("gait",), ("gait",))
-    assert motion.INCLUDE == Shape(("include", "mirror", "t", "after"), ("include",))
+    assert motion.INCLUDE == Shape(("include", "mirror", "t", "after", "beat", "bar"), ("include",))
     assert robot.ROBOT.keys == (
         "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror",
     )  # fmt: skip

@@ -13,6 +13,7 @@ from rich.table import Table
 from ..atomic import check_writable
 from ..errors import UsageError
 from ..motion import Motion, load_motion
+from ..music import Music
 from ..pipeline import CompiledMotion, compile_motion
 from .arguments import add_planning_arguments, non_negative_float
 
@@ -148,6 +149,8 @@ def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMoti
         "speed": speed,
         "duration_s": trajectory.duration_s,
         "keyframes": len(trajectory.keyframe_times_s),
+        "keyframe_times_s": [float(t) for t in trajectory.keyframe_times_s],
+        "music": music_report(motion.music) if motion.music else None,
         "ticks": len(ticks.ticks),
         "bytes": ticks.total_bytes,
         "peak_bus_use": ticks.peak_bus_use,
@@ -174,6 +177,16 @@ def expanded_keyframes(motion: Motion) -> list[dict]:
         }
         for k in motion.keyframes
     ]
+
+
+def music_report(music: Music) -> dict:
+    return {
+        "song": str(music.song),
+        "start_s": music.start_s,
+        "bpm": music.bpm,
+        "beats_per_bar": music.grid.beats_per_bar,
+        "beat_times_s": list(music.grid.beat_times_s),  # motion time of beat 1, 2, ...
+    }
 
 
 def print_report(report: dict) -> None:

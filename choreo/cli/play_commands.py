@@ -13,10 +13,12 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..atomic import check_writable
+from ..audio import Audio
 from ..clock import RealClock
 from ..emulator.trace import start_skew_ms
 from ..errors import UsageError
 from ..motion import load_motion, too_many_played
+from ..music import Music, check_speed
 from ..path_errors import measured_path_errors
 from ..pipeline import CompiledMotion, compile_motion
 from ..play_report import report_document, transport_of, write_report
@@ -34,6 +36,14 @@ from ..player import (
     unchecked,
 )
 from ..robot import MAX_TIMEOUT_MS, Robot
+from ..soundtrack import (
+    AudioSink,
+    NoAudioOutput,
+    SongCue,
+    SoundDeviceSink,
+    play_with_song,
+    song_for_output,
+)
 from ..transports import board_module
 from .arguments import (
     add_planning_arguments,
@@ -45,6 +55,7 @@ from .arguments import (
     stop_signals_as_ctrl_c,
 )
 
+MAX_AUDIO_LATENCY_MS = 2000.0  # Bluetooth speakers reach a few hundred ms; seconds is a mistake
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
 
 
@@ -93,11 +104,27 @@ def register(subparsers) -> None:
         help="also write the report as JSON (outcome, timing, bytes, health per servo; "
         "on the emulator the path error against the plan)",
     )
+    music = play.add_argument_group("music (for a motion with a music: block)")
+    music.add_argument("--no-audio", action="store_true", help="play without the song")
+    music.add_argument(
+        "--audio-device",
+        metavar="NAME",
+        help="audio output to play the song on (default: the system's)",
+    )
+    music.add_argument(
+        "--audio-latency-ms",
+        type=float_in(0, MAX_AUDIO_LATENCY_MS, " ms"),
+        metavar="MS",
+        help="the output's latency to make up for, instead of what the device reports "
+        "(raise it if the song comes late, e.g. on Bluetooth speakers)",
+    )
     play.set_defaults(handler=run_play)
 
 
 def run_play(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
+    if not args.no_audio:
+        check_speed(motion.music, args.speed, "drop --speed, or play without the song: --no-audio")
     if args.loop:
         unrolled = too_many_played(len(motion.keyframes), args.loop, "--loop")
         if unrolled is not None:
@@ -122,7 +149,11 @@ def run_play(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.dry_run:
-        return dry_run(compiled, board_module(bus_settings(args, robot).port))
+        return dry_run(
+            compiled,
+            board_module(bus_settings(args, robot).port),
+            None if args.no_audio else motion.music,
+        )
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
@@ -144,8 +175,14 @@ def run_play(args: argparse.Namespace) -> int:
             )
         start_pose, limits = preflight(bus, robot)
         performance = prepare(compiled, start_pose)
+        sink, song = _open_audio(args, motion.music)
+        if sink is not None:  # the stream needs its latency before the first START
+            options = dataclasses.replace(
+                options, lead_s=max(options.lead_s, sink.latency_s + 0.05)
+            )
+        cue = SongCue.of(motion.music, performance) if motion.music and sink else None
         report, exit_move = _play_with_progress(
-            bus, robot, clock, limits, options, performance, start_pose
+            bus, robot, clock, limits, options, performance, start_pose, (sink, song, cue)
         )
         errors = skew_ms = None
         if emulator is not None:
@@ -174,8 +211,26 @@ def run_play(args: argparse.Namespace) -> int:
     return EXIT_CODES[report.outcome]
 
 
+def _open_audio(args, music: Music | None) -> tuple[AudioSink | None, Audio | None]:
+    """The audio output and the song for it; without one, one line and the dance goes on."""
+    if music is None or args.no_audio:
+        return None, None
+    latency_s = None if args.audio_latency_ms is None else args.audio_latency_ms / 1000
+    try:
+        song = song_for_output(music)
+        return open_audio_output(args.audio_device, latency_s), song
+    except NoAudioOutput as error:
+        print(f"choreo: no audio output: {error}; playing without the music", file=sys.stderr)
+        return None, None
+
+
+def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
+    """The real output (tests put a recording sink here)."""
+    return SoundDeviceSink(device, latency_s)
+
+
 def _play_with_progress(
-    bus, robot, clock, limits, options, performance: Performance, start_pose
+    bus, robot, clock, limits, options, performance: Performance, start_pose, soundtrack
 ) -> PlayReport:
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
@@ -209,7 +264,7 @@ def _play_with_progress(
                 progress.refresh()
 
         player = Player(bus, robot, clock, limits, options, on_progress=update)
-        report = player.play(performance.ticks, start_pose)
+        report = play_with_song(player, performance, start_pose, *soundtrack)
         exit_move = player.leave(report.outcome)
     return report, exit_move
 
@@ -246,8 +301,9 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(compiled: CompiledMotion, board=None) -> int:
-    """Print every packet (through a board: every move frame) with its time."""
+def dry_run(compiled: CompiledMotion, board=None, music: Music | None = None) -> int:
+    """Print every packet (through a board: every move frame) with its time, and when the song
+    starts."""
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
@@ -259,8 +315,15 @@ def dry_run(compiled: CompiledMotion, board=None) -> int:
             "forwarded one servo at a time"
         )
         schedule = frame_schedule(performance.ticks, robot, board.move_frame)
+    cue = SongCue.of(music, performance) if music is not None else None
+    song_ms = round(max(0.0, -cue.from_s) * 1000) if cue else None
     for packet in schedule:
+        if cue and song_ms is not None and packet.time_ms > song_ms:
+            print(f"{song_ms:8d} ms  {cue.describe()}")
+            song_ms = None
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
+    if cue and song_ms is not None:
+        print(f"{song_ms:8d} ms  {cue.describe()}")
     total = sum(len(p.packet) for p in schedule)
     print(
         f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "

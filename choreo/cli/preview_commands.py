@@ -15,6 +15,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from ..atomic import atomic_output, check_writable, write_text_atomically
 from ..errors import UsageError
 from ..motion import load_motion
+from ..music import check_speed
 from ..scene import StartPosture
 from ..validate import heading_for
 from .arguments import add_planning_arguments, positive_float, positive_int
@@ -184,6 +185,8 @@ def run_preview(args: argparse.Namespace) -> int:
     motion = load_motion(args.motion)
     if args.start is not None:
         motion = dataclasses.replace(motion, start=StartPosture(args.start))
+    if output is not None and output.suffix.lower() == ".mp4":
+        check_speed(motion.music, args.speed, "drop --speed for a video with the song")
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,
@@ -236,7 +239,7 @@ def run_preview(args: argparse.Namespace) -> int:
             sheet_frames=args.frames,
             high_quality=args.hq,
         )
-        done = _render_with_progress(preview, rollout, output, settings, results)
+        done = _render_with_progress(preview, rollout, output, settings, results, motion)
         print(
             f"wrote {output} ({done.frames} frames of {args.size[0]}x{args.size[1]}, "
             f"rendered with {done.backend})"
@@ -259,7 +262,7 @@ def describe_travel(travel) -> str:
     )
 
 
-def _render_with_progress(preview, rollout, output: Path, settings, results):
+def _render_with_progress(preview, rollout, output: Path, settings, results, motion):
     # imageio_ffmpeg warns "the written video is invalid" when stopped: the temporary is
     # removed anyway, and an error reaches the user as one line
     logging.getLogger("imageio_ffmpeg").setLevel(logging.ERROR)
@@ -278,4 +281,6 @@ def _render_with_progress(preview, rollout, output: Path, settings, results):
 
         # rendered beside it and renamed at the end: Ctrl-C or a failure keeps an older file
         with atomic_output(output) as temporary:
-            return preview.render_preview(rollout, temporary, settings, results, on_frame=on_frame)
+            return preview.render_preview(
+                rollout, temporary, settings, results, on_frame=on_frame, music=motion.music
+            )

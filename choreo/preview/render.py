@@ -17,7 +17,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from ..audio import add_song_to_video
 from ..errors import PreviewError
+from ..music import BeatGrid, Music
 from .checks import CheckKind, CheckResult
 from .gl import context_class, offscreen_backend
 from .model import load_model
@@ -83,8 +85,11 @@ def render_preview(
     settings: RenderSettings = RenderSettings(),
     results: Sequence[CheckResult] = (),
     on_frame: ProgressCallback | None = None,
+    music: Music | None = None,
 ) -> RenderResult:
-    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet)."""
+    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet). With ``music``
+    every frame shows its bar and beat, and an mp4 carries the song, ``music.start_s`` of it at the
+    motion's t=0."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
@@ -99,9 +104,14 @@ def render_preview(
     else:
         times = rollout.start_s + frame_times(rollout.duration_s - rollout.start_s, fps)
     backend = offscreen_backend()
-    frames = render_frames(rollout, times, settings, results, backend, on_frame)
+    grid = music.grid if music is not None else None
+    frames = render_frames(rollout, times, settings, results, backend, on_frame, grid)
     if suffix == ".mp4":
         _write_mp4(path, frames, fps, settings)
+        if music is not None:
+            # the video opens at the rollout's start (settling, approach): the song's start
+            # (music.start_s) is heard at the motion's t=0
+            add_song_to_video(path, music.song, music.start_s + times[0], len(times) / fps)
     elif suffix == ".gif":
         _write_gif(path, frames, fps)
     else:
@@ -116,6 +126,7 @@ def render_frames(
     results: Sequence[CheckResult] = (),
     backend: str | None = None,
     on_frame: ProgressCallback | None = None,
+    grid: BeatGrid | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames (height, width, 3) uint8 at ``times_s``, one at a time."""
     model = load_model(rollout.robot, rollout.props)
@@ -133,15 +144,17 @@ def render_frames(
             data.qpos[:] = rollout.qpos[step]
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
-            yield renderer.render(data, camera, status_text(rollout, t), problem_text(results, t))
+            yield renderer.render(
+                data, camera, status_text(rollout, t, grid), problem_text(results, t)
+            )
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
 
 
-def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
+def status_text(rollout: Rollout, t: float, grid: BeatGrid | None = None) -> tuple[str, str]:
     """The overlay's (names, values) columns at time ``t``: the time, the phase (before the
-    motion: settling or approach) and the keyframe index (of the keyframe last reached,
-    counting from 1)."""
+    motion: settling or approach), the keyframe index (of the keyframe last reached, counting
+    from 1) and, with music, the bar and beat under way."""
     names, values = ["time"], [f"{t:.2f} s"]
     phase = rollout.phase(t)
     if phase != "motion":
@@ -152,6 +165,10 @@ def status_text(rollout: Rollout, t: float) -> tuple[str, str]:
         reached = int(np.searchsorted(keyframes, t + 1e-9, side="right"))
         names.append("keyframe")
         values.append(f"{max(reached, 1)} / {len(keyframes)}")
+    if grid is not None and grid.beats:
+        bar, beat = grid.bar_and_beat(math.floor(grid.beat_at(t) + 1e-6))
+        names.append("bar / beat")
+        values.append(f"{bar} / {beat:g}")
     return "\n".join(names), "\n".join(values)
 
 

@@ -171,15 +171,22 @@ class LobotBoard:
         port.reset_input_buffer()
         self.decoder.reset()
         port.write(request)
+        # A read cut short (Ctrl-C during a health read) is still answered by the board after
+        # this request was sent: a reply naming other servos than asked is kept only until the
+        # right one comes (the board answers in order; one with silent servos left out is the
+        # last to come).
+        latest = None
         for _ in range(MAX_READS_PER_ATTEMPT):
             data = port.read(wanted)
             for frame in self.decoder.feed(data):
                 if frame.command == READ_POSITIONS:
-                    return positions(frame)
+                    latest = positions(frame)
+                    if set(latest) == set(servo_ids):
+                        return latest
             if len(data) < wanted:
-                return None
+                return latest
             wanted = self.decoder.bytes_to_complete(total)
-        return None
+        return latest
 
     def request(self, command: Command, servo_id: int, timeout_s: float) -> dict[str, int] | None:
         """POS_READ; ID_READ is answered by a position read of that ID (a servo is there)."""

@@ -1,0 +1,120 @@
+"""Beat detection (``choreo beats``) on click tracks whose beats are known by construction."""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+
+import numpy as np
+import pytest
+from music_helpers import click_track, steady_times, write_clicks
+from test_plan_cli import png_size
+
+from choreo.audio import Audio, decode
+from choreo.beat_plot import HEIGHT_PX, WIDTH_PX
+from choreo.beats import detect_beats
+from choreo.cli import main
+from choreo.errors import ChoreoError
+
+BPM_TOLERANCE = 0.5
+BEAT_TOLERANCE_S = 0.015
+
+
+def assert_beats_match(detected, expected) -> None:
+    detected, expected = np.asarray(detected), np.asarray(expected)
+    assert len(detected) == len(expected), (detected, expected)
+    assert np.max(np.abs(detected - expected)) <= BEAT_TOLERANCE_S
+
+
+@pytest.mark.parametrize(("bpm", "first_s"), [(120.0, 0.0), (97.0, 0.37), (143.5, 1.1)])
+def test_steady_clicks_give_their_tempo_and_beats(bpm, first_s):
+    times = steady_times(bpm, first_s, 29.5)
+    analysis = detect_beats(click_track(times, 30.0))
+    assert abs(analysis.bpm - bpm) <= BPM_TOLERANCE
+    assert_beats_match(analysis.beats_s, times)
+    assert_beats_match(analysis.downbeats_s, times[::4])  # the accented clicks
+
+
+def test_a_tempo_change_gives_two_tempi():
+    first = np.arange(0.5, 15.0, 60 / 120)
+    second = first[-1] + np.cumsum(np.full(30, 60 / 100))
+    times = np.concatenate([first, second])
+    analysis = detect_beats(click_track(times, times[-1] + 1.0))
+    assert_beats_match(analysis.beats_s, times)
+    assert [round(span.bpm) for span in analysis.tempi] == [120, 100]
+    assert abs(analysis.tempi[0].bpm - 120) <= BPM_TOLERANCE
+    assert abs(analysis.tempi[1].bpm - 100) <= BPM_TOLERANCE
+    assert abs(analysis.tempi[1].start_s - first[-1]) <= BEAT_TOLERANCE_S + 60 / 100
+
+
+def test_three_four_time_finds_the_bars():
+    times = steady_times(90, 0.25, 20)
+    analysis = detect_beats(click_track(times, 20.5, accent_every=3), beats_per_bar=3)
+    assert_beats_match(analysis.downbeats_s, times[::3])
+
+
+def test_silence_has_no_beats():
+    analysis = detect_beats(click_track([], 5.0))
+    assert analysis.beats_s == () and analysis.bpm == 0.0
+
+
+@pytest.mark.parametrize("suffix", [".wav", ".flac", ".ogg", ".mp3"])
+def test_every_song_format_decodes_with_its_clicks_in_place(tmp_path, suffix):
+    times = steady_times(120, 0.5, 9.5)
+    song = write_clicks(tmp_path / f"clicks{suffix}", times, 10.0)
+    audio = decode(song)
+    assert abs(audio.duration_s - 10.0) < 0.06
+    assert_beats_match(detect_beats(audio).beats_s, times)
+
+
+def test_cli_json_and_plot(tmp_path, capsys):
+    times = steady_times(100, 0.6, 14.0)
+    song = write_clicks(tmp_path / "clicks.flac", times, 15.0)
+    plot = tmp_path / "beats.png"
+    assert main(["beats", str(song), "--json", "--plot", str(plot)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert abs(report["bpm"] - 100) <= BPM_TOLERANCE
+    assert_beats_match(report["beats_s"], times)
+    assert_beats_match(report["downbeats_s"], times[::4])
+    assert png_size(plot) == (WIDTH_PX, HEIGHT_PX)
+
+
+def test_cli_text_names_tempo_and_beats(tmp_path, capsys):
+    song = write_clicks(tmp_path / "clicks.wav", steady_times(120, 0.5, 9.5), 10.0)
+    assert main(["beats", str(song)]) == 0
+    out = capsys.readouterr().out
+    bpm = float(re.search(r"tempo ([\d.]+) BPM from 0.50", out).group(1))
+    assert abs(bpm - 120) <= BPM_TOLERANCE
+    assert "\nbeats (s):     0.50" in out and "\ndownbeats (s): 0.50" in out
+    assert re.search(
+        r"\nfor a motion: music: \{song: clicks.wav, start: 0.50\d, bpm: 12\d.\d\d\}", out
+    )
+
+
+def test_a_file_that_is_not_a_song_is_one_line(tmp_path, capsys):
+    text = tmp_path / "notes.txt"
+    text.write_text("la la la")
+    assert main(["beats", str(text)]) == 1
+    assert capsys.readouterr().err == (
+        "choreo: error: notes.txt is not a song file: use .wav, .flac, .ogg, .mp3\n"
+    )
+    broken = tmp_path / "broken.ogg"
+    broken.write_bytes(b"OggS but not really")
+    assert main(["beats", str(broken)]) == 1
+    assert capsys.readouterr().err.startswith(f"choreo: error: cannot decode {broken.resolve()}")
+
+
+def test_without_librosa_the_error_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "librosa", None)  # import librosa now raises ImportError
+    with pytest.raises(ChoreoError, match=r"pip install 'choreo\[music\]'"):
+        detect_beats(click_track(steady_times(120, 0.5, 4), 5.0))
+
+
+def test_noise_and_a_buzz_give_increasing_beats_and_end():
+    rng = np.random.default_rng(0)
+    noise = Audio((0.3 * rng.standard_normal(22050 * 8)).astype(np.float32), 22050)
+    buzz = click_track(np.arange(0.0, 6.0, 0.02), 6.5)  # 3000 clicks a minute: below a beat
+    for audio in (noise, buzz):
+        beats = np.asarray(detect_beats(audio).beats_s)
+        assert np.all(np.diff(beats) > 0) and np.all((beats >= 0) & (beats <= audio.duration_s))
