@@ -162,13 +162,21 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         return None
     chain = (_Include(reader.path, None, music),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
-    if None in (name, description, speed, repeat, start, props) or reader.problems:
+    if (
+        name is None
+        or description is None
+        or speed is None
+        or repeat is None
+        or start is None
+        or props is None
+        or reader.problems
+    ):
         return None
     steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
     if reader.problems:
         return None
     keyframes = _fill_poses(robot, steps)
-    unrolled = too_many_played(len(keyframes), repeat) if repeat is not None else None
+    unrolled = too_many_played(len(keyframes), repeat)
     if unrolled is not None:
         reader.report(fields["repeat"].value, unrolled)
         return None
@@ -371,9 +379,12 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
         )
         return None
     angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
-    if angles is None or None in angles.values():
+    if angles is None:
         return None
-    return angles, ""
+    accepted = {name: angle for name, angle in angles.items() if angle is not None}
+    if len(accepted) < len(angles):  # a refused angle was reported
+        return None
+    return accepted, ""
 
 
 def _read_include(
@@ -381,6 +392,8 @@ def _read_include(
 ) -> list[_Step]:
     what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
     fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
+    if fields is None:
+        return []
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
     timing = _read_timing(reader, fields, chain[0].music)
@@ -473,7 +486,7 @@ def _block(
             block.append(step)
         elif previous_arrival_s is None:
             reader.problems.add(
-                step.t_where,
+                step.t_where or step.where,  # a step with a t knows where it was written
                 "t in an included file becomes an after delay, so "
                 f"the keyframe before it ({previous.where}) needs a "
                 "t or after too; give it one, or use after here",
@@ -517,7 +530,7 @@ def _check_times(reader: Reader, steps: list[_Step]) -> None:
     for backward in backward_times(played_keyframes(steps)):
         step = steps[backward.index]
         reader.problems.add(
-            step.t_where,
+            step.t_where or step.where,  # a step with a t knows where it was written
             f"{_time_text(backward.t_s, step.beat)} goes backwards: the keyframe "
             f"before it ({steps[backward.index - 1].where}) cannot be "
             f"left before {fmt(backward.earliest_leave_s)} s; t values must "
