@@ -316,7 +316,7 @@ class ServoBus:
         self._decoder.reset()
         port.write(packet)
         deadline_s = time.monotonic() + timeout_s
-        reply_len = SPECS[command].reply_len + 3
+        reply_len = SPECS[command].read_reply_len + 3
         echo_seen = self.echo is not EchoMode.DISCARD  # DISCARD: a reply only after our echo
         wanted, wait_s, overdue = reply_len, timeout_s, False
         received = bytearray()
@@ -475,9 +475,7 @@ class ServoBus:
                 encode_request(Command.MOVE_TIME_WRITE, i, pos_units=p, time_ms=time_ms)
                 for i, p in moves
             )
-            self.port.write(data)
-            if self.echo is EchoMode.DISCARD:
-                self._echo_owed += len(data)
+            self.port.write(data)  # their echoes, if any, are skipped by the next request
             return len(data)
 
     def stop_servos(self, servo_ids: Iterable[int]) -> None:

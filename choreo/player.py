@@ -49,7 +49,7 @@ from .segments import MOVE_BYTES, START_BYTES, Tick, TickPlan, segment
 
 log = logging.getLogger(__name__)
 
-READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].reply_len + 3
+READ_BYTES = SPECS[Command.POS_READ].request_len + 3 + SPECS[Command.POS_READ].read_reply_len + 3
 
 
 class ExitMode(enum.Enum):
@@ -255,7 +255,8 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
         angle_limits.min_units > round(low) or angle_limits.max_units < round(high)
     ):
         problems.append(
-            f"{who}: the servo's own angle limits {angle_limits.min_units}..{angle_limits.max_units}"
+            f"{who}: the servo's own angle limits "
+            f"{angle_limits.min_units}..{angle_limits.max_units}"
             f" are narrower than the robot file's {round(low)}..{round(high)} units "
             f"({joint.limits.min_deg:g}..{joint.limits.max_deg:g}°); widen them with "
             "`choreo servo limits` or narrow the joint limits in the robot file"
@@ -671,7 +672,8 @@ class _Stream:
 # --- a whole performance: approach, motion, exit -----------------------------------------------
 @dataclass(frozen=True)
 class Performance:
-    """What will be played: the approach from the measured pose, then the motion, as one tick list."""
+    """What will be played: the approach from the measured pose, then the motion, as one tick
+    list."""
 
     approach: TickPlan
     motion: TickPlan

@@ -110,6 +110,13 @@ class CommandSpec:
         return None if self.reply is None else MIN_LEN + sum(f.size for f in self.reply)
 
     @property
+    def read_reply_len(self) -> int:
+        """``reply_len`` of a command known to be answered (a read); a write has none."""
+        if self.reply_len is None:
+            raise ValueError(f"{self.command.name} is never answered")
+        return self.reply_len
+
+    @property
     def is_read(self) -> bool:
         return self.reply is not None
 

@@ -230,6 +230,15 @@ def test_a_read_right_after_many_staged_writes_is_answered(echo, mode):
     ) == 18
 
 
+def test_moves_sent_as_one_frame_on_a_one_wire_bus_leave_the_next_read_answered():
+    # On the raw bus move_many writes all its MOVE_TIME_WRITEs at once; in DISCARD mode their
+    # echoes are skipped by the next request, as those of any other write are.
+    bus, emulator = make_bus(ids=range(1, 7), echo=True, mode=EchoMode.DISCARD, retries=0)
+    assert bus.move_many([(servo_id, 400) for servo_id in range(1, 7)], 200) == 6 * 10
+    emulator.clock.advance(0.5)
+    assert [bus.read_position(servo_id) for servo_id in range(1, 7)] == [400] * 6
+
+
 @pytest.mark.parametrize("echo,mode", ALL_ECHO_SETUPS, ids=lambda p: getattr(p, "value", p))
 def test_a_silent_servo_after_staged_writes_waits_every_timeout(echo, mode):
     bus, emulator = make_bus(ids=range(1, 19), echo=echo, mode=mode, retries=2, timeout_s=0.02)

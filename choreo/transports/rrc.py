@@ -163,9 +163,7 @@ def read_frame(command: Command, servo_id: int) -> bytes:
 
 def reply_total(command: Command) -> int:
     """Bytes of the whole reply frame to a read: header, FUNC, LEN, id sub status value, CRC."""
-    reply_len = SPECS[Command(command)].reply_len
-    assert reply_len is not None, "reply_total is for reads"
-    return 5 + reply_len
+    return 5 + SPECS[Command(command)].read_reply_len
 
 
 def battery_mv(frame: Frame) -> int | None:
