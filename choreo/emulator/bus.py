@@ -66,7 +66,7 @@ class ServoSpec:
 
 def parse_servo_specs(text: str) -> list[ServoSpec]:
     """``"1-6,9,12-14"``; a group may name its model: ``"1-6,7-8:LX-224HV"``."""
-    specs = []
+    specs: list[ServoSpec] = []
     for group in text.split(","):  # one group at a time: "1,1" puts two servos with ID 1 on the bus
         ids_text, _, model = group.strip().partition(":")
         if model:
@@ -75,8 +75,8 @@ def parse_servo_specs(text: str) -> list[ServoSpec]:
             ids = parse_ids(ids_text)
         except ValueError as error:
             raise ValueError(
-                f"bad servo IDs {group.strip()!r} ({error}): each comma-separated group is an ID or "
-                "a range like 1-6, optionally followed by :MODEL, as in 1-6,9,12-14:LX-224HV"
+                f"bad servo IDs {group.strip()!r} ({error}): each comma-separated group is an ID "
+                "or a range like 1-6, optionally followed by :MODEL, as in 1-6,9,12-14:LX-224HV"
             ) from None
         specs.extend(ServoSpec(servo_id, model or None) for servo_id in ids)
     return specs
@@ -332,7 +332,7 @@ class BusEmulator:
             if outcome.reply is not None:
                 replies.append((servo, outcome.reply))
         if eeprom_changed and self.state_path is not None:
-            self._save_state()
+            self._save_state(self.state_path)
         if replies:
             self._send_replies(replies, at_s)
 
@@ -378,9 +378,9 @@ class BusEmulator:
             self.catch_up()
             if self.state_path is None:
                 raise ValueError("this emulator has no state_path to save to")
-            self._save_state()
+            self._save_state(self.state_path)
 
-    def _save_state(self) -> None:
+    def _save_state(self, path: Path) -> None:
         document = {
             "format": STATE_FORMAT,
             "version": STATE_VERSION,
@@ -389,8 +389,8 @@ class BusEmulator:
                 for (factory_id, model_name), eeprom in zip(self._layout, self._eeproms)
             ],
         }
-        self.state_path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomically(self.state_path, json.dumps(document, indent=2) + "\n")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomically(path, json.dumps(document, indent=2) + "\n")
 
     def _load_state(self) -> list[Eeprom] | None:
         if self.state_path is None or not self.state_path.exists():

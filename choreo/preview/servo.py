@@ -165,7 +165,7 @@ class CommandStream:
                 len(ticks), n_joints
             ),
             staged=staged,
-            started=staged.any(axis=1),
+            started=np.asarray(staged.any(axis=1)),  # numpy types any(axis=) as maybe a scalar
         )
 
     @property
@@ -228,7 +228,7 @@ def commanded_path_units(
     started = np.flatnonzero(stream.started)
     boundaries = np.searchsorted(times_s, stream.start_s[started], side="left")
     path[: boundaries[0] if len(boundaries) else len(times_s)] = initial_units
-    for k, (tick, begin) in enumerate(zip(started, boundaries)):
+    for k, (tick, begin) in enumerate(zip(started.tolist(), boundaries)):
         start_s = stream.start_s[tick]
         bank.start(stream, tick, start_s, bank.setpoint_units(start_s))
         end = boundaries[k + 1] if k + 1 < len(boundaries) else len(times_s)

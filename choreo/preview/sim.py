@@ -208,11 +208,10 @@ def simulate(
     ``initial_deg`` (robot joint order), held there until still. The motion itself starts
     ``motion_start_s`` into the ticks (after the approach), and times are counted from there."""
     n_joints = len(robot.joints)
-    initial_deg = np.asarray(initial_deg, dtype=float)
-    if initial_deg.shape != (n_joints,):
+    start_deg = np.asarray(initial_deg, dtype=float)
+    if start_deg.shape != (n_joints,):
         raise ValueError(
-            f"initial_deg needs {n_joints} angles (robot joint order), "
-            f"got shape {initial_deg.shape}"
+            f"initial_deg needs {n_joints} angles (robot joint order), got shape {start_deg.shape}"
         )
     stream = CommandStream.from_ticks(ticks, n_joints)
     params = actuator_params(robot, settings.actuator_overrides)
@@ -224,18 +223,18 @@ def simulate(
     feet: tuple[int, ...] = ()
     if root is not None and "home" in robot.poses:
         feet = foot_links(model, index, robot.pose_vector("home"))
-    data = start_state(model, index, initial_deg, posture)
+    data = start_state(model, index, start_deg, posture)
     dt = float(model.opt.timestep)
     dead_zone = np.radians([p.dead_zone_deg for p in params])
 
-    initial_units = robot.to_units(initial_deg)
+    initial_units = robot.to_units(start_deg)
     servos = ServoBank(initial_units, max_speed_units_s(params))
     contacts = _ContactLog(model, settings.min_contact_depth_m, feet)
     max_settle = round(settings.max_settle_s / dt)
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = _Log(max_settle + n_run, model.nq, n_joints)
     loop = _Loop(model, data, index, dead_zone, contacts, record)
-    settled = loop.settle(np.radians(initial_deg), max_settle)
+    settled = loop.settle(np.radians(start_deg), max_settle)
     n_settle = record.count
     loop.run(stream, servos, robot, settings.move_start, n_run)
     _check_stable(model, data)
@@ -426,9 +425,9 @@ class _ContactLog:
         if kind in (FLOOR_CONTACT, GROUND_CONTACT):
             names = (b, a) if self._on_world[g1] else (a, b)
         else:
-            names = tuple(sorted((a, b)))
+            names = (a, b) if a <= b else (b, a)  # sorted
         return self._pair_ids.setdefault((kind, *names), len(self._pair_ids))
 
     def pairs(self) -> tuple[ContactPair, ...]:
-        ordered = sorted(self._pair_ids, key=self._pair_ids.get)
+        ordered = sorted(self._pair_ids, key=self._pair_ids.__getitem__)
         return tuple(ContactPair(CONTACT_NAMES[kind], a, b) for kind, a, b in ordered)
