@@ -131,7 +131,8 @@ def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_tex
 
 
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
-    """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview, play)."""
+    """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview,
+    play)."""
     parser.add_argument(
         "--speed",
         type=positive_float,
@@ -204,7 +205,8 @@ def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSet
 
 
 def open_bus(args: argparse.Namespace) -> ServoBus:
-    """The bus the user asked for; without --port, the built-in emulator's servos 1-6 (and say so)."""
+    """The bus the user asked for; without --port, the built-in emulator's servos 1-6 (and say
+    so)."""
     settings = bus_settings(args)
     port = settings.port
     if port is None:

@@ -86,7 +86,7 @@ def run_export_d6a(args: argparse.Namespace) -> int:
     check_writable(args.output, overwrite=args.overwrite)
     motion = load_motion(args.motion)
     rows = export_d6a(motion, args.output)
-    total_s = sum(row.time_ms for row in rows) / 1000
+    total_s = sum(row.time_ms or 0 for row in rows) / 1000  # exported rows are all timed
     print(f"wrote {args.output}: {_count(len(rows), 'row')}, {total_s:g} s, from {args.motion}")
     return 0
 

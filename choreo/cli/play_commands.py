@@ -231,7 +231,8 @@ def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
 
 def _play_with_progress(
     bus, robot, clock, limits, options, performance: Performance, start_pose, soundtrack
-) -> PlayReport:
+) -> tuple[PlayReport, PlayReport | None]:
+    """The play's report and that of the move to the exit pose (None: no such move)."""
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
     console = Console(stderr=True)
     columns = (
@@ -280,7 +281,8 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(
         f"ticks {report.ticks_played}/{report.ticks_total}, re-targeted {report.retargeted}; "
         f"START lateness p50 {report.lateness_percentile_ms(50):.2f} ms, "
-        f"p99 {report.lateness_percentile_ms(99):.2f} ms, max {max(report.lateness_ms, default=0):.2f} ms; "
+        f"p99 {report.lateness_percentile_ms(99):.2f} ms, "
+        f"max {max(report.lateness_ms, default=0):.2f} ms; "
         f"end {report.end_error_ms:+.1f} ms from schedule; {report.bytes_sent} bytes, "
         f"bus use {report.bus_use:.0%}, {report.missed_reads} health reads missed"
     )
@@ -294,7 +296,11 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
         table.add_column(column, justify="right")
     for index, h in enumerate(report.health):
         temps = f"{h.temp_c_min}..{h.temp_c_max}" if h.temp_c_min is not None else "-"
-        vins = f"{h.vin_mv_min / 1000:.2f}..{h.vin_mv_max / 1000:.2f}" if h.vin_mv_min else "-"
+        vins = (
+            f"{h.vin_mv_min / 1000:.2f}..{h.vin_mv_max / 1000:.2f}"
+            if h.vin_mv_min and h.vin_mv_max is not None  # both are set by the same read
+            else "-"
+        )
         pos = f"{h.position_error_deg_max:.2f}" if h.position_error_deg_max is not None else "-"
         path = f"{path_errors[index]:.2f}" if path_errors else "-"
         table.add_row(h.joint, str(h.servo_id), temps, vins, pos, path)

@@ -232,14 +232,14 @@ def run_preview(args: argparse.Namespace) -> int:
         write_text_atomically(args.report, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
         print(f"wrote {args.report}")
     if output is not None:
-        settings = preview.RenderSettings(
+        render_settings = preview.RenderSettings(
             width=args.size[0],
             height=args.size[1],
             fps=args.fps,
             sheet_frames=args.frames,
             high_quality=args.hq,
         )
-        done = _render_with_progress(preview, rollout, output, settings, results, motion)
+        done = _render_with_progress(preview, rollout, output, render_settings, results, motion)
         print(
             f"wrote {output} ({done.frames} frames of {args.size[0]}x{args.size[1]}, "
             f"rendered with {done.backend})"

@@ -80,15 +80,14 @@ def register(subparsers) -> None:
 def run_record(args: argparse.Namespace) -> int:
     if args.robot is None and not args.resume:
         raise UsageError("--robot is required (unless --resume takes the journal's)")
-    robot = load_robot(args.robot) if args.robot else None
     if args.resume:
-        recording = Recording.resume(args.out, robot)
+        recording = Recording.resume(args.out, load_robot(args.robot) if args.robot else None)
         print(
             f"resuming {args.out}: {len(recording.captures)} capture(s) from "
             f"{recording.journal.path}"
         )
     else:
-        recording = Recording.start(args.out, robot, overwrite=args.overwrite)
+        recording = Recording.start(args.out, load_robot(args.robot), overwrite=args.overwrite)
     try:
         with stop_signals_as_ctrl_c():
             return _record(args, recording)

@@ -392,7 +392,9 @@ def _jsonable(info: ServoInfo) -> dict:
     values = dataclasses.asdict(info)
     if info.led_errors is not None:
         values["led_errors"] = [
-            flag.name.lower() for flag in type(info.led_errors) if flag in info.led_errors
+            flag.name.lower()
+            for flag in type(info.led_errors)
+            if flag in info.led_errors and flag.name is not None  # members always have names
         ]
     return values
 
