@@ -701,16 +701,12 @@ class Performance:
         return out
 
 
-def prepare(
-    compiled: CompiledMotion,
-    start_pose_deg: Sequence[float],
-    *,
-    approach_limit_scale: float = APPROACH_LIMIT_SCALE,
-) -> Performance:
-    """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose."""
+def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Performance:
+    """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose, at
+    ``APPROACH_LIMIT_SCALE`` of the joint limits."""
     robot = compiled.robot
     first_pose = compiled.trajectory.at(0.0)[0]
-    approach = plan_approach(robot, start_pose_deg, first_pose, approach_limit_scale)
+    approach = plan_approach(robot, start_pose_deg, first_pose, APPROACH_LIMIT_SCALE)
     return Performance(
         segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
         compiled.ticks,

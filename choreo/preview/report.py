@@ -83,10 +83,13 @@ def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
     """The servo working hardest, for the CLI (every joint's figures are in the report)."""
     summaries = joint_summaries(rollout.since_start(), near_miss_fraction)
     worst = max(summaries, key=lambda s: (s.peak_torque_pct, s.near_limit_s))
-    return (
+    line = (
         f"hardest-working servo: {worst.joint} at up to {worst.peak_torque_pct:.0f} % of its "
-        f"stall torque ({worst.near_limit_s:.2f} s at {100 * near_miss_fraction:.0f} % or more)"
+        "stall torque"
     )
+    if worst.near_limit_s > 0:  # the time near the limit says nothing when it never got there
+        line += f" ({worst.near_limit_s:.2f} s at {100 * near_miss_fraction:.0f} % or more)"
+    return line
 
 
 def assumptions_text(rollout: Rollout) -> str:
