@@ -23,10 +23,10 @@ from motion_gen import dance, servo_robot
 from rich.console import Console
 from rich.table import Table
 
-from choreo.motion import load_motion
-from choreo.planner import Trajectory, plan_motion
-from choreo.robot import Robot
-from choreo.segments import MOVE_BYTES, QUANTIZATION_DEG, segment, staging_bytes
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import Trajectory, plan_motion
+from choreo.plan.ticks import MOVE_BYTES, QUANTIZATION_DEG, segment, staging_bytes
+from choreo.robot.types import Robot
 
 TOLERANCE_DEG = 0.5
 STREAM_MS = 20

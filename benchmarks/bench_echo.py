@@ -13,11 +13,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from choreo.bus import EchoMode, ServoBus
-from choreo.clock import RealClock
-from choreo.motion import load_motion
-from choreo.pipeline import compile_motion
-from choreo.player import Player, preflight, prepare
+from choreo.bus.servo_bus import EchoMode, ServoBus
+from choreo.core.clock import RealClock
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.player import Player, preflight
 
 PORT = "sim://?ids=1-18&model=LX-224HV&echo=1"
 

@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from choreo.gait import BodyPose, feet_under_body
-from choreo.kinematics import Kinematics, SiteGoal
-from choreo.motion import load_motion
-from choreo.planner import plan_motion
-from choreo.robot_file import load_robot
+from choreo.motion.gait import BodyPose, feet_under_body
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_motion
+from choreo.robot.kinematics import Kinematics, SiteGoal
+from choreo.robot.robot_file import load_robot
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 

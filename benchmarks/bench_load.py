@@ -24,9 +24,9 @@ from pathlib import Path
 
 from motion_gen import dance
 
-from choreo.motion import load_motion
-from choreo.motion_writer import motion_text, robot_reference
-from choreo.robot_file import load_robot
+from choreo.motion.motion_file import load_motion
+from choreo.motion.writer import motion_text, robot_reference
+from choreo.robot.robot_file import load_robot
 
 GOAL_S = 1.5
 REPO = Path(__file__).resolve().parents[1]

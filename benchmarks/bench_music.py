@@ -30,15 +30,15 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from choreo.audio import Audio, decode, encode  # noqa: E402
-from choreo.bus import ServoBus  # noqa: E402
-from choreo.clock import RealClock  # noqa: E402
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial  # noqa: E402
-from choreo.motion import load_motion  # noqa: E402
-from choreo.player import Player, PlayOptions, preflight, prepare  # noqa: E402
-from choreo.protocol import Command  # noqa: E402
-from choreo.segments import compile_motion  # noqa: E402
-from choreo.soundtrack import RecordingSink, SongCue, play_with_song  # noqa: E402
+from choreo.bus.protocol import Command  # noqa: E402
+from choreo.bus.servo_bus import ServoBus  # noqa: E402
+from choreo.core.clock import RealClock  # noqa: E402
+from choreo.emulator import BusEmulator, ServoSpec, connection  # noqa: E402
+from choreo.motion.motion_file import load_motion  # noqa: E402
+from choreo.music.decode import Audio, decode, encode  # noqa: E402
+from choreo.plan.pipeline import compile_motion  # noqa: E402
+from choreo.play.player import Player, PlayOptions, preflight, prepare  # noqa: E402
+from choreo.play.soundtrack import RecordingSink, SongCue, play_with_song  # noqa: E402
 
 LATENCY_S = 0.08
 
@@ -57,7 +57,7 @@ def beat_detection() -> None:
     with tempfile.TemporaryDirectory() as folder:
         song = encode(Audio(samples, groove.RATE_HZ), Path(folder) / "long.ogg")
         began = time.perf_counter()
-        from choreo.beats import detect_beats, require_librosa
+        from choreo.music.beats import detect_beats, require_librosa
 
         require_librosa()
         import librosa.beat  # noqa: F401  (what detect_beats loads)
@@ -98,7 +98,7 @@ def song_offsets(runs: int) -> None:
             ],
             clock=clock,
         )
-        bus = ServoBus(SimSerial.from_emulator(emulator))
+        bus = ServoBus(connection(emulator))
         start, limits = preflight(bus, robot)
         performance = prepare(compiled, start)
         sink = RecordingSink(clock, latency_s=LATENCY_S)

@@ -16,8 +16,8 @@ import time
 
 from motion_gen import dance, servo_robot
 
-from choreo.planner import plan_motion
-from choreo.segments import segment
+from choreo.plan.planner import plan_motion
+from choreo.plan.ticks import segment
 
 GOAL_S = 1.0
 

@@ -21,14 +21,15 @@ import sys
 
 import numpy as np
 
-from choreo.bus import ServoBus
-from choreo.clock import RealClock, VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial, trace
-from choreo.motion import load_motion
-from choreo.path_errors import path_errors_deg
-from choreo.pipeline import compile_motion
-from choreo.player import Player, packet_schedule, preflight, prepare
-from choreo.robot import Robot
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import RealClock, VirtualClock
+from choreo.emulator import BusEmulator, ServoSpec, connection, trace
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.path_errors import path_errors_deg
+from choreo.play.player import Player, packet_schedule, preflight
+from choreo.robot.types import Robot
 
 MOTIONS = [
     "motions/arm6/wave.yaml",
@@ -48,7 +49,7 @@ def rig(robot: Robot, clock, pose_deg=None) -> tuple[BusEmulator, ServoBus]:
         ],
         clock=clock,
     )
-    return emulator, ServoBus(SimSerial.from_emulator(emulator))
+    return emulator, ServoBus(connection(emulator))
 
 
 def realtime(seconds: float) -> None:

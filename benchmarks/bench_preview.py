@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from choreo.motion import load_motion
-from choreo.pipeline import compile_motion
-from choreo.player import prepare
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
 from choreo.preview import (
     RenderSettings,
     render_frames,

@@ -15,12 +15,12 @@ import threading
 import time
 from pathlib import Path
 
-from choreo.bus import ServoBus
-from choreo.clock import RealClock, VirtualClock
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.emulator.pty import PtyBridge
-from choreo.recorder import Capture, Recorder, Recording
-from choreo.robot_file import load_robot
+from choreo.play.recorder import Capture, Recorder, Recording
+from choreo.robot.robot_file import load_robot
 
 READS = 200
 

@@ -19,15 +19,16 @@ import sys
 
 import numpy as np
 
-from choreo.bus import ServoBus
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ServoSpec, connection
 from choreo.emulator.boards import BOARDS
-from choreo.motion import load_motion
-from choreo.path_errors import path_errors_deg
-from choreo.pipeline import compile_motion
-from choreo.player import Player, preflight, prepare
-from choreo.protocol import Command
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.path_errors import path_errors_deg
+from choreo.play.player import Player, preflight
 
 MOTIONS = [
     "motions/arm6/wave.yaml",
@@ -63,7 +64,7 @@ def play(path: str, emulator_class) -> dict:
     ]
     clock = VirtualClock()
     emulator = emulator_class(specs, clock=clock)
-    with ServoBus(SimSerial.from_emulator(emulator, timeout=0.05)) as bus:
+    with ServoBus(connection(emulator, timeout_s=0.05)) as bus:
         start, limits = preflight(bus, robot)
         performance = prepare(compiled, start)
         report = Player(bus, robot, clock, limits).play(performance.ticks, start)

@@ -28,9 +28,7 @@ import tty
 
 import serial
 
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, SimSerial
-from choreo.protocol import (
+from choreo.bus.protocol import (
     BYTE_TIME_S,
     Command,
     PacketDecoder,
@@ -39,6 +37,8 @@ from choreo.protocol import (
     encode_reply,
     encode_request,
 )
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, SimSerial
 
 SERVO_IDS = range(1, 7)
 BYTES_PER_S = 1 / BYTE_TIME_S  # 11,520

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
-from choreo.motion import Keyframe, Motion
-from choreo.robot import Joint, JointLimits, Robot
-from choreo.yamlsource import SourceLocation
+from choreo.core.yaml_source import SourceLocation
+from choreo.motion.motion_file import Keyframe, Motion
+from choreo.robot.types import Joint, JointLimits, Robot
 
-VELOCITY, ACCELERATION, JERK = 300.0, 3000.0, 30000.0  # LX-16A defaults (choreo.servos)
+VELOCITY, ACCELERATION, JERK = 300.0, 3000.0, 30000.0  # LX-16A defaults (choreo.bus.servo_models)
 
 
 def servo_robot(n_joints: int, *, name: str = "bench") -> Robot:

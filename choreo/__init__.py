@@ -14,10 +14,13 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from .errors import (
+from choreo import errors
+from choreo.errors import (  # imported at once: light, and what every program catches
     BusError,
     BusTimeoutError,
     ChoreoError,
+    NoAudioOutput,
+    OptionError,
     PlanningError,
     PlaybackAborted,
     PortError,
@@ -30,85 +33,75 @@ from .errors import (
 
 __version__ = "0.1.0"
 
-# name -> the module that defines it (imported on first use, see __getattr__)
-_LAZY = {
-    "Robot": "robot",
-    "Joint": "robot",
-    "load_robot": "robot_file",
-    "Motion": "motion",
-    "Keyframe": "motion",
-    "load_motion": "motion",
-    "Trajectory": "planner",
-    "plan_motion": "planner",
-    "CompiledMotion": "pipeline",
-    "compile_motion": "pipeline",
-    "ServoBus": "bus",
-    "RealClock": "clock",
-    "VirtualClock": "clock",
-    "Player": "player",
-    "PlayOptions": "player",
-    "PlayReport": "player",
-    "ExitMode": "player",
-    "preflight": "player",
-    "prepare": "player",
-    "simulate_motion": "preview",
+# The public API: each name, by the module that defines it; imported on first use (__getattr__).
+PUBLIC = {
+    "choreo.robot.types": ("Robot", "Joint"),
+    "choreo.robot.robot_file": ("load_robot",),
+    "choreo.motion.motion_file": ("Motion", "Keyframe", "load_motion"),
+    "choreo.plan.planner": ("Trajectory", "PlanResult", "plan_motion"),
+    "choreo.plan.pipeline": ("CompiledMotion", "compile_motion"),
+    "choreo.plan.performance": ("Performance", "prepare"),
+    "choreo.plan.report": ("plan_report",),
+    "choreo.bus.servo_bus": ("ServoBus",),
+    "choreo.core.clock": ("RealClock", "VirtualClock"),
+    "choreo.play.player": (
+        "Player",
+        "PlayOptions",
+        "PlayReport",
+        "ExitMode",
+        "Outcome",
+        "preflight",
+    ),
+    "choreo.play.play_motion": ("play_motion",),
+    "choreo.play.report": ("report_document",),
+    "choreo.preview": ("simulate_motion", "run_checks"),
+    "choreo.preview.report": ("preview_report",),
+    "choreo.music.beats": ("BeatAnalysis", "detect_beats"),
 }
-
-__all__ = [
-    "BusError",
-    "BusTimeoutError",
-    "ChoreoError",
-    "PlanningError",
-    "PlaybackAborted",
-    "PortError",
-    "PreviewError",
-    "ProtocolError",
-    "ServoFault",
-    "SourceError",
-    "__version__",
-    "Robot",
-    "Joint",
-    "load_robot",
-    "Motion",
-    "Keyframe",
-    "load_motion",
-    "Trajectory",
-    "plan_motion",
-    "CompiledMotion",
-    "compile_motion",
-    "ServoBus",
-    "RealClock",
-    "VirtualClock",
-    "Player",
-    "PlayOptions",
-    "PlayReport",
-    "ExitMode",
-    "preflight",
-    "prepare",
-    "simulate_motion",
-    "UnsupportedByTransport",
-]
+_MODULE_OF = {name: module for module, names in PUBLIC.items() for name in names}
+# every error a user can meet (UsageError is the command line's own)
+ERRORS = tuple(
+    name
+    for name, value in vars(errors).items()
+    if isinstance(value, type) and issubclass(value, ChoreoError) and name != "UsageError"
+)
+__all__ = ["__version__", *ERRORS, *_MODULE_OF]
 
 
 def __getattr__(name: str) -> object:
-    if name not in _LAZY:
+    if name not in _MODULE_OF:
         raise AttributeError(f"module 'choreo' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    value = getattr(importlib.import_module(_MODULE_OF[name]), name)
     globals()[name] = value  # found directly next time
     return value
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_MODULE_OF))
 
 
-if TYPE_CHECKING:  # what type checkers and editors see; at run time, __getattr__ above
-    from .bus import ServoBus
-    from .clock import RealClock, VirtualClock
-    from .motion import Keyframe, Motion, load_motion
-    from .pipeline import CompiledMotion, compile_motion
-    from .planner import Trajectory, plan_motion
-    from .player import ExitMode, Player, PlayOptions, PlayReport, preflight, prepare
-    from .preview import simulate_motion
-    from .robot import Joint, Robot
-    from .robot_file import load_robot
+# What type checkers and editors see (at run time, __getattr__ above); test_package checks that
+# these imports and PUBLIC name the same things.
+if TYPE_CHECKING:
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.core.clock import RealClock, VirtualClock
+    from choreo.motion.motion_file import Keyframe, Motion, load_motion
+    from choreo.music.beats import BeatAnalysis, detect_beats
+    from choreo.plan.performance import Performance, prepare
+    from choreo.plan.pipeline import CompiledMotion, compile_motion
+    from choreo.plan.planner import PlanResult, Trajectory, plan_motion
+    from choreo.plan.report import plan_report
+    from choreo.play.play_motion import play_motion
+    from choreo.play.player import (
+        ExitMode,
+        Outcome,
+        Player,
+        PlayOptions,
+        PlayReport,
+        preflight,
+    )
+    from choreo.play.report import report_document
+    from choreo.preview import run_checks, simulate_motion
+    from choreo.preview.report import preview_report
+    from choreo.robot.robot_file import load_robot
+    from choreo.robot.types import Joint, Robot

@@ -12,6 +12,17 @@ class ChoreoError(Exception):
     """Base of every error choreo reports to a user."""
 
 
+class OptionError(ChoreoError, ValueError):
+    """An argument of a library call that cannot be used as given: ``option`` names it (as the
+    call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid.
+    The CLI shows its own flag in the argument's place (``--exit-pose``)."""
+
+    def __init__(self, option: str, problem: str):
+        super().__init__(f"{option} {problem}")
+        self.option = option
+        self.problem = problem
+
+
 class UsageError(ChoreoError):
     """The command line asks for something that can't be done as written (a bad option value or
     combination); the CLI prints it as one line and exits 2, as argparse does."""
@@ -62,3 +73,8 @@ class PlaybackAborted(ChoreoError):
 class UnsupportedByTransport(BusError):
     """The transport (a controller board between host and servos) cannot do this command; the
     message names the transport and what to use instead."""
+
+
+# --- music -----------------------------------------------------------------------------------
+class NoAudioOutput(ChoreoError):
+    """There is no audio output to play the song on (no library, no device)."""

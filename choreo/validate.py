@@ -12,11 +12,11 @@ import bisect
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import PlanningError, SourceError
-from .motion import Motion, load_motion
-from .pipeline import compile_motion
-from .robot_file import load_robot
-from .robot_lookup import ROBOT_FILE
+from choreo.errors import PlanningError, SourceError
+from choreo.motion.motion_file import Motion, load_motion
+from choreo.plan.pipeline import compile_motion
+from choreo.robot.lookup import ROBOT_FILE
+from choreo.robot.robot_file import load_robot
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> Fi
 def _physics_check(
     path: Path, motion: Motion, arrivals_s: tuple[float, ...], stretch: bool
 ) -> FileCheck:
-    from .preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
+    from choreo.preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
 
     results = run_checks(simulate_motion(motion, stretch=stretch))
     lines = {

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 from emulated import home_specs, served_on_a_pty
 
-from choreo.clock import RealClock
+from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator
-from choreo.robot_file import load_robot
+from choreo.robot.robot_file import load_robot
 
 
 @pytest.fixture

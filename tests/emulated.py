@@ -10,7 +10,7 @@ from pathlib import Path
 
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.pty import PtyBridge
-from choreo.robot import Robot
+from choreo.robot.types import Robot
 
 WAIT_S = 30
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from choreo.audio import Audio, encode
+from choreo.music.decode import Audio, encode
 
 RATE_HZ = 22050
 

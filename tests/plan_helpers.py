@@ -6,9 +6,9 @@ from pathlib import Path
 
 from hypothesis import strategies as st
 
-from choreo.motion import Keyframe, Motion
-from choreo.robot import Joint, JointLimits, Robot
-from choreo.yamlsource import SourceLocation
+from choreo.core.yaml_source import SourceLocation
+from choreo.motion.motion_file import Keyframe, Motion
+from choreo.robot.types import Joint, JointLimits, Robot
 
 MOTION_PATH = Path("test_motion.yaml")
 

@@ -1,4 +1,5 @@
-"""choreo.atomic: a file is replaced whole or not at all, and no temporary file is left behind."""
+"""choreo.core.atomic: a file is replaced whole or not at all, and no temporary file is left
+behind."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import stat
 
 import pytest
 
-from choreo.atomic import atomic_output, fsync_directory, write_text_atomically
+from choreo.core.atomic import atomic_output, fsync_directory, write_text_atomically
 from choreo.errors import ChoreoError
 
 

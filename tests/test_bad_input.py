@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
+from choreo.emulator import connection
 
 REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
@@ -213,7 +214,7 @@ ARM6_D6A_ROWS = (
 
 
 def write_d6a(path: Path) -> Path:
-    from choreo.d6a import ActionRow, write_action_group
+    from choreo.interop.d6a import ActionRow, write_action_group
 
     columns, rows = ARM6_D6A_ROWS
     write_action_group(path, columns, [ActionRow(*row) for row in rows])
@@ -323,7 +324,7 @@ from choreo.errors import PreviewError
 from choreo.preview.gl import offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.render import FrameRenderer
-from choreo.robot_file import load_robot
+from choreo.robot.robot_file import load_robot
 
 try:
     FrameRenderer(load_model(load_robot("arm6")), 1 << 20, 16, offscreen_backend())
@@ -376,7 +377,7 @@ def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, caps
 # --- wrong results -------------------------------------------------------------------------------
 def test_the_shipped_dance_exports(tmp_path, capsys):
     """Its first keyframe is at t 0: row 1 is reached by the approach, like an untimed one."""
-    from choreo.motion import load_motion
+    from choreo.motion.motion_file import load_motion
 
     out = tmp_path / "dance.d6a"
     dance = REPO / "motions" / "arm6" / "dance.yaml"
@@ -390,7 +391,7 @@ def test_the_shipped_dance_exports(tmp_path, capsys):
 
 def test_import_ids_keep_the_order_given(tmp_path):
     """Column k is the k-th ID as written: 6,4,2 puts Servo1's 700 on the gripper (ID 6)."""
-    from choreo.motion import load_motion
+    from choreo.motion.motion_file import load_motion
 
     out = tmp_path / "out.yaml"
     d6a = write_d6a(tmp_path / "in.d6a")
@@ -448,8 +449,8 @@ def test_the_planner_bounds_repeat_for_motions_made_in_code():
     import dataclasses
 
     from choreo.errors import PlanningError
-    from choreo.motion import load_motion
-    from choreo.planner import plan_motion
+    from choreo.motion.motion_file import load_motion
+    from choreo.plan.planner import plan_motion
 
     motion = dataclasses.replace(load_motion(WAVE), repeat=10**8)
     with pytest.raises(PlanningError, match="at most 10000 are played in one motion"):
@@ -469,7 +470,7 @@ def choreo_process(*argv: str, stdin=None) -> subprocess.Popen:
 
 
 def packets(emulator, command):
-    from choreo.protocol import Command
+    from choreo.bus.protocol import Command
 
     # list() copies at once: the bridge thread appends meanwhile
     return [p for p in list(emulator.log.packets) if p.packet.command == Command[command]]
@@ -478,7 +479,7 @@ def packets(emulator, command):
 def test_sighup_during_play_stops_the_servos_like_ctrl_c(arm_on_a_pty):
     from emulated import wait_for
 
-    from choreo.protocol import BROADCAST_ID
+    from choreo.bus.protocol import BROADCAST_ID
 
     emulator, link = arm_on_a_pty
     argv = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--timeout-ms", "500"]
@@ -545,9 +546,9 @@ def test_emulate_with_an_empty_pty_path_says_so(capsys):
 def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
     from emulated import home_specs, served_on_a_pty, wait_for
 
-    from choreo.clock import RealClock
+    from choreo.core.clock import RealClock
     from choreo.emulator import BusEmulator
-    from choreo.robot_file import load_robot
+    from choreo.robot.robot_file import load_robot
 
     emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
     with served_on_a_pty(emulator, tmp_path / "ttyARM") as link:
@@ -616,13 +617,14 @@ def test_only_a_busy_port_asks_about_another_program(capsys):
 
 
 def test_after_a_stop_the_path_error_covers_only_the_part_played():
-    from choreo.bus import ServoBus
-    from choreo.clock import VirtualClock
-    from choreo.emulator import BusEmulator, SimSerial
-    from choreo.motion import load_motion
-    from choreo.path_errors import measured_path_errors
-    from choreo.pipeline import compile_motion
-    from choreo.player import Outcome, Player, PlayOptions, preflight, prepare
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.core.clock import VirtualClock
+    from choreo.emulator import BusEmulator
+    from choreo.motion.motion_file import load_motion
+    from choreo.plan.performance import prepare
+    from choreo.plan.pipeline import compile_motion
+    from choreo.play.path_errors import measured_path_errors
+    from choreo.play.player import Outcome, Player, PlayOptions, preflight
 
     def play(stop_at_tick: int | None):
         motion = load_motion(REPO / "motions" / "arm6" / "dance.yaml")
@@ -630,7 +632,7 @@ def test_after_a_stop_the_path_error_covers_only_the_part_played():
         from emulated import home_specs
 
         emulator = BusEmulator(home_specs(robot), clock=clock)
-        bus = ServoBus(SimSerial.from_emulator(emulator))
+        bus = ServoBus(connection(emulator))
         start, limits = preflight(bus, robot)
         performance = prepare(compile_motion(motion), start)
 
@@ -728,7 +730,7 @@ def test_robots_lists_every_robot_with_its_joints_and_poses(capsys):
 
 
 def test_robots_name_shows_limits_and_pose_angles(capsys):
-    from choreo.robot_file import load_robot
+    from choreo.robot.robot_file import load_robot
 
     assert main(["robots", "arm6"]) == 0
     out = capsys.readouterr().out.splitlines()
@@ -789,7 +791,7 @@ def png_size(path: Path) -> tuple[int, int]:
 
 
 def test_plan_plot_draws_a_time_window(tmp_path, capsys):
-    from choreo.plot import plot_size_px
+    from choreo.plan.plot import plot_size_px
 
     gait = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
     whole, window = tmp_path / "whole.png", tmp_path / "window.png"

@@ -11,11 +11,11 @@ import pytest
 from music_helpers import click_track, steady_times, write_clicks
 from test_plan_cli import png_size
 
-from choreo.audio import Audio, decode
-from choreo.beat_plot import HEIGHT_PX, WIDTH_PX
-from choreo.beats import detect_beats
 from choreo.cli import main
 from choreo.errors import ChoreoError
+from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
+from choreo.music.beats import detect_beats
+from choreo.music.decode import Audio, decode
 
 BPM_TOLERANCE = 0.5
 BEAT_TOLERANCE_S = 0.015

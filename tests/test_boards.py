@@ -7,16 +7,17 @@ import numpy as np
 import pytest
 from emulated import home_specs
 
-from choreo.bus import Presence, ServoBus
-from choreo.clock import VirtualClock
-from choreo.emulator import SimSerial
+from choreo.bus.protocol import BYTE_TIME_S, Command
+from choreo.bus.servo_bus import Presence, ServoBus
+from choreo.core.clock import VirtualClock
+from choreo.emulator import connection
 from choreo.emulator.boards import BOARDS, SERVO_REPLY_TIMEOUT_S
 from choreo.errors import BusTimeoutError, UnsupportedByTransport
-from choreo.motion import load_motion
-from choreo.path_errors import path_errors_deg
-from choreo.pipeline import compile_motion
-from choreo.player import Outcome, Player, preflight, prepare, unchecked
-from choreo.protocol import BYTE_TIME_S, Command
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.path_errors import path_errors_deg
+from choreo.play.player import Outcome, Player, preflight, unchecked
 
 LX_MOVE_S = 10 * BYTE_TIME_S  # one 10-byte MOVE_TIME_WRITE on the servo bus
 TRANSPORT = {"rrc": "RRC board", "lobot": "LOBOT controller"}
@@ -43,7 +44,7 @@ def test_scan_and_status_through_the_board(board):
 
 def test_rrc_answers_status_ff_for_a_silent_servo_after_its_5_ms():
     with board_bus("rrc") as bus:
-        emulator = bus.port.emulator
+        emulator = bus.emulator
         sent_s = emulator.clock.now()
         assert bus.probe(9) is Presence.SILENT
         # the board's FF reply arrived: the host did not wait its own 50 ms timeout
@@ -66,22 +67,22 @@ def test_rrc_answers_status_ff_for_a_silent_servo_after_its_5_ms():
 )
 def test_a_command_the_board_cannot_carry_is_refused_naming_it(board, action):
     with board_bus(board) as bus:
-        before = len(list(bus.port.emulator.log.packets))
+        before = len(list(bus.emulator.log.packets))
         with pytest.raises(UnsupportedByTransport, match=TRANSPORT[board]) as refused:
             action(bus)
         assert "\n" not in str(refused.value)
         assert "raw LX bus" in str(refused.value)  # what to use instead
-        assert len(list(bus.port.emulator.log.packets)) == before  # nothing sent
+        assert len(list(bus.emulator.log.packets)) == before  # nothing sent
 
 
 def test_rrc_battery_frames_are_demultiplexed_and_stale_replies_skipped():
     with board_bus("rrc") as bus:
-        emulator = bus.port.emulator
+        emulator = bus.emulator
         opened_s = emulator.clock.now()  # the board sends its battery once a second from here
         emulator.battery_mv = 7100
         emulator.clock.sleep_until(opened_s + 3.0 - 0.00001)  # during the request
         assert bus.read_vin(2) == 7200  # the battery frame arrives before this reply
-        assert bus.board.battery_mv == 7100
+        assert bus.backend.battery_mv == 7100
         emulator.clock.sleep_until(opened_s + 4.0 - 0.0002)
         with pytest.raises(BusTimeoutError):  # the reply comes after this tiny timeout...
             bus.request(Command.POS_READ, 1, retries=0, timeout_s=0.0001)
@@ -92,7 +93,7 @@ def test_rrc_battery_frames_are_demultiplexed_and_stale_replies_skipped():
 @pytest.mark.parametrize("board", BOARDS)
 def test_a_move_frame_is_forwarded_one_servo_at_a_time(board):
     with board_bus(board, "1-18") as bus:
-        emulator = bus.port.emulator
+        emulator = bus.emulator
         bus.move_many([(i, 400) for i in range(1, 19)], 200)
         bus.drain()
         bus.read_position(1)
@@ -115,7 +116,7 @@ def test_the_player_plays_through_the_board(board, path):
     motion = load_motion(path)
     robot = motion.robot
     emulator = BOARDS[board](home_specs(robot), clock=VirtualClock())
-    with ServoBus(SimSerial.from_emulator(emulator, timeout=0.05)) as bus:
+    with ServoBus(connection(emulator, timeout_s=0.05)) as bus:
         assert "motor mode" in unchecked(bus)
         pose, limits = preflight(bus, robot)
         performance = prepare(compile_motion(motion), pose)
@@ -143,7 +144,7 @@ def test_the_player_plays_through_the_board(board, path):
 
 def test_rrc_stop_is_one_stop_frame_for_the_robots_servos():
     with board_bus("rrc") as bus:
-        emulator = bus.port.emulator
+        emulator = bus.emulator
         bus.move_many([(i, 200) for i in range(1, 7)], 2000)
         bus.stop_servos(range(1, 7))
         bus.drain()
@@ -155,7 +156,7 @@ def test_rrc_stop_is_one_stop_frame_for_the_robots_servos():
 
 def test_lobot_stop_holds_the_servos_where_they_are():
     with board_bus("lobot") as bus:
-        emulator = bus.port.emulator
+        emulator = bus.emulator
         bus.move_many([(i, 200) for i in range(1, 7)], 2000)
         emulator.clock.sleep_until(emulator.clock.now() + 0.5)
         bus.stop_servos(range(1, 7))
@@ -168,12 +169,12 @@ def test_lobot_stop_holds_the_servos_where_they_are():
 
 
 def test_recording_by_hand_through_the_rrc_board(tmp_path):
-    from choreo.recorder import Ending, Recorder, Recording
-    from choreo.robot_file import load_robot
+    from choreo.play.recorder import Ending, Recorder, Recording
+    from choreo.robot.robot_file import load_robot
 
     robot = load_robot("arm6")
     emulator = BOARDS["rrc"](home_specs(robot), clock=VirtualClock())
-    bus = ServoBus(SimSerial.from_emulator(emulator))
+    bus = ServoBus(connection(emulator))
     recording = Recording.start(tmp_path / "taught.yaml", robot)
 
     def typing():
@@ -190,12 +191,12 @@ def test_recording_by_hand_through_the_rrc_board(tmp_path):
 
 
 def test_recording_through_the_lobot_controller_is_refused_naming_it(tmp_path):
-    from choreo.recorder import Recorder, Recording
-    from choreo.robot_file import load_robot
+    from choreo.play.recorder import Recorder, Recording
+    from choreo.robot.robot_file import load_robot
 
     robot = load_robot("arm6")
     emulator = BOARDS["lobot"](home_specs(robot), clock=VirtualClock())
-    bus = ServoBus(SimSerial.from_emulator(emulator))
+    bus = ServoBus(connection(emulator))
     recording = Recording.start(tmp_path / "taught.yaml", robot)
     with pytest.raises(UnsupportedByTransport, match="LOBOT controller cannot load"):
         with Recorder(bus, recording, emulator.clock, taught=["shoulder"]):
@@ -231,5 +232,5 @@ def test_the_rrc_port_opens_at_1_mbaud_with_rts_and_dtr_low(monkeypatch):
 def test_direction_control_is_refused_for_a_board():
     from choreo.errors import PortError
 
-    with pytest.raises(PortError, match="the rrc board drives its own servo bus"):
+    with pytest.raises(PortError, match="the RRC board drives its own servo bus"):
         ServoBus("sim://?board=rrc&ids=1&clock=virtual", direction="tonypi")

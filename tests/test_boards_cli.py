@@ -12,11 +12,11 @@ import time
 import pytest
 from emulated import home_specs, served_on_a_pty, wait_for
 
+from choreo.bus.protocol import Command, decode_request
 from choreo.cli import main
-from choreo.clock import RealClock
+from choreo.core.clock import RealClock
 from choreo.emulator.boards import BOARDS
-from choreo.protocol import Command, decode_request
-from choreo.robot_file import load_robot
+from choreo.robot.robot_file import load_robot
 
 TRANSPORT = {"rrc": "RRC board", "lobot": "LOBOT controller"}
 
@@ -139,7 +139,7 @@ def test_the_emulate_command_serves_a_board_that_its_scheme_reaches(board, tmp_p
 
 
 def test_the_dry_run_through_a_board_prints_its_move_frames(capsys):
-    from choreo.transports import rrc
+    from choreo.bus.transports import rrc
 
     assert (
         main(["play", "motions/arm6/wave.yaml", "--dry-run", "--port", "rrc:///dev/nothing"]) == 0

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import types
-
 import pytest
 import serial
 
-from choreo.bus import (
+from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask
+from choreo.bus.servo_bus import (
     AngleLimits,
     EchoMode,
     MotorMode,
@@ -17,17 +16,17 @@ from choreo.bus import (
     ServoBus,
     VinLimits,
 )
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
+from choreo.bus.transports import raw
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial, connection
 from choreo.errors import BusTimeoutError, PortError, ProtocolError
-from choreo.protocol import BROADCAST_ID, Command, ErrorMask
 
 BYTE_TIME_S = 10 / 115200  # start + 8 data + stop bits at 115200 baud
 
 
 def make_bus(ids=(1, 2, 3), *, echo=False, mode=EchoMode.AUTO, model="LX-224HV", **kwargs):
     emulator = BusEmulator(ids, model=model, clock=VirtualClock(), echo=echo)
-    return ServoBus(SimSerial.from_emulator(emulator), echo=mode, **kwargs), emulator
+    return ServoBus(connection(emulator, echo=mode), **kwargs), emulator
 
 
 ECHO_SETUPS = [
@@ -94,7 +93,7 @@ def test_scan_tries_each_id_once_with_the_bus_timeout():
 
 def test_servos_sharing_an_id_are_garbled_not_absent():
     emulator = BusEmulator([ServoSpec(1), ServoSpec(1), ServoSpec(2)], clock=VirtualClock())
-    bus = ServoBus(SimSerial.from_emulator(emulator))
+    bus = ServoBus(connection(emulator))
     assert [bus.probe(i) for i in (1, 2, 3)] == [
         Presence.GARBLED,
         Presence.ANSWERS,
@@ -173,7 +172,7 @@ def test_persistent_corruption_is_a_protocol_error():
 
 def test_duplicate_ids_garble_replies_and_say_so():
     emulator = BusEmulator([ServoSpec(1), ServoSpec(1)], clock=VirtualClock())
-    bus = ServoBus(SimSerial.from_emulator(emulator), retries=0)
+    bus = ServoBus(connection(emulator), retries=0)
     with pytest.raises(ProtocolError, match="two servos may share ID 1"):
         bus.read_position(1)
 
@@ -275,12 +274,11 @@ class DescheduledAfterFirstRead(SimSerial):
         return data
 
 
-def test_a_reply_that_arrived_while_the_host_was_descheduled_is_taken(monkeypatch):
+def test_a_reply_that_arrived_while_the_host_was_descheduled_is_taken():
     # Past its deadline the attempt still looks at what has already arrived: the reply is there.
     emulator = BusEmulator(range(1, 19), clock=VirtualClock(), echo=True)
-    host_time = types.SimpleNamespace(monotonic=emulator.clock.now)  # host time = wire time
-    monkeypatch.setattr("choreo.bus.time", host_time)
-    bus = ServoBus(DescheduledAfterFirstRead.from_emulator(emulator), retries=0, timeout_s=0.02)
+    port = DescheduledAfterFirstRead.from_emulator(emulator)
+    bus = ServoBus(raw.connect(port, 0.02, clock=emulator.clock), retries=0, timeout_s=0.02)
     for servo_id in range(1, 19):
         bus.stage_move(servo_id, 450, 300)
     bus.drain()

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
-from choreo.d6a import (
+from choreo.errors import SourceError
+from choreo.interop.d6a import (
     ActionRow,
     export_d6a,
     import_d6a,
@@ -21,11 +22,10 @@ from choreo.d6a import (
     rows_from_motion,
     write_action_group,
 )
-from choreo.errors import SourceError
-from choreo.motion import Motion, load_motion
-from choreo.planner import plan_motion
-from choreo.robot_file import load_robot
-from choreo.segments import segment
+from choreo.motion.motion_file import Motion, load_motion
+from choreo.plan.planner import plan_motion
+from choreo.plan.ticks import segment
+from choreo.robot.robot_file import load_robot
 from choreo.validate import check_file
 
 REPO = Path(__file__).resolve().parents[1]

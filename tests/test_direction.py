@@ -8,13 +8,13 @@ import sys
 
 import pytest
 
-from choreo.bus import ServoBus
-from choreo.clock import VirtualClock
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.bus.transports.direction import PRESETS, DirectionPins, DirectionSerial, parse_direction
+from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, SimSerial
-from choreo.emulator.direction import FakeDirectionLines
+from choreo.emulator.direction_gate import FakeDirectionLines
 from choreo.errors import BusTimeoutError, ChoreoError
-from choreo.protocol import Command
-from choreo.transports.direction import PRESETS, DirectionPins, DirectionSerial, parse_direction
 
 
 def gated_bus(serial_class=DirectionSerial, *, echo: bool = False):
@@ -97,7 +97,7 @@ def test_direction_without_gpiod_names_the_extra(monkeypatch):
 
 def test_gpiod_is_imported_only_when_direction_control_is_used():
     code = (
-        "import sys; from choreo.bus import ServoBus; from choreo.cli import main; "
+        "import sys; from choreo.bus.servo_bus import ServoBus; from choreo.cli import main; "
         "ServoBus('sim://?ids=1&clock=virtual').read_position(1); "
         "assert 'gpiod' not in sys.modules and 'hid' not in sys.modules, 'imported'"
     )
@@ -122,7 +122,7 @@ def test_robot_yaml_bus_direction(tmp_path):
     import shutil
 
     from choreo.errors import SourceError
-    from choreo.robot_file import load_robot
+    from choreo.robot.robot_file import load_robot
 
     folder = tmp_path / "arm6"
     shutil.copytree("models/arm6", folder)

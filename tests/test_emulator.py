@@ -8,19 +8,19 @@ from __future__ import annotations
 
 import pytest
 
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ReplyFate, ReplyFaults, ServoSpec, SimSerial
-from choreo.errors import ChoreoError
-from choreo.protocol import (
+from choreo.bus.protocol import (
     BROADCAST_ID,
     PacketDecoder,
     decode_reply,
     encode_packet,
     encode_request,
 )
-from choreo.protocol import (
+from choreo.bus.protocol import (
     Command as C,
 )
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFate, ReplyFaults, ServoSpec, SimSerial
+from choreo.errors import ChoreoError
 
 BYTE_S = 10 / 115200
 TURNAROUND_S = 0.0006
@@ -644,20 +644,3 @@ def test_log_records_packets_with_arrival_times_and_moves(bus):
     assert stop.time_s - write.time_s == pytest.approx(0.02 + 6 * BYTE_S)
     (move,) = log.moves
     assert (move.servo_id, move.from_units, move.to_units, move.duration_s) == (1, 500, 600, 0.4)
-
-
-def test_the_emulator_depends_on_nothing_above_the_bus():
-    """The emulator is the servos' side of the wire: robots, motions and players are built on
-    top of it, never inside it (choreo.path_errors reads its log through a robot)."""
-    import subprocess
-    import sys
-
-    code = (
-        "import sys, choreo.emulator, choreo.emulator.trace, choreo.emulator.pty\n"
-        "print(' '.join(sorted(m for m in sys.modules if m.startswith('choreo'))))"
-    )
-    loaded = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    ).stdout.split()
-    above = {"choreo.robot", "choreo.motion", "choreo.planner", "choreo.player", "choreo.cli"}
-    assert above.isdisjoint(loaded), loaded

@@ -1,6 +1,6 @@
-"""choreo.gait: foot positions of body poses and gaits, as geometry (no MuJoCo). The rules are the
-ones a walk must obey whatever the numbers: feet on the floor do not move over the floor, every
-leg swings once per step in its pattern's order, the walk ends standing, strides add up."""
+"""choreo.motion.gait: foot positions of body poses and gaits, as geometry (no MuJoCo). The rules
+are the ones a walk must obey whatever the numbers: feet on the floor do not move over the floor,
+every leg swings once per step in its pattern's order, the walk ends standing, strides add up."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from choreo.gait import (
+from choreo.motion.gait import (
     GROUPS,
     SWING_SAMPLES,
     BodyPose,

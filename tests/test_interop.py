@@ -48,10 +48,10 @@ import serial
 from emulated import served_on_a_pty, wait_for
 from pylx16a.lx16a import LX16A, ServoTimeoutError
 
-from choreo.clock import RealClock
+from choreo.bus.protocol import BROADCAST_ID, BYTE_TIME_S, Command, decode_request
+from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, Eeprom, ReplyFate, ServoSpec
-from choreo.emulator.bus import STATE_FORMAT, STATE_VERSION
-from choreo.protocol import BROADCAST_ID, BYTE_TIME_S, Command, decode_request
+from choreo.emulator.bus_emulator import STATE_FORMAT, STATE_VERSION
 
 WAIT_S = 10  # bound on every wait; a passing test waits a few hundred ms at most
 READ_TIMEOUT_S = (

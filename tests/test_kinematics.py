@@ -1,6 +1,7 @@
-"""choreo.kinematics: IK of named sites on the robots' MuJoCo models. Targets come from MuJoCo's
-own forward kinematics of random in-limit joint angles, so every one of them is reachable; the
-solution is checked with MuJoCo again (site_xpos, site_xmat), not with the solver's own numbers."""
+"""choreo.robot.kinematics: IK of named sites on the robots' MuJoCo models. Targets come from
+MuJoCo's own forward kinematics of random in-limit joint angles, so every one of them is
+reachable; the solution is checked with MuJoCo again (site_xpos, site_xmat), not with the solver's
+own numbers."""
 
 from __future__ import annotations
 
@@ -12,8 +13,8 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from choreo.kinematics import Kinematics, SiteGoal
-from choreo.robot_file import load_robot
+from choreo.robot.kinematics import Kinematics, SiteGoal
+from choreo.robot.robot_file import load_robot
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 POSITION_MM, ANGLE_DEG = 1.0, 1.0  # the acceptance tolerances

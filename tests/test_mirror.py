@@ -9,8 +9,8 @@ import pytest
 
 from choreo.cli import main
 from choreo.errors import SourceError
-from choreo.mirror import mirrored_keyframes
-from choreo.motion import load_motion
+from choreo.motion.mirror import mirrored_keyframes
+from choreo.motion.motion_file import load_motion
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"

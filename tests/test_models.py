@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 import yaml
 
-from choreo.motion import load_motion
-from choreo.robot_file import load_robot
+from choreo.motion.motion_file import load_motion
+from choreo.robot.robot_file import load_robot
 
 REPO = Path(__file__).resolve().parents[1]
 MODEL_DIRS = sorted(path.parent for path in (REPO / "models").glob("*/robot.yaml"))

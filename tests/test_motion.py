@@ -13,7 +13,7 @@ import pytest
 
 from choreo.cli import main
 from choreo.errors import SourceError
-from choreo.motion import load_motion
+from choreo.motion.motion_file import load_motion
 
 DATA = Path(__file__).parent / "data"
 GOOD = DATA / "motions"

@@ -13,12 +13,12 @@ import pytest
 import yaml
 from music_helpers import steady_times, write_clicks
 
-from choreo.audio import decode
-from choreo.beats import detect_beats
 from choreo.cli import main
 from choreo.errors import PlanningError, SourceError
-from choreo.motion import load_motion
-from choreo.planner import plan_motion
+from choreo.motion.motion_file import load_motion
+from choreo.music.beats import detect_beats
+from choreo.music.decode import decode
+from choreo.plan.planner import plan_motion
 
 
 def write(folder, name: str, text: str):

@@ -1,5 +1,6 @@
 """The package as users get it: its version, its type hints, and a start-up that stays light."""
 
+import ast
 import subprocess
 import sys
 import tomllib
@@ -72,7 +73,7 @@ def test_bus_only_commands_never_import_mujoco_or_matplotlib():
 
 def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
     """The probe above would notice: loading a robot checks its MuJoCo model."""
-    probe = "import sys; from choreo.robot_file import load_robot; load_robot('arm6'); "
+    probe = "import sys; from choreo.robot.robot_file import load_robot; load_robot('arm6'); "
     probe += "print('mujoco' in sys.modules)"
     result = subprocess.run(
         [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
@@ -89,7 +90,28 @@ def test_the_public_api_resolves_and_import_choreo_stays_light():
     result = subprocess.run(
         [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
     )
-    assert result.stdout == "[] [] choreo.pipeline choreo.robot_file\n", result.stderr
+    assert result.stdout == "[] [] choreo.plan.pipeline choreo.robot.robot_file\n", result.stderr
+
+
+def test_the_public_names_are_listed_once_and_type_checkers_see_the_same():
+    """``choreo.PUBLIC`` is the list; the imports type checkers read must name the same things
+    from the same modules, and every error of the tree is exported."""
+    tree = ast.parse((ROOT / "choreo" / "__init__.py").read_text())
+    (guard,) = [n for n in tree.body if isinstance(n, ast.If)]  # if TYPE_CHECKING:
+    seen = {
+        (node.module, alias.name)
+        for node in guard.body
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
+    listed = {(module, name) for module, names in choreo.PUBLIC.items() for name in names}
+    assert seen == listed
+    tree_errors = {
+        name
+        for name, value in vars(choreo.errors).items()
+        if isinstance(value, type) and issubclass(value, choreo.ChoreoError)
+    }
+    assert tree_errors - set(choreo.__all__) == {"UsageError"}
 
 
 def test_an_unknown_name_is_an_attribute_error():

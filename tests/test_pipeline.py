@@ -1,13 +1,13 @@
-"""choreo.pipeline: a loaded motion -> planned -> ticks, with what play and preview need."""
+"""choreo.plan.pipeline: a loaded motion -> planned -> ticks, with what play and preview need."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from choreo.motion import load_motion
-from choreo.pipeline import compile_motion
-from choreo.planner import plan_motion
-from choreo.segments import segment
+from choreo.motion.motion_file import load_motion
+from choreo.plan.pipeline import compile_motion
+from choreo.plan.planner import plan_motion
+from choreo.plan.ticks import segment
 
 WAVE = "motions/arm6/wave.yaml"
 

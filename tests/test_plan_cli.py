@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
-from choreo.motion import load_motion
-from choreo.planner import plan_motion
-from choreo.plot import plot_size_px
-from choreo.segments import segment
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_motion
+from choreo.plan.plot import plot_size_px
+from choreo.plan.ticks import segment
 
 REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"

@@ -1,4 +1,4 @@
-"""choreo.planner: keyframes -> a jerk-limited, time-synchronized trajectory."""
+"""choreo.plan.planner: keyframes -> a jerk-limited, time-synchronized trajectory."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.errors import PlanningError
-from choreo.motion import load_motion
-from choreo.planner import plan_approach, plan_motion
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_approach, plan_motion
 
 POS_EPS = 1e-6
 VEL_EPS = 1e-6  # relative

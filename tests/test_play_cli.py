@@ -11,8 +11,8 @@ import time
 import pytest
 from emulated import wait_for
 
+from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.cli import main
-from choreo.protocol import BROADCAST_ID, Command
 
 
 def test_sigint_sends_move_stop_within_50_ms_and_exits_130(arm_on_a_pty):
@@ -99,8 +99,8 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
     import dataclasses
 
     from choreo.cli.arguments import bus_settings
-    from choreo.robot import BusSettings
-    from choreo.robot_file import load_robot
+    from choreo.robot.robot_file import load_robot
+    from choreo.robot.types import BusSettings
 
     robot = dataclasses.replace(
         load_robot("arm6"),

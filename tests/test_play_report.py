@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -10,17 +11,18 @@ import sys
 import pytest
 from emulated import wait_for
 
-from choreo.bus import ServoBus
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ServoSpec, SimSerial
-from choreo.emulator.servo import StartedMove
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ServoSpec, connection
+from choreo.emulator.emulated_servo import StartedMove
 from choreo.emulator.trace import start_skew_ms
-from choreo.motion import load_motion
-from choreo.pipeline import compile_motion
-from choreo.play_report import Transport, report_document, transport_of, write_report
-from choreo.player import Outcome, Player, preflight, prepare
-from choreo.protocol import Command
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.player import Outcome, Player, preflight
+from choreo.play.report import report_document, transport_of, write_report
 
 
 def test_play_writes_a_report_that_reads_back(tmp_path, capsys):
@@ -106,7 +108,7 @@ def test_a_report_in_a_folder_it_cannot_write_is_refused_before_anything_plays(
     tmp_path, monkeypatch, capsys
 ):
     # (Tests may run as root, for whom every folder is writable: the permission is faked.)
-    monkeypatch.setattr("choreo.atomic.os.access", lambda path, mode: False)
+    monkeypatch.setattr("choreo.core.atomic.os.access", lambda path, mode: False)
     assert main(["play", "motions/arm6/wave.yaml", "--report", str(tmp_path / "r.json")]) == 1
     captured = capsys.readouterr()
     assert f"the folder {tmp_path} is not writable" in captured.err and captured.out == ""
@@ -128,7 +130,7 @@ def test_the_report_of_an_aborted_echoing_play_in_virtual_time(tmp_path):
         for j, a in zip(robot.joints, robot.pose_vector("home"))
     ]
     emulator = BusEmulator(specs, clock=VirtualClock(), echo=True)
-    bus = ServoBus(SimSerial.from_emulator(emulator))
+    bus = ServoBus(connection(emulator))
     start, limits = preflight(bus, robot)
     performance = prepare(compile_motion(motion), start)
     player = Player(bus, robot, emulator.clock, limits)
@@ -139,13 +141,14 @@ def test_the_report_of_an_aborted_echoing_play_in_virtual_time(tmp_path):
     reached = [j.to_deg(u) for j, u in zip(robot.joints, ticks[cut - 1].targets_units)]
     aborted = player.play(ticks[cut:], reached)
     assert report.outcome is Outcome.COMPLETED and aborted.outcome is Outcome.ABORTED
-    document = report_document(
+    described = dataclasses.replace(
         aborted,
         motion="tripod_gait.yaml",
         robot=robot.name,
-        transport=transport_of("sim://?ids=1-18&echo=1"),
+        port="sim://?ids=1-18&echo=1",
         measured_start_skew_ms=start_skew_ms(emulator.log.moves),
     )
+    document = report_document(described)
     path = tmp_path / "r.json"
     write_report(path, document)
     read = json.loads(path.read_text())
@@ -175,12 +178,10 @@ def test_the_transport_is_the_ports_scheme(port, kind):
 
 def test_an_unmeasured_skew_is_the_transports_own():
     # Real servos: nothing measures the skew, so the transport's figure is reported as such.
-    document = report_document(
-        _empty_report(),
-        motion="m.yaml",
-        robot="arm6",
-        transport=Transport("rrc", "rrc:///dev/ttyAMA0", emulated=False, start_skew_ms=4.4),
+    board_play = dataclasses.replace(
+        _empty_report(), port="rrc:///dev/ttyAMA0", transport="RRC board", start_skew_ms=4.4
     )
+    document = report_document(board_play)
     assert document["start_skew_ms"] == {"max": 4.4, "measured": False}
 
 
@@ -194,7 +195,7 @@ def test_start_skew_is_the_spread_within_a_burst_of_starts():
 
 
 def _empty_report():
-    from choreo.player import PlayReport
+    from choreo.play.player import PlayReport
 
     return PlayReport(Outcome.COMPLETED, "", 0, 0, 0, (), 0, 0.0, 0.0, (), 0.0)
 

@@ -4,24 +4,17 @@ from __future__ import annotations
 
 import pytest
 
-from choreo.bus import ServoBus
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial
+from choreo.bus.protocol import BROADCAST_ID, Command, decode_request
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, connection
 from choreo.errors import ChoreoError
-from choreo.motion import load_motion
-from choreo.path_errors import measured_path_errors
-from choreo.pipeline import compile_motion
-from choreo.player import (
-    ExitMode,
-    Outcome,
-    Player,
-    PlayOptions,
-    packet_schedule,
-    preflight,
-    prepare,
-)
-from choreo.protocol import BROADCAST_ID, Command, decode_request
-from choreo.segments import QUANTIZATION_DEG, Tick
+from choreo.motion.motion_file import load_motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.plan.ticks import QUANTIZATION_DEG, Tick
+from choreo.play.path_errors import measured_path_errors
+from choreo.play.player import ExitMode, Outcome, Player, PlayOptions, packet_schedule, preflight
 
 MOTIONS = "motions"
 
@@ -42,7 +35,7 @@ class Rig:
             if j.servo_id not in skip_ids
         ]
         self.emulator = BusEmulator(specs, clock=self.clock, echo=echo, start_gap_s=start_gap_s)
-        self.bus = ServoBus(SimSerial.from_emulator(self.emulator), echo=bus_echo)
+        self.bus = ServoBus(connection(self.emulator, echo=bus_echo))
 
     def play(self, options=None, on_progress=None, **prepare_args):
         options = PlayOptions() if options is None else options
@@ -360,7 +353,7 @@ def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
 def test_two_servos_sharing_an_id_are_refused_as_such():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     rig.emulator = BusEmulator([*home_specs_of(rig.robot), ServoSpec(3)], clock=rig.clock)
-    rig.bus = ServoBus(SimSerial.from_emulator(rig.emulator))
+    rig.bus = ServoBus(connection(rig.emulator))
     with pytest.raises(
         ChoreoError,
         match=r"1 servo\(s\) answered garbled, as when two servos "

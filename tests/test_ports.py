@@ -6,8 +6,8 @@ from __future__ import annotations
 import functools
 import json
 
+from choreo.bus.ports import HidRecord, SerialRecord, list_ports
 from choreo.cli import main, ports_commands
-from choreo.ports import HidRecord, SerialRecord, list_ports
 
 # USB IDs from the vendors' udev rules and drivers (see the README's table).
 RRC = SerialRecord("/dev/ttyACM0", 0x1A86, 0x55D4, "USB Single Serial")

@@ -13,11 +13,14 @@ import mujoco
 import numpy as np
 import pytest
 
+from choreo.bus.protocol import Command
+from choreo.bus.servo_models import ACTUATOR_FIELDS
 from choreo.cli import main
 from choreo.errors import PreviewError
-from choreo.motion import load_motion
-from choreo.planner import plan_motion
-from choreo.player import packet_schedule
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_motion
+from choreo.plan.ticks import Tick, segment
+from choreo.play.player import packet_schedule
 from choreo.preview import (
     CheckKind,
     CheckThresholds,
@@ -31,18 +34,15 @@ from choreo.preview import (
     simulate,
     simulate_motion,
 )
-from choreo.preview.checks import episodes
-from choreo.preview.model import apply_servo_models, index_joints, load_model
-from choreo.preview.servo import (
+from choreo.preview.actuator import (
     ActuatorParams,
     CommandStream,
     ServoBank,
     commanded_path_units,
 )
-from choreo.protocol import Command
-from choreo.robot_file import load_robot
-from choreo.segments import Tick, segment
-from choreo.servos import ACTUATOR_FIELDS
+from choreo.preview.checks import episodes
+from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.robot.robot_file import load_robot
 
 DATA = Path(__file__).parent / "data" / "preview"
 MOTIONS = DATA / "motions"

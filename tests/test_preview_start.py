@@ -19,9 +19,11 @@ import pytest
 
 from choreo.cli import main
 from choreo.errors import SourceError
-from choreo.motion import load_motion
-from choreo.pipeline import compile_motion
-from choreo.player import prepare
+from choreo.motion.motion_file import load_motion
+from choreo.motion.scene import Prop, StartPosture
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.plan.ticks import Tick
 from choreo.preview import (
     CheckKind,
     Severity,
@@ -34,9 +36,7 @@ from choreo.preview import (
 )
 from choreo.preview.model import load_model
 from choreo.preview.start import lowest_clearance_m
-from choreo.robot_file import load_robot
-from choreo.scene import Prop, StartPosture
-from choreo.segments import Tick
+from choreo.robot.robot_file import load_robot
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data" / "preview"

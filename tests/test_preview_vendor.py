@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from choreo.cli import main
-from choreo.motion import load_motion
+from choreo.motion.motion_file import load_motion
 from choreo.preview import simulate_motion
 
 VENDOR = Path(__file__).parent / "data" / "tonypi"

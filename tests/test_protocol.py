@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from choreo.protocol import (
+from choreo.bus.protocol import (
     BROADCAST_ID,
     SPECS,
     Command,

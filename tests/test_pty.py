@@ -16,8 +16,8 @@ import threading
 import pytest
 import serial
 
-from choreo.protocol import Command as C
-from choreo.protocol import PacketDecoder, decode_reply, encode_request
+from choreo.bus.protocol import Command as C
+from choreo.bus.protocol import PacketDecoder, decode_reply, encode_request
 
 STARTUP_TIMEOUT_S = 20
 

@@ -1,4 +1,4 @@
-"""Teach by hand (choreo.recorder, `choreo record`): servos turned by hand on the emulator in
+"""Teach by hand (choreo.play.recorder, `choreo record`): servos turned by hand on the emulator in
 virtual time; the journal survives a SIGKILL (the one test on the real clock, over a pty)."""
 
 from __future__ import annotations
@@ -15,14 +15,14 @@ import pytest
 import yaml
 from emulated import WAIT_S, home_specs, wait_for
 
-from choreo.bus import ServoBus
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, SimSerial
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, connection
 from choreo.errors import BusError, ChoreoError
-from choreo.motion import load_motion
-from choreo.protocol import Command
-from choreo.recorder import (
+from choreo.motion.motion_file import load_motion
+from choreo.play.recorder import (
     INPUT_POLL_S,
     Captured,
     Ending,
@@ -37,7 +37,7 @@ from choreo.recorder import (
     journal_path,
     read_journal,
 )
-from choreo.robot_file import load_robot
+from choreo.robot.robot_file import load_robot
 
 TINY = "tests/data/models/tiny/robot.yaml"
 
@@ -50,7 +50,7 @@ class Rig:
         self.clock = VirtualClock()
         specs = [s for s in home_specs(self.robot) if s.servo_id not in skip_ids]
         self.emulator = BusEmulator(specs, clock=self.clock)
-        self.bus = ServoBus(SimSerial.from_emulator(self.emulator))
+        self.bus = ServoBus(connection(self.emulator))
         self.events = []
 
     def servo(self, servo_id: int):

@@ -14,8 +14,9 @@ from PIL import Image
 
 from choreo.cli import main
 from choreo.errors import PreviewError
-from choreo.motion import load_motion
-from choreo.planner import plan_motion
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_motion
+from choreo.plan.ticks import segment
 from choreo.preview import (
     CheckKind,
     CheckResult,
@@ -31,7 +32,6 @@ from choreo.preview import (
 )
 from choreo.preview.model import load_model
 from choreo.preview.render import frame_camera, problem_text, status_text
-from choreo.segments import segment
 
 DATA = Path(__file__).parent / "data" / "preview"
 FINE = DATA / "motions" / "fine.yaml"

@@ -15,7 +15,7 @@ from PIL import Image
 from test_music import write
 
 from choreo.cli import main
-from choreo.motion import load_motion
+from choreo.motion.motion_file import load_motion
 from choreo.preview import RenderSettings, render_preview, simulate_motion
 from choreo.preview.render import status_text
 

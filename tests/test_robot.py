@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from choreo.errors import SourceError
-from choreo.robot import mirror_pose, mirror_targets
-from choreo.robot_file import load_robot
+from choreo.robot.robot_file import load_robot
+from choreo.robot.types import mirror_pose, mirror_targets
 
 DATA = Path(__file__).parent / "data"
 TINY = DATA / "models" / "tiny" / "robot.yaml"

@@ -10,12 +10,12 @@ import jsonschema
 import pytest
 import yaml
 
-from choreo import motion
-from choreo import robot_file as robot
-from choreo.bus import EchoMode
-from choreo.file_shape import Shape, mapping_shape
-from choreo.protocol import MAX_SERVO_ID
-from choreo.servos import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
+from choreo.bus.protocol import MAX_SERVO_ID
+from choreo.bus.servo_bus import EchoMode
+from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
+from choreo.core.file_shape import Shape, mapping_shape
+from choreo.motion import motion_file as motion
+from choreo.robot import robot_file as robot
 
 DATA = Path(__file__).parent / "data"
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""choreo.segments: a trajectory -> synchronized linear servo moves (ticks)."""
+"""choreo.plan.ticks: a trajectory -> synchronized linear servo moves (ticks)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.errors import PlanningError
-from choreo.motion import load_motion
-from choreo.planner import plan_approach, plan_motion
-from choreo.segments import (
+from choreo.motion.motion_file import load_motion
+from choreo.plan.planner import plan_approach, plan_motion
+from choreo.plan.ticks import (
     MAX_TICK_MS,
     MOVE_BYTES,
     START_BYTES,

@@ -8,7 +8,9 @@ import json
 import pytest
 import serial
 
-from choreo.clock import RealClock, VirtualClock
+from choreo.bus.protocol import Command as C
+from choreo.bus.protocol import encode_request
+from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import (
     BusEmulator,
     ServoSpec,
@@ -16,8 +18,6 @@ from choreo.emulator import (
     parse_servo_specs,
     register_url_handler,
 )
-from choreo.protocol import Command as C
-from choreo.protocol import encode_request
 
 BYTE_S = 10 / 115200
 POS_READ_500 = bytes.fromhex("55 55 01 05 1C F4 01 E8")

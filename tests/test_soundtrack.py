@@ -13,13 +13,14 @@ from music_helpers import steady_times, write_clicks
 from test_music import write
 from test_player import Rig
 
-from choreo.audio import Audio
+from choreo.bus.protocol import Command
 from choreo.cli import main, play_commands
-from choreo.clock import RealClock, VirtualClock
-from choreo.pipeline import compile_motion
-from choreo.player import Outcome, Player, PlayOptions, preflight, prepare
-from choreo.protocol import Command
-from choreo.soundtrack import (
+from choreo.core.clock import RealClock, VirtualClock
+from choreo.music.decode import Audio
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.player import Outcome, Player, PlayOptions, preflight
+from choreo.play.soundtrack import (
     OUTPUT_RATE_HZ,
     NoAudioOutput,
     RecordingSink,
@@ -197,10 +198,10 @@ def test_the_real_sink_puts_the_cued_sample_where_it_sounds_on_time(
 
 
 def test_a_speed_that_would_leave_the_song_behind_is_refused(dance, capsys):
-    assert main(["play", str(dance), "--speed", "1.5", "--dry-run"]) == 1
+    assert main(["play", str(dance), "--speed", "1.5", "--dry-run"]) == 2
     assert capsys.readouterr().err == (
         "choreo: error: --speed 1.5 would leave song.wav behind (the song plays at its own "
-        "tempo); drop --speed, or play without the song: --no-audio\n"
+        "tempo); keep speed 1 with a song\n"
     )
     assert main(["play", str(dance), "--speed", "0.5", "--dry-run", "--no-audio"]) == 0
     out = capsys.readouterr().out

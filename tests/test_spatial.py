@@ -13,9 +13,9 @@ import yaml
 
 from choreo.cli import main
 from choreo.errors import SourceError
-from choreo.gait import BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
-from choreo.kinematics import Kinematics
-from choreo.motion import load_motion
+from choreo.motion.gait import BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
+from choreo.motion.motion_file import load_motion
+from choreo.robot.kinematics import Kinematics
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))

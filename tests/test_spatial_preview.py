@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from choreo.cli import main
-from choreo.motion import load_motion
+from choreo.motion.motion_file import load_motion
 from choreo.preview import Severity, SimSettings, body_travel, run_checks, simulate_motion
 
 REPO = Path(__file__).resolve().parents[1]

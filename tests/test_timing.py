@@ -1,4 +1,5 @@
-"""The keyframe timing rules (choreo.timing): t, after, hold, repeat, speed, the first keyframe."""
+"""The keyframe timing rules (choreo.motion.timing): t, after, hold, repeat, speed, the first
+keyframe."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from choreo.timing import (
+from choreo.motion.timing import (
     Timing,
     backward_times,
     estimated_arrivals_s,

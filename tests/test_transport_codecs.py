@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from choreo.protocol import BROADCAST_ID, Command
-from choreo.transports import lobot, rrc
+from choreo.bus.protocol import BROADCAST_ID, Command
+from choreo.bus.transports import lobot, rrc
 
 
 def h(text: str) -> bytes:
@@ -200,8 +200,8 @@ def test_lobot_hid_report_port_adds_the_report_id_and_drops_the_padding():
 def test_lobot_hid_without_hidapi_names_the_extra(monkeypatch):
     import sys
 
+    from choreo.bus.transports import connect
     from choreo.errors import PortError
-    from choreo.transports import connect
 
     monkeypatch.setitem(sys.modules, "hid", None)
     with pytest.raises(PortError, match=r"pip install 'choreo\[lobot\]'"):

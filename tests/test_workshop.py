@@ -1,5 +1,5 @@
-"""Servo configuration (choreo.workshop and `choreo servo ...`) against the emulator in virtual
-time.
+"""Servo configuration (choreo.bus.servo_config and `choreo servo ...`) against the emulator in
+virtual time.
 
 Expected bytes come from docs/protocol.md's verified packets, not from the codec.
 """
@@ -11,13 +11,13 @@ import json
 
 import pytest
 
-from choreo import workshop
-from choreo.bus import AngleLimits, ServoBus, VinLimits
+from choreo.bus import servo_config
+from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
+from choreo.bus.servo_bus import AngleLimits, ServoBus, VinLimits
 from choreo.cli import main, servo_commands
-from choreo.clock import VirtualClock
-from choreo.emulator import BusEmulator, ReplyFaults, SimSerial
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, ReplyFaults, SimSerial, connection
 from choreo.errors import BusError
-from choreo.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
 
 
 class LossySerial(SimSerial):
@@ -45,21 +45,21 @@ def sent(emulator: BusEmulator, command: Command):
 
 # --- EEPROM settings ---------------------------------------------------------------------------
 SETTINGS = [
-    (workshop.TEMP_LIMIT, 70, {"temp_max_c": 70}, "55 55 01 04 18 46 9C"),
+    (servo_config.TEMP_LIMIT, 70, {"temp_max_c": 70}, "55 55 01 04 18 46 9C"),
     (
-        workshop.ANGLE_LIMITS,
+        servo_config.ANGLE_LIMITS,
         AngleLimits(100, 900),
         {"angle_min_units": 100, "angle_max_units": 900},
         "55 55 01 07 14 64 00 84 03 F8",
     ),
     (
-        workshop.VIN_LIMITS,
+        servo_config.VIN_LIMITS,
         VinLimits(4500, 12000),
         {"vin_min_mv": 4500, "vin_max_mv": 12000},
         "55 55 01 07 16 94 11 E0 2E 2E",
     ),
-    (workshop.LED, False, {"led_off": 1}, "55 55 01 04 21 01 D8"),
-    (workshop.LED_ERRORS, ErrorMask(7), {"error_mask": 7}, "55 55 01 04 23 07 D0"),
+    (servo_config.LED, False, {"led_off": 1}, "55 55 01 04 21 01 D8"),
+    (servo_config.LED_ERRORS, ErrorMask(7), {"error_mask": 7}, "55 55 01 04 23 07 D0"),
 ]
 
 
@@ -68,14 +68,14 @@ SETTINGS = [
 )
 def test_a_setting_is_shown_old_to_new_written_and_saved(setting, value, saved, packet_hex):
     bus, emulator = make_bus()
-    if setting is workshop.LED_ERRORS:
+    if setting is servo_config.LED_ERRORS:
         bus.set_led_errors(1, ErrorMask.NONE)
         bus.drain()
     writes_before = len(sent(emulator, setting.command))
-    change = workshop.plan_change(bus, 1, setting, value)
+    change = servo_config.plan_change(bus, 1, setting, value)
     assert change.new == value and change.old != value and not change.unchanged
     assert len(sent(emulator, setting.command)) == writes_before  # planning writes nothing
-    workshop.apply_change(bus, change)
+    servo_config.apply_change(bus, change)
     eeprom = emulator.servo(1).eeprom
     assert {name: getattr(eeprom, name) for name in saved} == saved
     assert sent(emulator, setting.command)[-1].encode() == bytes.fromhex(packet_hex)
@@ -83,7 +83,7 @@ def test_a_setting_is_shown_old_to_new_written_and_saved(setting, value, saved, 
 
 def test_the_summary_reads_old_to_new():
     bus, _ = make_bus()
-    change = workshop.plan_change(bus, 1, workshop.ANGLE_LIMITS, AngleLimits(100, 900))
+    change = servo_config.plan_change(bus, 1, servo_config.ANGLE_LIMITS, AngleLimits(100, 900))
     assert str(change) == (
         "servo 1: angle limits 0 (0.0°)..1000 (240.0°) → 100 (24.0°)..900 (216.0°)"
     )
@@ -92,54 +92,54 @@ def test_the_summary_reads_old_to_new():
 @pytest.mark.parametrize(
     "setting, value, words",
     [
-        (workshop.TEMP_LIMIT, 101, "temp_c must be in 50..100"),
-        (workshop.TEMP_LIMIT, 49, "temp_c must be in 50..100"),
-        (workshop.ANGLE_LIMITS, AngleLimits(0, 1001), "max_units must be in 0..1000"),
-        (workshop.ANGLE_LIMITS, AngleLimits(600, 400), "min_units must be less than max_units"),
-        (workshop.VIN_LIMITS, VinLimits(4000, 9000), "min_mv must be in 4500..14000"),
-        (workshop.LED_ERRORS, 8, "mask must be in 0..7"),
+        (servo_config.TEMP_LIMIT, 101, "temp_c must be in 50..100"),
+        (servo_config.TEMP_LIMIT, 49, "temp_c must be in 50..100"),
+        (servo_config.ANGLE_LIMITS, AngleLimits(0, 1001), "max_units must be in 0..1000"),
+        (servo_config.ANGLE_LIMITS, AngleLimits(600, 400), "min_units must be less than max_units"),
+        (servo_config.VIN_LIMITS, VinLimits(4000, 9000), "min_mv must be in 4500..14000"),
+        (servo_config.LED_ERRORS, 8, "mask must be in 0..7"),
     ],
 )
 def test_out_of_range_values_are_refused_before_anything_is_sent(setting, value, words):
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match=words):
-        workshop.plan_change(bus, 1, setting, value)
+        servo_config.plan_change(bus, 1, setting, value)
     assert list(emulator.log.packets) == []
 
 
 def test_a_warning_when_the_new_limit_stops_the_servo_at_once():
     bus, emulator = make_bus()
     emulator.servo(1).temperature_c = 62
-    change = workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 60)
+    change = servo_config.plan_change(bus, 1, servo_config.TEMP_LIMIT, 60)
     assert "62 °C now, above the new limit" in change.warning
-    assert workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 70).warning is None
-    vin = workshop.plan_change(bus, 1, workshop.VIN_LIMITS, VinLimits(9000, 12000))
+    assert servo_config.plan_change(bus, 1, servo_config.TEMP_LIMIT, 70).warning is None
+    vin = servo_config.plan_change(bus, 1, servo_config.VIN_LIMITS, VinLimits(9000, 12000))
     assert "7200 mV now, outside the new limits" in vin.warning
 
 
 def test_a_write_lost_on_the_wire_is_a_mismatch_naming_the_value():
     bus, emulator = make_bus(lost=(Command.TEMP_MAX_LIMIT_WRITE,))
-    change = workshop.plan_change(bus, 1, workshop.TEMP_LIMIT, 70)
+    change = servo_config.plan_change(bus, 1, servo_config.TEMP_LIMIT, 70)
     with pytest.raises(
         BusError,
         match="servo 1: temperature limit reads 85 °C after writing 70 °C: the write did not take",
     ):
-        workshop.apply_change(bus, change)
+        servo_config.apply_change(bus, change)
     assert emulator.servo(1).eeprom.temp_max_c == 85
 
 
 def test_a_servo_that_stops_answering_fails_the_read_back():
     bus, emulator = make_bus()
-    change = workshop.plan_change(bus, 1, workshop.LED, False)
+    change = servo_config.plan_change(bus, 1, servo_config.LED, False)
     emulator.servo(1).connected = False
     with pytest.raises(BusError, match="servo 1: wrote LED off but could not read it back"):
-        workshop.apply_change(bus, change)
+        servo_config.apply_change(bus, change)
 
 
 def test_broadcast_is_not_a_servo_to_configure():
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match="no broadcast"):
-        workshop.plan_change(bus, BROADCAST_ID, workshop.TEMP_LIMIT, 70)
+        servo_config.plan_change(bus, BROADCAST_ID, servo_config.TEMP_LIMIT, 70)
 
 
 @pytest.mark.parametrize(
@@ -153,31 +153,31 @@ def test_broadcast_is_not_a_servo_to_configure():
     ],
 )
 def test_fault_masks_parse_by_name_or_number(text, mask):
-    assert workshop.parse_error_mask(text) == mask
+    assert servo_config.parse_error_mask(text) == mask
 
 
 @pytest.mark.parametrize("text", ["8", "volts", ""])
 def test_bad_fault_masks_list_the_valid_names(text):
     with pytest.raises(ValueError, match="over-temperature, voltage, stalled"):
-        workshop.parse_error_mask(text)
+        servo_config.parse_error_mask(text)
 
 
 # --- offset ------------------------------------------------------------------------------------
 def test_offset_adjust_applies_at_once_and_save_persists():
     bus, emulator = make_bus()
-    units = workshop.offset_units_from_deg(-2.4)
+    units = servo_config.offset_units_from_deg(-2.4)
     assert units == -10
-    workshop.adjust_offset(bus, 1, units)
+    servo_config.adjust_offset(bus, 1, units)
     assert sent(emulator, Command.ANGLE_OFFSET_ADJUST)[-1].encode() == bytes.fromhex(
         "55 55 01 04 11 F6 F3"
     )
     assert emulator.servo(1).offset_units == -10
     assert emulator.servo(1).eeprom.offset_units == 0  # not saved yet
-    change = workshop.plan_offset_save(bus, 1)
+    change = servo_config.plan_offset_save(bus, 1)
     assert str(change) == (
         "servo 1: saved offset unknown (servos report only the offset in use) → -10 (-2.4°)"
     )
-    workshop.apply_change(bus, change)
+    servo_config.apply_change(bus, change)
     assert sent(emulator, Command.ANGLE_OFFSET_WRITE)[-1].encode() == bytes.fromhex(
         "55 55 01 03 12 E9"
     )
@@ -187,22 +187,22 @@ def test_offset_adjust_applies_at_once_and_save_persists():
 @pytest.mark.parametrize("offset_deg", [30.3, -31])
 def test_offset_beyond_30_degrees_is_refused_with_the_range(offset_deg):
     with pytest.raises(ValueError, match=r"within -30.0..\+30.0° \(-125..125 units\)"):
-        workshop.offset_units_from_deg(offset_deg)
+        servo_config.offset_units_from_deg(offset_deg)
 
 
 def test_offset_adjust_out_of_range_units_sends_nothing():
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match="offset_units must be in -125..125"):
-        workshop.adjust_offset(bus, 1, 126)
+        servo_config.adjust_offset(bus, 1, 126)
     assert list(emulator.log.packets) == []
 
 
 # --- set-id ------------------------------------------------------------------------------------
 def test_set_id_finds_the_lone_servo_and_addresses_it_never_broadcast():
     bus, emulator = make_bus(ids=(1,))
-    change = workshop.plan_id_change(bus, 5)
+    change = servo_config.plan_id_change(bus, 5)
     assert (change.current_id, change.new_id, change.found_alone) == (1, 5, True)
-    workshop.apply_id_change(bus, change)
+    servo_config.apply_id_change(bus, change)
     assert emulator.servo(5).eeprom.servo_id == 5
     (write,) = sent(emulator, Command.ID_WRITE)
     assert write.encode() == bytes.fromhex("55 55 01 04 0D 05 E8")
@@ -219,7 +219,7 @@ def test_set_id_refuses_two_servos_whose_broadcast_replies_collide_listing_them(
         r"a broadcast ID read at once \(their replies collided\); "
         "IDs 1, 2 answer: connect only the servo",
     ):
-        workshop.plan_id_change(bus, 5)
+        servo_config.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
@@ -228,21 +228,21 @@ def test_set_id_refuses_two_servos_sharing_an_id():
     with pytest.raises(
         BusError, match=r"replies at IDs 4 are garbled \(several servos share each "
     ):
-        workshop.plan_id_change(bus, 5)
+        servo_config.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
 def test_set_id_refuses_a_given_current_id_that_two_servos_share():
     bus, emulator = make_bus(ids=(4, 4))
     with pytest.raises(BusError, match="replies at ID 4 are garbled: several servos share it"):
-        workshop.plan_id_change(bus, 5, current_id=4)
+        servo_config.plan_id_change(bus, 5, current_id=4)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
 def test_set_id_refuses_a_new_id_that_two_servos_share():
     bus, emulator = make_bus(ids=(1, 2, 2))
     with pytest.raises(BusError, match="ID 2 is already used by another servo"):
-        workshop.plan_id_change(bus, 2, current_id=1)
+        servo_config.plan_id_change(bus, 2, current_id=1)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
@@ -251,7 +251,7 @@ def test_set_id_refuses_a_lone_broadcast_answer_when_the_scan_finds_a_shared_id(
     for servo in emulator.servos[1:]:
         servo.reply_faults = ReplyFaults(drop_next=1)  # so the broadcast hears only servo 1
     with pytest.raises(BusError, match=r"IDs 1 answer; replies at IDs 3 are garbled"):
-        workshop.plan_id_change(bus, 5)
+        servo_config.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
@@ -259,60 +259,60 @@ def test_set_id_refuses_a_second_servo_found_by_the_scan_listing_both():
     bus, emulator = make_bus(ids=(1, 7))
     emulator.servo(7).reply_faults = ReplyFaults(drop_next=1)  # so the broadcast finds only 1
     with pytest.raises(BusError, match="exactly one servo on the bus, but IDs 1, 7 answer"):
-        workshop.plan_id_change(bus, 5)
+        servo_config.plan_id_change(bus, 5)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
 def test_set_id_with_no_servo_says_so():
     bus, _ = make_bus(ids=())
     with pytest.raises(BusError, match="no servo answered a broadcast ID read nor the scan"):
-        workshop.plan_id_change(bus, 5)
+        servo_config.plan_id_change(bus, 5)
 
 
 def test_set_id_refuses_an_id_in_use():
     bus, emulator = make_bus(ids=(1, 2))
     with pytest.raises(BusError, match="ID 2 is already used by another servo"):
-        workshop.plan_id_change(bus, 2, current_id=1)
+        servo_config.plan_id_change(bus, 2, current_id=1)
     assert sent(emulator, Command.ID_WRITE) == []
 
 
 def test_set_id_with_a_current_id_nobody_answers():
     bus, _ = make_bus(ids=(1, 2))
     with pytest.raises(BusError, match="no servo answers at ID 4"):
-        workshop.plan_id_change(bus, 5, current_id=4)
+        servo_config.plan_id_change(bus, 5, current_id=4)
 
 
 def test_set_id_with_a_known_id_renumbers_only_that_servo():
     bus, emulator = make_bus(ids=(1, 2))
-    workshop.apply_id_change(bus, workshop.plan_id_change(bus, 9, current_id=2))
+    servo_config.apply_id_change(bus, servo_config.plan_id_change(bus, 9, current_id=2))
     assert [s.servo_id for s in emulator.servos] == [1, 9]
     assert all(p.servo_id == 2 for p in sent(emulator, Command.ID_WRITE))
 
 
 def test_set_id_to_the_same_id_is_nothing_to_do():
     bus, _ = make_bus(ids=(3,))
-    assert workshop.plan_id_change(bus, 3, current_id=3).unchanged
+    assert servo_config.plan_id_change(bus, 3, current_id=3).unchanged
 
 
 def test_set_id_whose_write_is_lost_says_the_servo_kept_its_id():
     bus, emulator = make_bus(ids=(1,), lost=(Command.ID_WRITE,))
-    change = workshop.plan_id_change(bus, 5, current_id=1)
+    change = servo_config.plan_id_change(bus, 5, current_id=1)
     with pytest.raises(BusError, match="no servo answers at 5 \\(it still answers at 1\\)"):
-        workshop.apply_id_change(bus, change)
+        servo_config.apply_id_change(bus, change)
     assert emulator.servo(1).eeprom.servo_id == 1
 
 
 def test_set_id_refuses_an_out_of_range_id_before_sending():
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match="new_id must be in 0..253"):
-        workshop.plan_id_change(bus, 254, current_id=1)
+        servo_config.plan_id_change(bus, 254, current_id=1)
     assert list(emulator.log.packets) == []
 
 
 # --- move, torque, motor -----------------------------------------------------------------------
 def test_move_goes_there():
     bus, emulator = make_bus()
-    workshop.move(bus, 1, workshop.position_units_from_deg(168), 400)
+    servo_config.move(bus, 1, servo_config.position_units_from_deg(168), 400)
     emulator.clock.advance(0.5)
     assert emulator.servo(1).position_units == pytest.approx(700)
 
@@ -321,49 +321,49 @@ def test_move_outside_the_servos_angle_limits_is_refused_not_clamped():
     bus, emulator = make_bus()
     bus.set_angle_limits(1, 100, 900)
     with pytest.raises(BusError, match="position 950 is outside its angle limits 100..900"):
-        workshop.move(bus, 1, 950, 500)
+        servo_config.move(bus, 1, 950, 500)
     assert sent(emulator, Command.MOVE_TIME_WRITE) == []
 
 
 def test_move_in_motor_mode_is_refused():
     bus, emulator = make_bus()
-    workshop.run_motor(bus, 1, 300)
+    servo_config.run_motor(bus, 1, 300)
     with pytest.raises(BusError, match="motor mode and ignores moves"):
-        workshop.move(bus, 1, 600, 500)
+        servo_config.move(bus, 1, 600, 500)
 
 
 @pytest.mark.parametrize("angle_deg", [-1, 240.2])
 def test_move_angles_outside_the_servo_travel_are_refused(angle_deg):
     with pytest.raises(ValueError, match=r"0..240° \(0..1000 units\)"):
-        workshop.position_units_from_deg(angle_deg)
+        servo_config.position_units_from_deg(angle_deg)
 
 
 def test_load_and_unload_are_verified():
     bus, emulator = make_bus()
-    workshop.set_torque(bus, 1, True)
+    servo_config.set_torque(bus, 1, True)
     assert emulator.servo(1).loaded
-    workshop.set_torque(bus, 1, False)
+    servo_config.set_torque(bus, 1, False)
     assert not emulator.servo(1).loaded
     emulator.servo(1).vin_mv = 4000  # below the VIN limit: the servo refuses torque
     with pytest.raises(BusError, match="servo 1 did not load"):
-        workshop.set_torque(bus, 1, True)
+        servo_config.set_torque(bus, 1, True)
 
 
 def test_motor_runs_and_stops():
     bus, emulator = make_bus()
-    workshop.run_motor(bus, 1, -500)
+    servo_config.run_motor(bus, 1, -500)
     assert emulator.servo(1).motor_mode
     assert sent(emulator, Command.OR_MOTOR_MODE_WRITE)[-1].encode() == bytes.fromhex(
         "55 55 01 07 1D 01 00 0C FE CF"
     )
-    workshop.stop_motor(bus, 1)
+    servo_config.stop_motor(bus, 1)
     assert not emulator.servo(1).motor_mode and emulator.servo(1).loaded
 
 
 def test_motor_speed_out_of_range_sends_nothing():
     bus, emulator = make_bus()
     with pytest.raises(ValueError, match="speed must be in -1000..1000"):
-        workshop.run_motor(bus, 1, 1001)
+        servo_config.run_motor(bus, 1, 1001)
     assert list(emulator.log.packets) == []
 
 
@@ -379,9 +379,7 @@ class Terminal(io.StringIO):
 def cli_emulator(monkeypatch):
     """`choreo servo ...` on an in-process emulator (servos 1 and 2), so tests can inspect it."""
     emulator = BusEmulator((1, 2), clock=VirtualClock())
-    monkeypatch.setattr(
-        servo_commands, "open_bus", lambda args: ServoBus(SimSerial.from_emulator(emulator))
-    )
+    monkeypatch.setattr(servo_commands, "open_bus", lambda args: ServoBus(connection(emulator)))
     return emulator
 
 

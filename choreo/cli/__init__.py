@@ -15,9 +15,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-from .. import __version__
-from ..errors import ChoreoError, UsageError
-from . import (
+from choreo import __version__
+from choreo.cli import (
     bus_commands,
     emulate_commands,
     interop_commands,
@@ -31,6 +30,7 @@ from . import (
     robot_commands,
     servo_commands,
 )
+from choreo.errors import ChoreoError, OptionError, UsageError
 
 COMMAND_GROUPS = (
     bus_commands,
@@ -75,6 +75,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as error:
         print(f"choreo: error: {error}", file=sys.stderr)
         return 2
+    except OptionError as error:  # a library argument: named as this command's flag
+        print(f"choreo: error: {flag_of(error.option)} {error.problem}", file=sys.stderr)
+        return 2
     except ChoreoError as error:
         print(f"choreo: error: {error}", file=sys.stderr)
         return 1
@@ -89,6 +92,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("choreo: interrupted", file=sys.stderr)
         return 130
+
+
+def flag_of(option: str) -> str:
+    """The command-line flag of a library argument: ``exit_pose`` is ``--exit-pose``."""
+    return "--" + option.replace("_", "-")
 
 
 def _silence_stdout() -> None:

@@ -10,12 +10,10 @@ import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from ..bus import ServoBus
-from ..clock import RealClock
-from ..emulator import BusEmulator, ServoSpec, SimSerial
-from ..protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
-from ..robot import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
-from ..transports.direction import PRESETS, parse_direction
+from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
+from choreo.bus.servo_bus import ServoBus
+from choreo.bus.transports.direction import PRESETS, parse_direction
+from choreo.robot.types import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 # Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
@@ -221,36 +219,10 @@ def open_bus(args: argparse.Namespace) -> ServoBus:
     )
 
 
-def open_robot_bus(
-    args: argparse.Namespace, robot: Robot, doing: str
-) -> tuple[ServoBus, BusEmulator | None]:
-    """The bus of ``robot`` (command line over its file's ``bus:`` section), and the emulator
-    behind it when no port is named anywhere: the robot's servos standing at home."""
-    settings = bus_settings(args, robot)
-    emulator, port = None, settings.port
-    if port is None:
-        emulator = built_in_emulator(robot)
-        port = SimSerial.from_emulator(emulator)
-        print(
-            f"no --port given: {doing} the built-in emulated bus ({len(robot.joints)} servos "
-            f"of {robot.name} at its home pose)",
-            file=sys.stderr,
-        )
-    bus = ServoBus(
-        port,
-        timeout_s=settings.timeout_s,
-        retries=settings.retries,
-        echo=settings.echo,
-        direction=settings.direction,
+def say_built_in_emulator(robot: Robot, doing: str) -> None:
+    """Tell that no port was named anywhere, so the built-in emulator's servos are used."""
+    print(
+        f"no --port given: {doing} the built-in emulated bus ({len(robot.joints)} servos "
+        f"of {robot.name} at its home pose)",
+        file=sys.stderr,
     )
-    return bus, emulator
-
-
-def built_in_emulator(robot: Robot) -> BusEmulator:
-    """The robot's servos on an emulated bus in real time, standing at its home pose."""
-    home = robot.pose_vector("home")
-    specs = [
-        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-        for j, a in zip(robot.joints, home)
-    ]
-    return BusEmulator(specs, clock=RealClock())

@@ -10,10 +10,10 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 from rich.table import Table
 
-from ..bus import ScanResult, ServoBus
-from ..protocol import MAX_SERVO_ID
-from ..servos import DEG_PER_UNIT
-from .arguments import add_port_arguments, id_ranges, open_bus
+from choreo.bus.protocol import MAX_SERVO_ID
+from choreo.bus.servo_bus import ScanResult, ServoBus
+from choreo.bus.servo_models import DEG_PER_UNIT
+from choreo.cli.arguments import add_port_arguments, id_ranges, open_bus
 
 
 def register(subparsers) -> None:

@@ -6,13 +6,13 @@ import argparse
 import signal
 import sys
 
-from ..clock import RealClock
-from ..emulator import BusEmulator, parse_servo_specs
-from ..emulator.boards import BOARDS
-from ..emulator.bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
-from ..emulator.pty import PtyBridge
-from ..servos import SERVO_MODELS
-from .arguments import STOP_SIGNALS, non_negative_float
+from choreo.bus.servo_models import SERVO_MODELS
+from choreo.cli.arguments import STOP_SIGNALS, non_negative_float
+from choreo.core.clock import RealClock
+from choreo.emulator import BusEmulator, parse_servo_specs
+from choreo.emulator.boards import BOARDS
+from choreo.emulator.bus_emulator import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
+from choreo.emulator.pty import PtyBridge
 
 EMULATE_LOG_LIMIT = 1000
 MAX_TURNAROUND_MS = 1000.0

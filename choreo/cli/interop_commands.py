@@ -6,12 +6,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..atomic import check_writable
-from ..d6a import TIME_RANGE_MS, export_d6a, import_d6a
-from ..mirror import write_mirrored
-from ..motion import load_motion
-from ..robot_file import load_robot
-from .arguments import add_output_arguments, id_sequence
+from choreo.cli.arguments import add_output_arguments, id_sequence
+from choreo.core.atomic import check_writable
+from choreo.interop.d6a import TIME_RANGE_MS, export_d6a, import_d6a
+from choreo.motion.mirror import write_mirrored
+from choreo.motion.motion_file import load_motion
+from choreo.robot.robot_file import load_robot
 
 
 def register(subparsers) -> None:

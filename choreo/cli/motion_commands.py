@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..validate import check_file
+from choreo.validate import check_file
 
 
 def register(subparsers) -> None:

@@ -6,10 +6,10 @@ import argparse
 import json
 from pathlib import Path
 
-from ..audio import decode
-from ..beats import BeatAnalysis, detect_beats
-from .arguments import positive_int
-from .plan_commands import png_path
+from choreo.cli.arguments import positive_int
+from choreo.cli.plan_commands import png_path
+from choreo.music.beats import BeatAnalysis, detect_beats
+from choreo.music.decode import decode
 
 
 def register(subparsers) -> None:
@@ -43,7 +43,7 @@ def run_beats(args: argparse.Namespace) -> int:
     else:
         print_beats(args.song, analysis)
     if args.plot is not None:
-        from ..beat_plot import plot_beats  # matplotlib: only when a plot is asked for
+        from choreo.music.beat_plot import plot_beats  # matplotlib: only when a plot is asked for
 
         plot_beats(audio, analysis, args.plot, title=_headline(args.song, analysis))
         if not args.json:

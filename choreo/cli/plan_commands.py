@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 from rich.console import Console
 from rich.table import Table
 
-from ..atomic import check_writable
-from ..errors import UsageError
-from ..motion import Motion, load_motion
-from ..music import Music
-from ..pipeline import CompiledMotion, compile_motion
-from .arguments import add_planning_arguments, non_negative_float
+from choreo.cli.arguments import add_planning_arguments, non_negative_float
+from choreo.core.atomic import check_writable
+from choreo.errors import UsageError
+from choreo.motion.motion_file import load_motion
+from choreo.plan.pipeline import compile_motion
+from choreo.plan.report import plan_report
 
 
 def register(subparsers) -> None:
@@ -62,16 +61,6 @@ def png_path(text: str) -> Path:
     return Path(text)
 
 
-@dataclass(frozen=True)
-class JointFigures:
-    name: str
-    peak_velocity_deg_s: float
-    velocity_limit_deg_s: float
-    peak_acceleration_deg_s2: float
-    acceleration_limit_deg_s2: float
-    staged_moves: int
-
-
 def run_plan(args: argparse.Namespace) -> int:
     window_asked = args.plot_from is not None or args.plot_to is not None
     if window_asked and args.plot is None:
@@ -88,13 +77,13 @@ def run_plan(args: argparse.Namespace) -> int:
     )
     window = plot_window(args, compiled.trajectory.duration_s) if window_asked else None
     speed = motion.speed if args.speed is None else args.speed
-    report = plan_report(args.motion, motion, speed, compiled)
+    report = plan_report(motion, compiled, speed)
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
     else:
         print_report(report)
     if args.plot is not None:
-        from ..plot import plot_plan  # matplotlib: only when a plot is asked for
+        from choreo.plan.plot import plot_plan  # matplotlib: only when a plot is asked for
 
         plot_plan(
             compiled.trajectory,
@@ -125,68 +114,6 @@ def plot_window(args: argparse.Namespace, duration_s: float) -> tuple[float, flo
     if start_s >= end_s:
         raise UsageError(f"--plot-from {start_s:g} must be before the end, {end_s:.3f} s")
     return start_s, end_s
-
-
-def plan_report(path: Path, motion: Motion, speed: float, compiled: CompiledMotion) -> dict:
-    """The figures ``choreo plan`` prints, as plain JSON-ready values."""
-    trajectory, ticks = compiled.trajectory, compiled.ticks
-    peak_vel = trajectory.peak_velocity_deg_s()
-    peak_acc = trajectory.peak_acceleration_deg_s2()
-    joints = [
-        JointFigures(
-            joint.name,
-            float(peak_vel[j]),
-            joint.limits.vel_deg_s,
-            float(peak_acc[j]),
-            joint.limits.acc_deg_s2,
-            sum(t.staged[j] for t in ticks.ticks),
-        )
-        for j, joint in enumerate(motion.robot.joints)
-    ]
-    return {
-        "motion": str(path),
-        "robot": motion.robot.name,
-        "speed": speed,
-        "duration_s": trajectory.duration_s,
-        "keyframes": len(trajectory.keyframe_times_s),
-        "keyframe_times_s": [float(t) for t in trajectory.keyframe_times_s],
-        "music": music_report(motion.music) if motion.music else None,
-        "ticks": len(ticks.ticks),
-        "bytes": ticks.total_bytes,
-        "peak_bus_use": ticks.peak_bus_use,
-        "tolerance_deg": ticks.tolerance_deg,
-        "max_deviation_deg": ticks.max_deviation_deg,
-        "stretches": [{"where": str(s.where), "shift_s": s.shift_s} for s in compiled.stretches],
-        "joints": [vars(j) for j in joints],
-        "expanded_keyframes": expanded_keyframes(motion),
-    }
-
-
-def expanded_keyframes(motion: Motion) -> list[dict]:
-    """Every keyframe as the planner gets it (includes, gaits and IK expanded): joint angles."""
-    names = motion.robot.joint_names
-    return [
-        {
-            "where": str(k.where),
-            **({"label": k.label} if k.label else {}),
-            **({"t_s": k.t_s} if k.t_s is not None else {}),
-            **({"after_s": k.after_s} if k.after_s is not None else {}),
-            **({"hold_s": k.hold_s} if k.hold_s else {}),
-            "stop": k.stop,
-            "targets_deg": {name: round(a, 3) for name, a in zip(names, k.targets_deg)},
-        }
-        for k in motion.keyframes
-    ]
-
-
-def music_report(music: Music) -> dict:
-    return {
-        "song": str(music.song),
-        "start_s": music.start_s,
-        "bpm": music.bpm,
-        "beats_per_bar": music.grid.beats_per_bar,
-        "beat_times_s": list(music.grid.beat_times_s),  # motion time of beat 1, 2, ...
-    }
 
 
 def print_report(report: dict) -> None:

@@ -3,57 +3,43 @@
 from __future__ import annotations
 
 import argparse
-import bisect
-import dataclasses
+import contextlib
 import sys
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..atomic import check_writable
-from ..audio import Audio
-from ..clock import RealClock
-from ..emulator.trace import start_skew_ms
-from ..errors import UsageError
-from ..motion import load_motion, too_many_played
-from ..music import Music, check_speed
-from ..path_errors import measured_path_errors
-from ..pipeline import CompiledMotion, compile_motion
-from ..play_report import report_document, transport_of, write_report
-from ..player import (
-    ExitMode,
-    Outcome,
-    Performance,
-    Player,
-    PlayOptions,
-    PlayReport,
-    frame_schedule,
-    packet_schedule,
-    preflight,
-    prepare,
-    unchecked,
-)
-from ..robot import MAX_TIMEOUT_MS, Robot
-from ..soundtrack import (
-    AudioSink,
-    NoAudioOutput,
-    SongCue,
-    SoundDeviceSink,
-    play_with_song,
-    song_for_output,
-)
-from ..transports import board_module
-from .arguments import (
+from choreo.bus.transports import backend_module
+from choreo.cli.arguments import (
     add_planning_arguments,
     add_port_arguments,
     bus_settings,
     float_in,
-    open_robot_bus,
     positive_int,
+    say_built_in_emulator,
     stop_signals_as_ctrl_c,
 )
+from choreo.core.atomic import check_writable
+from choreo.errors import UsageError
+from choreo.motion.motion_file import Motion
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.play.play_motion import play_motion, prepared_motion
+from choreo.play.player import (
+    ExitMode,
+    Outcome,
+    PlayOptions,
+    PlayReport,
+    frame_schedule,
+    packet_schedule,
+)
+from choreo.play.player import Progress as PlayProgress
+from choreo.play.report import report_document, write_report
+from choreo.play.soundtrack import AudioSink, SongCue, SoundDeviceSink
+from choreo.robot.types import MAX_TIMEOUT_MS
 
 MAX_AUDIO_LATENCY_MS = 2000.0  # Bluetooth speakers reach a few hundred ms; seconds is a mistake
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
@@ -122,106 +108,53 @@ def register(subparsers) -> None:
 
 
 def run_play(args: argparse.Namespace) -> int:
-    motion = load_motion(args.motion)
-    if not args.no_audio:
-        check_speed(motion.music, args.speed, "drop --speed, or play without the song: --no-audio")
-    if args.loop:
-        unrolled = too_many_played(len(motion.keyframes), args.loop, "--loop")
-        if unrolled is not None:
-            raise UsageError(unrolled)
-        motion = dataclasses.replace(motion, repeat=args.loop)
-    robot = motion.robot
-    if args.exit_pose not in robot.poses:
-        raise UsageError(
-            f"--exit-pose {args.exit_pose!r} is not a pose of {robot.name}; "
-            f"poses: {', '.join(robot.poses)}"
-        )
+    if args.exit_pose != "home" and args.exit != ExitMode.POSE.value:
+        raise UsageError(f"--exit-pose {args.exit_pose!r} is used only with --exit pose")
     if args.report is not None:
         if args.dry_run:
             raise UsageError("--report needs a play; --dry-run plays nothing")
         check_writable(args.report)
-    compiled = compile_motion(
-        motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
-    )
-    for stretch in compiled.stretches:  # said before anything moves
-        print(
-            f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written",
-            file=sys.stderr,
-        )
-    if args.dry_run:
-        return dry_run(
-            compiled,
-            board_module(bus_settings(args, robot).port),
-            None if args.no_audio else motion.music,
-        )
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
         exit_pose=args.exit_pose,
         tolerance_deg=args.tolerance,
         health_timeout_s=args.health_timeout_ms / 1000,
+        speed=args.speed,
+        stretch=args.stretch,
+        loop=args.loop,
+        audio=not args.no_audio,
+        audio_device=args.audio_device,
+        audio_latency_s=None if args.audio_latency_ms is None else args.audio_latency_ms / 1000,
     )
-    bus, emulator = open_robot_bus(args, robot, doing="playing on")
-    # a sim:// URL's own emulator: its clock (clock=virtual must drive the player too, or the
-    # servos never move in time) and its log (the path errors)
-    emulator = emulator or getattr(bus.port, "emulator", None)
-    clock = emulator.clock if emulator is not None else RealClock()
-    with stop_signals_as_ctrl_c(), bus:
-        missing = unchecked(bus)
-        if missing:
-            print(
-                f"note: the {bus.capabilities.transport} cannot read the servos' "
-                f"{', '.join(missing)}: not checked",
-                file=sys.stderr,
-            )
-        start_pose, limits = preflight(bus, robot)
-        performance = prepare(compiled, start_pose)
-        sink, song = _open_audio(args, motion.music)
-        if sink is not None:  # the stream needs its latency before the first START
-            options = dataclasses.replace(
-                options, lead_s=max(options.lead_s, sink.latency_s + 0.05)
-            )
-        cue = SongCue.of(motion.music, performance) if motion.music and sink else None
-        report, exit_move = _play_with_progress(
-            bus, robot, clock, limits, options, performance, start_pose, (sink, song, cue)
+    motion = prepared_motion(args.motion, options)
+    settings = bus_settings(args, motion.robot)
+    if args.dry_run:
+        return dry_run(motion, options, settings.port)
+    if settings.port is None:
+        say_built_in_emulator(motion.robot, "playing on")
+    with stop_signals_as_ctrl_c(), _progress_bar() as on_progress:
+        report = play_motion(
+            motion,
+            options=options,
+            bus_settings=settings,
+            open_audio=lambda device, latency_s: open_audio_output(device, latency_s),
+            on_progress=on_progress,
+            on_note=_note,
         )
-        errors = skew_ms = None
-        if emulator is not None:
-            errors = measured_path_errors(
-                emulator.log.moves, robot, performance, report, start_pose
-            )
-            end_s = report.start_time_s + report.elapsed_s
-            skew_ms = start_skew_ms(emulator.log.moves, report.start_time_s, end_s)
     if args.report is not None:  # before printing: a closed stdout pipe must not lose it
-        document = report_document(
-            report,
-            motion=str(args.motion),
-            robot=robot.name,
-            transport=transport_of(bus.name, report),
-            measured_start_skew_ms=skew_ms,
-            path_errors_deg=errors,
-        )
-        write_report(args.report, document)
-    _print_report(report, robot, errors)
+        write_report(args.report, report_document(report))
+    _print_report(report)
+    exit_move = report.exit_move
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
-        print(
+        _note(
             f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
-            f"{exit_move.reason}",
-            file=sys.stderr,
+            f"{exit_move.reason}"
         )
     return EXIT_CODES[report.outcome]
 
 
-def _open_audio(args, music: Music | None) -> tuple[AudioSink | None, Audio | None]:
-    """The audio output and the song for it; without one, one line and the dance goes on."""
-    if music is None or args.no_audio:
-        return None, None
-    latency_s = None if args.audio_latency_ms is None else args.audio_latency_ms / 1000
-    try:
-        song = song_for_output(music)
-        return open_audio_output(args.audio_device, latency_s), song
-    except NoAudioOutput as error:
-        print(f"choreo: no audio output: {error}; playing without the music", file=sys.stderr)
-        return None, None
+def _note(text: str) -> None:
+    print(text, file=sys.stderr)
 
 
 def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
@@ -229,11 +162,9 @@ def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
     return SoundDeviceSink(device, latency_s)
 
 
-def _play_with_progress(
-    bus, robot, clock, limits, options, performance: Performance, start_pose, soundtrack
-) -> tuple[PlayReport, PlayReport | None]:
-    """The play's report and that of the move to the exit pose (None: no such move)."""
-    keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
+@contextlib.contextmanager
+def _progress_bar() -> Iterator[Callable[[PlayProgress], None]]:
+    """A progress bar on stderr, and the callback that moves it."""
     console = Console(stderr=True)
     columns = (
         TextColumn("{task.description}"),
@@ -244,33 +175,26 @@ def _play_with_progress(
     # No auto-refresh: its thread would take the GIL at random moments and make STARTs late.
     # The player calls ``update`` right after a START, in the time set aside for the bus.
     with Progress(*columns, console=console, auto_refresh=False) as progress:
-        task = progress.add_task("approach", total=len(performance.ticks), status="")
+        task = progress.add_task("approach", total=None, status="")
         last_refresh = [0.0]
 
-        def update(p) -> None:
-            keyframe = bisect.bisect_right(keyframes, p.time_s)
-            stage = (
-                "approach"
-                if p.time_s < performance.approach_s
-                else f"keyframe {keyframe}/{len(keyframes)}"
-            )
+        def update(p: PlayProgress) -> None:
             progress.update(
                 task,
+                description=p.stage,
+                total=p.ticks,
                 completed=p.tick,
-                description=stage,
                 status=f"{p.time_s:6.2f}/{p.duration_s:.2f} s  bus {p.bus_use:4.0%}",
             )
             if p.time_s - last_refresh[0] >= 0.1 or p.tick == p.ticks:
                 last_refresh[0] = p.time_s
                 progress.refresh()
 
-        player = Player(bus, robot, clock, limits, options, on_progress=update)
-        report = play_with_song(player, performance, start_pose, *soundtrack)
-        exit_move = player.leave(report.outcome)
-    return report, exit_move
+        yield update
 
 
-def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
+def _print_report(report: PlayReport) -> None:
+    path_errors = report.path_errors_deg
     console = Console()
     verdict = {
         Outcome.COMPLETED: "[green]completed[/]",
@@ -307,20 +231,27 @@ def _print_report(report: PlayReport, robot: Robot, path_errors) -> None:
     console.print(table)
 
 
-def dry_run(compiled: CompiledMotion, board=None, music: Music | None = None) -> int:
+def dry_run(motion: Motion, options: PlayOptions, port: str | None) -> int:
     """Print every packet (through a board: every move frame) with its time, and when the song
     starts."""
+    compiled = compile_motion(
+        motion, speed=options.speed, stretch=options.stretch, tolerance_deg=options.tolerance_deg
+    )
+    for stretch in compiled.stretches:
+        _note(f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written")
+    backend = backend_module(port)
+    music = motion.music if options.audio else None
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
-    if board is None:
+    if backend.CAPABILITIES.staged_start:
         schedule = packet_schedule(performance.ticks, robot)
     else:
         print(
-            f"through the {board.CAPABILITIES.transport}: no staging, one move frame per tick, "
+            f"through the {backend.CAPABILITIES.transport}: no staging, one move frame per tick, "
             "forwarded one servo at a time"
         )
-        schedule = frame_schedule(performance.ticks, robot, board.move_frame)
+        schedule = frame_schedule(performance.ticks, robot, backend.move_frame)
     cue = SongCue.of(music, performance) if music is not None else None
     song_ms = round(max(0.0, -cue.from_s) * 1000) if cue else None
     for packet in schedule:

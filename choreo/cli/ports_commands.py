@@ -6,7 +6,7 @@ import argparse
 import dataclasses
 import json
 
-from ..ports import FoundPort, list_ports
+from choreo.bus.ports import FoundPort, list_ports
 
 
 def register(subparsers) -> None:

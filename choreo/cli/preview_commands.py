@@ -12,13 +12,13 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from ..atomic import atomic_output, check_writable, write_text_atomically
-from ..errors import UsageError
-from ..motion import load_motion
-from ..music import check_speed
-from ..scene import StartPosture
-from ..validate import heading_for
-from .arguments import add_planning_arguments, positive_float, positive_int
+from choreo.cli.arguments import add_planning_arguments, positive_float, positive_int
+from choreo.core.atomic import atomic_output, check_writable, write_text_atomically
+from choreo.errors import UsageError
+from choreo.motion.motion_file import load_motion
+from choreo.motion.music_block import check_speed
+from choreo.motion.scene import StartPosture
+from choreo.validate import heading_for
 
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
 
@@ -180,13 +180,13 @@ def run_preview(args: argparse.Namespace) -> int:
         if path is not None:
             check_writable(path)
 
-    from .. import preview  # imports mujoco: only when this command runs
+    from choreo import preview  # imports mujoco: only when this command runs
 
     motion = load_motion(args.motion)
     if args.start is not None:
         motion = dataclasses.replace(motion, start=StartPosture(args.start))
     if output is not None and output.suffix.lower() == ".mp4":
-        check_speed(motion.music, args.speed, "drop --speed for a video with the song")
+        check_speed(motion.music, args.speed)
     thresholds = preview.CheckThresholds(
         max_tracking_error_deg=args.max_tracking_error,
         stall_after_s=args.stall_after,

@@ -1,4 +1,4 @@
-"""``choreo record``: teach a motion by hand (the logic is in ``choreo.recorder``)."""
+"""``choreo record``: teach a motion by hand (the logic is in ``choreo.play.recorder``)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,17 @@ import sys
 import threading
 from pathlib import Path
 
-from ..clock import RealClock
-from ..errors import BusError, ChoreoError, UsageError
-from ..recorder import (
+from choreo.cli.arguments import (
+    add_port_arguments,
+    bus_settings,
+    positive_float,
+    say_built_in_emulator,
+    stop_signals_as_ctrl_c,
+)
+from choreo.core.clock import RealClock
+from choreo.errors import BusError, ChoreoError, UsageError
+from choreo.play.play_motion import robot_bus
+from choreo.play.recorder import (
     Captured,
     Ending,
     Event,
@@ -22,9 +30,8 @@ from ..recorder import (
     UnknownInput,
     journal_path,
 )
-from ..robot import Robot
-from ..robot_file import load_robot
-from .arguments import add_port_arguments, open_robot_bus, positive_float, stop_signals_as_ctrl_c
+from choreo.robot.robot_file import load_robot
+from choreo.robot.types import Robot
 
 KEYS = "Enter = capture every joint, u = undo the last capture, q = save and quit"
 
@@ -108,14 +115,15 @@ def run_record(args: argparse.Namespace) -> int:
 
 def _record(args: argparse.Namespace, recording: Recording) -> int:
     robot = recording.robot
-    bus, emulator = open_robot_bus(args, robot, doing="recording on")
-    if emulator is not None:
+    settings = bus_settings(args, robot)
+    if settings.port is None:
+        say_built_in_emulator(robot, "recording on")
         print(
             "(nobody can turn emulated servos by hand, so every capture is the home pose)",
             file=sys.stderr,
         )
     printer = _EventPrinter(robot)
-    with bus:
+    with robot_bus(robot, None, settings) as bus:
         with Recorder(
             bus,
             recording,

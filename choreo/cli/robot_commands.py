@@ -9,10 +9,10 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from ..errors import SourceError
-from ..robot import Robot
-from ..robot_file import load_robot
-from ..robot_lookup import known_robots, robot_search_dirs
+from choreo.errors import SourceError
+from choreo.robot.lookup import known_robots, robot_search_dirs
+from choreo.robot.robot_file import load_robot
+from choreo.robot.types import Robot
 
 
 def register(subparsers) -> None:

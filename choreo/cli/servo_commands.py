@@ -2,7 +2,7 @@
 
 Settings the servo keeps across power-off show ``old → new`` and ask before writing (``--yes``
 skips the question; without a terminal to ask on, they refuse). Every write is read back.
-The logic is in ``choreo.workshop``; this module parses, asks and prints.
+The logic is in ``choreo.bus.servo_config``; this module parses, asks and prints.
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ from collections.abc import Callable
 from rich.console import Console
 from rich.table import Table
 
-from .. import workshop
-from ..bus import AngleLimits, ServoBus, ServoInfo, VinLimits
-from ..errors import ChoreoError, UsageError
-from ..protocol import Command
-from ..servos import DEG_PER_UNIT
-from ..transports import Capabilities
-from .arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
+from choreo.bus import servo_config
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import AngleLimits, ServoBus, ServoInfo, VinLimits
+from choreo.bus.servo_models import DEG_PER_UNIT
+from choreo.bus.transports import Capabilities
+from choreo.cli.arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
+from choreo.errors import ChoreoError, UsageError
 
 
 def register(subparsers) -> None:
@@ -51,7 +51,7 @@ def register(subparsers) -> None:
     set_id.add_argument(
         "--scan-ids",
         type=id_ranges,
-        default=tuple(workshop.ALL_IDS),
+        default=tuple(servo_config.ALL_IDS),
         metavar="RANGE",
         help="IDs the scan checks for other servos (default 0-253, about 10 s)",
     )
@@ -64,7 +64,7 @@ def register(subparsers) -> None:
         "set the offset now (not saved; the output moves)",
         run_offset_adjust,
     )
-    lo, hi = workshop.field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
+    lo, hi = servo_config.field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
     amount = adjust.add_mutually_exclusive_group(required=True)
     amount.add_argument(
         "--units",
@@ -84,7 +84,7 @@ def register(subparsers) -> None:
     limits = _action(
         actions, "limits", "set the servo's own angle limits (saved)", run_limits, saves=True
     )
-    lo, hi = workshop.field_range(Command.ANGLE_LIMIT_WRITE, "min_units")
+    lo, hi = servo_config.field_range(Command.ANGLE_LIMIT_WRITE, "min_units")
     limits.add_argument(
         "--min",
         type=_whole("angle limit", lo, hi, " units"),
@@ -103,7 +103,7 @@ def register(subparsers) -> None:
     vin = _action(
         actions, "vin-limits", "set the supply voltage limits (saved)", run_vin_limits, saves=True
     )
-    lo, hi = workshop.field_range(Command.VIN_LIMIT_WRITE, "min_mv")
+    lo, hi = servo_config.field_range(Command.VIN_LIMIT_WRITE, "min_mv")
     vin.add_argument(
         "--min",
         type=_whole("voltage limit", lo, hi, " mV"),
@@ -122,7 +122,7 @@ def register(subparsers) -> None:
     temp = _action(
         actions, "temp-limit", "set the temperature limit (saved)", run_temp_limit, saves=True
     )
-    lo, hi = workshop.field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c")
+    lo, hi = servo_config.field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c")
     temp.add_argument(
         "celsius",
         type=_whole("temperature limit", lo, hi, " °C"),
@@ -145,11 +145,11 @@ def register(subparsers) -> None:
         type=_error_mask,
         metavar="FAULTS",
         help="none, all, or a comma-separated list of "
-        f"{', '.join(workshop.ERROR_MASK_NAMES)} (or a number 0-7)",
+        f"{', '.join(servo_config.ERROR_MASK_NAMES)} (or a number 0-7)",
     )
 
     move = _action(actions, "move", "move to a position (loads the servo)", run_move)
-    lo, hi = workshop.field_range(Command.MOVE_TIME_WRITE, "pos_units")
+    lo, hi = servo_config.field_range(Command.MOVE_TIME_WRITE, "pos_units")
     target = move.add_mutually_exclusive_group(required=True)
     target.add_argument(
         "--pos",
@@ -163,7 +163,7 @@ def register(subparsers) -> None:
         help=f"target servo angle "
         f"({lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}°), rounded to units",
     )
-    lo, hi = workshop.field_range(Command.MOVE_TIME_WRITE, "time_ms")
+    lo, hi = servo_config.field_range(Command.MOVE_TIME_WRITE, "time_ms")
     move.add_argument(
         "--time-ms",
         type=_whole("move time", lo, hi, " ms"),
@@ -175,7 +175,7 @@ def register(subparsers) -> None:
     _action(actions, "unload", "torque off: the servo can be turned by hand", run_unload)
 
     motor = _action(actions, "motor", "turn continuously (motor mode, not saved)", run_motor)
-    lo, hi = workshop.field_range(Command.OR_MOTOR_MODE_WRITE, "speed")
+    lo, hi = servo_config.field_range(Command.OR_MOTOR_MODE_WRITE, "speed")
     speed = motor.add_mutually_exclusive_group(required=True)
     speed.add_argument(
         "--speed",
@@ -227,7 +227,7 @@ def _whole(what: str, lo: int, hi: int, unit: str) -> Callable[[str], int]:
 
 def _error_mask(text: str):
     try:
-        return workshop.parse_error_mask(text)
+        return servo_config.parse_error_mask(text)
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
@@ -296,16 +296,16 @@ def run_set_id(args: argparse.Namespace) -> int:
                 f"{len(args.scan_ids)} IDs",
                 file=sys.stderr,
             )
-        change = workshop.plan_id_change(bus, args.new_id, args.id, args.scan_ids)
-        return _confirm_and_write(args, bus, change, workshop.apply_id_change)
+        change = servo_config.plan_id_change(bus, args.new_id, args.id, args.scan_ids)
+        return _confirm_and_write(args, bus, change, servo_config.apply_id_change)
 
 
 def run_offset_adjust(args: argparse.Namespace) -> int:
-    units = args.units if args.units is not None else workshop.offset_units_from_deg(args.deg)
+    units = args.units if args.units is not None else servo_config.offset_units_from_deg(args.deg)
     with open_bus(args) as bus:
-        workshop.adjust_offset(bus, args.id, units)
+        servo_config.adjust_offset(bus, args.id, units)
     print(
-        f"servo {args.id}: offset {workshop.show_units(units)} in use (the output moved); "
+        f"servo {args.id}: offset {servo_config.show_units(units)} in use (the output moved); "
         f"not saved: `choreo servo offset save --id {args.id}` keeps it across power-off"
     )
     return 0
@@ -313,14 +313,14 @@ def run_offset_adjust(args: argparse.Namespace) -> int:
 
 def run_offset_save(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        change = workshop.plan_offset_save(bus, args.id)
-        return _confirm_and_write(args, bus, change, workshop.apply_change)
+        change = servo_config.plan_offset_save(bus, args.id)
+        return _confirm_and_write(args, bus, change, servo_config.apply_change)
 
 
-def _write_setting(args: argparse.Namespace, setting: workshop.Setting, value) -> int:
+def _write_setting(args: argparse.Namespace, setting: servo_config.Setting, value) -> int:
     with open_bus(args) as bus:
-        change = workshop.plan_change(bus, args.id, setting, value)
-        return _confirm_and_write(args, bus, change, workshop.apply_change)
+        change = servo_config.plan_change(bus, args.id, setting, value)
+        return _confirm_and_write(args, bus, change, servo_config.apply_change)
 
 
 def _min_below_max(args: argparse.Namespace, unit: str) -> None:
@@ -331,44 +331,44 @@ def _min_below_max(args: argparse.Namespace, unit: str) -> None:
 
 def run_limits(args: argparse.Namespace) -> int:
     _min_below_max(args, "")
-    return _write_setting(args, workshop.ANGLE_LIMITS, AngleLimits(args.min, args.max))
+    return _write_setting(args, servo_config.ANGLE_LIMITS, AngleLimits(args.min, args.max))
 
 
 def run_vin_limits(args: argparse.Namespace) -> int:
     _min_below_max(args, " mV")
-    return _write_setting(args, workshop.VIN_LIMITS, VinLimits(args.min, args.max))
+    return _write_setting(args, servo_config.VIN_LIMITS, VinLimits(args.min, args.max))
 
 
 def run_temp_limit(args: argparse.Namespace) -> int:
-    return _write_setting(args, workshop.TEMP_LIMIT, args.celsius)
+    return _write_setting(args, servo_config.TEMP_LIMIT, args.celsius)
 
 
 def run_led(args: argparse.Namespace) -> int:
-    return _write_setting(args, workshop.LED, args.state == "on")
+    return _write_setting(args, servo_config.LED, args.state == "on")
 
 
 def run_led_errors(args: argparse.Namespace) -> int:
-    return _write_setting(args, workshop.LED_ERRORS, args.mask)
+    return _write_setting(args, servo_config.LED_ERRORS, args.mask)
 
 
 def run_move(args: argparse.Namespace) -> int:
-    pos = args.pos if args.pos is not None else workshop.position_units_from_deg(args.deg)
+    pos = args.pos if args.pos is not None else servo_config.position_units_from_deg(args.deg)
     with open_bus(args) as bus:
-        workshop.move(bus, args.id, pos, args.time_ms)
-    print(f"servo {args.id}: moving to {workshop.show_units(pos)} in {args.time_ms} ms")
+        servo_config.move(bus, args.id, pos, args.time_ms)
+    print(f"servo {args.id}: moving to {servo_config.show_units(pos)} in {args.time_ms} ms")
     return 0
 
 
 def run_load(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        workshop.set_torque(bus, args.id, True)
+        servo_config.set_torque(bus, args.id, True)
     print(f"servo {args.id}: loaded (holding its position)")
     return 0
 
 
 def run_unload(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        workshop.set_torque(bus, args.id, False)
+        servo_config.set_torque(bus, args.id, False)
     print(f"servo {args.id}: unloaded (turns freely by hand)")
     return 0
 
@@ -376,10 +376,10 @@ def run_unload(args: argparse.Namespace) -> int:
 def run_motor(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
         if args.stop:
-            workshop.stop_motor(bus, args.id)
+            servo_config.stop_motor(bus, args.id)
             print(f"servo {args.id}: servo mode, holding where it stopped")
             return 0
-        workshop.run_motor(bus, args.id, args.speed)
+        servo_config.run_motor(bus, args.id, args.speed)
     print(
         f"servo {args.id}: motor mode at speed {args.speed} (not saved); "
         f"`choreo servo motor --id {args.id} --stop` ends it"
@@ -447,7 +447,7 @@ def _info_table(info: ServoInfo, capabilities: Capabilities) -> Table:
             shown(info.loaded, C.LOAD_OR_UNLOAD_READ, lambda v: "loaded" if v else "unloaded"),
         ),
         ("led", shown(info.led_on, C.LED_CTRL_READ, lambda v: "on" if v else "off")),
-        ("led flashes on", shown(info.led_errors, C.LED_ERROR_READ, workshop.show_error_mask)),
+        ("led flashes on", shown(info.led_errors, C.LED_ERROR_READ, servo_config.show_error_mask)),
         ("distance", shown(info.distance, C.DIS_READ, str)),
     ]
     table = Table(title=f"servo {info.servo_id}", show_header=False)

@@ -12,9 +12,8 @@
 
 from __future__ import annotations
 
-import serial
-
-from .bus import (
+from choreo.emulator.backend import connection, register_url_handler  # noqa: I001 (after the above)
+from choreo.emulator.bus_emulator import (
     BusEmulator,
     ReceivedPacket,
     SentReply,
@@ -22,8 +21,14 @@ from .bus import (
     WireLog,
     parse_servo_specs,
 )
-from .protocol_sim import SimSerial, emulator_from_url
-from .servo import Eeprom, EmulatedServo, ReplyFate, ReplyFaults, StartedMove
+from choreo.emulator.emulated_servo import (
+    Eeprom,
+    EmulatedServo,
+    ReplyFate,
+    ReplyFaults,
+    StartedMove,
+)
+from choreo.emulator.protocol_sim import SimSerial, emulator_from_url
 
 __all__ = [
     "BusEmulator",
@@ -39,11 +44,6 @@ __all__ = [
     "WireLog",
     "emulator_from_url",
     "parse_servo_specs",
+    "connection",
     "register_url_handler",
 ]
-
-
-def register_url_handler() -> None:
-    """Let ``serial.serial_for_url`` open ``sim://`` URLs (idempotent)."""
-    if __name__ not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append(__name__)

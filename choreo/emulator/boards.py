@@ -20,10 +20,10 @@ from __future__ import annotations
 import math
 import struct
 
-from ..protocol import BYTE_TIME_S, Command, PacketDecoder, encode_packet
-from ..transports import lobot, rrc
-from .bus import BusEmulator, SentReply
-from .servo import ReplyFate
+from choreo.bus.protocol import BYTE_TIME_S, Command, PacketDecoder, encode_packet
+from choreo.bus.transports import lobot, rrc
+from choreo.emulator.bus_emulator import BusEmulator, SentReply
+from choreo.emulator.emulated_servo import ReplyFate
 
 BOARD_LATENCY_S = 0.00005
 SERVO_REPLY_TIMEOUT_S = 0.005  # RRC firmware: proc_timeout, 5 ticks of 1 ms

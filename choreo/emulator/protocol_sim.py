@@ -29,9 +29,14 @@ from typing import Any
 from serial import SerialBase, SerialException
 from serial.serialutil import PortNotOpenError, to_bytes
 
-from ..clock import RealClock, VirtualClock
-from .boards import BOARDS
-from .bus import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S, BusEmulator, parse_servo_specs
+from choreo.core.clock import RealClock, VirtualClock
+from choreo.emulator.boards import BOARDS
+from choreo.emulator.bus_emulator import (
+    DEFAULT_START_GAP_S,
+    DEFAULT_TURNAROUND_S,
+    BusEmulator,
+    parse_servo_specs,
+)
 
 URL_OPTIONS = (
     "ids",

@@ -15,8 +15,8 @@ import select
 import tty
 from pathlib import Path
 
-from ..errors import ChoreoError
-from .bus import BusEmulator
+from choreo.emulator.bus_emulator import BusEmulator
+from choreo.errors import ChoreoError
 
 logger = logging.getLogger(__name__)
 

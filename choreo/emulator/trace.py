@@ -1,5 +1,5 @@
 """Where the emulated servos really went: their paths rebuilt from the wire log's move starts
-(servo IDs and units only: ``choreo.path_errors`` reads them through a robot's joints)."""
+(servo IDs and units only: ``choreo.play.path_errors`` reads them through a robot's joints)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .servo import StartedMove
+from choreo.emulator.emulated_servo import StartedMove
 
 
 def executed_units(

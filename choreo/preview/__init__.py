@@ -5,29 +5,41 @@ checked for problems and rendered offscreen.
     results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
     render_preview(rollout, "out.mp4", results=results)
 
-The package is the only place besides ``choreo.model_check`` (the robot loader's MJCF checks)
+The package is the only place besides ``choreo.robot.model_check`` (the robot loader's MJCF checks)
 that imports ``mujoco``.
 """
 
 from __future__ import annotations
 
-from ..motion import HOME_POSE, Motion
-from ..pipeline import compile_motion
-from ..player import prepare
-from ..scene import StartPosture
-from .checks import (
+from choreo.motion.motion_file import HOME_POSE, Motion
+from choreo.motion.scene import StartPosture
+from choreo.plan.performance import prepare
+from choreo.plan.pipeline import compile_motion
+from choreo.preview.actuator import ActuatorParams, actuator_params
+from choreo.preview.checks import (
     CheckKind,
     CheckResult,
     CheckThresholds,
     Severity,
     run_checks,
 )
-from .render import RenderResult, RenderSettings, frame_times, render_frames, render_preview
-from .report import JointSummary, busiest_line, joint_summaries, preview_report, start_lines
-from .servo import ActuatorParams, actuator_params
-from .sim import MoveStart, Rollout, Settling, SimSettings, simulate
-from .travel import BodyTravel, body_travel
-from .viewer import has_display, show_in_viewer
+from choreo.preview.render import (
+    RenderResult,
+    RenderSettings,
+    frame_times,
+    render_frames,
+    render_preview,
+)
+from choreo.preview.report import (
+    JointSummary,
+    busiest_line,
+    joint_summaries,
+    preview_report,
+    start_lines,
+)
+from choreo.preview.sim import MoveStart, Rollout, Settling, SimSettings, simulate
+from choreo.preview.travel import BodyTravel, body_travel
+from choreo.preview.viewer import has_display, show_in_viewer
 
 FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
 

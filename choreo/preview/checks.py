@@ -12,7 +12,7 @@ from enum import Enum
 
 import numpy as np
 
-from .sim import Rollout
+from choreo.preview.sim import Rollout
 
 
 class Severity(str, Enum):

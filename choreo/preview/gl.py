@@ -15,7 +15,7 @@ import os
 import subprocess
 import sys
 
-from ..errors import PreviewError
+from choreo.errors import PreviewError
 
 log = logging.getLogger(__name__)
 

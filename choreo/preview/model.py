@@ -12,11 +12,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..errors import PreviewError
-from ..robot import Robot
-from ..scene import Prop
-from ..servos import POSITION_RANGE_UNITS
-from .servo import ActuatorParams
+from choreo.bus.servo_models import POSITION_RANGE_UNITS
+from choreo.errors import PreviewError
+from choreo.motion.scene import Prop
+from choreo.preview.actuator import ActuatorParams
+from choreo.robot.types import Robot
 
 HOME_KEY = "home"
 # what a contact between two geoms means: nothing to report; two links that are not parent and

@@ -17,13 +17,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..audio import add_song_to_video
-from ..errors import PreviewError
-from ..music import BeatGrid, Music
-from .checks import CheckKind, CheckResult
-from .gl import context_class, offscreen_backend
-from .model import load_model
-from .sim import Rollout
+from choreo.errors import PreviewError
+from choreo.motion.music_block import BeatGrid, Music
+from choreo.music.decode import add_song_to_video
+from choreo.preview.checks import CheckKind, CheckResult
+from choreo.preview.gl import context_class, offscreen_backend
+from choreo.preview.model import load_model
+from choreo.preview.sim import Rollout
 
 log = logging.getLogger(__name__)
 

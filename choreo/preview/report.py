@@ -7,9 +7,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .checks import CheckResult, CheckThresholds, Severity
-from .sim import Rollout
-from .travel import body_travel
+from choreo.preview.checks import CheckResult, CheckThresholds, Severity
+from choreo.preview.sim import Rollout
+from choreo.preview.travel import body_travel
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,18 @@ from enum import Enum
 import mujoco
 import numpy as np
 
-from ..errors import PreviewError
-from ..robot import Robot
-from ..scene import Prop, StartPosture
-from ..segments import Tick
-from .model import (
+from choreo.errors import PreviewError
+from choreo.motion.scene import Prop, StartPosture
+from choreo.plan.ticks import Tick
+from choreo.preview.actuator import (
+    ActuatorParams,
+    CommandStream,
+    ServoBank,
+    actuator_params,
+    commanded_path_units,
+    max_speed_units_s,
+)
+from choreo.preview.model import (
     FLOOR_CONTACT,
     GROUND_CONTACT,
     NEIGHBOUR_CONTACT,
@@ -36,15 +43,8 @@ from .model import (
     link_of_body,
     load_model,
 )
-from .servo import (
-    ActuatorParams,
-    CommandStream,
-    ServoBank,
-    actuator_params,
-    commanded_path_units,
-    max_speed_units_s,
-)
-from .start import foot_links, start_state
+from choreo.preview.start import foot_links, start_state
+from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 

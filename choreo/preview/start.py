@@ -10,8 +10,8 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from ..scene import StartPosture
-from .model import HOME_KEY, JointIndex, free_joint, link_of_body
+from choreo.motion.scene import StartPosture
+from choreo.preview.model import HOME_KEY, JointIndex, free_joint, link_of_body
 
 FOOT_CLEARANCE_M = 0.002  # a link this close to the floor standing at home is a foot
 SEARCH_M = 10.0  # farthest any geom is looked for below the robot

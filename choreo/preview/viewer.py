@@ -10,9 +10,9 @@ import warnings
 import mujoco
 import numpy as np
 
-from ..errors import PreviewError
-from .model import load_model
-from .sim import Rollout
+from choreo.errors import PreviewError
+from choreo.preview.model import load_model
+from choreo.preview.sim import Rollout
 
 FRAME_S = 1 / 60
 

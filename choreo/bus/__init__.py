@@ -1,0 +1,19 @@
+"""The servo bus: the LX protocol, :class:`ServoBus` over any transport, finding ports, the servo
+models' datasheet facts and their configuration.
+
+- :mod:`~choreo.bus.protocol`: the LX packet codec (commands, fields and their ranges);
+- :mod:`~choreo.bus.servo_bus`: :class:`ServoBus`, the one place commands are sent and read;
+- :mod:`~choreo.bus.transports`: the backends a port string picks (raw LX, ``rrc://``,
+  ``lobot://``, the emulated boards), each declaring its :class:`Capabilities`;
+- :mod:`~choreo.bus.ports`: which port is which (``choreo ports``);
+- :mod:`~choreo.bus.servo_models`: the datasheet table (LX-16A, LX-224HV ...);
+- :mod:`~choreo.bus.servo_config`: reading and changing what a servo keeps (``choreo servo``).
+"""
+
+from __future__ import annotations
+
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.bus.transports import Capabilities
+
+__all__ = ["Capabilities", "Command", "ServoBus"]

@@ -1,0 +1,509 @@
+"""``ServoBus``: one half-duplex LX servo bus behind any pyserial URL.
+
+The only module that sends and receives servo commands; ports are opened by
+``choreo.bus.transports``. One lock is held across each request and its reply; earlier writes
+are let out and stale input is flushed before every request; each read attempt waits up to its
+timeout and is retried a bounded number of times; a reply is accepted only with the expected servo
+id, command and length, so echoes (of the request, itself a valid packet, or of earlier writes on a
+one-wire bus) and stray bytes are skipped, never taken for the reply. ``sim://`` opens the
+built-in emulator.
+
+The port string names the transport (``choreo.bus.transports``): on the raw bus LX packets go out as
+they are; through a controller board (``rrc://``, ``lobot://``) each command is carried by the
+board's own protocol, and a command the board cannot carry raises ``UnsupportedByTransport``.
+``bus.capabilities`` says what the transport can do.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import enum
+import logging
+import threading
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+import serial
+
+from choreo.bus import transports
+from choreo.bus.protocol import (
+    BROADCAST_ID,
+    SPECS,
+    Command,
+    ErrorMask,
+    encode_request,
+)
+from choreo.bus.transports import Connection
+from choreo.bus.transports.raw import EchoMode
+from choreo.errors import BusTimeoutError, PortError, ProtocolError
+
+# What a port failing under us raises. pyserial's POSIX port lets termios.error (not an
+# OSError) out of flushes on a lost port.
+_PORT_LOST: tuple[type[BaseException], ...] = (serial.SerialException, OSError)
+try:
+    import termios
+
+    _PORT_LOST += (termios.error,)
+except ImportError:  # Windows
+    pass
+
+log = logging.getLogger(__name__)
+
+
+class Presence(enum.Enum):
+    """What a probe with ID_READ found at one ID."""
+
+    ANSWERS = "answers"
+    SILENT = "silent"  # nothing came back: no servo has this ID (or it is unpowered)
+    GARBLED = "garbled"  # replies failed the checksum: two servos share this ID, or noisy wiring
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """The IDs a scan found answering, and those whose replies came back garbled."""
+
+    found: tuple[int, ...]
+    garbled: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class MoveTime:
+    pos_units: int
+    time_ms: int
+
+
+@dataclass(frozen=True)
+class AngleLimits:
+    min_units: int
+    max_units: int
+
+
+@dataclass(frozen=True)
+class VinLimits:
+    min_mv: int
+    max_mv: int
+
+
+@dataclass(frozen=True)
+class MotorMode:
+    motor: bool  # False: servo (position) mode
+    speed: int  # -1000..1000 duty in motor mode
+
+
+@dataclass(frozen=True)
+class ServoStatus:
+    """What ``choreo scan`` shows: facts every model answers (None: the transport cannot read
+    it)."""
+
+    servo_id: int
+    pos_units: int
+    vin_mv: int | None
+    temp_c: int | None
+
+
+@dataclass(frozen=True)
+class ServoInfo:
+    """Every readable parameter of one servo; None where this model does not answer or the
+    transport cannot read it (``ServoBus.capabilities`` tells which)."""
+
+    servo_id: int
+    pos_units: int
+    move: MoveTime | None
+    staged_move: MoveTime | None
+    offset_units: int | None
+    angle_limits: AngleLimits | None
+    vin_limits: VinLimits | None
+    temp_limit_c: int | None
+    temp_c: int | None
+    vin_mv: int | None
+    mode: MotorMode | None
+    loaded: bool | None
+    led_on: bool | None
+    led_errors: ErrorMask | None
+    distance: int | None
+
+
+class ServoBus:
+    """A servo bus on ``port`` (a port string such as ``/dev/ttyUSB0``, ``sim://?ids=1-6``,
+    ``rrc:///dev/ttyAMA0`` or ``lobot://hid``, or an already open serial object). ``direction``:
+    GPIO direction control for a raw bus on a Pi/Jetson UART (a preset name such as ``tonypi``,
+    or ``rx=4,tx=27``). Use as a context manager so the port is always released."""
+
+    def __init__(
+        self,
+        port: str | serial.SerialBase | Connection,
+        *,
+        timeout_s: float = 0.05,
+        retries: int = 2,
+        echo: EchoMode | str = EchoMode.AUTO,
+        direction=None,
+    ):
+        if timeout_s <= 0:
+            raise ValueError(f"timeout_s must be > 0, got {timeout_s}")
+        if retries < 0:
+            raise ValueError(f"retries must be >= 0, got {retries}")
+        self.timeout_s = timeout_s
+        self.retries = retries
+        self.echo = EchoMode(echo)
+        self._lock = threading.RLock()
+        if isinstance(port, Connection):
+            connection = port
+        else:
+            connection = transports.connect(port, timeout_s, direction, self.echo)
+        self.port, self.backend = connection.port, connection.backend
+        self.capabilities = connection.capabilities
+        self.clock = connection.clock  # what deadlines on this bus are kept on
+        self.emulator = connection.emulator  # an emulated backend's emulator (its wire log)
+        named = port if isinstance(port, str) else getattr(self.port, "name", None)
+        self.name = named or repr(self.port)
+
+    # --- lifetime ------------------------------------------------------------------------------
+    def close(self) -> None:
+        with self._lock, self._port_io():
+            self.port.close()
+
+    def __enter__(self) -> ServoBus:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def drain(self) -> None:
+        """Wait until every byte written so far has left the host."""
+        with self._lock, self._port_io():
+            self.port.flush()
+
+    def discard_output(self) -> None:
+        """Drop bytes written but not yet sent (before an emergency stop)."""
+        with self._lock, self._port_io():
+            self.port.reset_output_buffer()
+
+    # --- transactions --------------------------------------------------------------------------
+    def send(self, command: Command, servo_id: int, /, **fields: int) -> None:
+        """Send a write command (no reply exists for writes)."""
+        spec = SPECS[Command(command)]
+        if spec.is_read:
+            raise ValueError(f"{spec.command.name} is a read: use request()")
+        if spec.command == Command.ID_WRITE and servo_id == BROADCAST_ID:
+            raise ValueError(
+                "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
+                "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
+            )
+        encode_request(spec.command, servo_id, **fields)  # checks every field's range
+        self._require(spec.command)
+        with self._lock, self._port_io():
+            self.backend.send(spec.command, servo_id, fields)
+
+    def request(
+        self,
+        command: Command,
+        servo_id: int,
+        /,
+        *,
+        retries: int | None = None,
+        timeout_s: float | None = None,
+    ) -> dict[str, int]:
+        """Send a read command and return its reply's fields, retrying on silence or garbage."""
+        spec = SPECS[Command(command)]
+        if not spec.is_read:
+            raise ValueError(f"{spec.command.name} has no reply: use send()")
+        if servo_id == BROADCAST_ID and spec.command != Command.ID_READ:
+            raise ValueError(f"only ID_READ is answered on broadcast, not {spec.command.name}")
+        self._require(spec.command)
+        attempts = 1 + (self.retries if retries is None else retries)
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        with self._lock:
+            bad_before = self.backend.bad_checksums
+            echo_seen, received = False, b""
+            for attempt in range(attempts):
+                with self._port_io():
+                    result = self.backend.request(spec.command, servo_id, timeout_s)
+                if result.fields is not None:
+                    return result.fields
+                echo_seen |= result.echo_seen
+                received = received or result.received
+                log.debug(
+                    "servo %d: no valid %s reply (try %d/%d)",
+                    servo_id,
+                    spec.command.name,
+                    attempt + 1,
+                    attempts,
+                )
+            garbled = self.backend.bad_checksums - bad_before
+        if not echo_seen:  # DISCARD mode, and not one try saw its request come back
+            raise ProtocolError(
+                f"{self.name}: expected the echo of the request, got "
+                f"{received.hex(' ') or 'nothing'}: is the bus really wired "
+                "one-wire? try echo mode 'none' or 'auto'"
+            )
+        tries = (
+            f"1 try of {timeout_s * 1000:.0f} ms"
+            if attempts == 1
+            else f"{attempts} tries, {timeout_s * 1000:.0f} ms each"
+        )
+        replies = f"{garbled} repl{'y' if garbled == 1 else 'ies'} to"
+        if garbled and servo_id == BROADCAST_ID:
+            raise ProtocolError(
+                f"{replies} a broadcast {spec.command.name} failed the checksum ({tries}): "
+                "several servos answered at once (a broadcast read needs a single servo on the "
+                "bus), or the wiring is noisy"
+            )
+        if garbled:
+            raise ProtocolError(
+                f"servo {servo_id}: {replies} {spec.command.name} failed the checksum ({tries}): "
+                f"two servos may share ID {servo_id} (run `choreo scan`), or the wiring is noisy"
+            )
+        silent = (
+            "no servo answered" if servo_id == BROADCAST_ID else f"servo {servo_id} did not answer"
+        )
+        raise BusTimeoutError(
+            f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
+            "or run `choreo scan`"
+        )
+
+    def _require(self, command: Command) -> None:
+        if not self.capabilities.supports(command):
+            raise self.capabilities.refuse(command, self.name)
+
+    @contextlib.contextmanager
+    def _port_io(self) -> Iterator[None]:
+        """Turn the port failing under us (an unplugged USB adapter) into one clear PortError."""
+        try:
+            yield
+        except _PORT_LOST as error:
+            raise PortError(
+                f"{self.name}: the port was lost ({error}): check the USB cable"
+            ) from error
+
+    # --- typed commands ------------------------------------------------------------------------
+    def move(self, servo_id: int, pos_units: int, time_ms: int) -> None:
+        """MOVE_TIME_WRITE: move now, linearly, to ``pos_units`` over ``time_ms``."""
+        self.send(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+
+    def stage_move(self, servo_id: int, pos_units: int, time_ms: int) -> None:
+        """MOVE_TIME_WAIT_WRITE: store a move that the next MOVE_START runs."""
+        self.send(Command.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+
+    def start(self, servo_id: int = BROADCAST_ID) -> None:
+        """MOVE_START: run the staged move (every servo at once on broadcast)."""
+        self.send(Command.MOVE_START, servo_id)
+
+    def stop(self, servo_id: int = BROADCAST_ID) -> None:
+        """MOVE_STOP: hold the current angle (servo mode only)."""
+        self.send(Command.MOVE_STOP, servo_id)
+
+    def load(self, servo_id: int = BROADCAST_ID) -> None:
+        self.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, loaded=1)
+
+    def unload(self, servo_id: int = BROADCAST_ID) -> None:
+        """Torque off: the servo can be turned by hand."""
+        self.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, loaded=0)
+
+    def set_id(self, servo_id: int, new_id: int) -> None:
+        """ID_WRITE, saved in the servo. Never broadcast (send() refuses): it would renumber
+        every servo."""
+        self.send(Command.ID_WRITE, servo_id, new_id=new_id)
+
+    def adjust_offset(self, servo_id: int, offset_units: int) -> None:
+        """ANGLE_OFFSET_ADJUST: applied at once, lost at power-off unless saved."""
+        self.send(Command.ANGLE_OFFSET_ADJUST, servo_id, offset_units=offset_units)
+
+    def save_offset(self, servo_id: int) -> None:
+        self.send(Command.ANGLE_OFFSET_WRITE, servo_id)
+
+    def set_angle_limits(self, servo_id: int, min_units: int, max_units: int) -> None:
+        self.send(Command.ANGLE_LIMIT_WRITE, servo_id, min_units=min_units, max_units=max_units)
+
+    def set_vin_limits(self, servo_id: int, min_mv: int, max_mv: int) -> None:
+        self.send(Command.VIN_LIMIT_WRITE, servo_id, min_mv=min_mv, max_mv=max_mv)
+
+    def set_temp_limit(self, servo_id: int, temp_c: int) -> None:
+        self.send(Command.TEMP_MAX_LIMIT_WRITE, servo_id, temp_c=temp_c)
+
+    def set_motor_mode(self, servo_id: int, speed: int) -> None:
+        """Continuous rotation at a duty of ``speed`` (-1000..1000); not saved."""
+        self.send(Command.OR_MOTOR_MODE_WRITE, servo_id, mode=1, reserved=0, speed=speed)
+
+    def set_servo_mode(self, servo_id: int) -> None:
+        self.send(Command.OR_MOTOR_MODE_WRITE, servo_id, mode=0, reserved=0, speed=0)
+
+    def set_led(self, servo_id: int, on: bool) -> None:
+        self.send(Command.LED_CTRL_WRITE, servo_id, led_off=0 if on else 1)
+
+    def set_led_errors(self, servo_id: int, mask: ErrorMask | int) -> None:
+        """Which faults make the LED flash."""
+        self.send(Command.LED_ERROR_WRITE, servo_id, mask=int(mask))
+
+    def read_position(self, servo_id: int) -> int:
+        """Position in units; may be negative or above 1000 near the ends of travel."""
+        return self.request(Command.POS_READ, servo_id)["pos_units"]
+
+    def read_move(self, servo_id: int) -> MoveTime:
+        return MoveTime(**self.request(Command.MOVE_TIME_READ, servo_id))
+
+    def read_staged_move(self, servo_id: int) -> MoveTime:
+        """MOVE_TIME_WAIT_READ; LX-16A servos never answer it."""
+        return MoveTime(**self.request(Command.MOVE_TIME_WAIT_READ, servo_id))
+
+    def read_id(self, servo_id: int = BROADCAST_ID) -> int:
+        """ID_READ; on broadcast only safe with a single servo on the bus."""
+        return self.request(Command.ID_READ, servo_id)["servo_id"]
+
+    def read_offset(self, servo_id: int) -> int:
+        return self.request(Command.ANGLE_OFFSET_READ, servo_id)["offset_units"]
+
+    def read_angle_limits(self, servo_id: int) -> AngleLimits:
+        return AngleLimits(**self.request(Command.ANGLE_LIMIT_READ, servo_id))
+
+    def read_vin_limits(self, servo_id: int) -> VinLimits:
+        return VinLimits(**self.request(Command.VIN_LIMIT_READ, servo_id))
+
+    def read_temp_limit(self, servo_id: int) -> int:
+        return self.request(Command.TEMP_MAX_LIMIT_READ, servo_id)["temp_c"]
+
+    def read_temperature(self, servo_id: int) -> int:
+        return self.request(Command.TEMP_READ, servo_id)["temp_c"]
+
+    def read_vin(self, servo_id: int) -> int:
+        return self.request(Command.VIN_READ, servo_id)["vin_mv"]
+
+    def read_mode(self, servo_id: int) -> MotorMode:
+        fields = self.request(Command.OR_MOTOR_MODE_READ, servo_id)
+        return MotorMode(motor=fields["mode"] == 1, speed=fields["speed"])
+
+    def read_loaded(self, servo_id: int) -> bool:
+        return self.request(Command.LOAD_OR_UNLOAD_READ, servo_id)["loaded"] == 1
+
+    def read_led(self, servo_id: int) -> bool:
+        """True when the LED is on (the wire says 0 for on)."""
+        return self.request(Command.LED_CTRL_READ, servo_id)["led_off"] == 0
+
+    def read_led_errors(self, servo_id: int) -> ErrorMask:
+        return ErrorMask(self.request(Command.LED_ERROR_READ, servo_id)["mask"] & 7)
+
+    def read_distance(self, servo_id: int) -> int:
+        """DIS_READ: rotation distance, 4096 pulses per turn; only some models answer."""
+        return self.request(Command.DIS_READ, servo_id)["distance"]
+
+    # --- several servos at once ----------------------------------------------------------------
+    def move_many(self, moves: Iterable[tuple[int, int]], time_ms: int) -> int:
+        """Move each (servo_id, pos_units) now over one shared ``time_ms``: one frame through a
+        board, one MOVE_TIME_WRITE per servo on the raw bus. Returns the bytes sent."""
+        moves = list(moves)
+        for servo_id, pos_units in moves:  # every range checked before anything is sent
+            encode_request(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+        with self._lock, self._port_io():
+            return self.backend.move_many(moves, time_ms)
+
+    def stop_servos(self, servo_ids: Iterable[int]) -> None:
+        """Stop these servos by the best means the transport has (``capabilities.stop``): a
+        broadcast MOVE_STOP on the raw bus."""
+        with self._lock, self._port_io():
+            self.backend.stop_many(list(servo_ids))
+
+    # --- several commands ----------------------------------------------------------------------
+    def probe(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> Presence:
+        """Whether a servo answers ID_READ at ``servo_id``, stays silent, or answers garbled.
+
+        A ``ProtocolError`` that is not about garbled replies (no try saw its echo in DISCARD
+        mode) still raises: it is the bus set-up that is wrong, not this ID.
+        """
+        with self._lock:
+            bad_before = self.backend.bad_checksums
+            try:
+                self.request(Command.ID_READ, servo_id, retries=retries, timeout_s=timeout_s)
+            except BusTimeoutError:
+                return Presence.SILENT
+            except ProtocolError:
+                if self.backend.bad_checksums == bad_before:
+                    raise
+                return Presence.GARBLED
+            return Presence.ANSWERS
+
+    def ping(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> bool:
+        """Whether a servo answers ID_READ at ``servo_id``; ``ProtocolError`` if its replies come
+        back garbled (two servos sharing the ID), which is not the same as absent."""
+        try:
+            self.request(Command.ID_READ, servo_id, retries=retries, timeout_s=timeout_s)
+        except BusTimeoutError:
+            return False
+        return True
+
+    def scan_presence(
+        self,
+        ids: Iterable[int] = range(BROADCAST_ID),
+        *,
+        timeout_s: float | None = None,
+        retries: int = 0,
+    ) -> ScanResult:
+        """Probe each ID in order. Each absent ID costs ``timeout_s`` (the bus's by default; USB
+        adapters add up to 16 ms of latency) times ``1 + retries``."""
+        presence = {i: self.probe(i, timeout_s=timeout_s, retries=retries) for i in ids}
+        return ScanResult(
+            found=tuple(i for i, p in presence.items() if p is Presence.ANSWERS),
+            garbled=tuple(i for i, p in presence.items() if p is Presence.GARBLED),
+        )
+
+    def scan(
+        self,
+        ids: Iterable[int] = range(BROADCAST_ID),
+        *,
+        timeout_s: float | None = None,
+        retries: int = 0,
+    ) -> list[int]:
+        """The IDs that answer, in order (``scan_presence`` also lists garbled ones)."""
+        return list(self.scan_presence(ids, timeout_s=timeout_s, retries=retries).found)
+
+    def read_status(self, servo_id: int) -> ServoStatus:
+        can = self.capabilities.supports
+        return ServoStatus(
+            servo_id,
+            self.read_position(servo_id),
+            self.read_vin(servo_id) if can(Command.VIN_READ) else None,
+            self.read_temperature(servo_id) if can(Command.TEMP_READ) else None,
+        )
+
+    def read_info(self, servo_id: int) -> ServoInfo:
+        """Every readable parameter; commands this model ignores give None (one short try), and
+        so do those the transport cannot carry."""
+
+        def read(command: Command, reader):
+            return reader(servo_id) if self.capabilities.supports(command) else None
+
+        C = Command
+        return ServoInfo(
+            servo_id=servo_id,
+            pos_units=self.read_position(servo_id),
+            move=read(C.MOVE_TIME_READ, self.read_move),
+            staged_move=_maybe(MoveTime, read(C.MOVE_TIME_WAIT_READ, self._try_staged_move)),
+            offset_units=read(C.ANGLE_OFFSET_READ, self.read_offset),
+            angle_limits=read(C.ANGLE_LIMIT_READ, self.read_angle_limits),
+            vin_limits=read(C.VIN_LIMIT_READ, self.read_vin_limits),
+            temp_limit_c=read(C.TEMP_MAX_LIMIT_READ, self.read_temp_limit),
+            temp_c=read(C.TEMP_READ, self.read_temperature),
+            vin_mv=read(C.VIN_READ, self.read_vin),
+            mode=read(C.OR_MOTOR_MODE_READ, self.read_mode),
+            loaded=read(C.LOAD_OR_UNLOAD_READ, self.read_loaded),
+            led_on=read(C.LED_CTRL_READ, self.read_led),
+            led_errors=read(C.LED_ERROR_READ, self.read_led_errors),
+            distance=_maybe(int, read(C.DIS_READ, self._try_distance), "distance"),
+        )
+
+    def _try_staged_move(self, servo_id: int) -> dict[str, int] | None:
+        return self._try_request(Command.MOVE_TIME_WAIT_READ, servo_id)
+
+    def _try_distance(self, servo_id: int) -> dict[str, int] | None:
+        return self._try_request(Command.DIS_READ, servo_id)
+
+    def _try_request(self, command: Command, servo_id: int) -> dict[str, int] | None:
+        """One try of a read that some models ignore."""
+        try:
+            return self.request(command, servo_id, retries=0)
+        except BusTimeoutError:
+            return None
+
+
+def _maybe(make, fields: dict[str, int] | None, key: str | None = None):
+    if fields is None:
+        return None
+    return make(fields[key]) if key else make(**fields)

@@ -1,0 +1,291 @@
+"""``lobot://hid`` and ``lobot://PATH``: the LOBOT Bus Servo Controller of the xArm and LeArm,
+over USB HID (0483:5750) or its 9600-baud UART.
+
+Frames are ``55 55 LEN CMD PARAMS`` with LEN = len(PARAMS) + 2 and no checksum (a corrupted
+frame is not detected). The basic command set: 03 moves several servos over one duration,
+0F reads the battery, 14 unloads servos, 15 reads positions. There is no staging, no MOVE_STOP,
+no per-servo voltage or temperature read: choreo refuses what needs them. To stop, choreo reads
+where the servos are and commands them to stay there (the closest thing to MOVE_STOP it has).
+Over HID each frame goes out as one output report prefixed by report ID 0; input reports are 64
+bytes, the frame at their start. See docs/transports.md.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+from choreo.bus.protocol import BROADCAST_ID, Command
+from choreo.bus.transports import (
+    Attempt,
+    Capabilities,
+    Connection,
+    open_serial,
+    path_of,
+    refuse_direction,
+)
+from choreo.core.clock import RealClock
+from choreo.errors import PortError, UnsupportedByTransport
+
+log = logging.getLogger(__name__)
+
+BAUDRATE = 9600
+HEADER = b"\x55\x55"
+MOVE, BATTERY, UNLOAD, READ_POSITIONS = 0x03, 0x0F, 0x14, 0x15
+HID_VID, HID_PID = 0x0483, 0x5750
+HID_REPORT = 64
+MAX_READS_PER_ATTEMPT = 4
+SERVO_READ_S = 0.006  # the board reading one servo, with its reply timeout [assumed]
+
+CAPABILITIES = Capabilities(
+    transport="LOBOT controller",
+    commands=frozenset(
+        {Command.MOVE_TIME_WRITE, Command.LOAD_OR_UNLOAD_WRITE, Command.POS_READ, Command.ID_READ}
+    ),
+    staged_start=False,
+    stop="no MOVE_STOP exists: choreo reads the servos' positions and commands them to stay there",
+    load=False,
+    host_byte_time_s=10 / BAUDRATE,
+    move_frame_bytes=5,
+    forward_s_per_servo=10 * 10 / 115200,  # assumed like the RRC: one LX packet after another
+)
+HID_CAPABILITIES = replace(CAPABILITIES, host_byte_time_s=0.001 / HID_REPORT)  # 1 report/ms
+
+
+def encode_frame(command: int, params: bytes = b"") -> bytes:
+    return HEADER + bytes((len(params) + 2, command)) + params
+
+
+@dataclass(frozen=True)
+class Frame:
+    command: int
+    params: bytes
+
+
+class FrameDecoder:
+    """Bytes to frames, resynchronising on ``55 55``. Never raises."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+
+    def reset(self) -> None:
+        self._buffer.clear()
+
+    def feed(self, data: bytes) -> list[Frame]:
+        self._buffer += data
+        frames: list[Frame] = []
+        buf = self._buffer
+        while True:
+            start = buf.find(HEADER)
+            if start < 0:
+                del buf[: len(buf) - (1 if buf[-1:] == HEADER[:1] else 0)]
+                return frames
+            del buf[:start]
+            if len(buf) >= 3 and buf[2] < 2:
+                del buf[:1]
+                continue
+            if len(buf) < 4 or len(buf) < 2 + buf[2]:
+                return frames
+            total = 2 + buf[2]
+            frames.append(Frame(buf[3], bytes(buf[4:total])))
+            del buf[:total]
+
+    def bytes_to_complete(self, expected_total: int) -> int:
+        buf = self._buffer
+        return 2 + buf[2] - len(buf) if len(buf) >= 3 else expected_total - len(buf)
+
+
+def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
+    params = bytes((len(moves),)) + time_ms.to_bytes(2, "little")
+    for servo_id, pos_units in moves:
+        params += bytes((servo_id,)) + pos_units.to_bytes(2, "little")
+    return encode_frame(MOVE, params)
+
+
+def unload_frame(servo_ids: Sequence[int]) -> bytes:
+    return encode_frame(UNLOAD, bytes((len(servo_ids), *servo_ids)))
+
+
+def read_positions_frame(servo_ids: Sequence[int]) -> bytes:
+    return encode_frame(READ_POSITIONS, bytes((len(servo_ids), *servo_ids)))
+
+
+def battery_frame() -> bytes:
+    return encode_frame(BATTERY)
+
+
+def positions(frame: Frame) -> dict[int, int]:
+    """servo id -> position of a READ_POSITIONS reply (``n (id pos:int16)×n``)."""
+    params = frame.params
+    count = params[0] if params else 0
+    found = {}
+    for i in range(count):
+        entry = params[1 + 3 * i : 4 + 3 * i]
+        if len(entry) == 3:
+            found[entry[0]] = int.from_bytes(entry[1:], "little", signed=True)
+    return found
+
+
+# --- the board ---------------------------------------------------------------------------------
+def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection:
+    """The controller on ``lobot://hid`` or the UART ``lobot://PATH`` names (no echo on its
+    link: ``echo`` is moot)."""
+    if direction is not None:
+        raise refuse_direction(url, CAPABILITIES)
+    path = path_of(url)
+    if path.lower() == "hid":
+        port = HidReportPort.open_first(timeout_s)
+        return Connection(port, LobotBoard(port, hid=True), RealClock())
+    port = open_serial(path, timeout_s, BAUDRATE)
+    return Connection(port, LobotBoard(port), RealClock())
+
+
+def board_on(port) -> LobotBoard:
+    return LobotBoard(port)
+
+
+class LobotBoard:
+    """The LOBOT controller's commands on an open port (serial or :class:`HidReportPort`)."""
+
+    def __init__(self, port, *, hid: bool = False):
+        self.port = port
+        self.capabilities = HID_CAPABILITIES if hid else CAPABILITIES
+        self.bad_checksums = 0  # the controller checks the servos' replies itself
+        self.decoder = FrameDecoder()
+
+    def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
+        if command == Command.MOVE_TIME_WRITE:
+            return self.move_many([(servo_id, fields["pos_units"])], fields["time_ms"])
+        if command == Command.LOAD_OR_UNLOAD_WRITE and not fields["loaded"]:
+            frame = unload_frame([servo_id])
+            self.port.write(frame)
+            return len(frame)
+        raise UnsupportedByTransport(
+            f"{getattr(self.port, 'name', 'lobot')}: the LOBOT controller cannot load (torque "
+            "on) a servo; a move powers it again. "
+            "To load without moving, connect the servos to the raw LX bus"
+        )
+
+    def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
+        frame = move_frame(moves, time_ms)
+        self.port.write(frame)
+        return len(frame)
+
+    def read_positions(self, servo_ids: Sequence[int], timeout_s: float) -> dict[int, int] | None:
+        """Positions of the servos that answered; None if the board sent no reply.
+
+        ``timeout_s`` is per servo, counted after the request and the whole reply have crossed
+        the host link (at 9600 baud an 18-servo reply alone takes 61 ms)."""
+        port, request = self.port, read_positions_frame(servo_ids)
+        wanted = total = 5 + 3 * len(servo_ids)
+        link_s = (len(request) + total) * self.capabilities.host_byte_time_s
+        port.timeout = link_s + timeout_s * len(servo_ids)
+        port.flush()  # a move frame may still be leaving: the timeout starts after it
+        port.reset_input_buffer()
+        self.decoder.reset()
+        port.write(request)
+        # A read cut short (Ctrl-C during a health read) is still answered by the board after
+        # this request was sent: a reply naming other servos than asked is kept only until the
+        # right one comes (the board answers in order; one with silent servos left out is the
+        # last to come).
+        latest = None
+        for _ in range(MAX_READS_PER_ATTEMPT):
+            data = port.read(wanted)
+            for frame in self.decoder.feed(data):
+                if frame.command == READ_POSITIONS:
+                    latest = positions(frame)
+                    if set(latest) == set(servo_ids):
+                        return latest
+            if len(data) < wanted:
+                return latest
+            wanted = self.decoder.bytes_to_complete(total)
+        return latest
+
+    def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
+        return Attempt(self._read(command, servo_id, timeout_s))
+
+    def _read(self, command: Command, servo_id: int, timeout_s: float) -> dict[str, int] | None:
+        """POS_READ; ID_READ is answered by a position read of that ID (a servo is there)."""
+        if servo_id == BROADCAST_ID:
+            raise UnsupportedByTransport(
+                f"{getattr(self.port, 'name', 'lobot')}: the LOBOT controller cannot ask every "
+                "servo at once; name the servo's ID, or connect the servos to the raw LX bus"
+            )
+        found = self.read_positions([servo_id], timeout_s) or {}
+        if servo_id not in found:
+            return None
+        if command == Command.ID_READ:
+            return {"servo_id": servo_id}
+        return {"pos_units": found[servo_id]}
+
+    def stop_many(self, servo_ids: Sequence[int]) -> None:
+        """Hold where they are: read the positions, move there at once (no MOVE_STOP exists)."""
+        found = self.read_positions(servo_ids, SERVO_READ_S)
+        if not found:
+            log.error("LOBOT controller: no positions came back, so the servos were not held")
+            return
+        self.move_many(sorted(found.items()), 0)
+
+
+class HidReportPort:
+    """The LOBOT controller's USB HID link with the read/write methods of a serial port: a frame
+    goes out as one report (report ID 0 first); a report read in keeps the frame at its start."""
+
+    def __init__(self, device, timeout_s: float):
+        self.device = device
+        self.timeout = timeout_s
+        self.name = f"lobot://hid ({HID_VID:04x}:{HID_PID:04x})"
+        self._buffer = bytearray()
+
+    @classmethod
+    def open_first(cls, timeout_s: float) -> HidReportPort:
+        try:
+            import hid  # the `hidapi` package: pip install 'choreo[lobot]'
+        except ImportError:
+            raise PortError(
+                "lobot://hid needs the hidapi package: pip install 'choreo[lobot]' "
+                "(or use the controller's UART as lobot:///dev/ttyUSB0)"
+            ) from None
+        if not hasattr(hid, "device"):  # the `hid` package also installs a module named hid
+            raise PortError(
+                "lobot://hid needs the hidapi package (module hid with hid.device), not the "
+                "package named hid: pip install 'choreo[lobot]'"
+            )
+        device = hid.device()
+        try:
+            device.open(HID_VID, HID_PID)
+        except OSError as error:
+            raise PortError(
+                f"lobot://hid: no LOBOT controller ({HID_VID:04x}:{HID_PID:04x}) could be opened "
+                f"({error}); is it plugged in, and may you use /dev/hidraw* (a udev rule)?"
+            ) from error
+        return cls(device, timeout_s)
+
+    def write(self, data: bytes) -> int:
+        self.device.write(b"\x00" + bytes(data))
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        if len(self._buffer) < size:
+            # hidapi blocks without end for a timeout of 0 ms: wait at least 1 ms
+            report = bytes(self.device.read(HID_REPORT, max(1, round((self.timeout or 0) * 1000))))
+            if report[:2] == HEADER and len(report) >= 3:
+                self._buffer += report[: 2 + report[2]]  # the frame, not the report's padding
+        data = bytes(self._buffer[:size])
+        del self._buffer[:size]
+        return data
+
+    def reset_input_buffer(self) -> None:
+        self._buffer.clear()
+        while self.device.read(HID_REPORT, 1):  # what is waiting (0 ms would block)
+            pass
+
+    def reset_output_buffer(self) -> None:
+        """Reports are sent as they are written: nothing waits."""
+
+    def flush(self) -> None:
+        """Reports are sent as they are written: nothing waits."""
+
+    def close(self) -> None:
+        self.device.close()

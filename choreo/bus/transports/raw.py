@@ -1,0 +1,144 @@
+"""The raw LX bus: LX packets written as they are on a serial port (a BusLinker-style USB
+adapter, a Pi / Jetson UART with GPIO direction lines, any pyserial URL).
+
+Every LX command, staged moves and a broadcast MOVE_START. Reads skip whatever is not their
+reply: on a one-wire bus the echoes of earlier writes and of the request itself come back first
+(:class:`EchoMode` says how to treat them), and stray bytes or other packets may sit in between.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+from collections.abc import Sequence
+
+import serial
+
+from choreo.bus.protocol import (
+    BROADCAST_ID,
+    SPECS,
+    Command,
+    Packet,
+    PacketDecoder,
+    decode_reply,
+    encode_request,
+)
+from choreo.bus.transports import RAW, Attempt, Capabilities, Connection, open_serial
+from choreo.core.clock import Clock, RealClock
+
+log = logging.getLogger(__name__)
+
+BAUDRATE = 115200
+CAPABILITIES = RAW
+ECHO_REPORT_BYTES = 16  # how much of what came back instead of an echo an error shows
+
+
+class EchoMode(enum.Enum):
+    NONE = "none"  # the adapter does not echo (vendor BusLinker, Raspberry Pi HATs)
+    DISCARD = "discard"  # one-wire wiring: a reply counts only after the request's own echo
+    AUTO = "auto"  # skip echoes if they show up
+    # In every mode, echoes of earlier writes and stray bytes before a reply are skipped.
+
+
+def connect(
+    port: str | serial.SerialBase,
+    timeout_s: float,
+    direction=None,
+    echo=EchoMode.AUTO,
+    clock: Clock | None = None,
+) -> Connection:
+    """The raw bus on a device path or pyserial URL (or a port opened already), optionally
+    behind GPIO direction lines; ``clock``: what the port's timeouts run on (real time, unless
+    the port is an emulator's)."""
+    if isinstance(port, str):
+        port = open_serial(port, timeout_s, BAUDRATE)
+    if direction is not None:
+        from choreo.bus.transports.direction import DirectionSerial, direction_lines
+
+        port = DirectionSerial(port, direction_lines(direction))
+    clock = clock or RealClock()
+    return Connection(port, RawBus(port, EchoMode(echo), clock), clock)
+
+
+class RawBus:
+    """LX packets on a byte port; ``ServoBus`` holds the lock around every call."""
+
+    capabilities: Capabilities = CAPABILITIES
+
+    def __init__(self, port, echo: EchoMode = EchoMode.AUTO, clock: Clock | None = None):
+        self.port = port
+        self.echo = echo
+        self.clock = clock or RealClock()  # a read's deadline, on the clock the port runs on
+        self.decoder = PacketDecoder()
+
+    @property
+    def bad_checksums(self) -> int:
+        return self.decoder.bad_checksums
+
+    def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
+        packet = encode_request(command, servo_id, **fields)
+        self.port.write(packet)  # its echo, if any, is skipped by the next request
+        return len(packet)
+
+    def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
+        data = b"".join(
+            encode_request(Command.MOVE_TIME_WRITE, i, pos_units=p, time_ms=time_ms)
+            for i, p in moves
+        )
+        self.port.write(data)  # their echoes, if any, are skipped by the next request
+        return len(data)
+
+    def stop_many(self, servo_ids: Sequence[int]) -> None:
+        """One broadcast MOVE_STOP stops every servo at once, whichever are named."""
+        self.port.write(encode_request(Command.MOVE_STOP, BROADCAST_ID))
+
+    def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
+        """One attempt: let earlier writes leave, flush, write, then read until the expected reply
+        or until ``timeout_s`` has passed.
+
+        Whatever else arrives meanwhile (the echoes of earlier writes and of this request on a
+        one-wire bus, stray bytes, other packets) is skipped, so a read after any number of
+        writes works in every echo mode. Only a read that came back short ends the attempt
+        early, and pyserial returns short only once its timeout has passed.
+        """
+        port, packet = self.port, encode_request(command, servo_id)
+        port.flush()  # earlier writes (and so their echoes) are on the wire before the flush
+        port.reset_input_buffer()
+        self.decoder.reset()
+        port.write(packet)
+        deadline_s = self.clock.now() + timeout_s
+        reply_len = SPECS[command].read_reply_len + 3
+        echo_seen = self.echo is not EchoMode.DISCARD  # DISCARD: a reply only after our echo
+        wanted, wait_s, overdue = reply_len, timeout_s, False
+        received = bytearray()
+        while True:
+            port.timeout = wait_s
+            data = port.read(wanted)
+            received += data[: ECHO_REPORT_BYTES - len(received)]  # for an error message
+            for reply in self.decoder.feed(data):
+                if reply.encode() == packet:
+                    echo_seen = True  # the echo of our own request
+                elif echo_seen and _is_reply(reply, command, servo_id):
+                    return Attempt(decode_reply(command, reply), echo_seen, bytes(received))
+            if len(data) < wanted or overdue:
+                break  # the port waited out the rest of the timeout
+            wait_s = deadline_s - self.clock.now()
+            if wait_s > 0:
+                # Ask only for the rest of the frame begun: asking for a whole reply again after
+                # an echo or a stray packet would wait for bytes that never come.
+                wanted = self.decoder.bytes_to_complete(reply_len)
+            else:  # the host ran late (descheduled): look at what has arrived, without waiting
+                overdue, wait_s, wanted = True, 0, max(port.in_waiting, 1)
+        return Attempt(None, echo_seen, bytes(received))
+
+
+def _is_reply(reply: Packet, command: Command, servo_id: int) -> bool:
+    expected_len = SPECS[command].reply_len
+    is_match = (
+        reply.command == command
+        and len(reply.params) + 3 == expected_len
+        and (servo_id == BROADCAST_ID or reply.servo_id == servo_id)
+    )
+    if not is_match:
+        log.debug("skipping unexpected packet %s", reply)
+    return is_match

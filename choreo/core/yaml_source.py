@@ -1,0 +1,317 @@
+"""YAML with line:col marks, typed reading of its values, and the list of problems found in it.
+
+Robot and motion files are read through ``yaml.compose`` (the safe loader's node tree), so every
+value keeps where it was written. Readers never stop at the first problem: each check reports
+into a shared ``Problems`` list and returns ``None`` for a value it could not accept, and the
+caller raises one ``SourceError`` with everything at the end.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from choreo.errors import SourceError
+
+Node = yaml.Node
+
+
+@dataclass(frozen=True)
+class SourceLocation:
+    """Where a value came from, for messages: ``path:line:col``."""
+
+    path: Path
+    line: int  # 1-based
+    col: int  # 1-based
+    # for a keyframe of an included file: the include entries that brought it in, innermost
+    # first (not part of the place itself: equal places compare equal however reached)
+    included_at: tuple[SourceLocation, ...] = field(default=(), compare=False)
+
+    def __str__(self) -> str:
+        return f"{self.path}:{self.line}:{self.col}"
+
+    @property
+    def through(self) -> str:
+        """`` (included at b.yaml:4:5, included at a.yaml:7:5)``, or ``""``."""
+        if not self.included_at:
+            return ""
+        return " (" + ", ".join(f"included at {entry}" for entry in self.included_at) + ")"
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One ``key: value`` of a YAML mapping."""
+
+    key: str
+    key_node: Node
+    value: Node
+
+
+class Problems:
+    """Messages ``path:line:col: what is wrong and what would be valid``, collected."""
+
+    def __init__(self) -> None:
+        self._lines: list[str] = []
+
+    def add(self, where: SourceLocation, message: str) -> None:
+        self.extend([f"{where}: {message}"])
+
+    def extend(self, lines: Iterable[str]) -> None:
+        for line in lines:
+            if line not in self._lines:  # a bad default is read once per joint: say it once
+                self._lines.append(line)
+
+    @property
+    def messages(self) -> list[str]:
+        """Grouped by file (in the order files were first reported), by line:col within one."""
+        files: dict[str, int] = {}
+
+        def place(line: str) -> tuple[int, int, int]:
+            match = _PREFIX.match(line)
+            path, row, col = match.groups() if match else ("", "0", "0")
+            return files.setdefault(path, len(files)), int(row), int(col)
+
+        return sorted(self._lines, key=place)
+
+    def __bool__(self) -> bool:
+        return bool(self._lines)
+
+
+_PREFIX = re.compile(r"^(.+?):(\d+):(\d+): ")
+
+
+def did_you_mean(name: str, choices: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``choices``, or ``""`` when none is close."""
+    close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def fmt(value: float) -> str:
+    """A number for messages: ``90``, ``-12.5``, ``0.333333``."""
+    return f"{value:g}"
+
+
+# libyaml's parser (same marks, same safety) is several times faster where PyYAML has it.
+_SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+# A 2,000-keyframe motion for 18 servos is well under 1 MiB; reading stops here, so a wrong path
+# (/dev/zero, a video) is refused instead of filling the memory.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+
+
+def parse_yaml_file(path: Path) -> Node | None:
+    """The node tree of a one-document YAML file (``None`` if empty); ``SourceError`` otherwise."""
+    try:
+        with open(path, "rb") as file:
+            data = file.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise SourceError(
+                f"{path}:1:1: cannot read the file: it is larger than "
+                f"{MAX_FILE_BYTES // (1024 * 1024)} MiB, the most a robot or motion file may be"
+            )
+        text = data.decode("utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
+        raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
+    try:
+        return yaml.compose(text, Loader=_SAFE_LOADER)
+    except yaml.MarkedYAMLError as error:
+        raise SourceError(_syntax_message(path, error)) from None
+    except yaml.YAMLError as error:  # unmarked: e.g. a character YAML does not allow
+        raise SourceError(f"{path}:1:1: not valid YAML: {error}") from None
+
+
+def _syntax_message(path: Path, error: yaml.MarkedYAMLError) -> str:
+    mark = error.problem_mark or error.context_mark
+    line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+    message = f"{path}:{line}:{col}: not valid YAML: {error.problem}"
+    if error.context and error.context_mark:
+        message += f" ({error.context} at line {error.context_mark.line + 1})"
+    return message
+
+
+def describe(node: Node) -> str:
+    """What a node holds, in user words, for "got ..." in messages."""
+    if isinstance(node, yaml.MappingNode):
+        return "a mapping"
+    if isinstance(node, yaml.SequenceNode):
+        return "a list"
+    if node.tag == "tag:yaml.org,2002:null":
+        return "nothing (null)"
+    return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value
+
+
+class Reader:
+    """Typed access to the nodes of one file; every refusal is reported with the node's place."""
+
+    def __init__(self, path: Path, problems: Problems):
+        self.path = path
+        self.problems = problems
+        self._constructor = yaml.constructor.SafeConstructor()
+
+    def where(self, node: Node) -> SourceLocation:
+        return SourceLocation(self.path, node.start_mark.line + 1, node.start_mark.column + 1)
+
+    def report(self, node: Node, message: str) -> None:
+        self.problems.add(self.where(node), message)
+
+    def entries(self, node: Node, what: str) -> list[Entry] | None:
+        """The ``key: value`` pairs of a mapping with string keys; duplicates are reported."""
+        if not isinstance(node, yaml.MappingNode):
+            self.report(node, f"{what} must be a mapping (key: value lines), got {describe(node)}")
+            return None
+        entries: dict[str, Entry] = {}
+        for key_node, value in node.value:
+            if not (isinstance(key_node, yaml.ScalarNode) and key_node.tag.endswith(":str")):
+                self.report(key_node, f"{what}: keys must be names, got {describe(key_node)}")
+            elif key_node.value in entries:
+                first = entries[key_node.value].key_node.start_mark.line + 1
+                self.report(
+                    key_node,
+                    f"{what}: {key_node.value!r} is given twice (first at line {first}); keep one",
+                )
+            else:
+                entries[key_node.value] = Entry(key_node.value, key_node, value)
+        return list(entries.values())
+
+    def fields(
+        self, node: Node, what: str, allowed: Sequence[str], required: Sequence[str] = ()
+    ) -> dict[str, Entry] | None:
+        """A mapping with a fixed set of keys: unknown keys and missing required keys reported."""
+        entries = self.entries(node, what)
+        if entries is None:
+            return None
+        known = {}
+        for entry in entries:
+            if entry.key in allowed:
+                known[entry.key] = entry
+            else:
+                self.report(
+                    entry.key_node,
+                    f"unknown key {entry.key!r} in {what}"
+                    f"{did_you_mean(entry.key, allowed)}; valid keys: {', '.join(allowed)}",
+                )
+        for key in required:
+            if key not in known:
+                self.report(node, f"{what} is missing {key!r} (required)")
+        return known
+
+    def sequence(self, node: Node, what: str) -> list[Node] | None:
+        if not isinstance(node, yaml.SequenceNode):
+            self.report(
+                node, f"{what} must be a list (lines starting with '- '), got {describe(node)}"
+            )
+            return None
+        return list(node.value)
+
+    def _scalar(self, node: Node) -> object:
+        """The Python value of a scalar; the node itself for anything else (reported as such)."""
+        if not isinstance(node, yaml.ScalarNode):
+            return node
+        try:
+            return self._constructor.construct_object(node)
+        except yaml.constructor.ConstructorError:  # an unknown !tag
+            return node
+
+    def number(
+        self,
+        node: Node,
+        what: str,
+        *,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+    ) -> float | None:
+        """A finite number in [low, high] (``(low, high]`` with ``low_open``)."""
+        value = self._scalar(node)
+        valid = _range_words(low, high, low_open)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            self.report(
+                node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
+            )
+            return None
+        below = low is not None and (value <= low if low_open else value < low)
+        if below or (high is not None and value > high):
+            self.report(node, f"{what} must be{valid}, got {fmt(value)}")
+            return None
+        return float(value)
+
+    def integer(
+        self, node: Node, what: str, *, low: int | None = None, high: int | None = None
+    ) -> int | None:
+        value = self._scalar(node)
+        valid = _range_words(low, high, False)
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.report(node, f"{what} must be a whole number{valid}, got {describe(node)}")
+            return None
+        if (low is not None and value < low) or (high is not None and value > high):
+            self.report(node, f"{what} must be{valid}, got {value}")
+            return None
+        return value
+
+    def boolean(self, node: Node, what: str) -> bool | None:
+        value = self._scalar(node)
+        if not isinstance(value, bool):
+            self.report(node, f"{what} must be true or false, got {describe(node)}")
+            return None
+        return value
+
+    def string(self, node: Node, what: str, *, optional: bool = False) -> str | None:
+        """A non-empty text; with ``optional``, YAML null is accepted as ``None`` too."""
+        if optional and node.tag == "tag:yaml.org,2002:null":
+            return None
+        value = self._scalar(node)
+        if not isinstance(value, str) or not value:
+            self.report(
+                node, f"{what} must be a text{' or null' if optional else ''}, got {describe(node)}"
+            )
+            return None
+        return value
+
+    def choice(self, node: Node, what: str, choices: Sequence[str]) -> str | None:
+        value = self.string(node, what)
+        if value is not None and value not in choices:
+            self.report(
+                node,
+                f"{what} {value!r} is not one of {', '.join(choices)}"
+                f"{did_you_mean(value, choices)}",
+            )
+            return None
+        return value
+
+
+# YAML 1.1 (what PyYAML reads) takes an exponent as a number only with a dot before it and a
+# sign in it: 1.0e+12 is a number, 1e12 and 1.0e12 are text.
+_TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
+
+
+def _exponent_hint(node: Node) -> str:
+    """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
+    match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
+    if match is None or node.tag != "tag:yaml.org,2002:str":
+        return ""
+    whole, fraction, sign, exponent = match.groups()
+    number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"
+    return f" (YAML reads {node.value} as text: write {number})"
+
+
+def _range_words(low: float | None, high: float | None, low_open: bool) -> str:
+    """`` in 0..1000``, `` in (0, 1]``, `` >= 0``, `` > 0``, or ``""``."""
+    if low is not None and high is not None:
+        return f" in ({fmt(low)}, {fmt(high)}]" if low_open else f" in {fmt(low)}..{fmt(high)}"
+    if low is not None:
+        return f" > {fmt(low)}" if low_open else f" >= {fmt(low)}"
+    if high is not None:
+        return f" <= {fmt(high)}"
+    return ""

@@ -1,0 +1,567 @@
+"""Motion files: ``motions/<robot>/*.yaml`` -> a validated, flattened ``Motion``.
+
+Includes are expanded and mirrored here; every keyframe carries a full target vector (degrees,
+in the robot's joint order) and where it was written, so later stages can point at the line.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Literal
+
+import yaml
+
+from choreo.core.file_shape import mapping_shape
+from choreo.core.yaml_source import (
+    Entry,
+    Node,
+    Problems,
+    Reader,
+    SourceLocation,
+    describe,
+    did_you_mean,
+    fmt,
+    parse_yaml_file,
+)
+from choreo.errors import SourceError
+from choreo.motion.music_block import BeatRef, Music, read_beat_time, read_music
+from choreo.motion.scene import Prop, StartPosture, read_props, read_start
+from choreo.motion.spatial import Spatial, expand_spatial, has_key, read_body, read_gait, read_sites
+from choreo.motion.timing import backward_times, known_arrivals_s, played_keyframes
+from choreo.robot.lookup import find_robot_file
+from choreo.robot.robot_file import load_robot, read_angles
+from choreo.robot.types import Robot, mirror_pose
+
+
+@dataclass(frozen=True)
+class Keyframe:
+    targets_deg: tuple[float, ...]  # every joint, robot joint order (partial poses filled in)
+    where: SourceLocation  # the keyframe's line in its file (the included file for includes)
+    t_s: float | None = None  # absolute time from the motion start, before speed scaling
+    after_s: float | None = None  # seconds after the previous keyframe (at most one of t/after)
+    hold_s: float = 0.0  # stay this long once reached
+    stop: bool = False  # come to rest here (implied by hold > 0, and at the ends)
+    velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
+    label: str = ""  # pose name, or "" for an inline pose
+    beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
+
+
+@dataclass(frozen=True)
+class Motion:
+    name: str
+    path: Path
+    robot: Robot
+    keyframes: tuple[Keyframe, ...]
+    description: str = ""
+    speed: float = 1.0  # time scale: 2.0 plays twice as fast
+    repeat: int = (
+        1  # times to play; the planner wraps seamlessly from the last keyframe to the first
+    )
+    start: StartPosture = StartPosture.STANDING  # how the robot rests before it (preview)
+    props: tuple[Prop, ...] = ()  # boxes around the robot (preview)
+    music: Music | None = None  # the song it dances to (keyframe times are already in seconds)
+
+
+# --- reading motion files ----------------------------------------------------------------------
+
+# repeat is unrolled: every played keyframe is planned, compiled and held in memory, so their
+# number is bounded (a file can't ask for hours of planning and gigabytes of ticks). Measured:
+# 4,000 played keyframes of the 18-servo hexapod take 5 s and 0.47 GB to plan.
+MAX_PLAYED_KEYFRAMES = 10_000
+
+
+def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | None:
+    """The problem with playing ``keyframes`` keyframes ``repeat`` times, or ``None``."""
+    if keyframes * repeat <= MAX_PLAYED_KEYFRAMES:
+        return None
+    return (
+        f"{what} {repeat} x {keyframes} keyframe(s) = {keyframes * repeat} keyframes to play; "
+        f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: {what} at most "
+        f"{MAX_PLAYED_KEYFRAMES // keyframes}"
+    )
+
+
+# The keys of each mapping, from the JSON Schema (the one description of the file's shape).
+MOTION = mapping_shape("motion")
+KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
+INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
+GAIT = mapping_shape("motion", "#/$defs/gaitBlock")
+TIMING_KEYS = ("t", "after", "beat", "bar")  # bar and beat together are one time
+HOME_POSE = "home"
+
+
+@dataclass(frozen=True)
+class _Step:
+    """A keyframe as written, before partial poses are filled in: only the joints it names."""
+
+    angles_deg: Mapping[str, float]
+    where: SourceLocation
+    t_s: float | None
+    after_s: float | None
+    hold_s: float
+    stop: bool
+    velocity_scale: float
+    label: str
+    t_where: SourceLocation | None  # where its t was written, while it still has one
+    space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
+    beat: BeatRef | None = None  # its t was written as a beat or bar
+
+
+@dataclass(frozen=True)
+class _Include:
+    """One link of an include chain: the file and the include entry that brought it in."""
+
+    path: Path
+    entry: SourceLocation | None  # None for the motion file itself
+    music: Music | None = None  # the including motion's music, inherited along the chain
+
+
+def load_motion(path: str | Path) -> Motion:
+    """Read a motion file and its robot; expand includes; fill partial poses.
+
+    Every problem of the file, its includes and its robot is reported at once in one
+    ``SourceError`` whose messages start ``path:line:col:``.
+    """
+    path = Path(path)
+    problems = Problems()
+    motion = _read_motion(Reader(path, problems), parse_yaml_file(path))
+    if motion is None or problems:
+        raise SourceError(problems.messages)
+    return motion
+
+
+def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
+    fields = _motion_fields(reader, root)
+    if fields is None:
+        return None
+    robot = _load_robot_of(reader, fields["robot"]) if "robot" in fields else None
+    name = reader.string(fields["name"].value, "name") if "name" in fields else reader.path.stem
+    description = (
+        reader.string(fields["description"].value, "description") if "description" in fields else ""
+    )
+    speed = (
+        reader.number(fields["speed"].value, "speed", low=0, low_open=True)
+        if "speed" in fields
+        else 1.0
+    )
+    repeat = reader.integer(fields["repeat"].value, "repeat", low=1) if "repeat" in fields else 1
+    start = (
+        read_start(reader, fields["start"].value) if "start" in fields else StartPosture.STANDING
+    )
+    props = read_props(reader, fields["props"].value) if "props" in fields else ()
+    music = read_music(reader, fields["music"]) if "music" in fields else None
+    if music is not None and speed not in (None, 1.0):
+        reader.report(
+            fields["speed"].value,
+            f"speed {fmt(speed)} would leave the music behind (the song plays at its own "
+            "tempo); remove speed, or the music block",
+        )
+    if robot is None or "keyframes" not in fields:
+        return None
+    chain = (_Include(reader.path, None, music),)
+    steps = _read_steps(reader, fields["keyframes"], robot, chain)
+    if (
+        name is None
+        or description is None
+        or speed is None
+        or repeat is None
+        or start is None
+        or props is None
+        or reader.problems
+    ):
+        return None
+    steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
+    if reader.problems:
+        return None
+    keyframes = _fill_poses(robot, steps)
+    unrolled = too_many_played(len(keyframes), repeat)
+    if unrolled is not None:
+        reader.report(fields["repeat"].value, unrolled)
+        return None
+    return Motion(
+        name=name,
+        path=reader.path,
+        robot=robot,
+        keyframes=keyframes,
+        description=description,
+        speed=speed,
+        repeat=repeat,
+        start=start,
+        props=props,
+        music=music,
+    )
+
+
+def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None:
+    if root is None:
+        reader.problems.add(
+            SourceLocation(reader.path, 1, 1),
+            "the file is empty; a motion needs robot and keyframes",
+        )
+        return None
+    return reader.fields(root, "the motion file", MOTION.keys, required=MOTION.required)
+
+
+def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
+    robot_path = _find_robot_of(reader, entry)
+    if robot_path is None:
+        return None
+    try:
+        return load_robot(robot_path)
+    except SourceError as error:
+        reader.report(
+            entry.value, f"robot {robot_path} has problems (listed after this line); fix them first"
+        )
+        reader.problems.extend(error.problems)
+        return None
+
+
+def _find_robot_of(reader: Reader, entry: Entry) -> Path | None:
+    ref = reader.string(entry.value, "robot")
+    if ref is None:
+        return None
+    try:
+        return find_robot_file(ref, relative_to=reader.path)
+    except LookupError as error:
+        reader.report(entry.value, str(error))
+        return None
+
+
+def _read_steps(
+    reader: Reader, entry: Entry, robot: Robot, chain: tuple[_Include, ...]
+) -> list[_Step]:
+    items = reader.sequence(entry.value, "keyframes")
+    if items is None:
+        return []
+    if not items:
+        reader.report(entry.key_node, "keyframes: the motion has no keyframes; give at least one")
+    steps: list[_Step] = []
+    for item in items:
+        if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
+            steps.extend(_read_include(reader, item, robot, chain))
+        elif has_key(item, "gait"):
+            steps += _read_gait_block(reader, item)
+        else:
+            step = _read_keyframe(reader, item, robot, chain[0].music)
+            if step is not None and len(chain) > 1:  # say through which includes it came
+                entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
+                step = replace(step, where=replace(step.where, included_at=entries))
+            steps += [step] if step is not None else []
+    _check_times(reader, steps)
+    return steps
+
+
+def _read_keyframe(reader: Reader, item: Node, robot: Robot, music: Music | None) -> _Step | None:
+    fields = reader.fields(item, "a keyframe", KEYFRAME.keys)
+    if fields is None:
+        return None
+    space = _read_space(reader, item, fields)
+    if space is False:
+        return None
+    pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
+    timing = _read_timing(reader, fields, music)
+    hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
+    stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
+    velocity = (
+        reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True)
+        if "velocity" in fields
+        else 1.0
+    )
+    if hold_s and stop is False:
+        reader.report(
+            fields["stop"].value,
+            f"stop: false contradicts hold {fmt(hold_s)}: a hold "
+            f"always comes to rest; remove stop: false",
+        )
+    if (
+        pose is None
+        or timing is None
+        or hold_s is None
+        or velocity is None
+        or "stop" in fields
+        and stop is None
+    ):
+        return None
+    angles, label = pose
+    t_s, after_s, beat = timing
+    return _Step(
+        angles,
+        reader.where(item),
+        t_s,
+        after_s,
+        hold_s=hold_s,
+        stop=bool(stop or hold_s),
+        velocity_scale=velocity,
+        label=label,
+        t_where=_t_where(reader, fields),
+        space=space,
+        beat=beat,
+    )
+
+
+def _read_space(
+    reader: Reader, item: Node, fields: dict[str, Entry]
+) -> Spatial | None | Literal[False]:
+    """The keyframe's sites: or body: (at most one), None if neither, False if refused."""
+    given = [key for key in ("sites", "body") if key in fields]
+    if not given and "pose" not in fields:
+        reader.report(item, "a keyframe needs pose, sites or body (or a mix of pose and one)")
+        return False
+    if len(given) > 1:
+        reader.report(fields["body"].key_node, "give sites or body in a keyframe, not both")
+        return False
+    if not given:
+        return None
+    value = fields[given[0]].value
+    space = read_sites(reader, value) if given[0] == "sites" else read_body(reader, value)
+    return False if space is None else space
+
+
+def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
+    fields = reader.fields(item, "a gait block (only gait: {...})", GAIT.keys)
+    spec = read_gait(reader, fields["gait"].value) if fields and "gait" in fields else None
+    if spec is None:
+        return []
+    return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
+
+
+def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
+    """Where an absolute time (t, beat or bar) was written."""
+    key = next((k for k in ("t", "beat", "bar") if k in fields), None)
+    return reader.where(fields[key].value) if key else None
+
+
+def _read_timing(
+    reader: Reader, fields: dict[str, Entry], music: Music | None
+) -> tuple[float | None, float | None, BeatRef | None] | None:
+    """(t_s, after_s, beat) of a keyframe or include entry; None if refused (reported).
+
+    A beat or bar becomes its t (seconds of the music's beat grid)."""
+    given = [fields[k] for k in TIMING_KEYS if k in fields]
+    if len({"t" if e.key == "t" else "after" if e.key == "after" else "beat" for e in given}) > 1:
+        later = max(given, key=lambda e: e.key_node.start_mark.index)
+        beat = ", beat/bar (a beat of the music)" if "beat" in fields or "bar" in fields else ""
+        reader.report(
+            later.key_node,
+            "give at most one of t (arrival time from the motion "
+            f"start){beat} and after (delay after the previous keyframe); remove one",
+        )
+        return None
+    if "beat" in fields or "bar" in fields:
+        resolved = read_beat_time(reader, fields, music)
+        return None if resolved is None else (resolved[0], None, resolved[1])
+    t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
+    after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
+    if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
+        return None
+    return t_s, after_s, None
+
+
+def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float], str] | None:
+    """A pose name or a (partial) ``joint: degrees`` mapping, with its label."""
+    if isinstance(node, yaml.ScalarNode) and node.tag.endswith(":str"):
+        if node.value in robot.poses:
+            return dict(robot.poses[node.value]), node.value
+        reader.report(
+            node,
+            f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
+            f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
+            f"joint angles as {{joint: degrees}}",
+        )
+        return None
+    if not isinstance(node, yaml.MappingNode):
+        reader.report(
+            node,
+            f"pose must be a pose name ({', '.join(robot.poses)}) or a mapping "
+            f"joint: degrees, got {describe(node)}",
+        )
+        return None
+    angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
+    if angles is None:
+        return None
+    accepted = {name: angle for name, angle in angles.items() if angle is not None}
+    if len(accepted) < len(angles):  # a refused angle was reported
+        return None
+    return accepted, ""
+
+
+def _read_include(
+    reader: Reader, item: Node, robot: Robot, chain: tuple[_Include, ...]
+) -> list[_Step]:
+    what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
+    fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
+    if fields is None:
+        return []
+    relative = reader.string(fields["include"].value, "include")
+    mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
+    timing = _read_timing(reader, fields, chain[0].music)
+    if relative is None or mirror is None or timing is None:
+        return []
+    path = reader.path.parent / relative
+    link = _Include(path, reader.where(fields["include"].value), chain[0].music)
+    if any(path.resolve() == earlier.path.resolve() for earlier in chain):
+        files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
+        reader.report(
+            fields["include"].value,
+            f"include cycle: {files}; a motion cannot include itself, directly or through others",
+        )
+        return []
+    if not path.is_file():
+        reader.report(
+            fields["include"].value,
+            f"include: {path} does not exist (paths are relative to this file's folder)",
+        )
+        return []
+    steps = _block(
+        reader,
+        _read_included(reader.problems, robot, (*chain, link)),
+        timing,
+        _t_where(reader, fields),
+    )
+    if mirror:
+        steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
+    return steps
+
+
+def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]) -> list[_Step]:
+    """The steps of an included file, whose robot must be ``robot``; no speed, repeat, start or
+    props."""
+    link = chain[-1]
+    reader = Reader(link.path, problems)
+    try:
+        fields = _motion_fields(reader, parse_yaml_file(link.path))
+    except SourceError as error:
+        problems.extend(error.problems)
+        return []
+    if fields is None:
+        return []
+    for key in ("name", "description"):
+        if key in fields:
+            reader.string(fields[key].value, key)
+    for key in ("speed", "repeat", "start", "props"):
+        if key in fields:
+            reader.report(
+                fields[key].key_node,
+                f"{key} is not allowed in an included file "
+                f"(included at {link.entry}): the including "
+                f"motion's {key} applies; remove it",
+            )
+    robot_path = _find_robot_of(reader, fields["robot"]) if "robot" in fields else None
+    if robot_path is not None and robot_path.resolve() != robot.path.resolve():
+        reader.report(
+            fields["robot"].value,
+            f"an included file must use the including motion's robot "
+            f"{robot.name!r} ({robot.path}), not {robot_path} (included at {link.entry})",
+        )
+        return []
+    if robot_path is None or "keyframes" not in fields:
+        return []
+    return _read_steps(reader, fields["keyframes"], robot, chain)
+
+
+def _block(
+    reader: Reader,
+    steps: list[_Step],
+    timing: tuple[float | None, float | None, BeatRef | None],
+    t_where: SourceLocation | None,
+) -> list[_Step]:
+    """Included steps as a block: its t values become after delays (keeping their spacing), and
+    the include entry's timing, if any, replaces the first step's (``t_where``: its t's place).
+
+    The included file's time starts when the keyframe before the include is left; an untimed
+    first step is the origin of its t values.
+    """
+    if not steps:
+        return []
+    arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
+    first = steps[0]
+    own = first.t_s if first.t_s is not None else first.after_s
+    t_s, after_s, beat = timing if timing[:2] != (None, None) else (None, own, None)
+    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where, beat=beat)]
+    for index, step in enumerate(steps[1:], start=1):
+        previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
+        if step.t_s is None:
+            block.append(step)
+        elif previous_arrival_s is None:
+            reader.problems.add(
+                step.t_where or step.where,  # a step with a t knows where it was written
+                "t in an included file becomes an after delay, so "
+                f"the keyframe before it ({previous.where}) needs a "
+                "t or after too; give it one, or use after here",
+            )
+        else:
+            after_s = step.t_s - previous_arrival_s - previous.hold_s
+            block.append(replace(step, t_s=None, after_s=after_s, t_where=None, beat=None))
+    return block
+
+
+def _mirror_block(
+    reader: Reader, mirror_node: Node, robot: Robot, steps: list[_Step]
+) -> list[_Step]:
+    """Steps mirrored with the robot's mirror pairs; mirrored angles must be inside the limits."""
+    if not robot.mirror_pairs:
+        reader.report(
+            mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' to {robot.path}"
+        )
+        return steps
+    mirrored: list[_Step] = []
+    for step in steps:
+        if step.space is not None:
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} is given in space (sites, body or "
+                f"gait), which cannot be mirrored; mirror a file of joint keyframes",
+            )
+        angles = mirror_pose(robot, step.angles_deg)
+        for outside in robot.limit_violations(angles):
+            reader.report(
+                mirror_node,
+                f"mirror: the keyframe at {step.where} mirrored puts {outside.joint.name} at "
+                f"{fmt(outside.angle_deg)}°, outside its limits {outside.joint.limits.range_text}",
+            )
+        mirrored.append(replace(step, angles_deg=angles, label=""))
+    return mirrored
+
+
+def _check_times(reader: Reader, steps: list[_Step]) -> None:
+    """t values increase along the file, counting the holds and after delays in between."""
+    for backward in backward_times(played_keyframes(steps)):
+        step = steps[backward.index]
+        reader.problems.add(
+            step.t_where or step.where,  # a step with a t knows where it was written
+            f"{_time_text(backward.t_s, step.beat)} goes backwards: the keyframe "
+            f"before it ({steps[backward.index - 1].where}) cannot be "
+            f"left before {fmt(backward.earliest_leave_s)} s; t values must "
+            f"increase along the file",
+        )
+
+
+def _time_text(t_s: float, beat: BeatRef | None) -> str:
+    """'t 2.5', or for a keyframe written on a beat 'beat 6 (t 2.500)'."""
+    if beat is None:
+        return f"t {fmt(t_s)}"
+    return f"{beat.describe(beat.grid.beat_at(t_s))} (t {t_s:.3f})"
+
+
+def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
+    """Full target vectors: a joint not named keeps its previous target (home at first)."""
+    current = dict(robot.poses[HOME_POSE])
+    keyframes = []
+    for step in steps:
+        current.update(step.angles_deg)
+        keyframes.append(
+            Keyframe(
+                targets_deg=tuple(current[name] for name in robot.joint_names),
+                where=step.where,
+                t_s=step.t_s,
+                after_s=step.after_s,
+                hold_s=step.hold_s,
+                stop=step.stop,
+                velocity_scale=step.velocity_scale,
+                label=step.label,
+                beat=step.beat,
+            )
+        )
+    return tuple(keyframes)

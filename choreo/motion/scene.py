@@ -1,0 +1,106 @@
+"""What a motion says about its surroundings: how the robot lies or stands when it starts
+(``start:``) and the simple props around it (``props:``), read from the motion file.
+
+Only the preview uses them (the player starts wherever the robot is); they live here, without
+MuJoCo, so that reading a motion file never imports the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from choreo.core.yaml_source import Node, Reader
+
+
+class StartPosture(str, Enum):
+    """How a free-floating robot rests on the floor before the motion.
+
+    STANDING: upright on its feet (the MJCF's ``home`` orientation). LYING: that orientation but
+    resting on whatever is lowest (a hexapod on its belly). LYING_FRONT / LYING_BACK: turned
+    90° about its side-to-side axis, face down / face up (a humanoid on the floor).
+    """
+
+    STANDING = "standing"
+    LYING = "lying"
+    LYING_FRONT = "lying_front"
+    LYING_BACK = "lying_back"
+
+    @property
+    def lying(self) -> bool:
+        return self is not StartPosture.STANDING
+
+    @property
+    def pitch_deg(self) -> float:
+        """The turn about the world y axis from the ``home`` orientation (x = forward)."""
+        return {StartPosture.LYING_FRONT: 90.0, StartPosture.LYING_BACK: -90.0}.get(self, 0.0)
+
+
+PROP_KEYS = ("name", "size_m", "at_m", "yaw_deg")
+
+
+@dataclass(frozen=True)
+class Prop:
+    """A box standing in the world: ``at_m`` is the centre of its bottom face (z = 0 on the
+    floor), ``size_m`` its full length, width and height, ``yaw_deg`` its turn about z."""
+
+    name: str
+    size_m: tuple[float, float, float]
+    at_m: tuple[float, float, float]
+    yaw_deg: float = 0.0
+
+
+def read_start(reader: Reader, node: Node) -> StartPosture | None:
+    value = reader.choice(node, "start", [p.value for p in StartPosture])
+    return None if value is None else StartPosture(value)
+
+
+def read_props(reader: Reader, node: Node) -> tuple[Prop, ...] | None:
+    """``props:`` a list of boxes; every problem reported, None if any."""
+    items = reader.sequence(node, "props")
+    if items is None:
+        return None
+    props, names, ok = [], set(), True
+    for index, item in enumerate(items):
+        prop = _read_prop(reader, item, f"props[{index}]")
+        if prop is not None and prop.name in names:
+            reader.report(item, f"props[{index}]: the name {prop.name!r} is used twice")
+            prop = None
+        if prop is None:
+            ok = False
+            continue
+        names.add(prop.name)
+        props.append(prop)
+    return tuple(props) if ok else None
+
+
+def _read_prop(reader: Reader, node: Node, what: str) -> Prop | None:
+    fields = reader.fields(node, what, PROP_KEYS, required=("name", "size_m", "at_m"))
+    if fields is None or not {"name", "size_m", "at_m"} <= set(fields):
+        return None
+    name = reader.string(fields["name"].value, f"{what}: name")
+    size = _vector(reader, fields["size_m"].value, f"{what}: size_m", positive=True)
+    at = _vector(reader, fields["at_m"].value, f"{what}: at_m", positive=False)
+    yaw = reader.number(fields["yaw_deg"].value, f"{what}: yaw_deg") if "yaw_deg" in fields else 0.0
+    if name is None or size is None or at is None or yaw is None:
+        return None
+    return Prop(name, size, at, yaw)
+
+
+def _vector(
+    reader: Reader, node: Node, what: str, *, positive: bool
+) -> tuple[float, float, float] | None:
+    items = reader.sequence(node, what)
+    if items is None:
+        return None
+    if len(items) != 3:
+        reader.report(node, f"{what} needs three numbers [x, y, z] in metres, got {len(items)}")
+        return None
+    values = [
+        reader.number(item, what, low=0, low_open=True) if positive else reader.number(item, what)
+        for item in items
+    ]
+    x, y, z = values
+    if x is None or y is None or z is None:
+        return None
+    return (x, y, z)

@@ -1,0 +1,112 @@
+"""Songs as samples: decode wav, flac, ogg and mp3 with the ffmpeg that ``imageio-ffmpeg`` ships
+(a dependency already, for the preview video), and encode them back (the shipped songs).
+
+Decoding needs no extra: ffmpeg reads every format a motion's ``music:`` may name.
+"""
+
+from __future__ import annotations
+
+import functools
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from choreo.errors import ChoreoError
+
+SONG_SUFFIXES = (".wav", ".flac", ".ogg", ".mp3")
+ANALYSIS_RATE_HZ = 22050  # enough for beats; what the beat tracker expects
+
+
+@dataclass(frozen=True)
+class Audio:
+    samples: np.ndarray  # float32, shape (frames,) for mono or (frames, channels)
+    rate_hz: int
+
+    @property
+    def duration_s(self) -> float:
+        return len(self.samples) / self.rate_hz
+
+    @property
+    def mono(self) -> np.ndarray:
+        return self.samples if self.samples.ndim == 1 else self.samples.mean(axis=1)
+
+
+def ffmpeg_exe() -> str:
+    import imageio_ffmpeg
+
+    return imageio_ffmpeg.get_ffmpeg_exe()
+
+
+def check_song_path(path: Path) -> str | None:
+    """Why ``path`` can't be a song (one phrase), or None if it can."""
+    if path.suffix.lower() not in SONG_SUFFIXES:
+        return f"{path.name} is not a song file: use {', '.join(SONG_SUFFIXES)}"
+    if not path.is_file():
+        return f"{path} does not exist"
+    return None
+
+
+def decode(path: str | Path, rate_hz: int = ANALYSIS_RATE_HZ, channels: int = 1) -> Audio:
+    """The song at ``path`` as float samples at ``rate_hz``; ChoreoError if ffmpeg can't read it."""
+    path = Path(path)
+    problem = check_song_path(path)
+    if problem:
+        raise ChoreoError(problem)
+    stat = path.stat()
+    return _decode(str(path.resolve()), stat.st_mtime_ns, stat.st_size, rate_hz, channels)
+
+
+@functools.lru_cache(maxsize=8)
+def _decode(path: str, _mtime_ns: int, _size: int, rate_hz: int, channels: int) -> Audio:
+    command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-i", path, "-vn"]
+    command += ["-f", "f32le", "-ac", str(channels), "-ar", str(rate_hz), "-"]
+    result = subprocess.run(command, capture_output=True, check=False)
+    if result.returncode != 0:
+        reason = result.stderr.decode(errors="replace").strip().splitlines()
+        raise ChoreoError(f"cannot decode {path}: {reason[-1] if reason else 'ffmpeg failed'}")
+    samples = np.frombuffer(result.stdout, dtype="<f4")
+    if channels > 1:
+        samples = samples.reshape(-1, channels)
+    samples.flags.writeable = False  # cached: shared by every caller
+    return Audio(samples, rate_hz)
+
+
+def encode(audio: Audio, path: str | Path) -> Path:
+    """Write ``audio`` to ``path``; the format follows the suffix (ogg is Vorbis)."""
+    path = Path(path)
+    if path.suffix.lower() not in SONG_SUFFIXES:
+        raise ValueError(f"song suffix must be one of {SONG_SUFFIXES}, got {path.name}")
+    channels = 1 if audio.samples.ndim == 1 else audio.samples.shape[1]
+    codec = {".ogg": ["-c:a", "libvorbis", "-q:a", "3"], ".mp3": ["-q:a", "4"]}.get(
+        path.suffix.lower(), []
+    )
+    command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-y", "-f", "f32le"]
+    command += ["-ac", str(channels), "-ar", str(audio.rate_hz), "-i", "-", *codec, str(path)]
+    data = np.ascontiguousarray(audio.samples, dtype="<f4").tobytes()
+    result = subprocess.run(command, input=data, capture_output=True, check=False)
+    if result.returncode != 0:
+        raise ChoreoError(f"cannot write {path}: {result.stderr.decode(errors='replace').strip()}")
+    return path
+
+
+def add_song_to_video(video: Path, song: Path, song_at_start_s: float, duration_s: float) -> None:
+    """Put ``song`` into the mp4 ``video`` as its audio track, in place: the video's t=0 hears
+    the song at ``song_at_start_s`` (negative: the song begins that much into the video, as when
+    the video shows the approach before the motion); at most ``duration_s`` of audio (the video's
+    length), and the video keeps every frame if the song ends first."""
+    muxed = video.with_name(f".{video.stem}.song{video.suffix}")
+    skip_s, delay_ms = max(0.0, song_at_start_s), round(max(0.0, -song_at_start_s) * 1000)
+    command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-y", "-i", str(video)]
+    command += ["-ss", f"{skip_s:.6f}", "-i", str(song)]
+    command += ["-map", "0:v", "-map", "1:a", "-c:v", "copy", "-c:a", "aac", "-b:a", "128k"]
+    if delay_ms:
+        command += ["-af", f"adelay={delay_ms}:all=1"]
+    command += ["-t", f"{duration_s:.6f}", str(muxed)]
+    result = subprocess.run(command, capture_output=True, check=False)
+    if result.returncode != 0:
+        muxed.unlink(missing_ok=True)
+        reason = result.stderr.decode(errors="replace").strip()
+        raise ChoreoError(f"cannot add {song.name} to {video}: {reason}")
+    muxed.replace(video)

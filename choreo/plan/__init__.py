@@ -1,0 +1,29 @@
+"""Planning: keyframes time-parameterized by Ruckig into smooth, jerk-limited, synchronized
+trajectories, compiled into the servos' own linear moves (ticks).
+
+- :mod:`~choreo.plan.planner`: :func:`plan_motion`, :class:`Trajectory`;
+- :mod:`~choreo.plan.ticks`: trajectories cut into ticks within a tolerance and the bus's bytes;
+- :mod:`~choreo.plan.pipeline`: :func:`compile_motion`, the plan and its ticks;
+- :mod:`~choreo.plan.performance`: :func:`prepare`, the approach from where the servos are, then
+  the motion: what the player plays and the preview simulates;
+- :mod:`~choreo.plan.plot`: the plan as a picture.
+"""
+
+from __future__ import annotations
+
+from choreo.plan.performance import Performance, prepare
+from choreo.plan.pipeline import CompiledMotion, compile_motion
+from choreo.plan.planner import PlanResult, Trajectory, plan_motion
+from choreo.plan.ticks import Tick, TickPlan
+
+__all__ = [
+    "CompiledMotion",
+    "Performance",
+    "PlanResult",
+    "Tick",
+    "TickPlan",
+    "Trajectory",
+    "compile_motion",
+    "plan_motion",
+    "prepare",
+]

@@ -1,0 +1,59 @@
+"""A performance: what the player will send, the slow approach from where the servos are into
+the motion's first pose, then the motion, as one tick list. Planning, not playing: the preview
+starts from the same performance the player plays."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from choreo.plan.pipeline import CompiledMotion
+from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
+from choreo.plan.ticks import Tick, TickPlan, segment
+
+
+@dataclass(frozen=True)
+class Performance:
+    """What will be played: the approach from the measured pose, then the motion, as one tick
+    list."""
+
+    approach: TickPlan
+    motion: TickPlan
+    trajectory: Trajectory  # of the motion, starting at ``approach_s``
+    approach_trajectory: Trajectory
+
+    @property
+    def approach_s(self) -> float:
+        return self.approach.duration_ms / 1000
+
+    @property
+    def ticks(self) -> tuple[Tick, ...]:
+        offset = self.approach.duration_ms
+        return self.approach.ticks + tuple(
+            replace(t, start_ms=t.start_ms + offset) for t in self.motion.ticks
+        )
+
+    def planned_deg(self, times_s: np.ndarray) -> np.ndarray:
+        """The smooth plan (approach, then motion) at ``times_s`` from the first START."""
+        times_s = np.asarray(times_s, dtype=float)
+        in_approach = times_s < self.approach_s
+        out = np.empty((len(times_s), self.trajectory.n_joints))
+        out[in_approach] = self.approach_trajectory.positions(times_s[in_approach])
+        out[~in_approach] = self.trajectory.positions(times_s[~in_approach] - self.approach_s)
+        return out
+
+
+def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Performance:
+    """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose, at
+    ``APPROACH_LIMIT_SCALE`` of the joint limits."""
+    robot = compiled.robot
+    first_pose = compiled.trajectory.at(0.0)[0]
+    approach = plan_approach(robot, start_pose_deg, first_pose, APPROACH_LIMIT_SCALE)
+    return Performance(
+        segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
+        compiled.ticks,
+        compiled.trajectory,
+        approach,
+    )

@@ -1,0 +1,40 @@
+"""The pipeline from a loaded motion to what the servos are sent: plan
+(``choreo.plan.planner``), then compile into ticks (``choreo.plan.ticks``). Play, preview and
+validate all start from here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from choreo.motion.motion_file import Motion
+from choreo.plan.planner import Stretch, Trajectory, plan_motion
+from choreo.plan.ticks import TickPlan, segment
+from choreo.robot.types import Robot
+
+
+@dataclass(frozen=True)
+class CompiledMotion:
+    """A motion planned and compiled into ticks: everything play, preview and validate need that
+    doesn't depend on where the robot is now."""
+
+    robot: Robot
+    trajectory: Trajectory
+    ticks: TickPlan
+    stretches: tuple[Stretch, ...] = ()  # keyframes moved later to fit the limits (stretch=True)
+
+    @property
+    def tolerance_deg(self) -> float:
+        return self.ticks.tolerance_deg
+
+
+def compile_motion(
+    motion: Motion, *, speed: float | None = None, stretch: bool = False, tolerance_deg: float = 0.5
+) -> CompiledMotion:
+    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
+    plan = plan_motion(motion, speed=speed, stretch=stretch)
+    return CompiledMotion(
+        motion.robot,
+        plan.trajectory,
+        segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
+        plan.stretches,
+    )

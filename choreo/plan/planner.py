@@ -1,0 +1,666 @@
+"""Keyframes -> one smooth, jerk-limited, time-synchronized trajectory (the only module that
+imports ruckig).
+
+Each interval between two played keyframes is one ruckig trajectory with
+``Synchronization.Time``, so every joint leaves and arrives together. A keyframe is passed with
+a velocity from a shape-preserving rule (PCHIP, Fritsch–Butland: zero where a joint reverses,
+at stop/hold keyframes and at both ends), and a joint never overshoots a keyframe: between two
+keyframes it stays between their values. That keeps it inside its position limits, which ruckig
+itself ignores; where a segment would overshoot, the pass-through velocities that cause it are
+lowered and the affected segments planned again.
+
+Facts about ruckig 0.19.4 this module relies on: ``minimum_duration`` silently lengthens a
+segment that cannot be done in the time asked (we compare durations ourselves); intermediate
+waypoints call a cloud service (never used: one calculation per interval); the result is read
+back as seven constant-jerk phases per joint, which ``Trajectory`` evaluates with numpy.
+
+Times: the keyframe timing rules (``t``, ``after``, ``hold``, ``repeat``, speed) are
+``choreo.motion.timing``'s; the motion start is the first keyframe's pose, where the approach leaves
+the robot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from itertools import chain
+from typing import NamedTuple
+
+import numpy as np
+from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
+from ruckig import Trajectory as RuckigTrajectory
+
+from choreo.core.yaml_source import SourceLocation
+from choreo.errors import PlanningError
+from choreo.motion.motion_file import Keyframe, Motion, too_many_played
+from choreo.motion.timing import (
+    PlayedKeyframe,
+    Timing,
+    estimated_arrivals_s,
+    played_keyframes,
+    wanted_arrival_s,
+)
+from choreo.robot.types import Robot
+
+log = logging.getLogger(__name__)
+
+PHASES = 7  # constant-jerk phases of one ruckig profile
+DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
+# Longest time between leaving one keyframe and reaching the next. Ruckig 0.19.4 fails beyond
+# its numerical limits (RuckigError, or a result code its Python enum doesn't know) from a few
+# hundred seconds up when the joints pass through with some velocity; 300 s never failed in
+# randomized trials. Longer pauses are a `hold`, which ruckig never sees.
+MAX_SEGMENT_S = 300.0
+POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
+APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
+VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
+_DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
+
+
+# --- the result --------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Every joint's motion as piecewise constant-jerk polynomials (degrees, seconds), starting
+    at 0; after ``duration_s`` the robot rests at the last pose."""
+
+    joint_names: tuple[str, ...]
+    duration_s: float
+    keyframe_times_s: tuple[float, ...]  # arrival at each played keyframe
+    # Phase k of joint j starts at knots_s[j, k] with position, velocity, acceleration and jerk
+    # poly[:, j, k]. Each row of knots_s is sorted, starts at 0 and ends with a rest phase.
+    knots_s: np.ndarray = field(repr=False)
+    poly: np.ndarray = field(repr=False)
+    # Derived from knots_s and poly in __post_init__, for evaluating many times at once.
+    _taylor: np.ndarray = field(init=False, repr=False)
+    _offsets: np.ndarray = field(init=False, repr=False)
+    _flat_knots: np.ndarray = field(init=False, repr=False)
+    _taylor_rows: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.knots_s.flags.writeable = False
+        self.poly.flags.writeable = False
+        n = self.knots_s.shape[0]
+        p, v, a, j = self.poly
+        taylor = np.stack([p, v, a / 2, j / 6])  # (4, n, phases): p + v·t + a/2·t² + j/6·t³
+        # For few times: every joint's knots in one sorted array (joint j shifted by j * span),
+        # the Taylor coefficients of every phase in one row of a table.
+        offsets = (self.duration_s + 1.0) * np.arange(n)[:, None]
+        object.__setattr__(self, "_taylor", taylor)
+        object.__setattr__(self, "_offsets", offsets)
+        object.__setattr__(self, "_flat_knots", (self.knots_s + offsets).ravel())
+        object.__setattr__(self, "_taylor_rows", taylor.reshape(4, -1).T.copy())
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    def sample(self, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(position, velocity, acceleration) at ``times_s``, each ``(len(times_s), n_joints)``."""
+        pos, vel, acc = self._evaluate(self._checked_times(times_s), rates=True)
+        return pos.T, vel.T, acc.T
+
+    def positions(self, times_s: np.ndarray) -> np.ndarray:
+        """Positions only (cheaper than ``sample``), ``(len(times_s), n_joints)`` degrees."""
+        return self._evaluate(self._checked_times(times_s), rates=False)[0].T
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(position, velocity, acceleration) at one time, each ``(n_joints,)``."""
+        pos, vel, acc = self.sample(np.array([t_s], dtype=float))
+        return pos[0], vel[0], acc[0]
+
+    def peak_velocity_deg_s(self) -> np.ndarray:
+        """Largest |velocity| of each joint over the whole trajectory (exact), ``(n_joints,)``."""
+        v0, a0, jerk = self.poly[1], self.poly[2], self.poly[3]
+        tau = self._phase_lengths_s()
+        v_end = v0 + tau * (a0 + tau * jerk / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            turn = np.where(jerk != 0, -a0 / jerk, -1.0)  # where the acceleration crosses zero
+        inside = (turn > 0) & (turn < tau)
+        v_turn = np.where(inside, v0 + turn * (a0 + turn * jerk / 2), 0.0)
+        return np.max(np.abs(np.concatenate([v0, v_end, v_turn], axis=1)), axis=1)
+
+    def peak_acceleration_deg_s2(self) -> np.ndarray:
+        """Largest |acceleration| of each joint (exact: it is linear within a phase)."""
+        a0, jerk = self.poly[2], self.poly[3]
+        a_end = a0 + self._phase_lengths_s() * jerk
+        return np.maximum(np.abs(a0), np.abs(a_end)).max(axis=1)
+
+    def _phase_lengths_s(self) -> np.ndarray:
+        return np.diff(self.knots_s, axis=1, append=self.knots_s[:, -1:])
+
+    @staticmethod
+    def _checked_times(times_s: np.ndarray) -> np.ndarray:
+        times_s = np.asarray(times_s, dtype=float)
+        if times_s.ndim != 1:
+            raise ValueError(f"times_s must be one-dimensional, got shape {times_s.shape}")
+        if times_s.size and not times_s.min() >= 0:
+            raise ValueError(
+                f"times_s must be >= 0 (the trajectory starts at 0), got {times_s.min()}"
+            )
+        return times_s
+
+    def _evaluate(self, times_s: np.ndarray, rates: bool) -> list[np.ndarray]:
+        """Position (and velocity, acceleration if ``rates``) at every time, ``(n, len)`` each."""
+        # After the end the last (rest) phase holds: locating by the clamped time finds it.
+        located = np.minimum(times_s, self.duration_s)
+        if len(located) <= _DENSE_QUERY or np.any(located[1:] < located[:-1]):
+            index = np.searchsorted(self._flat_knots, located + self._offsets, side="right")
+            index -= 1
+            dt = times_s - self.knots_s.ravel()[index]
+            c = self._taylor_rows[index]
+            return _taylor_values(c[..., 0], c[..., 1], c[..., 2], c[..., 3], dt, rates)
+        # Long sorted queries: count the times falling in each phase, joint by joint.
+        n = self.n_joints
+        out = [np.empty((n, len(located))) for _ in range(3 if rates else 1)]
+        for j in range(n):
+            counts = np.diff(
+                np.searchsorted(located, self.knots_s[j], side="left"), append=len(located)
+            )
+            dt = times_s - np.repeat(self.knots_s[j], counts)
+            p, v, a_half, j_sixth = (np.repeat(column[j], counts) for column in self._taylor)
+            for array, values in zip(out, _taylor_values(p, v, a_half, j_sixth, dt, rates)):
+                array[j] = values
+        return out
+
+
+def _taylor_values(
+    p: np.ndarray,
+    v: np.ndarray,
+    a_half: np.ndarray,
+    j_sixth: np.ndarray,
+    dt: np.ndarray,
+    rates: bool,
+) -> list[np.ndarray]:
+    pos = j_sixth * dt
+    pos += a_half
+    pos *= dt
+    pos += v
+    pos *= dt
+    pos += p
+    if not rates:
+        return [pos]
+    vel = 3 * j_sixth * dt
+    vel += 2 * a_half
+    vel *= dt
+    vel += v
+    acc = 6 * j_sixth * dt
+    acc += 2 * a_half
+    return [pos, vel, acc]
+
+
+class Stretch(NamedTuple):
+    """A keyframe that could not be reached at its time and was moved later (``stretch=True``);
+    a ``(where, shift_s)`` pair."""
+
+    where: SourceLocation
+    shift_s: float  # played seconds (after speed scaling) this keyframe and the later ones moved
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    trajectory: Trajectory
+    stretches: tuple[Stretch, ...] = ()
+
+
+# --- one segment -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Limits:
+    """Per-joint limits as plain lists (what ruckig takes)."""
+
+    vel: list[float]
+    acc: list[float]
+    jerk: list[float]
+
+    @staticmethod
+    def of(robot: Robot, scale: float = 1.0, velocity_scale: float = 1.0) -> _Limits:
+        lim = [j.limits for j in robot.joints]
+        return _Limits(
+            [x.vel_deg_s * scale * velocity_scale for x in lim],
+            [x.acc_deg_s2 * scale for x in lim],
+            [x.jerk_deg_s3 * scale for x in lim],
+        )
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """One ruckig result: every joint's seven phase durations and jerks, flat lists in joint
+    order (as ruckig gives them; turned into arrays for all segments at once)."""
+
+    p0: list[float]  # start position and velocity (acceleration is zero at keyframes)
+    v0: list[float]
+    duration_s: float
+    phase_s: list[float]  # [joint * 7 + phase]
+    jerk: list[float]
+    overshoot: list[int]  # joints that leave the range between their two keyframes
+
+
+class _Solver:
+    """Reuses one ruckig instance for every segment of a plan."""
+
+    def __init__(self, n_joints: int):
+        self._ruckig = Ruckig(n_joints)
+        self._input = InputParameter(n_joints)
+        self._input.synchronization = Synchronization.Time
+        self._output = RuckigTrajectory(n_joints)
+        self._zero = [0.0] * n_joints
+
+    def duration_s(
+        self,
+        p0: list[float],
+        v0: list[float],
+        p1: list[float],
+        v1: list[float],
+        limits: _Limits,
+        minimum_duration_s: float | None,
+    ) -> float:
+        inp = self._input
+        inp.current_position = p0
+        inp.current_velocity = v0
+        inp.current_acceleration = self._zero
+        inp.target_position = p1
+        inp.target_velocity = v1
+        inp.target_acceleration = self._zero
+        inp.max_velocity = limits.vel
+        inp.max_acceleration = limits.acc
+        inp.max_jerk = limits.jerk
+        inp.minimum_duration = minimum_duration_s
+        try:
+            result = self._ruckig.calculate(inp, self._output)
+        except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
+            raise PlanningError(
+                f"ruckig could not plan a segment from {np.round(p0, 3).tolist()} to "
+                f"{np.round(p1, 3).tolist()}: {str(error).strip().splitlines()[0]}"
+            ) from error
+        if result != Result.Working:
+            raise PlanningError(
+                f"ruckig could not plan a segment ({result.name}) from "
+                f"{np.round(p0, 3).tolist()} to {np.round(p1, 3).tolist()}"
+            )
+        return self._output.duration
+
+    def solve(
+        self,
+        p0: list[float],
+        v0: list[float],
+        p1: list[float],
+        v1: list[float],
+        limits: _Limits,
+        minimum_duration_s: float | None,
+        low: list[float],
+        high: list[float],
+    ) -> _Segment:
+        """The segment; ``overshoot`` lists the joints leaving ``low..high`` (the range between
+        the two keyframes, widened by a numerical margin)."""
+        duration = self.duration_s(p0, v0, p1, v1, limits, minimum_duration_s)
+        out = self._output
+        overshoot = [
+            j
+            for j, (e, lo, hi) in enumerate(zip(out.position_extrema, low, high))
+            if e.min < lo or e.max > hi
+        ]
+        phase_s: list[float] = []
+        jerk: list[float] = []
+        for profile in out.profiles[0]:
+            phase_s += profile.t
+            jerk += profile.j
+        return _Segment(p0, v0, duration, phase_s, jerk, overshoot)
+
+    def limiting_joint(self) -> int:
+        """The joint whose own shortest duration is longest, in the last segment solved."""
+        return int(np.argmax(self._output.independent_min_durations))
+
+
+def _ranges(positions: np.ndarray) -> tuple[list[list[float]], list[list[float]]]:
+    """Per segment, the range each joint must stay in: between its two keyframes."""
+    low = np.minimum(positions[:-1], positions[1:]) - POSITION_EPS_DEG
+    high = np.maximum(positions[:-1], positions[1:]) + POSITION_EPS_DEG
+    return low.tolist(), high.tolist()
+
+
+# --- pass-through velocities -------------------------------------------------------------------
+def _pchip_velocities(
+    positions: np.ndarray,
+    arrive_s: np.ndarray,
+    leave_s: np.ndarray,
+    rests: np.ndarray,
+    vel_cap: np.ndarray,
+) -> np.ndarray:
+    """Fritsch–Butland (PCHIP) slopes at each keyframe, ``(m, n)`` deg/s: monotone between
+    keyframes, zero where a joint reverses and where the motion rests; capped per keyframe."""
+    m = len(positions)
+    velocities = np.zeros_like(positions)
+    if m < 3:
+        return velocities
+    h = np.maximum(arrive_s[1:] - leave_s[:-1], DURATION_EPS_S)[:, None]  # (m-1, 1)
+    d = np.diff(positions, axis=0) / h  # secant slopes
+    h0, h1, d0, d1 = h[:-1], h[1:], d[:-1], d[1:]
+    w0, w1 = 2 * h1 + h0, h1 + 2 * h0
+    same_sign = d0 * d1 > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = np.where(same_sign, (w0 + w1) / (w0 / d0 + w1 / d1), 0.0)
+    velocities[1:-1] = np.clip(inner, -vel_cap[1:-1], vel_cap[1:-1])
+    velocities[rests] = 0.0
+    return velocities
+
+
+# --- the plan ----------------------------------------------------------------------------------
+class _Planner:
+    """Plans the segments in time order; backs up one segment when a pass-through velocity it
+    already used has to be lowered."""
+
+    def __init__(self, robot: Robot, played: list[PlayedKeyframe[Keyframe]], stretch: bool):
+        self.robot = robot
+        self.played = played
+        self.stretch = stretch
+        self.solver = _Solver(len(robot.joints))
+        self.positions = np.array([p.keyframe.targets_deg for p in played], dtype=float)
+        self.pose_lists = self.positions.tolist()
+        self.low, self.high = _ranges(self.positions)
+        self.holds_s = np.array([p.hold_s for p in played])
+        self.scales = np.array([p.keyframe.velocity_scale for p in played])
+        self.vel_limits = np.array([j.limits.vel_deg_s for j in robot.joints])
+        self._limits_by_scale: dict[float, _Limits] = {}
+
+    def segment_limits(self, arrival_index: int) -> _Limits:
+        """A segment's limits: the velocity scaled by the keyframe it arrives at."""
+        scale = float(self.scales[arrival_index])
+        if scale not in self._limits_by_scale:
+            self._limits_by_scale[scale] = _Limits.of(self.robot, velocity_scale=scale)
+        return self._limits_by_scale[scale]
+
+    def rest_to_rest_s(self, i: int) -> float:
+        zero = [0.0] * len(self.robot.joints)
+        return self.solver.duration_s(
+            self.pose_lists[i], zero, self.pose_lists[i + 1], zero, self.segment_limits(i + 1), None
+        )
+
+    def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
+        """Arrival and leave times as if every timing were met and ASAP keyframes were reached
+        from rest: good enough to choose pass-through velocities."""
+        arrive = estimated_arrivals_s(self.played, lambda i: self.rest_to_rest_s(i - 1))
+        return arrive, arrive + self.holds_s
+
+    def velocity_caps(self) -> np.ndarray:
+        """Pass-through speed allowed at each keyframe: both adjacent segments' limits."""
+        scale_out = np.append(self.scales[1:], 1.0)
+        return np.minimum(self.scales, scale_out)[:, None] * self.vel_limits[None, :]
+
+    def plan(self) -> tuple[list[_Segment], np.ndarray, list[Stretch]]:
+        m, n = self.positions.shape
+        arrive_est, leave_est = self.estimated_times()
+        rests = np.array([p.rests for p in self.played])
+        velocities = _pchip_velocities(
+            self.positions, arrive_est, leave_est, rests, self.velocity_caps()
+        )
+        damping = np.zeros((m, n), dtype=int)
+        arrive = np.zeros(m)
+        arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
+        shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
+        segments: dict[int, _Segment] = {}  # by index: damping may plan one again
+        too_early: dict[int, str] = {}  # without stretch: planned on as if stretched, to say all
+        i = 0
+        while i < m - 1:
+            leave = arrive[i] + self.holds_s[i]
+            wanted = wanted_arrival_s(self.played, i + 1, arrive, shift)
+            requested = None if wanted is None else wanted - leave
+            if requested is not None and requested > MAX_SEGMENT_S:
+                raise PlanningError(self.too_long_message(i + 1, requested))
+            seg = self.solver.solve(
+                self.pose_lists[i],
+                velocities[i].tolist(),
+                self.pose_lists[i + 1],
+                velocities[i + 1].tolist(),
+                self.segment_limits(i + 1),
+                None if requested is None else max(requested, 0.0),
+                self.low[i],
+                self.high[i],
+            )
+            if seg.overshoot:
+                i = self.damp(i, seg.overshoot, velocities, damping)
+                continue
+            shift[i + 1] = 0.0
+            too_early.pop(i + 1, None)
+            if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
+                if not self.stretch:
+                    earliest = leave + seg.duration_s
+                    asked = requested + leave - self.earlier_shift_s(i + 1, shift)  # = wanted
+                    too_early[i + 1] = self.too_early_message(i + 1, asked, earliest)
+                shift[i + 1] = seg.duration_s - requested
+            segments[i] = seg
+            arrive[i + 1] = leave + seg.duration_s
+            i += 1
+        if too_early:
+            raise PlanningError("\n".join(too_early[k] for k in sorted(too_early)))
+        stretches = [
+            Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
+        ]
+        return [segments[k] for k in range(m - 1)], arrive, stretches
+
+    def earlier_shift_s(self, i: int, shift: np.ndarray) -> float:
+        """How much of keyframe i's wanted time comes from stretching keyframes before it."""
+        p = self.played[i]
+        return float(shift[(p.anchor or 0) + 1 : i].sum()) if p.timing is Timing.AT else 0.0
+
+    def damp(self, i: int, joints: list[int], velocities: np.ndarray, damping: np.ndarray) -> int:
+        """Lower the pass-through velocities that make segment i overshoot; return the segment
+        to plan next (i again, or i - 1 when its start velocity had to change)."""
+        last = len(VELOCITY_DAMPING) - 1
+        for k, back in ((i + 1, 0), (i, 1)):
+            movable = [j for j in joints if velocities[k, j] != 0 and damping[k, j] < last]
+            if movable:
+                factor_before = np.take(VELOCITY_DAMPING, damping[k, movable])
+                damping[k, movable] += 1
+                velocities[k, movable] *= (
+                    np.take(VELOCITY_DAMPING, damping[k, movable]) / factor_before
+                )
+                return i - back
+        raise PlanningError(
+            f"{self.played[i + 1].keyframe.where}: internal error: the segment "
+            f"overshoots even from rest to rest"
+        )
+
+    def too_long_message(self, i: int, requested_s: float) -> str:
+        p = self.played[i]
+        speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
+        return (
+            f"{p.keyframe.where}: keyframe{p.keyframe.where.through} reached {requested_s:.6g} s "
+            "after leaving the one "
+            f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
+            f"hold the one before instead (hold: is not limited), or add keyframes in between"
+        )
+
+    def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
+        p = self.played[i]
+        kf = p.keyframe
+        joint = self.robot.joints[self.solver.limiting_joint()].name
+        late_by = (earliest - wanted) * p.speed  # in the file's seconds
+        fix = (
+            f"t >= {kf.t_s + late_by:.3f}"
+            if p.timing is Timing.AT and kf.t_s is not None
+            else f"after >= {(kf.after_s or 0.0) + late_by:.3f}"
+        )
+        if kf.beat is not None and p.timing is Timing.AT and kf.t_s is not None:
+            fix = kf.beat.earliest_fix(kf.t_s + late_by)  # the earliest beat that works
+        speed = f" (at speed {p.speed:g})" if p.speed != 1 else ""
+        return (
+            f"{kf.where}: keyframe{kf.where.through} cannot be reached at {wanted:.3f} s{speed}: "
+            f"the velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
+            f"earliest; use {fix}, a lower speed, or stretch"
+        )
+
+
+# --- assembling the piecewise polynomial -------------------------------------------------------
+def _assemble(
+    joint_names: tuple[str, ...],
+    positions: np.ndarray,
+    segments: list[_Segment],
+    arrive: np.ndarray,
+    holds_s: np.ndarray,
+) -> Trajectory:
+    """Phases in time order: a wait before the first keyframe, then per keyframe its hold (one
+    constant phase) and the 7 phases to the next keyframe, then a rest at the last pose."""
+    m, n = positions.shape
+    seg_knots, seg_poly = _integrate(arrive[:-1] + holds_s[:-1], segments, n)
+    has_hold = holds_s > 0
+    rows_per_keyframe = has_hold.astype(int) + np.append(np.full(m - 1, PHASES), 0)
+    first_row = 1 + np.concatenate(([0], np.cumsum(rows_per_keyframe)[:-1]))  # row 0: the wait
+    total = 1 + rows_per_keyframe.sum() + 1
+    knots = np.empty((total, n))
+    poly = np.zeros((4, total, n))
+    constant_rows = np.concatenate(([0], first_row[has_hold], [total - 1]))
+    constant_pose = np.concatenate((positions[:1], positions[has_hold], positions[-1:]))
+    constant_start = np.concatenate(([0.0], arrive[has_hold], [arrive[-1] + holds_s[-1]]))
+    knots[constant_rows] = constant_start[:, None]
+    poly[0, constant_rows] = constant_pose
+    seg_rows = (first_row[:-1] + has_hold[:-1])[:, None] + np.arange(PHASES)  # (m-1, 7)
+    knots[seg_rows] = seg_knots
+    poly[:, seg_rows] = seg_poly
+    return Trajectory(
+        joint_names,
+        float(arrive[-1] + holds_s[-1]),
+        tuple(float(t) for t in arrive),
+        np.ascontiguousarray(knots.T),
+        np.ascontiguousarray(poly.transpose(0, 2, 1)),
+    )
+
+
+def _integrate(
+    leave_s: np.ndarray, segments: list[_Segment], n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Knots (S, 7, n) and (p, v, a, j) at each phase start (4, S, 7, n) of all segments."""
+    if not segments:
+        return np.empty((0, PHASES, n)), np.empty((4, 0, PHASES, n))
+    shape = (len(segments), n, PHASES)
+    phase_s = np.fromiter(
+        chain.from_iterable(s.phase_s for s in segments), float, math.prod(shape)
+    ).reshape(shape)
+    jerk = np.fromiter(
+        chain.from_iterable(s.jerk for s in segments), float, math.prod(shape)
+    ).reshape(shape)
+    p = np.array([s.p0 for s in segments])  # (S, n)
+    v = np.array([s.v0 for s in segments])
+    a = np.zeros_like(p)
+    t = np.repeat(leave_s[:, None], n, axis=1)
+    knots = np.empty((len(segments), PHASES, n))
+    poly = np.empty((4,) + knots.shape)
+    for k in range(PHASES):
+        tau, j = phase_s[:, :, k], jerk[:, :, k]
+        knots[:, k] = t
+        poly[:, :, k] = p, v, a, j
+        p = p + tau * (v + tau * (a / 2 + tau * j / 6))
+        v = v + tau * (a + tau * j / 2)
+        a = a + tau * j
+        t = t + tau
+    return knots, poly
+
+
+# --- public entry points -----------------------------------------------------------------------
+def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False) -> PlanResult:
+    """The trajectory of a whole motion (``repeat`` unrolled, times divided by the speed).
+
+    ``speed`` overrides ``motion.speed``. A keyframe time the limits cannot meet raises
+    ``PlanningError`` starting ``path:line:col:`` (its keyframe) that names the limiting joint and
+    the earliest feasible time; with ``stretch=True`` that keyframe and the later ones move
+    instead, and ``PlanResult.stretches`` says by how much.
+    """
+    speed = motion.speed if speed is None else speed
+    if not speed > 0 or not math.isfinite(speed):
+        raise ValueError(f"speed must be a finite number > 0, got {speed}")
+    robot = motion.robot
+    if not motion.keyframes:
+        raise PlanningError(f"{motion.path}: the motion has no keyframes")
+    _check_targets(robot, motion.keyframes)
+    unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
+    if unrolled is not None:
+        raise PlanningError(f"{motion.path}: {unrolled}")
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=speed)
+    planner = _Planner(robot, played, stretch)
+    segments, arrive, stretches = planner.plan()
+    trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
+    for s in stretches:
+        log.info("%s: stretched by %.3f s to fit the limits", s.where, s.shift_s)
+    return PlanResult(trajectory, tuple(stretches))
+
+
+def plan_approach(
+    robot: Robot, start_deg, target_deg, limit_scale: float = APPROACH_LIMIT_SCALE
+) -> Trajectory:
+    """From rest at any pose ``start_deg`` to rest at ``target_deg`` (normally the first keyframe)
+    with every velocity, acceleration and jerk limit scaled by ``limit_scale``.
+
+    The start may lie outside the joint limits (it is wherever the robot is); each joint moves
+    monotonically from it, so it only ever moves towards its target.
+    """
+    n = len(robot.joints)
+    start = _pose_array(robot, start_deg, "start_deg")
+    target = _pose_array(robot, target_deg, "target_deg")
+    if not 0 < limit_scale <= 1:
+        raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
+    outside = robot.limit_violations(target.tolist())
+    if outside:
+        joint, angle = outside[0].joint, outside[0].angle_deg
+        raise ValueError(
+            f"target_deg: {joint.name} = {angle:g}° is outside its limits {joint.limits.range_text}"
+        )
+    zero = [0.0] * n
+    low, high = _ranges(np.stack([start, target]))
+    segment = _Solver(n).solve(
+        start.tolist(),
+        zero,
+        target.tolist(),
+        zero,
+        _Limits.of(robot, limit_scale),
+        None,
+        low[0],
+        high[0],
+    )
+    if segment.overshoot:
+        raise PlanningError(
+            f"internal error: the approach overshoots on "
+            f"{', '.join(robot.joint_names[j] for j in segment.overshoot)}"
+        )
+    arrive = np.array([0.0, segment.duration_s])
+    trajectory = _assemble(
+        robot.joint_names, np.stack([start, target]), [segment], arrive, np.zeros(2)
+    )
+    return Trajectory(
+        trajectory.joint_names,
+        trajectory.duration_s,
+        (segment.duration_s,),
+        trajectory.knots_s,
+        trajectory.poly,
+    )
+
+
+def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
+    angles = np.asarray(angles_deg, dtype=float)
+    if angles.shape != (len(robot.joints),):
+        raise ValueError(
+            f"{name} needs one angle per joint ({', '.join(robot.joint_names)}), "
+            f"got shape {angles.shape}"
+        )
+    if not np.all(np.isfinite(angles)):
+        raise ValueError(f"{name} must be finite, got {angles.tolist()}")
+    return angles
+
+
+def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
+    """Keyframes inside the joint limits (the loader checks this; values built in code may not)."""
+    n = len(robot.joints)
+    wrong_size = [
+        f"{kf.where}: the keyframe has {len(kf.targets_deg)} targets for {n} joints"
+        for kf in keyframes
+        if len(kf.targets_deg) != n
+    ]
+    if wrong_size:
+        raise PlanningError("\n".join(wrong_size))
+    targets = np.array([kf.targets_deg for kf in keyframes], dtype=float)
+    outside = robot.outside_limits(targets)
+    problems = [
+        f"{keyframes[k].where}: {robot.joints[j].name} = {targets[k, j]:g}° is outside "
+        f"its limits {robot.joints[j].limits.range_text}"
+        for k, j in zip(*np.nonzero(outside))
+    ]
+    if problems:
+        raise PlanningError("\n".join(problems))

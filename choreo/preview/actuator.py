@@ -1,0 +1,236 @@
+"""What the servos do with the ticks they receive: their own linear moves, and the actuator model.
+
+Plain numpy, no MuJoCo: the simulation asks a ``ServoBank`` for every servo's set-point at each
+physics step. Hardware behaviour modelled (see ``docs/protocol.md``), as the player sends:
+
+- a staged move (position, time) is a preset; every tick's broadcast START runs each servo's
+  preset, so a servo that was not re-staged re-runs its previous one (the first tick is staged on
+  every servo; a tick that stages nothing sends no START);
+- a move is linear from where the servo is (``sim.MoveStart`` says which "where") to the target;
+- the servo caps its speed at the motor's no-load speed (a time too short just means full speed).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from choreo.bus.servo_models import (
+    ACTUATOR_FIELDS,
+    DEG_PER_UNIT,
+    POSITION_RANGE_UNITS,
+    ZERO_OK_ACTUATOR_FIELDS,
+    servo_model,
+)
+from choreo.plan.ticks import MAX_TICK_MS, Tick
+from choreo.robot.types import Joint, Robot
+
+INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
+
+
+@dataclass(frozen=True)
+class ActuatorParams:
+    """One joint's servo as MuJoCo sees it (SI units) at its supply voltage, plus its speed cap
+    and the assumptions made (supply, dead band, backlash)."""
+
+    stall_torque_nm: float
+    kp_nm_rad: float
+    damping_nm_s_rad: float
+    armature_kg_m2: float
+    no_load_speed_deg_s: float
+    supply_v: float
+    deadband_deg: float
+    backlash_deg: float
+    rated_supply_v: float = 0.0  # the supply the datasheet figures are for (0: not given)
+
+    @property
+    def dead_zone_deg(self) -> float:
+        """Half-width of the position error that makes no torque: half the dead band plus half
+        the backlash (the gears turn that far before the output feels the motor)."""
+        return (self.deadband_deg + self.backlash_deg) / 2
+
+
+def actuator_params(
+    robot: Robot,
+    overrides: Mapping[str, Mapping[str, float]] | None = None,
+) -> tuple[ActuatorParams, ...]:
+    """Every joint's actuator model from its servo model, then the robot file's ``bus:
+    supply_v`` and each joint's ``actuator:`` values, then per-joint ``overrides`` (joint name ->
+    {field of ``ActuatorParams``: value})."""
+    overrides = dict(overrides or {})
+    unknown = sorted(set(overrides) - set(robot.joint_names))
+    if unknown:
+        raise ValueError(
+            f"actuator overrides name unknown joints {', '.join(unknown)}; "
+            f"joints of {robot.name}: {', '.join(robot.joint_names)}"
+        )
+    supply = robot.bus.supply_v
+    return tuple(
+        _params_for(
+            joint,
+            {
+                **({"supply_v": supply} if supply else {}),
+                **joint.actuator,
+                **overrides.get(joint.name, {}),
+            },
+        )
+        for joint in robot.joints
+    )
+
+
+def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
+    """The servo model's figures with ``override`` applied; torque, gain and speed then scale
+    with the supply (a PWM servo's drive voltage is the supply times its duty; back-EMF
+    damping does not depend on it, so no-load speed = stall torque / damping scales too)."""
+    model = servo_model(joint.servo_model)
+    values = {
+        "stall_torque_nm": model.stall_torque_nm,
+        "kp_nm_rad": model.kp_nm_rad,
+        "damping_nm_s_rad": model.damping_nm_s_rad,
+        "armature_kg_m2": model.armature_kg_m2,
+        "no_load_speed_deg_s": model.no_load_speed_deg_s,
+        "supply_v": model.rated_supply_v,
+        "deadband_deg": model.deadband_deg,
+        "backlash_deg": model.backlash_deg,
+    }
+    for key, value in override.items():
+        if key not in values:
+            raise ValueError(
+                f"unknown actuator field {key!r} for joint {joint.name}; "
+                f"valid fields: {', '.join(ACTUATOR_FIELDS)}"
+            )
+        zero_ok = key in ZERO_OK_ACTUATOR_FIELDS
+        if not (
+            isinstance(value, (int, float))
+            and math.isfinite(value)
+            and (value >= 0 if zero_ok else value > 0)
+        ):
+            bound = ">= 0" if zero_ok else "> 0"
+            raise ValueError(
+                f"actuator field {key} of joint {joint.name} must be a number {bound}, "
+                f"got {value!r}"
+            )
+        values[key] = float(value)
+    scale = values["supply_v"] / model.rated_supply_v
+    for key in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
+        values[key] *= scale
+    return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)
+
+
+@dataclass(frozen=True)
+class CommandStream:
+    """The tick list as arrays, checked: what goes out on the bus, in time order."""
+
+    start_s: np.ndarray  # (n_ticks,)
+    duration_s: np.ndarray  # (n_ticks,)
+    targets_units: np.ndarray  # (n_ticks, n_joints)
+    staged: np.ndarray  # (n_ticks, n_joints) bool: this servo gets a new preset for the tick
+    started: np.ndarray  # (n_ticks,) bool: the tick's broadcast START is sent
+
+    @classmethod
+    def from_ticks(cls, ticks: Sequence[Tick], n_joints: int) -> CommandStream:
+        """As the player sends it: the first tick is staged on every servo, and a later tick
+        that stages nothing sends no START (so nothing re-runs its preset)."""
+        low, high = POSITION_RANGE_UNITS
+        previous_start = -math.inf
+        for index, tick in enumerate(ticks):
+            where = f"tick {index} (start {tick.start_ms} ms)"
+            if len(tick.targets_units) != n_joints or len(tick.staged) != n_joints:
+                raise ValueError(
+                    f"{where}: needs {n_joints} targets and staged flags (one per "
+                    f"joint), got {len(tick.targets_units)} and {len(tick.staged)}"
+                )
+            if tick.start_ms < previous_start:
+                raise ValueError(
+                    f"{where}: ticks must be in time order "
+                    f"(the previous one starts at {previous_start} ms)"
+                )
+            if not 0 <= tick.duration_ms <= MAX_TICK_MS:
+                raise ValueError(
+                    f"{where}: duration {tick.duration_ms} ms is outside 0..{MAX_TICK_MS}"
+                )
+            bad = [u for u in tick.targets_units if not low <= u <= high]
+            if bad:
+                raise ValueError(f"{where}: servo positions {bad} are outside {low}..{high}")
+            previous_start = tick.start_ms
+        staged = np.array([t.staged for t in ticks], dtype=bool).reshape(len(ticks), n_joints)
+        staged[:1] = True
+        return cls(
+            start_s=np.array([t.start_ms for t in ticks], dtype=float) / 1000.0,
+            duration_s=np.array([t.duration_ms for t in ticks], dtype=float) / 1000.0,
+            targets_units=np.array([t.targets_units for t in ticks], dtype=float).reshape(
+                len(ticks), n_joints
+            ),
+            staged=staged,
+            started=np.asarray(staged.any(axis=1)),  # numpy types any(axis=) as maybe a scalar
+        )
+
+    @property
+    def end_s(self) -> float:
+        """When the last commanded move is due to finish (0 without ticks)."""
+        return float(np.max(self.start_s + self.duration_s, initial=0.0))
+
+
+class ServoBank:
+    """Every servo's preset and current linear move; ``setpoint_units`` is where each one's
+    own interpolation is at a given time (never before the move's start)."""
+
+    def __init__(self, initial_units: np.ndarray, max_speed_units_s: np.ndarray | None):
+        n = len(initial_units)
+        self._preset_units = np.full(n, np.nan)
+        self._preset_duration_s = np.zeros(n)
+        self._from_units = np.array(initial_units, dtype=float)
+        self._delta_units = np.zeros(n)
+        self._start_s = np.zeros(n)
+        self._rate_per_s = np.full(n, 1 / INSTANT_S)  # 1 / move duration
+        self._max_speed_units_s = max_speed_units_s
+
+    def start(
+        self, stream: CommandStream, tick: int, now_s: float, position_units: np.ndarray
+    ) -> None:
+        """Tick ``tick``'s presets arrive and its START runs every servo that has a preset."""
+        staged = stream.staged[tick]
+        self._preset_units[staged] = stream.targets_units[tick, staged]
+        self._preset_duration_s[staged] = stream.duration_s[tick]
+        runs = ~np.isnan(self._preset_units)
+        delta = self._preset_units[runs] - position_units[runs]
+        duration = self._preset_duration_s[runs]
+        if self._max_speed_units_s is not None:
+            duration = np.maximum(duration, np.abs(delta) / self._max_speed_units_s[runs])
+        self._from_units[runs] = position_units[runs]
+        self._delta_units[runs] = delta
+        self._start_s[runs] = now_s
+        # a zero-time move (possible only without a speed cap) jumps at once
+        self._rate_per_s[runs] = 1 / np.maximum(duration, INSTANT_S)
+
+    def setpoint_units(self, now_s: float | np.ndarray) -> np.ndarray:
+        """Set-points at one time (n_joints,) or at an array of times (n_times, n_joints)."""
+        elapsed = np.asarray(now_s, dtype=float)[..., None] - self._start_s
+        progress = np.minimum(elapsed * self._rate_per_s, 1.0)
+        return self._from_units + self._delta_units * progress
+
+
+def max_speed_units_s(params: Sequence[ActuatorParams]) -> np.ndarray:
+    """Each servo's no-load speed in position units per second."""
+    return np.array([p.no_load_speed_deg_s / DEG_PER_UNIT for p in params], dtype=float)
+
+
+def commanded_path_units(
+    stream: CommandStream, initial_units: np.ndarray, times_s: np.ndarray
+) -> np.ndarray:
+    """Where a servo with no load, no lag and no speed cap would be at ``times_s``: the path the
+    tick list asks for, as the reference for tracking errors. Shape (len(times_s), n_joints)."""
+    bank = ServoBank(initial_units, max_speed_units_s=None)
+    path = np.empty((len(times_s), len(initial_units)))
+    started = np.flatnonzero(stream.started)
+    boundaries = np.searchsorted(times_s, stream.start_s[started], side="left")
+    path[: boundaries[0] if len(boundaries) else len(times_s)] = initial_units
+    for k, (tick, begin) in enumerate(zip(started.tolist(), boundaries)):
+        start_s = stream.start_s[tick]
+        bank.start(stream, tick, start_s, bank.setpoint_units(start_s))
+        end = boundaries[k + 1] if k + 1 < len(boundaries) else len(times_s)
+        path[begin:end] = bank.setpoint_units(times_s[begin:end])
+    return path
