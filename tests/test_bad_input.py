@@ -38,7 +38,7 @@ def error_line(capsys) -> str:
 
 # --- usage errors: one UsageError, exit 2 --------------------------------------------------------
 def test_a_usage_error_raised_by_a_handler_is_one_line_and_exit_2(capsys):
-    assert main(["play", str(WAVE), "--exit-pose", "nope"]) == 2
+    assert main(["play", str(WAVE), "--exit", "pose", "--exit-pose", "nope"]) == 2
     assert error_line(capsys) == (
         "choreo: error: --exit-pose 'nope' is not a pose of arm6; poses: home, rest, ready"
     )
@@ -433,7 +433,7 @@ def test_repeat_is_bounded_at_its_line(tmp_path, capsys):
     assert main(["plan", str(path)]) == 1
     assert error_line(capsys) == (
         f"choreo: error: {path}:3:9: repeat 100000000 x 2 keyframe(s) = 200000000 keyframes to "
-        "play; at most 10000 are played in one motion: repeat at most 5000"
+        "play; at most 10000 are played in one motion: at most 5000 times"
     )
 
 
@@ -441,7 +441,7 @@ def test_play_loop_is_bounded(capsys):
     assert main(["play", str(WAVE), "--loop", "100000000", "--dry-run"]) == 2
     assert error_line(capsys) == (
         "choreo: error: --loop 100000000 x 9 keyframe(s) = 900000000 keyframes to play; at most "
-        "10000 are played in one motion: --loop at most 1111"
+        "10000 are played in one motion: at most 1111 times"
     )
 
 

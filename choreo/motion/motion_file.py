@@ -78,8 +78,8 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
         return None
     return (
         f"{what} {repeat} x {keyframes} keyframe(s) = {keyframes * repeat} keyframes to play; "
-        f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: {what} at most "
-        f"{MAX_PLAYED_KEYFRAMES // keyframes}"
+        f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: at most "
+        f"{MAX_PLAYED_KEYFRAMES // keyframes} times"
     )
 
 
