@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from emulated import home_specs
 
-from choreo.bus.protocol import BYTE_TIME_S, Command
+from choreo.bus.protocol import BYTE_TIME_S, Command, decode_request
 from choreo.bus.servo_bus import Presence, ServoBus
 from choreo.core.clock import VirtualClock
 from choreo.emulator import connection
@@ -168,6 +168,24 @@ def test_lobot_stop_holds_the_servos_where_they_are():
             assert 250 < emulator.servo(servo_id).position_units < 450  # stopped on its way
 
 
+def test_a_lobot_stop_whose_read_times_out_holds_the_last_commanded_targets():
+    from choreo.emulator.emulated_servo import ReplyFaults
+
+    with board_bus("lobot", ids="1-3") as bus:
+        emulator = bus.port.emulator
+        bus.move_many([(1, 200), (2, 300), (3, 800)], 2000)
+        emulator.clock.sleep_until(emulator.clock.now() + 0.5)
+        emulator.servo(2).reply_faults = ReplyFaults(drop_probability=1.0)  # its reads time out
+        bus.stop_servos([1, 2, 3])
+        bus.drain()
+        held = moves_of(emulator)[3:]
+        targets = {m.packet.servo_id: decode_request(m.packet) for m in held}
+        assert set(targets) == {1, 2, 3}
+        assert targets[2] == {"pos_units": 300, "time_ms": 0}  # its last commanded target
+        assert 200 < targets[1]["pos_units"] < 500  # read: where it was on its way
+        assert targets[1]["time_ms"] == 0
+
+
 def test_recording_by_hand_through_the_rrc_board(tmp_path):
     from choreo.play.recorder import Ending, Recorder, Recording
     from choreo.robot.robot_file import load_robot
@@ -198,9 +216,24 @@ def test_recording_through_the_lobot_controller_is_refused_naming_it(tmp_path):
     emulator = BOARDS["lobot"](home_specs(robot), clock=VirtualClock())
     bus = ServoBus(connection(emulator))
     recording = Recording.start(tmp_path / "taught.yaml", robot)
-    with pytest.raises(UnsupportedByTransport, match="LOBOT controller cannot load"):
-        with Recorder(bus, recording, emulator.clock, taught=["shoulder"]):
-            pass
+    for taught in (["shoulder"], None):  # None: every joint
+        with pytest.raises(UnsupportedByTransport, match="refused through the LOBOT controller"):
+            with Recorder(bus, recording, emulator.clock, taught=taught):
+                pass
+    # refused before anything was sent to a servo: nothing unloaded
+    assert not [p for p in emulator.log.packets if p.packet.command != Command.POS_READ]
+
+
+def test_choreo_record_through_the_lobot_controller_unloads_nothing(tmp_path, capsys):
+    from choreo.cli import main
+
+    state = tmp_path / "servos.json"
+    port = f"sim://?board=lobot&clock=virtual&state={state}"
+    out = tmp_path / "taught.yaml"
+    assert main(["record", "--robot", "arm6", "--port", port, str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "refused through the LOBOT controller" in err and err.count("\n") == 1
+    assert "unloaded, pose by hand" not in capsys.readouterr().out
 
 
 def test_the_rrc_port_opens_at_1_mbaud_with_rts_and_dtr_low(monkeypatch):

@@ -55,7 +55,8 @@ def test_a_refused_command_names_the_transport(board, capsys):
 def test_play_through_the_board(board, motion, servos, capsys):
     robot = load_robot({"arm6": "arm6", "hexa": "hexapod18", "tony": "tonypi"}[motion[8:12]])
     assert len(robot.joints) == int(servos.split("-")[1])
-    port = f"sim://?board={board}&ids={servos}"
+    model = robot.joints[0].servo_model  # preflight checks the supply against it
+    port = f"sim://?board={board}&ids={servos}&model={model}"
     assert main(["play", motion, "--port", port, "--speed", "2", "--stretch", "--loop", "1"]) == 0
     captured = capsys.readouterr()
     assert "completed" in captured.out and "path err" in captured.out

@@ -10,17 +10,24 @@ import pytest
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
-from choreo.bus.transports.direction import PRESETS, DirectionPins, DirectionSerial, parse_direction
+from choreo.bus.transports.direction import (
+    PRESETS,
+    DirectionPins,
+    DirectionSerial,
+    board_pins,
+    parse_direction,
+)
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, SimSerial
 from choreo.emulator.direction_gate import FakeDirectionLines
 from choreo.errors import BusTimeoutError, ChoreoError
 
 
-def gated_bus(serial_class=DirectionSerial, *, echo: bool = False):
+def gated_bus(serial_class=DirectionSerial, *, echo: bool = False, drain_late_s: float = 0.0):
     emulator = BusEmulator(range(1, 4), clock=VirtualClock(), echo=echo)
-    lines = FakeDirectionLines(emulator)
-    port = serial_class(SimSerial.from_emulator(emulator, timeout=0.05), lines)
+    lines = FakeDirectionLines(emulator, drain_late_s=drain_late_s)
+    sim = SimSerial.from_emulator(emulator, timeout=0.05, baudrate=115200)
+    port = serial_class(sim, lines)
     return ServoBus(port, retries=0, echo="none"), emulator, lines
 
 
@@ -78,6 +85,93 @@ def test_a_wrong_toggle_order_loses_the_exchange(wrong):
         assert emulator.log.replies  # the servo answered; the host never heard it
 
 
+class TurnsOnDrain(DirectionSerial):
+    """Waits on flush() (tcdrain) to turn the line around, as choreo did before."""
+
+    def write(self, data):
+        self.lines.transmit()
+        try:
+            written = self._port.write(data)
+            self._port.flush()
+        finally:
+            self.lines.receive()
+        return written
+
+
+LATE_DRAINS_S = [0.0, 0.0005, 0.001, 0.004, 0.010]  # Linux: one jiffy or more (HZ=1000..100)
+
+
+@pytest.mark.parametrize("late_s", LATE_DRAINS_S)
+def test_the_turnaround_does_not_wait_for_a_late_drain(late_s):
+    bus, emulator, lines = gated_bus(drain_late_s=late_s)
+    with bus:
+        assert bus.read_position(2) == 500
+        assert bus.scan(range(0, 5)) == [1, 2, 3]
+        bus.move(2, 300, 0)
+        assert bus.read_position(1) == 500
+    # receive came on once each request's last stop bit had left, before any servo answered
+    request_ends = [p.time_s for p in emulator.log.packets]
+    receive_on = [t for t, tx, rx in lines.changes if rx]
+    for end_s in request_ends:
+        after = [t for t in receive_on if t >= end_s]
+        assert after and after[0] - end_s < emulator.turnaround_s
+
+
+@pytest.mark.parametrize("late_s", [s for s in LATE_DRAINS_S if s >= 0.001])
+def test_the_emulated_gate_drains_late_like_linux(late_s):
+    bus, emulator, _ = gated_bus(TurnsOnDrain, drain_late_s=late_s)
+    with bus, pytest.raises(BusTimeoutError):
+        bus.read_position(2)
+    assert emulator.log.replies  # the servo answered while receive was still off
+
+
+def test_staged_writes_cost_their_wire_time_not_a_jiffy_each():
+    bus, emulator, _ = gated_bus(drain_late_s=0.004)
+    with bus:
+        start_s = emulator.clock.now()
+        for servo_id in (1, 2, 3):
+            bus.send(Command.MOVE_TIME_WAIT_WRITE, servo_id, pos_units=400, time_ms=0)
+        bus.send(Command.MOVE_START, 254)
+        elapsed_s = emulator.clock.now() - start_s
+    wire_s = (3 * 10 + 6) * 10 / 115200
+    assert wire_s <= elapsed_s < wire_s + 4 * 0.0004  # a margin per write, no 4 ms drain
+
+
+class NoStatusRegister:
+    """A UART driver without TIOCSERGETLSR (many USB adapters): only the computed time."""
+
+    def __init__(self, port):
+        self._port = port
+
+    def __getattr__(self, name):
+        if name == "transmitter_empty":
+            raise AttributeError(name)
+        return getattr(self._port, name)
+
+
+def test_without_a_status_register_the_computed_end_is_enough():
+    emulator = BusEmulator(range(1, 4), clock=VirtualClock())
+    lines = FakeDirectionLines(emulator, drain_late_s=0.010)
+    sim = SimSerial.from_emulator(emulator, timeout=0.05, baudrate=115200)
+    port = DirectionSerial(NoStatusRegister(sim), lines, clock=emulator.clock)
+    assert not port.has_status_register
+    with ServoBus(port, retries=0, echo="none") as bus:
+        assert bus.read_position(3) == 500
+
+
+def test_a_pipe_has_no_line_status_register():
+    import os
+
+    from choreo.bus.transports.direction import transmitter_empty
+
+    read_end, write_end = os.pipe()
+    try:
+        with open(read_end, "rb", buffering=0) as pipe:
+            assert transmitter_empty(pipe) is None
+    finally:
+        os.close(write_end)
+
+
 def test_presets_and_explicit_pins():
     assert parse_direction("tonypi") == DirectionPins(rx=4, tx=27)
     assert parse_direction("ainex") == DirectionPins(rx=19, tx=26)
@@ -87,6 +181,55 @@ def test_presets_and_explicit_pins():
         with pytest.raises(ValueError, match="bad direction"):
             parse_direction(bad)
     assert set(PRESETS) >= {"tonypi", "spiderpi", "armpi-pro", "jethexa", "ainex"}
+
+
+# Device-tree compatible strings of each board, and the lines NVIDIA's Jetson.GPIO gives for
+# header pins 11/13 (BCM 17/27, jethexa) and 35/37 (BCM 19/26, ainex) (gpio_pin_data.py).
+JETSON_NANO = ["nvidia,p3449-0000-b00+p3448-0000-b00", "nvidia,jetson-nano", "nvidia,tegra210"]
+ORIN_NANO = ["nvidia,p3768-0000+p3767-0005-super", "nvidia,p3767-0005", "nvidia,tegra234"]
+AGX_ORIN = ["nvidia,p3737-0000+p3701-0005", "nvidia,p3701-0005", "nvidia,tegra234"]
+RASPBERRY_PI = ["raspberrypi,4-model-b", "brcm,bcm2711"]
+
+
+@pytest.mark.parametrize(
+    ("preset", "compatibles", "expected"),
+    [
+        ("jethexa", JETSON_NANO, DirectionPins(rx=50, tx=14, chip="tegra-gpio")),
+        ("ainex", JETSON_NANO, DirectionPins(rx=76, tx=12, chip="tegra-gpio")),
+        ("jethexa", ORIN_NANO, DirectionPins(rx=112, tx=122, chip="tegra234-gpio")),
+        ("ainex", ORIN_NANO, DirectionPins(rx=53, tx=124, chip="tegra234-gpio")),
+        ("jethexa", AGX_ORIN, DirectionPins(rx=112, tx=108, chip="tegra234-gpio")),
+        ("ainex", RASPBERRY_PI, DirectionPins(rx=19, tx=26)),  # a Pi: BCM = gpiochip0 offsets
+        ("tonypi", [], DirectionPins(rx=4, tx=27)),  # no device tree (a PC)
+        ("rx=5,tx=6,chip=tegra-gpio", JETSON_NANO, DirectionPins(5, 6, "tegra-gpio")),
+    ],
+)
+def test_presets_resolve_to_the_jetson_models_lines(preset, compatibles, expected):
+    assert board_pins(preset, compatibles) == expected
+
+
+def test_a_preset_on_an_unknown_jetson_is_refused_naming_the_header_pins():
+    unknown = ["nvidia,p9999-0000", "nvidia,tegra999"]
+    with pytest.raises(ChoreoError) as error:
+        board_pins("jethexa", unknown)
+    message = str(error.value)
+    assert "header pins 11 (RX_CON, BCM 17) and 13 (TX_CON, BCM 27)" in message
+    assert "--direction rx=N,tx=N,chip=CHIP" in message and "\n" not in message
+
+
+def test_a_preset_whose_lines_are_on_two_chips_is_refused():
+    with pytest.raises(
+        ChoreoError, match=r"line 53 of tegra234-gpio and line 3 of tegra234-gpio-aon"
+    ):
+        board_pins("ainex", AGX_ORIN)
+
+
+def test_a_preset_refused_on_this_computer_is_one_line_from_servobus(monkeypatch):
+    from choreo.bus.transports import jetson
+
+    monkeypatch.setattr(jetson, "read_compatibles", lambda: ["nvidia,p9999-0000"])
+    with pytest.raises(ChoreoError, match="no pin table"):
+        ServoBus("sim://?ids=1-3&clock=virtual", direction="jethexa")
 
 
 def test_direction_without_gpiod_names_the_extra(monkeypatch):
@@ -132,3 +275,52 @@ def test_robot_yaml_bus_direction(tmp_path):
     (folder / "robot.yaml").write_text(text + "bus:\n  direction: rx=4\n")
     with pytest.raises(SourceError, match=r"robot.yaml:\d+:\d+: bus: direction: bad direction"):
         load_robot(folder / "robot.yaml")
+
+
+def test_a_chip_label_is_found_among_the_gpio_chips(tmp_path, monkeypatch):
+    from choreo.bus.transports import direction
+
+    class FakeChip:
+        labels = {"gpiochip0": "tegra-gpio", "gpiochip1": "tegra-gpio-aon"}
+
+        def __init__(self, path):
+            self.label = self.labels[path.rsplit("/", 1)[1]]
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            pass
+
+        def get_info(self):
+            return self
+
+    class FakeGpiod:
+        Chip = FakeChip
+
+    for name in FakeChip.labels:
+        (tmp_path / name).touch()
+    monkeypatch.setattr(direction, "Path", lambda _: tmp_path)
+    assert direction.chip_path(FakeGpiod, "tegra-gpio-aon") == str(tmp_path / "gpiochip1")
+    assert direction.chip_path(FakeGpiod, "/dev/gpiochip4") == "/dev/gpiochip4"
+    with pytest.raises(ChoreoError, match=r"no GPIO chip labelled 'tegra234-gpio'.*gpiodetect"):
+        direction.chip_path(FakeGpiod, "tegra234-gpio")
+
+
+@pytest.mark.parametrize("status_register", [True, False])
+def test_the_transmitter_empty_bit_holds_the_turnaround_when_bytes_leave_late(status_register):
+    # A UART 20 % slower than its nominal baud rate: the computed end comes before the last
+    # stop bit. The line-status bit keeps transmit on until it has left; the sum alone cuts the
+    # request's last byte off and the servo never answers.
+    emulator = BusEmulator(range(1, 4), clock=VirtualClock())
+    emulator.host_byte_time_s = 1.2 * 10 / 115200
+    lines = FakeDirectionLines(emulator, drain_late_s=0.004)
+    sim = SimSerial.from_emulator(emulator, timeout=0.05, baudrate=115200)
+    port = sim if status_register else NoStatusRegister(sim)
+    with ServoBus(DirectionSerial(port, lines, clock=emulator.clock), retries=0) as bus:
+        if status_register:
+            assert bus.read_position(2) == 500
+        else:
+            with pytest.raises(BusTimeoutError):
+                bus.read_position(2)
+            assert not emulator.log.packets  # the request never arrived whole

@@ -157,6 +157,21 @@ def test_low_voltage_and_heat_are_refused_in_preflight():
     assert "wrist_roll (ID 5): 90 °C is at or above the servo's limit 85 °C" in str(error.value)
 
 
+def test_a_supply_outside_the_robot_files_servo_model_is_refused_in_preflight():
+    # arm6 is LX-16A (rated 6-8.4 V, docs/servo-models.md); its stored limits are 4.5-14 V
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    assert rig.robot.joints[0].servo_model == "LX-16A"
+    for servo in rig.emulator.servos:
+        servo.vin_mv = 10800  # an 11.1 V (3S) pack
+    with pytest.raises(ChoreoError) as error:
+        rig.play()
+    message = str(error.value)
+    assert "base_yaw (ID 1): supply 10.8 V is outside the LX-16A's rated 6-8.4 V" in message
+    assert message.count("rated 6-8.4 V") == len(rig.robot.joints)
+    assert "the servo's limits" not in message  # the stored 4.5-14 V let it through
+    assert not [p for p in rig.emulator.log.packets if p.packet.command.name.startswith("MOVE")]
+
+
 def test_servo_vanishing_mid_play_aborts_with_move_stop():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
     vanish_at = []

@@ -40,15 +40,21 @@ def test_known_usb_devices_are_named_with_their_port_strings():
         "/dev/hidraw2",
         "/dev/hidraw0",
     ]
-    rrc = ports["/dev/ttyACM0"]
-    assert (rrc.usb_id, rrc.port_strings) == ("1a86:55d4", ("rrc:///dev/ttyACM0",))
-    assert "RRC" in rrc.known_as
-    ch340 = ports["/dev/ttyUSB0"]
-    assert ch340.port_strings == ("/dev/ttyUSB0",) and "unverified" in ch340.known_as
+    # generic WCH chips: either a bus adapter or an RRC board, and how to tell
+    for device, usb_id, chip in (
+        ("/dev/ttyACM0", "1a86:55d4", "CH9102"),
+        ("/dev/ttyUSB0", "1a86:7523", "CH340"),
+    ):
+        port = ports[device]
+        assert (port.usb_id, port.port_strings) == (usb_id, (device, f"rrc://{device}"))
+        assert port.known_as.startswith(chip) and "bus adapter or a Hiwonder RRC" in port.known_as
+        assert f"choreo ports --probe {device}" in port.note
     ftdi = ports["/dev/ttyUSB1"]
     assert (ftdi.known_as, ftdi.port_strings, ftdi.usb_id) == (None, ("/dev/ttyUSB1",), "0403:6001")
     lobot = ports["/dev/hidraw2"]
     assert (lobot.kind, lobot.usb_id, lobot.port_strings) == ("hid", "0483:5750", ("lobot://hid",))
+    assert "LeArm's LSC-6" in lobot.note and "PWM servos" in lobot.note  # not a LOBOT bus arm
+    assert "LeArm" not in lobot.known_as
     assert ports["/dev/hidraw0"].port_strings == ()  # a keyboard: listed, no --port
     assert listing.hid_missing is None
 
@@ -96,10 +102,12 @@ def test_the_command_prints_each_port_and_its_port_string(monkeypatch, capsys):
     fake_system(monkeypatch, [RRC, CH340], [LOBOT])
     assert main(["ports"]) == 0
     out = capsys.readouterr().out
-    assert "/dev/ttyACM0 [1a86:55d4]  Hiwonder RRC controller board" in out
-    assert "    --port rrc:///dev/ttyACM0\n" in out
+    assert "/dev/ttyACM0 [1a86:55d4]  CH9102 USB serial chip: a BusLinker-style" in out
+    assert "    --port /dev/ttyACM0\n    --port rrc:///dev/ttyACM0\n" in out
     assert "    --port /dev/ttyUSB0\n" in out
-    assert "/dev/hidraw2 [0483:5750]  LOBOT Bus Servo Controller\n    --port lobot://hid" in out
+    assert (
+        "/dev/hidraw2 [0483:5750]  LOBOT Bus Servo Controller (xArm)\n    --port lobot://hid" in out
+    )
 
 
 def test_the_command_in_json(monkeypatch, capsys):
@@ -108,7 +116,7 @@ def test_the_command_in_json(monkeypatch, capsys):
     document = json.loads(capsys.readouterr().out)
     assert document["hid_listed"] is True
     assert [(p["device"], p["port_strings"]) for p in document["ports"]] == [
-        ("/dev/ttyACM0", ["rrc:///dev/ttyACM0"]),
+        ("/dev/ttyACM0", ["/dev/ttyACM0", "rrc:///dev/ttyACM0"]),
         ("/dev/hidraw2", ["lobot://hid"]),
     ]
 

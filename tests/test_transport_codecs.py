@@ -192,7 +192,7 @@ def test_lobot_hid_report_port_adds_the_report_id_and_drops_the_padding():
             return self.reports.pop(0) if self.reports else b""
 
     device = FakeHid()
-    board = lobot.LobotBoard(lobot.HidReportPort(device, timeout_s=0.05), hid=True)
+    board = lobot.LobotBoard(lobot.HidReportPort(device, timeout_s=0.05), lobot.hid_capabilities())
     assert board.request(Command.POS_READ, 1, 0.05).fields == {"pos_units": 500}
     assert device.written == [b"\x00" + h("55 55 04 15 01 01")]
 
@@ -206,3 +206,34 @@ def test_lobot_hid_without_hidapi_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "hid", None)
     with pytest.raises(PortError, match=r"pip install 'choreo\[lobot\]'"):
         connect("lobot://hid", 0.05)
+
+
+@pytest.mark.parametrize("servos", [1, 2, 6, 18])
+def test_a_lobot_move_frame_is_7_plus_3n_bytes(servos):
+    frame = lobot.move_frame([(i, 500) for i in range(1, servos + 1)], 1000)
+    assert len(frame) == 7 + 3 * servos  # 55 55 LEN 03 n time:u16, then id pos:u16 each
+    assert lobot.CAPABILITIES.move_frame_bytes + 3 * servos == len(frame)
+
+
+def test_an_18_servo_lobot_move_frame_takes_63_5_ms_at_9600_baud():
+    link_s = (lobot.CAPABILITIES.move_frame_bytes + 3 * 18) * lobot.CAPABILITIES.host_byte_time_s
+    assert link_s == pytest.approx(61 * 10 / 9600)
+    assert round(link_s * 1000, 1) == 63.5
+
+
+def test_the_lobot_hid_report_interval_is_a_setting():
+    assert lobot.report_ms("lobot://hid") == lobot.DEFAULT_REPORT_MS == 1.0
+    assert lobot.report_ms("lobot://hid?report_ms=32") == 32
+    # one frame (at most one report) per interval
+    assert lobot.hid_capabilities(32).host_byte_time_s * lobot.HID_REPORT == pytest.approx(0.032)
+    from choreo.errors import PortError
+
+    for bad in ("lobot://hid?report_ms=0", "lobot://hid?report_ms=x", "lobot://hid?rate=32"):
+        with pytest.raises(PortError, match=r"report_ms=N .* 1 to 255 ms"):
+            lobot.report_ms(bad)
+
+
+def test_lobot_hid_connect_takes_the_report_interval(monkeypatch):
+    monkeypatch.setattr(lobot.HidReportPort, "open_first", classmethod(lambda cls, t: cls(None, t)))
+    connection = lobot.connect("lobot://hid?report_ms=32", 0.05)
+    assert connection.capabilities.host_byte_time_s == pytest.approx(0.032 / lobot.HID_REPORT)

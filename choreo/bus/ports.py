@@ -13,9 +13,18 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-RRC_USB_ID = (0x1A86, 0x55D4)  # Hiwonder RRC controller board over USB (ttyACM)
 LOBOT_USB_ID = (0x0483, 0x5750)  # LOBOT Bus Servo Controller, USB HID only
-CH340_USB_ID = (0x1A86, 0x7523)  # the usual USB-serial chip of BusLinker-style adapters
+# Generic WCH USB-serial chips: the ID names the chip, not what it is built into. The RRC board
+# enumerates as a CH9102 (1a86:55d4, the vendor's udev rule), a JetArm controller has been seen as
+# a CH340, and BusLinker-style bus adapters use either.
+GENERIC_USB_CHIPS: dict[tuple[int | None, int | None], str] = {
+    (0x1A86, 0x55D4): "CH9102",
+    (0x1A86, 0x7523): "CH340",
+}
+PROBE_HINT = (
+    "tell which with `choreo ports --probe {device}`: an RRC board sends battery frames at "
+    "1,000,000 baud, servos on a raw bus answer an ID read at 115200"
+)
 LOBOT_EXTRA = "pip install 'choreo[lobot]'"
 
 # The UARTs of the Pi / Jetson robots (docs/transports.md): the raw bus through the HAT's
@@ -88,7 +97,7 @@ def list_ports(
     except ModuleNotFoundError:
         hid_missing = (
             f"HID devices not listed: the hidapi package is not installed ({LOBOT_EXTRA}); "
-            "the LOBOT Bus Servo Controller of xArm / LeArm arms is a USB HID device"
+            "the LOBOT Bus Servo Controller of the xArm is a USB HID device"
         )
     return PortListing(
         tuple(
@@ -107,13 +116,16 @@ def identify_serial(record: SerialRecord, *, on_board: bool) -> FoundPort:
     def found(known_as, port_strings, note=""):
         return FoundPort("serial", device, usb, record.description, known_as, port_strings, note)
 
-    if (record.vid, record.pid) == RRC_USB_ID or device in RRC_LINKS:
+    if device in RRC_LINKS:
         return found("Hiwonder RRC controller board (STM32)", (f"rrc://{device}",))
-    if (record.vid, record.pid) == CH340_USB_ID:
+    chip = GENERIC_USB_CHIPS.get((record.vid, record.pid))
+    if chip is not None:
         return found(
-            "CH340 USB serial adapter, commonly a BusLinker-style bus adapter (unverified)",
-            (device,),
-            "the raw LX bus, 115200 baud",
+            f"{chip} USB serial chip: a BusLinker-style bus adapter or a Hiwonder RRC "
+            "controller board",
+            (device, f"rrc://{device}"),
+            "the raw LX bus at 115200 baud, or the RRC board at 1,000,000 baud; "
+            + PROBE_HINT.format(device=device),
         )
     if on_board and device in PI_UARTS:
         return found(
@@ -131,7 +143,15 @@ def identify_hid(record: HidRecord) -> FoundPort:
     usb = _usb_id(record.vid, record.pid)
     if (record.vid, record.pid) == LOBOT_USB_ID:
         return FoundPort(
-            "hid", record.path, usb, record.product, "LOBOT Bus Servo Controller", ("lobot://hid",)
+            "hid",
+            record.path,
+            usb,
+            record.product,
+            "LOBOT Bus Servo Controller (xArm)",
+            ("lobot://hid",),
+            "a LeArm's LSC-6 board has the same USB ID, but drives PWM servos by pulse width and "
+            "cannot read positions: choreo cannot play it; `choreo ports --probe lobot://hid` "
+            "tells them apart (the LOBOT controller's bus servos answer a position read)",
         )
     return FoundPort("hid", record.path, usb, record.product, None, ())
 

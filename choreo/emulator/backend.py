@@ -24,7 +24,6 @@ def register_url_handler() -> None:
 
 def connect(url: str, timeout_s: float, direction=None, echo="auto") -> Connection:
     """Open a ``sim://`` URL: a new emulator (or a saved one, ``state=``) and its backend."""
-    register_url_handler()
     port = open_serial(url, timeout_s, raw.BAUDRATE)
     return _connection(port, port.emulator, url, direction, echo)
 

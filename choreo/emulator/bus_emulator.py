@@ -127,6 +127,8 @@ class BusEmulator:
     ``direction``: optional GPIO enable lines in front of the host (a test's
     :class:`~choreo.emulator.direction_gate.FakeDirectionLines`): a host byte is lost unless
     transmit was on while it crossed, a byte for the host is lost unless receive was on.
+    ``drain_late_s``: how long after the wire is free the port's ``flush()`` (tcdrain) returns;
+    Linux's serial core sleeps at least a jiffy there (4-20 ms), the emulator 0 unless told.
     """
 
     board_kind: str | None = None  # a controller board in front of the servos (boards.py)
@@ -165,6 +167,7 @@ class BusEmulator:
         self._arrived = bytearray()  # bytes the host can read
         self._wire_free_s = -math.inf
         self.direction: DirectionGate | None = None
+        self.drain_late_s = 0.0
         self._layout = [(spec.servo_id, spec.model or model) for spec in specs]
         self._eeproms = self._load_state() or [Eeprom(servo_id) for servo_id, _ in self._layout]
         self.servos: tuple[EmulatedServo, ...] = tuple(

@@ -4,7 +4,8 @@ emulated bus, as strict as the real gate.
 A host byte reaches the servos only if transmit was on for the whole time it crossed the wire; a
 byte for the host (a reply, an echo) reaches it only if receive was on for the whole time. So a
 driver that switches to receive before its request has left (no drain), or listens too late,
-loses bytes and its reads time out, as on the robot.
+loses bytes and its reads time out, as on the robot. ``drain_late_s`` makes the port's
+``flush()`` (tcdrain) return that long after the last byte has left, as Linux's does.
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ class FakeDirectionLines:
     """Installs itself as ``emulator.direction``; both lines start off. ``changes`` lists
     (time_s, tx_on, rx_on) in order, for tests of the toggle order."""
 
-    def __init__(self, emulator: BusEmulator):
+    def __init__(self, emulator: BusEmulator, drain_late_s: float = 0.0):
         self.emulator = emulator
+        emulator.drain_late_s = drain_late_s
         self.changes: list[tuple[float, bool, bool]] = [(-math.inf, False, False)]
         emulator.direction = self
 

@@ -172,8 +172,14 @@ class SimSerial(SerialBase):
     def flush(self) -> None:
         """Wait until the wire has sent everything; the servos have then acted on it."""
         emulator = self._open_emulator()
-        emulator.clock.sleep_until(emulator.wire_free_s)
+        emulator.clock.sleep_until(emulator.wire_free_s + emulator.drain_late_s)
         emulator.catch_up()
+
+    def transmitter_empty(self) -> bool:
+        """The UART's line-status bit (``TIOCSERGETLSR``): the last stop bit has left, exactly
+        when it has, however late ``flush()`` would return."""
+        emulator = self._open_emulator()
+        return emulator.clock.now() >= emulator.wire_free_s
 
     def read(self, size: int = 1) -> bytes:
         emulator = self._open_emulator()

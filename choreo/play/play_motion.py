@@ -33,6 +33,7 @@ from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.path_errors import measured_path_errors
 from choreo.play.player import Player, PlayOptions, PlayReport, Progress, preflight, unchecked
+from choreo.play.realtime import Scheduling
 from choreo.play.soundtrack import (
     AudioSink,
     SongCue,
@@ -94,6 +95,7 @@ def play_motion(
             options = dataclasses.replace(options, lead_s=lead_s)
         staged = _with_stage(on_progress, performance) if on_progress else None
         player = Player(bus, robot, bus.clock, limits, options, on_progress=staged)
+        player.on_scheduling = _once(lambda scheduling: on_note(scheduling.describe()))
         report = play_with_song(player, performance, start_pose, sink, song, cue)
         exit_move = player.leave(report.outcome)
         return _described(report, motion, bus, performance, start_pose, exit_move)
@@ -150,6 +152,18 @@ def built_in_emulator(robot: Robot) -> BusEmulator:
         for j, a in zip(robot.joints, home)
     ]
     return BusEmulator(specs, clock=RealClock())
+
+
+def _once(note: Callable[[Scheduling], None]) -> Callable[[Scheduling], None]:
+    """The priority is said once: the move to the exit pose asks for it again."""
+    said: list[Scheduling] = []
+
+    def say(scheduling: Scheduling) -> None:
+        if not said:
+            said.append(scheduling)
+            note(scheduling)
+
+    return say
 
 
 def _with_stage(

@@ -22,6 +22,7 @@ transport offers (``capabilities``); preflight checks it cannot make are listed 
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import gc
 import logging
@@ -33,7 +34,8 @@ import numpy as np
 
 from choreo.bus.protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from choreo.bus.servo_bus import Presence, ServoBus
-from choreo.core.clock import Clock
+from choreo.bus.servo_models import servo_model
+from choreo.core.clock import Clock, RealClock
 from choreo.errors import (
     BusError,
     BusTimeoutError,
@@ -44,6 +46,7 @@ from choreo.errors import (
 )
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
 from choreo.plan.ticks import MOVE_BYTES, START_BYTES, Tick, segment
+from choreo.play.realtime import NOT_ASKED, Scheduling, realtime_priority
 from choreo.robot.types import Joint, Robot
 
 log = logging.getLogger(__name__)
@@ -91,6 +94,9 @@ class PlayOptions:
     max_missed_reads: int = 3  # consecutive unanswered reads before a servo counts as lost
     max_position_error_deg: float = 15.0
     temp_margin_c: int = 5  # abort this far below the servo's own temperature limit
+    # SCHED_FIFO + locked memory for the play where permitted (choreo/realtime.py); None: only
+    # with a real clock (a virtual one needs no priority)
+    realtime: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -157,6 +163,7 @@ class PlayReport:
     measured_start_skew_ms: float | None = None
     path_errors_deg: tuple[float, ...] | None = None  # per joint, against the smooth plan
     exit_move: PlayReport | None = None  # the move to the exit pose, if one was made
+    scheduling: Scheduling = NOT_ASKED  # the priority the play ran with
 
     @property
     def bus_use(self) -> float:
@@ -263,6 +270,8 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
             f"{who}: supply {vin} mV is outside the servo's limits "
             f"{vin_limits.min_mv}..{vin_limits.max_mv} mV; check the power supply"
         )
+    if vin is not None:
+        problems += _model_supply_problems(joint, vin)
     if temp is not None and temp_limit is not None and temp >= temp_limit:
         problems.append(
             f"{who}: {temp} °C is at or above the servo's limit {temp_limit} °C; let it cool down"
@@ -280,6 +289,20 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
         )
     vin_low, vin_high = (vin_limits.min_mv, vin_limits.max_mv) if vin_limits else (None, None)
     return position, ServoLimits(vin_low, vin_high, temp_limit), problems
+
+
+def _model_supply_problems(joint: Joint, vin_mv: int) -> list[str]:
+    """The supply against the rated range of the model the robot file names (the limits stored
+    in the servo are often the protocol's 4.5-14 V, which lets an LX-16A run on 11 V)."""
+    model = servo_model(joint.servo_model)
+    low, high = model.vin_range_mv
+    if low <= vin_mv <= high:
+        return []
+    return [
+        f"{joint.name} (ID {joint.servo_id}): supply {vin_mv / 1000:.1f} V is outside the "
+        f"{model.name}'s rated {low / 1000:g}-{high / 1000:g} V (the robot file's servo model); "
+        "check the power supply, or the joint's servo model in the robot file"
+    ]
 
 
 # --- the packets of a tick ---------------------------------------------------------------------
@@ -362,6 +385,8 @@ class Player:
         # Called once per play with the clock time of the first START, before anything is sent
         # (the song is cued on it: choreo/soundtrack.py).
         self.on_first_start: Callable[[float], None] | None = None
+        # Called once per play with the priority it got, before anything is sent.
+        self.on_scheduling: Callable[[Scheduling], None] | None = None
         self.health = tuple(ServoHealth(j.name, j.servo_id) for j in robot.joints)
         # Positions are checked most often; each round also reads one servo's VIN and temperature.
         n = len(robot.joints)
@@ -378,7 +403,17 @@ class Player:
 
     def play(self, ticks: Sequence[Tick], start_pose_deg: Sequence[float]) -> PlayReport:
         """Play ``ticks`` from ``start_pose_deg`` (where the servos are now)."""
-        stream = _Stream(self, list(ticks), start_pose_deg)
+        # The priority first: locking the memory takes a while, before the deadlines are set.
+        with self._priority() as scheduling:
+            if self.on_scheduling:
+                self.on_scheduling(scheduling)
+            return self._play(list(ticks), start_pose_deg, scheduling)
+
+    def _play(
+        self, ticks: list[Tick], start_pose_deg: Sequence[float], scheduling: Scheduling
+    ) -> PlayReport:
+        stream = _Stream(self, ticks, start_pose_deg)
+        stream.scheduling = scheduling
         collecting = gc.isenabled()
         gc.disable()  # a full collection can pause for tens of ms; streaming makes no cycles
         try:
@@ -396,6 +431,12 @@ class Player:
             if collecting:
                 gc.enable()
         return stream.report()
+
+    def _priority(self) -> contextlib.AbstractContextManager[Scheduling]:
+        wanted = self.options.realtime
+        if wanted is None:
+            wanted = isinstance(self.clock, RealClock)
+        return realtime_priority() if wanted else contextlib.nullcontext(NOT_ASKED)
 
     def stop(self) -> None:
         """Stop every servo by the transport's best means (``capabilities.stop``: a broadcast
@@ -505,6 +546,7 @@ class _Stream:
         self.capabilities = player.bus.capabilities
         self.staging = self.capabilities.staged_start  # else one move frame per tick
         self.most_moved = 0  # servos in the largest move frame (for the start skew)
+        self.scheduling = NOT_ASKED  # set by Player.play
         self.played = 0
         self.outcome, self.reason = Outcome.COMPLETED, ""
         # Start once whatever was sent before has left and every servo of tick 0 is staged
@@ -683,6 +725,7 @@ class _Stream:
             start_time_s=self.t0,
             transport=self.capabilities.transport,
             start_skew_ms=self.capabilities.start_skew_s(self.most_moved) * 1000,
+            scheduling=self.scheduling,
         )
 
 

@@ -40,7 +40,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.core.atomic import fsync_directory, write_text_atomically
 from choreo.core.clock import Clock
 from choreo.core.yaml_source import SourceLocation, did_you_mean
-from choreo.errors import BusError, ChoreoError
+from choreo.errors import BusError, ChoreoError, UnsupportedByTransport
 from choreo.motion.motion_file import Keyframe
 from choreo.motion.writer import motion_text, robot_reference
 from choreo.robot.robot_file import load_robot
@@ -404,6 +404,7 @@ class Recorder:
         self._times: list[float | None] = [None] * len(recording.captures)
 
     def __enter__(self) -> Recorder:
+        self._check_transport()
         self._check_servos()
         try:
             for joint in self.held:
@@ -420,6 +421,17 @@ class Recorder:
     def __exit__(self, exc_type, exc, traceback) -> None:
         if not self.leave_unloaded:
             self._hold_taught(quietly=exc is not None)
+
+    def _check_transport(self) -> None:
+        """Before anything is unloaded: the joints must be able to hold again afterwards."""
+        capabilities = self.bus.capabilities
+        if not capabilities.load:
+            raise UnsupportedByTransport(
+                f"{self.bus.name}: recording by hand is refused through the "
+                f"{capabilities.transport}: it cannot load (torque on) a servo again, so the "
+                "unloaded joints would stay limp; connect the servos to the raw LX bus or an RRC "
+                "board to record"
+            )
 
     def _check_servos(self) -> None:
         missing = [j for j in self.robot.joints if not self.bus.ping(j.servo_id, retries=2)]

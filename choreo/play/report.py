@@ -69,6 +69,12 @@ def report_document(report: PlayReport) -> dict[str, Any]:
             "port": transport.port,
             "emulated": transport.emulated,
         },
+        "scheduling": {
+            "policy": report.scheduling.policy,
+            "priority": report.scheduling.priority,
+            "memory_locked": report.scheduling.memory_locked,
+            "realtime_asked": report.scheduling.asked,
+        },
         "ticks": {
             "played": report.ticks_played,
             "total": report.ticks_total,

@@ -151,6 +151,16 @@ def backend_module(port: str | None) -> ModuleType:
     return host_module(port) if host_module is not None else module
 
 
+def _register_url_handler(url: str) -> None:
+    """Let pyserial open the URL schemes a backend provides itself (``sim://``)."""
+    module_name = BACKENDS.get(urllib.parse.urlsplit(url).scheme.lower()) if "://" in url else None
+    if module_name is None:
+        return
+    register = getattr(importlib.import_module(module_name), "register_url_handler", None)
+    if register is not None:
+        register()
+
+
 def _module_name(port: str | None) -> str:
     scheme = urllib.parse.urlsplit(port).scheme.lower() if port and "://" in port else ""
     return BACKENDS.get(scheme, RAW_BACKEND)
@@ -161,6 +171,7 @@ def open_serial(
 ) -> serial.SerialBase:
     """A serial port (or pyserial URL, ``sim://`` included) at ``baudrate``, 8N1, exclusive;
     ``quiet_lines``: RTS and DTR held low from the moment it opens."""
+    _register_url_handler(url)
     try:
         port = serial.serial_for_url(
             url,

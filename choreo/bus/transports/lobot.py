@@ -1,18 +1,24 @@
-"""``lobot://hid`` and ``lobot://PATH``: the LOBOT Bus Servo Controller of the xArm and LeArm,
-over USB HID (0483:5750) or its 9600-baud UART.
+"""``lobot://hid`` and ``lobot://PATH``: the LOBOT Bus Servo Controller of the xArm, over USB HID
+(0483:5750) or its 9600-baud UART. (The LeArm's LSC-6 board shares the USB ID and the framing,
+but drives PWM servos: it cannot read positions.)
 
 Frames are ``55 55 LEN CMD PARAMS`` with LEN = len(PARAMS) + 2 and no checksum (a corrupted
 frame is not detected). The basic command set: 03 moves several servos over one duration,
 0F reads the battery, 14 unloads servos, 15 reads positions. There is no staging, no MOVE_STOP,
 no per-servo voltage or temperature read: choreo refuses what needs them. To stop, choreo reads
-where the servos are and commands them to stay there (the closest thing to MOVE_STOP it has).
+where the servos are and commands them to stay there (the closest thing to MOVE_STOP it has);
+servos whose position does not come back are held at the targets last commanded to them.
 Over HID each frame goes out as one output report prefixed by report ID 0; input reports are 64
-bytes, the frame at their start. See docs/transports.md.
+bytes, the frame at their start. How often the host may send a report is the endpoint's polling
+interval, which no source gives for this board: ``lobot://hid?report_ms=N`` sets it (default
+1 ms, an assumption; ST's Custom HID template, where this VID:PID comes from, polls every 32 ms).
+See docs/transports.md.
 """
 
 from __future__ import annotations
 
 import logging
+import urllib.parse
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -47,10 +53,16 @@ CAPABILITIES = Capabilities(
     stop="no MOVE_STOP exists: choreo reads the servos' positions and commands them to stay there",
     load=False,
     host_byte_time_s=10 / BAUDRATE,
-    move_frame_bytes=5,
+    move_frame_bytes=7,  # 55 55 LEN 03 n time:u16, then 3 bytes per servo
     forward_s_per_servo=10 * 10 / 115200,  # assumed like the RRC: one LX packet after another
 )
-HID_CAPABILITIES = replace(CAPABILITIES, host_byte_time_s=0.001 / HID_REPORT)  # 1 report/ms
+DEFAULT_REPORT_MS = 1.0  # [assumed]; ST's Custom HID template polls every 32 ms
+MAX_REPORT_MS = 255  # bInterval is one byte of milliseconds at full speed
+
+
+def hid_capabilities(report_ms: float = DEFAULT_REPORT_MS) -> Capabilities:
+    """Over HID a frame (at most one report) leaves on the next poll: ``report_ms`` apart."""
+    return replace(CAPABILITIES, host_byte_time_s=report_ms / 1000 / HID_REPORT)
 
 
 def encode_frame(command: int, params: bytes = b"") -> bytes:
@@ -134,11 +146,29 @@ def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection
     if direction is not None:
         raise refuse_direction(url, CAPABILITIES)
     path = path_of(url)
-    if path.lower() == "hid":
+    if path.lower().split("?")[0] == "hid":
+        capabilities = hid_capabilities(report_ms(url))
         port = HidReportPort.open_first(timeout_s)
-        return Connection(port, LobotBoard(port, hid=True), RealClock())
+        return Connection(port, LobotBoard(port, capabilities), RealClock())
     port = open_serial(path, timeout_s, BAUDRATE)
     return Connection(port, LobotBoard(port), RealClock())
+
+
+def report_ms(url: str) -> float:
+    """``lobot://hid?report_ms=N``: the HID report interval, 1 to 255 ms (default 1)."""
+    query = urllib.parse.parse_qs(urllib.parse.urlsplit(url).query, keep_blank_values=True)
+    unknown = set(query) - {"report_ms"}
+    text = query.get("report_ms", [str(DEFAULT_REPORT_MS)])[-1]
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if unknown or not 1 <= value <= MAX_REPORT_MS:
+        raise PortError(
+            f"{url}: expected lobot://hid or lobot://hid?report_ms=N with N the HID report "
+            f"interval, 1 to {MAX_REPORT_MS} ms (e.g. 32)"
+        )
+    return value
 
 
 def board_on(port) -> LobotBoard:
@@ -148,11 +178,12 @@ def board_on(port) -> LobotBoard:
 class LobotBoard:
     """The LOBOT controller's commands on an open port (serial or :class:`HidReportPort`)."""
 
-    def __init__(self, port, *, hid: bool = False):
+    def __init__(self, port, capabilities: Capabilities = CAPABILITIES):
         self.port = port
-        self.capabilities = HID_CAPABILITIES if hid else CAPABILITIES
+        self.capabilities = capabilities
         self.bad_checksums = 0  # the controller checks the servos' replies itself
         self.decoder = FrameDecoder()
+        self.last_targets: dict[int, int] = {}  # servo id -> the position last commanded
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
         if command == Command.MOVE_TIME_WRITE:
@@ -170,6 +201,7 @@ class LobotBoard:
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
         frame = move_frame(moves, time_ms)
         self.port.write(frame)
+        self.last_targets.update(moves)
         return len(frame)
 
     def read_positions(self, servo_ids: Sequence[int], timeout_s: float) -> dict[int, int] | None:
@@ -202,6 +234,19 @@ class LobotBoard:
             wanted = self.decoder.bytes_to_complete(total)
         return latest
 
+    def read_battery(self, timeout_s: float) -> int | None:
+        """The board's supply voltage in mV (command 0F); None if it did not answer."""
+        port, request = self.port, battery_frame()
+        port.timeout = (len(request) + 6) * self.capabilities.host_byte_time_s + timeout_s
+        port.flush()
+        port.reset_input_buffer()
+        self.decoder.reset()
+        port.write(request)
+        for frame in self.decoder.feed(port.read(6)):
+            if frame.command == BATTERY and len(frame.params) == 2:
+                return int.from_bytes(frame.params, "little")
+        return None
+
     def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
         return Attempt(self._read(command, servo_id, timeout_s))
 
@@ -220,12 +265,25 @@ class LobotBoard:
         return {"pos_units": found[servo_id]}
 
     def stop_many(self, servo_ids: Sequence[int]) -> None:
-        """Hold where they are: read the positions, move there at once (no MOVE_STOP exists)."""
-        found = self.read_positions(servo_ids, SERVO_READ_S)
-        if not found:
-            log.error("LOBOT controller: no positions came back, so the servos were not held")
-            return
-        self.move_many(sorted(found.items()), 0)
+        """Hold where they are: read the positions, move there at once (no MOVE_STOP exists).
+        A servo whose position does not come back is held at its last commanded target, where
+        it was going anyway."""
+        found = self.read_positions(servo_ids, SERVO_READ_S) or {}
+        unread = [i for i in servo_ids if i not in found]
+        targets = {i: self.last_targets[i] for i in unread if i in self.last_targets}
+        if targets:
+            log.warning(
+                "LOBOT controller: no position came back from servo(s) %s: held at their last "
+                "commanded targets",
+                ", ".join(map(str, sorted(targets))),
+            )
+        if lost := [i for i in unread if i not in targets]:
+            log.error(
+                "LOBOT controller: servo(s) %s neither answered nor were moved: not held",
+                ", ".join(map(str, lost)),
+            )
+        if hold := {**targets, **found}:
+            self.move_many(sorted(hold.items()), 0)
 
 
 class HidReportPort:

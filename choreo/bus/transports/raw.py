@@ -50,12 +50,19 @@ def connect(
     """The raw bus on a device path or pyserial URL (or a port opened already), optionally
     behind GPIO direction lines; ``clock``: what the port's timeouts run on (real time, unless
     the port is an emulator's)."""
+    opened_here = isinstance(port, str)
     if isinstance(port, str):
         port = open_serial(port, timeout_s, BAUDRATE)
     if direction is not None:
         from choreo.bus.transports.direction import DirectionSerial, direction_lines
 
-        port = DirectionSerial(port, direction_lines(direction))
+        try:
+            lines = direction_lines(direction)
+        except BaseException:
+            if opened_here:  # a preset this computer cannot resolve, or no gpiod
+                port.close()
+            raise
+        port = DirectionSerial(port, lines)
     clock = clock or RealClock()
     return Connection(port, RawBus(port, EchoMode(echo), clock), clock)
 
