@@ -57,6 +57,7 @@ PUBLIC = {
     "choreo.preview": ("simulate_motion", "run_checks"),
     "choreo.preview.report": ("preview_report",),
     "choreo.music.beats": ("BeatAnalysis", "detect_beats"),
+    "choreo.music.report": ("beats_report",),
 }
 _MODULE_OF = {name: module for module, names in PUBLIC.items() for name in names}
 # every error a user can meet (UsageError is the command line's own)
@@ -87,6 +88,7 @@ if TYPE_CHECKING:
     from choreo.core.clock import RealClock, VirtualClock
     from choreo.motion.motion_file import Keyframe, Motion, load_motion
     from choreo.music.beats import BeatAnalysis, detect_beats
+    from choreo.music.report import beats_report
     from choreo.plan.performance import Performance, prepare
     from choreo.plan.pipeline import CompiledMotion, compile_motion
     from choreo.plan.planner import PlanResult, Trajectory, plan_motion

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from choreo.errors import PlanningError, SourceError
 from choreo.motion.motion_file import Motion, load_motion
+from choreo.motion.music_block import past_song
 from choreo.plan.pipeline import compile_motion
 from choreo.robot.lookup import ROBOT_FILE
 from choreo.robot.robot_file import load_robot
@@ -30,7 +31,9 @@ class FileCheck:
         return not self.problems
 
 
-def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> FileCheck:
+def check_file(
+    path: Path, *, physics: bool = True, stretch: bool = False, allow_past_song: bool = False
+) -> FileCheck:
     """Check one motion or robot file (a file named robot.yaml is a robot).
 
     With ``stretch``, keyframes the limits can't meet on time are moved later (as ``choreo play
@@ -40,7 +43,7 @@ def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> Fi
         if path.name == ROBOT_FILE:
             load_robot(path)
             return FileCheck(path)
-        motion = load_motion(path)
+        motion = load_motion(path, allow_past_song)
         compiled = compile_motion(motion, stretch=stretch)
     except SourceError as error:
         return FileCheck(path, list(error.problems))
@@ -50,6 +53,8 @@ def check_file(path: Path, *, physics: bool = True, stretch: bool = False) -> Fi
         f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
         for s in compiled.stretches
     ]
+    outlasts = past_song(motion.music, motion.keyframes, motion.repeat)
+    stretched += [f"{path}: {outlasts}"] if outlasts else []
     if not physics:
         return FileCheck(path, warnings=stretched)
     found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)

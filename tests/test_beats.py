@@ -8,14 +8,14 @@ import sys
 
 import numpy as np
 import pytest
-from music_helpers import click_track, steady_times, write_clicks
+from music_helpers import band_track, click_track, steady_times, write_clicks
 from test_plan_cli import png_size
 
 from choreo.cli import main
 from choreo.errors import ChoreoError
 from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
-from choreo.music.decode import Audio, decode
+from choreo.music.decode import Audio, decode, encode
 
 BPM_TOLERANCE = 0.5
 BEAT_TOLERANCE_S = 0.015
@@ -118,3 +118,90 @@ def test_noise_and_a_buzz_give_increasing_beats_and_end():
     for audio in (noise, buzz):
         beats = np.asarray(detect_beats(audio).beats_s)
         assert np.all(np.diff(beats) > 0) and np.all((beats >= 0) & (beats <= audio.duration_s))
+
+
+# --- songs with a band: meter, downbeats, tempo changes, confidence ------------------------------
+def test_a_backbeat_with_a_loud_snare_has_its_bars_on_the_kick_and_chord():
+    times = steady_times(104, 0.3, 16)
+    analysis = detect_beats(band_track(times, snare_gain=1.0))  # the meter is not given
+    assert analysis.meter_detected and analysis.beats_per_bar == 4
+    assert_beats_match(analysis.beats_s, times)
+    assert_beats_match(analysis.downbeats_s, times[::4])  # not on the snare's beat 2
+
+
+def test_a_waltz_is_found_to_be_in_three():
+    times = steady_times(138, 0.3, 16)
+    analysis = detect_beats(band_track(times, per_bar=3))
+    assert analysis.beats_per_bar == 3 and analysis.meter_confidence > 0.5
+    assert_beats_match(analysis.downbeats_s, times[::3])
+
+
+def test_a_tempo_change_in_a_song_is_followed_across_it():
+    times = np.concatenate([steady_times(100, 0.3, 12), 12.3 + np.arange(30) * 60 / 130])
+    analysis = detect_beats(band_track(times))
+    assert_beats_match(analysis.beats_s, times)
+    assert [round(span.bpm) for span in analysis.tempi] == [100, 130]
+    assert analysis.change_points_s == pytest.approx([12.3], abs=BEAT_TOLERANCE_S)
+    assert all(span.confidence > 0.5 for span in analysis.tempi)
+
+
+def test_a_pickup_is_not_a_bar():
+    times = steady_times(116, 0.3, 16)
+    analysis = detect_beats(band_track(times, pickup=2))
+    assert_beats_match(analysis.downbeats_s, times[2::4])
+
+
+def test_white_noise_has_no_steady_beat_and_no_music_suggestion(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    noise = Audio((0.3 * rng.standard_normal(22050 * 10)).astype(np.float32), 22050)
+    song = encode(noise, tmp_path / "noise.wav")
+    assert main(["beats", str(song)]) == 0
+    out = capsys.readouterr().out
+    assert "no steady beat" in out and "for a motion" not in out
+    assert main(["beats", str(song), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["steady"] is False and report["confidence"] < 0.2 and report["music"] is None
+
+
+def test_json_carries_the_music_block_stretches_meter_and_confidence(tmp_path, capsys):
+    times = np.concatenate([steady_times(100, 0.3, 12), 12.3 + np.arange(30) * 60 / 130])
+    song = encode(band_track(times), tmp_path / "change.wav")
+    assert main(["beats", str(song), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    first = report["beats_s"][0]
+    assert report["music"] == f"{{song: change.wav, start: {first:.3f}, beats: auto}}"
+    assert [round(span["bpm"]) for span in report["tempi"]] == [100, 130]
+    assert all(0.5 < span["confidence"] <= 1 for span in report["tempi"])
+    assert report["change_points_s"] == pytest.approx([12.3], abs=BEAT_TOLERANCE_S)
+    assert report["beats_per_bar"] == 4 and report["meter_detected"] is True
+    assert report["steady"] is True and report["warnings"] == []
+
+
+def test_the_alternative_grids_half_double_and_off_beat(tmp_path, capsys):
+    times = steady_times(120, 0.5, 9.6)
+    song = write_clicks(tmp_path / "clicks.wav", times, 10.0)
+    reports = {}
+    for options in (["--level", "double"], ["--level", "half"], ["--offset-beats", "0.5"]):
+        assert main(["beats", str(song), "--json", "--meter", "4", *options]) == 0
+        reports[options[1]] = json.loads(capsys.readouterr().out)
+    middles = (times[:-1] + times[1:]) / 2
+    assert_beats_match(reports["double"]["beats_s"], np.sort(np.concatenate([times, middles])))
+    assert_beats_match(reports["half"]["beats_s"], times[::2])
+    assert_beats_match(reports["0.5"]["beats_s"], middles)
+    assert "try --level half" in reports["double"]["warnings"][0]  # 240 BPM
+    assert "try --level double" in reports["half"]["warnings"][0]  # 60 BPM
+    assert "--offset-beats 0.5" in reports["0.5"]["warnings"][0]  # the clicks fall between
+
+
+def test_detection_needs_little_more_memory_than_the_samples():
+    import tracemalloc
+
+    audio = click_track(steady_times(120, 0.5, 119), 120.0)
+    detect_beats(click_track(steady_times(120, 0.5, 5), 6.0))  # librosa's own first-use caches
+    tracemalloc.start()
+    try:
+        detect_beats(audio)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 * audio.samples.nbytes  # whole-song spectrograms took 13 times as much

@@ -11,13 +11,13 @@ import jsonschema
 import numpy as np
 import pytest
 import yaml
-from music_helpers import steady_times, write_clicks
+from music_helpers import click_track, steady_times, write_clicks
 
 from choreo.cli import main
 from choreo.errors import PlanningError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.music.beats import detect_beats
-from choreo.music.decode import decode
+from choreo.music.decode import Audio, decode, encode
 from choreo.plan.planner import plan_motion
 
 
@@ -291,6 +291,22 @@ def test_the_shipped_dances_validate_and_keep_to_their_song(capsys):
         assert detected.downbeats_s[0] == pytest.approx(music.start_s, abs=0.015)
 
 
+def test_a_shipped_dance_on_detected_beats_keeps_its_times(tmp_path):
+    import shutil
+
+    shutil.copytree(REPO / "motions" / "songs", tmp_path / "songs")
+    shutil.copytree(REPO / "motions" / "tonypi", tmp_path / "tonypi")
+    auto = tmp_path / "tonypi" / "dance.yaml"
+    auto.write_text(auto.read_text().replace("  bpm: 112\n", "  beats: auto\n"))
+    written, detected = load_motion(DANCES[1]), load_motion(auto)
+    assert detected.music.bpm is None and detected.music.grid.bar_one_beat == 1
+    assert len(written.keyframes) == len(detected.keyframes)
+    pairs = [(a.t_s, b.t_s) for a, b in zip(written.keyframes, detected.keyframes)]
+    assert all((a is None) == (b is None) for a, b in pairs)
+    times = np.array([pair for pair in pairs if pair[0] is not None])
+    assert len(times) >= 16 and np.max(np.abs(times[:, 0] - times[:, 1])) <= 0.002
+
+
 def test_a_mirrored_dance_keeps_its_song_and_times(tmp_path):
     source = load_motion(DANCES[0])
     out = tmp_path / "elsewhere" / "mirrored.yaml"
@@ -356,3 +372,181 @@ def test_the_schema_knows_the_music_block_and_beat_timing():
     assert where == [["keyframes", 0], ["keyframes", 1, "bar"], ["music"]]
     assert not validator.is_valid({"robot": "arm6", "music": {"song": "a.txt", "bpm": 1},
                                    "keyframes": [{"pose": "home"}]})  # fmt: skip
+
+
+# --- beats: auto anchored where the author means; repeats; the song's end -------------------------
+def test_beats_auto_takes_the_beat_nearest_start_and_says_so(tmp_path, capsys):
+    times = steady_times(120, 0.253, 9.6)  # start: 0.26 is 7 ms after the first beat
+    encode(click_track(times, 10.0), tmp_path / "clicks.wav")
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        """
+        robot: arm6
+        music: {song: clicks.wav, start: 0.26, beats: auto}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            bar: 2
+        """,
+    )
+    assert main(["plan", str(path), "--json"]) == 0
+    out, err = capsys.readouterr()
+    report = json.loads(out)
+    assert np.array(report["keyframe_times_s"]) == pytest.approx(
+        times[[0, 4]] - times[0], abs=0.015
+    )
+    assert report["music"]["start_s"] == pytest.approx(times[0], abs=0.015)  # moved onto beat 1
+    assert "beat 1 is the beat detected at 0.25" in report["music"]["note"]
+    assert "beat 1 is the beat detected at 0.25" in err
+
+
+def test_beats_auto_counts_bars_from_the_downbeat_after_a_pickup(tmp_path, capsys):
+    times = steady_times(120, 0.5, 9.6)
+    encode(click_track(times, 10.0, first_accent=2), tmp_path / "pickup.wav")  # 2-beat pickup
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        """
+        robot: arm6
+        music: {song: pickup.wav, beats: auto}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            bar: 1
+          - pose: {shoulder: -20}
+            bar: 2
+        """,
+    )
+    report = plan_json(capsys, path)
+    # start 0 is more than half a beat before the first click: beat 1 is that click, at t 0.5
+    assert report["music"]["beat_times_s"][0] == pytest.approx(times[0], abs=0.015)
+    played = np.array(report["keyframe_times_s"])
+    assert played == pytest.approx(times[[0, 2, 6]], abs=0.015)
+    assert report["music"]["bar_one_beat"] == 3
+
+
+def test_a_repeat_follows_the_songs_beats_as_it_speeds_up(tmp_path, capsys):
+    intervals = np.linspace(0.6, 0.45, 30)  # an accelerando
+    times = 0.5 + np.concatenate([[0], np.cumsum(intervals)])
+    encode(click_track(times, times[-1] + 0.5), tmp_path / "faster.wav")
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        """
+        robot: arm6
+        repeat: 3
+        music: {song: faster.wav, start: 0.5, beats: auto, meter: 4/4}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            beat: 3
+        """,
+    )
+    # a repetition lasts a bar (its last keyframe on beat 3): beats 1 3, 5 7, 9 11
+    wanted = times[[0, 2, 4, 6, 8, 10]] - times[0]
+    got = np.array(plan_json(capsys, path)["keyframe_times_s"])
+    assert got == pytest.approx(wanted, abs=0.015)
+
+
+def test_a_dance_past_its_song_is_refused_unless_allowed(tmp_path, song, capsys):
+    text = """
+        robot: arm6
+        repeat: 3
+        music: {song: song.wav, start: 0.5, bpm: 120}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            beat: 9
+        """
+    path = write(tmp_path, "long.yaml", text)
+    # a repetition is 3 bars (beat 9 is in bar 3): the third ends on beat 33, the song at beat 19
+    assert problems_of(path) == [
+        f"{path}:2:1: the dance (repeat 3) runs to at least t 16.000 s, 6.500 s past the end of "
+        "song.wav (which ends at t 9.500 after start 0.5 s); end it sooner, start earlier in "
+        "the song, or pass --allow-past-song to dance on in silence"
+    ]
+    assert main(["plan", str(path), "--allow-past-song"]) == 0
+    assert "the dance goes on in silence" in capsys.readouterr().err
+    once = write(tmp_path, "once.yaml", text.replace("repeat: 3", "repeat: 1"))
+    assert main(["play", str(once), "--loop", "3", "--dry-run", "--no-audio"]) == 2
+    assert "--loop 3: the dance (repeat 3) runs to at least t 16.000 s" in capsys.readouterr().err
+    late = write(
+        tmp_path,
+        "late.yaml",
+        text.replace("start: 0.5", "start: 9")
+        .replace("repeat: 3", "repeat: 1")
+        .replace("beat: 9", "t: 2"),
+    )
+    assert "runs to at least t 2.000 s, 1.000 s past the end" in problems_of(late)[0]
+
+
+def test_an_empty_song_without_start_is_one_line(tmp_path):
+    encode(Audio(np.zeros(0, np.float32), 22050), tmp_path / "empty.wav")
+    path = write(
+        tmp_path,
+        "mute.yaml",
+        "robot: arm6\nmusic: {song: empty.wav, bpm: 120}\nkeyframes:\n  - pose: home\n",
+    )
+    assert problems_of(path) == [f"{path}:2:15: empty.wav has no sound (0.000 s long); give a song"]
+
+
+def test_a_bad_music_block_is_the_only_message_for_its_beats(tmp_path, song):
+    path = write(
+        tmp_path,
+        "bad.yaml",
+        """
+        robot: arm6
+        music: {song: song.wav, bpm: 120, meter: four}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            bar: 2
+        """,
+    )
+    assert problems_of(path) == [
+        f"{path}:2:42: meter 'four' is not a time signature; write it like 4/4, 3/4 or 6/8"
+    ]
+
+
+def test_the_music_example_of_the_docs_loads(tmp_path):
+    docs = (REPO / "docs" / "motion-format.md").read_text()
+    section = docs[docs.index("## Music: dancing on the beat") :]
+    example = section[section.index("```yaml\n") + 8 : section.index("```\n", 10)]
+    (tmp_path / "songs").mkdir()
+    (tmp_path / "songs" / "groove.ogg").write_bytes(
+        (REPO / "motions/songs/groove.ogg").read_bytes()
+    )
+    (tmp_path / "tonypi").mkdir()
+    motion = load_motion(write(tmp_path / "tonypi", "dance.yaml", example))
+    assert [k.t_s for k in motion.keyframes] == pytest.approx([0, 1.5, 8, 10] * np.array(60 / 112))
+
+
+def test_the_music_block_takes_the_alternative_grid_with_beats_auto_only(tmp_path, song, capsys):
+    path = write(
+        tmp_path,
+        "offbeat.yaml",
+        """
+        robot: arm6
+        music: {song: song.wav, start: 0.7, beats: auto, offset_beats: 0.5, meter: 4/4}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {shoulder: 20}
+            beat: 3
+        """,
+    )
+    report = plan_json(capsys, path)  # the clicks are at 0.5, 1.0, ...: the off-beats 0.75, ...
+    assert report["music"]["start_s"] == pytest.approx(0.75, abs=0.015)
+    assert report["keyframe_times_s"] == pytest.approx([0.0, 1.0], abs=0.015)
+    fixed = write(
+        tmp_path,
+        "fixed.yaml",
+        "robot: arm6\nmusic: {song: song.wav, bpm: 120, level: half}\nkeyframes:\n  - pose: home\n",
+    )
+    assert problems_of(fixed) == [f"{fixed}:2:35: level goes with beats: auto, not bpm"]

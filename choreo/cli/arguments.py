@@ -1,4 +1,5 @@
-"""Argument types and option groups shared by the commands, and the built-in emulated bus."""
+"""Argument types and option groups shared by the commands, the built-in emulated bus, and
+loading a motion that dances to a song."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ from pathlib import Path
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from choreo.bus.servo_bus import ServoBus
 from choreo.bus.transports.direction import PRESETS, parse_direction
+from choreo.errors import UsageError
+from choreo.motion.motion_file import Motion, load_motion
+from choreo.motion.music_block import past_song
 from choreo.robot.types import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
@@ -142,6 +146,7 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
         help="move keyframes later where the limits can't meet their times "
         "(and say by how much) instead of failing",
     )
+    add_past_song_argument(parser)
     parser.add_argument(
         "--tolerance",
         type=float_in(0, MAX_TOLERANCE_DEG, "°"),
@@ -149,6 +154,14 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DEG",
         help="how far the servos' linear moves may leave the smooth plan, up to "
         f"{MAX_TOLERANCE_DEG:g}° (default 0.5°; rounding to whole servo units adds up to 0.12°)",
+    )
+
+
+def add_past_song_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--allow-past-song",
+        action="store_true",
+        help="with music: let the dance run on after its song ends (warned, not refused)",
     )
 
 
@@ -226,3 +239,23 @@ def say_built_in_emulator(robot: Robot, doing: str) -> None:
         f"of {robot.name} at its home pose)",
         file=sys.stderr,
     )
+
+
+def load_dance(path: Path, allow_past_song: bool) -> Motion:
+    """The motion, saying which detected beats ``beats: auto`` took and (allowed) that the dance
+    outlasts its song."""
+    motion = load_motion(path, allow_past_song)
+    if motion.music is not None and motion.music.note:
+        print(f"choreo: {motion.music.note}", file=sys.stderr)
+    check_past_song(motion, allow_past_song, str(path))
+    return motion
+
+
+def check_past_song(motion: Motion, allowed: bool, what: str) -> None:
+    """Refuse (UsageError) or, allowed, warn of a dance that outlasts its song."""
+    problem = past_song(motion.music, motion.keyframes, motion.repeat)
+    if problem is None:
+        return
+    if not allowed:
+        raise UsageError(f"{what}: {problem}; give fewer, or pass --allow-past-song")
+    print(f"choreo: warning: {problem}: the dance goes on in silence", file=sys.stderr)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from choreo.cli.arguments import add_past_song_argument
 from choreo.validate import check_file
 
 
@@ -28,6 +29,7 @@ def register(subparsers) -> None:
         help="move keyframes later where the limits can't meet their times, as "
         "`choreo play --stretch` does, and warn instead of failing",
     )
+    add_past_song_argument(validate)
     validate.add_argument(
         "files", nargs="+", type=Path, metavar="FILE", help="a motion .yaml or a robot.yaml"
     )
@@ -37,7 +39,12 @@ def register(subparsers) -> None:
 def run_validate(args: argparse.Namespace) -> int:
     failed = False
     for path in args.files:
-        result = check_file(path, physics=not args.no_physics, stretch=args.stretch)
+        result = check_file(
+            path,
+            physics=not args.no_physics,
+            stretch=args.stretch,
+            allow_past_song=args.allow_past_song,
+        )
         for line in result.problems:
             print(line)
         for line in result.warnings:

@@ -6,10 +6,11 @@ import argparse
 import json
 from pathlib import Path
 
-from choreo.cli.arguments import positive_int
+from choreo.cli.arguments import finite_float, positive_int
 from choreo.cli.plan_commands import png_path
-from choreo.music.beats import BeatAnalysis, detect_beats
+from choreo.music.beats import LEVELS, BeatAnalysis, detect_beats
 from choreo.music.decode import decode
+from choreo.music.report import beats_report, suggested_music
 
 
 def register(subparsers) -> None:
@@ -17,8 +18,9 @@ def register(subparsers) -> None:
         "beats",
         help="detect the tempo, beats and downbeats of a song (needs choreo[music])",
         description="Decode a song (wav, flac, ogg, mp3) and detect its beats: the tempo of "
-        "each steady stretch, every beat's time and the downbeats (each bar's first beat). "
-        "Times are seconds from the start of the file; use them for a motion's music: start.",
+        "each steady stretch and how sure it is, every beat's time, the meter and the "
+        "downbeats (each bar's first beat), and a music: block for a motion. Times are seconds "
+        "from the start of the file.",
     )
     beats.add_argument("song", type=Path, metavar="SONG", help="a wav, flac, ogg or mp3 file")
     beats.add_argument("--json", action="store_true", help="print the analysis as JSON")
@@ -28,20 +30,33 @@ def register(subparsers) -> None:
     beats.add_argument(
         "--meter",
         type=positive_int,
-        default=4,
         metavar="N",
-        help="beats to the bar, for the downbeats (default 4)",
+        help="beats to the bar, for the downbeats (default: estimated, 2, 3 or 4)",
+    )
+    beats.add_argument(
+        "--level",
+        choices=LEVELS,
+        help="the alternative grid a warning offers: every other beat (half) or a beat "
+        "between each two (double)",
+    )
+    beats.add_argument(
+        "--offset-beats",
+        type=finite_float,
+        default=0.0,
+        metavar="N",
+        help="move the grid by N beats (0.5: onto the off-beats)",
     )
     beats.set_defaults(handler=run_beats)
 
 
 def run_beats(args: argparse.Namespace) -> int:
     audio = decode(args.song)
-    analysis = detect_beats(audio, args.meter)
+    analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats)
     if args.json:
-        print(json.dumps(beats_report(args.song, analysis), indent=2))
+        report = beats_report(args.song, analysis, args.level or "", args.offset_beats)
+        print(json.dumps(report, indent=2))
     else:
-        print_beats(args.song, analysis)
+        print_beats(args.song, analysis, args.level or "", args.offset_beats)
     if args.plot is not None:
         from choreo.music.beat_plot import plot_beats  # matplotlib: only when a plot is asked for
 
@@ -51,22 +66,12 @@ def run_beats(args: argparse.Namespace) -> int:
     return 0
 
 
-def beats_report(song: Path, analysis: BeatAnalysis) -> dict:
-    return {
-        "song": str(song),
-        "duration_s": analysis.duration_s,
-        "bpm": analysis.bpm,
-        "beats_per_bar": analysis.beats_per_bar,
-        "tempi": [
-            {"start_s": span.start_s, "end_s": span.end_s, "bpm": span.bpm}
-            for span in analysis.tempi
-        ],
-        "beats_s": list(analysis.beats_s),
-        "downbeats_s": list(analysis.downbeats_s),
-    }
-
-
 def _headline(song: Path, analysis: BeatAnalysis) -> str:
+    if analysis.beats_s and not analysis.steady:
+        return (
+            f"{song.name}: {analysis.duration_s:.2f} s, no steady beat (confidence "
+            f"{analysis.confidence:.2f}): {len(analysis.beats_s)} beats guessed"
+        )
     return (
         f"{song.name}: {analysis.duration_s:.2f} s, {analysis.bpm:.2f} BPM, "
         f"{len(analysis.beats_s)} beats, {len(analysis.downbeats_s)} downbeats "
@@ -74,21 +79,38 @@ def _headline(song: Path, analysis: BeatAnalysis) -> str:
     )
 
 
-def print_beats(song: Path, analysis: BeatAnalysis) -> None:
+def _meter_text(analysis: BeatAnalysis) -> str:
+    if not analysis.meter_detected:
+        return f"meter {analysis.beats_per_bar} beats to the bar (given)"
+    sure = "sure" if analysis.meter_confidence >= 0.5 else "unsure: give --meter if you know it"
+    return (
+        f"meter {analysis.beats_per_bar} beats to the bar (estimated, confidence "
+        f"{analysis.meter_confidence:.2f}, {sure})"
+    )
+
+
+def print_beats(song: Path, analysis: BeatAnalysis, level: str = "", offset_beats: float = 0.0):
     print(_headline(song, analysis))
     if not analysis.beats_s:
         print("no beats found")
         return
     for span in analysis.tempi:
-        print(f"tempo {span.bpm:.2f} BPM from {span.start_s:.3f} s to {span.end_s:.3f} s")
+        print(
+            f"tempo {span.bpm:.2f} BPM from {span.start_s:.3f} s to {span.end_s:.3f} s "
+            f"(confidence {span.confidence:.2f})"
+        )
+    if analysis.change_points_s:
+        print("tempo changes at (s): " + " ".join(f"{t:.3f}" for t in analysis.change_points_s))
+    print(_meter_text(analysis))
     print("beats (s):     " + " ".join(f"{b:.3f}" for b in analysis.beats_s))
     print("downbeats (s): " + " ".join(f"{b:.3f}" for b in analysis.downbeats_s))
-    print(f"for a motion: music: {suggested_music(song, analysis)}")
-
-
-def suggested_music(song: Path, analysis: BeatAnalysis) -> str:
-    """A music block that starts on the first downbeat: a fixed tempo if the song keeps one."""
-    start = analysis.downbeats_s[0] if analysis.downbeats_s else analysis.beats_s[0]
-    tempo = f"bpm: {analysis.bpm:.2f}" if len(analysis.tempi) == 1 else "beats: auto"
-    meter = f", meter: {analysis.beats_per_bar}/4" if analysis.beats_per_bar != 4 else ""
-    return f"{{song: {song.name}, start: {start:.3f}, {tempo}{meter}}}"
+    for warning in analysis.warnings if analysis.steady else ():
+        print(f"warning: {warning}")
+    suggestion = suggested_music(song, analysis, level, offset_beats)
+    if suggestion is None:
+        print(
+            f"no steady beat (confidence {analysis.confidence:.2f}): these beats are not worth "
+            "dancing to; time the motion in seconds, or give bpm and start by ear"
+        )
+    else:
+        print(f"for a motion: music: {suggestion}")

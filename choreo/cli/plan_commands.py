@@ -9,10 +9,9 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from choreo.cli.arguments import add_planning_arguments, non_negative_float
+from choreo.cli.arguments import add_planning_arguments, load_dance, non_negative_float
 from choreo.core.atomic import check_writable
 from choreo.errors import UsageError
-from choreo.motion.motion_file import load_motion
 from choreo.plan.pipeline import compile_motion
 from choreo.plan.report import plan_report
 
@@ -71,7 +70,7 @@ def run_plan(args: argparse.Namespace) -> int:
         )
     if args.plot is not None:
         check_writable(args.plot)
-    motion = load_motion(args.motion)
+    motion = load_dance(args.motion, args.allow_past_song)
     compiled = compile_motion(
         motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
     )

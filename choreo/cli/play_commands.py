@@ -18,6 +18,7 @@ from choreo.cli.arguments import (
     add_port_arguments,
     bus_settings,
     float_in,
+    load_dance,
     positive_int,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
@@ -125,11 +126,12 @@ def run_play(args: argparse.Namespace) -> int:
         audio=not args.no_audio,
         audio_device=args.audio_device,
         audio_latency_s=None if args.audio_latency_ms is None else args.audio_latency_ms / 1000,
+        allow_past_song=args.allow_past_song,
     )
-    motion = prepared_motion(args.motion, options)
+    motion = load_dance(args.motion, args.allow_past_song)
     settings = bus_settings(args, motion.robot)
     if args.dry_run:
-        return dry_run(motion, options, settings.port)
+        return dry_run(prepared_motion(motion, options, _note), options, settings.port)
     if settings.port is None:
         say_built_in_emulator(motion.robot, "playing on")
     with stop_signals_as_ctrl_c(), _progress_bar() as on_progress:

@@ -12,10 +12,9 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from choreo.cli.arguments import add_planning_arguments, positive_float, positive_int
+from choreo.cli.arguments import add_planning_arguments, load_dance, positive_float, positive_int
 from choreo.core.atomic import atomic_output, check_writable, write_text_atomically
 from choreo.errors import UsageError
-from choreo.motion.motion_file import load_motion
 from choreo.motion.music_block import check_speed
 from choreo.motion.scene import StartPosture
 from choreo.validate import heading_for
@@ -182,7 +181,7 @@ def run_preview(args: argparse.Namespace) -> int:
 
     from choreo import preview  # imports mujoco: only when this command runs
 
-    motion = load_motion(args.motion)
+    motion = load_dance(args.motion, args.allow_past_song)
     if args.start is not None:
         motion = dataclasses.replace(motion, start=StartPosture(args.start))
     if output is not None and output.suffix.lower() == ".mp4":

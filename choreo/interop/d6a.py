@@ -37,6 +37,7 @@ from choreo.core.atomic import atomic_output, write_text_atomically
 from choreo.core.yaml_source import SourceLocation, fmt
 from choreo.errors import SourceError
 from choreo.motion.motion_file import HOME_POSE, Keyframe, Motion
+from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import PlayedKeyframe, known_arrivals_s, played_keyframes
 from choreo.motion.writer import motion_text, robot_reference
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach, plan_motion
@@ -396,7 +397,12 @@ def _check_ms(time_ms: int, keyframe: Keyframe, what: str, problems: list[str]) 
 def _played(motion: Motion) -> tuple[list[PlayedKeyframe[Keyframe]], list[float]]:
     """The played keyframes and their arrival times: from their own t/after where every keyframe
     has one (the first may go without), else from the planner."""
-    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=motion.speed)
+    played = played_keyframes(
+        motion.keyframes,
+        repeat=motion.repeat,
+        speed=motion.speed,
+        repetition_at=repetition_clock(motion.music, motion.keyframes),
+    )
     own = known_arrivals_s(played)
     if None in own:
         return played, list(plan_motion(motion).trajectory.keyframe_times_s)

@@ -26,7 +26,7 @@ from choreo.core.yaml_source import (
     parse_yaml_file,
 )
 from choreo.errors import SourceError
-from choreo.motion.music_block import BeatRef, Music, read_beat_time, read_music
+from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import Spatial, expand_spatial, has_key, read_body, read_gait, read_sites
 from choreo.motion.timing import backward_times, known_arrivals_s, played_keyframes
@@ -116,23 +116,25 @@ class _Include:
     path: Path
     entry: SourceLocation | None  # None for the motion file itself
     music: Music | None = None  # the including motion's music, inherited along the chain
+    music_refused: bool = False  # its music block had a problem (reported there)
 
 
-def load_motion(path: str | Path) -> Motion:
+def load_motion(path: str | Path, allow_past_song: bool = False) -> Motion:
     """Read a motion file and its robot; expand includes; fill partial poses.
 
     Every problem of the file, its includes and its robot is reported at once in one
-    ``SourceError`` whose messages start ``path:line:col:``.
+    ``SourceError`` whose messages start ``path:line:col:``. A dance that would outlast its song
+    is one of them unless ``allow_past_song``.
     """
     path = Path(path)
     problems = Problems()
-    motion = _read_motion(Reader(path, problems), parse_yaml_file(path))
+    motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
     if motion is None or problems:
         raise SourceError(problems.messages)
     return motion
 
 
-def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
+def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Motion | None:
     fields = _motion_fields(reader, root)
     if fields is None:
         return None
@@ -160,7 +162,7 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
         )
     if robot is None or "keyframes" not in fields:
         return None
-    chain = (_Include(reader.path, None, music),)
+    chain = (_Include(reader.path, None, music, "music" in fields and music is None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if (
         name is None
@@ -179,6 +181,14 @@ def _read_motion(reader: Reader, root: Node | None) -> Motion | None:
     unrolled = too_many_played(len(keyframes), repeat)
     if unrolled is not None:
         reader.report(fields["repeat"].value, unrolled)
+        return None
+    outlasts = None if allow_past_song else past_song(music, keyframes, repeat)
+    if outlasts is not None:
+        reader.report(
+            fields["repeat" if "repeat" in fields else "keyframes"].key_node,
+            f"{outlasts}; end it sooner, start earlier in the song, or pass --allow-past-song "
+            "to dance on in silence",
+        )
         return None
     return Motion(
         name=name,
@@ -244,7 +254,7 @@ def _read_steps(
         elif has_key(item, "gait"):
             steps += _read_gait_block(reader, item)
         else:
-            step = _read_keyframe(reader, item, robot, chain[0].music)
+            step = _read_keyframe(reader, item, robot, chain[0])
             if step is not None and len(chain) > 1:  # say through which includes it came
                 entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
                 step = replace(step, where=replace(step.where, included_at=entries))
@@ -253,7 +263,7 @@ def _read_steps(
     return steps
 
 
-def _read_keyframe(reader: Reader, item: Node, robot: Robot, music: Music | None) -> _Step | None:
+def _read_keyframe(reader: Reader, item: Node, robot: Robot, top: _Include) -> _Step | None:
     fields = reader.fields(item, "a keyframe", KEYFRAME.keys)
     if fields is None:
         return None
@@ -261,7 +271,7 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot, music: Music | None
     if space is False:
         return None
     pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
-    timing = _read_timing(reader, fields, music)
+    timing = _read_timing(reader, fields, top)
     hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
@@ -334,11 +344,12 @@ def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
 
 
 def _read_timing(
-    reader: Reader, fields: dict[str, Entry], music: Music | None
+    reader: Reader, fields: dict[str, Entry], top: _Include
 ) -> tuple[float | None, float | None, BeatRef | None] | None:
     """(t_s, after_s, beat) of a keyframe or include entry; None if refused (reported).
 
-    A beat or bar becomes its t (seconds of the music's beat grid)."""
+    A beat or bar becomes its t (seconds of the music's beat grid of ``top``, the motion file);
+    with a music block already refused, it is refused without a word more."""
     given = [fields[k] for k in TIMING_KEYS if k in fields]
     if len({"t" if e.key == "t" else "after" if e.key == "after" else "beat" for e in given}) > 1:
         later = max(given, key=lambda e: e.key_node.start_mark.index)
@@ -350,7 +361,9 @@ def _read_timing(
         )
         return None
     if "beat" in fields or "bar" in fields:
-        resolved = read_beat_time(reader, fields, music)
+        if top.music_refused:
+            return None
+        resolved = read_beat_time(reader, fields, top.music)
         return None if resolved is None else (resolved[0], None, resolved[1])
     t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
     after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
@@ -396,7 +409,7 @@ def _read_include(
         return []
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
-    timing = _read_timing(reader, fields, chain[0].music)
+    timing = _read_timing(reader, fields, chain[0])
     if relative is None or mirror is None or timing is None:
         return []
     path = reader.path.parent / relative

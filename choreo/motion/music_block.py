@@ -1,10 +1,15 @@
 """The music of a motion: the ``music:`` block, its beat grid, and beats/bars -> seconds.
 
 A motion's t=0 is ``start`` seconds into the song. With a fixed tempo (``bpm``), beat 1 is at
-t=0 and beat n at (n-1)·60/bpm; with ``beats: auto`` beat 1 is the first beat detected at or
-after ``start`` (the song's own beats, so a tempo that drifts is followed). Bars are counted from
-beat 1, ``meter`` beats each. Keyframes timed by ``beat:``/``bar:`` are resolved to ``t`` when the
-file is read, so everything after loading (planner, player, exports) sees plain seconds.
+t=0 and beat n at (n-1)·60/bpm, bars counted from beat 1. With ``beats: auto`` (the song's own
+beats, so a tempo that drifts is followed) beat 1 is the detected beat nearest ``start`` (within
+half a beat; t=0 moves onto it) and bar 1 starts on the detected downbeat nearest beat 1; the
+meter is estimated unless given. Keyframes timed by ``beat:``/``bar:`` are resolved to ``t`` when
+the file is read, so everything after loading (planner, player, exports) sees plain seconds.
+
+``repeat`` with music: each repetition starts on the first bar line at least a beat after the
+previous one's last keyframe, and its keyframes land on the same beats of their bars as the
+first repetition's (following the song's beats, not copying the first repetition's seconds).
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,10 +25,12 @@ import numpy as np
 
 from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, fmt
 from choreo.errors import ChoreoError, OptionError
+from choreo.motion.timing import TimedKeyframe
+from choreo.music.beats import LEVELS
 from choreo.music.decode import check_song_path, decode
 
-MUSIC_KEYS = ("song", "start", "bpm", "meter", "beats")
-ON_BEAT_S = 0.001  # a detected beat this close before ``start`` still counts as beat 1
+MUSIC_KEYS = ("song", "start", "bpm", "meter", "beats", "level", "offset_beats")
+DEFAULT_METER = 4
 
 
 @dataclass(frozen=True)
@@ -31,6 +39,7 @@ class BeatGrid:
 
     beat_times_s: tuple[float, ...]
     beats_per_bar: int
+    bar_one_beat: int = 1  # the beat bar 1 starts on (<= 0: before the motion's t=0)
 
     @property
     def beats(self) -> int:
@@ -46,12 +55,20 @@ class BeatGrid:
         """The (fractional) beat at motion time ``t_s``; 0 before beat 1's time is not defined."""
         return float(np.interp(t_s, self.beat_times_s, np.arange(1, self.beats + 1)))
 
+    def time_past_end(self, beat: float) -> float:
+        """Like ``time_of``, and past the last beat on at the last beats' pace (for a dance
+        allowed to outlast its song)."""
+        if beat <= self.beats or self.beats < 2:
+            return self.time_of(min(beat, self.beats))
+        last = self.beat_times_s[-1] - self.beat_times_s[-2]
+        return self.beat_times_s[-1] + (beat - self.beats) * last
+
     def bar_and_beat(self, beat: float) -> tuple[int, float]:
-        bar, within = divmod(beat - 1, self.beats_per_bar)
+        bar, within = divmod(beat - self.bar_one_beat, self.beats_per_bar)
         return int(bar) + 1, within + 1
 
     def beat_of_bar(self, bar: int, beat_in_bar: float = 1.0) -> float:
-        return (bar - 1) * self.beats_per_bar + beat_in_bar
+        return self.bar_one_beat - 1 + (bar - 1) * self.beats_per_bar + beat_in_bar
 
     def earliest_whole_beat(self, t_s: float) -> int | None:
         """The first whole beat at or after ``t_s`` (1 ms slack); None past the last beat."""
@@ -67,6 +84,9 @@ class Music:
     grid: BeatGrid
     bpm: float | None  # the written tempo; None with beats: auto
     where: SourceLocation  # the music block
+    note: str = ""  # beats: auto: which detected beat and downbeat were taken, the meter
+    level: str = ""  # beats: auto: "half", "double" or "" (the detected beats)
+    offset_beats: float = 0.0  # beats: auto: the grid moved by this many beats
 
     @property
     def auto(self) -> bool:
@@ -103,9 +123,12 @@ def read_music(reader: Reader, entry: Entry) -> Music | None:
         return None
     song = _read_song(reader, fields["song"])
     start_s = reader.number(fields["start"].value, "start", low=0) if "start" in fields else 0.0
-    per_bar = _read_meter(reader, fields["meter"].value) if "meter" in fields else 4
+    per_bar = _read_meter(reader, fields["meter"].value) if "meter" in fields else None
     tempo = _read_tempo(reader, entry.value, fields)
-    if song is None or start_s is None or per_bar is None or tempo is None:
+    grid_choice = _read_grid_choice(reader, fields, tempo)
+    if song is None or start_s is None or tempo is None or grid_choice is None:
+        return None
+    if "meter" in fields and per_bar is None:
         return None
     try:
         audio = decode(song)
@@ -114,25 +137,42 @@ def read_music(reader: Reader, entry: Entry) -> Music | None:
         return None
     if start_s >= audio.duration_s:
         reader.report(
-            fields["start"].value,
+            fields["start"].value if "start" in fields else fields["song"].value,
             f"start {fmt(start_s)} is past the end of {song.name} "
-            f"({audio.duration_s:.3f} s); give a time inside the song",
+            f"({audio.duration_s:.3f} s); give a time inside the song"
+            if "start" in fields
+            else f"{song.name} has no sound ({audio.duration_s:.3f} s long); give a song",
         )
         return None
-    bpm = tempo if isinstance(tempo, float) else None  # else "auto"
+    where = reader.where(entry.key_node)
+    if isinstance(tempo, float):
+        grid = _fixed_grid(audio.duration_s, start_s, tempo, per_bar or DEFAULT_METER)
+        return Music(song, start_s, audio.duration_s, grid, tempo, where)
     try:
-        beat_times = _beat_times(audio, start_s, bpm, per_bar)
+        start_s, grid, note = _detected_grid(audio, start_s, per_bar, *grid_choice)
     except ChoreoError as error:
         reader.report(fields["beats"].value, str(error))
         return None
-    return Music(
-        song,
-        start_s,
-        audio.duration_s,
-        BeatGrid(beat_times, per_bar),
-        bpm,
-        reader.where(entry.key_node),
+    return Music(song, start_s, audio.duration_s, grid, None, where, note, *grid_choice)
+
+
+def _read_grid_choice(
+    reader: Reader, fields: dict[str, Entry], tempo: float | str | None
+) -> tuple[str, float] | None:
+    """(level, offset_beats) of ``beats: auto``: the alternative grid ``choreo beats`` offers."""
+    given = [fields[k] for k in ("level", "offset_beats") if k in fields]
+    if given and tempo is not None and tempo != "auto":
+        reader.report(given[0].key_node, f"{given[0].key} goes with beats: auto, not bpm")
+        return None
+    level = reader.choice(fields["level"].value, "level", LEVELS) if "level" in fields else ""
+    offset = (
+        reader.number(fields["offset_beats"].value, "offset_beats")
+        if "offset_beats" in fields
+        else 0.0
     )
+    if level is None or offset is None:
+        return None
+    return level, offset
 
 
 def _read_song(reader: Reader, entry: Entry) -> Path | None:
@@ -173,18 +213,104 @@ def _read_tempo(reader: Reader, node: Node, fields: dict[str, Entry]) -> float |
     return reader.choice(fields["beats"].value, "beats", ("auto",))
 
 
-def _beat_times(audio, start_s: float, bpm: float | None, per_bar: int) -> tuple[float, ...]:
-    if bpm is not None:
-        period = 60.0 / bpm
-        count = math.floor((audio.duration_s - start_s) / period - 1e-9) + 1  # inside the song
-        return tuple(k * period for k in range(count))
+def _fixed_grid(duration_s: float, start_s: float, bpm: float, per_bar: int) -> BeatGrid:
+    period = 60.0 / bpm
+    count = math.floor((duration_s - start_s) / period - 1e-9) + 1  # inside the song
+    return BeatGrid(tuple(k * period for k in range(count)), per_bar)
+
+
+def _detected_grid(
+    audio, start_s: float, per_bar: int | None, level: str, offset_beats: float
+) -> tuple[float, BeatGrid, str]:
+    """(the start moved onto beat 1, the grid, what was taken) from the song's detected beats."""
     from choreo.music.beats import detect_beats
 
-    beats = detect_beats(audio, per_bar).beats_s
-    times = tuple(b - start_s for b in beats if b >= start_s - ON_BEAT_S)
-    if not times:
-        raise ChoreoError(f"no beats were detected after start {fmt(start_s)} s of the song")
-    return tuple(max(t, 0.0) for t in times)
+    analysis = detect_beats(audio, per_bar, level, offset_beats)
+    if not analysis.steady:
+        raise ChoreoError(
+            f"the song has no steady beat to count (confidence {analysis.confidence:.2f}; "
+            "choreo beats SONG shows what was found): give bpm and start by ear instead"
+        )
+    beats = np.asarray(analysis.beats_s)
+    nearest = int(np.argmin(np.abs(beats - start_s)))
+    interval = float(np.diff(beats)[min(nearest, len(beats) - 2)])
+    if abs(beats[nearest] - start_s) <= interval / 2:  # t=0 moves onto it
+        first, start_s = nearest, float(beats[nearest])
+        how = f"the beat detected at {start_s:.3f} s, nearest start"
+    else:  # start falls in a stretch without beats (an intro): the first beat after it
+        later = np.flatnonzero(beats >= start_s)
+        if len(later) == 0:
+            raise ChoreoError(f"no beats were detected after start {fmt(start_s)} s of the song")
+        first = int(later[0])
+        how = f"the first beat detected after start, at {beats[first]:.3f} s"
+    downbeats = np.asarray(analysis.downbeats_s)
+    down = int(np.argmin(np.abs(downbeats - beats[first]))) if len(downbeats) else None
+    bar_one = 1 if down is None else int(np.argmin(np.abs(beats - downbeats[down]))) - first + 1
+    meter = (
+        f"{analysis.beats_per_bar} beats to the bar (estimated, confidence "
+        f"{analysis.meter_confidence:.2f}; give meter: to fix it)"
+        if analysis.meter_detected
+        else f"{analysis.beats_per_bar} beats to the bar"
+    )
+    bar_text = "on it" if bar_one == 1 else f"on beat {bar_one}"
+    note = f"beats: auto: beat 1 is {how}; bar 1 starts {bar_text}; {meter}"
+    times = tuple(float(b) - start_s for b in beats[first:])
+    return start_s, BeatGrid(times, analysis.beats_per_bar, bar_one), note
+
+
+def repetition_beats(music: Music, keyframes: Sequence[TimedKeyframe]) -> float:
+    """Beats from one repetition's first keyframe to the next's: whole bars, the next starting
+    at least a beat after the last keyframe is left."""
+    grid = music.grid
+    first = grid.beat_at(_first_t(keyframes))
+    span = grid.beat_at(left_at_s(keyframes)) - first
+    return grid.beats_per_bar * math.ceil((span + 1) / grid.beats_per_bar - 1e-9)
+
+
+def repetition_clock(
+    music: Music | None, keyframes: Sequence[TimedKeyframe]
+) -> Callable[[float, int], float] | None:
+    """For ``played_keyframes``: file time -> motion time in a later repetition, on the song's
+    beats (None without music)."""
+    if music is None or not keyframes:
+        return None
+    grid, period = music.grid, repetition_beats(music, keyframes)
+    return lambda t_s, rep: grid.time_past_end(grid.beat_at(t_s) + rep * period)
+
+
+def past_song(music: Music | None, keyframes: Sequence[TimedKeyframe], repeat: int) -> str | None:
+    """Why the dance would outlast its song (one phrase), or None. Keyframes reached as soon as
+    the limits allow count as taking no time, so this is the least it runs."""
+    if music is None or not keyframes:
+        return None
+    song_left_s = music.song_duration_s - music.start_s
+    end_s = left_at_s(keyframes)
+    if repeat > 1:
+        clock = repetition_clock(music, keyframes)
+        assert clock is not None
+        end_s = clock(end_s, repeat - 1)
+    if end_s <= song_left_s:
+        return None
+    times = f" (repeat {repeat})" if repeat > 1 else ""
+    return (
+        f"the dance{times} runs to at least t {end_s:.3f} s, {end_s - song_left_s:.3f} s past "
+        f"the end of {music.song.name} (which ends at t {song_left_s:.3f} after start "
+        f"{fmt(music.start_s)} s)"
+    )
+
+
+def left_at_s(keyframes: Sequence[TimedKeyframe]) -> float:
+    """When the last keyframe is left (reached and held), as far as the file's times say."""
+    time_s = 0.0
+    for kf in keyframes:
+        time_s = kf.t_s if kf.t_s is not None else time_s + (kf.after_s or 0.0)
+        time_s += kf.hold_s
+    return time_s
+
+
+def _first_t(keyframes: Sequence[TimedKeyframe]) -> float:
+    first = keyframes[0]
+    return first.t_s if first.t_s is not None else first.after_s or 0.0
 
 
 def check_speed(music: Music | None, speed: float | None) -> None:
@@ -202,6 +328,8 @@ def music_text(music: Music, motion_path: Path) -> str:
     song's path made relative to it). Keyframes written with it are in seconds (``t``)."""
     song = Path(os.path.relpath(music.song.resolve(), motion_path.resolve().parent)).as_posix()
     tempo = f"bpm: {fmt(music.bpm)}" if music.bpm is not None else "beats: auto"
+    tempo += f", level: {music.level}" if music.level else ""
+    tempo += f", offset_beats: {fmt(music.offset_beats)}" if music.offset_beats else ""
     meter = f", meter: {music.grid.beats_per_bar}/4" if music.grid.beats_per_bar != 4 else ""
     return f"{{song: {json.dumps(song)}, start: {fmt(music.start_s)}, {tempo}{meter}}}"
 
@@ -237,6 +365,13 @@ def read_beat_time(
         return None
     absolute = grid.beat_of_bar(bar, beat) if bar is not None else beat
     ref = BeatRef(grid, by_bar)
+    if absolute < 1:
+        reader.report(
+            anchor.value,
+            f"{ref.describe(absolute)} comes before beat 1, the motion's t=0 ({music.note}); "
+            f"give {ref.describe(1)} or later, or an earlier start",
+        )
+        return None
     if absolute > grid.beats:
         last_bar, last_in_bar = grid.bar_and_beat(grid.beats)
         reader.report(

@@ -9,6 +9,9 @@ backwards" check, the planner and the action-group export all read them here):
 - neither: as soon as the limits allow (the planner decides; estimates here take a callback);
 - the first keyframe: the start waits for its ``t`` (or ``after``); when ``repeat`` wraps back to
   it, it is reached ``after`` the last keyframe is left, or as soon as possible;
+- with a ``repetition_at`` clock (a motion with music), later repetitions' first keyframe and
+  ``t`` keyframes are at the clock's times instead: the song's beats, not the first repetition's
+  spacing;
 - ``hold``: stay this long once reached; ``speed``: every time divided by it.
 
 All times here are played seconds (speed applied). Keyframes are anything with ``t_s``,
@@ -65,19 +68,27 @@ class PlayedKeyframe(Generic[K]):
 
 
 def played_keyframes(
-    keyframes: Sequence[K], *, repeat: int = 1, speed: float = 1.0
+    keyframes: Sequence[K],
+    *,
+    repeat: int = 1,
+    speed: float = 1.0,
+    repetition_at: Callable[[float, int], float] | None = None,
 ) -> list[PlayedKeyframe[K]]:
     """The keyframes in playing order; a keyframe rests if it says stop or hold, and so do the
-    very first and the very last (not the ends of inner repetitions: the wrap flows)."""
+    very first and the very last (not the ends of inner repetitions: the wrap flows).
+    ``repetition_at(t_s, rep)``: the motion time of file time ``t_s`` in repetition ``rep``."""
     if not keyframes:
         return []
     first = keyframes[0]
     origin_s = first.t_s if first.t_s is not None else first.after_s or 0.0
     played: list[PlayedKeyframe[K]] = []
     for rep in range(repeat):
-        anchor = None if rep == 0 else len(played)
+        anchor = None if rep == 0 or repetition_at else len(played)
         for index, kf in enumerate(keyframes):
             timing, value_s = _timing_of(kf, index == 0, rep, origin_s)
+            written_s = origin_s if index == 0 else kf.t_s
+            if rep and repetition_at and written_s is not None:
+                timing, value_s = Timing.AT, repetition_at(written_s, rep)
             last = rep == repeat - 1 and index == len(keyframes) - 1
             played.append(
                 PlayedKeyframe(

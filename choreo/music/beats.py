@@ -1,11 +1,26 @@
 """Beat detection: tempo, beat and downbeat times of a song (``choreo beats``, ``beats: auto``).
 
-librosa (the ``choreo[music]`` extra, imported only here) tracks the beats on a coarse onset
-envelope; each beat is then moved onto the sharpest onset within ``SNAP_S`` of it, found on a
-fine envelope (3 ms frames), so beats are as precise as the attacks in the song. Tempi come from
-the beat times themselves (a least-squares line through each steady stretch), not from the
-tracker's tempo bins. Downbeats are every ``beats_per_bar``-th beat, in the phase whose beats are
-the loudest (bars start with an accent: RMS over ``ACCENT_S`` from each beat).
+Built on librosa's features (the ``choreo[music]`` extra, imported only here; the downbeat
+trackers on PyPI need torch or no longer build, see the docs):
+
+- **Beats** follow the local tempo: librosa's tempogram gives a tempo per frame (8 s windows),
+  smoothed over ``TEMPO_SMOOTH_S``; a song whose local tempo stays within ``STEADY_SPREAD`` of
+  its median is tracked at one tempo, any other with the tempo changing along the song (its
+  dynamic-programming tracker takes a tempo per frame). The tracker runs on the onset envelope
+  with its low band (kick, bass) counted twice, so loud off-beat stabs don't pull the grid off.
+  Each beat is then moved onto the sharpest onset within ``SNAP_S`` (3 ms frames), so beats are
+  as precise as the attacks in the song. Tempi come from the beat times (a line through each
+  steady stretch).
+- **Downbeats and meter**: each beat gets three accents, each normalised over the song: the
+  low-band onset on it (kick, bass), the harmonic change into it (chroma of the beat against the
+  one before) and its loudness. For each meter (2, 3, 4) and phase the downbeats' mean accent
+  over the song's mean is the bar's contrast; the meter with the largest one wins (a 4/4 bar's
+  contrast is also seen, smaller, at 2).
+- **Confidence**: the autocorrelation, at the beat period, of the onset envelope with its slow
+  swells removed (0 for noise, near 1 for a metronome), per stretch. Below ``STEADY_CONFIDENCE``
+  the song has no steady beat.
+
+Features are computed on ``CHUNK_S`` blocks, so memory stays near the decoded samples' own size.
 """
 
 from __future__ import annotations
@@ -19,9 +34,19 @@ from choreo.music.decode import Audio
 
 COARSE_HOP = 512  # ~23 ms frames at 22050 Hz: what the tracker is tuned for
 FINE_HOP = 64  # ~3 ms frames: where beats are snapped to
+CHUNK_S = 10.0  # features are computed this much at a time
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
-ACCENT_S = 0.05  # a beat's loudness: the RMS of this much sound from it
+LOW_HZ = 200.0  # the kick and bass band
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
+TEMPO_SMOOTH_S = 6.0  # the local tempo's median filter
+STEADY_SPREAD = 0.03  # local tempo within this of its median nearly everywhere: one tempo
+STEADY_CONFIDENCE = 0.2  # below this there is no steady beat
+OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: maybe off-beat
+FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
+METERS = (2, 3, 4)
+LEVELS = ("half", "double")  # the alternative grids: every other beat, a beat between each two
+CHORD_CHANGE_WEIGHT = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
+UNSURE_METER = 0.2  # a runner-up meter within this fraction of the winner: say so
 
 
 @dataclass(frozen=True)
@@ -29,6 +54,7 @@ class TempoSpan:
     start_s: float  # song time of the span's first beat
     end_s: float  # song time of its last beat
     bpm: float
+    confidence: float = 1.0  # 0..1: how clearly the onsets repeat at this beat period
 
 
 @dataclass(frozen=True)
@@ -38,6 +64,9 @@ class BeatAnalysis:
     downbeats_s: tuple[float, ...]
     beats_per_bar: int
     tempi: tuple[TempoSpan, ...]  # steady stretches, in order
+    meter_detected: bool = False  # beats_per_bar was estimated (no meter was given)
+    meter_confidence: float = 1.0  # 0..1: how far the chosen meter's bars stand out
+    warnings: tuple[str, ...] = ()  # the grid may be off-beat, at half or double tempo
 
     @property
     def bpm(self) -> float:
@@ -45,6 +74,24 @@ class BeatAnalysis:
         if not self.tempi:
             return 0.0
         return max(self.tempi, key=lambda span: span.end_s - span.start_s).bpm
+
+    @property
+    def confidence(self) -> float:
+        """The stretches' confidence, weighted by their length (0 without beats)."""
+        lengths = np.array([span.end_s - span.start_s for span in self.tempi])
+        if not self.tempi or lengths.sum() <= 0:
+            return 0.0
+        return float(np.average([span.confidence for span in self.tempi], weights=lengths))
+
+    @property
+    def steady(self) -> bool:
+        """Whether the song has a beat to dance to."""
+        return len(self.beats_s) >= 8 and self.confidence >= STEADY_CONFIDENCE
+
+    @property
+    def change_points_s(self) -> tuple[float, ...]:
+        """Song times where a new tempo starts."""
+        return tuple(span.start_s for span in self.tempi[1:])
 
 
 def require_librosa():
@@ -57,34 +104,144 @@ def require_librosa():
     return librosa
 
 
-def detect_beats(audio: Audio, beats_per_bar: int = 4) -> BeatAnalysis:
-    if beats_per_bar < 1:
+@dataclass(frozen=True)
+class _Features:
+    onset: np.ndarray  # coarse onset envelope, all bands
+    low: np.ndarray  # coarse onset envelope below LOW_HZ
+    chroma: np.ndarray  # (12, coarse frames)
+    fine: np.ndarray  # fine onset envelope, for snapping
+    rms: np.ndarray  # coarse loudness
+    rate_hz: int
+
+    @property
+    def coarse_fps(self) -> float:
+        return self.rate_hz / COARSE_HOP
+
+    @property
+    def fine_fps(self) -> float:
+        return self.rate_hz / FINE_HOP
+
+
+def detect_beats(
+    audio: Audio, beats_per_bar: int | None = None, level: str = "", offset_beats: float = 0.0
+) -> BeatAnalysis:
+    """The song's beats; ``beats_per_bar`` None: the meter is estimated. ``level`` "half" or
+    "double" and ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid
+    a warning offers."""
+    if beats_per_bar is not None and beats_per_bar < 1:
         raise ValueError(f"beats_per_bar must be >= 1, got {beats_per_bar}")
     librosa = require_librosa()
-    y, sr = np.asarray(audio.mono, dtype=np.float32), audio.rate_hz
+    y, sr = audio.mono, audio.rate_hz
     if len(y) < sr // 2 or not np.any(y):
-        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar, ())
-    coarse = librosa.onset.onset_strength(y=y, sr=sr, hop_length=COARSE_HOP)
-    _, frames = librosa.beat.beat_track(
-        onset_envelope=coarse, sr=sr, hop_length=COARSE_HOP, trim=False
+        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
+    features = _features(librosa, np.asarray(y, dtype=np.float32), sr)
+    beats = _track(librosa, features)
+    beats = _regrid(features, beats, level, offset_beats)
+    if len(beats) == 0:
+        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
+    per_bar, phase, meter_confidence = _bars(features, beats, beats_per_bar)
+    return BeatAnalysis(
+        audio.duration_s,
+        tuple(float(b) for b in beats),
+        tuple(float(b) for b in beats[phase::per_bar]),
+        per_bar,
+        _tempo_spans(beats, features),
+        meter_detected=beats_per_bar is None,
+        meter_confidence=meter_confidence,
+        warnings=_warnings(features, beats),
     )
-    tracked = librosa.frames_to_time(frames, sr=sr, hop_length=COARSE_HOP)
+
+
+# --- features ----------------------------------------------------------------------------------
+def _features(librosa, y: np.ndarray, sr: int) -> _Features:
+    """Every envelope of the song, computed ``CHUNK_S`` at a time (with margins, so the blocks
+    join seamlessly): a whole-song spectrogram would need many times the samples' memory."""
+    margin = 16  # coarse frames each side of a block
+    block = max(int(CHUNK_S * sr / COARSE_HOP), 1)
+    frames = len(y) // COARSE_HOP + 1
+    parts: list[tuple[np.ndarray, ...]] = []
+    for first in range(0, frames, block):
+        low = max(first - margin, 0)
+        high = min(first + block + margin, frames)
+        chunk = y[low * COARSE_HOP : high * COARSE_HOP]
+        keep = slice(first - low, first - low + min(block, frames - first))
+        parts.append(_chunk_features(librosa, chunk, sr, keep))
+    onset, low_onset, chroma, fine, rms = (np.concatenate(p, axis=-1) for p in zip(*parts))
+    return _Features(onset, low_onset, chroma, fine, rms, sr)
+
+
+def _chunk_features(librosa, y: np.ndarray, sr: int, keep: slice) -> tuple[np.ndarray, ...]:
+    spectrum = np.abs(librosa.stft(y, n_fft=2048, hop_length=COARSE_HOP))
+    mel_db = librosa.power_to_db(librosa.feature.melspectrogram(S=spectrum**2, sr=sr))
+    low_rows = librosa.mel_frequencies(n_mels=mel_db.shape[0], fmax=sr / 2) < LOW_HZ
+    onset = librosa.onset.onset_strength(S=mel_db, sr=sr)
+    low = librosa.onset.onset_strength(S=mel_db[low_rows], sr=sr)
+    chroma = librosa.feature.chroma_stft(S=spectrum**2, sr=sr, tuning=0.0)
+    rms = librosa.feature.rms(S=spectrum)[0]
     # A click right at the start has no frame before it to rise from: pad so it has one.
     pad = FINE_HOP * 4
     fine = librosa.onset.onset_strength(
         y=np.concatenate([np.zeros(pad, np.float32), y]), sr=sr, hop_length=FINE_HOP, n_fft=512
     )[4:]
-    beats = _extend(
-        _snap(np.asarray(tracked, dtype=float), fine, sr / FINE_HOP), fine, sr / FINE_HOP
+    ratio = COARSE_HOP // FINE_HOP
+    fine_keep = slice(keep.start * ratio, keep.stop * ratio)
+    n = keep.stop - keep.start
+    return (
+        _fit(onset[keep], n),
+        _fit(low[keep], n),
+        _fit(chroma[:, keep], n),
+        _fit(fine[fine_keep], n * ratio),
+        _fit(rms[keep], n),
     )
-    downbeats = beats[_downbeat_phase(beats, y, sr, beats_per_bar) :: beats_per_bar]
-    return BeatAnalysis(
-        audio.duration_s,
-        tuple(float(b) for b in beats),
-        tuple(float(b) for b in downbeats),
-        beats_per_bar,
-        _tempo_spans(beats),
+
+
+def _fit(values: np.ndarray, n: int) -> np.ndarray:
+    """Exactly ``n`` frames (the last block may come out a frame short)."""
+    if values.shape[-1] >= n:
+        return values[..., :n]
+    pad = [(0, 0)] * (values.ndim - 1) + [(0, n - values.shape[-1])]
+    return np.pad(values, pad)
+
+
+def _normalised(values: np.ndarray) -> np.ndarray:
+    spread = np.std(values)
+    return values / spread if spread > 0 else np.zeros_like(values)
+
+
+# --- beats -------------------------------------------------------------------------------------
+def _track(librosa, features: _Features) -> np.ndarray:
+    envelope = _normalised(features.onset) + _normalised(features.low)
+    local = _local_tempo(librosa, envelope, features.rate_hz)
+    width = int(TEMPO_SMOOTH_S * features.coarse_fps) // 2 * 2 + 1
+    import scipy.ndimage
+
+    local = scipy.ndimage.median_filter(local, size=width, mode="nearest")
+    median = float(np.median(local))
+    steady = np.mean(np.abs(local / median - 1) <= STEADY_SPREAD) >= 0.9
+    _, frames = librosa.beat.beat_track(
+        onset_envelope=envelope,
+        sr=features.rate_hz,
+        hop_length=COARSE_HOP,
+        trim=False,
+        bpm=median if steady else local,
     )
+    tracked = np.asarray(frames, dtype=float) / features.coarse_fps
+    return _extend(_snap(tracked, features.fine, features.fine_fps), features)
+
+
+def _local_tempo(librosa, envelope: np.ndarray, rate_hz: int) -> np.ndarray:
+    """librosa's tempo per frame, a block at a time: its tempogram (384 lags per frame) of a
+    whole song would take several times the samples' memory."""
+    block, margin = 1024, 256  # frames; the tempogram window is 384 frames, centred
+    parts = []
+    for first in range(0, len(envelope), block):
+        low = max(first - margin, 0)
+        part = envelope[low : first + block + margin]
+        tempo = librosa.feature.tempo(
+            onset_envelope=part, sr=rate_hz, hop_length=COARSE_HOP, aggregate=None
+        )
+        parts.append(tempo[first - low : first - low + block])
+    return np.concatenate(parts)[: len(envelope)]
 
 
 def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndarray:
@@ -107,9 +264,10 @@ def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndar
     return np.unique(np.round(kept, 6))
 
 
-def _extend(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndarray:
+def _extend(beats: np.ndarray, features: _Features) -> np.ndarray:
     """Beats the tracker left out at either end: one period further, while an onset is there
     (at least half a period further, so the search always moves on)."""
+    envelope, frame_rate = features.fine, features.fine_fps
     if len(beats) < 4:
         return beats
     threshold = 0.5 * np.median(envelope[np.round(beats * frame_rate).astype(int)])
@@ -137,21 +295,89 @@ def _onset_near(t_s: float, envelope: np.ndarray, frame_rate: float, threshold: 
     return frame / frame_rate if envelope[frame] >= threshold else None
 
 
-def _downbeat_phase(beats: np.ndarray, y: np.ndarray, rate_hz: int, per_bar: int) -> int:
-    """The phase (0..per_bar-1) of the beats that are loudest on average: the bars' accents."""
-    if len(beats) < per_bar:
-        return 0
-    window = int(ACCENT_S * rate_hz)
-    loudness = np.array(
+def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: float) -> np.ndarray:
+    """The alternative grid: every other beat (half: those the downbeats are among), a beat
+    between each two (double), moved by ``offset_beats`` beats (fractions fall between)."""
+    if len(beats) < 2:
+        return beats
+    if level == "double":
+        beats = np.interp(np.arange(2 * len(beats) - 1) / 2, np.arange(len(beats)), beats)
+    elif level == "half":
+        _, downbeat, _ = _bars(features, beats, None)
+        beats = beats[downbeat % 2 :: 2]
+    elif level:
+        raise ValueError(f"level must be one of {LEVELS}, got {level!r}")
+    if offset_beats:
+        index = np.arange(len(beats)) + offset_beats
+        inside = (index >= 0) & (index <= len(beats) - 1)
+        beats = np.interp(index[inside], np.arange(len(beats)), beats)
+    return beats
+
+
+# --- bars --------------------------------------------------------------------------------------
+def _bars(features: _Features, beats: np.ndarray, given: int | None) -> tuple[int, int, float]:
+    """(beats to the bar, phase of the first downbeat, confidence in the meter)."""
+    accent = _beat_accents(features, beats)
+    meters = (given,) if given is not None else METERS
+    best: dict[int, tuple[float, int]] = {}
+    for per_bar in meters:
+        if len(beats) < 2 * per_bar:
+            best[per_bar] = (0.0, 0)
+            continue
+        contrasts = [accent[p::per_bar].mean() - accent.mean() for p in range(per_bar)]
+        phase = int(np.argmax(contrasts))
+        best[per_bar] = (float(contrasts[phase]), phase)
+    per_bar = max(best, key=lambda m: best[m][0])
+    if given is not None:
+        return per_bar, best[per_bar][1], 1.0
+    winner = best[per_bar][0]
+    # 4/4 bars show, fainter, at 2: only a rival that isn't a divisor competes.
+    rivals = [c for m, (c, _) in best.items() if m != per_bar and per_bar % m]
+    confidence = 0.0 if winner <= 0 else 1.0 - max([0.0, *rivals]) / winner
+    return per_bar, best[per_bar][1], float(np.clip(confidence, 0.0, 1.0))
+
+
+def _beat_accents(features: _Features, beats: np.ndarray) -> np.ndarray:
+    """Per beat: low-band onset + harmonic change into it + half its loudness (the onset and the
+    loudness in standard deviations over the song, the change as 1 - cosine of the chroma)."""
+    fps = features.coarse_fps
+    frames = np.clip(np.round(beats * fps).astype(int), 0, len(features.onset) - 1)
+
+    bounds = np.append(frames, len(features.onset))
+    chroma = np.array(
         [
-            np.sqrt(np.mean(np.square(y[i : i + window]))) if i < len(y) else 0.0
-            for i in (np.round(beats * rate_hz).astype(int))
+            features.chroma[:, a:b].mean(axis=1) if b > a else np.zeros(12)
+            for a, b in zip(bounds[:-1], bounds[1:])
         ]
     )
-    return int(np.argmax([loudness[phase::per_bar].mean() for phase in range(per_bar)]))
+    norms = np.linalg.norm(chroma, axis=1) + 1e-9
+    similarity = np.sum(chroma[1:] * chroma[:-1], axis=1) / (norms[1:] * norms[:-1])
+    change = np.concatenate([[0.0], 1 - similarity])
+    return (
+        _standardised(_around(features.low, beats, fps))
+        + CHORD_CHANGE_WEIGHT * change  # not standardised: tiny changes are no chord change
+        + 0.5 * _standardised(_around(features.rms, beats, fps))
+    )
 
 
-def _tempo_spans(beats: np.ndarray) -> tuple[TempoSpan, ...]:
+def _around(envelope: np.ndarray, beats: np.ndarray, fps: float) -> np.ndarray:
+    """Per beat: the envelope's peak within SNAP_S of it."""
+    frames = np.clip(np.round(beats * fps).astype(int), 0, len(envelope) - 1)
+    reach = max(int(round(SNAP_S * fps)), 1)
+    return np.array([envelope[max(f - reach, 0) : f + reach + 1].max() for f in frames])
+
+
+def _standardised(values: np.ndarray) -> np.ndarray:
+    spread = np.std(values)
+    return (
+        (values - values.mean()) / spread
+        if spread > 1e-6 * (abs(values.mean()) + 1e-9)
+        else (np.zeros_like(values))
+    )
+
+
+# --- tempo, confidence, warnings ---------------------------------------------------------------
+def _tempo_spans(beats: np.ndarray, features: _Features) -> tuple[TempoSpan, ...]:
     """Split the beats where the interval changes for good; a line through each stretch."""
     if len(beats) < 2:
         return ()
@@ -167,6 +393,55 @@ def _tempo_spans(beats: np.ndarray) -> tuple[TempoSpan, ...]:
         stretch = beats[first : stop + 1]
         if len(stretch) < 3 and len(starts) > 1:
             continue  # one interval between two tempi: the change itself
-        slope = np.polyfit(np.arange(len(stretch)), stretch, 1)[0]
-        spans.append(TempoSpan(float(stretch[0]), float(stretch[-1]), 60.0 / float(slope)))
+        slope = float(np.polyfit(np.arange(len(stretch)), stretch, 1)[0])
+        confidence = _pulse_clarity(features, stretch[0], stretch[-1], slope)
+        spans.append(TempoSpan(float(stretch[0]), float(stretch[-1]), 60.0 / slope, confidence))
     return tuple(spans)
+
+
+def _pulse_clarity(features: _Features, start_s: float, end_s: float, period_s: float) -> float:
+    """The onset envelope's autocorrelation at the beat period (best within 5 %), slow swells
+    taken out first: a pulse that repeats scores near 1, noise and drones near 0."""
+    fps = features.coarse_fps
+    envelope = features.onset[int(start_s * fps) : int(end_s * fps) + 1]
+    lag = period_s * fps
+    if len(envelope) < 3 * lag or lag < 1:
+        return 0.0
+    window = max(int(fps), 1)
+    swells = np.convolve(envelope, np.ones(window) / window, mode="same")
+    x = envelope - swells
+    energy = float(np.dot(x, x))
+    if energy <= 0:
+        return 0.0
+    lags = range(max(int(lag * 0.95), 1), int(np.ceil(lag * 1.05)) + 1)
+    best = max(float(np.dot(x[:-k], x[k:])) for k in lags if k < len(x))
+    return float(np.clip(best / energy, 0.0, 1.0))
+
+
+def _warnings(features: _Features, beats: np.ndarray) -> tuple[str, ...]:
+    """Where the grid may sit on the off-beats or at half the tempo."""
+    if len(beats) < 8:
+        return ()
+    envelope = _normalised(features.onset) + _normalised(features.low)
+    fps = features.coarse_fps
+
+    def strength(times: np.ndarray) -> float:
+        frames = np.clip(np.round(times * fps).astype(int), 0, len(envelope) - 1)
+        return float(np.mean([envelope[max(f - 1, 0) : f + 2].max() for f in frames]))
+
+    between = strength((beats[:-1] + beats[1:]) / 2)
+    on = strength(beats)
+    bpm = 60 / float(np.median(np.diff(beats)))
+    warnings = []
+    if between >= OFFBEAT_RATIO * on:
+        how_strong = f"{between / on:.2f} times as strong as" if on > 0 else "there, not"
+        warnings.append(
+            f"the onsets between the beats are {how_strong} on them: the beats may sit on the "
+            f"off-beat (try --offset-beats 0.5) or the tempo be twice {bpm:.1f} (try --level "
+            "double)"
+        )
+    elif bpm > FAST_BPM:
+        warnings.append(f"{bpm:.1f} BPM is fast: the beat may be half that (try --level half)")
+    elif bpm < SLOW_BPM:
+        warnings.append(f"{bpm:.1f} BPM is slow: the beat may be twice that (try --level double)")
+    return tuple(warnings)

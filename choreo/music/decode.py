@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import subprocess
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from choreo.errors import ChoreoError
 
 SONG_SUFFIXES = (".wav", ".flac", ".ogg", ".mp3")
 ANALYSIS_RATE_HZ = 22050  # enough for beats; what the beat tracker expects
+DECODE_CHUNK_BYTES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -62,11 +64,19 @@ def decode(path: str | Path, rate_hz: int = ANALYSIS_RATE_HZ, channels: int = 1)
 def _decode(path: str, _mtime_ns: int, _size: int, rate_hz: int, channels: int) -> Audio:
     command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-i", path, "-vn"]
     command += ["-f", "f32le", "-ac", str(channels), "-ar", str(rate_hz), "-"]
-    result = subprocess.run(command, capture_output=True, check=False)
-    if result.returncode != 0:
-        reason = result.stderr.decode(errors="replace").strip().splitlines()
-        raise ChoreoError(f"cannot decode {path}: {reason[-1] if reason else 'ffmpeg failed'}")
-    samples = np.frombuffer(result.stdout, dtype="<f4")
+    # Read a chunk at a time into one growing buffer: collecting the whole output and joining it
+    # (subprocess.run) holds the song twice over.
+    data = bytearray()
+    with tempfile.TemporaryFile() as errors:
+        with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors) as ffmpeg:
+            assert ffmpeg.stdout is not None
+            while chunk := ffmpeg.stdout.read(DECODE_CHUNK_BYTES):
+                data += chunk
+        if ffmpeg.returncode != 0:
+            errors.seek(0)
+            reason = errors.read().decode(errors="replace").strip().splitlines()
+            raise ChoreoError(f"cannot decode {path}: {reason[-1] if reason else 'ffmpeg failed'}")
+    samples = np.frombuffer(data, dtype="<f4", count=len(data) // 4)
     if channels > 1:
         samples = samples.reshape(-1, channels)
     samples.flags.writeable = False  # cached: shared by every caller

@@ -34,6 +34,7 @@ from ruckig import Trajectory as RuckigTrajectory
 from choreo.core.yaml_source import SourceLocation
 from choreo.errors import PlanningError
 from choreo.motion.motion_file import Keyframe, Motion, too_many_played
+from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import (
     PlayedKeyframe,
     Timing,
@@ -574,7 +575,12 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
     if unrolled is not None:
         raise PlanningError(f"{motion.path}: {unrolled}")
-    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=speed)
+    played = played_keyframes(
+        motion.keyframes,
+        repeat=motion.repeat,
+        speed=speed,
+        repetition_at=repetition_clock(motion.music, motion.keyframes),
+    )
     planner = _Planner(robot, played, stretch)
     segments, arrive, stretches = planner.plan()
     trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)

@@ -82,4 +82,6 @@ def music_report(music: Music) -> dict[str, Any]:
         "bpm": music.bpm,
         "beats_per_bar": music.grid.beats_per_bar,
         "beat_times_s": list(music.grid.beat_times_s),  # motion time of beat 1, 2, ...
+        "bar_one_beat": music.grid.bar_one_beat,
+        "note": music.note,
     }

@@ -27,7 +27,7 @@ from choreo.emulator.backend import connection as emulator_connection
 from choreo.emulator.trace import start_skew_ms
 from choreo.errors import NoAudioOutput, OptionError
 from choreo.motion.motion_file import Motion, load_motion, too_many_played
-from choreo.motion.music_block import check_speed
+from choreo.motion.music_block import check_speed, past_song
 from choreo.music.decode import Audio
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
@@ -101,11 +101,15 @@ def play_motion(
         return _described(report, motion, bus, performance, start_pose, exit_move)
 
 
-def prepared_motion(motion: Motion | str | os.PathLike[str], options: PlayOptions) -> Motion:
+def prepared_motion(
+    motion: Motion | str | os.PathLike[str], options: PlayOptions, on_note: Note = log.warning
+) -> Motion:
     """The motion to play (loaded from a path), its options checked against it, ``loop``
     applied."""
     if not isinstance(motion, Motion):
-        motion = load_motion(Path(motion))
+        motion = load_motion(Path(motion), options.allow_past_song)
+        if motion.music is not None and motion.music.note:
+            on_note(motion.music.note)  # which detected beats beats: auto took
     if options.audio:
         check_speed(motion.music, options.speed)
     if options.exit_pose not in motion.robot.poses:
@@ -119,7 +123,15 @@ def prepared_motion(motion: Motion | str | os.PathLike[str], options: PlayOption
     problem = too_many_played(len(motion.keyframes), options.loop, "loop")
     if problem is not None:
         raise OptionError("loop", problem.removeprefix("loop "))
-    return dataclasses.replace(motion, repeat=options.loop)
+    looped = dataclasses.replace(motion, repeat=options.loop)
+    outlasting = past_song(looped.music, looped.keyframes, looped.repeat)
+    if outlasting is not None and not options.allow_past_song:
+        raise OptionError(
+            "loop", f"{options.loop}: {outlasting}; loop fewer times, or allow_past_song"
+        )
+    if outlasting is not None:
+        on_note(f"warning: {outlasting}: the dance goes on in silence")
+    return looped
 
 
 @contextmanager

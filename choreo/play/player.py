@@ -84,6 +84,7 @@ class PlayOptions:
     speed: float | None = None
     stretch: bool = False
     loop: int | None = None
+    allow_past_song: bool = False  # a dance may outlast its song (warned, not refused)
     # the song of a motion with a music: block (play_motion)
     audio: bool = True
     audio_device: str | None = None  # None: the system's output

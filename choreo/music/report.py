@@ -1,0 +1,58 @@
+"""The report of a song's beat analysis: its tempo stretches, meter, beats and downbeats, how
+sure the detector is, and the ``music:`` block it suggests for a motion; what ``choreo beats``
+prints and ``choreo beats --json`` writes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from choreo.music.beats import BeatAnalysis
+
+
+def beats_report(
+    song: Path, analysis: BeatAnalysis, level: str = "", offset_beats: float = 0.0
+) -> dict[str, Any]:
+    """The analysis as plain JSON-ready values (``choreo beats --json``), with the ``music:``
+    block it suggests for a motion (None when the song has no steady beat)."""
+    return {
+        "song": str(song),
+        "duration_s": analysis.duration_s,
+        "steady": analysis.steady,
+        "confidence": analysis.confidence,
+        "bpm": analysis.bpm,
+        "beats_per_bar": analysis.beats_per_bar,
+        "meter_detected": analysis.meter_detected,
+        "meter_confidence": analysis.meter_confidence,
+        "tempi": [
+            {
+                "start_s": span.start_s,
+                "end_s": span.end_s,
+                "bpm": span.bpm,
+                "confidence": span.confidence,
+            }
+            for span in analysis.tempi
+        ],
+        "change_points_s": list(analysis.change_points_s),
+        "warnings": list(analysis.warnings),
+        "beats_s": list(analysis.beats_s),
+        "downbeats_s": list(analysis.downbeats_s),
+        "music": suggested_music(song, analysis, level, offset_beats),
+    }
+
+
+def suggested_music(
+    song: Path, analysis: BeatAnalysis, level: str = "", offset_beats: float = 0.0
+) -> str | None:
+    """A music block that starts on the first downbeat: a fixed tempo if the song keeps one;
+    None if the song has no steady beat."""
+    if not analysis.steady:
+        return None
+    start = analysis.downbeats_s[0] if analysis.downbeats_s else analysis.beats_s[0]
+    if len(analysis.tempi) == 1:
+        tempo = f"bpm: {analysis.bpm:.2f}"
+    else:
+        tempo = "beats: auto" + (f", level: {level}" if level else "")
+        tempo += f", offset_beats: {offset_beats:g}" if offset_beats else ""
+    meter = f", meter: {analysis.beats_per_bar}/4" if analysis.beats_per_bar != 4 else ""
+    return f"{{song: {song.name}, start: {start:.3f}, {tempo}{meter}}}"
