@@ -12,12 +12,16 @@ import bisect
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
+from choreo.core.yaml_source import parse_yaml_file
 from choreo.errors import PlanningError, SourceError
 from choreo.motion.motion_file import Motion, load_motion
 from choreo.motion.music_block import past_song
 from choreo.plan.pipeline import compile_motion
 from choreo.robot.lookup import ROBOT_FILE
 from choreo.robot.robot_file import load_robot
+from choreo.show.showfile import load_show
 
 
 @dataclass(frozen=True)
@@ -34,7 +38,8 @@ class FileCheck:
 def check_file(
     path: Path, *, physics: bool = True, stretch: bool = False, allow_past_song: bool = False
 ) -> FileCheck:
-    """Check one motion or robot file (a file named robot.yaml is a robot).
+    """Check one motion, robot or show file (a file named robot.yaml is a robot, one with a
+    ``performers`` list a show: the show file, then every performer's motion).
 
     With ``stretch``, keyframes the limits can't meet on time are moved later (as ``choreo play
     --stretch`` would) and reported as warnings instead of problems.
@@ -43,6 +48,8 @@ def check_file(
         if path.name == ROBOT_FILE:
             load_robot(path)
             return FileCheck(path)
+        if is_show_file(path):
+            return _check_show(path, physics=physics, stretch=stretch)
         motion = load_motion(path, allow_past_song)
         compiled = compile_motion(motion, stretch=stretch)
     except SourceError as error:
@@ -59,6 +66,27 @@ def check_file(
         return FileCheck(path, warnings=stretched)
     found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)
     return FileCheck(path, found.problems, stretched + found.warnings)
+
+
+def is_show_file(path: Path) -> bool:
+    try:
+        root = parse_yaml_file(path)
+    except SourceError:
+        return False  # reported when it is read as a motion
+    return isinstance(root, yaml.MappingNode) and any(
+        k.value == "performers" for k, _ in root.value
+    )
+
+
+def _check_show(path: Path, *, physics: bool, stretch: bool) -> FileCheck:
+    """The show file, then each performer's motion (its problems at its own lines)."""
+    show = load_show(path)
+    problems, warnings = [], []
+    for part in show.parts:
+        found = check_file(part.motion, physics=physics, stretch=stretch)
+        problems += found.problems
+        warnings += found.warnings
+    return FileCheck(path, problems, warnings)
 
 
 def _physics_check(

@@ -29,6 +29,7 @@ from choreo.cli import (
     record_commands,
     robot_commands,
     servo_commands,
+    show_commands,
 )
 from choreo.errors import ChoreoError, OptionError, UsageError
 
@@ -45,6 +46,7 @@ COMMAND_GROUPS = (
     servo_commands,
     record_commands,
     interop_commands,
+    show_commands,
 )
 
 

@@ -12,8 +12,9 @@ from choreo.validate import check_file
 def register(subparsers) -> None:
     validate = subparsers.add_parser(
         "validate",
-        help="check motion and robot files, reporting every problem",
-        description="Check motion files and robot files (named robot.yaml) without moving "
+        help="check motion, robot and show files, reporting every problem",
+        description="Check motion files, robot files (named robot.yaml) and show files (with a "
+        "performers: list; every performer's motion too) without moving "
         "anything: a motion is loaded, planned, compiled into servo ticks and "
         "simulated. Prints 'FILE: ok' per good file, else every problem as "
         "'path:line:col: message'; exits 1 if any file has a problem.",
@@ -31,7 +32,11 @@ def register(subparsers) -> None:
     )
     add_past_song_argument(validate)
     validate.add_argument(
-        "files", nargs="+", type=Path, metavar="FILE", help="a motion .yaml or a robot.yaml"
+        "files",
+        nargs="+",
+        type=Path,
+        metavar="FILE",
+        help="a motion .yaml, a robot.yaml or a show .yaml",
     )
     validate.set_defaults(handler=run_validate)
 

@@ -143,17 +143,26 @@ def robot_bus(
     if isinstance(port, ServoBus):
         yield port
         return
+    with open_robot_bus(robot, port, settings) as bus:
+        yield bus
+
+
+def open_robot_bus(
+    robot: Robot, port: str | None = None, settings: BusSettings | None = None
+) -> ServoBus:
+    """Open the robot's bus: ``port``, else the ``settings``' port, else the robot file's, else
+    the built-in emulator; ``settings`` (timeout, retries, echo, direction) default to the robot
+    file's ``bus:`` section. The caller closes it."""
     settings = settings if settings is not None else robot.bus
     port = port if port is not None else settings.port
     target = port if port is not None else emulator_connection(built_in_emulator(robot))
-    with ServoBus(
+    return ServoBus(
         target,
         timeout_s=settings.timeout_s,
         retries=settings.retries,
         echo=settings.echo,
         direction=settings.direction,
-    ) as bus:
-        yield bus
+    )
 
 
 def built_in_emulator(robot: Robot) -> BusEmulator:

@@ -402,18 +402,29 @@ class Player:
         self._next_read = 0
         self._suspect: int | None = None  # a joint whose last read went unanswered: read it next
 
-    def play(self, ticks: Sequence[Tick], start_pose_deg: Sequence[float]) -> PlayReport:
-        """Play ``ticks`` from ``start_pose_deg`` (where the servos are now)."""
+    def play(
+        self,
+        ticks: Sequence[Tick],
+        start_pose_deg: Sequence[float],
+        start_at_s: float | None = None,
+    ) -> PlayReport:
+        """Play ``ticks`` from ``start_pose_deg`` (where the servos are now): the first START as
+        soon as tick 0 is staged, or at ``start_at_s`` on the clock (a show's instant: if that
+        is already past, the servos are re-targeted to where the plan is by then)."""
         # The priority first: locking the memory takes a while, before the deadlines are set.
         with self._priority() as scheduling:
             if self.on_scheduling:
                 self.on_scheduling(scheduling)
-            return self._play(list(ticks), start_pose_deg, scheduling)
+            return self._play(list(ticks), start_pose_deg, scheduling, start_at_s)
 
     def _play(
-        self, ticks: list[Tick], start_pose_deg: Sequence[float], scheduling: Scheduling
+        self,
+        ticks: list[Tick],
+        start_pose_deg: Sequence[float],
+        scheduling: Scheduling,
+        start_at_s: float | None,
     ) -> PlayReport:
-        stream = _Stream(self, ticks, start_pose_deg)
+        stream = _Stream(self, ticks, start_pose_deg, start_at_s)
         stream.scheduling = scheduling
         collecting = gc.isenabled()
         gc.disable()  # a full collection can pause for tens of ms; streaming makes no cycles
@@ -535,7 +546,13 @@ class Player:
 class _Stream:
     """The state of one pass over a tick list."""
 
-    def __init__(self, player: Player, ticks: list[Tick], start_pose_deg: Sequence[float]):
+    def __init__(
+        self,
+        player: Player,
+        ticks: list[Tick],
+        start_pose_deg: Sequence[float],
+        start_at_s: float | None = None,
+    ):
         self.player = player
         self.ticks = ticks
         self.previous_units = player.robot.to_units(start_pose_deg)
@@ -559,6 +576,8 @@ class _Stream:
         else:
             first_s = self.frame_lead_s(n) + self.capabilities.start_skew_s(n) / 2
         self.t0 = player.clock.now() + first_s + player.options.lead_s
+        if start_at_s is not None:
+            self.t0 = start_at_s
         self.end_s = self.t0
 
     @property

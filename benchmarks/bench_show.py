@@ -1,0 +1,217 @@
+"""Shows on one machine: N `choreo perform` processes on emulated buses, one `choreo show`, all
+on loopback (each performer listens on its own 127.0.0.1 port, the conductor connects to each).
+
+Printed, for 3 and 10 performers (arm6 on sim://?ids=1-6 each):
+  first-START spread    per run, last minus first performer's START at the show's instant (each
+                        read from its emulator's wire log, on this machine's one clock), and the
+                        p99 over runs and performers of each START's distance from the run's
+                        median; goal p99 < 1 ms;
+  time to first START   from launching `choreo show` to the first START on any bus (the
+                        approaches), and to the show's instant;
+  stop fan-out          from SIGINT (Ctrl-C) at the conductor to the last MOVE_STOP on any bus;
+                        goal < 100 ms;
+  killed conductor      (SIGKILL mid-show) what every performer said and left on its bus;
+  killed performer      (SIGKILL mid-show) what the conductor reported and the others did.
+
+Needs the show extra (pip install 'choreo[show]'). Run: python benchmarks/bench_show.py [RUNS]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+NOD = ROOT / "tests" / "data" / "shows" / "nod.yaml"  # 1 s
+WAVE = ROOT / "motions" / "arm6" / "wave.yaml"  # 4.9 s: long enough to stop mid-show
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Choreo:
+    """`python -m choreo ARGS` in the background, its stderr lines collected."""
+
+    def __init__(self, *args: str):
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "choreo", *args],
+            env=ENV,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.err: list[str] = []
+        self.out: list[str] = []
+        for stream, into in ((self.proc.stderr, self.err), (self.proc.stdout, self.out)):
+            threading.Thread(target=self._read, args=(stream, into), daemon=True).start()
+
+    @staticmethod
+    def _read(stream, into: list[str]) -> None:
+        for line in stream:
+            into.append(line.rstrip("\n"))
+
+    def wait_for(self, text: str, lines: list[str] | None = None, after: int = 0) -> str:
+        """The first line with ``text`` from line ``after`` on."""
+        lines = self.err if lines is None else lines
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            for line in list(lines)[after:]:
+                if text in line:
+                    return line
+            time.sleep(0.005)
+        raise RuntimeError(f"{text!r} never came: {self.err}")
+
+
+def start_performers(n: int) -> tuple[list[Choreo], list[str]]:
+    performers, endpoints = [], []
+    for i in range(n):
+        port = free_port()
+        performers.append(
+            Choreo(
+                "perform", "--name", f"p{i}", "--port", "sim://?ids=1-6",
+                "--listen", f"tcp/127.0.0.1:{port}",
+            )
+        )  # fmt: skip
+        endpoints.append(f"tcp/127.0.0.1:{port}")
+    for p in performers:
+        p.wait_for("waiting for a show", p.out)
+    return performers, endpoints
+
+
+def stop_all(processes: list[Choreo]) -> None:
+    for p in processes:
+        if p.proc.poll() is None:
+            p.proc.send_signal(signal.SIGINT)
+    for p in processes:
+        try:
+            p.proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.proc.kill()
+
+
+def show_file(folder: Path, n: int, motion: Path) -> Path:
+    lines = ["name: bench", "on_abort: stop", "performers:"]
+    lines += [f"  - {{name: p{i}, motion: {motion}}}" for i in range(n)]
+    path = folder / f"show{n}.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def conduct(show: Path, endpoints: list[str], report: Path) -> Choreo:
+    connects = [a for e in endpoints for a in ("--connect", e)]
+    return Choreo("show", str(show), "--no-audio", "--report", str(report), *connects)
+
+
+def spread_runs(n: int, runs: int, folder: Path) -> None:
+    performers, endpoints = start_performers(n)
+    show, report_path = show_file(folder, n, NOD), folder / "report.json"
+    spreads, deviations, to_first, to_instant = [], [], [], []
+    try:
+        for _ in range(runs):
+            launched = time.time()
+            conductor = conduct(show, endpoints, report_path)
+            if conductor.proc.wait(timeout=120) != 0:
+                raise RuntimeError("\n".join(conductor.err))
+            report = json.loads(report_path.read_text())
+            starts = np.array([p["first_start_s"] for p in report["performers"]])
+            spreads.append((starts.max() - starts.min()) * 1000)
+            deviations += list(np.abs(starts - np.median(starts)) * 1000)
+            first = min(p["approach_start_s"] for p in report["performers"])
+            to_first.append(first - launched)
+            to_instant.append(report["start_s"] - launched)
+    finally:
+        stop_all(performers)
+    print(
+        f"{n:3d} performers, {runs} runs: first-START spread per run "
+        f"median {np.median(spreads):.3f} ms, max {max(spreads):.3f} ms; distance from the "
+        f"run's median p99 {np.percentile(deviations, 99):.3f} ms (goal < 1 ms)"
+    )
+    print(
+        f"    time from launching `choreo show` to the first START {np.median(to_first):.2f} s, "
+        f"to the show's instant {np.median(to_instant):.2f} s (median)"
+    )
+
+
+def stop_fan_out(n: int, folder: Path) -> None:
+    performers, endpoints = start_performers(n)
+    report_path = folder / "stop.json"
+    try:
+        conductor = conduct(show_file(folder, n, WAVE), endpoints, report_path)
+        for p in performers:
+            p.wait_for("playing")
+        time.sleep(1.5)  # into the parts
+        sent = time.time()
+        conductor.proc.send_signal(signal.SIGINT)
+        conductor.proc.wait(timeout=60)
+        report = json.loads(report_path.read_text())
+        stops = [p["stop_s"] for p in report["performers"]]
+        stopped = sum(s is not None for s in stops)
+        latest = max(s for s in stops if s is not None)
+        print(
+            f"{n:3d} performers: Ctrl-C at the conductor to the last MOVE_STOP on the wire "
+            f"{(latest - sent) * 1000:.1f} ms (goal < 100 ms); {stopped}/{n} buses stopped"
+        )
+    finally:
+        stop_all(performers)
+
+
+def killed(n: int, folder: Path) -> None:
+    performers, endpoints = start_performers(n)
+    try:
+        conductor = conduct(show_file(folder, n, WAVE), endpoints, folder / "k1.json")
+        for p in performers:
+            p.wait_for("playing")
+        time.sleep(1.0)
+        conductor.proc.kill()
+        said = [p.wait_for("emulated bus:") for p in performers]
+        lost = sum("lost the conductor" in " ".join(p.err) for p in performers)
+        clean = sum(line.endswith("every servo stopped") for line in said)
+        print(
+            f"killed conductor ({n} performers): {lost}/{n} said they lost it, "
+            f"{clean}/{n} buses stopped with no move after the MOVE_STOP"
+        )
+        report_path = folder / "k2.json"
+        marks = [len(p.err) for p in performers]
+        conductor = conduct(show_file(folder, n, WAVE), endpoints, report_path)
+        for p, mark in zip(performers, marks):
+            p.wait_for("playing", after=mark)
+        time.sleep(1.0)
+        performers[0].proc.kill()
+        conductor.proc.wait(timeout=60)
+        parts = json.loads(report_path.read_text())["performers"]
+        outcomes = [p["outcome"] for p in parts]
+        print(
+            f"killed performer p0 ({n} performers): conductor reported {outcomes[0]!r}; "
+            f"the others: {', '.join(sorted(set(outcomes[1:])))}, "
+            f"{sum(p['stop_s'] is not None for p in parts[1:])}/{n - 1} buses stopped"
+        )
+    finally:
+        stop_all(performers)
+
+
+def main() -> None:
+    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 5
+    with tempfile.TemporaryDirectory() as folder:
+        for n in (3, 10):
+            spread_runs(n, runs, Path(folder))
+        for n in (3, 10):
+            stop_fan_out(n, Path(folder))
+        killed(3, Path(folder))
+
+
+if __name__ == "__main__":
+    main()

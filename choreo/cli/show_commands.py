@@ -1,0 +1,250 @@
+"""``choreo perform`` (on each robot's computer) and ``choreo show`` (the conductor).
+
+Zenoh (``choreo[show]``) is imported only when one of them runs, so every other command works
+without it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import socket
+import sys
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
+from rich.table import Table
+
+from choreo.bus.servo_bus import ServoBus
+from choreo.cli.arguments import (
+    add_port_arguments,
+    bus_settings,
+    float_in,
+    say_built_in_emulator,
+    stop_signals_as_ctrl_c,
+)
+from choreo.core.atomic import check_writable
+from choreo.music.decode import decode
+from choreo.play.play_motion import open_robot_bus
+from choreo.play.report import write_report
+from choreo.play.soundtrack import OUTPUT_RATE_HZ, NoAudioOutput, SoundDeviceSink
+from choreo.robot.types import Robot
+from choreo.show.showfile import NAME, Show, load_show
+
+MAX_WAIT_S = 3600.0
+EXIT_CODES = {"completed": 0, "staged": 0, "interrupted": 130}
+
+
+def register(subparsers) -> None:
+    perform = subparsers.add_parser(
+        "perform",
+        help="take part in shows: dance the parts a conductor (choreo show) sends",
+        description="Announce this robot to the network and dance the parts that a "
+        "`choreo show` sends: each is planned here, preflighted on this bus, and played from "
+        "the show's start instant. Losing the conductor stops the servos. Runs until Ctrl-C.",
+    )
+    perform.add_argument(
+        "--name",
+        type=performer_name,
+        help="the name the show file gives this robot (default: the host name)",
+    )
+    add_port_arguments(perform)
+    add_network_arguments(perform)
+    perform.set_defaults(handler=run_perform)
+
+    show = subparsers.add_parser(
+        "show",
+        help="conduct a show: several robots (each running choreo perform) dance together",
+        description="Find every performer the show file names, measure their clocks, stage "
+        "and preflight every part, start them all on one instant with the song, and follow "
+        "them. Ctrl-C stops every performer.",
+    )
+    show.add_argument("show", type=Path, metavar="SHOW.yaml", help="a show file")
+    show.add_argument(
+        "--report", type=Path, metavar="FILE.json", help="also write the report as JSON"
+    )
+    show.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="find, measure, stage and preflight every part, then release them: nothing moves",
+    )
+    show.add_argument(
+        "--wait",
+        type=float_in(0, MAX_WAIT_S, " s"),
+        default=10.0,
+        metavar="S",
+        help="how long to wait for every performer to appear (default 10 s)",
+    )
+    show.add_argument("--no-audio", action="store_true", help="do not play the show's song")
+    show.add_argument("--audio-device", metavar="NAME", help="audio output for the song")
+    add_network_arguments(show)
+    show.set_defaults(handler=run_show)
+
+
+def performer_name(text: str) -> str:
+    if not NAME.fullmatch(text):
+        raise argparse.ArgumentTypeError(
+            f"a performer name has only letters, digits, _ and -, got {text!r}"
+        )
+    return text
+
+
+def add_network_arguments(parser: argparse.ArgumentParser) -> None:
+    network = parser.add_argument_group(
+        "network (default: find each other by multicast scouting on the LAN)"
+    )
+    network.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="accept sessions on this Zenoh endpoint, e.g. tcp/0.0.0.0:7447 (repeatable); "
+        "with --listen or --connect, only the endpoints named are used: no scouting",
+    )
+    network.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="connect to this Zenoh endpoint: the conductor's or a router's, e.g. "
+        "tcp/192.168.1.10:7447 (repeatable)",
+    )
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+# --- choreo perform --------------------------------------------------------------------------
+def run_perform(args: argparse.Namespace) -> int:
+    from choreo.show.network import Network  # zenoh: only when a show command runs
+    from choreo.show.performer import Performer
+
+    name = args.name or re.sub(r"[^A-Za-z0-9_-]", "-", socket.gethostname().split(".")[0])
+    transport = bus_settings(args).port or "the robot file's port, else an emulated bus"
+    with stop_signals_as_ctrl_c(), Network(args.listen, args.connect) as network:
+        performer = Performer(
+            network,
+            name,
+            lambda robot: _open_bus(args, robot),
+            transport,
+            lambda text: _say(f"{name}: {text}"),
+        )
+        print(f"performing as {name} on {transport}: waiting for a show", flush=True)
+        performer.serve_forever()
+    return 0
+
+
+def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
+    settings = bus_settings(args, robot)
+    if settings.port is None:
+        say_built_in_emulator(robot, "performing on")
+    return open_robot_bus(robot, None, settings)
+
+
+# --- choreo show -----------------------------------------------------------------------------
+def run_show(args: argparse.Namespace) -> int:
+    from choreo.show.conductor import Conductor, ConductorOptions
+    from choreo.show.network import Network
+
+    show = load_show(args.show)
+    if args.report is not None:
+        check_writable(args.report)
+    options = ConductorOptions(wait_s=args.wait, dry_run=args.dry_run)
+    sink, song = (None, None) if args.no_audio or args.dry_run else _open_song(args, show)
+
+    def cue_song(start_s: float) -> None:
+        if sink is not None and song is not None and show.music is not None:
+            sink.play(song, show.music.start_s, time.monotonic() + start_s - time.time())
+
+    console = Console(stderr=True)
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[at]}"))
+    try:
+        with (
+            Network(args.listen, args.connect) as network,
+            Progress(*columns, console=console) as progress,
+        ):
+            tasks = {
+                p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
+                for p in show.parts
+            }
+
+            def on_progress(p) -> None:
+                if p.performer in tasks:
+                    done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
+                    at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
+                    progress.update(tasks[p.performer], completed=done, at=at)
+
+            conductor = Conductor(network, show, progress.console.print, options)
+            report = conductor.run(on_progress, cue_song)
+    finally:
+        if sink is not None:
+            sink.stop()
+    if args.report is not None:
+        write_report(args.report, report_document(report))
+    _print_report(report)
+    if report.stop_reason == "Ctrl-C at the conductor":
+        return 130
+    return 0 if report.completed else 1
+
+
+def _open_song(args: argparse.Namespace, show: Show):
+    if show.music is None:
+        return None, None
+    try:
+        song = decode(show.music.song, rate_hz=OUTPUT_RATE_HZ, channels=2)
+        return SoundDeviceSink(args.audio_device), song
+    except NoAudioOutput as error:
+        _say(f"choreo: no audio output: {error}; the show goes on without the music")
+        return None, None
+
+
+def report_document(report) -> dict:
+    spread = report.first_start_spread_s()
+    return {
+        "show": report.show,
+        "start_s": report.start_s,
+        "time_to_start_s": report.start_s - report.called_at_s if report.start_s else None,
+        "first_start_spread_ms": None if spread is None else spread * 1000,
+        "stop_sent_s": report.stop_sent_s,
+        "stop_reason": report.stop_reason,
+        "performers": [
+            {
+                "name": p.performer,
+                "robot": p.robot,
+                "outcome": p.outcome,
+                "reason": p.reason,
+                "clock_offset_ms": p.clock.offset_s * 1000,
+                "clock_offset_error_ms": p.clock.error_s * 1000,
+                "offset_s": p.offset_s,
+                "first_start_s": None if p.finished is None else p.finished.first_start_s,
+                "first_start_conductor_s": p.first_start_s,
+                "approach_start_s": None if p.finished is None else p.finished.approach_start_s,
+                "stop_s": None if p.finished is None else p.finished.stop_s,
+                "ticks_played": None if p.finished is None else p.finished.ticks_played,
+                "ticks_total": None if p.finished is None else p.finished.ticks_total,
+                "lateness_p99_ms": None if p.finished is None else p.finished.lateness_p99_ms,
+            }
+            for p in report.parts
+        ],
+    }
+
+
+def _print_report(report) -> None:
+    console = Console()
+    table = Table(title=f"show {report.show}")
+    for column in ("performer", "robot", "outcome", "clock offset", "first START", "reason"):
+        table.add_column(column)
+    for p in report.parts:
+        first = (
+            f"{(p.first_start_s - report.start_s - p.offset_s) * 1000:+.2f} ms"
+            if p.first_start_s is not None
+            else "-"
+        )
+        table.add_row(p.performer, p.robot, p.outcome, p.clock.describe(), first, p.reason)
+    console.print(table)
+    spread = report.first_start_spread_s()
+    if spread is not None:
+        console.print(f"first START spread across performers: {spread * 1000:.3f} ms")

@@ -1,0 +1,309 @@
+"""``choreo show``: the conductor.
+
+In order: hold the show's liveliness token (performers stop if it vanishes), wait for every
+named performer, measure each one's clock against this one (refusing past the show's bound),
+stage every part and refuse unless every preflight passed, pick one start instant far enough
+ahead for every approach, tell each performer that instant on its own clock, cue the song on it,
+then follow the parts to their end. Ctrl-C, or a part that aborts or is lost when the show says
+``on_abort: stop``, sends one stop that every performer hears.
+"""
+
+from __future__ import annotations
+
+import queue
+import re
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from choreo.errors import ChoreoError
+from choreo.motion.motion_file import load_motion
+from choreo.show.clock_offset import ClockOffset, exceeds, measure
+from choreo.show.messages import (
+    Announcement,
+    ClockReading,
+    Finished,
+    Go,
+    Progress,
+    Readiness,
+    Stop,
+    decode,
+    encode,
+)
+from choreo.show.network import Network, name_of, performer_key, show_key
+from choreo.show.showfile import OnAbort, Show
+from choreo.show.staging import pack
+
+PERFORMERS = performer_key("*")
+FINISH_GRACE_S = 5.0  # past the planned end, a part that said nothing counts as lost
+STOP_REPLIES_S = 2.0  # after a stop, how long to wait for the parts to say they stopped
+
+
+@dataclass(frozen=True)
+class ConductorOptions:
+    wait_s: float = 10.0  # for every performer to appear
+    stage_timeout_s: float = 60.0  # to unpack, plan and preflight a part
+    lead_s: float = 0.5  # from telling the start instant to the earliest first START
+    dry_run: bool = False  # stage and preflight, then release: nothing moves
+
+
+@dataclass(frozen=True)
+class PartResult:
+    performer: str
+    robot: str
+    clock: ClockOffset
+    offset_s: float
+    start_s: float  # its motion's t=0, conductor's clock
+    outcome: str  # completed, stopped, interrupted, aborted, lost; staged after a dry run
+    reason: str
+    finished: Finished | None  # its own word (None: lost, or a dry run)
+
+    @property
+    def first_start_s(self) -> float | None:
+        """Its first START on the conductor's clock (its own, corrected by the offset)."""
+        if self.finished is None or self.finished.first_start_s is None:
+            return None
+        return self.finished.first_start_s - self.clock.offset_s
+
+
+@dataclass(frozen=True)
+class ShowReport:
+    show: str
+    start_s: float  # the show's instant, conductor's wall clock
+    parts: tuple[PartResult, ...]
+    stop_sent_s: float | None  # when the conductor sent a stop
+    stop_reason: str
+    called_at_s: float  # when the conductor began
+
+    @property
+    def completed(self) -> bool:
+        return all(p.outcome in ("completed", "staged") for p in self.parts)
+
+    def first_start_spread_s(self) -> float | None:
+        """First to last first START, each less its part's offset (on the conductor's clock)."""
+        starts = [p.first_start_s - p.offset_s for p in self.parts if p.first_start_s is not None]
+        return max(starts) - min(starts) if len(starts) == len(self.parts) else None
+
+
+Say = Callable[[str], None]
+OnProgress = Callable[[Progress], None]
+
+
+class Conductor:
+    def __init__(
+        self,
+        network: Network,
+        show: Show,
+        say: Say,
+        options: ConductorOptions = ConductorOptions(),
+    ):
+        self.network, self.show, self.say, self.options = network, show, say, options
+        slug = re.sub(r"[^A-Za-z0-9_-]", "-", show.name)
+        self.show_id = f"{slug}-{uuid.uuid4().hex[:8]}"
+        self.key = show_key(self.show_id)
+        self.events: queue.Queue[tuple[str, object]] = queue.Queue()
+        self.names = [p.performer for p in show.parts]
+
+    def run(
+        self,
+        on_progress: OnProgress | None = None,
+        cue_song: Callable[[float], None] | None = None,
+    ) -> ShowReport:
+        """The whole show; ``cue_song(start_s)`` is called with the instant (wall clock) once
+        every performer has it. Ctrl-C stops every part; the report then says so."""
+        called_at = time.time()
+        self.network.announce(self.key)
+        self.network.subscribe(f"{self.key}/events/*", self._on_finished)
+        if on_progress is not None:
+            self.network.subscribe(
+                f"{self.key}/progress/*", lambda _k, payload: on_progress(decode(Progress, payload))
+            )
+        self.wait_for_performers()
+        self.network.watch(PERFORMERS, self._on_performer)
+        self.introduce()
+        clocks = self.measure_clocks()
+        readiness = self.stage()
+        if self.options.dry_run:
+            self.send_stop("dry run: nothing plays")
+            parts = tuple(
+                PartResult(p.performer, readiness[p.performer].robot, clocks[p.performer],
+                           p.offset_s, 0.0, "staged", "dry run", None)
+                for p in self.show.parts
+            )  # fmt: skip
+            return ShowReport(self.show.name, 0.0, parts, None, "dry run", called_at)
+        start_s = self.start_instant(readiness)
+        interrupted = False
+        try:
+            self.go(start_s, clocks)
+            if cue_song is not None:
+                cue_song(start_s)
+        except KeyboardInterrupt:  # some performers may have the start already: stop them too
+            interrupted = True
+        return self.follow(start_s, clocks, readiness, called_at, interrupted)
+
+    # --- before the start ----------------------------------------------------------------------
+    def wait_for_performers(self) -> None:
+        deadline = time.monotonic() + self.options.wait_s
+        while True:
+            present = {name_of(k) for k in self.network.alive(PERFORMERS, timeout_s=0.5)}
+            missing = [n for n in self.names if n not in present]
+            if not missing:
+                return
+            if time.monotonic() >= deadline:
+                raise ChoreoError(
+                    f"{len(missing)} performer(s) did not appear within "
+                    f"{self.options.wait_s:g} s: {', '.join(missing)}; start "
+                    f"`choreo perform --name {missing[0]}` on its robot's computer (present: "
+                    f"{', '.join(sorted(present)) or 'none'})"
+                )
+            time.sleep(0.1)
+
+    def introduce(self) -> None:
+        """One line per performer: where it dances and what it is doing."""
+        answers = self.network.ask_all(
+            {f"{performer_key(name)}/info": b"" for name in self.names}, timeout_s=2.0
+        )
+        for answer in answers.values():
+            if answer is not None:
+                who = decode(Announcement, answer)
+                self.say(f"{who.name}: found, on {who.transport}, {who.state}")
+
+    def measure_clocks(self) -> dict[str, ClockOffset]:
+        clocks, problems = {}, []
+        bound_ms = self.show.max_clock_offset_s * 1000
+        for name in self.names:
+
+            def ask_time(name: str = name) -> float | None:
+                reply = self.network.ask(f"{performer_key(name)}/clock", timeout_s=1.0)
+                return None if reply is None else decode(ClockReading, reply).time_s
+
+            offset = measure(ask_time)
+            if offset is None:
+                problems.append(f"{name}: did not answer the clock round trips")
+                continue
+            clocks[name] = offset
+            if exceeds(offset, self.show.max_clock_offset_s):
+                problems.append(
+                    f"{name}: its clock is {offset.describe()} against this computer's, over "
+                    f"the show's bound of {bound_ms:g} ms; synchronise the clocks "
+                    "(chrony/NTP, or PTP)"
+                )
+        if problems:
+            raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
+        return clocks
+
+    def stage(self) -> dict[str, Readiness]:
+        """Every part staged; a ChoreoError listing every problem of every robot otherwise."""
+        requests = {
+            f"{performer_key(p.performer)}/stage": encode(pack(self.show_id, load_motion(p.motion)))
+            for p in self.show.parts
+        }
+        answers = self.network.ask_all(requests, self.options.stage_timeout_s)
+        readiness, problems = {}, []
+        for part in self.show.parts:
+            answer = answers[f"{performer_key(part.performer)}/stage"]
+            if answer is None:
+                problems.append(f"{part.performer}: no answer to its part in "
+                                f"{self.options.stage_timeout_s:g} s")  # fmt: skip
+                continue
+            ready = decode(Readiness, answer)
+            readiness[part.performer] = ready
+            who = f"{part.performer} ({ready.robot})" if ready.robot else part.performer
+            problems += [f"{who}: {problem}" for problem in ready.problems]
+            if ready.ok and ready.unchecked:
+                self.say(f"{who}: its transport cannot check {', '.join(ready.unchecked)}")
+        if problems:
+            self.send_stop("refused to start")
+            raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
+        for part in self.show.parts:
+            ready = readiness[part.performer]
+            self.say(f"{part.performer} ({ready.robot}): ready, {ready.duration_s:.1f} s part "
+                     f"after a {ready.approach_s:.1f} s approach")  # fmt: skip
+        return readiness
+
+    def start_instant(self, readiness: dict[str, Readiness]) -> float:
+        """Late enough that every approach (before its part's offset) begins after the lead."""
+        ahead_s = max(readiness[p.performer].approach_s - p.offset_s for p in self.show.parts)
+        return time.time() + self.options.lead_s + max(ahead_s, 0.0)
+
+    def go(self, start_s: float, clocks: dict[str, ClockOffset]) -> None:
+        requests = {
+            f"{performer_key(p.performer)}/go": encode(
+                Go(self.show_id, start_s + p.offset_s + clocks[p.performer].offset_s)
+            )
+            for p in self.show.parts
+        }
+        answers = self.network.ask_all(requests, self.options.lead_s)
+        silent = [name_of(k.removesuffix("/go")) for k, a in answers.items() if a is None]
+        if silent:
+            self.send_stop("a performer did not take the start")
+            raise ChoreoError(f"no answer to the start from {', '.join(silent)}: show stopped")
+
+    # --- during the show -----------------------------------------------------------------------
+    def _on_finished(self, _key: str, payload: bytes) -> None:
+        self.events.put(("finished", decode(Finished, payload)))
+
+    def _on_performer(self, key: str, alive: bool) -> None:
+        if not alive:
+            self.events.put(("lost", name_of(key)))
+
+    def send_stop(self, reason: str) -> float:
+        self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason)))
+        return time.time()
+
+    def follow(
+        self,
+        start_s: float,
+        clocks: dict[str, ClockOffset],
+        readiness: dict[str, Readiness],
+        called_at: float,
+        interrupted: bool = False,
+    ) -> ShowReport:
+        """Follow the parts to their end; Ctrl-C (now or ``interrupted`` before) stops them."""
+        end_s = start_s + max(
+            p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
+        )
+        outcomes: dict[str, tuple[str, str, Finished | None]] = {}
+        stop_sent: float | None = None
+        stop_reason = ""
+        deadline = end_s + FINISH_GRACE_S
+        while len(outcomes) < len(self.names) and time.time() < deadline:
+            try:
+                if interrupted:
+                    raise KeyboardInterrupt
+                kind, what = self.events.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            except KeyboardInterrupt:
+                interrupted = False
+                stop_reason = "Ctrl-C at the conductor"
+                stop_sent = self.send_stop(stop_reason)
+                self.say(f"{stop_reason}: stopping every performer")
+                deadline = time.time() + STOP_REPLIES_S
+                continue
+            if kind == "lost" and what in self.names and what not in outcomes:
+                outcomes[what] = ("lost", "its liveliness token vanished", None)
+                self.say(f"{what}: lost (its liveliness token vanished)")
+                failed = what
+            elif isinstance(what, Finished) and what.performer in self.names:
+                outcomes[what.performer] = (what.outcome, what.reason, what)
+                self.say(f"{what.performer}: {what.outcome}"
+                         f"{': ' + what.reason if what.reason else ''}")  # fmt: skip
+                failed = what.performer if what.outcome == "aborted" else ""
+            else:
+                continue
+            if failed and stop_sent is None and self.show.on_abort is OnAbort.STOP:
+                stop_reason = f"{failed} aborted or was lost (on_abort: stop)"
+                stop_sent = self.send_stop(stop_reason)
+                deadline = min(deadline, time.time() + STOP_REPLIES_S)
+        parts = []
+        for part in self.show.parts:
+            outcome, reason, finished = outcomes.get(
+                part.performer, ("lost", "no word from it after the show's end", None)
+            )
+            parts.append(
+                PartResult(part.performer, readiness[part.performer].robot, clocks[part.performer],
+                           part.offset_s, start_s + part.offset_s, outcome, reason, finished)
+            )  # fmt: skip
+        return ShowReport(self.show.name, start_s, tuple(parts), stop_sent, stop_reason, called_at)

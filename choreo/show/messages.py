@@ -1,0 +1,124 @@
+"""What conductor and performers say to each other: small frozen dataclasses, sent as JSON.
+
+Times on the wire are wall-clock seconds (``time.time()``) on the sender's clock; the conductor
+corrects a performer's by the offset it measured (:mod:`choreo.show.clock_offset`).
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import json
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+from choreo.errors import ChoreoError
+
+M = TypeVar("M")
+
+
+def encode(message: Any) -> bytes:
+    return json.dumps(dataclasses.asdict(message)).encode()
+
+
+def decode(kind: type[M], payload: bytes) -> M:
+    """A ``kind`` from its JSON; a ChoreoError saying what came instead (another version?)."""
+    try:
+        fields = json.loads(payload)
+        return kind(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+    except (ValueError, TypeError) as error:
+        raise ChoreoError(
+            f"a {kind.__name__} message could not be read ({error}); are both sides the same "
+            "choreo version?"
+        ) from None
+
+
+@dataclass(frozen=True)
+class Announcement:
+    """Who a performer is (the answer to ``<performer>/info``)."""
+
+    name: str
+    transport: str  # its bus: a port, or "emulated"
+    robot: str  # "" until a part is staged
+    state: str  # idle, staged, playing
+
+
+@dataclass(frozen=True)
+class ClockReading:
+    """A performer's wall clock when it answered a round trip."""
+
+    time_s: float
+
+
+@dataclass(frozen=True)
+class StagedPart:
+    """A part sent to a performer: the motion file and every file it uses, by relative path."""
+
+    show_id: str
+    motion: str  # relative path of the motion among ``files``
+    robot_file: str  # relative path of its robot.yaml among ``files``
+    files: tuple[tuple[str, str], ...]  # (relative path, base64 of the content)
+
+    @staticmethod
+    def of(show_id: str, motion: str, robot_file: str, contents: dict[str, bytes]) -> StagedPart:
+        files = tuple((path, base64.b64encode(data).decode()) for path, data in contents.items())
+        return StagedPart(show_id, motion, robot_file, files)
+
+    def contents(self) -> dict[str, bytes]:
+        return {path: base64.b64decode(data) for path, data in self.files}
+
+
+@dataclass(frozen=True)
+class Readiness:
+    """A performer's answer to a staged part: preflight passed, or every problem it found."""
+
+    performer: str
+    robot: str
+    problems: tuple[str, ...]
+    approach_s: float = 0.0  # the slow move into the first pose, before the motion's t=0
+    duration_s: float = 0.0  # the motion itself
+    unchecked: tuple[str, ...] = ()  # what preflight could not check through this transport
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+@dataclass(frozen=True)
+class Go:
+    """Play the staged part: its motion's t=0 at ``start_s`` on the performer's wall clock."""
+
+    show_id: str
+    start_s: float
+
+
+@dataclass(frozen=True)
+class Stop:
+    """Stop the servos now (Ctrl-C at the conductor, or another performer aborted)."""
+
+    show_id: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class Progress:
+    performer: str
+    time_s: float  # since the motion's t=0 (negative during the approach)
+    duration_s: float
+
+
+@dataclass(frozen=True)
+class Finished:
+    """How a performer's part ended; times on its own wall clock."""
+
+    performer: str
+    outcome: str  # completed, interrupted, aborted
+    reason: str
+    ticks_played: int
+    ticks_total: int
+    # on an emulated bus, read from the wire; else from the player's schedule: the approach's
+    # deadline plus the lateness it measured, the part's deadline
+    approach_start_s: float | None  # the first START of the approach into the first pose
+    first_start_s: float | None  # the first START of the part itself (its motion's t=0)
+    stop_s: float | None  # its MOVE_STOP on the wire (emulated bus), if it stopped
+    lateness_p99_ms: float
