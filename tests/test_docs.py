@@ -143,8 +143,9 @@ def test_readme_command_runs(command, workdir):
 
 @pytest.mark.parametrize("block", sorted(SERVED_BLOCKS))
 def test_readme_block_with_a_server_runs(block, workdir):
-    """A block that starts a server with ``&`` (``choreo emulate --pty PATH``): it is started,
-    the block's other commands run against it, then it is stopped as Ctrl-C would."""
+    """A block that starts a server with ``&`` (``choreo emulate --pty PATH``, ``choreo studio``):
+    it is started, the block's other commands run against it, then it is stopped as Ctrl-C
+    would."""
     commands = [c for c in readme_commands() if c.block == block]
     servers = []
     try:
@@ -161,8 +162,9 @@ def test_readme_block_with_a_server_runs(block, workdir):
                 )
                 servers.append(server)
                 assert server.stdout is not None
-                ready = server.stdout.readline()  # an emulator, or a show's performer
-                assert "emulating" in ready or "waiting for a show" in ready, server.stderr
+                ready = server.stdout.readline()  # the server says it is up
+                up = ("emulating", "waiting for a show", "choreo studio:")
+                assert any(word in ready for word in up), server.stderr
             elif not HARDWARE_PORT.search(command.text):
                 run_command(command.text, workdir, command.error)
     finally:

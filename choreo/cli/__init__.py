@@ -30,6 +30,7 @@ from choreo.cli import (
     robot_commands,
     servo_commands,
     show_commands,
+    studio_commands,
 )
 from choreo.errors import ChoreoError, OptionError, UsageError
 
@@ -47,6 +48,7 @@ COMMAND_GROUPS = (
     record_commands,
     interop_commands,
     show_commands,
+    studio_commands,
 )
 
 

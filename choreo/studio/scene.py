@@ -1,0 +1,122 @@
+"""The robot in the browser: its MuJoCo scene (floor, props) converted to viser nodes by mjviser,
+posed from the simulation, with the plan's pose drawn over it as a ghost skeleton.
+
+The only module of the studio that touches MuJoCo's data (``choreo.preview`` builds the model).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from choreo.motion.scene import Prop
+from choreo.preview.model import index_joints, load_model
+from choreo.robot.types import Robot
+from choreo.studio import require
+
+GHOST_RGB = (40, 120, 255)
+GHOST_WIDTH = 4.0
+AMBIENT, KEY_LIGHT = 1.2, 2.0  # without the environment map: soft fill, one light from above
+HANDLE_SCALE = 0.25  # a site's drag handle, as a share of the model's size
+
+
+class RobotView:
+    """The robot of one model in the scene; ``show`` poses it."""
+
+    def __init__(self, server, robot: Robot, props: Sequence[Prop]):
+        mjviser = require("mjviser")
+        self.robot, self.props = robot, tuple(props)
+        self.model = load_model(robot, props)
+        self._index = index_joints(self.model, robot)
+        self._data = mujoco.MjData(self.model)
+        self._ghost_data = mujoco.MjData(self.model)
+        self._server = server
+        self._scene = mjviser.ViserMujocoScene(server, self.model, num_envs=1)
+        self._scene.camera_tracking_enabled = False  # the ghost is drawn in world coordinates
+        # mjviser lights the scene with an HDR environment map: seconds of work for a browser
+        # without a GPU before the first frame. Plain lights instead.
+        server.scene.configure_environment_map(hdri=None)
+        server.scene.add_light_ambient("/lights/ambient", intensity=AMBIENT)
+        server.scene.add_light_directional(
+            "/lights/key", intensity=KEY_LIGHT, position=(1.0, -1.5, 3.0)
+        )
+        self._bones = np.array(
+            [(self.model.body_parentid[b], b) for b in range(1, self.model.nbody)]
+            if self.model.nbody > 1
+            else np.zeros((0, 2), dtype=int)
+        )
+        self._bones = self._bones[self._bones[:, 0] > 0]  # bodies hanging from the world: none
+        self.ghost_visible = True
+        self._handles: dict[str, Any] = {}
+        self._dragging: str | None = None
+        self._frame_camera(server)
+
+    def _frame_camera(self, server) -> None:
+        """Look at the robot from the front left, far enough to see all of it."""
+        server.scene.set_up_direction("+z")
+        center, extent = np.array(self.model.stat.center), float(self.model.stat.extent)
+        server.initial_camera.look_at = center
+        server.initial_camera.position = center + extent * np.array([1.2, -1.6, 0.9])
+
+    def matches(self, robot: Robot, props: Sequence[Prop]) -> bool:
+        """This view still draws ``robot`` with ``props`` (else the scene is rebuilt)."""
+        return robot == self.robot and tuple(props) == self.props
+
+    def qpos_with(self, qpos: np.ndarray, angles_deg: np.ndarray) -> np.ndarray:
+        """``qpos`` (the whole state: the body's place too) with the joints at ``angles_deg``."""
+        out = np.array(qpos, dtype=float)
+        out[self._index.qpos] = np.radians(angles_deg)
+        return out
+
+    def show(self, qpos: np.ndarray, ghost_deg: np.ndarray | None) -> None:
+        """The robot at ``qpos``; the ghost at the same place with the joints at ``ghost_deg``."""
+        self._data.qpos[:] = qpos
+        mujoco.mj_kinematics(self.model, self._data)
+        self._scene.update_from_mjdata(self._data)
+        self._place_handles()
+        if ghost_deg is None or not self.ghost_visible or not len(self._bones):
+            self._server.scene.remove_by_name("/ghost")
+            return
+        self._ghost_data.qpos[:] = self.qpos_with(qpos, ghost_deg)
+        mujoco.mj_kinematics(self.model, self._ghost_data)
+        points = self._ghost_data.xpos[self._bones]  # (bones, 2, 3)
+        self._server.scene.add_line_segments(
+            "/ghost",
+            points=points,
+            colors=GHOST_RGB,
+            thickness=GHOST_WIDTH,
+            thickness_units="screen",
+        )
+
+    def add_site_handles(
+        self, names: Sequence[str], on_drag: Callable[[str, np.ndarray], None]
+    ) -> None:
+        """A drag handle at each of the robot's sites; ``on_drag(site, world position m)``."""
+        size = float(self.model.stat.extent) * HANDLE_SCALE
+        for name in names:
+            handle = self._server.scene.add_transform_controls(
+                f"/sites/{name}",
+                scale=size,
+                disable_rotations=True,
+                position=np.array(self._data.site(name).xpos),
+            )
+            handle.on_update(self._drag_callback(name, on_drag))
+            self._handles[name] = handle
+
+    def _drag_callback(self, name: str, on_drag: Callable[[str, np.ndarray], None]):
+        def callback(event) -> None:
+            if event.phase == "start":
+                self._dragging = name
+            elif event.phase == "end":
+                self._dragging = None
+            on_drag(name, np.array(event.target.position, dtype=float))
+
+        return callback
+
+    def _place_handles(self) -> None:
+        for name, handle in self._handles.items():
+            if name != self._dragging:  # the one in the user's hand stays where it is put
+                handle.position = np.array(self._data.site(name).xpos)

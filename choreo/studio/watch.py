@@ -1,0 +1,63 @@
+"""Noticing saves: the files a motion uses, polled for a new size or modification time.
+
+Polling (not inotify) works the same on every OS and every editor's way of saving (in place,
+or a new file renamed over the old); a few stat calls every POLL_S cost nothing."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+POLL_S = 0.1
+Stamp = tuple[int, int] | None  # (mtime_ns, size), None while the file is missing
+
+
+def stamp(path: Path) -> Stamp:
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return status.st_mtime_ns, status.st_size
+
+
+class FileWatcher:
+    """Calls ``on_change`` (from its own thread) once the files of ``files()`` change; the
+    set of files is asked again after each change (a save can add an include)."""
+
+    def __init__(self, files: Callable[[], Iterable[Path]], on_change: Callable[[], None]):
+        self._files = files
+        self._on_change = on_change
+        self._stop = threading.Event()
+        self._stamps: dict[Path, Stamp] = {}
+        self._thread = threading.Thread(target=self._run, name="studio-watch", daemon=True)
+
+    def _read(self) -> dict[Path, Stamp]:
+        return {path: stamp(path) for path in self._files()}
+
+    def start(self) -> None:
+        self._stamps = self._read()
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+
+    def seen(self) -> None:
+        """The files as they are now are known (the studio wrote them itself)."""
+        self._stamps = self._read()
+
+    def _run(self) -> None:
+        while not self._stop.wait(POLL_S):
+            now = self._read()
+            if now != self._stamps:
+                # stamps from before the reload: a save during it is seen on the next poll
+                self._stamps = now
+                try:
+                    self._on_change()
+                except Exception:  # noqa: BLE001  a bug must not stop the studio following saves
+                    log.exception("reloading after a save failed")

@@ -1,0 +1,243 @@
+"""Edits of a motion file's keyframes that change only what they must.
+
+Everything outside the edited keyframe stays byte for byte as the author wrote it: the file is
+read with ruamel.yaml's round-trip loader to find where each keyframe is, and only that keyframe's
+lines are replaced (or new lines inserted). The keyframe itself goes through ruamel.yaml too, so
+its own comments, key order and quoting survive an update.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from choreo.studio import require
+
+TIMING_KEYS = ("t", "after", "beat", "bar")
+SPACE_KEYS = ("sites", "body", "gait")  # a joint pose written over a keyframe replaces these
+DECIMALS = 1  # degrees and times written with one decimal (0.1° is below a servo's step)
+TIME_DECIMALS = 3  # seconds: to the millisecond
+
+
+class EditRefused(ValueError):
+    """The edit cannot be made as asked; the message says why (``path:line`` where it can)."""
+
+
+@dataclass(frozen=True)
+class KeyframeItem:
+    """One entry of the file's ``keyframes:`` list, by 0-based line numbers."""
+
+    first_line: int  # the line of its "-"
+    last_line: int  # its last line with content (comments after it belong to the next one)
+    content_line: int  # where its mapping starts (the keyframe's SourceLocation line - 1)
+    dash_col: int
+
+
+def _yaml():
+    yaml_module = require("ruamel.yaml")
+    yaml = yaml_module.YAML(typ="rt")
+    yaml.preserve_quotes = True
+    yaml.width = 100  # as choreo.motion.writer wraps
+    yaml.indent(mapping=2, sequence=2, offset=0)
+    return yaml
+
+
+def keyframe_items(text: str) -> list[KeyframeItem]:
+    """The keyframes written in ``text`` (not those of its includes), in file order."""
+    document = _yaml().load(text)
+    if not isinstance(document, Mapping) or "keyframes" not in document:
+        raise EditRefused("the file has no keyframes: list")
+    sequence = document["keyframes"]
+    lines = text.splitlines()
+    end = _list_end(document, lines)
+    starts = [sequence.lc.data[i][0] for i in range(len(sequence))]
+    items = []
+    for i, content_line in enumerate(starts):
+        first = _dash_line(lines, content_line)
+        stop = _dash_line(lines, starts[i + 1]) if i + 1 < len(starts) else end
+        last = stop - 1
+        while last > content_line and _blank_or_comment(lines[last]):
+            last -= 1
+        items.append(KeyframeItem(first, last, content_line, lines[first].index("-")))
+    return items
+
+
+def _list_end(document: Any, lines: list[str]) -> int:
+    """The line after the keyframes list: the next top-level key's, or the end of the file."""
+    keys = list(document)
+    after = keys.index("keyframes") + 1
+    if after < len(keys):
+        line = document.lc.key(keys[after])[0]
+        while line > 0 and _blank_or_comment(lines[line - 1]):
+            line -= 1
+        return line
+    return len(lines)
+
+
+def _dash_line(lines: list[str], content_line: int) -> int:
+    line = content_line
+    while line > 0 and not lines[line].lstrip().startswith("-"):
+        line -= 1
+    return line
+
+
+def _blank_or_comment(line: str) -> bool:
+    stripped = line.strip()
+    return not stripped or stripped.startswith("#")
+
+
+def number(value: float, decimals: int = DECIMALS) -> int | float:
+    """``value`` rounded as the file gets it: whole numbers without a decimal point."""
+    rounded = round(float(value), decimals) + 0.0  # + 0.0: no "-0.0"
+    return int(rounded) if rounded.is_integer() else rounded
+
+
+def pose_mapping(pose_deg: Mapping[str, float]):
+    comments = require("ruamel.yaml.comments")
+    pose = comments.CommentedMap((name, number(v)) for name, v in pose_deg.items())
+    pose.fa.set_flow_style()
+    return pose
+
+
+def sites_mapping(site: str, at_mm: Sequence[float] | np.ndarray):
+    """``{site: {at: [x, y, z]}}`` in flow style, millimetres to the tenth."""
+    comments = require("ruamel.yaml.comments")
+    at = comments.CommentedSeq(number(v) for v in at_mm)
+    at.fa.set_flow_style()
+    target = comments.CommentedMap(at=at)
+    target.fa.set_flow_style()
+    sites = comments.CommentedMap([(site, target)])
+    sites.fa.set_flow_style()
+    return sites
+
+
+def _item_text(item: Any, dash_col: int) -> list[str]:
+    out = io.StringIO()
+    _yaml().dump([item], out)
+    return [" " * dash_col + line if line else line for line in out.getvalue().splitlines()]
+
+
+def _lines(text: str) -> tuple[list[str], str]:
+    ending = "\n" if text.endswith("\n") or not text else ""
+    return text.splitlines(), ending
+
+
+def _joined(lines: list[str], ending: str) -> str:
+    return "\n".join(lines) + ending
+
+
+def add_keyframe(text: str, after: int | None, key: str, value: Any, t_s: float) -> str:
+    """Insert ``key: value`` (``pose:`` or ``sites:``) at ``t: t_s`` after the ``after``-th
+    keyframe item (``None``: first in the list)."""
+    comments = require("ruamel.yaml.comments")
+    items = keyframe_items(text)
+    lines, ending = _lines(text)
+    if not items:
+        raise EditRefused("the keyframes: list is empty or written in flow style: add one by hand")
+    item = comments.CommentedMap()
+    item[key] = value
+    item["t"] = number(t_s, TIME_DECIMALS)
+    if after is None:
+        at, dash_col = items[0].first_line, items[0].dash_col
+    else:
+        at, dash_col = items[after].last_line + 1, items[after].dash_col
+    return _joined(lines[:at] + _item_text(item, dash_col) + lines[at:], ending)
+
+
+def _edit_item(
+    text: str, index: int, where: str, key: str, value: Any, replaces: tuple[str, ...]
+) -> str:
+    """Write ``key: value`` in the ``index``-th keyframe item where the first of ``replaces``
+    (or ``key``) was, and drop the others; every other line of the item stays as written."""
+    document = _yaml().load(text)
+    item_lines = keyframe_items(text)[index]
+    entry = document["keyframes"][index]
+    lines, ending = _lines(text)
+    if not isinstance(entry, require("ruamel.yaml.comments").CommentedMap) or entry.fa.flow_style():
+        raise EditRefused(f"{where}: a keyframe written on one line in braces: edit it in the text")
+    if "include" in entry or "gait" in entry:
+        raise EditRefused(f"{where}: an include or gait block: edit it in the text")
+    keys = list(entry)
+    spans = _key_spans(entry, keys, lines, item_lines.last_line)
+    targets = [k for k in keys if k in replaces or k == key]
+    for k in targets:
+        _check_no_anchor(entry, k, lines, where)
+    first, last = spans[targets[0]] if targets else (item_lines.last_line + 1,) * 2
+    if targets:
+        line, col = entry.lc.key(targets[0])
+        prefix, comment = lines[line][:col], _trailing_comment(lines[last])
+    else:  # a new key under the others
+        line, col = entry.lc.key(keys[-1])
+        prefix, comment = " " * col, ""
+    new = _value_lines(key, value, prefix)
+    new[-1] += comment
+    out = list(lines)
+    for k in sorted(targets[1:], key=lambda k: spans[k][0], reverse=True):
+        del out[spans[k][0] : spans[k][1] + 1]
+    out[first : last + 1 if targets else first] = new
+    return _joined(out, ending)
+
+
+def _key_spans(entry: Any, keys: list, lines: list[str], item_last: int) -> dict:
+    """Each key's lines (first, last) in the file: to the next key, comments left out."""
+    starts = [entry.lc.key(k)[0] for k in keys]
+    spans = {}
+    for i, k in enumerate(keys):
+        last = starts[i + 1] - 1 if i + 1 < len(keys) else item_last
+        while last > starts[i] and _blank_or_comment(lines[last]):
+            last -= 1
+        spans[k] = (starts[i], last)
+    return spans
+
+
+def _check_no_anchor(entry: Any, key: str, lines: list[str], where: str) -> None:
+    value_line, value_col = entry.lc.value(key)
+    if lines[value_line][value_col:].startswith("*"):
+        raise EditRefused(
+            f"{where}: its {key} is another keyframe's (a YAML alias): edit it in the text"
+        )
+    if getattr(getattr(entry[key], "anchor", None), "value", None):
+        raise EditRefused(
+            f"{where}: other keyframes use its {key} (a YAML anchor): edit it in the text"
+        )
+
+
+def _trailing_comment(line: str) -> str:
+    """``"  # row 2"`` of ``"    after: 0.5  # row 2"`` (keys and values here hold no "#")."""
+    found = re.search(r"\s+#.*$", line)
+    return found.group(0) if found else ""
+
+
+def _value_lines(key: str, value: Any, prefix: str) -> list[str]:
+    yaml = _yaml()
+    yaml.width = max(40, yaml.width - len(prefix))
+    out = io.StringIO()
+    yaml.dump({key: value}, out)
+    first, *rest = out.getvalue().splitlines()
+    return [prefix + first] + [" " * len(prefix) + line for line in rest]
+
+
+def update_keyframe(text: str, index: int, where: str, key: str, value: Any) -> str:
+    """The ``index``-th keyframe item's pose (or sites) become ``key: value``; its timing
+    stays. A joint pose replaces sites, body and any pose; sites replace only sites."""
+    replaces = SPACE_KEYS + ("pose",) if key == "pose" else ("sites",)
+    return _edit_item(text, index, where, key, value, replaces)
+
+
+def retime_keyframe(text: str, index: int, where: str, t_s: float) -> str:
+    """The ``index``-th keyframe item arrives at ``t: t_s`` (replacing after/beat/bar)."""
+    return _edit_item(text, index, where, "t", number(t_s, TIME_DECIMALS), TIMING_KEYS)
+
+
+def delete_keyframe(text: str, index: int) -> str:
+    items = keyframe_items(text)
+    if len(items) == 1:
+        raise EditRefused("a motion needs at least one keyframe: this is the last one")
+    lines, ending = _lines(text)
+    item = items[index]
+    return _joined(lines[: item.first_line] + lines[item.last_line + 1 :], ending)
