@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import REPO
 
+from choreo.cli import main
 from choreo.errors import SourceError
 from choreo.robot.robot_file import load_robot
 from choreo.robot.types import mirror_pose, mirror_targets
@@ -347,3 +349,49 @@ def test_a_joint_can_override_the_preview_actuator_of_its_servo(tmp_path):
         "'stall_torque_nm'?)" in unknown
     )
     assert "joint 'right': actuator: kp_nm_rad must be > 0, got 0" in zero
+
+
+def test_robot_file_bus_ranges_equal_the_command_line(tmp_path, capsys):
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = robot.read_text().replace(
+        "defaults:", "bus: {retries: 10, timeout_ms: 5001}\ndefaults:", 1
+    )
+    robot.write_text(text)
+    line = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("bus:"))
+    assert main(["validate", str(robot)]) == 1
+    assert capsys.readouterr().out.splitlines() == [
+        f"{robot}:{line}:16: bus: retries must be in 0..9, got 10",
+        f"{robot}:{line}:32: bus: timeout_ms must be in (0, 5000], got 5001",
+    ]
+
+
+def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
+    """The bus, a joint (two problems), a pose and the model file: one run, every line."""
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = (
+        robot.read_text()
+        .replace("mjcf: arm6.xml", "mjcf: nothere.xml")
+        .replace("defaults:", "bus: {retries: 100}\ndefaults:", 1)
+        .replace(
+            "base_yaw:    {id: 1, zero: 500, direction: 1, min: -120, max: 120}",
+            "base_yaw:    {id: 1, zero: 500, direction: 2, min: 120, max: -120}",
+        )
+        .replace("rest:  {base_yaw: 0,", "rest:  {base_yw: 0,")
+    )
+    robot.write_text(text)
+    assert main(["validate", str(robot)]) == 1
+    assert [line.split(": ", 1)[1] for line in capsys.readouterr().out.splitlines()] == [
+        f"the MuJoCo model {robot.parent / 'nothere.xml'} does not exist",
+        "bus: retries must be in 0..9, got 100",
+        "joint 'base_yaw': direction must be 1 or -1, got 2",
+        "joint 'base_yaw': min 120° must be below max -120°",  # not hidden by the direction
+        "pose 'rest' does not give base_yaw; every pose names every joint",
+        "pose 'rest': unknown joint 'base_yw' (did you mean 'base_yaw'?); the robot's joints are "
+        "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper",
+    ]
