@@ -109,10 +109,15 @@ def workdir(tmp_path: Path) -> Path:
     return tmp_path
 
 
+# `python -m choreo`, but a command without --port plays on the built-in emulator in virtual time
+VIRTUAL_CHOREO = [sys.executable, str(ROOT / "tests" / "virtual_choreo.py")]
+
+
 def run_command(command: str, folder: Path, error: str | None = None) -> None:
-    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder``; it succeeds,
-    or fails with exactly ``error`` when that is given."""
-    argv = [sys.executable, "-m", "choreo", *shlex.split(command)[1:]]
+    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder`` (the
+    built-in emulator on a virtual clock); it succeeds, or fails with exactly ``error`` when that
+    is given."""
+    argv = [*VIRTUAL_CHOREO, *shlex.split(command)[1:]]
     result = subprocess.run(
         argv,
         cwd=folder,

@@ -65,7 +65,7 @@ def test_dry_run_prints_the_packet_schedule(capsys):
     assert "stage base_yaw" in out or "stage shoulder" in out
 
 
-def test_play_on_the_built_in_emulated_bus(capsys):
+def test_play_on_the_built_in_emulated_bus(capsys, virtual_built_in_emulator):
     assert main(["play", "motions/arm6/wave.yaml", "--speed", "2", "--stretch"]) == 0
     captured = capsys.readouterr()
     assert "built-in emulated bus" in captured.err
