@@ -6,9 +6,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from cli_helpers import REPO, WAVE, error_line
+from cli_helpers import WAVE, error_line
 
 from choreo.cli import main
+from choreo.plan.plot import plot_size_px
 
 
 def png_size(path: Path) -> tuple[int, int]:
@@ -20,15 +21,12 @@ def png_size(path: Path) -> tuple[int, int]:
 
 
 def test_plan_plot_draws_a_time_window(tmp_path, capsys):
-    from choreo.plan.plot import plot_size_px
-
-    gait = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
     whole, window = tmp_path / "whole.png", tmp_path / "window.png"
-    assert main(["plan", str(gait), "--plot", str(whole)]) == 0
+    assert main(["plan", str(WAVE), "--plot", str(whole)]) == 0
     assert (
-        main(["plan", str(gait), "--plot", str(window), "--plot-from", "2", "--plot-to", "4"]) == 0
+        main(["plan", str(WAVE), "--plot", str(window), "--plot-from", "2", "--plot-to", "4"]) == 0
     )
-    assert png_size(window) == png_size(whole) == plot_size_px(18)
+    assert png_size(window) == png_size(whole) == plot_size_px(6)
     assert window.read_bytes() != whole.read_bytes()
     capsys.readouterr()
 
