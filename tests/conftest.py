@@ -32,3 +32,14 @@ def virtual_built_in_emulator(monkeypatch) -> list[BusEmulator]:
 
     monkeypatch.setattr(play_motion, "built_in_emulator", built_in_emulator)
     return made
+
+
+@pytest.fixture(scope="session")
+def warm_librosa() -> None:
+    """librosa's import and numba's first calls (15 s on a loaded machine), paid once per session
+    in a fixture's setup, outside the timed tests: beats of two seconds of clicks."""
+    from music_helpers import click_track, steady_times
+
+    from choreo.music.beats import detect_beats
+
+    detect_beats(click_track(steady_times(120, 0.25, 2.0), 2.0))

@@ -3,21 +3,12 @@ motion, never clamped."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 from cli_helpers import WAVE, error_line
+from test_plan_cli import png_size
 
 from choreo.cli import main
 from choreo.plan.plot import plot_size_px
-
-
-def png_size(path: Path) -> tuple[int, int]:
-    import struct
-
-    data = path.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    return struct.unpack(">II", data[16:24])
 
 
 def test_plan_plot_draws_a_time_window(tmp_path, capsys):
