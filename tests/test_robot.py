@@ -1,4 +1,4 @@
-"""Robot files: loading, finding by name, every class of mistake reported at its place, mirroring.
+"""Robot files: loading, every class of mistake reported at its place, mirroring.
 
 Fixtures: tests/data/models/tiny (a good three-joint robot) and tests/data/bad_robots/<case>
 (each with one kind of mistake, reusing tiny's MJCF unless the case is about the MJCF).
@@ -99,45 +99,6 @@ def test_the_robot_checks_the_joint_limits_ends_included():
     assert (outside.joint.name, outside.angle_deg) == ("right", 61)
     with pytest.raises(ValueError, match="2 angles for the 3 joints of tiny"):
         robot.limit_violations([0, 0])
-
-
-# --- finding a robot by name ---------------------------------------------------------------------
-
-
-def test_name_is_found_walking_up_from_the_naming_file(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # the working directory must not matter
-    robot = load_robot("tiny", relative_to=DATA / "motions" / "wave.yaml")
-    assert robot.path.resolve() == TINY.resolve()
-
-
-def test_name_is_found_through_choreo_models(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("CHOREO_MODELS", str(DATA / "models"))
-    assert load_robot("tiny").path.resolve() == TINY.resolve()
-
-
-def test_path_is_relative_to_the_naming_file(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    robot = load_robot("../models/tiny", relative_to=DATA / "motions" / "wave.yaml")
-    assert robot.path.resolve() == TINY.resolve()
-
-
-def test_shipped_robot_found_by_name_from_anywhere(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("CHOREO_MODELS", raising=False)
-    hexapod = load_robot("hexapod18")  # from the repository's models/
-    assert hexapod.path == Path(__file__).resolve().parents[1] / "models/hexapod18/robot.yaml"
-    assert hexapod.free_floating is True and len(hexapod.joints) == 18
-
-
-def test_unknown_name_lists_the_known_robots(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    with pytest.raises(SourceError) as caught:
-        load_robot("tinny", relative_to=DATA / "motions" / "wave.yaml")
-    message = str(caught.value)
-    assert message.startswith("unknown robot 'tinny' (did you mean 'tiny'?); known robots: ")
-    assert "tiny" in message.split("known robots: ")[1]
-    assert str((DATA / "models").resolve()) in message  # says where it looked
 
 
 # --- one test per class of mistake ---------------------------------------------------------------
