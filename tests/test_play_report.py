@@ -25,7 +25,7 @@ from choreo.play.player import Outcome, Player, preflight
 from choreo.play.report import report_document, transport_of, write_report
 
 
-def test_play_writes_a_report_that_reads_back(tmp_path, capsys):
+def test_play_writes_a_report_that_reads_back(tmp_path, capsys, virtual_built_in_emulator):
     path = tmp_path / "wave.json"
     path.write_text("an older report\n")  # replaced whole
     assert (
@@ -204,7 +204,7 @@ def test_a_report_through_a_board_names_it_and_its_start_skew(tmp_path):
     """Through the emulated RRC board a tick's servos start one after another: the report names
     the board and the skew measured on the servos' wire log."""
     path = tmp_path / "rrc.json"
-    port = "sim://?board=rrc&ids=1-6"
+    port = "sim://?board=rrc&ids=1-6&clock=virtual"
     assert main(["play", "motions/arm6/wave.yaml", "--port", port, "--report", str(path)]) == 0
     report = json.loads(path.read_text())
     assert report["transport"]["name"] == "RRC board"
