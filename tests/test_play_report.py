@@ -16,7 +16,6 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, connection
-from choreo.emulator.emulated_servo import StartedMove
 from choreo.emulator.trace import start_skew_ms
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
@@ -183,15 +182,6 @@ def test_an_unmeasured_skew_is_the_transports_own():
     )
     document = report_document(board_play)
     assert document["start_skew_ms"] == {"max": 4.4, "measured": False}
-
-
-def test_start_skew_is_the_spread_within_a_burst_of_starts():
-    def starts(*times_ms):
-        return [StartedMove(t / 1000, 1, 0, 0, 0, Command.MOVE_TIME_WRITE) for t in times_ms]
-
-    assert start_skew_ms(starts(0, 0, 0, 100, 100)) == 0.0
-    assert start_skew_ms(starts(0, 0.87, 1.74, 100, 100.87)) == pytest.approx(1.74)
-    assert start_skew_ms(starts(0, 3, 50), since_s=0.01) == 0.0
 
 
 def _empty_report():
