@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from cli_helpers import REPO
 
 from choreo.emulator import connection
@@ -40,3 +41,26 @@ def test_after_a_stop_the_path_error_covers_only_the_part_played():
     assert completed.outcome is Outcome.COMPLETED and stopped.outcome is Outcome.INTERRUPTED
     # what was played follows the plan as closely as a whole run does (not tens of degrees off)
     assert max(part) <= max(whole) + 0.5, (part, whole)
+
+
+def test_a_servo_on_the_plan_has_no_error_and_one_off_it_has_the_distance_in_degrees():
+    """0.24° per unit (servo-models.md): a servo 10 units short of a planned move is 2.4° off."""
+    import numpy as np
+
+    from choreo.bus.protocol import Command
+    from choreo.emulator.emulated_servo import StartedMove
+    from choreo.play.path_errors import path_errors_deg
+    from choreo.robot.robot_file import load_robot
+
+    robot = load_robot("arm6")
+    home = [j.to_units(a) for j, a in zip(robot.joints, robot.pose_vector("home"))]
+    target = list(home)
+    target[1] += 100  # the second joint's servo, 24° away
+    shoulder = robot.joints[1].servo_id
+    moves = [StartedMove(10.0, shoulder, home[1], target[1] - 10, 1.0, Command.MOVE_TIME_WRITE)]
+    times = np.linspace(0.0, 2.0, 201)
+    fraction = np.clip(times, 0.0, 1.0)[:, None]
+    planned_units = np.asarray(home) + (np.asarray(target) - np.asarray(home)) * fraction
+    errors = path_errors_deg(moves, robot, home, 10.0, times, robot.to_deg(planned_units))
+    assert errors[1] == pytest.approx(2.4)
+    assert [e for i, e in enumerate(errors) if i != 1] == [0.0] * 5
