@@ -59,8 +59,10 @@ def signal_to_stop_ms(kind: str, folder: Path) -> float:
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
         + ["--timeout-ms", "500", "--health-timeout-ms", "100"],
         cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},  # this checkout's choreo
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         while (
@@ -68,7 +70,7 @@ def signal_to_stop_ms(kind: str, folder: Path) -> float:
             < 60
         ):
             if process.poll() is not None:
-                raise SystemExit(f"choreo play on {port} exited early")
+                raise SystemExit(f"choreo play on {port} exited early: {process.communicate()[1]}")
             time.sleep(0.002)
         sent_before = len(emulator.log.packets)
         pressed_s = time.monotonic()  # the emulator's RealClock is time.monotonic
