@@ -44,8 +44,18 @@ def arm_at_home(kind: str) -> BusEmulator:
     return emulator_type(specs, clock=RealClock())
 
 
-def moves_written(emulator: BusEmulator) -> list:
-    return [p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_TIME_WRITE]
+# playing: the approach and two ticks are on the wire (the raw bus starts each tick with one
+# broadcast MOVE_START; the boards forward a MOVE_TIME_WRITE to each of the six servos)
+PLAYING = {
+    "raw": (Command.MOVE_START, 3),
+    "rrc": (Command.MOVE_TIME_WRITE, 18),
+    "lobot": (Command.MOVE_TIME_WRITE, 18),
+}
+
+
+def playing(kind: str, emulator: BusEmulator) -> bool:
+    command, count = PLAYING[kind]
+    return sum(p.packet.command == command for p in list(emulator.log.packets)) >= count
 
 
 def signal_to_stop_ms(kind: str, folder: Path) -> float:
@@ -65,10 +75,7 @@ def signal_to_stop_ms(kind: str, folder: Path) -> float:
         text=True,
     )
     try:
-        while (
-            sum(p.packet.command == Command.MOVE_TIME_WRITE for p in list(emulator.log.packets))
-            < 60
-        ):
+        while not playing(kind, emulator):
             if process.poll() is not None:
                 raise SystemExit(f"choreo play on {port} exited early: {process.communicate()[1]}")
             time.sleep(0.002)
