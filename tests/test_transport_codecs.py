@@ -193,7 +193,7 @@ def test_lobot_hid_report_port_adds_the_report_id_and_drops_the_padding():
 
     device = FakeHid()
     board = lobot.LobotBoard(lobot.HidReportPort(device, timeout_s=0.05), hid=True)
-    assert board.request(Command.POS_READ, 1, 0.05) == {"pos_units": 500}
+    assert board.request(Command.POS_READ, 1, 0.05).fields == {"pos_units": 500}
     assert device.written == [b"\x00" + h("55 55 04 15 01 01")]
 
 
