@@ -3,6 +3,7 @@ the README shows in a shell block (those that need a real serial port excepted).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import shlex
@@ -178,7 +179,13 @@ def test_readme_command_runs(command, run):
 def test_readme_block_with_a_server_runs(block, workdir, run):
     """A block that starts a server with ``&`` (``choreo emulate --pty PATH``): it is started,
     the block's other commands run against it, then it is stopped as Ctrl-C would."""
-    commands = [c for c in readme_commands() if c.block == block]
+    # the README's /tmp links moved into this test's folder: two runs on one machine (CI jobs,
+    # several checkouts) must not share one pty link
+    commands = [
+        dataclasses.replace(c, text=c.text.replace("/tmp/", f"{workdir}/"))
+        for c in readme_commands()
+        if c.block == block
+    ]
     servers = []
     try:
         for command in commands:
