@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from emulated import home_specs, served_on_a_pty
+from emulated import built_in_emulator_in_virtual_time, home_specs, served_on_a_pty
 
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator
@@ -16,3 +16,30 @@ def arm_on_a_pty(tmp_path):
     emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
     with served_on_a_pty(emulator, tmp_path / "ttyARM") as link:
         yield emulator, link
+
+
+@pytest.fixture
+def virtual_built_in_emulator(monkeypatch) -> list[BusEmulator]:
+    """Commands without --port play on the built-in emulator on a virtual clock (their subject
+    isn't timing); the emulators made, in order, so a test can read their clocks and logs."""
+    from choreo.play import play_motion
+
+    made: list[BusEmulator] = []
+
+    def built_in_emulator(robot):
+        made.append(built_in_emulator_in_virtual_time(robot))
+        return made[-1]
+
+    monkeypatch.setattr(play_motion, "built_in_emulator", built_in_emulator)
+    return made
+
+
+@pytest.fixture(scope="session")
+def warm_librosa() -> None:
+    """librosa's import and numba's first calls (15 s on a loaded machine), paid once per session
+    in a fixture's setup, outside the timed tests: beats of two seconds of clicks."""
+    from music_helpers import click_track, steady_times
+
+    from choreo.music.beats import detect_beats
+
+    detect_beats(click_track(steady_times(120, 0.25, 2.0), 2.0))

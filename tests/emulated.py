@@ -8,6 +8,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.pty import PtyBridge
 from choreo.robot.types import Robot
@@ -46,3 +47,10 @@ def served_on_a_pty(emulator: BusEmulator, link_path: Path) -> Iterator[Path]:
         bridge.stop()
         thread.join(WAIT_S)
         bridge.close()
+
+
+def built_in_emulator_in_virtual_time(robot: Robot) -> BusEmulator:
+    """What ``choreo.play.play_motion.built_in_emulator`` makes (the robot at home), on a
+    VirtualClock: a command played without ``--port`` takes no real time where its subject isn't
+    timing (tests patch it in; see conftest.py and virtual_choreo.py)."""
+    return BusEmulator(home_specs(robot), clock=VirtualClock())

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import os
 import stat
+from pathlib import Path
 
 import pytest
+from cli_helpers import WAVE, error_line, write_d6a
 
+from choreo.cli import main
 from choreo.core.atomic import atomic_output, fsync_directory, write_text_atomically
 from choreo.errors import ChoreoError
 
@@ -69,3 +72,68 @@ def test_the_temporary_keeps_the_suffix_writers_choose_a_format_by(tmp_path):
     with atomic_output(tmp_path / "keep.mp4") as temporary:
         assert temporary.suffix == ".mp4"
         temporary.write_bytes(b"video")
+
+
+def writing_commands(tmp_path: Path) -> dict[str, list[str]]:
+    """Each command that writes a file: its argv without -o."""
+    source = tmp_path / "in.yaml"
+    source.write_text(WAVE.read_text())
+    d6a = write_d6a(tmp_path / "in.d6a")
+    return {
+        "mirror": ["mirror", str(source)],
+        "export": ["export", "d6a", str(source)],
+        "import": ["import", "d6a", str(d6a), "--robot", "arm6", "--ids", "2,4,6"],
+    }
+
+
+@pytest.mark.parametrize("command", ["mirror", "export", "import"])
+def test_an_existing_output_is_kept_without_overwrite(tmp_path, capsys, command):
+    argv = writing_commands(tmp_path)[command]
+    out = tmp_path / "kept.out"
+    out.write_bytes(b"good work\n")
+    assert main([*argv, "-o", str(out)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {out} exists: choose another file, or add --overwrite"
+    )
+    assert out.read_bytes() == b"good work\n"
+    assert main([*argv, "-o", str(out), "--overwrite"]) == 0
+    assert out.read_bytes() != b"good work\n"
+
+
+def test_mirror_refuses_to_write_over_its_own_input(tmp_path, capsys):
+    source = tmp_path / "a.yaml"
+    source.write_text(WAVE.read_text())
+    assert main(["mirror", str(source), "-o", str(source)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {source} exists: choose another file, or add --overwrite"
+    )
+    assert source.read_text() == WAVE.read_text()
+
+
+@pytest.mark.parametrize("command", ["mirror", "export", "import"])
+def test_a_missing_output_folder_is_found_before_the_work(tmp_path, capsys, command):
+    out = tmp_path / "no" / "such" / "out.file"
+    assert main([*writing_commands(tmp_path)[command], "-o", str(out)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: cannot write {out}: the folder {out.parent} does not exist"
+    )
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["preview", str(WAVE), "-o", "{out}.mp4"],
+        ["preview", str(WAVE), "--report", "{out}.json"],
+        ["plan", str(WAVE), "--plot", "{out}.png"],
+    ],
+)
+def test_preview_and_plot_outputs_in_a_missing_folder_fail_before_the_work(tmp_path, capsys, argv):
+    out = tmp_path / "missing" / "x"
+    argv = [a.format(out=out) for a in argv]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    written = Path(argv[-1])
+    assert captured.err == (
+        f"choreo: error: cannot write {written}: the folder {written.parent} does not exist\n"
+    )
+    assert captured.out == ""  # nothing simulated, planned or rendered first

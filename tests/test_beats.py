@@ -17,6 +17,9 @@ from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
 from choreo.music.decode import Audio, decode, encode
 
+# librosa warmed once per session (see conftest.py), not in the first test that calls it
+pytestmark = pytest.mark.usefixtures("warm_librosa")
+
 BPM_TOLERANCE = 0.5
 BEAT_TOLERANCE_S = 0.015
 

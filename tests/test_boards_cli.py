@@ -1,5 +1,6 @@
 """The commands on each emulated board as a user runs them: scan, servo info, play of three
-robots' motions, a refused command, and Ctrl-C on a board served on a pty (real clock)."""
+robots' motions, a refused command, and Ctrl-C on a board served on a pty (real clock: the test
+checks what reaches the wire and in which order, never how soon)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 from emulated import home_specs, served_on_a_pty, wait_for
@@ -56,7 +56,7 @@ def test_play_through_the_board(board, motion, servos, capsys):
     robot = load_robot({"arm6": "arm6", "hexa": "hexapod18", "tony": "tonypi"}[motion[8:12]])
     assert len(robot.joints) == int(servos.split("-")[1])
     model = robot.joints[0].servo_model  # preflight checks the supply against it
-    port = f"sim://?board={board}&ids={servos}&model={model}"
+    port = f"sim://?board={board}&ids={servos}&model={model}&clock=virtual"
     assert main(["play", motion, "--port", port, "--speed", "2", "--stretch", "--loop", "1"]) == 0
     captured = capsys.readouterr()
     assert "completed" in captured.out and "path err" in captured.out
@@ -64,16 +64,23 @@ def test_play_through_the_board(board, motion, servos, capsys):
     assert "motor mode" in captured.err  # preflight says what it could not check
 
 
-@pytest.fixture(params=list(BOARDS))
-def board_on_a_pty(request, tmp_path):
-    board = request.param
+@pytest.fixture
+def board_on_a_pty(board, tmp_path):
     emulator = BOARDS[board](home_specs(load_robot("arm6")), clock=RealClock())
     with served_on_a_pty(emulator, tmp_path / "ttyBOARD") as link:
         yield board, emulator, f"{board}://{link}"
 
 
-@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGHUP])
-def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty, signum):
+MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_START)
+
+
+# each board once, each stop signal once (test_play_cli sends both to the raw bus; the CLI treats
+# them alike): a subprocess on the real clock is the slowest kind of test
+@pytest.mark.parametrize("board, signum", [("rrc", signal.SIGINT), ("lobot", signal.SIGHUP)])
+def test_a_signal_puts_the_boards_stop_on_the_wire_and_nothing_moves_after_it(
+    board_on_a_pty, signum
+):
+    """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     board, emulator, port = board_on_a_pty
     process = subprocess.Popen(
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
@@ -88,32 +95,35 @@ def test_sigint_puts_the_boards_stop_on_the_wire_within_50_ms(board_on_a_pty, si
             if process.poll() is not None:
                 raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
             moves = [p for p in list(emulator.log.packets) if p.packet.command == 1]
-            return len(moves) >= 60  # the approach and some ticks
+            return len(moves) >= 18  # the approach and two ticks
 
         wait_for(playing, "the motion to be playing")
-        pressed_s = time.monotonic()
+        sent_before = len(emulator.log.packets)  # the log only grows (far below its limit)
         process.send_signal(signum)
         _, stderr = process.communicate(timeout=30)
     finally:
         process.kill()
     assert process.returncode == 130, stderr
     assert "Traceback" not in stderr
-    after = [p for p in list(emulator.log.packets) if p.time_s > pressed_s]
+    after = list(emulator.log.packets)[sent_before:]
+    commands = [(p.packet.command, p.packet.servo_id) for p in after]
     if board == "rrc":  # one stop frame: MOVE_STOP to each servo in turn
-        stops = [p for p in after if p.packet.command == Command.MOVE_STOP]
-        assert [p.packet.servo_id for p in stops] == [1, 2, 3, 4, 5, 6]
-        assert stops[0].time_s - pressed_s < 0.050
+        stop = [(Command.MOVE_STOP, i) for i in range(1, 7)]
     else:  # no MOVE_STOP: the positions of all six are read, then each is told to stay there
-        commands = [(p.packet.command, p.packet.servo_id) for p in after]
         reads = [(Command.POS_READ, i) for i in range(1, 7)]
         holds = [(Command.MOVE_TIME_WRITE, i) for i in range(1, 7)]
-        # (a health read, six POS_READs too, may come between the signal and the stop)
         stop = reads + holds
-        start = next((i for i in range(len(commands)) if commands[i : i + 12] == stop), None)
-        assert start is not None, [(c.name, i) for c, i in commands]
-        assert after[start].time_s - pressed_s < 0.050
-        hold = decode_request(after[start + 6].packet)
-        assert hold["time_ms"] == 0
+    # (a tick already on its way, or a health read, may come between the signal and the stop)
+    start = next((i for i in range(len(commands)) if commands[i : i + len(stop)] == stop), None)
+    assert start is not None, [(c.name, i) for c, i in commands]
+    if board == "lobot":  # each told to stay where it is, at once, and it stayed there
+        for hold in after[start + 6 : start + 12]:
+            held = decode_request(hold.packet)
+            assert held["time_ms"] == 0
+            position = emulator.servo(hold.packet.servo_id).position_units
+            assert position == pytest.approx(held["pos_units"], abs=1)
+    # the stop is the last thing that moves the servos: nothing after it starts a move
+    assert not [c for c, _ in commands[start + len(stop) :] if c in MOVES]
 
 
 @pytest.mark.parametrize("board", BOARDS)

@@ -10,6 +10,7 @@ from contextlib import closing
 from pathlib import Path
 
 import pytest
+from cli_helpers import error_line, write_d6a
 
 from choreo.cli import main
 from choreo.errors import SourceError
@@ -370,3 +371,39 @@ def test_every_vendor_file_imports_and_validates_or_says_precisely_why_not(sourc
             problem,
         ), problem
     assert check_file(out, physics=False, stretch=True).ok
+
+
+def test_the_shipped_dance_exports(tmp_path, capsys):
+    """Its first keyframe is at t 0: row 1 is reached by the approach, like an untimed one."""
+    from choreo.motion.motion_file import load_motion
+
+    out = tmp_path / "dance.d6a"
+    dance = REPO / "motions" / "arm6" / "dance.yaml"
+    assert main(["export", "d6a", str(dance), "-o", str(out)]) == 0
+    assert load_motion(dance).keyframes[0].t_s == 0.0  # on beat 1 of its song
+    assert re.fullmatch(
+        rf"wrote {re.escape(str(out))}: \d+ rows, [\d.]+ s, from {re.escape(str(dance))}\n",
+        capsys.readouterr().out,
+    )
+
+
+def test_import_ids_keep_the_order_given(tmp_path):
+    """Column k is the k-th ID as written: 6,4,2 puts Servo1's 700 on the gripper (ID 6)."""
+    from choreo.motion.motion_file import load_motion
+
+    out = tmp_path / "out.yaml"
+    d6a = write_d6a(tmp_path / "in.d6a")
+    argv = ["import", "d6a", str(d6a), "--robot", "arm6", "-o", str(out), "--ids", "6,4,2"]
+    assert main(argv) == 0
+    motion = load_motion(out)
+    first = dict(zip(motion.robot.joint_names, motion.keyframes[0].targets_deg))
+    # row 1: Servo1 500 -> gripper (zero 700, direction -1): +48°; Servo3 700 -> shoulder +48°
+    assert (first["gripper"], first["wrist_pitch"], first["shoulder"]) == (48.0, 0.0, 48.0)
+
+
+def test_importing_a_folder_says_it_is_a_folder(tmp_path, capsys):
+    argv = ["import", "d6a", str(tmp_path), "--robot", "arm6", "-o", str(tmp_path / "o.yaml")]
+    assert main(argv) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {tmp_path}: is a folder, not an action group (.d6a) file"
+    )

@@ -3,6 +3,7 @@ the README shows in a shell block (those that need a real serial port excepted).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import shlex
@@ -13,6 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from virtual_choreo import in_virtual_time
+
+from choreo.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -109,23 +113,53 @@ def workdir(tmp_path: Path) -> Path:
     return tmp_path
 
 
-def run_command(command: str, folder: Path, error: str | None = None) -> None:
-    """``choreo ARGS`` as ``python -m choreo ARGS`` with this checkout, in ``folder``; it succeeds,
-    or fails with exactly ``error`` when that is given."""
-    argv = [sys.executable, "-m", "choreo", *shlex.split(command)[1:]]
+# `python -m choreo`, but a command without --port plays on the built-in emulator in virtual time
+VIRTUAL_CHOREO = [sys.executable, str(ROOT / "tests" / "virtual_choreo.py")]
+
+
+@pytest.fixture
+def run(workdir, monkeypatch, capsys, request):
+    """``run(COMMAND, error=None)``: ``choreo ARGS`` as the README writes it, in ``workdir``, every
+    emulator in virtual time (virtual_choreo.py); it succeeds, or fails with exactly ``error``.
+    In this process, which pays the imports (and librosa's warm-up) once for all of them; a
+    preview in a process of its own (rendering fixes PyOpenGL's platform for good, and
+    test_render.py needs a process that has not rendered)."""
+    monkeypatch.chdir(workdir)
+    in_virtual_time(monkeypatch.setattr)
+
+    def run_command(command: str, error: str | None = None) -> None:
+        args = shlex.split(command)[1:]
+        if args[0] == "preview":
+            code, stderr = in_a_process(args, workdir)
+        else:
+            if args[0] == "beats":
+                request.getfixturevalue("warm_librosa")  # once per session, not in this test
+            capsys.readouterr()
+            try:
+                code = main(args)
+            except SystemExit as exited:  # argparse's refusal
+                code = exited.code
+            stderr = capsys.readouterr().err
+        if error is None:
+            assert code == 0, stderr
+        else:
+            assert code == 1, stderr
+            assert stderr.strip() == error
+
+    return run_command
+
+
+def in_a_process(args: list[str], folder: Path) -> tuple[int, str]:
+    """``choreo ARGS`` in a process of its own with this checkout: (exit code, stderr)."""
     result = subprocess.run(
-        argv,
+        [*VIRTUAL_CHOREO, *args],
         cwd=folder,
         env=env_importing_this_checkout(),
         capture_output=True,
         text=True,
         timeout=300,
     )
-    if error is None:
-        assert result.returncode == 0, result.stderr
-    else:
-        assert result.returncode == 1, result.stderr
-        assert result.stderr.strip() == error
+    return result.returncode, result.stderr
 
 
 @pytest.mark.parametrize(
@@ -137,16 +171,22 @@ def run_command(command: str, folder: Path, error: str | None = None) -> None:
     ],
     ids=lambda c: c.text,
 )
-def test_readme_command_runs(command, workdir):
-    run_command(command.text, workdir, command.error)
+def test_readme_command_runs(command, run):
+    run(command.text, command.error)
 
 
 @pytest.mark.parametrize("block", sorted(SERVED_BLOCKS))
-def test_readme_block_with_a_server_runs(block, workdir):
-    """A block that starts a server with ``&`` (``choreo emulate --pty PATH``, ``choreo studio``):
-    it is started, the block's other commands run against it, then it is stopped as Ctrl-C
-    would."""
-    commands = [c for c in readme_commands() if c.block == block]
+def test_readme_block_with_a_server_runs(block, workdir, run):
+    """A block that starts a server with ``&`` (``choreo emulate --pty PATH``, ``choreo perform``,
+    ``choreo studio``): it is started, the block's other commands run against it, then it is
+    stopped as Ctrl-C would."""
+    # the README's /tmp links moved into this test's folder: two runs on one machine (CI jobs,
+    # several checkouts) must not share one pty link
+    commands = [
+        dataclasses.replace(c, text=c.text.replace("/tmp/", f"{workdir}/"))
+        for c in readme_commands()
+        if c.block == block
+    ]
     servers = []
     try:
         for command in commands:
@@ -166,7 +206,7 @@ def test_readme_block_with_a_server_runs(block, workdir):
                 up = ("emulating", "waiting for a show", "choreo studio:")
                 assert any(word in ready for word in up), server.stderr
             elif not HARDWARE_PORT.search(command.text):
-                run_command(command.text, workdir, command.error)
+                run(command.text, command.error)
     finally:
         for server in servers:
             server.send_signal(signal.SIGINT)
@@ -183,16 +223,16 @@ def test_readme_block_with_a_server_runs(block, workdir):
         "choreo mirror motions/arm6/wave.yaml -o mirrored.yaml",
     ],
 )
-def test_commands_the_readme_describes_run(command, workdir):
+def test_commands_the_readme_describes_run(command, run):
     """The README's table and text name these with placeholders; concrete cases, on the emulator
     where a port is needed (a serial port at /dev/... is what the emulator's URL stands for)."""
-    run_command(command, workdir)
+    run(command)
 
 
-def test_a_vendor_action_group_imports_and_validates_as_the_readme_says(workdir):
+def test_a_vendor_action_group_imports_and_validates_as_the_readme_says(workdir, run):
     """`choreo import d6a FILE.d6a --robot R -o motion.yaml`, then `choreo validate --stretch`,
     on an action group written by `choreo export d6a`."""
-    run_command("choreo export d6a motions/arm6/wave.yaml -o wave.d6a", workdir)
-    run_command("choreo import d6a wave.d6a --robot arm6 -o motion.yaml", workdir)
-    run_command("choreo validate --stretch motion.yaml", workdir)
+    run("choreo export d6a motions/arm6/wave.yaml -o wave.d6a")
+    run("choreo import d6a wave.d6a --robot arm6 -o motion.yaml")
+    run("choreo validate --stretch motion.yaml")
     assert "robot: arm6" in (workdir / "motion.yaml").read_text()

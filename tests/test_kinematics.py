@@ -5,6 +5,7 @@ own numbers."""
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import mujoco
@@ -49,10 +50,16 @@ def tonypi() -> Kinematics:
     return kinematics_of("tonypi")
 
 
+@functools.cache
+def mujoco_model(mjcf_path: Path) -> mujoco.MjModel:
+    """The model compiled from its XML by MuJoCo, once per file (not the solver's copy)."""
+    return mujoco.MjModel.from_xml_path(str(mjcf_path))
+
+
 def mujoco_site(kin: Kinematics, site: str, angles_deg) -> tuple[np.ndarray, float]:
     """(position mm, pitch deg) of a site in the base body's frame, computed afresh by MuJoCo."""
     robot = kin.robot
-    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+    model = mujoco_model(robot.mjcf_path)
     data = mujoco.MjData(model)
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
     if key >= 0:

@@ -10,6 +10,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from cli_helpers import error_line, motion_file
 
 from choreo.cli import main
 from choreo.errors import SourceError
@@ -347,3 +348,14 @@ def test_shipped_files_exist():
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: str(p.relative_to(REPO)))
 def test_every_shipped_robot_and_motion_validates(path, capsys):
     assert main(["validate", str(path)]) == 0, capsys.readouterr().out
+
+
+def test_repeat_is_bounded_at_its_line(tmp_path, capsys):
+    path = motion_file(
+        tmp_path, "  - pose: {shoulder: 30}\n    after: 1\n", head="repeat: 100000000\n"
+    )
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:3:9: repeat 100000000 x 2 keyframe(s) = 200000000 keyframes to "
+        "play; at most 10000 are played in one motion: at most 5000 times"
+    )

@@ -20,6 +20,9 @@ from choreo.music.beats import detect_beats
 from choreo.music.decode import Audio, decode, encode
 from choreo.plan.planner import plan_motion
 
+# librosa warmed once per session (see conftest.py), not in the first test that calls it
+pytestmark = pytest.mark.usefixtures("warm_librosa")
+
 
 def write(folder, name: str, text: str):
     path = folder / name

@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import ruckig
+from cli_helpers import WAVE, error_line, motion_file
 from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
+from choreo.cli import main
 from choreo.errors import PlanningError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_approach, plan_motion
@@ -386,4 +388,87 @@ def test_shipped_motions_plan_on_time_within_limits(path):
     assert np.all(
         trajectory.peak_acceleration_deg_s2()
         <= np.array([x.acc_deg_s2 for x in limits]) * (1 + ACC_EPS)
+    )
+
+
+@pytest.mark.parametrize(
+    "timing, where, seconds",
+    [("after: 20000", "5:5", "20000"), ("t: 1.0e+9", "5:5", "1e+09")],
+)
+def test_a_segment_longer_than_ruckig_can_plan_is_one_line(
+    tmp_path, capsys, timing, where, seconds
+):
+    path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    {timing}\n")
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:{where}: keyframe reached {seconds} s after leaving the one "
+        "before; at most 300 s can be planned between two keyframes: hold the one before "
+        "instead (hold: is not limited), or add keyframes in between"
+    )
+
+
+def test_a_tiny_speed_is_one_line(capsys):
+    assert main(["plan", str(WAVE), "--speed", "0.0002"]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {WAVE}:8:5: keyframe reached 5000 s after leaving the one before "
+        "(at speed 0.0002); at most 300 s can be planned between two keyframes: hold the one "
+        "before instead (hold: is not limited), or add keyframes in between"
+    )
+
+
+def test_a_long_hold_is_not_limited(tmp_path, capsys):
+    path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    after: 1\n    hold: 1000\n")
+    assert main(["plan", str(path)]) == 0
+    assert "1001.0" in capsys.readouterr().out
+
+
+def test_every_unreachable_keyframe_is_reported_at_once(tmp_path, capsys):
+    path = motion_file(
+        tmp_path,
+        "  - pose: {shoulder: 80}\n    t: 0.1\n"
+        "  - pose: {shoulder: 0}\n    t: 0.3\n"
+        "  - pose: {shoulder: 80}\n    after: 0.1\n",
+    )
+    assert main(["plan", str(path)]) == 1
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(": keyframe cannot be reached")[0] for line in lines] == [
+        f"choreo: error: {path}:5:5",
+        f"{path}:7:5",
+        f"{path}:9:5",
+    ]
+    # each fix, applied alone to the keyframes before, is enough: t >= 0.467 then t >= 0.933
+    assert lines[0].endswith(
+        "allow 0.467 s at the earliest; use t >= 0.467, a lower speed, or stretch"
+    )
+    assert lines[1].endswith(
+        "allow 0.933 s at the earliest; use t >= 0.933, a lower speed, or stretch"
+    )
+    assert lines[2].endswith("use after >= 0.467, a lower speed, or stretch")
+
+
+def test_the_planner_bounds_repeat_for_motions_made_in_code():
+    import dataclasses
+
+    from choreo.errors import PlanningError
+    from choreo.motion.motion_file import load_motion
+    from choreo.plan.planner import plan_motion
+
+    motion = dataclasses.replace(load_motion(WAVE), repeat=10**8)
+    with pytest.raises(PlanningError, match="at most 10000 are played in one motion"):
+        plan_motion(motion)
+
+
+def test_a_planning_error_inside_an_include_says_through_which(tmp_path, capsys):
+    (tmp_path / "part.yaml").write_text(
+        "robot: arm6\nkeyframes:\n  - pose: {shoulder: 0}\n"
+        "  - pose: {shoulder: 80}\n    after: 0.1\n"
+    )
+    main_file = motion_file(tmp_path, "  - include: part.yaml\n    after: 1.0\n", name="main.yaml")
+    outer = motion_file(tmp_path, "  - include: main.yaml\n", name="outer.yaml")
+    assert main(["plan", str(outer)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {tmp_path / 'part.yaml'}:4:5: keyframe (included at {main_file}:5:14, "
+        f"included at {outer}:5:14) cannot be reached at 1.100 s: the velocity, acceleration "
+        "and jerk limits of shoulder allow 1.467 s at the earliest; use after >= 0.467, a lower "
+        "speed, or stretch"
     )

@@ -16,7 +16,6 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, connection
-from choreo.emulator.emulated_servo import StartedMove
 from choreo.emulator.trace import start_skew_ms
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
@@ -25,7 +24,7 @@ from choreo.play.player import Outcome, Player, preflight
 from choreo.play.report import report_document, transport_of, write_report
 
 
-def test_play_writes_a_report_that_reads_back(tmp_path, capsys):
+def test_play_writes_a_report_that_reads_back(tmp_path, capsys, virtual_built_in_emulator):
     path = tmp_path / "wave.json"
     path.write_text("an older report\n")  # replaced whole
     assert (
@@ -185,15 +184,6 @@ def test_an_unmeasured_skew_is_the_transports_own():
     assert document["start_skew_ms"] == {"max": 4.4, "measured": False}
 
 
-def test_start_skew_is_the_spread_within_a_burst_of_starts():
-    def starts(*times_ms):
-        return [StartedMove(t / 1000, 1, 0, 0, 0, Command.MOVE_TIME_WRITE) for t in times_ms]
-
-    assert start_skew_ms(starts(0, 0, 0, 100, 100)) == 0.0
-    assert start_skew_ms(starts(0, 0.87, 1.74, 100, 100.87)) == pytest.approx(1.74)
-    assert start_skew_ms(starts(0, 3, 50), since_s=0.01) == 0.0
-
-
 def _empty_report():
     from choreo.play.player import PlayReport
 
@@ -204,7 +194,7 @@ def test_a_report_through_a_board_names_it_and_its_start_skew(tmp_path):
     """Through the emulated RRC board a tick's servos start one after another: the report names
     the board and the skew measured on the servos' wire log."""
     path = tmp_path / "rrc.json"
-    port = "sim://?board=rrc&ids=1-6"
+    port = "sim://?board=rrc&ids=1-6&clock=virtual"
     assert main(["play", "motions/arm6/wave.yaml", "--port", port, "--report", str(path)]) == 0
     report = json.loads(path.read_text())
     assert report["transport"]["name"] == "RRC board"

@@ -12,6 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from cli_helpers import error_line
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_models import ACTUATOR_FIELDS
@@ -501,3 +502,27 @@ def test_the_robot_files_actuator_block_overrides_the_servo_model(arm3):
         if r.kind is CheckKind.SATURATION
     ]
     assert [r.joint for r in stalls] == ["shoulder"]
+
+
+PREVIEW_MOTIONS = REPO / "tests" / "data" / "preview" / "motions"
+
+
+def test_preview_check_says_where_as_validate_does(capsys):
+    collide = PREVIEW_MOTIONS / "collide.yaml"
+    assert main(["preview", str(collide), "--check"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    finding = next(line for line in out if ": error: " in line)
+    assert finding.startswith(f"{collide}:6:5: error: self-collision: base hits forearm")
+    assert main(["validate", str(collide)]) == 1
+    validated = capsys.readouterr().out.splitlines()[0]
+    assert validated == finding.replace(": error: ", ": preview: ", 1)
+
+
+def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, capsys):
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), "--viewer"]) == 1
+    assert error_line(capsys) == (
+        "choreo: error: the viewer cannot open a window on display ':99' (X11: Failed to open "
+        "display :99); render to a file instead: choreo preview MOTION -o out.mp4"
+    )

@@ -13,6 +13,7 @@ import sys
 import numpy as np
 import pytest
 import yaml
+from cli_helpers import choreo_process, packets
 from emulated import WAIT_S, home_specs, wait_for
 
 from choreo.bus.protocol import Command
@@ -597,3 +598,38 @@ def test_resume_refuses_a_journal_whose_robot_changed_its_joints(tmp_path):
         ".*robot.yaml now has left, right, yaw",
     ):
         Recording.resume(out)
+
+
+def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_path):
+    from emulated import wait_for
+
+    emulator, link = arm_on_a_pty
+    out = tmp_path / "taught.yaml"
+    argv = ["record", str(out), "--robot", "arm6", "--port", str(link), "--joints", "elbow"]
+    process = choreo_process(*argv, "--timeout-ms", "500", stdin=subprocess.PIPE)
+
+    def torque_of_elbow() -> list[bytes]:
+        return [
+            p.packet.params
+            for p in packets(emulator, "LOAD_OR_UNLOAD_WRITE")
+            if p.packet.servo_id == 3
+        ]
+
+    try:
+
+        def unloaded():
+            assert process.poll() is None, process.communicate()
+            return torque_of_elbow() == [b"\x00"]
+
+        wait_for(unloaded, "the recorder to unload the elbow")
+        process.send_signal(signal.SIGHUP)
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    # as after Ctrl-C at the prompt: the recording ends (nothing captured here, so exit 1)
+    assert process.returncode == 1, stderr
+    assert stdout.splitlines()[-2:] == [
+        f"nothing captured: {out} not written",
+        "taught joints loaded again, holding where they are",
+    ]
+    assert torque_of_elbow() == [b"\x00", b"\x01"]  # loaded again, holding where it is

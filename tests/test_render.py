@@ -4,12 +4,19 @@ they fail (CI installs Mesa's EGL and OSMesa), they never skip."""
 from __future__ import annotations
 
 import math
+import os
+import re
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import imageio_ffmpeg
 import mujoco
 import numpy as np
 import pytest
+from cli_helpers import WAVE, usage_error_line
+from emulated import wait_for
 from PIL import Image
 
 from choreo.cli import main
@@ -294,3 +301,68 @@ def test_the_frames_are_the_recorded_states(fine):
     assert (frame == again).all()
     assert not (frame == other).all()
     assert run_checks(rollout) == []
+
+
+def test_ctrl_c_while_rendering_keeps_the_old_video(tmp_path):
+    keep = tmp_path / "keep.mp4"
+    keep.write_bytes(b"a good video")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "preview", str(WAVE), "-o", str(keep)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # Ctrl-C reaches ffmpeg too: signal the whole group
+    )
+    try:
+
+        def rendering():
+            assert process.poll() is None, process.communicate()
+            return bool(list(tmp_path.glob(".keep.mp4.*")))
+
+        wait_for(rendering, "the video to be rendering")
+        os.killpg(process.pid, signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130
+    assert err.decode().strip() == "choreo: interrupted"
+    assert keep.read_bytes() == b"a good video"
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.mp4"]
+
+
+def test_preview_size_is_bounded(capsys):
+    assert usage_error_line(capsys, ["preview", str(WAVE), "--size", "100000x100000"]) == (
+        "choreo preview: error: argument --size: expected WIDTHxHEIGHT from 16x16 to "
+        "8192x8192, e.g. 640x480, got '100000x100000'"
+    )
+
+
+FRAME_TOO_LARGE = """
+from choreo.errors import PreviewError
+from choreo.preview.gl import offscreen_backend
+from choreo.preview.model import load_model
+from choreo.preview.render import FrameRenderer
+from choreo.robot.robot_file import load_robot
+
+try:
+    FrameRenderer(load_model(load_robot("arm6")), 1 << 20, 16, offscreen_backend())
+except PreviewError as error:
+    print(error)
+"""
+
+
+def test_a_frame_larger_than_the_gl_allows_is_a_preview_error():
+    """In a process of its own: PyOpenGL fixes its platform once imported (see test_render)."""
+    done = subprocess.run(
+        [sys.executable, "-c", FRAME_TOO_LARGE],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert re.fullmatch(
+        r"cannot render 1048576x16 frames with (egl|osmesa): .+; try a smaller --size\n",
+        done.stdout,
+    ), done.stdout

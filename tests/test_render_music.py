@@ -104,6 +104,6 @@ def test_a_contact_sheet_marks_each_frames_beat(dance, tmp_path):
 
 def test_a_video_with_the_song_refuses_another_speed(dance, tmp_path, capsys):
     video = tmp_path / "fast.mp4"
-    assert main(["preview", str(dance), "-o", str(video), "--speed", "2"]) == 2
+    assert main(["preview", str(dance), "-o", str(video), "--speed", "2"]) == 2  # an option
     assert "choreo: error: --speed 2 would leave song.ogg behind" in capsys.readouterr().err
     assert not video.exists()

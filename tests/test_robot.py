@@ -1,4 +1,4 @@
-"""Robot files: loading, finding by name, every class of mistake reported at its place, mirroring.
+"""Robot files: loading, every class of mistake reported at its place, mirroring.
 
 Fixtures: tests/data/models/tiny (a good three-joint robot) and tests/data/bad_robots/<case>
 (each with one kind of mistake, reusing tiny's MJCF unless the case is about the MJCF).
@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import REPO
 
+from choreo.cli import main
 from choreo.errors import SourceError
 from choreo.robot.robot_file import load_robot
 from choreo.robot.types import mirror_pose, mirror_targets
@@ -99,45 +101,6 @@ def test_the_robot_checks_the_joint_limits_ends_included():
         robot.limit_violations([0, 0])
 
 
-# --- finding a robot by name ---------------------------------------------------------------------
-
-
-def test_name_is_found_walking_up_from_the_naming_file(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # the working directory must not matter
-    robot = load_robot("tiny", relative_to=DATA / "motions" / "wave.yaml")
-    assert robot.path.resolve() == TINY.resolve()
-
-
-def test_name_is_found_through_choreo_models(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("CHOREO_MODELS", str(DATA / "models"))
-    assert load_robot("tiny").path.resolve() == TINY.resolve()
-
-
-def test_path_is_relative_to_the_naming_file(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    robot = load_robot("../models/tiny", relative_to=DATA / "motions" / "wave.yaml")
-    assert robot.path.resolve() == TINY.resolve()
-
-
-def test_shipped_robot_found_by_name_from_anywhere(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("CHOREO_MODELS", raising=False)
-    hexapod = load_robot("hexapod18")  # from the repository's models/
-    assert hexapod.path == Path(__file__).resolve().parents[1] / "models/hexapod18/robot.yaml"
-    assert hexapod.free_floating is True and len(hexapod.joints) == 18
-
-
-def test_unknown_name_lists_the_known_robots(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    with pytest.raises(SourceError) as caught:
-        load_robot("tinny", relative_to=DATA / "motions" / "wave.yaml")
-    message = str(caught.value)
-    assert message.startswith("unknown robot 'tinny' (did you mean 'tiny'?); known robots: ")
-    assert "tiny" in message.split("known robots: ")[1]
-    assert str((DATA / "models").resolve()) in message  # says where it looked
-
-
 # --- one test per class of mistake ---------------------------------------------------------------
 
 
@@ -194,53 +157,6 @@ def test_malformed_yaml_is_a_message_not_a_traceback():
     path, message = only_problem("malformed")
     assert message.startswith(f"{path}:5:6: not valid YAML: ")
     assert message.endswith("expected ',' or '}' (while parsing a flow mapping at line 4)")
-
-
-def test_mjcf_range_disagreeing_with_the_robot_file():
-    path, message = only_problem("mjcf_range")
-    assert message.startswith(
-        f"{path}:10:34: joint 'right': MJCF joint 'right' in tiny.xml has "
-        f"range -1.9199 1.0472 rad (-110.0..60.0°) but the robot file says "
-        f"-100..60°"
-    )
-    assert message.endswith('e.g. range="-1.7453 1.0472"')
-
-
-def test_mjcf_home_keyframe_disagreeing_with_the_home_pose():
-    path, message = only_problem("mjcf_home")
-    assert message.startswith(
-        f"{path}:12:3: pose 'home': yaw is 10° (0.1745 rad) but the 'home' "
-        f"keyframe in tiny.xml has 0.0000 rad"
-    )
-
-
-def test_actuated_mjcf_joint_that_no_joint_maps():
-    path, message = only_problem("unmapped_actuator")
-    assert message == (
-        f"{path}:7:1: tiny.xml: actuator 'right' drives joint 'right', which no "
-        f"joint here maps; add a joint with mjcf_joint: right, or remove the "
-        f"actuator"
-    )
-
-
-def test_mjcf_joint_that_does_not_exist():
-    path = BAD / "unknown_mjcf_joint" / "robot.yaml"
-    first, second = problems_of(path)
-    assert first == (
-        f"{path}:7:1: tiny.xml: actuator 'left' drives joint 'left', which no joint "
-        f"here maps; add a joint with mjcf_joint: left, or remove the actuator"
-    )
-    assert second == (
-        f"{path}:9:75: joint 'left': tiny.xml has no joint 'lef' (did you mean "
-        f"'left'?); its joints are yaw, left, right"
-    )
-
-
-def test_mjcf_that_does_not_compile_points_at_the_xml_line():
-    [message] = problems_of(BAD / "mjcf_compile_error" / "robot.yaml")
-    xml = BAD / "mjcf_compile_error" / "broken.xml"
-    assert message.startswith(f"{xml}:5:1: MuJoCo cannot compile this model: ")
-    assert "unrecognized attribute: 'rnge'" in message
 
 
 def test_pose_problems_each_reported():
@@ -347,3 +263,49 @@ def test_a_joint_can_override_the_preview_actuator_of_its_servo(tmp_path):
         "'stall_torque_nm'?)" in unknown
     )
     assert "joint 'right': actuator: kp_nm_rad must be > 0, got 0" in zero
+
+
+def test_robot_file_bus_ranges_equal_the_command_line(tmp_path, capsys):
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = robot.read_text().replace(
+        "defaults:", "bus: {retries: 10, timeout_ms: 5001}\ndefaults:", 1
+    )
+    robot.write_text(text)
+    line = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("bus:"))
+    assert main(["validate", str(robot)]) == 1
+    assert capsys.readouterr().out.splitlines() == [
+        f"{robot}:{line}:16: bus: retries must be in 0..9, got 10",
+        f"{robot}:{line}:32: bus: timeout_ms must be in (0, 5000], got 5001",
+    ]
+
+
+def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
+    """The bus, a joint (two problems), a pose and the model file: one run, every line."""
+    robot = tmp_path / "arm6" / "robot.yaml"
+    robot.parent.mkdir()
+    for source in (REPO / "models" / "arm6").iterdir():
+        (robot.parent / source.name).write_bytes(source.read_bytes())
+    text = (
+        robot.read_text()
+        .replace("mjcf: arm6.xml", "mjcf: nothere.xml")
+        .replace("defaults:", "bus: {retries: 100}\ndefaults:", 1)
+        .replace(
+            "base_yaw:    {id: 1, zero: 500, direction: 1, min: -120, max: 120}",
+            "base_yaw:    {id: 1, zero: 500, direction: 2, min: 120, max: -120}",
+        )
+        .replace("rest:  {base_yaw: 0,", "rest:  {base_yw: 0,")
+    )
+    robot.write_text(text)
+    assert main(["validate", str(robot)]) == 1
+    assert [line.split(": ", 1)[1] for line in capsys.readouterr().out.splitlines()] == [
+        f"the MuJoCo model {robot.parent / 'nothere.xml'} does not exist",
+        "bus: retries must be in 0..9, got 100",
+        "joint 'base_yaw': direction must be 1 or -1, got 2",
+        "joint 'base_yaw': min 120° must be below max -120°",  # not hidden by the direction
+        "pose 'rest' does not give base_yaw; every pose names every joint",
+        "pose 'rest': unknown joint 'base_yw' (did you mean 'base_yaw'?); the robot's joints are "
+        "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper",
+    ]

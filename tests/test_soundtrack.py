@@ -15,7 +15,7 @@ from test_player import Rig
 
 from choreo.bus.protocol import Command
 from choreo.cli import main, play_commands
-from choreo.core.clock import RealClock, VirtualClock
+from choreo.core.clock import VirtualClock
 from choreo.music.decode import Audio
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
@@ -110,7 +110,9 @@ def test_dry_run_says_when_the_song_starts(dance, capsys):
     assert lines.index(song[0]) > start_tick
 
 
-def test_play_without_an_audio_output_says_so_once_and_dances(dance, capsys, monkeypatch):
+def test_play_without_an_audio_output_says_so_once_and_dances(
+    dance, capsys, monkeypatch, virtual_built_in_emulator
+):
     def no_output(device, latency_s):
         raise NoAudioOutput("cannot open audio output (default): no device")
 
@@ -123,11 +125,14 @@ def test_play_without_an_audio_output_says_so_once_and_dances(dance, capsys, mon
     ) in err
 
 
-def test_play_plays_the_song_on_the_output_and_stops_it(dance, capsys, monkeypatch):
+def test_play_plays_the_song_on_the_output_and_stops_it(
+    dance, capsys, monkeypatch, virtual_built_in_emulator
+):
     sinks = []
 
-    def recording(device, latency_s):
-        sinks.append(RecordingSink(RealClock(), latency_s=latency_s or 0.0))
+    def recording(device, latency_s):  # on the clock of the bus it plays beside
+        clock = virtual_built_in_emulator[-1].clock
+        sinks.append(RecordingSink(clock, latency_s=latency_s or 0.0))
         sinks[-1].device = device
         return sinks[-1]
 

@@ -28,7 +28,7 @@ from choreo.errors import UsageError
 from choreo.motion.motion_file import Motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.play.play_motion import play_motion, prepared_motion
+from choreo.play.play_motion import check_options, play_motion, prepared_motion
 from choreo.play.player import (
     ExitMode,
     Outcome,
@@ -129,6 +129,7 @@ def run_play(args: argparse.Namespace) -> int:
         allow_past_song=args.allow_past_song,
     )
     motion = load_dance(args.motion, args.allow_past_song)
+    check_options(motion, options)  # before the port opens and the progress bar shows
     settings = bus_settings(args, motion.robot)
     if args.dry_run:
         return dry_run(prepared_motion(motion, options, _note), options, settings.port)

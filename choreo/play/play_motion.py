@@ -110,14 +110,7 @@ def prepared_motion(
         motion = load_motion(Path(motion), options.allow_past_song)
         if motion.music is not None and motion.music.note:
             on_note(motion.music.note)  # which detected beats beats: auto took
-    if options.audio:
-        check_speed(motion.music, options.speed)
-    if options.exit_pose not in motion.robot.poses:
-        raise OptionError(
-            "exit_pose",
-            f"{options.exit_pose!r} is not a pose of {motion.robot.name}; poses: "
-            f"{', '.join(motion.robot.poses)}",
-        )
+    check_options(motion, options)
     if options.loop is None:
         return motion
     problem = too_many_played(len(motion.keyframes), options.loop, "loop")
@@ -132,6 +125,18 @@ def prepared_motion(
     if outlasting is not None:
         on_note(f"warning: {outlasting}: the dance goes on in silence")
     return looped
+
+
+def check_options(motion: Motion, options: PlayOptions) -> None:
+    """Refuse options the motion cannot be played with (OptionError), before anything opens."""
+    if options.audio:
+        check_speed(motion.music, options.speed)
+    if options.exit_pose not in motion.robot.poses:
+        raise OptionError(
+            "exit_pose",
+            f"{options.exit_pose!r} is not a pose of {motion.robot.name}; poses: "
+            f"{', '.join(motion.robot.poses)}",
+        )
 
 
 @contextmanager

@@ -10,6 +10,7 @@ import io
 import json
 
 import pytest
+from cli_helpers import error_line
 
 from choreo.bus import servo_config
 from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
@@ -541,3 +542,9 @@ def test_cli_info_still_works(capsys):
     assert main(["servo", "info", "--id", "2", "--json", "--port", "sim://?clock=virtual"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["servo_id"] == 2 and info["temp_limit_c"] == 85
+
+
+def test_servo_limits_name_the_options_the_user_typed(capsys):
+    argv = ["servo", "limits", "--id", "1", "--min", "900", "--max", "100", "-y"]
+    assert main([*argv, "--port", "sim://?clock=virtual"]) == 2
+    assert error_line(capsys) == "choreo: error: --min 900 must be below --max 100"

@@ -1,0 +1,58 @@
+"""choreo.cli.arguments and the commands' own argument types: every number and ID range a user
+types is bounded, and a refusal says what would be valid."""
+
+from __future__ import annotations
+
+import pytest
+from cli_helpers import WAVE, usage_error_line
+
+from choreo.cli import main
+
+
+@pytest.mark.parametrize(
+    "argv, line",
+    [
+        (
+            ["scan", "--timeout-ms", "1e308"],
+            "choreo scan: error: argument --timeout-ms: expected a number > 0 and <= 5000 ms, "
+            "got '1e308'",
+        ),
+        (
+            ["play", str(WAVE), "--health-timeout-ms", "1e308"],
+            "choreo play: error: argument --health-timeout-ms: expected a number > 0 and "
+            "<= 5000 ms, got '1e308'",
+        ),
+        (
+            ["emulate", "--pty", "x", "--turnaround-ms", "1e308"],
+            "choreo emulate: error: argument --turnaround-ms: expected a number in 0..1000 ms, "
+            "got '1e308'",
+        ),
+        (
+            ["scan", "--retries", "10"],
+            "choreo scan: error: argument --retries: invalid choice: 10 (choose from 0, 1, 2, 3, "
+            "4, 5, 6, 7, 8, 9)",
+        ),
+    ],
+)
+def test_timer_options_are_bounded(capsys, argv, line):
+    assert usage_error_line(capsys, argv) == line
+
+
+def test_an_open_ended_id_range_is_an_error(capsys):
+    assert usage_error_line(capsys, ["scan", "--ids", "1-"]) == (
+        "choreo scan: error: argument --ids: servo IDs must look like '1-6,9', got '1-'"
+    )
+
+
+def test_emulate_with_an_empty_pty_path_says_so(capsys):
+    assert usage_error_line(capsys, ["emulate", "--pty", ""]) == (
+        "choreo emulate: error: argument --pty: the path is empty: give a path for the link, "
+        "e.g. /tmp/ttyCHOREO"
+    )
+
+
+def test_plan_tolerance_has_a_maximum(capsys):
+    assert usage_error_line(capsys, ["plan", str(WAVE), "--tolerance", "1000"]) == (
+        "choreo plan: error: argument --tolerance: expected a number > 0 and <= 5°, got '1000'"
+    )
+    assert main(["plan", str(WAVE), "--tolerance", "5"]) == 0

@@ -1,0 +1,63 @@
+"""choreo.core.clock: the virtual clock moves only when slept on or advanced, never back, and
+exactly under threads; the real clock wakes no earlier than asked."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from choreo.core.clock import RealClock, VirtualClock
+
+
+def test_a_virtual_clock_stands_still_until_slept_on():
+    clock = VirtualClock(start_s=12.5)
+    assert clock.now() == clock.now() == 12.5
+    clock.sleep_until(13.0)
+    assert clock.now() == 13.0
+
+
+def test_sleeping_until_a_past_deadline_does_not_turn_the_clock_back():
+    clock = VirtualClock()
+    clock.sleep_until(2.0)
+    clock.sleep_until(1.0)
+    assert clock.now() == 2.0
+
+
+def test_advance_adds_and_refuses_to_go_back():
+    clock = VirtualClock()
+    clock.advance(0.25)
+    clock.advance(0.0)
+    assert clock.now() == 0.25
+    with pytest.raises(ValueError, match="dt_s must be >= 0, got -0.1"):
+        clock.advance(-0.1)
+    assert clock.now() == 0.25
+
+
+def test_advances_from_many_threads_all_count():
+    """The emulator's pty thread and the player share one clock: no advance may be lost."""
+    clock = VirtualClock()
+
+    def advance_a_thousand_times():
+        for _ in range(1000):
+            clock.advance(1.0)
+
+    threads = [threading.Thread(target=advance_a_thousand_times) for _ in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert clock.now() == 4000.0  # whole seconds: exact in floating point
+
+
+def test_the_real_clock_wakes_no_earlier_than_the_deadline_and_never_goes_back():
+    clock = RealClock()
+    before = clock.now()
+    deadline = before + 0.003  # inside the spin: the last part is spun, not slept
+    clock.sleep_until(deadline)
+    assert clock.now() >= deadline
+    later = before + 0.02  # beyond the spin: slept, then spun
+    clock.sleep_until(later)
+    assert clock.now() >= later >= before
+    clock.sleep_until(before)  # a deadline already passed
+    assert clock.now() >= later

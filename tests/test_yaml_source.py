@@ -1,0 +1,128 @@
+"""choreo.core.yaml_source: YAML read with file:line:column for every value, bounded in size, and
+a hint where YAML 1.1 reads a number as text."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from cli_helpers import error_line, motion_file
+
+from choreo.cli import main
+from choreo.core.yaml_source import Problems, Reader, SourceLocation, parse_yaml_file
+from choreo.errors import SourceError
+
+
+@pytest.mark.parametrize(
+    "written, hint", [("1e12", "1.0e+12"), ("2.5E3", "2.5e+3"), ("7.e2", "7.0e+2")]
+)
+def test_a_yaml_1_1_exponent_read_as_text_gets_a_hint(tmp_path, capsys, written, hint):
+    path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    after: {written}\n")
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:6:12: after must be a number >= 0, got {written!r} "
+        f"(YAML reads {written} as text: write {hint})"
+    )
+
+
+def test_validate_reads_at_most_16_mib(capsys):
+    assert main(["validate", "/dev/zero"]) == 1
+    assert capsys.readouterr().out == (
+        "/dev/zero:1:1: cannot read the file: it is larger than 16 MiB, the most a robot or "
+        "motion file may be\n"
+    )
+
+
+def read(tmp_path, text: str) -> tuple[Reader, yaml.Node]:
+    path = tmp_path / "f.yaml"
+    path.write_text(text)
+    return Reader(path, Problems()), parse_yaml_file(path)
+
+
+def test_every_refusal_says_file_line_column_and_what_is_valid(tmp_path):
+    reader, root = read(tmp_path, "a: 1\nb:\n  c: -3\n  d: [x]\n")
+    entries = {e.key: e for e in reader.entries(root, "the file")}
+    inner = reader.fields(entries["b"].value, "b", allowed=("c", "d", "e"), required=("e",))
+    assert reader.number(entries["a"].value, "a", low=0, high=1, low_open=True) == 1.0
+    assert reader.integer(inner["c"].value, "c", low=0, high=9) is None
+    assert reader.string(inner["d"].value, "d") is None
+    path = tmp_path / "f.yaml"
+    assert reader.problems.messages == [
+        f"{path}:3:3: b is missing 'e' (required)",
+        f"{path}:3:6: c must be in 0..9, got -3",
+        f"{path}:4:6: d must be a text, got a list",
+    ]
+
+
+def test_an_unknown_key_gets_the_closest_valid_one(tmp_path):
+    reader, root = read(tmp_path, "speeed: 2\n")
+    assert reader.fields(root, "motion", allowed=("speed", "repeat")) == {}
+    assert reader.problems.messages == [
+        f"{tmp_path / 'f.yaml'}:1:1: unknown key 'speeed' in motion (did you mean 'speed'?); "
+        "valid keys: speed, repeat"
+    ]
+
+
+def test_a_key_given_twice_is_reported_with_the_first_line(tmp_path):
+    reader, root = read(tmp_path, "t: 1\nhold: 2\nt: 3\n")
+    assert [e.key for e in reader.entries(root, "keyframe")] == ["t", "hold"]
+    assert reader.problems.messages == [
+        f"{tmp_path / 'f.yaml'}:3:1: keyframe: 't' is given twice (first at line 1); keep one"
+    ]
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("x: .inf", "1:4: x must be a number >= 0, got .inf"),
+        ("x: true", "1:4: x must be a number >= 0, got true"),
+        ("x:", "1:3: x must be a number >= 0, got nothing (null)"),
+        ("x: -0.5", "1:4: x must be >= 0, got -0.5"),
+    ],
+)
+def test_a_number_must_be_finite_and_in_range(tmp_path, text, words):
+    reader, root = read(tmp_path, text + "\n")
+    (entry,) = reader.entries(root, "file")
+    assert reader.number(entry.value, "x", low=0) is None
+    assert reader.problems.messages == [f"{tmp_path / 'f.yaml'}:{words}"]
+
+
+def test_problems_are_sorted_by_file_then_place_and_said_once():
+    problems = Problems()
+    b, a = Path("b.yaml"), Path("a.yaml")
+    problems.add(SourceLocation(b, 9, 1), "late")
+    problems.add(SourceLocation(a, 2, 5), "other file")
+    problems.add(SourceLocation(b, 3, 7), "early")
+    problems.add(SourceLocation(b, 3, 7), "early")  # the same default read for every joint
+    assert problems.messages == ["b.yaml:3:7: early", "b.yaml:9:1: late", "a.yaml:2:5: other file"]
+
+
+def test_a_place_reached_through_includes_says_through_which():
+    inner = SourceLocation(Path("part.yaml"), 4, 5)
+    via = SourceLocation(
+        Path("part.yaml"), 4, 5, included_at=(SourceLocation(Path("main.yaml"), 5, 14),)
+    )
+    assert str(via) == "part.yaml:4:5" and via == inner
+    assert via.through == " (included at main.yaml:5:14)" and inner.through == ""
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("a: [1, 2\n", "2:1: not valid YAML: "),  # then the parser's words (libyaml's or not)
+        ("\xff\xfe", "1:1: cannot read the file: it is not UTF-8 text"),
+    ],
+)
+def test_a_file_that_is_not_yaml_is_one_source_error(tmp_path, text, message):
+    path = tmp_path / "f.yaml"
+    path.write_bytes(text.encode("latin-1"))
+    with pytest.raises(SourceError) as raised:
+        parse_yaml_file(path)
+    assert str(raised.value).startswith(f"{path}:{message}")
+
+
+def test_an_empty_file_is_no_document(tmp_path):
+    path = tmp_path / "empty.yaml"
+    path.write_text("# nothing yet\n")
+    assert parse_yaml_file(path) is None
