@@ -71,6 +71,48 @@ def test_bus_only_commands_never_import_mujoco_or_matplotlib():
     assert (result.returncode, result.stdout) == (0, "[0, 0, 0, 0] []\n"), result.stderr
 
 
+# What `choreo scan --help` loads: the modules of the other commands, rich and numpy wait for a
+# command that uses them.
+SCAN_HELP_IMPORTS = """
+import contextlib, io, sys
+import choreo.cli
+with contextlib.redirect_stdout(io.StringIO()):
+    try:
+        choreo.cli.main(["scan", "--help"])
+    except SystemExit:
+        pass
+print(sorted(m for m in sys.modules if m.startswith("choreo.cli.")),
+      sorted(m for m in ("numpy", "rich", "yaml", "choreo.robot") if m in sys.modules))
+"""
+
+
+def test_scan_help_imports_only_its_own_command_module():
+    result = subprocess.run(
+        [sys.executable, "-c", SCAN_HELP_IMPORTS],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.stdout == "['choreo.cli.arguments', 'choreo.cli.bus_commands'] []\n", (
+        result.stderr
+    )
+
+
+def test_each_command_module_registers_the_commands_the_table_gives_it():
+    import argparse
+    import importlib
+
+    from choreo.cli import COMMAND_MODULES
+
+    for module_name in set(COMMAND_MODULES.values()):
+        parser = argparse.ArgumentParser()
+        subparsers = parser.add_subparsers()
+        importlib.import_module(f"choreo.cli.{module_name}").register(subparsers)
+        expected = sorted(c for c, m in COMMAND_MODULES.items() if m == module_name)
+        assert sorted(subparsers.choices) == expected
+
+
 def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
     """The probe above would notice: loading a robot checks its MuJoCo model."""
     probe = "import sys; from choreo.robot.robot_file import load_robot; load_robot('arm6'); "

@@ -10,45 +10,40 @@ codes here and nowhere else.
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import os
 import sys
 from collections.abc import Sequence
+from types import ModuleType
 
 from choreo import __version__
-from choreo.cli import (
-    bus_commands,
-    emulate_commands,
-    interop_commands,
-    motion_commands,
-    music_commands,
-    plan_commands,
-    play_commands,
-    ports_commands,
-    preview_commands,
-    record_commands,
-    robot_commands,
-    servo_commands,
-)
 from choreo.errors import ChoreoError, OptionError, UsageError
 
-COMMAND_GROUPS = (
-    bus_commands,
-    ports_commands,
-    emulate_commands,
-    robot_commands,
-    motion_commands,
-    plan_commands,
-    music_commands,
-    play_commands,
-    preview_commands,
-    servo_commands,
-    record_commands,
-    interop_commands,
-)
+# Which module registers (and runs) each command. Only the module of the command being run is
+# imported, so that `choreo scan --help` does not pay for planning, MuJoCo or music; the whole
+# table is loaded for `choreo --help` or a command that is not in it (argparse then lists them).
+# tests/test_package.py checks that each module registers exactly the commands given here.
+COMMAND_MODULES = {
+    "scan": "bus_commands",
+    "ports": "ports_commands",
+    "emulate": "emulate_commands",
+    "robots": "robot_commands",
+    "validate": "motion_commands",
+    "plan": "plan_commands",
+    "beats": "music_commands",
+    "play": "play_commands",
+    "preview": "preview_commands",
+    "servo": "servo_commands",
+    "record": "record_commands",
+    "import": "interop_commands",
+    "export": "interop_commands",
+    "mirror": "interop_commands",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or only of the one ``argv`` runs when it names one."""
     parser = argparse.ArgumentParser(
         prog="choreo",
         description="Author, plan, preview and play motions on Hiwonder/LewanSoul bus servos.",
@@ -56,14 +51,30 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for group in COMMAND_GROUPS:
+    for group in command_groups(argv):
         group.register(subparsers)
     return parser
 
 
+def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
+    """The command modules to register: the one of ``argv``'s command; all of them for the
+    help that lists them (``choreo --help``, an unknown command); none for ``--version``. The
+    global options take no value, so the command is the first word that is not an option."""
+    words = list(argv) if argv is not None else None
+    command = next((word for word in words or () if not word.startswith("-")), None)
+    if command in COMMAND_MODULES:
+        names = [COMMAND_MODULES[command]]
+    elif command is None and words is not None and "--version" in words:
+        names = []
+    else:
+        names = list(COMMAND_MODULES.values())
+    return [importlib.import_module(f"choreo.cli.{name}") for name in dict.fromkeys(names)]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    if argv is None:
+        argv = sys.argv[1:]
+    args = build_parser(argv).parse_args(argv)
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
         format="%(levelname)s %(name)s: %(message)s",

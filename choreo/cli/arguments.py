@@ -9,11 +9,15 @@ import signal
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
-from choreo.bus.servo_bus import ServoBus
+from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
 from choreo.bus.transports.direction import PRESETS, parse_direction
-from choreo.robot.types import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
+
+if TYPE_CHECKING:
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.robot.types import Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 # Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
@@ -205,6 +209,8 @@ def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSet
 def open_bus(args: argparse.Namespace) -> ServoBus:
     """The bus the user asked for; without --port, the built-in emulator's servos 1-6 (and say
     so)."""
+    from choreo.bus.servo_bus import ServoBus  # when a command runs, not for its --help
+
     settings = bus_settings(args)
     port = settings.port
     if port is None:
