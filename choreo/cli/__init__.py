@@ -74,6 +74,10 @@ def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
 def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
+    # mujoco sets up a default OpenGL context (GLFW, which runs a subprocess to find its library)
+    # on import; the commands that check a robot's model never draw, and the preview renders
+    # with its own back-end (choreo.preview.gl), so the command line skips that set-up.
+    os.environ.setdefault("MUJOCO_GL", "disable")
     args = build_parser(argv).parse_args(argv)
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
