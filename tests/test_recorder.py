@@ -314,12 +314,15 @@ def test_starting_over_an_unfinished_journal_or_a_motion_file_is_refused(tmp_pat
     crashed, _ = rig.record(out, [""])
     crashed.journal.close()
     with pytest.raises(
-        ChoreoError, match="holds 1 capture\\(s\\) of an unfinished recording: add --resume"
+        ChoreoError,
+        match=r"holds 1 capture\(s\) of an unfinished recording: continue it \(Recording.resume\), "
+        r"or delete it to start over$",
     ):
         Recording.start(out, rig.robot)
     Recording.resume(out).save()
     with pytest.raises(
-        ChoreoError, match="taught.yaml exists: choose another file, or add --overwrite"
+        ChoreoError,
+        match=r"taught.yaml exists: choose another file, or allow replacing it \(overwrite\)$",
     ):
         Recording.start(out, rig.robot)
     Recording.start(out, rig.robot, overwrite=True).close()

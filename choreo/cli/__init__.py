@@ -3,22 +3,26 @@
 Each command group lives in its own module with ``register(subparsers)``; a command's handler
 takes the parsed args and returns an exit code. Exit codes: 0 ok, 1 a ``ChoreoError`` (one clear
 line, no traceback), 2 usage (argparse's own, or a ``UsageError`` raised by a handler), 130 after
-Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C). Errors are turned into exit
-codes here and nowhere else.
+Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C), 70 for a bug (any other
+exception: one line saying so, the traceback in a file, or on stderr with -v). Errors are turned
+into exit codes here and nowhere else.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import logging
 import os
 import sys
+import tempfile
+import traceback
 from collections.abc import Sequence
 from types import ModuleType
 
 from choreo import __version__
-from choreo.errors import ChoreoError, OptionError, UsageError
+from choreo.errors import BusError, ChoreoError, OptionError, UsageError
 
 # Which module registers (and runs) each command. Only the module of the command being run is
 # imported, so that `choreo scan --help` does not pay for planning, MuJoCo or music; the whole
@@ -94,24 +98,78 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"choreo: error: {flag_of(error.option)} {error.problem}", file=sys.stderr)
         return 2
     except ChoreoError as error:
-        print(f"choreo: error: {error}", file=sys.stderr)
+        print(f"choreo: error: {error.worded(flag_of)}", file=sys.stderr)
+        hint = hint_for(error)
+        if hint:
+            print(f"choreo: hint: {hint}", file=sys.stderr)
         return 1
     except BrokenPipeError:
         # `choreo ... | head`: the reader has all it wanted. Quietly, and exit 1 as the Python
         # docs' note on SIGPIPE and rich's consoles do: the output was cut short.
         _silence_stdout()
         return 1
-    except OSError as error:  # a file that can't be written, a port that went away
-        print(f"choreo: error: {error}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("choreo: interrupted", file=sys.stderr)
         return 130
+    except OSError as error:
+        if error.errno in (None, errno.EBADF):  # not the OS refusing: choreo misused a file
+            return report_bug(error, args.verbose)
+        # a file that can't be read or written, a full disk, a device that went away
+        print(f"choreo: error: {error}", file=sys.stderr)
+        return 1
+    except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
+        return report_bug(error, args.verbose)
+
+
+EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error
+
+
+def report_bug(error: BaseException, verbose: int) -> int:
+    """A bug: one line that says so, the traceback on stderr with -v, else in a file."""
+    trace = "".join(traceback.format_exception(error))
+    where = "above"
+    if verbose:
+        print(trace, file=sys.stderr, end="")
+    else:
+        with tempfile.NamedTemporaryFile(
+            "w", prefix="choreo-bug-", suffix=".txt", delete=False
+        ) as file:
+            file.write(trace)
+        where = f"in {file.name}"
+    print(
+        f"choreo: internal error (a bug): {type(error).__name__}: {error}; please report it "
+        f"with the traceback ({where})",
+        file=sys.stderr,
+    )
+    return EXIT_INTERNAL_ERROR
+
+
+# Library arguments whose flag is not their name with dashes (see flag_of).
+FLAGS = {
+    "health_timeout_s": "--health-timeout-ms",
+    "link_path": "--pty",
+    "current_id": "--id",
+    "Recording.resume": "--resume",
+    "width/height": "--size",
+}
 
 
 def flag_of(option: str) -> str:
     """The command-line flag of a library argument: ``exit_pose`` is ``--exit-pose``."""
-    return "--" + option.replace("_", "-")
+    return FLAGS.get(option, "--" + option.replace("_", "-"))
+
+
+def hint_for(error: ChoreoError) -> str | None:
+    """What the command line offers for an error, where the library's words can't say it."""
+    from choreo.bus.protocol import Command  # on an error only: --version stays light
+
+    if (
+        isinstance(error, BusError)
+        and error.command is Command.OR_MOTOR_MODE_READ
+        and error.servo_id is not None
+    ):
+        return f"stop its motor with `choreo servo motor --id {error.servo_id} --stop`"
+    return None
 
 
 def _silence_stdout() -> None:

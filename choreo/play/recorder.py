@@ -246,12 +246,16 @@ class Recording:
         path = journal_path(motion_path)
         if path.exists():
             count = len(read_journal(path).captures)
-            raise ChoreoError(
-                f"{path} holds {count} capture(s) of an unfinished recording: add "
-                "--resume to continue it, or delete it to start over"
+            raise ChoreoError.naming(
+                "Recording.resume",
+                f"{path} holds {count} capture(s) of an unfinished recording: continue it "
+                "({option}), or delete it to start over",
             )
         if motion_path.exists() and not overwrite:
-            raise ChoreoError(f"{motion_path} exists: choose another file, or add --overwrite")
+            raise ChoreoError.naming(
+                "overwrite",
+                f"{motion_path} exists: choose another file, or allow replacing it ({{option}})",
+            )
         return cls(motion_path, robot, Journal.create(path, robot))
 
     @classmethod
@@ -435,10 +439,10 @@ class Recorder:
         if spinning:
             raise BusError(
                 "in motor mode: "
-                + ", ".join(
-                    f"{j.name} (stop it with `choreo servo motor --id {j.servo_id} --stop`)"
-                    for j in spinning
-                )
+                + ", ".join(f"{j.name} (servo {j.servo_id})" for j in spinning)
+                + ": stop their motors first (choreo.bus.servo_config.stop_motor)",
+                servo_id=spinning[0].servo_id if len(spinning) == 1 else None,
+                command=Command.OR_MOTOR_MODE_READ,
             )
 
     def _hold_taught(self, *, quietly: bool) -> None:

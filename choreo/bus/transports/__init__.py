@@ -44,7 +44,7 @@ BACKENDS = {
 RAW_BACKEND = "choreo.bus.transports.raw"
 INSTEAD_RAW = (
     "connect the servos to the raw LX bus instead (a BusLinker-style USB adapter, or a Pi UART "
-    "with --direction)"
+    "with its direction lines given)"
 )
 
 
