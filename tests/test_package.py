@@ -159,3 +159,60 @@ def test_the_public_names_are_listed_once_and_type_checkers_see_the_same():
 def test_an_unknown_name_is_an_attribute_error():
     with pytest.raises(AttributeError, match="no attribute 'compile'"):
         choreo.compile  # noqa: B018
+
+
+def test_a_bug_is_reported_as_one_line_exit_70_with_its_traceback_in_a_file(
+    monkeypatch, capsys, tmp_path
+):
+    """An exception that is no ChoreoError (here a KeyError inside a command) is choreo's bug,
+    not the user's mistake: not dressed as 'choreo: error:', its traceback kept."""
+    from choreo.cli import bus_commands, main
+
+    def broken(bus, ids):
+        raise KeyError("oops")
+
+    monkeypatch.setattr(bus_commands, "scan_with_progress", broken)
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    assert main(["scan", "--ids", "1"]) == 70
+    err = capsys.readouterr().err.splitlines()
+    [trace] = tmp_path.glob("choreo-bug-*.txt")
+    assert err[-1] == (
+        f"choreo: internal error (a bug): KeyError: 'oops'; please report it with the traceback "
+        f"(in {trace})"
+    )
+    assert 'raise KeyError("oops")' in trace.read_text()
+
+
+def test_an_os_error_choreo_did_not_cause_is_a_user_error(monkeypatch, capsys):
+    import errno
+
+    from choreo.cli import bus_commands, main
+
+    def disk_full(bus, ids):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(bus_commands, "scan_with_progress", disk_full)
+    assert main(["scan", "--ids", "1"]) == 1
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "choreo: error: [Errno 28] No space left on device"
+    )
+
+
+def test_a_servo_in_motor_mode_is_refused_with_the_data_the_cli_turns_into_its_hint():
+    from choreo.bus import servo_config
+    from choreo.bus.protocol import Command
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.cli import hint_for
+    from choreo.errors import BusError
+
+    with ServoBus("sim://?ids=2&clock=virtual") as bus:
+        bus.set_motor_mode(2, 300)
+        with pytest.raises(BusError) as caught:
+            servo_config.move(bus, 2, 500, 100)
+    error = caught.value
+    assert str(error) == (
+        "servo 2 is in motor mode and ignores moves: stop its motor first (stop_motor)"
+    )
+    assert (error.servo_id, error.command) == (2, Command.OR_MOTOR_MODE_READ)
+    assert hint_for(error) == "stop its motor with `choreo servo motor --id 2 --stop`"
+    assert hint_for(BusError("no servo answered")) is None
