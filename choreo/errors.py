@@ -40,15 +40,17 @@ class ChoreoError(Exception):
 
 class OptionError(ChoreoError, ValueError):
     """An argument of a library call that cannot be used as given: ``option`` names it (as the
-    call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid.
-    The CLI shows its own flag in the argument's place (``--exit-pose``)."""
+    call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid
+    (where it names the argument again, it writes ``{option}``). The CLI shows its own flag in
+    the argument's place (``--exit-pose``)."""
 
     option: str
 
     def __init__(self, option: str, problem: str):
-        super().__init__(f"{option} {problem}")
+        super().__init__(f"{option} {problem.replace('{option}', option)}")
         self.option = option
-        self.problem = problem
+        self.problem = problem.replace("{option}", option)
+        self.template = "{option} " + problem
 
 
 class UsageError(ChoreoError):

@@ -216,3 +216,15 @@ def test_a_servo_in_motor_mode_is_refused_with_the_data_the_cli_turns_into_its_h
     assert (error.servo_id, error.command) == (2, Command.OR_MOTOR_MODE_READ)
     assert hint_for(error) == "stop its motor with `choreo servo motor --id 2 --stop`"
     assert hint_for(BusError("no servo answered")) is None
+
+
+def test_an_option_error_speaks_of_the_argument_and_the_cli_of_its_flag():
+    from choreo.cli import flag_of
+    from choreo.errors import OptionError
+
+    error = OptionError("loop", "9 is too many: {option} at most 3")
+    assert (str(error), error.problem) == (
+        "loop 9 is too many: loop at most 3",
+        "9 is too many: loop at most 3",
+    )
+    assert error.worded(flag_of) == "--loop 9 is too many: --loop at most 3"

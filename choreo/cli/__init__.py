@@ -95,7 +95,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"choreo: error: {error}", file=sys.stderr)
         return 2
     except OptionError as error:  # a library argument: named as this command's flag
-        print(f"choreo: error: {flag_of(error.option)} {error.problem}", file=sys.stderr)
+        print(f"choreo: error: {error.worded(flag_of)}", file=sys.stderr)
         return 2
     except ChoreoError as error:
         print(f"choreo: error: {error.worded(flag_of)}", file=sys.stderr)

@@ -115,9 +115,9 @@ def prepared_motion(motion: Motion | str | os.PathLike[str], options: PlayOption
         )
     if options.loop is None:
         return motion
-    problem = too_many_played(len(motion.keyframes), options.loop, "loop")
+    problem = too_many_played(len(motion.keyframes), options.loop, "{option}")
     if problem is not None:
-        raise OptionError("loop", problem.removeprefix("loop "))
+        raise OptionError("loop", problem.removeprefix("{option} "))
     return dataclasses.replace(motion, repeat=options.loop)
 
 
