@@ -151,6 +151,7 @@ FLAGS = {
     "current_id": "--id",
     "Recording.resume": "--resume",
     "width/height": "--size",
+    "taught": "--joints",
 }
 
 

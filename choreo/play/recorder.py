@@ -40,7 +40,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.core.atomic import fsync_directory, write_text_atomically
 from choreo.core.clock import Clock
 from choreo.core.yaml_source import SourceLocation, did_you_mean
-from choreo.errors import BusError, ChoreoError
+from choreo.errors import BusError, ChoreoError, OptionError
 from choreo.motion.motion_file import Keyframe
 from choreo.motion.writer import motion_text, robot_reference
 from choreo.robot.robot_file import load_robot
@@ -358,20 +358,23 @@ def _line_reader(source: LineSource) -> Callable[[], str | None]:
 
 
 def taught_joints(robot: Robot, names: Iterable[str] | None) -> tuple[Joint, ...]:
-    """The joints named (all if None), in robot order; ``ValueError`` naming an unknown one."""
+    """The joints named (all if None), in robot order; ``OptionError`` (``taught``) naming an
+    unknown one."""
     if names is None:
         return robot.joints
     wanted = set(names)
     for name in wanted:
         if name not in robot.joint_names:
-            raise ValueError(
-                f"unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
-                f"{robot.name}'s joints are {', '.join(robot.joint_names)}"
+            raise OptionError(
+                "taught",
+                f"names an unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
+                f"{robot.name}'s joints are {', '.join(robot.joint_names)}",
             )
     if not wanted:
-        raise ValueError(
-            f"name at least one joint to teach; {robot.name}'s joints are "
-            f"{', '.join(robot.joint_names)}"
+        raise OptionError(
+            "taught",
+            f"names no joint: name at least one; {robot.name}'s joints are "
+            f"{', '.join(robot.joint_names)}",
         )
     return tuple(j for j in robot.joints if j.name in wanted)
 
