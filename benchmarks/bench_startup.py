@@ -5,7 +5,8 @@ commands' modules: `choreo scan --help` should start in at most twice the time o
 libraries every command needs (`python -c "import numpy, yaml, ruckig"`), printed side by side
 with their ratio, as the machine's speed cancels out of it. For comparison, a bare Python and a
 command that reads a robot (and so checks its MuJoCo model) are timed too. `scan` and `servo
-info` also include the emulated bus's real wire time (and, for `servo info`, two 50 ms timeouts: an LX-16A stays silent on two reads).
+info` also include the emulated bus's real wire time (and, for `servo info`, two 50 ms
+timeouts: an LX-16A stays silent on two reads).
 Each command runs once to warm the file cache, then RUNS times; the median and the spread are
 printed (the machine is shared: quote medians).
 
