@@ -7,20 +7,50 @@ one line and exits 1, or 2 for a ``UsageError``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Self
+
+if TYPE_CHECKING:
+    from choreo.bus.protocol import Command
+
 
 class ChoreoError(Exception):
-    """Base of every error choreo reports to a user."""
+    """Base of every error choreo reports to a user.
+
+    A message that tells how an argument would fix the problem is made with :meth:`naming`:
+    ``option`` is the argument (as the library spells it) and ``template`` the message with
+    ``{option}`` where its name goes, so that the CLI can put its own flag there instead
+    (with :meth:`worded`)."""
+
+    option: str | None = None
+    template: str | None = None
+
+    @classmethod
+    def naming(cls, option: str, template: str, **data: Any) -> Self:
+        error = cls(template.replace("{option}", option), **data)
+        error.option, error.template = option, template
+        return error
+
+    def worded(self, name_of: Callable[[str], str]) -> str:
+        """The message with the argument it names spelled by ``name_of`` (e.g. as a flag)."""
+        if self.option is None or self.template is None:
+            return str(self)
+        return self.template.replace("{option}", name_of(self.option))
 
 
 class OptionError(ChoreoError, ValueError):
     """An argument of a library call that cannot be used as given: ``option`` names it (as the
-    call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid.
-    The CLI shows its own flag in the argument's place (``--exit-pose``)."""
+    call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid
+    (where it names the argument again, it writes ``{option}``). The CLI shows its own flag in
+    the argument's place (``--exit-pose``)."""
+
+    option: str
 
     def __init__(self, option: str, problem: str):
-        super().__init__(f"{option} {problem}")
+        super().__init__(f"{option} {problem.replace('{option}', option)}")
         self.option = option
-        self.problem = problem
+        self.problem = problem.replace("{option}", option)
+        self.template = "{option} " + problem
 
 
 class UsageError(ChoreoError):
@@ -30,7 +60,15 @@ class UsageError(ChoreoError):
 
 # --- the bus -----------------------------------------------------------------------------------
 class BusError(ChoreoError):
-    """Something went wrong talking to the servo bus."""
+    """Something went wrong talking to the servo bus: ``servo_id`` and ``command`` say with
+    which servo and command, where one was concerned (``None`` otherwise)."""
+
+    def __init__(
+        self, message: str, *, servo_id: int | None = None, command: Command | None = None
+    ):
+        super().__init__(message)
+        self.servo_id = servo_id
+        self.command = command
 
 
 class PortError(BusError):
@@ -59,7 +97,12 @@ class SourceError(ChoreoError):
 
 
 class PlanningError(ChoreoError):
-    """A motion cannot be planned within the robot's limits."""
+    """A motion cannot be planned within the robot's limits; ``.problems`` lists every message
+    (one per keyframe or joint concerned), as :class:`SourceError`'s does."""
+
+    def __init__(self, problems: list[str] | str):
+        self.problems = [problems] if isinstance(problems, str) else list(problems)
+        super().__init__("\n".join(self.problems))
 
 
 class PreviewError(ChoreoError):

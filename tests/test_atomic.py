@@ -93,7 +93,7 @@ def test_an_existing_output_is_kept_without_overwrite(tmp_path, capsys, command)
     out.write_bytes(b"good work\n")
     assert main([*argv, "-o", str(out)]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {out} exists: choose another file, or add --overwrite"
+        f"choreo: error: {out} exists: choose another file, or allow replacing it (--overwrite)"
     )
     assert out.read_bytes() == b"good work\n"
     assert main([*argv, "-o", str(out), "--overwrite"]) == 0
@@ -105,7 +105,7 @@ def test_mirror_refuses_to_write_over_its_own_input(tmp_path, capsys):
     source.write_text(WAVE.read_text())
     assert main(["mirror", str(source), "-o", str(source)]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {source} exists: choose another file, or add --overwrite"
+        f"choreo: error: {source} exists: choose another file, or allow replacing it (--overwrite)"
     )
     assert source.read_text() == WAVE.read_text()
 

@@ -72,6 +72,7 @@ def test_a_command_the_board_cannot_carry_is_refused_naming_it(board, action):
             action(bus)
         assert "\n" not in str(refused.value)
         assert "raw LX bus" in str(refused.value)  # what to use instead
+        assert "--" not in str(refused.value)  # in the library's words: no flags
         assert len(list(bus.emulator.log.packets)) == before  # nothing sent
 
 

@@ -71,6 +71,48 @@ def test_bus_only_commands_never_import_mujoco_or_matplotlib():
     assert (result.returncode, result.stdout) == (0, "[0, 0, 0, 0] []\n"), result.stderr
 
 
+# What `choreo scan --help` loads: the modules of the other commands, rich and numpy wait for a
+# command that uses them.
+SCAN_HELP_IMPORTS = """
+import contextlib, io, sys
+import choreo.cli
+with contextlib.redirect_stdout(io.StringIO()):
+    try:
+        choreo.cli.main(["scan", "--help"])
+    except SystemExit:
+        pass
+print(sorted(m for m in sys.modules if m.startswith("choreo.cli.")),
+      sorted(m for m in ("numpy", "rich", "yaml", "choreo.robot") if m in sys.modules))
+"""
+
+
+def test_scan_help_imports_only_its_own_command_module():
+    result = subprocess.run(
+        [sys.executable, "-c", SCAN_HELP_IMPORTS],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.stdout == "['choreo.cli.arguments', 'choreo.cli.bus_commands'] []\n", (
+        result.stderr
+    )
+
+
+def test_each_command_module_registers_the_commands_the_table_gives_it():
+    import argparse
+    import importlib
+
+    from choreo.cli import COMMAND_MODULES
+
+    for module_name in set(COMMAND_MODULES.values()):
+        parser = argparse.ArgumentParser()
+        subparsers = parser.add_subparsers()
+        importlib.import_module(f"choreo.cli.{module_name}").register(subparsers)
+        expected = sorted(c for c, m in COMMAND_MODULES.items() if m == module_name)
+        assert sorted(subparsers.choices) == expected
+
+
 def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
     """The probe above would notice: loading a robot checks its MuJoCo model."""
     probe = "import sys; from choreo.robot.robot_file import load_robot; load_robot('arm6'); "
@@ -123,6 +165,7 @@ def test_an_unknown_name_is_an_attribute_error():
 # Every other module under choreo/ has its own tests/test_<module>.py.
 TESTED_IN = {
     "bus/transports/jetson.py": ("test_direction.py",),
+    "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
     "cli/show_commands.py": ("test_show_cli.py",),
     "cli/studio_commands.py": ("test_studio.py", "test_studio_browser.py"),
     "music/report.py": ("test_beats.py", "test_music.py"),
@@ -202,3 +245,72 @@ def test_every_module_has_a_test_file():
     ]
     assert untested == []
     assert set(TESTED_IN) <= set(modules)  # no entry for a module that is gone
+
+
+def test_a_bug_is_reported_as_one_line_exit_70_with_its_traceback_in_a_file(
+    monkeypatch, capsys, tmp_path
+):
+    """An exception that is no ChoreoError (here a KeyError inside a command) is choreo's bug,
+    not the user's mistake: not dressed as 'choreo: error:', its traceback kept."""
+    from choreo.cli import bus_commands, main
+
+    def broken(bus, ids):
+        raise KeyError("oops")
+
+    monkeypatch.setattr(bus_commands, "scan_with_progress", broken)
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    assert main(["scan", "--ids", "1"]) == 70
+    err = capsys.readouterr().err.splitlines()
+    [trace] = tmp_path.glob("choreo-bug-*.txt")
+    assert err[-1] == (
+        f"choreo: internal error (a bug): KeyError: 'oops'; please report it with the traceback "
+        f"(in {trace})"
+    )
+    assert 'raise KeyError("oops")' in trace.read_text()
+
+
+def test_an_os_error_choreo_did_not_cause_is_a_user_error(monkeypatch, capsys):
+    import errno
+
+    from choreo.cli import bus_commands, main
+
+    def disk_full(bus, ids):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(bus_commands, "scan_with_progress", disk_full)
+    assert main(["scan", "--ids", "1"]) == 1
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "choreo: error: [Errno 28] No space left on device"
+    )
+
+
+def test_a_servo_in_motor_mode_is_refused_with_the_data_the_cli_turns_into_its_hint():
+    from choreo.bus import servo_config
+    from choreo.bus.protocol import Command
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.cli import hint_for
+    from choreo.errors import BusError
+
+    with ServoBus("sim://?ids=2&clock=virtual") as bus:
+        bus.set_motor_mode(2, 300)
+        with pytest.raises(BusError) as caught:
+            servo_config.move(bus, 2, 500, 100)
+    error = caught.value
+    assert str(error) == (
+        "servo 2 is in motor mode and ignores moves: stop its motor first (stop_motor)"
+    )
+    assert (error.servo_id, error.command) == (2, Command.OR_MOTOR_MODE_READ)
+    assert hint_for(error) == "stop its motor with `choreo servo motor --id 2 --stop`"
+    assert hint_for(BusError("no servo answered")) is None
+
+
+def test_an_option_error_speaks_of_the_argument_and_the_cli_of_its_flag():
+    from choreo.cli import flag_of
+    from choreo.errors import OptionError
+
+    error = OptionError("loop", "9 is too many: {option} at most 3")
+    assert (str(error), error.problem) == (
+        "loop 9 is too many: loop at most 3",
+        "9 is too many: loop at most 3",
+    )
+    assert error.worded(flag_of) == "--loop 9 is too many: --loop at most 3"

@@ -94,9 +94,9 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
     import argparse
     import dataclasses
 
+    from choreo.bus.settings import BusSettings
     from choreo.cli.arguments import bus_settings
     from choreo.robot.robot_file import load_robot
-    from choreo.robot.types import BusSettings
 
     robot = dataclasses.replace(
         load_robot("arm6"),

@@ -306,8 +306,8 @@ def test_a_garbled_health_read_is_tolerated_but_a_run_of_them_aborts():
     report = rig.play(on_progress=noisy_wire)
     assert report.outcome is Outcome.ABORTED
     assert (
-        "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled)"
-        in report.reason
+        "shoulder (ID 2) stopped answering (3 reads in a row timed out or came back garbled); "
+        "check its cable, or allow a slow USB adapter more time (health_timeout_s)" in report.reason
     )
     assert report.ticks_played >= 20  # the single garbled reply at tick 3 did not stop it
 
@@ -332,7 +332,8 @@ def test_a_servo_in_motor_mode_is_refused_before_anything_moves():
     with pytest.raises(
         ChoreoError,
         match=r"wrist_roll \(ID 5\): is in motor mode \(turning at "
-        r"duty 300\).*choreo servo motor --id 5 --stop",
+        r"duty 300\), which MOVE_STOP cannot stop; stop its motor first "
+        r"\(choreo.bus.servo_config.stop_motor\)",
     ):
         rig.play()
     assert not [m for m in rig.emulator.log.moves if m.command == Command.MOVE_START]

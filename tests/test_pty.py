@@ -113,7 +113,9 @@ def test_an_existing_path_is_refused_and_left_alone(link):
     process = start_emulator("--pty", str(link))
     _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
     assert process.returncode == 1
-    assert "already exists" in stderr
+    assert f"choreo: error: {link} already exists; remove it or choose another path (--pty)\n" in (
+        stderr
+    )
     assert link.read_text() == "not a tty"
 
 

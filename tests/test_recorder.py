@@ -21,7 +21,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, connection
-from choreo.errors import BusError, ChoreoError
+from choreo.errors import BusError, ChoreoError, OptionError
 from choreo.motion.motion_file import load_motion
 from choreo.play.recorder import (
     INPUT_POLL_S,
@@ -223,12 +223,12 @@ def test_leave_unloaded_leaves_the_taught_joints_limp(tmp_path):
 def test_unknown_joint_names_are_refused_with_the_valid_names(tmp_path):
     rig = Rig()
     recording = Recording.start(tmp_path / "t.yaml", rig.robot)
-    with pytest.raises(
-        ValueError,
-        match="unknown joint 'elbw' \\(did you mean 'elbow'\\?\\); "
-        "arm6's joints are base_yaw, shoulder, elbow",
-    ):
+    with pytest.raises(OptionError) as caught:
         rig.recorder(recording, taught=["elbw"])
+    assert str(caught.value) == (
+        "taught names an unknown joint 'elbw' (did you mean 'elbow'?); arm6's joints are "
+        "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper"
+    )
 
 
 def test_a_missing_servo_stops_before_anything_is_unloaded(tmp_path):
@@ -315,12 +315,15 @@ def test_starting_over_an_unfinished_journal_or_a_motion_file_is_refused(tmp_pat
     crashed, _ = rig.record(out, [""])
     crashed.journal.close()
     with pytest.raises(
-        ChoreoError, match="holds 1 capture\\(s\\) of an unfinished recording: add --resume"
+        ChoreoError,
+        match=r"holds 1 capture\(s\) of an unfinished recording: continue it \(Recording.resume\), "
+        r"or delete it to start over$",
     ):
         Recording.start(out, rig.robot)
     Recording.resume(out).save()
     with pytest.raises(
-        ChoreoError, match="taught.yaml exists: choose another file, or add --overwrite"
+        ChoreoError,
+        match=r"taught.yaml exists: choose another file, or allow replacing it \(overwrite\)$",
     ):
         Recording.start(out, rig.robot)
     Recording.start(out, rig.robot, overwrite=True).close()
@@ -480,7 +483,10 @@ def test_cli_needs_a_robot_unless_resuming(tmp_path, capsys):
 def test_cli_an_unknown_joint_is_a_usage_error_and_leaves_no_journal(tmp_path, capsys):
     out = tmp_path / "t.yaml"
     assert main(["record", str(out), "--robot", "arm6", "--joints", "elbw"]) == 2
-    assert "did you mean 'elbow'" in capsys.readouterr().err
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "choreo: error: --joints names an unknown joint 'elbw' (did you mean 'elbow'?); arm6's "
+        "joints are base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper"
+    )
     assert not journal_path(out).exists()
 
 

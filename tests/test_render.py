@@ -363,6 +363,6 @@ def test_a_frame_larger_than_the_gl_allows_is_a_preview_error():
     )
     assert done.returncode == 0, done.stderr
     assert re.fullmatch(
-        r"cannot render 1048576x16 frames with (egl|osmesa): .+; try a smaller --size\n",
+        r"cannot render 1048576x16 frames with (egl|osmesa): .+; try a smaller width/height\n",
         done.stdout,
     ), done.stdout

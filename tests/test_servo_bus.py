@@ -146,8 +146,9 @@ def test_exhausted_retries_raise_a_timeout_naming_the_servo():
         BusTimeoutError,
         match=r"^servo 3 did not answer POS_READ on sim:// "
         r"\(2 tries, 50 ms each\): check power and wiring, or run `choreo scan`$",
-    ):
+    ) as caught:
         bus.read_position(3)
+    assert (caught.value.servo_id, caught.value.command) == (3, Command.POS_READ)
     assert isinstance(BusTimeoutError("x"), TimeoutError)
     assert bus.read_position(3) == 500  # the bus is usable again
 
@@ -166,8 +167,9 @@ def test_persistent_corruption_is_a_protocol_error():
     with pytest.raises(
         ProtocolError,
         match=r"servo 2: 2 replies to VIN_READ failed the checksum \(2 tries, 50 ms each\)",
-    ):
+    ) as caught:
         bus.read_vin(2)
+    assert (caught.value.servo_id, caught.value.command) == (2, Command.VIN_READ)
 
 
 def test_duplicate_ids_garble_replies_and_say_so():

@@ -15,7 +15,7 @@ from cli_helpers import error_line
 from choreo.bus import servo_config
 from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
 from choreo.bus.servo_bus import AngleLimits, ServoBus, VinLimits
-from choreo.cli import main, servo_commands
+from choreo.cli import flag_of, main, servo_commands
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, SimSerial, connection
 from choreo.errors import BusError
@@ -259,8 +259,13 @@ def test_set_id_refuses_a_lone_broadcast_answer_when_the_scan_finds_a_shared_id(
 def test_set_id_refuses_a_second_servo_found_by_the_scan_listing_both():
     bus, emulator = make_bus(ids=(1, 7))
     emulator.servo(7).reply_faults = ReplyFaults(drop_next=1)  # so the broadcast finds only 1
-    with pytest.raises(BusError, match="exactly one servo on the bus, but IDs 1, 7 answer"):
+    with pytest.raises(BusError) as caught:
         servo_config.plan_id_change(bus, 5)
+    assert str(caught.value) == (
+        "setting an ID without its current one needs exactly one servo on the bus, but IDs 1, 7 "
+        "answer: connect only the servo to renumber, or give its current ID (current_id)"
+    )
+    assert caught.value.worded(flag_of).endswith("or give its current ID (--id)")
     assert sent(emulator, Command.ID_WRITE) == []
 
 

@@ -206,7 +206,7 @@ def test_a_speed_that_would_leave_the_song_behind_is_refused(dance, capsys):
     assert main(["play", str(dance), "--speed", "1.5", "--dry-run"]) == 2
     assert capsys.readouterr().err == (
         "choreo: error: --speed 1.5 would leave song.wav behind (the song plays at its own "
-        "tempo); keep speed 1 with a song\n"
+        "tempo); keep --speed 1 with a song\n"
     )
     assert main(["play", str(dance), "--speed", "0.5", "--dry-run", "--no-audio"]) == 0
     out = capsys.readouterr().out

@@ -150,8 +150,9 @@ def test_leaving_the_servo_range_is_an_error_not_a_clamp():
         PlanningError,
         match=r"j1 \(servo 2\) would need position -\d+ .*"
         r"outside the servo's 0..1000",
-    ):
+    ) as caught:
         segment(trajectory, robot)
+    assert len(caught.value.problems) == 1 and str(caught.value) == caught.value.problems[0]
 
 
 def test_a_tolerance_the_bus_cannot_reach_is_an_error_that_says_what_would_do():

@@ -230,11 +230,14 @@ class ServoBus:
                     attempts,
                 )
             garbled = self.backend.bad_checksums - bad_before
+        concerned_id = None if servo_id == BROADCAST_ID else servo_id
         if not echo_seen:  # DISCARD mode, and not one try saw its request come back
             raise ProtocolError(
                 f"{self.name}: expected the echo of the request, got "
                 f"{received.hex(' ') or 'nothing'}: is the bus really wired "
-                "one-wire? try echo mode 'none' or 'auto'"
+                "one-wire? try echo mode 'none' or 'auto'",
+                servo_id=concerned_id,
+                command=spec.command,
             )
         tries = (
             f"1 try of {timeout_s * 1000:.0f} ms"
@@ -246,19 +249,25 @@ class ServoBus:
             raise ProtocolError(
                 f"{replies} a broadcast {spec.command.name} failed the checksum ({tries}): "
                 "several servos answered at once (a broadcast read needs a single servo on the "
-                "bus), or the wiring is noisy"
+                "bus), or the wiring is noisy",
+                servo_id=concerned_id,
+                command=spec.command,
             )
         if garbled:
             raise ProtocolError(
                 f"servo {servo_id}: {replies} {spec.command.name} failed the checksum ({tries}): "
-                f"two servos may share ID {servo_id} (run `choreo scan`), or the wiring is noisy"
+                f"two servos may share ID {servo_id} (run `choreo scan`), or the wiring is noisy",
+                servo_id=concerned_id,
+                command=spec.command,
             )
         silent = (
             "no servo answered" if servo_id == BROADCAST_ID else f"servo {servo_id} did not answer"
         )
         raise BusTimeoutError(
             f"{silent} {spec.command.name} on {self.name} ({tries}): check power and wiring, "
-            "or run `choreo scan`"
+            "or run `choreo scan`",
+            servo_id=concerned_id,
+            command=spec.command,
         )
 
     def _require(self, command: Command) -> None:

@@ -309,10 +309,11 @@ def find_single_servo(bus: ServoBus, scan_ids: Iterable[int] = ALL_IDS) -> int:
         )
     if not (answering or scan.garbled):
         reasons.append("no ID answers the scan alone")
-    raise BusError(
-        "setting an ID without --id needs exactly one servo on the bus, but "
+    raise BusError.naming(
+        "current_id",
+        "setting an ID without its current one needs exactly one servo on the bus, but "
         f"{'; '.join(reasons)}: connect only the servo to renumber, or give its "
-        "current ID with --id"
+        "current ID ({option})",
     )
 
 
@@ -415,8 +416,10 @@ def move(bus: ServoBus, servo_id: int, pos_units: int, time_ms: int) -> None:
         )
     if bus.read_mode(servo_id).motor:
         raise BusError(
-            f"servo {servo_id} is in motor mode and ignores moves: run "
-            f"`choreo servo motor --id {servo_id} --stop` first"
+            f"servo {servo_id} is in motor mode and ignores moves: stop its motor first "
+            "(stop_motor)",
+            servo_id=servo_id,
+            command=Command.OR_MOTOR_MODE_READ,
         )
     bus.move(servo_id, pos_units, time_ms)
 

@@ -3,56 +3,54 @@
 Each command group lives in its own module with ``register(subparsers)``; a command's handler
 takes the parsed args and returns an exit code. Exit codes: 0 ok, 1 a ``ChoreoError`` (one clear
 line, no traceback), 2 usage (argparse's own, or a ``UsageError`` raised by a handler), 130 after
-Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C). Errors are turned into exit
-codes here and nowhere else.
+Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C), 70 for a bug (any other
+exception: one line saying so, the traceback in a file, or on stderr with -v). Errors are turned
+into exit codes here and nowhere else.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import importlib
 import logging
 import os
 import sys
+import tempfile
+import traceback
 from collections.abc import Sequence
+from types import ModuleType
 
 from choreo import __version__
-from choreo.cli import (
-    bus_commands,
-    emulate_commands,
-    interop_commands,
-    motion_commands,
-    music_commands,
-    plan_commands,
-    play_commands,
-    ports_commands,
-    preview_commands,
-    record_commands,
-    robot_commands,
-    servo_commands,
-    show_commands,
-    studio_commands,
-)
-from choreo.errors import ChoreoError, OptionError, UsageError
+from choreo.errors import BusError, ChoreoError, OptionError, UsageError
 
-COMMAND_GROUPS = (
-    bus_commands,
-    ports_commands,
-    emulate_commands,
-    robot_commands,
-    motion_commands,
-    plan_commands,
-    music_commands,
-    play_commands,
-    preview_commands,
-    servo_commands,
-    record_commands,
-    interop_commands,
-    show_commands,
-    studio_commands,
-)
+# Which module registers (and runs) each command. Only the module of the command being run is
+# imported, so that `choreo scan --help` does not pay for planning, MuJoCo or music; the whole
+# table is loaded for `choreo --help` or a command that is not in it (argparse then lists them).
+# tests/test_package.py checks that each module registers exactly the commands given here.
+COMMAND_MODULES = {
+    "scan": "bus_commands",
+    "ports": "ports_commands",
+    "emulate": "emulate_commands",
+    "robots": "robot_commands",
+    "validate": "motion_commands",
+    "plan": "plan_commands",
+    "beats": "music_commands",
+    "play": "play_commands",
+    "preview": "preview_commands",
+    "servo": "servo_commands",
+    "record": "record_commands",
+    "import": "interop_commands",
+    "export": "interop_commands",
+    "mirror": "interop_commands",
+    "perform": "show_commands",
+    "show": "show_commands",
+    "studio": "studio_commands",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or only of the one ``argv`` runs when it names one."""
     parser = argparse.ArgumentParser(
         prog="choreo",
         description="Author, plan, preview and play motions on Hiwonder/LewanSoul bus servos.",
@@ -60,14 +58,34 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for group in COMMAND_GROUPS:
+    for group in command_groups(argv):
         group.register(subparsers)
     return parser
 
 
+def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
+    """The command modules to register: the one of ``argv``'s command; all of them for the
+    help that lists them (``choreo --help``, an unknown command); none for ``--version``. The
+    global options take no value, so the command is the first word that is not an option."""
+    words = list(argv) if argv is not None else None
+    command = next((word for word in words or () if not word.startswith("-")), None)
+    if command in COMMAND_MODULES:
+        names = [COMMAND_MODULES[command]]
+    elif command is None and words is not None and "--version" in words:
+        names = []
+    else:
+        names = list(COMMAND_MODULES.values())
+    return [importlib.import_module(f"choreo.cli.{name}") for name in dict.fromkeys(names)]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    if argv is None:
+        argv = sys.argv[1:]
+    # mujoco sets up a default OpenGL context (GLFW, which runs a subprocess to find its library)
+    # on import; the commands that check a robot's model never draw, and the preview renders
+    # with its own back-end (choreo.preview.gl), so the command line skips that set-up.
+    os.environ.setdefault("MUJOCO_GL", "disable")
+    args = build_parser(argv).parse_args(argv)
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
         format="%(levelname)s %(name)s: %(message)s",
@@ -80,27 +98,82 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"choreo: error: {error}", file=sys.stderr)
         return 2
     except OptionError as error:  # a library argument: named as this command's flag
-        print(f"choreo: error: {flag_of(error.option)} {error.problem}", file=sys.stderr)
+        print(f"choreo: error: {error.worded(flag_of)}", file=sys.stderr)
         return 2
     except ChoreoError as error:
-        print(f"choreo: error: {error}", file=sys.stderr)
+        print(f"choreo: error: {error.worded(flag_of)}", file=sys.stderr)
+        hint = hint_for(error)
+        if hint:
+            print(f"choreo: hint: {hint}", file=sys.stderr)
         return 1
     except BrokenPipeError:
         # `choreo ... | head`: the reader has all it wanted. Quietly, and exit 1 as the Python
         # docs' note on SIGPIPE and rich's consoles do: the output was cut short.
         _silence_stdout()
         return 1
-    except OSError as error:  # a file that can't be written, a port that went away
-        print(f"choreo: error: {error}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("choreo: interrupted", file=sys.stderr)
         return 130
+    except OSError as error:
+        if error.errno in (None, errno.EBADF):  # not the OS refusing: choreo misused a file
+            return report_bug(error, args.verbose)
+        # a file that can't be read or written, a full disk, a device that went away
+        print(f"choreo: error: {error}", file=sys.stderr)
+        return 1
+    except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
+        return report_bug(error, args.verbose)
+
+
+EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error
+
+
+def report_bug(error: BaseException, verbose: int) -> int:
+    """A bug: one line that says so, the traceback on stderr with -v, else in a file."""
+    trace = "".join(traceback.format_exception(error))
+    where = "above"
+    if verbose:
+        print(trace, file=sys.stderr, end="")
+    else:
+        with tempfile.NamedTemporaryFile(
+            "w", prefix="choreo-bug-", suffix=".txt", delete=False
+        ) as file:
+            file.write(trace)
+        where = f"in {file.name}"
+    print(
+        f"choreo: internal error (a bug): {type(error).__name__}: {error}; please report it "
+        f"with the traceback ({where})",
+        file=sys.stderr,
+    )
+    return EXIT_INTERNAL_ERROR
+
+
+# Library arguments whose flag is not their name with dashes (see flag_of).
+FLAGS = {
+    "health_timeout_s": "--health-timeout-ms",
+    "link_path": "--pty",
+    "current_id": "--id",
+    "Recording.resume": "--resume",
+    "width/height": "--size",
+    "taught": "--joints",
+}
 
 
 def flag_of(option: str) -> str:
     """The command-line flag of a library argument: ``exit_pose`` is ``--exit-pose``."""
-    return "--" + option.replace("_", "-")
+    return FLAGS.get(option, "--" + option.replace("_", "-"))
+
+
+def hint_for(error: ChoreoError) -> str | None:
+    """What the command line offers for an error, where the library's words can't say it."""
+    from choreo.bus.protocol import Command  # on an error only: --version stays light
+
+    if (
+        isinstance(error, BusError)
+        and error.command is Command.OR_MOTOR_MODE_READ
+        and error.servo_id is not None
+    ):
+        return f"stop its motor with `choreo servo motor --id {error.servo_id} --stop`"
+    return None
 
 
 def _silence_stdout() -> None:

@@ -10,14 +10,17 @@ import signal
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
-from choreo.bus.servo_bus import ServoBus
+from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
 from choreo.bus.transports.direction import PRESETS, parse_direction
 from choreo.errors import UsageError
-from choreo.motion.motion_file import Motion, load_motion
-from choreo.motion.music_block import past_song
-from choreo.robot.types import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings, Robot
+
+if TYPE_CHECKING:
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.motion.motion_file import Motion
+    from choreo.robot.types import Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
 # Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
@@ -218,6 +221,8 @@ def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSet
 def open_bus(args: argparse.Namespace) -> ServoBus:
     """The bus the user asked for; without --port, the built-in emulator's servos 1-6 (and say
     so)."""
+    from choreo.bus.servo_bus import ServoBus  # when a command runs, not for its --help
+
     settings = bus_settings(args)
     port = settings.port
     if port is None:
@@ -244,6 +249,8 @@ def say_built_in_emulator(robot: Robot, doing: str) -> None:
 def load_dance(path: Path, allow_past_song: bool) -> Motion:
     """The motion, saying which detected beats ``beats: auto`` took and (allowed) that the dance
     outlasts its song."""
+    from choreo.motion.motion_file import load_motion  # the planner's world: not for bus commands
+
     motion = load_motion(path, allow_past_song)
     if motion.music is not None and motion.music.note:
         print(f"choreo: {motion.music.note}", file=sys.stderr)
@@ -253,6 +260,8 @@ def load_dance(path: Path, allow_past_song: bool) -> Motion:
 
 def check_past_song(motion: Motion, allowed: bool, what: str) -> None:
     """Refuse (UsageError) or, allowed, warn of a dance that outlasts its song."""
+    from choreo.motion.music_block import past_song
+
     problem = past_song(motion.music, motion.keyframes, motion.repeat)
     if problem is None:
         return

@@ -5,15 +5,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-from rich.table import Table
+from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID
-from choreo.bus.servo_bus import ScanResult, ServoBus
 from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.cli.arguments import add_port_arguments, id_ranges, open_bus
+
+if TYPE_CHECKING:
+    from choreo.bus.servo_bus import ScanResult, ServoBus
 
 
 def register(subparsers) -> None:
@@ -37,6 +36,10 @@ def register(subparsers) -> None:
 
 
 def run_scan(args: argparse.Namespace) -> int:
+    # rich is imported when the command runs: `choreo scan --help` starts without it.
+    from rich.console import Console
+    from rich.table import Table
+
     with open_bus(args) as bus:
         # --retries counts here as for every read: one damaged reply must not make a present
         # servo look like two servos sharing its ID.
@@ -85,6 +88,11 @@ def run_scan(args: argparse.Namespace) -> int:
 def scan_with_progress(bus: ServoBus, ids: tuple[int, ...]) -> ScanResult:
     """``bus.scan_presence`` one ID at a time, with a progress bar on stderr when it is a
     terminal: a full 0-253 scan waits out a timeout per absent ID, seconds in all."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from choreo.bus.servo_bus import ScanResult
+
     console = Console(stderr=True)
     found: list[int] = []
     garbled: list[int] = []

@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from choreo.bus.settings import MAX_TIMEOUT_MS
 from choreo.bus.transports import backend_module
 from choreo.cli.arguments import (
     add_planning_arguments,
@@ -40,7 +41,6 @@ from choreo.play.player import (
 from choreo.play.player import Progress as PlayProgress
 from choreo.play.report import report_document, write_report
 from choreo.play.soundtrack import AudioSink, SongCue, SoundDeviceSink
-from choreo.robot.types import MAX_TIMEOUT_MS
 
 MAX_AUDIO_LATENCY_MS = 2000.0  # Bluetooth speakers reach a few hundred ms; seconds is a mistake
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}

@@ -98,8 +98,6 @@ def run_record(args: argparse.Namespace) -> int:
     try:
         with stop_signals_as_ctrl_c():
             return _record(args, recording)
-    except ValueError as error:  # e.g. an unknown joint name
-        raise UsageError(str(error)) from error
     except (BusError, KeyboardInterrupt) as error:
         journal = journal_path(args.out)
         if not journal.exists() or not recording.captures:

@@ -49,7 +49,9 @@ def check_writable(path: Path, *, overwrite: bool = True) -> None:
     if not os.access(path.parent, os.W_OK | os.X_OK):
         raise ChoreoError(f"cannot write {path}: the folder {path.parent} is not writable")
     if not overwrite and path.exists():
-        raise ChoreoError(f"{path} exists: choose another file, or add --overwrite")
+        raise ChoreoError.naming(
+            "overwrite", f"{path} exists: choose another file, or allow replacing it ({{option}})"
+        )
 
 
 def write_text_atomically(path: Path, text: str) -> None:

@@ -8,6 +8,7 @@ caller raises one ``SourceError`` with everything at the end.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import re
@@ -96,6 +97,8 @@ def fmt(value: float) -> str:
     """A number for messages: ``90``, ``-12.5``, ``0.333333``."""
     return f"{value:g}"
 
+
+FLOAT_TAG = "tag:yaml.org,2002:float"
 
 # libyaml's parser (same marks, same safety) is several times faster where PyYAML has it.
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -215,6 +218,9 @@ class Reader:
         """The Python value of a scalar; the node itself for anything else (reported as such)."""
         if not isinstance(node, yaml.ScalarNode):
             return node
+        if node.tag == FLOAT_TAG:  # most of a motion file: Python reads these as PyYAML does
+            with contextlib.suppress(ValueError):  # .inf, .nan, 1__0.5, 190:20:30 (base 60)
+                return float(node.value)
         try:
             return self._constructor.construct_object(node)
         except yaml.constructor.ConstructorError:  # an unknown !tag
@@ -231,19 +237,21 @@ class Reader:
     ) -> float | None:
         """A finite number in [low, high] (``(low, high]`` with ``low_open``)."""
         value = self._scalar(node)
-        valid = _range_words(low, high, low_open)
         if (
             isinstance(value, bool)
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
+            valid = _range_words(low, high, low_open)
             self.report(
                 node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
             )
             return None
         below = low is not None and (value <= low if low_open else value < low)
         if below or (high is not None and value > high):
-            self.report(node, f"{what} must be{valid}, got {fmt(value)}")
+            self.report(
+                node, f"{what} must be{_range_words(low, high, low_open)}, got {fmt(value)}"
+            )
             return None
         return float(value)
 

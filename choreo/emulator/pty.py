@@ -43,8 +43,10 @@ class PtyBridge:
             try:
                 os.symlink(self.slave_name, self.link_path)
             except FileExistsError:
-                raise ChoreoError(
-                    f"{self.link_path} already exists; remove it or choose another --pty path"
+                raise ChoreoError.naming(
+                    "link_path",
+                    f"{self.link_path} already exists; remove it or choose another path "
+                    "({option})",
                 ) from None
             except OSError as error:
                 raise ChoreoError(f"cannot create {self.link_path}: {error.strerror}") from error

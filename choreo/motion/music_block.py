@@ -319,7 +319,7 @@ def check_speed(music: Music | None, speed: float | None) -> None:
         raise OptionError(
             "speed",
             f"{fmt(speed)} would leave {music.song.name} behind (the song plays at its own "
-            "tempo); keep speed 1 with a song",
+            "tempo); keep {option} 1 with a song",
         )
 
 

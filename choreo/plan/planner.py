@@ -432,7 +432,7 @@ class _Planner:
             arrive[i + 1] = leave + seg.duration_s
             i += 1
         if too_early:
-            raise PlanningError("\n".join(too_early[k] for k in sorted(too_early)))
+            raise PlanningError([too_early[k] for k in sorted(too_early)])
         stretches = [
             Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
         ]
@@ -660,7 +660,7 @@ def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
         if len(kf.targets_deg) != n
     ]
     if wrong_size:
-        raise PlanningError("\n".join(wrong_size))
+        raise PlanningError(wrong_size)
     targets = np.array([kf.targets_deg for kf in keyframes], dtype=float)
     outside = robot.outside_limits(targets)
     problems = [
@@ -669,4 +669,4 @@ def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
         for k, j in zip(*np.nonzero(outside))
     ]
     if problems:
-        raise PlanningError("\n".join(problems))
+        raise PlanningError(problems)

@@ -181,7 +181,7 @@ class _ServoPositions:
                 f"limits in {self.robot.path}"
             )
         if problems:
-            raise PlanningError("; ".join(problems))
+            raise PlanningError(problems)
 
 
 class _Search:

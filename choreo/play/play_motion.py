@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from choreo.bus.servo_bus import ServoBus
+from choreo.bus.settings import BusSettings
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.backend import connection as emulator_connection
@@ -41,7 +42,7 @@ from choreo.play.soundtrack import (
     play_with_song,
     song_for_output,
 )
-from choreo.robot.types import BusSettings, Robot
+from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 

@@ -260,7 +260,7 @@ def _inspect(bus: ServoBus, joint: Joint) -> tuple[int, ServoLimits, list[str]]:
     if mode is not None and mode.motor:
         problems.append(
             f"{who}: is in motor mode (turning at duty {mode.speed}), which MOVE_STOP "
-            f"cannot stop; stop it first: `choreo servo motor --id {sid} --stop`"
+            "cannot stop; stop its motor first (choreo.bus.servo_config.stop_motor)"
         )
     if (
         vin is not None
@@ -495,11 +495,12 @@ class Player:
             self._suspect = index
             log.info("health read of %s missed: %s", joint.name, error)
             if health.missed_reads >= self.options.max_missed_reads:
-                raise PlaybackAborted(
+                raise PlaybackAborted.naming(
+                    "health_timeout_s",
                     f"{joint.name} (ID {joint.servo_id}) stopped answering "
                     f"({health.missed_reads} reads in a row timed out or came "
                     "back garbled); check its cable, or allow a slow USB "
-                    "adapter more time with --health-timeout-ms"
+                    "adapter more time ({option})",
                 ) from None
             return True
         health.missed_reads = 0
@@ -524,14 +525,20 @@ class Player:
             if limits.max_temp_c is not None and (
                 value >= limits.max_temp_c - self.options.temp_margin_c
             ):
-                raise ServoFault(f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C")
+                raise ServoFault(
+                    f"{who} is at {value} °C, near its limit {limits.max_temp_c} °C",
+                    servo_id=joint.servo_id,
+                    command=Command.TEMP_READ,
+                )
         elif reading is Reading.VIN:
             health.record("vin_mv", value)
             low, high = limits.min_vin_mv, limits.max_vin_mv
             if low is not None and high is not None and not low <= value <= high:
                 raise ServoFault(
                     f"{who} supply is {value} mV, outside "
-                    f"{limits.min_vin_mv}..{limits.max_vin_mv} mV"
+                    f"{limits.min_vin_mv}..{limits.max_vin_mv} mV",
+                    servo_id=joint.servo_id,
+                    command=Command.VIN_READ,
                 )
         else:
             error_deg = abs(joint.to_deg(value) - joint.to_deg(expected_units))

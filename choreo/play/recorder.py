@@ -40,7 +40,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.core.atomic import fsync_directory, write_text_atomically
 from choreo.core.clock import Clock
 from choreo.core.yaml_source import SourceLocation, did_you_mean
-from choreo.errors import BusError, ChoreoError, UnsupportedByTransport
+from choreo.errors import BusError, ChoreoError, OptionError, UnsupportedByTransport
 from choreo.motion.motion_file import Keyframe
 from choreo.motion.writer import motion_text, robot_reference
 from choreo.robot.robot_file import load_robot
@@ -246,12 +246,16 @@ class Recording:
         path = journal_path(motion_path)
         if path.exists():
             count = len(read_journal(path).captures)
-            raise ChoreoError(
-                f"{path} holds {count} capture(s) of an unfinished recording: add "
-                "--resume to continue it, or delete it to start over"
+            raise ChoreoError.naming(
+                "Recording.resume",
+                f"{path} holds {count} capture(s) of an unfinished recording: continue it "
+                "({option}), or delete it to start over",
             )
         if motion_path.exists() and not overwrite:
-            raise ChoreoError(f"{motion_path} exists: choose another file, or add --overwrite")
+            raise ChoreoError.naming(
+                "overwrite",
+                f"{motion_path} exists: choose another file, or allow replacing it ({{option}})",
+            )
         return cls(motion_path, robot, Journal.create(path, robot))
 
     @classmethod
@@ -354,20 +358,23 @@ def _line_reader(source: LineSource) -> Callable[[], str | None]:
 
 
 def taught_joints(robot: Robot, names: Iterable[str] | None) -> tuple[Joint, ...]:
-    """The joints named (all if None), in robot order; ``ValueError`` naming an unknown one."""
+    """The joints named (all if None), in robot order; ``OptionError`` (``taught``) naming an
+    unknown one."""
     if names is None:
         return robot.joints
     wanted = set(names)
     for name in wanted:
         if name not in robot.joint_names:
-            raise ValueError(
-                f"unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
-                f"{robot.name}'s joints are {', '.join(robot.joint_names)}"
+            raise OptionError(
+                "taught",
+                f"names an unknown joint {name!r}{did_you_mean(name, robot.joint_names)}; "
+                f"{robot.name}'s joints are {', '.join(robot.joint_names)}",
             )
     if not wanted:
-        raise ValueError(
-            f"name at least one joint to teach; {robot.name}'s joints are "
-            f"{', '.join(robot.joint_names)}"
+        raise OptionError(
+            "taught",
+            f"names no joint: name at least one; {robot.name}'s joints are "
+            f"{', '.join(robot.joint_names)}",
         )
     return tuple(j for j in robot.joints if j.name in wanted)
 
@@ -447,10 +454,10 @@ class Recorder:
         if spinning:
             raise BusError(
                 "in motor mode: "
-                + ", ".join(
-                    f"{j.name} (stop it with `choreo servo motor --id {j.servo_id} --stop`)"
-                    for j in spinning
-                )
+                + ", ".join(f"{j.name} (servo {j.servo_id})" for j in spinning)
+                + ": stop their motors first (choreo.bus.servo_config.stop_motor)",
+                servo_id=spinning[0].servo_id if len(spinning) == 1 else None,
+                command=Command.OR_MOTOR_MODE_READ,
             )
 
     def _hold_taught(self, *, quietly: bool) -> None:

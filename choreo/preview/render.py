@@ -286,9 +286,10 @@ class FrameRenderer:
             self._context = mujoco.MjrContext(model, font)
         except mujoco.FatalError as error:  # e.g. a frame larger than the GL allows
             self._gl.free()
-            raise PreviewError(
+            raise PreviewError.naming(
+                "width/height",
                 f"cannot render {width}x{height} frames with {backend}: {error}; "
-                "try a smaller --size"
+                "try a smaller {option}",
             ) from None
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))

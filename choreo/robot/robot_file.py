@@ -17,6 +17,7 @@ from choreo.bus.servo_models import (
     ZERO_OK_ACTUATOR_FIELDS,
     ServoModel,
 )
+from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
 from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import (
     Entry,
@@ -32,9 +33,6 @@ from choreo.errors import SourceError
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
 from choreo.robot.types import (
-    MAX_RETRIES,
-    MAX_TIMEOUT_MS,
-    BusSettings,
     Joint,
     JointLimits,
     MirrorPair,

@@ -17,6 +17,7 @@ from typing import TypeVar
 import numpy as np
 
 from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG
+from choreo.bus.settings import BusSettings
 from choreo.core.yaml_source import fmt
 
 # A float, or a numpy array of them: the conversions and the limit check take either.
@@ -104,22 +105,6 @@ class MirrorPair:
     left: str
     right: str
     sign: int  # right = sign * left (and left = sign * right)
-
-
-# The ranges the command line and the robot file's ``bus:`` section both accept. A servo answers
-# within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a slow one.
-MAX_RETRIES = 9
-MAX_TIMEOUT_MS = 5000.0
-
-
-@dataclass(frozen=True)
-class BusSettings:
-    port: str | None = None  # None: the built-in emulated bus
-    timeout_s: float = 0.05
-    retries: int = 2
-    echo: str = "auto"  # none | discard | auto
-    supply_v: float | None = None  # servo supply voltage (preview); None: each model's rated one
-    direction: str | None = None  # GPIO direction lines of a Pi/Jetson UART: preset or rx=N,tx=N
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ BACKENDS = {
 RAW_BACKEND = "choreo.bus.transports.raw"
 INSTEAD_RAW = (
     "connect the servos to the raw LX bus instead (a BusLinker-style USB adapter, or a Pi UART "
-    "with --direction)"
+    "with its GPIO direction lines, {option})"
 )
 
 
@@ -65,9 +65,11 @@ class Capabilities:
         return Command(command) in self.commands
 
     def refuse(self, command: Command, port_name: str) -> UnsupportedByTransport:
-        return UnsupportedByTransport(
+        return UnsupportedByTransport.naming(
+            "direction",
             f"{port_name}: the {self.transport} cannot send {Command(command).name} to a servo; "
-            f"{INSTEAD_RAW}"
+            + INSTEAD_RAW,
+            command=Command(command),
         )
 
     def start_skew_s(self, servos: int) -> float:

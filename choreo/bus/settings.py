@@ -1,0 +1,23 @@
+"""How to talk to a robot's bus: port, timeout, retries, echo, direction lines (a robot file's
+``bus:`` section, under the command line's options), and the ranges both accept. Light on
+purpose: the bus-only commands read these defaults for their ``--help`` without numpy or a robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# The ranges the command line and the robot file's ``bus:`` section both accept. A servo answers
+# within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a slow one.
+MAX_RETRIES = 9
+MAX_TIMEOUT_MS = 5000.0
+
+
+@dataclass(frozen=True)
+class BusSettings:
+    port: str | None = None  # None: the built-in emulated bus
+    timeout_s: float = 0.05
+    retries: int = 2
+    echo: str = "auto"  # none | discard | auto
+    supply_v: float | None = None  # servo supply voltage (preview); None: each model's rated one
+    direction: str | None = None  # GPIO direction lines of a Pi/Jetson UART: preset or rx=N,tx=N
