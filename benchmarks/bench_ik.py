@@ -59,6 +59,33 @@ def bench_arm(n: int) -> None:
     report("arm6 tool (position + pitch), random targets", times, failed)
 
 
+def bench_small_moves(n: int) -> None:
+    """Small tool moves (5-10 mm, pitch kept) from random reachable poses: a small move in space
+    should stay a small move in joints (the solution nearest the seed)."""
+    robot = load_robot(MODELS / "arm6" / "robot.yaml")
+    kin = Kinematics(robot)
+    rng = np.random.default_rng(3)
+    times, jumps, failed, worst = [], 0, 0, 0.0
+    while len(times) < n:
+        seed = rng.uniform(kin.lower_deg, kin.upper_deg)
+        start = kin.site_pose("tool", seed)
+        if start.position_mm[2] < 20:
+            continue
+        direction = rng.normal(size=3)
+        move = direction / np.linalg.norm(direction) * rng.uniform(5, 10)
+        goal = [SiteGoal("tool", tuple(start.position_mm + move), start.pitch_deg)]
+        t0 = time.perf_counter()
+        solution = kin.solve(goal, seed)
+        times.append((time.perf_counter() - t0) * 1000)
+        failed += not solution.ok
+        if solution.ok:
+            jump = float(np.abs(solution.angles_deg - seed).max())
+            worst = max(worst, jump)
+            jumps += jump > 30
+    report("arm6 tool moved 5-10 mm", times, failed)
+    print(f"  reached with a joint moving over 30°: {jumps} of {n - failed} (largest {worst:.0f}°)")
+
+
 def bench_body(n: int) -> None:
     robot = load_robot(MODELS / "hexapod18" / "robot.yaml")
     kin = Kinematics(robot)
@@ -99,6 +126,7 @@ def main() -> None:
     parser.add_argument("--targets", type=int, default=300)
     args = parser.parse_args()
     bench_arm(args.targets)
+    bench_small_moves(args.targets)
     bench_body(args.targets)
     bench_gait()
 

@@ -166,6 +166,10 @@ def test_an_unknown_name_is_an_attribute_error():
 TESTED_IN = {
     "bus/transports/jetson.py": ("test_direction.py",),
     "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
+    "preview/props.py": ("test_preview_props.py",),
+    "preview/reach.py": ("test_preview_reach.py",),
+    "preview/stance.py": ("test_preview_judging.py",),
+    "preview/walk.py": ("test_preview_gaits.py",),
     "cli/show_commands.py": ("test_show_cli.py",),
     "cli/studio_commands.py": ("test_studio.py", "test_studio_browser.py"),
     "music/report.py": ("test_beats.py", "test_music.py"),

@@ -88,6 +88,21 @@ def test_frames_show_the_bar_and_beat(dance):
     assert "bar" not in names
 
 
+def test_before_the_first_beat_frames_count_in(dance):
+    """Settling and the approach come before beat 1 (the beats are not clamped to "1 / 1"):
+    the overlay counts the beats still to come, at the first beats' interval."""
+    motion = load_motion(dance)
+    rollout = simulate_motion(motion)
+    grid = motion.music.grid
+    first, interval = grid.beat_times_s[0], grid.beat_times_s[1] - grid.beat_times_s[0]
+    names, values = status_text(rollout, first - 2.5 * interval, grid)
+    assert names.splitlines()[-1] == "count-in" and values.splitlines()[-1] == "3"
+    _, values = status_text(rollout, first - 0.5 * interval, grid)
+    assert values.splitlines()[-1] == "1"
+    names, values = status_text(rollout, rollout.start_s, grid)
+    assert names.splitlines()[-1] == "count-in" and int(values.splitlines()[-1]) >= 1
+
+
 def test_a_contact_sheet_marks_each_frames_beat(dance, tmp_path):
     motion = load_motion(dance)
     rollout = simulate_motion(motion)

@@ -45,7 +45,8 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     """The keys as docs/motion-format.md lists them: own keys first, then the shared timing."""
     assert motion.MOTION == mapping_shape("motion")
     assert motion.MOTION.keys == (
-        "name", "description", "robot", "speed", "repeat", "start", "props", "music", "keyframes",
+        "name", "description", "robot", "speed", "repeat", "start", "end", "props", "music",
+        "keyframes",
     )  # fmt: skip
     assert motion.MOTION.required == ("robot", "keyframes")
     assert motion.KEYFRAME == Shape(

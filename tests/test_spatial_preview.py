@@ -13,7 +13,15 @@ import pytest
 
 from choreo.cli import main
 from choreo.motion.motion_file import load_motion
-from choreo.preview import Severity, SimSettings, body_travel, run_checks, simulate_motion
+from choreo.preview import (
+    Severity,
+    SimSettings,
+    body_travel,
+    prop_outcomes,
+    run_checks,
+    simulate_motion,
+)
+from choreo.preview.model import load_model
 
 REPO = Path(__file__).resolve().parents[1]
 HEXAPOD = REPO / "motions" / "hexapod18"
@@ -23,7 +31,7 @@ DATA = Path(__file__).parent / "data" / "spatial"
 def site_path_mm(rollout, motion, site: str, every: int = 5) -> np.ndarray:
     """(samples, 3) world positions of a site along the rollout from its start (after
     settling), by MuJoCo kinematics."""
-    model = mujoco.MjModel.from_xml_path(str(motion.robot.scene_path))
+    model = load_model(motion.robot, motion.props)
     data = mujoco.MjData(model)
     site_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
     points = []
@@ -93,19 +101,26 @@ def test_body_poses_keep_every_foot_where_it_was_planted(path):
         assert np.linalg.norm(feet - feet[0], axis=1).max() <= 5.0, foot
 
 
-def test_pick_and_place_reaches_the_block_and_lifts_straight_up():
+def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_target():
     motion = load_motion(REPO / "motions" / "arm6" / "pick_and_place.yaml")
     rollout = simulate_motion(motion)
-    assert run_checks(rollout) == []  # no collision, nothing else either
+    assert run_checks(rollout) == []  # no collision, the block neither dropped nor misplaced
     tool = site_path_mm(rollout, motion, "tool", every=1)
     times = rollout.since_start().times_s
     at = rollout.keyframe_times_s
     block = np.array([102.8, 122.6])
-    # on the block: keyframe 3, the tool 4 cm over the table. The arm sags under its own weight
-    # (about 6 mm with the servo model's dead band and backlash, 3 mm without): well inside the
-    # 15 mm from the block's centre to its side, so the fingers still close round it.
+    # round the block: keyframe 3, the tool 2 cm over the table. The arm sags under its own
+    # weight (about 6 mm with the servo model's dead band and backlash, 3 mm without): well
+    # inside the 15 mm from the block's centre to its side, so the fingers close round it.
     grasp = tool[np.searchsorted(times, at[3] + 0.3)]
-    assert np.linalg.norm(grasp[:2] - block) <= 8 and abs(grasp[2] - 40) <= 8
+    assert np.linalg.norm(grasp[:2] - block) <= 8 and abs(grasp[2] - 20) <= 8
+    (outcome,) = prop_outcomes(rollout)
+    # carried: lifted with the tool (from 20 to 90 mm less the sag) and set down 245 mm away
+    # (2 x 122.6 mm across), within the 10 mm place tolerance of its target
+    assert outcome.lifted_m * 1000 >= 55
+    assert outcome.displacement_m * 1000 == pytest.approx(245.2, abs=10)
+    assert outcome.placed and outcome.place_error_m * 1000 <= 10
+    assert outcome.dropped_at_s is None and not outcome.knocked_over
     # lifting (after the gripper's hold, keyframes 5 and 6): straight up, at most 5 mm aside
     lift = tool[(times >= at[4] + 0.3) & (times <= at[6])]
     assert lift[-1, 2] - lift[0, 2] >= 40

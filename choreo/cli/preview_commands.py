@@ -217,6 +217,13 @@ def run_preview(args: argparse.Namespace) -> int:
     travel = preview.body_travel(rollout)
     if travel is not None:
         print(f"{args.motion}: {describe_travel(travel)}")
+    for outcome in preview.prop_outcomes(rollout):
+        print(f"{args.motion}: {outcome.line()}")
+    for gait in preview.gait_outcomes(rollout):
+        print(f"{args.motion}: {gait.line()}")
+    reach = preview.reach_line(rollout)
+    if reach is not None:
+        print(f"{args.motion}: {reach}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
     print(f"{args.motion}: {preview.busiest_line(rollout, thresholds.near_miss_fraction)}")
     print(

@@ -7,8 +7,10 @@ by IK.
 A gait of ``steps`` steps moves the body by ``stride`` mm forward, ``sideways`` mm to the left
 and turns it ``turn_deg`` counter-clockwise (seen from above) per step; in one step every leg
 swings once, the legs of one group of the pattern at a time. The body moves steadily; each
-swing lands its foot where that foot stands at home under the body's pose at the end of the
-step, so after the last step the robot stands as it started, ``steps`` strides further on.
+swing lands its foot where that foot stands at home under the body's pose halfway through the
+stance that follows (so every foot works as far ahead of its neutral spot as behind it), the
+last ones under the gait's end pose, so after the last step the robot stands as it started,
+``steps`` strides further on.
 """
 
 from __future__ import annotations
@@ -93,12 +95,13 @@ def gait_keyframes(stance_mm: np.ndarray, gait: Gait) -> list[GaitKeyframe]:
     body = np.zeros(3)  # x mm, y mm, heading rad on the floor
     footholds = stance_mm.copy()  # floor frame (the body's start)
     keyframes = []
+    last_phase = gait.steps * len(groups)
     for step in range(1, gait.steps + 1):
-        landing_body = body.copy()
-        for _ in groups:
-            landing_body = _compose(landing_body, per_phase)
-        landing = _to_floor(landing_body, stance_mm)
-        for group in groups:
+        for index, group in enumerate(groups):
+            landing = _to_floor(
+                _body_after(per_phase, _mid_stance_phase(step, index, len(groups), last_phase)),
+                stance_mm,
+            )
             for fraction in SWING_SAMPLES:
                 now = _compose(body, per_phase * fraction)
                 feet = footholds.copy()
@@ -111,6 +114,24 @@ def gait_keyframes(stance_mm: np.ndarray, gait: Gait) -> list[GaitKeyframe]:
                 footholds[leg] = landing[leg]
             body = _compose(body, per_phase)
     return keyframes
+
+
+def _mid_stance_phase(step: int, group: int, groups: int, last_phase: int) -> float:
+    """Where (in group phases from the gait's start) the body is halfway through the stance
+    that follows this swing: the swing lands ``group``'s feet under that pose, so each foot
+    works as far ahead of its neutral spot as behind it, whichever group it is in. The last
+    stance ends with the gait, where every foot must stand at its neutral spot."""
+    landed = (step - 1) * groups + group + 1  # the phase its swing ends
+    lifts_again = landed + groups - 1  # its next swing starts then
+    return last_phase if lifts_again >= last_phase else (landed + lifts_again) / 2
+
+
+def _body_after(per_phase: np.ndarray, phases: float) -> np.ndarray:
+    """The body's floor pose after ``phases`` (fractional) group phases from the start."""
+    body = np.zeros(3)
+    for _ in range(int(phases)):
+        body = _compose(body, per_phase)
+    return _compose(body, per_phase * (phases - int(phases)))
 
 
 def _compose(pose: np.ndarray, move: np.ndarray) -> np.ndarray:

@@ -28,7 +28,16 @@ from choreo.core.yaml_source import (
 from choreo.errors import SourceError
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
-from choreo.motion.spatial import Spatial, expand_spatial, has_key, read_body, read_gait, read_sites
+from choreo.motion.spatial import (
+    GaitEnd,
+    SiteTarget,
+    Spatial,
+    expand_spatial,
+    has_key,
+    read_body,
+    read_gait,
+    read_sites,
+)
 from choreo.motion.timing import backward_times, known_arrivals_s, played_keyframes
 from choreo.robot.lookup import find_robot_file
 from choreo.robot.robot_file import load_robot, read_angles
@@ -46,6 +55,8 @@ class Keyframe:
     velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
     label: str = ""  # pose name, or "" for an inline pose
     beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
+    sites: tuple[SiteTarget, ...] = ()  # written as sites: (solved into targets_deg by IK)
+    gait_end: GaitEnd | None = None  # the last keyframe of a gait: block
 
 
 @dataclass(frozen=True)
@@ -60,6 +71,7 @@ class Motion:
         1  # times to play; the planner wraps seamlessly from the last keyframe to the first
     )
     start: StartPosture = StartPosture.STANDING  # how the robot rests before it (preview)
+    end: StartPosture = StartPosture.STANDING  # how it leaves the robot: lying is no fall
     props: tuple[Prop, ...] = ()  # boxes around the robot (preview)
     music: Music | None = None  # the song it dances to (keyframe times are already in seconds)
 
@@ -107,6 +119,8 @@ class _Step:
     t_where: SourceLocation | None  # where its t was written, while it still has one
     space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
     beat: BeatRef | None = None  # its t was written as a beat or bar
+    sites: tuple[SiteTarget, ...] = ()  # the sites: it was written with, once solved
+    gait_end: GaitEnd | None = None  # it ends a gait: block
 
 
 @dataclass(frozen=True)
@@ -152,6 +166,9 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
     start = (
         read_start(reader, fields["start"].value) if "start" in fields else StartPosture.STANDING
     )
+    end = (
+        read_start(reader, fields["end"].value, "end") if "end" in fields else StartPosture.STANDING
+    )
     props = read_props(reader, fields["props"].value) if "props" in fields else ()
     music = read_music(reader, fields["music"]) if "music" in fields else None
     if music is not None and speed not in (None, 1.0):
@@ -170,6 +187,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         or speed is None
         or repeat is None
         or start is None
+        or end is None
         or props is None
         or reader.problems
     ):
@@ -199,6 +217,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         speed=speed,
         repeat=repeat,
         start=start,
+        end=end,
         props=props,
         music=music,
     )
@@ -453,7 +472,7 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
     for key in ("name", "description"):
         if key in fields:
             reader.string(fields[key].value, key)
-    for key in ("speed", "repeat", "start", "props"):
+    for key in ("speed", "repeat", "start", "end", "props"):
         if key in fields:
             reader.report(
                 fields[key].key_node,
@@ -575,6 +594,8 @@ def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
                 velocity_scale=step.velocity_scale,
                 label=step.label,
                 beat=step.beat,
+                sites=step.sites,
+                gait_end=step.gait_end,
             )
         )
     return tuple(keyframes)

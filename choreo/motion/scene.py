@@ -36,22 +36,35 @@ class StartPosture(str, Enum):
         return {StartPosture.LYING_FRONT: 90.0, StartPosture.LYING_BACK: -90.0}.get(self, 0.0)
 
 
-PROP_KEYS = ("name", "size_m", "at_m", "yaw_deg")
+PROP_KEYS = ("name", "size_m", "at_m", "yaw_deg", "mass_kg", "friction", "place_at_m")
 
 
 @dataclass(frozen=True)
 class Prop:
     """A box standing in the world: ``at_m`` is the centre of its bottom face (z = 0 on the
-    floor), ``size_m`` its full length, width and height, ``yaw_deg`` its turn about z."""
+    floor), ``size_m`` its full length, width and height, ``yaw_deg`` its turn about z.
+
+    Without ``mass_kg`` it is fixed scenery; with it, a free body that falls, can be pushed,
+    gripped and carried (``friction``: its sliding friction coefficient, MuJoCo's 1 by default).
+    ``place_at_m``: where the motion is meant to leave a free prop (its bottom face's centre),
+    which the preview checks."""
 
     name: str
     size_m: tuple[float, float, float]
     at_m: tuple[float, float, float]
     yaw_deg: float = 0.0
+    mass_kg: float | None = None
+    friction: float | None = None
+    place_at_m: tuple[float, float, float] | None = None
+
+    @property
+    def free(self) -> bool:
+        return self.mass_kg is not None
 
 
-def read_start(reader: Reader, node: Node) -> StartPosture | None:
-    value = reader.choice(node, "start", [p.value for p in StartPosture])
+def read_start(reader: Reader, node: Node, key: str = "start") -> StartPosture | None:
+    """``start:`` (or ``end:``): a posture name."""
+    value = reader.choice(node, key, [p.value for p in StartPosture])
     return None if value is None else StartPosture(value)
 
 
@@ -84,7 +97,31 @@ def _read_prop(reader: Reader, node: Node, what: str) -> Prop | None:
     yaw = reader.number(fields["yaw_deg"].value, f"{what}: yaw_deg") if "yaw_deg" in fields else 0.0
     if name is None or size is None or at is None or yaw is None:
         return None
-    return Prop(name, size, at, yaw)
+    free = _read_free(reader, fields, what)
+    return None if free is None else Prop(name, size, at, yaw, *free)
+
+
+def _read_free(
+    reader: Reader, fields: dict, what: str
+) -> tuple[float | None, float | None, tuple[float, float, float] | None] | None:
+    """A free prop's ``mass_kg``, ``friction`` and ``place_at_m`` (all None for a fixed prop),
+    or None when one is wrong (reported)."""
+    values: dict[str, object] = {}
+    for key in ("mass_kg", "friction", "place_at_m"):
+        if key not in fields:
+            values[key] = None
+            continue
+        node = fields[key].value
+        if key != "mass_kg" and "mass_kg" not in fields:
+            reader.report(node, f"{what}: {key} needs mass_kg (a prop without it stays fixed)")
+            return None
+        if key == "place_at_m":
+            values[key] = _vector(reader, node, f"{what}: {key}", positive=False)
+        else:
+            values[key] = reader.number(node, f"{what}: {key}", low=0, low_open=True)
+        if values[key] is None:
+            return None
+    return values["mass_kg"], values["friction"], values["place_at_m"]  # type: ignore[return-value]
 
 
 def _vector(

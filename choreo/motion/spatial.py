@@ -58,6 +58,16 @@ class GaitSpec:
     gait: Gait
 
 
+@dataclass(frozen=True)
+class GaitEnd:
+    """Marks the last keyframe of a ``gait:`` block: the gait and its number of keyframes (the
+    preview compares the walk it asked for with the walk it got)."""
+
+    gait: Gait
+    keyframes: int
+    where: SourceLocation  # the gait: line
+
+
 Spatial = SitesSpec | BodySpec | GaitSpec
 
 
@@ -220,6 +230,7 @@ class _Expander:
             return [step]
         if isinstance(space, SitesSpec):
             self.stance = solved.copy()
+            return [self._joint_step(step, solved, sites=space.targets)]
         return [self._joint_step(step, solved)]
 
     def _joint_step(self, step: StepT, angles_deg: np.ndarray, **changes: Any) -> StepT:
@@ -348,7 +359,12 @@ class _Expander:
             if angles is None:
                 return [step]
             last = index == len(frames) - 1
-            out.append(self._joint_step(step, angles, after_s=gait.keyframe_s, t_s=None, stop=last))
+            end = GaitEnd(gait, len(frames), step.where) if last else None
+            out.append(
+                self._joint_step(
+                    step, angles, after_s=gait.keyframe_s, t_s=None, stop=last, gait_end=end
+                )
+            )
         self.stance = self.current.copy()  # the feet are planted anew
         return out
 

@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from itertools import chain
 from typing import NamedTuple
 
@@ -432,7 +433,7 @@ class _Planner:
             arrive[i + 1] = leave + seg.duration_s
             i += 1
         if too_early:
-            raise PlanningError([too_early[k] for k in sorted(too_early)])
+            raise _TooEarly(too_early)
         stretches = [
             Stretch(self.played[k].keyframe.where, float(shift[k])) for k in np.flatnonzero(shift)
         ]
@@ -556,6 +557,86 @@ def _integrate(
     return knots, poly
 
 
+class _TooEarly(PlanningError):
+    """Keyframes the limits cannot reach in time: played index -> its message."""
+
+    def __init__(self, messages: dict[int, str]):
+        super().__init__("\n".join(messages[k] for k in sorted(messages)))
+        self.messages = messages
+
+
+def _gait_blocks(keyframes: Sequence[Keyframe]) -> list[range]:
+    """The keyframe indices of each ``gait:`` block."""
+    return [
+        range(i + 1 - k.gait_end.keyframes, i + 1)
+        for i, k in enumerate(keyframes)
+        if k.gait_end is not None
+    ]
+
+
+def _too_early_text(motion: Motion, speed: float, messages: dict[int, str]) -> list[str]:
+    """The planner's messages, those of a ``gait:`` block's keyframes (``after >=`` advice a
+    gait cannot take) replaced by one line at its ``gait:`` line naming the shortest period
+    that the limits allow."""
+    n = len(motion.keyframes)
+    blocks = [b for b in _gait_blocks(motion.keyframes) if any(i % n in b for i in messages)]
+    lines = [m for i, m in sorted(messages.items()) if not any(i % n in b for b in blocks)]
+    for block in blocks:
+        end = motion.keyframes[block[-1]].gait_end
+        assert end is not None  # _gait_blocks made sure
+        shortest = _shortest_period_s(motion, speed, block)
+        gait = end.gait
+        lines.append(
+            f"{end.where}: gait: a step every {gait.period_s:g} s is faster than the joints' "
+            f"velocity, acceleration and jerk limits allow: the shortest period that works is "
+            + (
+                f"{shortest:g} s; give period: {shortest:g} (or more), or a shorter stride or lift"
+                if shortest is not None
+                else f"more than {MAX_GAIT_SCALE * gait.period_s:g} s; shorten the stride or lift"
+            )
+        )
+    return lines
+
+
+MAX_GAIT_SCALE = 8.0  # a gait's period is searched up to this many times the one given
+GAIT_PERIOD_STEP_S = 0.1  # the shortest period is given rounded up to this
+
+
+def _shortest_period_s(motion: Motion, speed: float, block: range) -> float | None:
+    """The shortest period (a multiple of ``GAIT_PERIOD_STEP_S``) at which the gait's keyframes
+    all fit the limits: the gait's times scaled and planned again, by bisection."""
+    end = motion.keyframes[block[-1]].gait_end
+    assert end is not None
+    period = end.gait.period_s
+
+    def fits(candidate_s: float) -> bool:
+        scale = candidate_s / period
+        keyframes = list(motion.keyframes)
+        for i in block:
+            keyframes[i] = replace(keyframes[i], after_s=(keyframes[i].after_s or 0.0) * scale)
+        played = played_keyframes(keyframes, repeat=motion.repeat, speed=speed)
+        try:
+            _Planner(motion.robot, played, False).plan()
+        except _TooEarly as error:
+            n = len(keyframes)
+            return not any(i % n in block for i in error.messages)
+        return True
+
+    low, high = (
+        math.floor(period / GAIT_PERIOD_STEP_S),
+        math.ceil(MAX_GAIT_SCALE * period / GAIT_PERIOD_STEP_S),
+    )
+    if not fits(high * GAIT_PERIOD_STEP_S):
+        return None
+    while high - low > 1:  # fits(high), and low does not (the period given failed)
+        middle = (low + high) // 2
+        if fits(middle * GAIT_PERIOD_STEP_S):
+            high = middle
+        else:
+            low = middle
+    return round(high * GAIT_PERIOD_STEP_S, 6)
+
+
 # --- public entry points -----------------------------------------------------------------------
 def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False) -> PlanResult:
     """The trajectory of a whole motion (``repeat`` unrolled, times divided by the speed).
@@ -582,7 +663,10 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
         repetition_at=repetition_clock(motion.music, motion.keyframes),
     )
     planner = _Planner(robot, played, stretch)
-    segments, arrive, stretches = planner.plan()
+    try:
+        segments, arrive, stretches = planner.plan()
+    except _TooEarly as error:
+        raise PlanningError(_too_early_text(motion, speed, error.messages)) from None
     trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
     for s in stretches:
         log.info("%s: stretched by %.3f s to fit the limits", s.where, s.shift_s)

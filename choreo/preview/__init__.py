@@ -11,8 +11,11 @@ that imports ``mujoco``.
 
 from __future__ import annotations
 
+import dataclasses
+
 from choreo.motion.motion_file import HOME_POSE, Motion
 from choreo.motion.scene import StartPosture
+from choreo.motion.timing import played_keyframes
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.preview.actuator import ActuatorParams, actuator_params
@@ -22,6 +25,17 @@ from choreo.preview.checks import (
     CheckThresholds,
     Severity,
     run_checks,
+)
+from choreo.preview.model import load_model
+from choreo.preview.props import PropOutcome, prop_outcomes
+from choreo.preview.reach import (
+    REACH_ERROR_MM,
+    REACH_WARNING_MM,
+    JointJump,
+    SiteReach,
+    SitesDue,
+    joint_jumps,
+    site_reach,
 )
 from choreo.preview.render import (
     RenderResult,
@@ -35,11 +49,15 @@ from choreo.preview.report import (
     busiest_line,
     joint_summaries,
     preview_report,
+    reach_line,
     start_lines,
 )
 from choreo.preview.sim import MoveStart, Rollout, Settling, SimSettings, simulate
+from choreo.preview.stance import foot_heights, planned_stance
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
+from choreo.preview.walk import GaitDue, GaitOutcome, gait_outcomes
+from choreo.robot.kinematics import Kinematics
 
 FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
 
@@ -49,21 +67,30 @@ __all__ = [
     "CheckKind",
     "CheckResult",
     "CheckThresholds",
+    "GaitOutcome",
+    "JointJump",
     "JointSummary",
     "MoveStart",
+    "PropOutcome",
+    "REACH_ERROR_MM",
+    "REACH_WARNING_MM",
     "RenderResult",
     "RenderSettings",
     "Rollout",
     "Severity",
     "Settling",
     "SimSettings",
+    "SiteReach",
     "actuator_params",
     "busiest_line",
     "body_travel",
     "frame_times",
+    "gait_outcomes",
     "has_display",
     "joint_summaries",
     "preview_report",
+    "prop_outcomes",
+    "reach_line",
     "render_frames",
     "render_preview",
     "run_checks",
@@ -95,7 +122,7 @@ def simulate_motion(
     compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
     start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
     performance = prepare(compiled, start_deg)
-    return simulate(
+    rollout = simulate(
         motion.robot,
         performance.ticks,
         start_deg,
@@ -104,6 +131,45 @@ def simulate_motion(
         motion_start_s=performance.approach_s,
         posture=motion.start,
         props=motion.props,
+    )
+    rollout = dataclasses.replace(rollout, end=motion.end)
+    played = played_keyframes(
+        motion.keyframes, repeat=motion.repeat, speed=motion.speed if speed is None else speed
+    )
+    if rollout.root_body is not None and Kinematics(motion.robot).feet():
+        rollout = _with_stance(rollout, motion, played)
+    due = [
+        SitesDue(index, arrival, p.hold_s, p.keyframe.sites)
+        for index, (p, arrival) in enumerate(zip(played, rollout.keyframe_times_s))
+        if p.keyframe.sites
+    ]
+    if not due:
+        return rollout
+    kin = Kinematics(motion.robot)
+    model = load_model(motion.robot, motion.props)
+    reach = site_reach(
+        model, rollout.qpos, rollout.times_s, due, kin.base_body, kin.world_to_base_mm
+    )
+    targets = [p.keyframe.targets_deg for p in played]
+    jumps = joint_jumps(kin, due, targets, motion.robot.joint_names)
+    return dataclasses.replace(rollout, site_reach=reach, joint_jumps=jumps)
+
+
+def _with_stance(rollout: Rollout, motion: Motion, played) -> Rollout:
+    """A walker's planned stance, its feet's real heights and its gait: blocks' times."""
+    kin = Kinematics(motion.robot)
+    model = load_model(motion.robot, motion.props)
+    arrivals = rollout.keyframe_times_s
+    gaits = tuple(
+        GaitDue(arrivals[max(i - end.keyframes, 0)], arrivals[i], end.gait, end.where)
+        for i, p in enumerate(played)
+        if (end := p.keyframe.gait_end) is not None
+    )
+    return dataclasses.replace(
+        rollout,
+        stance=planned_stance(kin, model, rollout.command_deg, rollout.times_s),
+        foot_height_m=foot_heights(kin, model, rollout.qpos),
+        gaits=gaits,
     )
 
 

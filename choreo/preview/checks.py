@@ -12,7 +12,10 @@ from enum import Enum
 
 import numpy as np
 
+from choreo.preview.props import PLACE_TOLERANCE_M, prop_outcomes
+from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
 from choreo.preview.sim import Rollout
+from choreo.preview.walk import LIFT_WARNING_FRACTION, TRAVEL_WARNING_FRACTION, gait_outcomes
 
 
 class Severity(str, Enum):
@@ -30,6 +33,10 @@ class CheckKind(str, Enum):
     NEAR_MISS = "near_miss"  # torque close to the limit for a while
     TRACKING_ERROR = "tracking_error"
     FALL = "fall"
+    REACH = "reach"  # a sites: target not reached: the site too far from it when due
+    GAIT = "gait"  # a gait: block travelling or turning short of what it asked, or feet dragging
+    JOINT_JUMP = "joint_jump"  # a small move in space that IK meets with a large joint move
+    PROP = "prop"  # a free prop dropped, knocked over, or not left where the motion meant to
 
 
 @dataclass(frozen=True)
@@ -65,10 +72,14 @@ class CheckThresholds:
     saturation_fraction: float = 0.98  # |torque| >= this * stall torque counts as saturated
     stall_speed_fraction: float = 0.1  # "nearly still": slower than this * no-load speed
     near_miss_fraction: float = 0.8  # |torque| >= this * stall torque is a near miss ...
-    near_miss_after_s: float = 0.1  # ... when it lasts this long
+    near_miss_after_s: float = 0.1  # ... when it lasts this long, or adds up to it ...
+    near_miss_window_s: float = 1.0  # ... within this long (short pushes, one after another)
     limit_margin_deg: float = 0.5  # this close to a joint limit counts as touching it
     fall_height_fraction: float = 0.5  # free-floating body below this * its start height
     fall_tilt_deg: float = 30.0  # ... or tilted more than this from upright (once upright)
+    stumble_drop_mm: float = 5.0  # a walker's body this much lower than its plan puts it ...
+    stumble_tilt_deg: float = 3.0  # ... or tilted this much more than planned: a stumble
+    stumble_lift_mm: float = 10.0  # a foot on the floor that the plan has this high: a stumble
     merge_gap_s: float = 0.05  # episodes closer than this are one
 
     def __post_init__(self) -> None:
@@ -91,6 +102,10 @@ def run_checks(
         *check_saturation(rollout, thresholds),
         *check_tracking(rollout, thresholds),
         *check_fall(rollout, thresholds),
+        *check_stumble(rollout, thresholds),
+        *check_props(rollout),
+        *check_reach(rollout),
+        *check_gaits(rollout),
     ]
     return sorted(results, key=lambda r: (r.time_s, r.kind.value, r.joint or "", r.bodies))
 
@@ -144,7 +159,7 @@ def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
     timeline = _Timeline(rollout, thresholds)
     results = []
     for pair_index, pair in enumerate(rollout.contact_pairs):
-        if pair.kind == "ground":
+        if pair.kind in ("ground", "foot"):
             continue
         mask, depth_by_step = contact_mask(rollout, pair_index)
         for run in timeline.episodes(mask):
@@ -261,7 +276,43 @@ def check_saturation(rollout: Rollout, thresholds: CheckThresholds) -> list[Chec
             )
             if result is not None:
                 results.append(result)
+        if not any(r.joint == rollout.robot.joints[j].name for r in results):
+            repeated = _repeated_near_miss(rollout, timeline, thresholds, j, share, lag, velocity)
+            results += [repeated] if repeated is not None else []
     return results
+
+
+def _repeated_near_miss(rollout, timeline, thresholds, j, share, lag, velocity):
+    """Short pushes near the limit, each too short for a near miss, that add up to
+    ``near_miss_after_s`` within ``near_miss_window_s``: the same strain, repeated (a fast
+    step played again and again)."""
+    near = share[:, j] >= min(thresholds.near_miss_fraction, thresholds.saturation_fraction)
+    window = max(1, round(thresholds.near_miss_window_s / timeline.dt)) if timeline.dt else 1
+    counts = np.concatenate(([0], np.cumsum(near)))
+    within = counts[window:] - counts[:-window] if len(near) > window else counts[-1:]
+    first = int(np.argmax(within))
+    near_s = float(within[first]) * timeline.dt
+    if near_s < thresholds.near_miss_after_s:
+        return None
+    span = slice(first, first + window)
+    runs = timeline.episodes(near[span])
+    start = float(timeline.times[first + runs[0][0]])
+    peak = 100 * float(share[span, j].max())
+    joint = rollout.robot.joints[j]
+    return CheckResult(
+        CheckKind.NEAR_MISS,
+        Severity.WARNING,
+        f"{joint.name} repeated near miss: its servo works at "
+        f"{100 * thresholds.near_miss_fraction:.0f}-{peak:.0f} % of its stall torque {len(runs)} "
+        f"times within {thresholds.near_miss_window_s:g} s from t={start:.2f} s, "
+        f"{near_s:.2f} s in all (moving up to {float(np.abs(velocity[span, j]).max()):.0f}°/s of "
+        f"its {rollout.actuators[j].no_load_speed_deg_s:.0f}°/s, lagging up to "
+        f"{float(lag[span, j].max()):.1f}°): little margin for a heavier load or a faster move",
+        start,
+        thresholds.near_miss_window_s,
+        joint=joint.name,
+        value=peak,
+    )
 
 
 def _velocity_deg_s(rollout: Rollout) -> np.ndarray:
@@ -349,7 +400,7 @@ def _touching(rollout: Rollout, j: int, run: tuple[int, int]) -> str:
     during = (rollout.contact_step >= run[0]) & (rollout.contact_step < run[1])
     for pair_index in np.unique(rollout.contact_pair[during]):
         pair = rollout.contact_pairs[pair_index]
-        if link in (pair.body_a, pair.body_b):
+        if pair.kind != "foot" and link in (pair.body_a, pair.body_b):
             return f", pushed by a contact: {pair.body_a} touches {pair.body_b}"
     return ""
 
@@ -383,7 +434,8 @@ def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResul
     """A free-floating robot falling or collapsing after its start (the robot at rest before the
     approach): a link other than a foot touching the ground when it did not at the start, its
     body below ``fall_height_fraction`` of its start height, or tilted more than
-    ``fall_tilt_deg`` once it has been upright (so lying at the start is not a fall)."""
+    ``fall_tilt_deg`` once it has been upright (so lying at the start is not a fall). A motion
+    that declares ``end: lying`` may lie down from its last keyframe but one on."""
     if rollout.root_height_m is None or rollout.root_tilt_deg is None:
         return []
     s0 = rollout.start_step
@@ -395,6 +447,13 @@ def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResul
     been_upright = np.logical_or.accumulate(upright & after)
     tilted = after & been_upright & ~upright
     results = [*_ground_contacts(rollout, thresholds, s0, been_upright)]
+    lying_from = rollout.lie_down_from_s
+    if lying_from is not None:  # lying down at the end, as declared: low and on the floor
+        lying = rollout.times_s >= lying_from
+        low &= ~lying
+        if rollout.end.pitch_deg:  # on its front or back: turned over too
+            tilted &= ~lying
+        results = [r for r in results if r.time_s < lying_from]
     body = rollout.root_body or ""
     for mask, why in (
         (
@@ -456,3 +515,199 @@ def _ground_contacts(
             bodies=(pair.body_a, pair.body_b),
             value=float(tilt[k : runs[0][1]].max()),
         )
+
+
+def check_props(rollout: Rollout) -> list[CheckResult]:
+    """Free props dropped (warning), knocked over (warning), or not ending at their
+    ``place_at_m`` (error: the motion does not do what it says)."""
+    results = []
+    end_s = float(rollout.times_s[-1])
+    for outcome in prop_outcomes(rollout):
+        name = outcome.name
+        if outcome.dropped_at_s is not None:
+            results.append(
+                CheckResult(
+                    CheckKind.PROP,
+                    Severity.WARNING,
+                    f"the {name} is dropped at t={outcome.dropped_at_s:.2f} s (lifted "
+                    f"{1000 * outcome.lifted_m:.0f} mm, then falling faster than a controlled "
+                    f"set-down): the grip does not hold it",
+                    outcome.dropped_at_s,
+                    bodies=(name,),
+                    value=1000 * outcome.lifted_m,
+                )
+            )
+        if outcome.knocked_over:
+            results.append(
+                CheckResult(
+                    CheckKind.PROP,
+                    Severity.WARNING,
+                    f"the {name} is knocked over: it ends tilted {outcome.end_tilt_deg:.0f}° "
+                    f"from how it stood",
+                    end_s,
+                    bodies=(name,),
+                    value=outcome.end_tilt_deg,
+                )
+            )
+        if outcome.placed is False:
+            target = ", ".join(str(round(1000 * v)) for v in outcome.place_at_m or ())
+            end = ", ".join(str(round(1000 * v)) for v in outcome.end_m)
+            results.append(
+                CheckResult(
+                    CheckKind.PROP,
+                    Severity.ERROR,
+                    f"the {name} ends at [{end}] mm, {1000 * (outcome.place_error_m or 0):.0f} mm "
+                    f"from its place target [{target}] mm (more than "
+                    f"{1000 * PLACE_TOLERANCE_M:.0f} mm)",
+                    end_s,
+                    bodies=(name,),
+                    value=1000 * (outcome.place_error_m or 0),
+                )
+            )
+    return results
+
+
+def check_reach(rollout: Rollout) -> list[CheckResult]:
+    """A site more than ``REACH_WARNING_MM`` (warning) or ``REACH_ERROR_MM`` (error) from its
+    ``sites:`` target when its keyframe is due; a small move in space that needed a large move
+    in joints (warning)."""
+    results = []
+    for reach in rollout.site_reach:
+        error = reach.error_mm
+        if error <= REACH_WARNING_MM:
+            continue
+        severity = Severity.ERROR if error > REACH_ERROR_MM else Severity.WARNING
+        limit = REACH_ERROR_MM if severity is Severity.ERROR else REACH_WARNING_MM
+        target = ", ".join(f"{v:.0f}" for v in reach.target_mm)
+        reached = ", ".join(f"{v:.0f}" for v in reach.reached_mm)
+        results.append(
+            CheckResult(
+                CheckKind.REACH,
+                severity,
+                f"site {reach.site} is {error:.1f} mm from its target [{target}] mm at "
+                f"t={reach.time_s:.2f} s (at [{reached}] mm, base frame; more than "
+                f"{limit:g} mm): the arm sags or lags; aim higher, move slower, or lighten it",
+                reach.time_s,
+                bodies=(reach.site,),
+                value=error,
+            )
+        )
+    for jump in rollout.joint_jumps:
+        results.append(
+            CheckResult(
+                CheckKind.JOINT_JUMP,
+                Severity.WARNING,
+                f"site {jump.site} moves only {jump.moved_mm:.0f} mm at t={jump.time_s:.2f} s "
+                f"but {jump.joint} turns {jump.turned_deg:.0f}° to get there (inverse kinematics "
+                f"found no nearer solution inside the joint limits: another branch of the arm, "
+                f"or near a singularity); add a keyframe on the way, or move the target",
+                jump.time_s,
+                joint=jump.joint,
+                bodies=(jump.site,),
+                value=jump.turned_deg,
+            )
+        )
+    return results
+
+
+def check_stumble(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """A walker judged against its plan (``stance.py``), once upright and until a declared
+    lie-down: its body lower than planned by ``stumble_drop_mm`` or tilted from the planned
+    tilt by ``stumble_tilt_deg`` (both changes since the start), or a foot on the floor while
+    the plan has it ``stumble_lift_mm`` up (the body came down onto a lifted leg)."""
+    stance = rollout.stance
+    height, address = rollout.root_height_m, rollout.root_qpos_address
+    if stance is None or height is None or address is None or rollout.posture.lying:
+        return []
+    timeline = _Timeline(rollout, thresholds)
+    judged = np.ones(len(rollout.times_s), dtype=bool)
+    if rollout.lie_down_from_s is not None:
+        judged &= rollout.times_s < rollout.lie_down_from_s
+    drop_mm = 1000 * ((stance.height_m - stance.height_m[0]) - (height - height[0]))
+    w, x, y, z = (rollout.qpos[:, address + 3 + i] for i in range(4))
+    up = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1)
+    off = np.degrees(np.arccos(np.clip(np.sum(up * stance.up_base, axis=1), -1.0, 1.0)))
+    tilt = off - off[0]
+    body = rollout.root_body or ""
+    results = []
+    drop_limit, tilt_limit = thresholds.stumble_drop_mm, thresholds.stumble_tilt_deg
+    for mask, what, values, limit, unit in (
+        (drop_mm > drop_limit, "lower than its plan puts it", drop_mm, drop_limit, "mm"),
+        (tilt > tilt_limit, "tilted more than planned", tilt, tilt_limit, "°"),
+    ):
+        runs = timeline.episodes(mask & judged)
+        if runs:
+            run = runs[0]
+            worst = float(values[run[0] : run[1]].max())
+            t = timeline.start(run)
+            results.append(
+                CheckResult(
+                    CheckKind.FALL,
+                    Severity.ERROR,
+                    f"{body} stumbles at t={t:.2f} s: {worst:.1f} {unit} {what} (more than "
+                    f"{limit:g} {unit}), for {timeline.duration(run):.2f} s",
+                    t,
+                    timeline.duration(run),
+                    bodies=(body,),
+                    value=worst,
+                )
+            )
+    results += _lifted_feet_down(rollout, timeline, thresholds, judged)
+    return results
+
+
+def _lifted_feet_down(rollout, timeline, thresholds, judged):
+    stance = rollout.stance
+    for pair_index, pair in enumerate(rollout.contact_pairs):
+        if pair.kind != "foot" or pair.body_a not in stance.foot_links:
+            continue
+        lift_mm = 1000 * stance.lift_m[:, stance.foot_links.index(pair.body_a)]
+        touching, _ = contact_mask(rollout, pair_index)
+        runs = timeline.episodes(touching & judged & (lift_mm >= thresholds.stumble_lift_mm))
+        if not runs:
+            continue
+        t = timeline.start(runs[0])
+        yield CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{pair.body_a} touches the {pair.body_b} at t={t:.2f} s while the plan has its foot "
+            f"{float(lift_mm[runs[0][0] : runs[0][1]].max()):.0f} mm up: the body came down onto "
+            f"a lifted leg",
+            t,
+            timeline.duration(runs[0]),
+            bodies=(pair.body_a, pair.body_b),
+            value=float(lift_mm[runs[0][0] : runs[0][1]].max()),
+        )
+
+
+def check_gaits(rollout: Rollout) -> list[CheckResult]:
+    """A ``gait:`` block whose body travels or turns less than ``TRAVEL_WARNING_FRACTION`` of
+    what it asked, or whose swinging feet rise less than ``LIFT_WARNING_FRACTION`` of the
+    lift (they drag): warnings at the block's end."""
+    results = []
+    for outcome, due in zip(gait_outcomes(rollout), rollout.gaits):
+        short = []
+        travel, turn, lift = outcome.travel_fraction, outcome.turn_fraction, outcome.lift_fraction
+        if travel is not None and travel < TRAVEL_WARNING_FRACTION:
+            asked = np.hypot(*outcome.asked_mm)
+            short.append(f"travels {100 * travel:.0f} % of the {asked:.0f} mm")
+        if turn is not None and turn < TRAVEL_WARNING_FRACTION:
+            short.append(f"turns {100 * turn:.0f} % of the {outcome.asked_turn_deg:+.0f}°")
+        if lift is not None and lift < LIFT_WARNING_FRACTION:
+            short.append(
+                f"its swinging feet rise only {100 * lift:.0f} % of the {outcome.lift_mm:g} mm "
+                f"lift (they drag)"
+            )
+        if not short:
+            continue
+        results.append(
+            CheckResult(
+                CheckKind.GAIT,
+                Severity.WARNING,
+                f"the gait {' and '.join(short)} it asks for (the feet slip, or the servos give "
+                f"way under the body: a longer period, a lower body or a higher lift help)",
+                due.end_s,
+                value=min(v for v in (travel, turn, lift) if v is not None),
+            )
+        )
+    return results

@@ -22,9 +22,13 @@ HOME_KEY = "home"
 # what a contact between two geoms means: nothing to report; two links that are not parent and
 # child; a fixed robot's link on a world geom; a parent and child link (the self-collision
 # check skips them, but MuJoCo simulates contacts with the world and its welded bodies); a
-# free-floating robot's link, other than a foot, on the floor or a prop
+# free-floating robot's link, other than a foot, on the floor or a prop; a foot there (walking,
+# unless the plan has that foot in the air)
 NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT, NEIGHBOUR_CONTACT, GROUND_CONTACT = 0, 1, 2, 3, 4
+FOOT_CONTACT = 5
 PROP_RGBA = (0.72, 0.55, 0.35, 1.0)
+FREE_PROP_RGBA = (0.85, 0.3, 0.25, 1.0)
+PROP_JOINT_PREFIX = "choreo_prop:"  # a free prop's joint: its body is not the robot's
 
 
 @dataclass(frozen=True)
@@ -38,7 +42,7 @@ class JointIndex:
 
 def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
     """The robot's scene (floor and light) or, without one, its bare MJCF; ``props`` are added
-    as boxes fixed in the world."""
+    as boxes fixed in the world, or free bodies (named as the prop) for those with a mass."""
     path = robot.scene_path or robot.mjcf_path
     if path is None:
         raise PreviewError(
@@ -56,15 +60,25 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
 
 
 def _add_prop(spec: mujoco.MjSpec, prop: Prop) -> None:
-    geom = spec.worldbody.add_geom()
+    x, y, z = prop.at_m
+    half_yaw = np.radians(prop.yaw_deg) / 2
+    centre = [x, y, z + prop.size_m[2] / 2]
+    turn = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
+    if prop.mass_kg is None:
+        geom = spec.worldbody.add_geom()
+        geom.pos, geom.quat, geom.rgba = centre, turn, PROP_RGBA
+    else:
+        body = spec.worldbody.add_body()
+        body.name = prop.name
+        body.pos, body.quat = centre, turn
+        body.add_freejoint().name = PROP_JOINT_PREFIX + prop.name
+        geom = body.add_geom()
+        geom.mass, geom.rgba = prop.mass_kg, FREE_PROP_RGBA
+        if prop.friction is not None:
+            geom.friction = [prop.friction, *geom.friction[1:]]
     geom.name = prop.name
     geom.type = mujoco.mjtGeom.mjGEOM_BOX
     geom.size = [size / 2 for size in prop.size_m]
-    x, y, z = prop.at_m
-    geom.pos = [x, y, z + prop.size_m[2] / 2]
-    half_yaw = np.radians(prop.yaw_deg) / 2
-    geom.quat = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
-    geom.rgba = PROP_RGBA
 
 
 def index_joints(model: mujoco.MjModel, robot: Robot) -> JointIndex:
@@ -117,11 +131,36 @@ def apply_servo_models(
 
 
 def free_joint(model: mujoco.MjModel) -> int | None:
-    """The model's free joint (a free-floating robot's root), if it has one."""
+    """The robot's free joint (a free-floating robot's root), if it has one."""
     for joint_id in range(model.njnt):
-        if model.jnt_type[joint_id] == mujoco.mjtJoint.mjJNT_FREE:
+        if model.jnt_type[joint_id] == mujoco.mjtJoint.mjJNT_FREE and not _is_prop_joint(
+            model, joint_id
+        ):
             return joint_id
     return None
+
+
+def _is_prop_joint(model: mujoco.MjModel, joint_id: int) -> bool:
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, joint_id) or ""
+    return name.startswith(PROP_JOINT_PREFIX)
+
+
+def free_prop_joints(model: mujoco.MjModel) -> dict[str, int]:
+    """Each free prop's name -> its free joint."""
+    return {
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j)[len(PROP_JOINT_PREFIX) :]: j
+        for j in range(model.njnt)
+        if _is_prop_joint(model, j)
+    }
+
+
+def robot_body_mask(model: mujoco.MjModel) -> np.ndarray:
+    """(nbody,) True for the robot's bodies: not the world, not a free prop."""
+    mask = np.ones(model.nbody, dtype=bool)
+    mask[0] = False
+    for joint in free_prop_joints(model).values():
+        mask[model.jnt_bodyid[joint]] = False
+    return mask
 
 
 def link_of_body(model: mujoco.MjModel) -> np.ndarray:
@@ -138,12 +177,15 @@ def contact_kinds(
     model: mujoco.MjModel, free_floating: bool, feet: Sequence[int] = ()
 ) -> np.ndarray:
     """(ngeom, ngeom) matrix of what each geom pair's contact means (the ``*_CONTACT`` kinds);
-    ``feet`` are a free-floating robot's foot links, whose touching the ground is walking."""
+    ``feet`` are a free-floating robot's foot links, whose touching the ground is walking. A free
+    prop touching anything is expected: it is there to be pushed, gripped and carried."""
     links = link_of_body(model)
     parent_link = np.array([links[model.body_parentid[link]] for link in range(model.nbody)])
     geom_link = links[model.geom_bodyid]
     a, b = geom_link[:, None], geom_link[None, :]
-    on_world = model.geom_bodyid == 0
+    on_robot = robot_body_mask(model)[model.geom_bodyid]
+    free_prop = ~on_robot & (model.geom_bodyid != 0)
+    on_world = ~on_robot
     world_a, world_b = on_world[:, None], on_world[None, :]
     robot_pair = ~world_a & ~world_b
     neighbours = (parent_link[a] == b) | (parent_link[b] == a)
@@ -152,11 +194,14 @@ def contact_kinds(
     robot_on_world = (world_a & ~world_b) | (world_b & ~world_a)
     if free_floating:
         foot = np.isin(geom_link, list(feet))
-        kinds = np.where(robot_on_world & ~(foot[None, :] | foot[:, None]), GROUND_CONTACT, kinds)
+        on_foot = foot[None, :] | foot[:, None]
+        kinds = np.where(robot_on_world & ~on_foot, GROUND_CONTACT, kinds)
+        kinds = np.where(robot_on_world & on_foot, FOOT_CONTACT, kinds)
     else:
         base = np.isin(geom_link, np.unique(model.body_rootid[1:]))
         floor = robot_on_world & ~(base[None, :] | base[:, None])
         kinds = np.where(floor, FLOOR_CONTACT, kinds)
+    kinds = np.where(free_prop[:, None] | free_prop[None, :], NO_CONTACT, kinds)
     return kinds.astype(np.int8)
 
 

@@ -2,12 +2,14 @@
 
 Frames replay the recorded states (``Rollout.qpos``), the settling and the approach before the
 motion included; a fixed camera frames everything the robot reaches over the whole rollout (so
-it neither bobs with the body nor leaves a fixed arm small), and every frame carries the time,
-the phase (settling, approach, motion), the keyframe index and the problems found at that moment.
+it neither bobs with the body nor leaves a fixed arm small; a robot walking far is followed
+instead), and every frame carries the time, the phase (settling, approach, motion), the keyframe
+index and the problems found at that moment.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Iterator, Sequence
@@ -33,6 +35,9 @@ SHEET_COLUMNS = 4
 PROBLEM_SHOWN_S = 0.5  # a problem shorter than this stays on screen this long
 FRAME_MARGIN = 1.12  # the framed volume fills this much less than the whole picture
 CAMERA_SAMPLES = 120  # robot states sampled to find the volume it sweeps
+FOLLOW_WHEN = 1.15  # framing the whole path needs this much farther than the robot alone: follow
+FOLLOW_SMOOTHING_S = 1.0  # the followed path, averaged over this long
+UNIT_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 SHORT_NAMES = {
     CheckKind.SELF_COLLISION: "collision",
     CheckKind.FLOOR_CONTACT: "floor",
@@ -43,6 +48,10 @@ SHORT_NAMES = {
     CheckKind.NEIGHBOUR_CONTACT: "overlap",
     CheckKind.TRACKING_ERROR: "tracking",
     CheckKind.FALL: "fall",
+    CheckKind.PROP: "prop",
+    CheckKind.REACH: "reach",
+    CheckKind.JOINT_JUMP: "joint jump",
+    CheckKind.GAIT: "gait",
 }
 
 ProgressCallback = Callable[[int, int], None]  # (frames done, frames in all)
@@ -132,7 +141,7 @@ def render_frames(
     model = load_model(rollout.robot, rollout.props)
     data = mujoco.MjData(model)
     steps = np.clip(np.searchsorted(rollout.times_s, times_s - 1e-9), 0, len(rollout.times_s) - 1)
-    camera = frame_camera(model, rollout, settings.width / settings.height)
+    cameras = frame_cameras(model, rollout, settings.width / settings.height, steps)
     with FrameRenderer(
         model,
         settings.width,
@@ -145,7 +154,7 @@ def render_frames(
             mujoco.mj_forward(model, data)
             t = float(times_s[k])
             yield renderer.render(
-                data, camera, status_text(rollout, t, grid), problem_text(results, t)
+                data, cameras[k], status_text(rollout, t, grid), problem_text(results, t)
             )
             if on_frame is not None:
                 on_frame(k + 1, len(steps))
@@ -154,7 +163,8 @@ def render_frames(
 def status_text(rollout: Rollout, t: float, grid: BeatGrid | None = None) -> tuple[str, str]:
     """The overlay's (names, values) columns at time ``t``: the time, the phase (before the
     motion: settling or approach), the keyframe index (of the keyframe last reached, counting
-    from 1) and, with music, the bar and beat under way."""
+    from 1) and, with music, the bar and beat under way (before beat 1: a count-in of the beats
+    to come, at the first beats' interval)."""
     names, values = ["time"], [f"{t:.2f} s"]
     phase = rollout.phase(t)
     if phase != "motion":
@@ -166,9 +176,15 @@ def status_text(rollout: Rollout, t: float, grid: BeatGrid | None = None) -> tup
         names.append("keyframe")
         values.append(f"{max(reached, 1)} / {len(keyframes)}")
     if grid is not None and grid.beats:
-        bar, beat = grid.bar_and_beat(math.floor(grid.beat_at(t) + 1e-6))
-        names.append("bar / beat")
-        values.append(f"{bar} / {beat:g}")
+        first = grid.beat_times_s[0]
+        if t < first - 1e-6:  # before beat 1 (settling, approach): the beats still to come
+            interval = grid.beat_times_s[1] - first if grid.beats > 1 else 0.5
+            names.append("count-in")
+            values.append(f"{math.ceil((first - t) / interval - 1e-6)}")
+        else:
+            bar, beat = grid.bar_and_beat(math.floor(grid.beat_at(t) + 1e-6))
+            names.append("bar / beat")
+            values.append(f"{bar} / {beat:g}")
     return "\n".join(names), "\n".join(values)
 
 
@@ -194,7 +210,43 @@ def frame_camera(model: mujoco.MjModel, rollout: Rollout, aspect: float) -> Came
     """One camera for the whole rollout, at the model's azimuth and elevation, aimed at the
     middle of what the robot sweeps (every geom's bounding box over the whole rollout, props
     included) and just close enough for all of it to fit the picture."""
-    points = _swept_corners(model, rollout)
+    return _fit(model, _swept_corners(model, rollout), aspect)
+
+
+def frame_cameras(
+    model: mujoco.MjModel, rollout: Rollout, aspect: float, steps: np.ndarray
+) -> list[CameraPose]:
+    """The camera at each of ``steps``: ``frame_camera``'s, unless the robot walks so far that
+    framing its whole path would leave it small (``FOLLOW_WHEN``); then a camera that frames
+    the robot alone and follows its body across the floor, its path smoothed over
+    ``FOLLOW_SMOOTHING_S`` (so it glides, neither bobbing nor swaying with the steps)."""
+    fixed = frame_camera(model, rollout, aspect)
+    address = rollout.root_qpos_address
+    if address is None or len(rollout.times_s) < 2:
+        return [fixed] * len(steps)
+    dt = float(rollout.times_s[1] - rollout.times_s[0])
+    path = _smoothed(rollout.qpos[:, address : address + 2], round(FOLLOW_SMOOTHING_S / dt))
+    sampled, corners = _robot_corners(model, rollout)
+    corners[..., :2] -= path[sampled][:, None, :]  # the robot as seen from its smoothed path
+    own = _fit(model, corners.reshape(-1, 3), aspect)
+    if fixed.distance <= FOLLOW_WHEN * own.distance:
+        return [fixed] * len(steps)
+    x, y, z = own.lookat
+    return [dataclasses.replace(own, lookat=(x + path[s, 0], y + path[s, 1], z)) for s in steps]
+
+
+def _smoothed(path: np.ndarray, window: int) -> np.ndarray:
+    """A moving average of each column over ``window`` rows, the ends held."""
+    if window <= 1:
+        return path.copy()
+    padded = np.pad(path, ((window // 2, window - 1 - window // 2), (0, 0)), mode="edge")
+    kernel = np.ones(window) / window
+    return np.stack([np.convolve(padded[:, c], kernel, mode="valid") for c in range(2)], axis=1)
+
+
+def _fit(model: mujoco.MjModel, points: np.ndarray, aspect: float) -> CameraPose:
+    """The camera at the model's azimuth and elevation aimed at the middle of ``points`` and
+    just close enough for all of them to fit the picture."""
     azimuth, elevation = float(model.vis.global_.azimuth), float(model.vis.global_.elevation)
     axes = np.stack(_camera_axes(azimuth, elevation))  # right, up, forward
     seen = points @ axes.T  # each point in camera axes
@@ -223,8 +275,8 @@ def _camera_axes(azimuth_deg: float, elevation_deg: float):
 
 def _swept_corners(model: mujoco.MjModel, rollout: Rollout) -> np.ndarray:
     """The world corners of every robot geom's bounding box at sampled steps, and the props'."""
-    data = mujoco.MjData(model)
-    geoms = np.flatnonzero(model.geom_bodyid != 0)
+    _, corners = _robot_corners(model, rollout)
+    points = [corners.reshape(-1, 3)]
     prop_names = {p.name for p in rollout.props}
     props = np.array(
         [
@@ -234,16 +286,26 @@ def _swept_corners(model: mujoco.MjModel, rollout: Rollout) -> np.ndarray:
         ],
         dtype=int,
     )
-    unit = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    if len(props):
+        data = mujoco.MjData(model)
+        data.qpos[:] = rollout.qpos[-1]
+        mujoco.mj_kinematics(model, data)
+        points.append(_geom_corners(model, data, props, UNIT_CORNERS))
+    return np.concatenate(points)
+
+
+def _robot_corners(model: mujoco.MjModel, rollout: Rollout) -> tuple[np.ndarray, np.ndarray]:
+    """Sampled steps, and at each the world corners of every geom's bounding box that is not
+    the world's (the robot's, and free props'): (steps,), (steps, corners, 3)."""
+    data = mujoco.MjData(model)
+    geoms = np.flatnonzero(model.geom_bodyid != 0)
     steps = np.unique(np.linspace(0, len(rollout.times_s) - 1, CAMERA_SAMPLES).astype(int))
-    points = []
+    corners = []
     for step in steps:
         data.qpos[:] = rollout.qpos[step]
         mujoco.mj_kinematics(model, data)
-        points.append(_geom_corners(model, data, geoms, unit))
-    if len(props):
-        points.append(_geom_corners(model, data, props, unit))
-    return np.concatenate(points)
+        corners.append(_geom_corners(model, data, geoms, UNIT_CORNERS))
+    return steps, np.array(corners)
 
 
 def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarray:

@@ -8,8 +8,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from choreo.preview.checks import CheckResult, CheckThresholds, Severity
+from choreo.preview.props import prop_outcomes
 from choreo.preview.sim import Rollout
 from choreo.preview.travel import body_travel
+from choreo.preview.walk import gait_outcomes
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,17 @@ def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
     return line
 
 
+def reach_line(rollout: Rollout) -> str | None:
+    """The worst ``sites:`` target, for the CLI (each one's figures are in the report)."""
+    if not rollout.site_reach:
+        return None
+    worst = max(rollout.site_reach, key=lambda r: r.error_mm)
+    return (
+        f"sites: {len(rollout.site_reach)} target(s) reached within {worst.error_mm:.1f} mm "
+        f"(worst: {worst.site} at t={worst.time_s:.2f} s, {worst.where})"
+    )
+
+
 def assumptions_text(rollout: Rollout) -> str:
     """The servo model's assumptions, each value once with the joints that differ named."""
     parts = []
@@ -153,4 +166,7 @@ def preview_report(
             asdict(s) for s in joint_summaries(rollout.since_start(), thresholds.near_miss_fraction)
         ],
         "body_travel": travel.to_dict() if (travel := body_travel(rollout)) else None,
+        "props": [outcome.to_dict() for outcome in prop_outcomes(rollout)],
+        "site_reach": [reach.to_dict() for reach in rollout.site_reach],
+        "gaits": [outcome.to_dict() for outcome in gait_outcomes(rollout)],
     }

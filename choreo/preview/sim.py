@@ -13,6 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -30,6 +31,7 @@ from choreo.preview.actuator import (
 )
 from choreo.preview.model import (
     FLOOR_CONTACT,
+    FOOT_CONTACT,
     GROUND_CONTACT,
     NEIGHBOUR_CONTACT,
     NO_CONTACT,
@@ -37,14 +39,20 @@ from choreo.preview.model import (
     apply_servo_models,
     contact_kinds,
     free_joint,
+    free_prop_joints,
     geom_labels,
     index_joints,
     link_name,
     link_of_body,
     load_model,
 )
-from choreo.preview.start import foot_links, start_state
+from choreo.preview.reach import JointJump, SiteReach
+from choreo.preview.stance import PlannedStance
 from choreo.robot.types import Robot
+
+if TYPE_CHECKING:
+    from choreo.preview.walk import GaitDue
+from choreo.preview.start import foot_links, start_state
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +96,7 @@ CONTACT_NAMES = {
     FLOOR_CONTACT: "floor",
     NEIGHBOUR_CONTACT: "neighbour",
     GROUND_CONTACT: "ground",
+    FOOT_CONTACT: "foot",
 }
 
 
@@ -96,7 +105,7 @@ class ContactPair:
     """Two things touching that may not: ``kind`` is "self" (two links that are not parent and
     child), "neighbour" (a parent and child link MuJoCo lets collide), "floor" (a fixed robot's
     link on a world geom, named ``body_b``) or "ground" (a free-floating robot's link other than
-    a foot on the floor or a prop, named ``body_b``)."""
+    a foot on the floor or a prop, named ``body_b``) or "foot" (a foot there)."""
 
     kind: str
     body_a: str
@@ -144,6 +153,23 @@ class Rollout:
     move_start: MoveStart = MoveStart.SETPOINT
     joint_links: tuple[str, ...] = ()  # the link each joint moves (robot joint order)
     root_qpos_address: int | None = None  # where its position and quaternion start in qpos
+    # each free prop's name and where its position and quaternion start in qpos
+    prop_qpos_addresses: tuple[tuple[str, int], ...] = ()
+    site_reach: tuple[SiteReach, ...] = ()  # each sites: target against where the site was
+    joint_jumps: tuple[JointJump, ...] = ()  # sites: keyframes IK met with a large joint move
+    end: StartPosture = StartPosture.STANDING  # how the motion means to leave the robot
+    stance: PlannedStance | None = None  # a walker's planned feet and body, step by step
+    foot_height_m: np.ndarray | None = None  # (n, feet) its foot sites' height, stance order
+    gaits: tuple[GaitDue, ...] = ()  # the gait: blocks played, when
+
+    @property
+    def lie_down_from_s(self) -> float | None:
+        """A motion that ends lying lies down from its last keyframe but one on: from then on,
+        the body low or on the floor is what it means to do (None: it ends standing)."""
+        if not self.end.lying:
+            return None
+        times = self.keyframe_times_s
+        return times[-2] if len(times) >= 2 else 0.0
 
     @property
     def duration_s(self) -> float:
@@ -184,6 +210,15 @@ class Rollout:
             contact_depth_m=self.contact_depth_m[keep],
             root_height_m=cut(self.root_height_m),
             root_tilt_deg=cut(self.root_tilt_deg),
+            foot_height_m=cut(self.foot_height_m),
+            stance=None
+            if self.stance is None
+            else replace(
+                self.stance,
+                height_m=self.stance.height_m[k:],
+                up_base=self.stance.up_base[k:],
+                lift_m=self.stance.lift_m[k:],
+            ),
         )
 
     def phase(self, t: float) -> str:
@@ -276,6 +311,9 @@ def simulate(
         move_start=settings.move_start,
         joint_links=_joint_links(model, robot),
         root_qpos_address=int(model.jnt_qposadr[root]) if root is not None else None,
+        prop_qpos_addresses=tuple(
+            (name, int(model.jnt_qposadr[joint])) for name, joint in free_prop_joints(model).items()
+        ),
     )
 
 
@@ -422,7 +460,7 @@ class _ContactLog:
     def _pair_id(self, g1: int, g2: int) -> int:
         kind = int(self._kinds[g1, g2])
         a, b = self._labels[g1], self._labels[g2]
-        if kind in (FLOOR_CONTACT, GROUND_CONTACT):
+        if kind in (FLOOR_CONTACT, GROUND_CONTACT, FOOT_CONTACT):
             names = (b, a) if self._on_world[g1] else (a, b)
         else:
             names = (a, b) if a <= b else (b, a)  # sorted

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from choreo.motion.scene import StartPosture
-from choreo.preview.model import HOME_KEY, JointIndex, free_joint, link_of_body
+from choreo.preview.model import HOME_KEY, JointIndex, free_joint, link_of_body, robot_body_mask
 
 FOOT_CLEARANCE_M = 0.002  # a link this close to the floor standing at home is a foot
 SEARCH_M = 10.0  # farthest any geom is looked for below the robot
@@ -66,7 +66,8 @@ def floor_geoms(model: mujoco.MjModel) -> np.ndarray:
 
 def _colliding_robot_geoms(model: mujoco.MjModel) -> np.ndarray:
     return np.flatnonzero(
-        (model.geom_bodyid != 0) & ((model.geom_contype | model.geom_conaffinity) != 0)
+        robot_body_mask(model)[model.geom_bodyid]
+        & ((model.geom_contype | model.geom_conaffinity) != 0)
     )
 
 

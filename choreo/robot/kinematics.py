@@ -11,8 +11,11 @@ elevation of its z axis (its approach direction) above the base frame's horizont
 
 IK is damped least squares on ``mj_jacSite``, inside the robot's joint limits (a joint at a limit
 that the step would push further drops out of the step), seeded by the caller (the previous
-keyframe), with fixed random restarts if the seed gets stuck. ``mujoco`` is imported here only
-when a ``Kinematics`` is made: motions without Cartesian keyframes never load it. (mink, a QP
+keyframe), with fixed random restarts if the seed gets stuck: restarts drawn ever farther from the
+seed, of which the reaching solution nearest the seed is kept (so a small move in space stays a
+small move in joints), and joints the goals do not constrain stay where they were. ``mujoco`` is
+imported here only when a ``Kinematics`` is made: motions without Cartesian keyframes never load
+it. (mink, a QP
 IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these tasks — site
 positions, one axis' elevation, joint limits — are small enough for damped least squares.)
 """
@@ -35,6 +38,7 @@ _CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
 _ITERATIONS = 400
 _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
 _RESTART_ITERATIONS = 60
+_SOLUTIONS_COMPARED = 3  # restarts that reach the goal, of which the nearest the seed is kept
 _DAMPING = 1e-4
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
@@ -132,6 +136,11 @@ class Kinematics:
 
     # --- frames -------------------------------------------------------------------------------
 
+    @property
+    def base_body(self) -> str:
+        """The body whose frame positions are given in (the MJCF's first body)."""
+        return str(self.model.body(self._base).name)
+
     def world_to_base_mm(self, world_mm: npt.ArrayLike) -> np.ndarray:
         """A point given in the world (with the robot standing at home) in the base frame."""
         return self._base_rot.T @ (np.asarray(world_mm, dtype=float) / 1000 - self._base_pos) * 1000
@@ -174,21 +183,46 @@ class Kinematics:
         seed = np.clip(np.asarray(seed_deg, dtype=float), self.lower_deg, self.upper_deg)
         free_mask = np.ones(len(seed), bool) if free is None else np.asarray(free, bool)
         free_mask = free_mask & self._moving(sites)  # restarts must not stir unrelated joints
+        free_mask &= self._constrained(goals, sites, seed)  # ... nor joints the task ignores
         best = self._descend(goals, sites, seed, free_mask, _ITERATIONS)
-        rng = np.random.default_rng(0)  # fixed restarts: the same file always gives the same pose
-        for _ in range(_RESTARTS):
-            if best.ok:
-                return best
-            restart = seed.copy()
-            restart[free_mask] = rng.uniform(self.lower_deg, self.upper_deg)[free_mask]
-            attempt = self._descend(goals, sites, restart, free_mask, _RESTART_ITERATIONS)
-            if _cost(attempt) < _cost(best):
-                best = attempt
         if best.ok:
             return best
+        rng = np.random.default_rng(0)  # fixed restarts: the same file always gives the same pose
+        reached: list[Solution] = []
+        span = self.upper_deg - self.lower_deg
+        for k in range(_RESTARTS):
+            # restarts widen from the seed outwards, so the first solutions found are near it
+            spread = span * min(1.0, 2 * (k + 1) / _RESTARTS)
+            restart = seed.copy()
+            low = np.maximum(self.lower_deg, seed - spread)
+            drawn = rng.uniform(low, np.minimum(self.upper_deg, seed + spread))
+            restart[free_mask] = drawn[free_mask]
+            attempt = self._descend(goals, sites, restart, free_mask, _RESTART_ITERATIONS)
+            if attempt.ok:
+                reached.append(attempt)
+                if len(reached) >= _SOLUTIONS_COMPARED:
+                    break
+            elif _cost(attempt) < _cost(best):
+                best = attempt
+        if reached:  # the solution nearest the seed: the arm stays on its branch
+            return min(reached, key=lambda s: float(np.abs(s.angles_deg - seed).max()))
         # the best restart may only have been slow to converge (folded poses are): polish it
         polished = self._descend(goals, sites, best.angles_deg, free_mask, _ITERATIONS)
         return polished if _cost(polished) < _cost(best) else best
+
+    def _constrained(
+        self, goals: Sequence[SiteGoal], sites: list[int], seed_deg: np.ndarray
+    ) -> np.ndarray:
+        """Which joints move what the goals ask (a site's position, its pitch) anywhere: a
+        column of the task Jacobian that is non-zero at the seed or at a few other poses. A
+        wrist roll about a tool's own axis changes neither, so IK leaves it as it was."""
+        rng = np.random.default_rng(1)
+        constrained = np.zeros(len(seed_deg), bool)
+        for angles in (seed_deg, *rng.uniform(self.lower_deg, self.upper_deg, (2, len(seed_deg)))):
+            self._set(angles)
+            _, jacobian, _ = self._linearise(goals, sites)
+            constrained |= np.linalg.norm(jacobian, axis=0) > 1e-6
+        return constrained
 
     def _moving(self, sites: list[int]) -> np.ndarray:
         """Which robot joints move any of ``sites``: those on the way from a site to the root."""

@@ -1,0 +1,110 @@
+"""The planned stance of a walker: from the commanded joint angles alone (no physics), which
+feet the plan has on the floor, how high each other foot is lifted, and where the body should
+be over the floor, so the checks can judge the simulated body against its plan.
+
+The floor under the plan is the plane of its planted feet, found from the foot sites (the MJCF's
+``choreo:feet``) in the base frame: a plane fitted to all feet, then refitted to those not more
+than ``PLANTED_M`` above it, until it settles. With three or more planted feet that is the tilt
+the plan gives the body (``body: {roll: 6}``); with fewer, the plan is a level body over its
+lowest feet (and cannot stand: the body will come down, which the checks report).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from choreo.preview.model import link_name, link_of_body
+from choreo.robot.kinematics import Kinematics
+
+PLANTED_M = 0.003  # a foot this close above the planned floor is on it
+SAMPLE_S = 0.02  # the plan is evaluated this often (and interpolated between)
+_FIT_ROUNDS = 4
+
+
+@dataclass(frozen=True)
+class PlannedStance:
+    """Per physics step (the rollout's steps): the plan's body height above its floor (m), the
+    floor's upward normal in the base frame, and each foot's lift above that floor (m)."""
+
+    foot_links: tuple[str, ...]  # the link each foot site belongs to (the scene model's names)
+    height_m: np.ndarray  # (n,)
+    up_base: np.ndarray  # (n, 3)
+    lift_m: np.ndarray  # (n, feet)
+
+
+def planned_stance(
+    kin: Kinematics, model: mujoco.MjModel, command_deg: np.ndarray, times_s: np.ndarray
+) -> PlannedStance | None:
+    """The plan's stance along ``command_deg`` (robot joint order, one row per step), or None
+    for a robot without foot sites."""
+    feet = kin.feet()
+    if len(feet) < 3 or not len(times_s):
+        return None
+    dt = float(times_s[1] - times_s[0]) if len(times_s) > 1 else SAMPLE_S
+    every = max(1, round(SAMPLE_S / dt))
+    samples = np.unique(np.r_[np.arange(0, len(times_s), every), len(times_s) - 1])
+    heights, ups, lifts = [], [], []
+    for step in samples:
+        points = np.array([kin.site_pose(foot, command_deg[step]).position_mm for foot in feet])
+        height, up, lift = _floor(points / 1000)
+        heights.append(height)
+        ups.append(up)
+        lifts.append(lift)
+    at = times_s[samples]
+    links = link_of_body(model)
+    foot_links = tuple(
+        link_name(model, int(links[model.site_bodyid[model.site(foot).id]])) for foot in feet
+    )
+    nearest = np.clip(np.searchsorted(at, times_s), 0, len(at) - 1)
+    return PlannedStance(
+        foot_links=foot_links,
+        height_m=np.interp(times_s, at, heights),
+        up_base=np.array(ups)[nearest],
+        lift_m=np.stack([np.interp(times_s, at, column) for column in np.array(lifts).T], axis=1),
+    )
+
+
+def _floor(points: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The planted feet's plane under ``points`` (feet, base frame, m): the base origin's height
+    above it, its upward normal, and each foot's height above it."""
+    planted = np.ones(len(points), dtype=bool)
+    normal, offset = np.array([0.0, 0.0, 1.0]), -float(points[:, 2].min())
+    for _ in range(_FIT_ROUNDS):
+        normal, offset = _plane(points[planted])
+        above = points @ normal + offset
+        # the lowest feet stay planted: a fit through feet at different heights lies between them
+        now = above <= max(PLANTED_M, float(above.min()) + PLANTED_M)
+        if (now == planted).all():
+            break
+        planted = now
+    above = points @ normal + offset
+    lift = above - above[planted].mean()
+    return float(offset + 0.0 - above[planted].mean()), normal, np.maximum(lift, 0.0)
+
+
+def _plane(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """The plane n·p + d = 0 through ``points`` (n pointing up the base z): least squares for three
+    or more that span a plane; level through their mean otherwise."""
+    centre = points.mean(axis=0)
+    if len(points) >= 3:
+        _, singular, vt = np.linalg.svd(points - centre)
+        if singular[1] > 1e-3:  # not all on one line
+            normal = vt[2] if vt[2][2] > 0 else -vt[2]
+            return normal, -float(normal @ centre)
+    normal = np.array([0.0, 0.0, 1.0])
+    return normal, -float(centre[2])
+
+
+def foot_heights(kin: Kinematics, model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
+    """(n, feet) each foot site's height above the world's z = 0 at every recorded state."""
+    data = mujoco.MjData(model)
+    sites = [model.site(foot).id for foot in kin.feet()]
+    out = np.empty((len(qpos), len(sites)))
+    for step, state in enumerate(qpos):
+        data.qpos[:] = state
+        mujoco.mj_kinematics(model, data)
+        out[step] = data.site_xpos[sites, 2]
+    return out

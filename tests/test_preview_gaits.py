@@ -1,0 +1,40 @@
+"""Gaits judged in space: the travel and turn a gait: block asks for against what the simulated
+body does, and the swinging feet's rise against the commanded lift."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from choreo.motion.motion_file import load_motion
+from choreo.preview import CheckKind, Severity, gait_outcomes, run_checks, simulate_motion
+
+HEXAPOD = Path(__file__).resolve().parents[1] / "motions" / "hexapod18"
+ROBOT = HEXAPOD.parents[1] / "models" / "hexapod18" / "robot.yaml"
+
+
+def test_a_gait_that_never_lifts_its_feet_goes_nowhere_and_is_warned(tmp_path):
+    """walk_forward with lift: 0: every swing slides its foot along the floor, where friction
+    holds it as firmly as the planted ones, so the body rocks in place instead of walking."""
+    text = (HEXAPOD / "walk_forward.yaml").read_text().replace("lift: 30,", "lift: 0,")
+    path = tmp_path / "shuffle.yaml"
+    path.write_text(text.replace("robot: hexapod18", f"robot: {ROBOT.as_posix()}"))
+    rollout = simulate_motion(load_motion(path))
+    (gait,) = gait_outcomes(rollout)
+    assert gait.asked_mm == (240.0, 0.0) and gait.travel_fraction < 0.2
+    (warning,) = run_checks(rollout)
+    assert warning.kind is CheckKind.GAIT and warning.severity is Severity.WARNING
+    assert "travels" in warning.message and "of the 240 mm" in warning.message
+
+
+def test_walk_forward_reports_its_travel_and_feet_within_the_thresholds():
+    """Six 40 mm tripod steps: the body does ~218 mm (the feet slip a little and the servos give
+    way under the body), the swinging feet rise ~80 % of the 30 mm lift: no warning."""
+    rollout = simulate_motion(load_motion(HEXAPOD / "walk_forward.yaml"))
+    (gait,) = gait_outcomes(rollout)
+    assert gait.travel_fraction == pytest.approx(0.91, abs=0.06)
+    assert gait.lift_fraction == pytest.approx(0.8, abs=0.1)
+    assert abs(gait.got_mm[1]) < 30  # straight ahead
+    assert run_checks(rollout) == []
+    assert "travelled" in gait.line() and str(gait.where).endswith(":9:5")
