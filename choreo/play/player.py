@@ -206,14 +206,18 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
             "; ".join(problems) + "; check power and wiring, or run `choreo scan` "
             "to see which IDs answer"
         )
-    problems, pose, limits = [], [], {}
+    pose, limits = [], {}
+    found: dict[str, list[Joint]] = {}  # a problem -> the joints that have it, in order
     for joint in robot.joints:
         position, servo_limits, joint_problems = _inspect(bus, joint)
         pose.append(joint.to_deg(position))
         limits[joint.name] = servo_limits
-        problems += joint_problems
-    if problems:
-        raise ChoreoError("refusing to play:\n  " + "\n  ".join(problems))
+        who = f"{_names([joint])}: "
+        for problem in joint_problems:
+            found.setdefault(problem.removeprefix(who), []).append(joint)
+    if found:
+        lines = [f"{_names(joints)}: {problem}" for problem, joints in found.items()]
+        raise ChoreoError("refusing to play:\n  " + "\n  ".join(lines))
     if bus.capabilities.load:  # else the approach's first move powers the servos
         for joint in robot.joints:
             bus.load(joint.servo_id)
