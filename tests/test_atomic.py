@@ -11,7 +11,7 @@ import pytest
 from cli_helpers import WAVE, error_line, write_d6a
 
 from choreo.cli import main
-from choreo.core.atomic import atomic_output, fsync_directory, write_text_atomically
+from choreo.core.atomic import atomic_output, check_writable, fsync_directory, write_text_atomically
 from choreo.errors import ChoreoError
 
 
@@ -137,3 +137,57 @@ def test_preview_and_plot_outputs_in_a_missing_folder_fail_before_the_work(tmp_p
         f"choreo: error: cannot write {written}: the folder {written.parent} does not exist\n"
     )
     assert captured.out == ""  # nothing simulated, planned or rendered first
+
+
+def test_a_symbolic_link_is_written_through_and_stays_a_link(tmp_path):
+    target = tmp_path / "real.yaml"
+    target.write_text("old\n")
+    link = tmp_path / "link.yaml"
+    link.symlink_to("real.yaml")
+    write_text_atomically(link, "new\n")
+    assert link.is_symlink() and os.readlink(link) == "real.yaml"
+    assert target.read_text() == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.yaml", "real.yaml"]
+
+
+def test_a_fifo_is_refused_and_left_a_fifo(tmp_path):
+    fifo = tmp_path / "out.yaml"
+    os.mkfifo(fifo)
+    with pytest.raises(ChoreoError, match=r"cannot write .*out.yaml: it is a FIFO \(named pipe\)"):
+        write_text_atomically(fifo, "a: 1\n")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert [p.name for p in tmp_path.iterdir()] == ["out.yaml"]
+
+
+def test_a_device_is_refused_before_any_work(tmp_path):
+    # only checked, never written: as root, a rename over /dev/null would replace the device
+    with pytest.raises(ChoreoError, match="cannot write /dev/null: it is a device, not a file"):
+        check_writable(Path("/dev/null"))
+    link = tmp_path / "report.json"
+    link.symlink_to("/dev/null")  # followed: the device behind a link is refused too
+    with pytest.raises(ChoreoError, match="report.json: it is a device, not a file"):
+        check_writable(link)
+
+
+def test_a_long_name_is_written_with_a_shortened_temporary(tmp_path):
+    path = tmp_path / ("a" * 245 + ".json")  # 250 bytes: with .XXXXXXXX.tmp.json it was 269
+    write_text_atomically(path, "{}\n")
+    assert path.read_text() == "{}\n"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def test_a_name_longer_than_the_file_system_takes_is_refused_with_its_length(tmp_path):
+    path = tmp_path / ("a" * 252 + ".json")
+    with pytest.raises(
+        ChoreoError,
+        match=r"the name is 257 bytes long, the most a file name can "
+        r"be here is 255",
+    ):
+        check_writable(path)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="Linux's /proc")
+def test_a_folder_that_takes_no_new_files_is_refused_by_the_check(tmp_path):
+    # root passes os.access on /proc, yet no file can be made there
+    with pytest.raises(ChoreoError, match="cannot write /proc/r.json: the folder /proc"):
+        check_writable(Path("/proc/r.json"))

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
 import sys
 
 import numpy as np
 import pytest
+from fifo_helpers import fifo_that_never_blocks
 from music_helpers import band_track, click_track, steady_times, write_clicks
 from test_plan_cli import png_size
 
@@ -15,7 +18,7 @@ from choreo.cli import main
 from choreo.errors import ChoreoError
 from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
-from choreo.music.decode import Audio, decode, encode
+from choreo.music.decode import Audio, decode, encode, ffmpeg_exe
 
 # librosa warmed once per session (see conftest.py), not in the first test that calls it
 pytestmark = pytest.mark.usefixtures("warm_librosa")
@@ -124,6 +127,8 @@ def test_noise_and_a_buzz_give_increasing_beats_and_end():
 
 
 # --- songs with a band: meter, downbeats, tempo changes, confidence ------------------------------
+
+
 def test_a_backbeat_with_a_loud_snare_has_its_bars_on_the_kick_and_chord():
     times = steady_times(104, 0.3, 16)
     analysis = detect_beats(band_track(times, snare_gain=1.0))  # the meter is not given
@@ -208,3 +213,37 @@ def test_detection_needs_little_more_memory_than_the_samples():
     finally:
         tracemalloc.stop()
     assert peak < 4 * audio.samples.nbytes  # whole-song spectrograms took 13 times as much
+
+
+def test_ffmpegs_own_text_does_not_reach_the_user(tmp_path, capsys):
+    silent = tmp_path / "video_only.ogg"  # a real Ogg file holding only a video stream
+    ffmpeg = [ffmpeg_exe(), "-v", "error", "-nostdin", "-f", "lavfi", "-i", "testsrc=size=32x32"]
+    subprocess.run([*ffmpeg, "-t", "0.4", "-c:v", "libtheora", str(silent)], check=True)
+    assert main(["beats", str(silent)]) == 1
+    assert capsys.readouterr().err == (
+        f"choreo: error: cannot decode {silent.resolve()}: it has no audio\n"
+    )
+    broken = tmp_path / "broken.ogg"
+    broken.write_bytes(b"OggS but not really")
+    assert main(["beats", str(broken)]) == 1
+    err = capsys.readouterr().err
+    assert "it is not a sound file ffmpeg can read" in err and " @ 0x" not in err
+
+
+def test_a_folder_or_fifo_given_as_a_song_is_named_so(tmp_path, capsys):
+    folder = tmp_path / "album.ogg"
+    folder.mkdir()
+    fifo = tmp_path / "stream.ogg"
+    os.mkfifo(fifo)
+    for path, kind in ((folder, "a folder"), (fifo, "a FIFO (named pipe)")):
+        assert main(["beats", str(path)]) == 1
+        assert capsys.readouterr().err == f"choreo: error: {path} is {kind}, not a song file\n"
+
+
+def test_a_plot_that_cannot_be_written_is_refused_before_the_song_is_analysed(tmp_path, capsys):
+    plot = tmp_path / "beats.png"
+    with fifo_that_never_blocks(plot):
+        assert main(["beats", str(tmp_path / "not_even_read.ogg"), "--plot", str(plot)]) == 1
+    assert capsys.readouterr().err == (
+        f"choreo: error: cannot write {plot}: it is a FIFO (named pipe), not a file\n"
+    )

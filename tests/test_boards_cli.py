@@ -163,3 +163,26 @@ def test_the_dry_run_through_a_board_prints_its_move_frames(capsys):
     decoded = [rrc.FrameDecoder().feed(f) for f in frames]
     assert all(len(d) == 1 and d[0].data[0] == rrc.MOVE for d in decoded)  # CRCs hold
     assert decoded[0][0].data[3] == 6  # the first tick moves every servo
+
+
+def test_servo_unload_through_the_lobot_controller_unloads_and_says_it_is_not_read_back(
+    monkeypatch, capsys
+):
+    from choreo.emulator import protocol_sim
+
+    built = []
+    build = protocol_sim.emulator_from_url
+    monkeypatch.setattr(
+        protocol_sim, "emulator_from_url", lambda url: built.append(build(url)) or built[-1]
+    )
+    port = "sim://?board=lobot&ids=1-4&clock=virtual"
+    assert main(["servo", "unload", "--id", "3", "--port", port]) == 0
+    assert capsys.readouterr().out == (
+        "servo 3: unloaded (turns freely by hand; not read back: the LOBOT controller cannot "
+        "read the load state)\n"
+    )
+    [emulator] = built
+    emulator.clock.advance(0.1)  # the frame crosses the 9600-baud link and the servo bus
+    emulator.catch_up()
+    sent = [(p.packet.servo_id, p.packet.command, p.packet.params) for p in emulator.log.packets]
+    assert sent == [(3, Command.LOAD_OR_UNLOAD_WRITE, b"\x00")]  # the servos got the unload

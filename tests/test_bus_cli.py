@@ -75,3 +75,32 @@ def test_scan_shows_progress_on_stderr_only_on_a_terminal(terminal):
     assert ("scanning ID" in process.stderr and "/10" in process.stderr) is terminal
     if not terminal:
         assert process.stderr == ""
+
+
+def test_scan_through_a_board_names_no_baud_rate_of_the_raw_bus(capsys):
+    assert main(["scan", "--port", "sim://?board=rrc&ids=9&clock=virtual", "--ids", "1-3"]) == 1
+    assert capsys.readouterr().out == (
+        "no servo answered on IDs 1-3: check power (the servos need their own supply), that the "
+        "servos are plugged into the RRC board and the board is switched on\n"
+    )
+
+
+def test_a_folder_or_fifo_given_as_the_port_is_named_so(tmp_path, capsys):
+    fifo = tmp_path / "ttyFAKE"
+    os.mkfifo(fifo)
+    hint = "list ports with `choreo ports`; `sim://` is the built-in emulator"
+    for port, kind in ((tmp_path, "a folder"), (fifo, "a FIFO (named pipe)")):
+        assert main(["scan", "--port", str(port), "--ids", "1"]) == 1
+        assert capsys.readouterr().err == (
+            f"choreo: error: cannot open {port}: it is {kind}, not a serial port; {hint}\n"
+        )
+
+
+def test_an_empty_port_is_a_usage_error_naming_valid_ports(capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(["scan", "--port", "", "--ids", "1"])
+    assert exited.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "choreo scan: error: argument --port: expected a port such as /dev/ttyUSB0, COM3 or "
+        "sim:// (list them with `choreo ports`), got ''"
+    )

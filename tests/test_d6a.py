@@ -3,6 +3,7 @@ choreo motions. The vendor files are copied unchanged into ``tests/data/tonypi``
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import sqlite3
@@ -407,3 +408,12 @@ def test_importing_a_folder_says_it_is_a_folder(tmp_path, capsys):
     assert error_line(capsys) == (
         f"choreo: error: {tmp_path}: is a folder, not an action group (.d6a) file"
     )
+
+
+def test_a_fifo_or_device_given_as_an_action_group_is_named_so(tmp_path):
+    fifo = tmp_path / "bow.d6a"
+    os.mkfifo(fifo)
+    for path, kind in ((fifo, "a FIFO (named pipe)"), (Path("/dev/null"), "a device")):
+        with pytest.raises(SourceError) as caught:
+            read_action_group(path)
+        assert str(caught.value) == f"{path}: is {kind}, not an action group (.d6a) file"

@@ -7,6 +7,7 @@ from docs/servo-models.md (LX-16A: 0.16 s/60°, so 240° = 1000 units take 0.64 
 from __future__ import annotations
 
 import pytest
+from fifo_helpers import fifo_that_never_blocks
 
 from choreo.bus.protocol import (
     BROADCAST_ID,
@@ -526,11 +527,36 @@ def test_eeprom_values_persist_across_a_restart_and_unsaved_ones_do_not(tmp_path
     assert again.read(C.ID_READ, 2) is None
 
 
-def test_the_state_file_folder_is_created(tmp_path):
+def test_a_missing_state_folder_is_refused_not_created(tmp_path):
     state = tmp_path / "emulators" / "bus.json"
-    Bus([1], state_path=state).send(C.TEMP_MAX_LIMIT_WRITE, 1, temp_c=70)
-    assert Bus([1], state_path=state).read(C.TEMP_MAX_LIMIT_READ, 1) == {"temp_c": 70}
-    assert [p.name for p in state.parent.iterdir()] == ["bus.json"]
+    with pytest.raises(
+        ChoreoError,
+        match=r"emulator state .*bus.json: the folder .*emulators "
+        "does not exist; create it",
+    ):
+        Bus([1], state_path=state)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_state_file_that_is_json_but_not_an_object_is_refused_in_one_line(tmp_path):
+    state = tmp_path / "bus.json"
+    state.write_text("[1, 2]\n")
+    with pytest.raises(
+        ChoreoError,
+        match="bus.json: cannot read emulator state: not a "
+        "choreo-emulator-state file: a JSON object is expected",
+    ):
+        Bus([1], state_path=state)
+
+
+def test_a_state_path_that_is_a_folder_or_fifo_is_named_so(tmp_path):
+    with fifo_that_never_blocks(tmp_path / "bus.json") as fifo:  # never opened: it would block
+        with pytest.raises(
+            ChoreoError, match=r"bus.json: cannot read emulator state: it is a FIFO"
+        ):
+            Bus([1], state_path=fifo)
+    with pytest.raises(ChoreoError, match=r"cannot read emulator state: it is a folder"):
+        Bus([1], state_path=tmp_path)
 
 
 def test_a_state_file_for_other_servos_is_refused(tmp_path):

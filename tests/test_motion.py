@@ -6,11 +6,15 @@ with one kind of mistake; parts/ holds the files they include).
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from cli_helpers import error_line, motion_file
+from fifo_helpers import fifo_that_never_blocks
 
 from choreo.cli import main
 from choreo.errors import SourceError
@@ -359,3 +363,66 @@ def test_repeat_is_bounded_at_its_line(tmp_path, capsys):
         f"choreo: error: {path}:3:9: repeat 100000000 x 2 keyframe(s) = 200000000 keyframes to "
         "play; at most 10000 are played in one motion: at most 5000 times"
     )
+
+
+def test_a_folder_fifo_or_device_given_as_a_motion_is_named_so(tmp_path):
+    assert problems_of(tmp_path) == [
+        f"{tmp_path}:1:1: cannot read the file: it is a folder, not a file"
+    ]
+    assert problems_of(Path("/dev/null")) == [
+        "/dev/null:1:1: cannot read the file: it is a device, not a file"
+    ]
+    with fifo_that_never_blocks(tmp_path / "wave.yaml") as fifo:
+        assert problems_of(fifo) == [
+            f"{fifo}:1:1: cannot read the file: it is a FIFO (named pipe), not a file"
+        ]
+
+
+def test_an_include_of_a_loop_of_symbolic_links_is_one_line(tmp_path):
+    (tmp_path / "a.yaml").symlink_to("b.yaml")
+    (tmp_path / "b.yaml").symlink_to("a.yaml")
+    path = tmp_path / "m.yaml"
+    path.write_text("robot: arm6\nkeyframes:\n  - pose: home\n  - include: a.yaml\n")
+    assert problems_of(path) == [
+        f"{path}:4:14: include: {tmp_path / 'a.yaml'} is a loop of symbolic links, not a motion "
+        "file"
+    ]
+
+
+def test_more_keyframes_than_a_motion_plays_without_repeat_is_one_line(tmp_path):
+    path = tmp_path / "m.yaml"
+    poses = "".join(f"  - pose: {{wrist_roll: {(-1) ** i * 10}}}\n" for i in range(10_001))
+    path.write_text("robot: arm6\nkeyframes:\n" + poses)
+    assert problems_of(path) == [
+        f"{path}:2:1: 10001 keyframes to play; at most 10000 are played in one motion: split it "
+        "into shorter motions"
+    ]
+
+
+def test_a_file_nested_deeper_than_any_motion_is_refused_before_the_c_loader(tmp_path):
+    path = tmp_path / "deep.yaml"
+    path.write_text("robot: [" + "[" * 30_000 + "\n")  # the 65th level opens at column 71
+    # in a child process: before the bound, libyaml's recursion crashed the interpreter
+    done = subprocess.run(
+        [sys.executable, "-m", "choreo", "validate", "--no-physics", str(path)],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        check=False,
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (
+        1,
+        f"{path}:1:71: nested more than 64 lists or mappings deep; robot and motion files need a "
+        "few levels\n",
+        "",
+    )
+
+
+def test_an_unknown_tag_is_blamed_not_the_number(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text("robot: arm6\nspeed: !foo 1\nkeyframes:\n  - pose: home\n")
+    assert problems_of(path) == [
+        f"{path}:2:8: speed must be a number > 0, got '1' with the tag !foo (remove the tag: "
+        "these files use none)"
+    ]

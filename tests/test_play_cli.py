@@ -81,6 +81,19 @@ def test_bad_arguments_are_usage_errors(capsys):
     assert "'nope' is not a pose of arm6; poses: home, rest, ready" in capsys.readouterr().err
 
 
+def test_an_exit_pose_without_exit_pose_is_refused_not_ignored(capsys):
+    argv = ["play", "motions/arm6/wave.yaml", "--exit-pose", "ready"]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.err == (
+        "choreo: error: --exit-pose ready is used only with --exit pose (now --exit hold): add "
+        "--exit pose, or drop --exit-pose\n"
+    )
+    assert captured.out == ""  # refused before anything plays
+    assert main([*argv, "--exit", "unload"]) == 2
+    assert "(now --exit unload)" in capsys.readouterr().err
+
+
 def test_an_infeasible_motion_is_refused_before_any_port_is_opened(capsys):
     assert (
         main(["play", "motions/arm6/wave.yaml", "--speed", "4", "--port", "/dev/does-not-exist"])

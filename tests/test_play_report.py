@@ -7,6 +7,7 @@ import json
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from emulated import wait_for
@@ -203,3 +204,11 @@ def test_a_report_through_a_board_names_it_and_its_start_skew(tmp_path):
     # for six servos (a tick that moves fewer of them is shorter)
     assert report["start_skew_ms"]["measured"]
     assert 0.8 < report["start_skew_ms"]["max"] < 6 * 0.87 + 0.5
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="Linux's /proc")
+def test_a_report_where_no_file_can_be_made_is_refused_before_anything_plays(capsys):
+    assert main(["play", "motions/arm6/wave.yaml", "--report", "/proc/r.json"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.startswith("choreo: error: cannot write /proc/r.json: the folder /proc")
+    assert "built-in emulated bus" not in captured.err and captured.out == ""

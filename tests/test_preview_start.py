@@ -361,6 +361,19 @@ def test_props_stand_in_the_scene_and_a_fixed_arm_touching_one_is_named(tmp_path
     assert "touches the block" in hits[0].message
 
 
+def test_a_prop_named_like_a_geom_of_the_scene_is_blamed_at_its_line(tmp_path, capsys):
+    motion = tmp_path / "m.yaml"
+    motion.write_text(
+        "robot: arm6\nprops:\n  - {name: floor, size_m: [0.03, 0.03, 0.03], at_m: [0.1, 0.1, 0]}\n"
+        "keyframes:\n  - pose: home\n"
+    )
+    assert main(["preview", "--check", str(motion)]) == 1
+    assert capsys.readouterr().err == (
+        f"choreo: error: {motion}:3:12: props: the name 'floor' is taken by a part of the robot "
+        "or its scene (scene.xml); choose another name\n"
+    )
+
+
 def test_props_are_read_from_the_motion_file_and_bad_ones_refused(tmp_path):
     good = tmp_path / "good.yaml"
     robot = (DATA / "models" / "arm3" / "robot.yaml").as_posix()

@@ -72,6 +72,8 @@ def journal_records(out):
 
 
 # --- keyframes ---------------------------------------------------------------------------------
+
+
 def test_poses_turned_by_hand_are_saved_as_keyframes_that_validate(tmp_path, capsys):
     rig = Rig()
     out = tmp_path / "taught.yaml"
@@ -245,6 +247,8 @@ def test_a_missing_servo_stops_before_anything_is_unloaded(tmp_path):
 
 
 # --- the journal and resuming ------------------------------------------------------------------
+
+
 def test_resume_continues_from_the_journal(tmp_path):
     rig = Rig()
     out = tmp_path / "taught.yaml"
@@ -353,6 +357,8 @@ def test_a_robot_found_by_no_name_is_written_as_a_relative_path(tmp_path, monkey
 
 
 # --- streams -----------------------------------------------------------------------------------
+
+
 def test_douglas_peucker_keeps_the_corners():
     times = [0, 1, 2, 3, 4]
     assert douglas_peucker(times, [[0], [1], [2], [3], [4]], 0.1) == [0, 4]
@@ -464,6 +470,8 @@ def test_a_slow_stream_ends_at_once_when_q_is_typed(tmp_path):
 
 
 # --- the CLI -----------------------------------------------------------------------------------
+
+
 def test_cli_records_on_the_built_in_bus(tmp_path, monkeypatch, capsys):
     out = tmp_path / "home.yaml"
     monkeypatch.setattr("sys.stdin", io.StringIO("\n\nq\n"))
@@ -491,6 +499,8 @@ def test_cli_an_unknown_joint_is_a_usage_error_and_leaves_no_journal(tmp_path, c
 
 
 # --- a real process, killed --------------------------------------------------------------------
+
+
 def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path):
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"
@@ -639,3 +649,36 @@ def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_pa
         "taught joints loaded again, holding where they are",
     ]
     assert torque_of_elbow() == [b"\x00", b"\x01"]  # loaded again, holding where it is
+
+
+def test_joints_that_cannot_load_again_for_one_reason_are_named_in_one_sentence(
+    tmp_path, monkeypatch
+):
+    rig = Rig()
+    recording = Recording.start(tmp_path / "taught.yaml", rig.robot)
+
+    def refuse(bus, servo_id, on):
+        if on:  # the board's one refusal, as the LOBOT controller gives it for every servo
+            raise BusError("the board cannot load (torque on) a servo")
+
+    monkeypatch.setattr("choreo.play.recorder.servo_config.set_torque", refuse)
+    with pytest.raises(BusError) as caught:
+        with rig.recorder(recording, taught=["wrist_roll", "gripper"]):
+            pass
+    assert str(caught.value) == (
+        "could not load again, so these joints may be limp: wrist_roll, gripper: the board "
+        "cannot load (torque on) a servo"
+    )
+
+
+def test_a_folder_as_the_output_is_refused_before_any_joint_goes_limp(
+    tmp_path, monkeypatch, capsys
+):
+    out = tmp_path / "taught.yaml"
+    out.mkdir()
+    monkeypatch.setattr("sys.stdin", io.StringIO("\nq\n"))
+    assert main(["record", str(out), "--robot", "arm6", "--overwrite"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.endswith(f"choreo: error: cannot write {out}: it is a folder, not a file\n")
+    assert "unloaded" not in captured.out
+    assert list(tmp_path.iterdir()) == [out]  # no journal either

@@ -9,6 +9,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import imageio_ffmpeg
@@ -61,6 +62,8 @@ def video_frames(path: Path) -> np.ndarray:
 
 
 # --- the OpenGL back-end -----------------------------------------------------------------------
+
+
 def test_an_offscreen_backend_works_on_this_machine():
     backend = gl.offscreen_backend()
     assert backend in ("egl", "osmesa")
@@ -100,6 +103,8 @@ def test_rendering_without_a_backend_is_an_error_not_a_skip(fine, tmp_path, monk
 
 
 # --- the files ---------------------------------------------------------------------------------
+
+
 def test_an_mp4_has_one_frame_per_tick_of_the_clock_and_shows_the_robot_moving(fine, tmp_path):
     rollout, duration_s = fine
     fps = 12
@@ -161,6 +166,8 @@ def test_an_unknown_format_or_an_odd_mp4_size_is_refused(fine, tmp_path):
 
 
 # --- what the frames show ----------------------------------------------------------------------
+
+
 def test_the_overlay_gives_the_time_and_the_keyframe_reached(fine):
     rollout, _ = fine
     keyframes = rollout.keyframe_times_s
@@ -260,6 +267,8 @@ def test_the_frames_show_the_settling_and_the_approach_marked():
 
 
 # --- the command line --------------------------------------------------------------------------
+
+
 def test_preview_renders_a_contact_sheet_from_the_command_line(tmp_path, capsys):
     out = tmp_path / "sheet.png"
     assert main(["preview", str(FINE), "-o", str(out), "--size", "128x96", "--frames", "4"]) == 0
@@ -307,7 +316,7 @@ def test_ctrl_c_while_rendering_keeps_the_old_video(tmp_path):
     keep = tmp_path / "keep.mp4"
     keep.write_bytes(b"a good video")
     process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", "preview", str(WAVE), "-o", str(keep)],
+        [sys.executable, "-m", "choreo", "preview", str(WAVE), "-o", str(keep), "--overwrite"],
         cwd=REPO,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -366,3 +375,78 @@ def test_a_frame_larger_than_the_gl_allows_is_a_preview_error():
         r"cannot render 1048576x16 frames with (egl|osmesa): .+; try a smaller width/height\n",
         done.stdout,
     ), done.stdout
+
+
+def test_preview_keeps_an_existing_output_unless_told_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "sheet.png"
+    out.write_bytes(b"an earlier sheet")
+    argv = ["preview", str(FINE), "-o", str(out), "--size", "64x48", "--frames", "2"]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    assert captured.err == (
+        f"choreo: error: {out} exists: choose another file, or allow replacing it (--overwrite)\n"
+    )
+    assert captured.out == "" and out.read_bytes() == b"an earlier sheet"  # refused before work
+    assert main([*argv, "--overwrite"]) == 0
+    assert Image.open(out).size == (2 * 64 + 4, 48)
+
+
+@pytest.mark.parametrize(
+    "output, option, message",
+    [
+        ("v.mp4", ["--fps", "100000"], "--fps 100000: an mp4 has at most 120 frames per second"),
+        ("v.gif", ["--fps", "1000"], "--fps 1000: a GIF plays 100/N frames per second"),
+        ("v.gif", ["--fps", "30"], "--fps 30: a GIF plays 100/N frames per second"),
+    ],
+)
+def test_preview_refuses_a_frame_rate_the_file_cannot_play(
+    tmp_path, capsys, output, option, message
+):
+    assert main(["preview", str(FINE), "-o", str(tmp_path / output), *option]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"choreo: error: {message}") and captured.out == ""
+
+
+def test_preview_bounds_the_frames_of_a_contact_sheet(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(["preview", str(FINE), "-o", str(tmp_path / "s.png"), "--frames", "100000"])
+    assert exited.value.code == 2
+    assert (
+        capsys.readouterr()
+        .err.splitlines()[-1]
+        .endswith("argument --frames: expected a whole number from 1 to 100, got '100000'")
+    )
+
+
+def test_a_gif_at_100_over_n_fps_has_exact_10_ms_delays(tmp_path):
+    out = tmp_path / "fine.gif"
+    argv = ["preview", str(FINE), "-o", str(out), "--size", "32x24", "--fps", "33.33"]
+    assert main(argv) == 0
+    with Image.open(out) as gif:
+        durations = set()
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            durations.add(gif.info["duration"] % 30)  # merged identical frames: whole 30 ms
+    assert durations == {0}
+
+
+def test_sigterm_during_a_render_leaves_no_temporary_behind(tmp_path):
+    out = tmp_path / "fine.mp4"
+    render = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "preview", str(FINE), "-o", str(out), "--fps", "120"],
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert render.stdout is not None
+    for line in render.stdout:  # the checks are printed before the render starts
+        if " simulated, " in line:
+            break
+    while not any(p.suffix == ".mp4" for p in tmp_path.iterdir()):  # the temporary, being written
+        time.sleep(0.01)
+    render.send_signal(signal.SIGTERM)
+    assert render.wait(timeout=60) == 130
+    assert render.stderr is not None and render.stderr.read().endswith("choreo: interrupted\n")
+    assert list(tmp_path.iterdir()) == []

@@ -6,6 +6,7 @@ Fixtures: tests/data/models/tiny (a good three-joint robot) and tests/data/bad_r
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -309,3 +310,10 @@ def test_every_robot_file_problem_is_reported_at_once(tmp_path, capsys):
         "pose 'rest': unknown joint 'base_yw' (did you mean 'base_yaw'?); the robot's joints are "
         "base_yaw, shoulder, elbow, wrist_pitch, wrist_roll, gripper",
     ]
+
+
+def test_a_fifo_given_as_a_robot_file_is_named_so(tmp_path):
+    fifo = tmp_path / "robot.yaml"
+    os.mkfifo(fifo)
+    with pytest.raises(SourceError, match=r"'.*robot.yaml' is a FIFO \(named pipe\), not a robot"):
+        load_robot(fifo)

@@ -5,6 +5,7 @@ what `choreo validate` and `choreo plan --json` show."""
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -308,3 +309,51 @@ def test_a_body_pose_too_far_names_the_foot(tmp_path):
     assert message.startswith(f"{path}:4:5: body: foot '")
     assert "mm (body frame): the closest it gets is (" in message
     assert message.endswith("ask for a smaller move")
+
+
+@pytest.mark.parametrize(
+    "keyframe, expected",
+    [
+        (
+            "sites: {tool: {at: [1.0e+300, 0, 40]}}",
+            "4:25: sites: tool: at must be in -10000..10000, got 1e+300",
+        ),
+        ("body: {z: -1.0e+300}", "4:15: body: z must be in -10000..10000, got -1e+300"),
+        ("body: {roll: 720}", "4:18: body: roll must be in -180..180, got 720"),
+        (
+            "gait: {steps: 2, stride: 1.0e+300}",
+            "4:30: gait: stride must be in -10000..10000, got 1e+300",
+        ),
+    ],
+)
+def test_huge_coordinates_are_refused_at_their_number_without_overflow(
+    tmp_path, keyframe, expected
+):
+    path = write(tmp_path, f"robot: hexapod18\nkeyframes:\n  - pose: home\n  - {keyframe}\n")
+    if keyframe.startswith("sites"):
+        path.write_text(path.read_text().replace("hexapod18", "arm6"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow RuntimeWarning fails the test
+        assert load_error(path) == [f"{path}:{expected}"]
+
+
+def test_a_gait_of_more_keyframes_than_a_motion_plays_is_refused_from_its_step_count(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - gait: {pattern: wave, steps: 100000}\n",
+    )
+    assert load_error(path) == [
+        f"{path}:4:34: gait: steps 100000 of the wave gait are 2400000 keyframes (24 a step); at "
+        "most 10000 are played in one motion: steps at most 416"
+    ]
+
+
+def test_gaits_and_repeat_together_are_counted_before_the_gaits_are_solved(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nrepeat: 10\nkeyframes:\n  - pose: home\n  - gait: {steps: 1000}\n",
+    )
+    assert load_error(path) == [
+        f"{path}:2:9: repeat 10 x 8001 keyframe(s) = 80010 keyframes to play; at most 10000 are "
+        "played in one motion: at most 1 time"
+    ]

@@ -27,11 +27,19 @@ def test_a_yaml_1_1_exponent_read_as_text_gets_a_hint(tmp_path, capsys, written,
     )
 
 
-def test_validate_reads_at_most_16_mib(capsys):
-    assert main(["validate", "/dev/zero"]) == 1
+def test_validate_reads_at_most_16_mib(tmp_path, capsys):
+    huge = tmp_path / "video.yaml"
+    with open(huge, "wb") as file:
+        file.truncate(17 * 1024 * 1024)  # sparse: 17 MiB of zeros on no disk space
+    assert main(["validate", str(huge)]) == 1
     assert capsys.readouterr().out == (
-        "/dev/zero:1:1: cannot read the file: it is larger than 16 MiB, the most a robot or "
+        f"{huge}:1:1: cannot read the file: it is larger than 16 MiB, the most a robot or "
         "motion file may be\n"
+    )
+    assert main(["validate", "/dev/zero"]) == 1  # a device is not read at all
+    assert (
+        capsys.readouterr().out
+        == "/dev/zero:1:1: cannot read the file: it is a device, not a file\n"
     )
 
 

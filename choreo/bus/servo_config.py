@@ -424,13 +424,17 @@ def move(bus: ServoBus, servo_id: int, pos_units: int, time_ms: int) -> None:
     bus.move(servo_id, pos_units, time_ms)
 
 
-def set_torque(bus: ServoBus, servo_id: int, loaded: bool) -> None:
-    """Load (hold) or unload (limp) a servo, verified: a servo with a fault refuses to load."""
+def set_torque(bus: ServoBus, servo_id: int, loaded: bool) -> bool:
+    """Load (hold) or unload (limp) a servo, verified where the transport can read the state
+    back (a servo with a fault refuses to load); False: sent but not read back (the LOBOT
+    controller unloads but cannot read), for the caller to say so."""
     _check_addressable(servo_id)
     if loaded:
         bus.load(servo_id)
     else:
         bus.unload(servo_id)
+    if not bus.capabilities.supports(Command.LOAD_OR_UNLOAD_READ):
+        return False
     if bus.read_loaded(servo_id) != loaded:
         if loaded:
             raise BusError(
@@ -438,6 +442,7 @@ def set_torque(bus: ServoBus, servo_id: int, loaded: bool) -> None:
                 "or outside its supply limits; see `choreo servo info`"
             )
         raise BusError(f"servo {servo_id} still reports torque on after UNLOAD: try again")
+    return True
 
 
 def run_motor(bus: ServoBus, servo_id: int, speed: int) -> None:

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from choreo import __version__
+from choreo.core.file_kind import os_error_text
 from choreo.errors import BusError, ChoreoError, OptionError, UsageError
 
 # Which module registers (and runs) each command. Only the module of the command being run is
@@ -118,7 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if error.errno in (None, errno.EBADF):  # not the OS refusing: choreo misused a file
             return report_bug(error, args.verbose)
         # a file that can't be read or written, a full disk, a device that went away
-        print(f"choreo: error: {error}", file=sys.stderr)
+        print(f"choreo: error: {os_error_text(error)}", file=sys.stderr)
         return 1
     except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
         return report_bug(error, args.verbose)

@@ -178,6 +178,7 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
         "sim://?ids=1-18; through a controller board rrc:///dev/ttyAMA0, lobot://hid, "
         "lobot:///dev/ttyUSB0 (default: the robot file's bus port, else the built-in "
         "emulated bus)",
+        type=port_string,
     )
     parser.add_argument(
         "--timeout-ms",
@@ -204,6 +205,15 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
         help="GPIO half-duplex direction lines of a Pi/Jetson UART: "
         f"{', '.join(PRESETS)}, or rx=N,tx=N[,chip=PATH] (needs choreo[pi])",
     )
+
+
+def port_string(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            f"expected a port such as /dev/ttyUSB0, COM3 or sim:// (list them with `choreo "
+            f"ports`), got {text!r}"
+        )
+    return text
 
 
 def bus_settings(args: argparse.Namespace, robot: Robot | None = None) -> BusSettings:

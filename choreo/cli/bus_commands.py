@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_models import DEG_PER_UNIT
+from choreo.bus.transports import RAW
 from choreo.cli.arguments import add_port_arguments, id_ranges, open_bus
 
 if TYPE_CHECKING:
@@ -45,6 +46,7 @@ def run_scan(args: argparse.Namespace) -> int:
         # servo look like two servos sharing its ID.
         scan = scan_with_progress(bus, args.ids)
         statuses = [bus.read_status(i) for i in scan.found]
+        transport = bus.capabilities.transport
     if args.json:
         print(
             json.dumps(
@@ -65,7 +67,7 @@ def run_scan(args: argparse.Namespace) -> int:
         if not scan.garbled:
             print(
                 f"no servo answered on IDs {_describe(args.ids)}: check power (the servos need "
-                "their own supply), wiring and baud rate (115200)"
+                f"their own supply), {_what_to_check(transport)}"
             )
         return 1
     table = Table(title=f"{len(statuses)} servo(s) on {bus.name}")
@@ -113,6 +115,13 @@ def scan_with_progress(bus: ServoBus, ids: tuple[int, ...]) -> ScanResult:
             garbled += one.garbled
             progress.update(task, advance=1, found=f"{len(found)} found" if found else "")
     return ScanResult(found=tuple(found), garbled=tuple(garbled))
+
+
+def _what_to_check(transport: str) -> str:
+    """Beyond power: a raw bus runs at 115200 baud; a board sets its own link's rate."""
+    if transport == RAW.transport:
+        return "wiring and baud rate (115200)"
+    return f"that the servos are plugged into the {transport} and the board is switched on"
 
 
 def _describe(ids: tuple[int, ...]) -> str:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from choreo.cli.arguments import finite_float, positive_int
 from choreo.cli.plan_commands import png_path
+from choreo.core.atomic import check_writable
 from choreo.music.beats import LEVELS, BeatAnalysis, detect_beats
 from choreo.music.decode import decode
 from choreo.music.report import beats_report, suggested_music
@@ -50,6 +51,8 @@ def register(subparsers) -> None:
 
 
 def run_beats(args: argparse.Namespace) -> int:
+    if args.plot is not None:
+        check_writable(args.plot)
     audio = decode(args.song)
     analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats)
     if args.json:

@@ -26,7 +26,7 @@ from choreo.cli.arguments import (
 )
 from choreo.core.atomic import check_writable
 from choreo.errors import UsageError
-from choreo.motion.motion_file import Motion
+from choreo.motion.motion_file import HOME_POSE, Motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.play_motion import check_options, play_motion, prepared_motion
@@ -75,7 +75,7 @@ def register(subparsers) -> None:
         default="hold",
         help="after the motion or a stop: hold (default), go to the exit pose, unload",
     )
-    play.add_argument("--exit-pose", default="home", help="pose for --exit pose (default home)")
+    play.add_argument("--exit-pose", help="pose for --exit pose (default home)")
     play.add_argument(
         "--health-timeout-ms",
         type=float_in(0, MAX_TIMEOUT_MS, " ms"),
@@ -109,15 +109,19 @@ def register(subparsers) -> None:
 
 
 def run_play(args: argparse.Namespace) -> int:
-    if args.exit_pose != "home" and args.exit != ExitMode.POSE.value:
-        raise UsageError(f"--exit-pose {args.exit_pose!r} is used only with --exit pose")
+    if args.exit_pose is not None and args.exit != ExitMode.POSE.value:
+        raise UsageError(
+            f"--exit-pose {args.exit_pose} is used only with --exit pose (now --exit "
+            f"{args.exit}): add --exit pose, or drop --exit-pose"
+        )
+    exit_pose = args.exit_pose or HOME_POSE
     if args.report is not None:
         if args.dry_run:
             raise UsageError("--report needs a play; --dry-run plays nothing")
         check_writable(args.report)
     options = PlayOptions(
         exit_mode=ExitMode(args.exit),
-        exit_pose=args.exit_pose,
+        exit_pose=exit_pose,
         tolerance_deg=args.tolerance,
         health_timeout_s=args.health_timeout_ms / 1000,
         speed=args.speed,
@@ -150,8 +154,7 @@ def run_play(args: argparse.Namespace) -> int:
     exit_move = report.exit_move
     if exit_move is not None and exit_move.outcome is not Outcome.COMPLETED:
         _note(
-            f"the move to the exit pose {args.exit_pose!r} {exit_move.outcome.value}: "
-            f"{exit_move.reason}"
+            f"the move to the exit pose {exit_pose!r} {exit_move.outcome.value}: {exit_move.reason}"
         )
     return EXIT_CODES[report.outcome]
 

@@ -12,7 +12,13 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from choreo.cli.arguments import add_planning_arguments, load_dance, positive_float, positive_int
+from choreo.cli.arguments import (
+    add_planning_arguments,
+    load_dance,
+    positive_float,
+    positive_int,
+    stop_signals_as_ctrl_c,
+)
 from choreo.core.atomic import atomic_output, check_writable, write_text_atomically
 from choreo.errors import UsageError
 from choreo.motion.music_block import check_speed
@@ -44,6 +50,9 @@ def register(subparsers) -> None:
         help="render to FILE: .mp4, .gif, or .png (a contact sheet)",
     )
     preview.add_argument(
+        "--overwrite", action="store_true", help="replace an existing FILE given with -o"
+    )
+    preview.add_argument(
         "--check",
         action="store_true",
         help="only run the checks (no rendering); exit 1 on any error",
@@ -65,14 +74,18 @@ def register(subparsers) -> None:
         help="frame size in pixels (default 640x480; contact sheet: per frame)",
     )
     preview.add_argument(
-        "--fps", type=positive_float, help="frames per second (default 30 for mp4, 25 for gif)"
+        "--fps",
+        type=positive_float,
+        help=f"frames per second: mp4 up to {MAX_VIDEO_FPS:g} (default 30); gif 100/N, as its "
+        "frame delays are whole 10 ms and browsers slow delays under 20 ms: 50, 33.33, 25 "
+        "(default), 20, ...",
     )
     preview.add_argument(
         "--frames",
-        type=positive_int,
+        type=sheet_frames,
         default=12,
         metavar="N",
-        help="frames in a png contact sheet (default 12)",
+        help=f"frames in a png contact sheet, 1-{MAX_SHEET_FRAMES} (default 12)",
     )
     preview.add_argument(
         "--hq",
@@ -142,6 +155,40 @@ def register(subparsers) -> None:
 
 
 MAX_SIDE_PX = 8192  # 8K; the GL's own limit may be lower (then a one-line PreviewError)
+MAX_SHEET_FRAMES = 100  # a 10x10 sheet; more tiles are too small to read (and take minutes)
+MAX_VIDEO_FPS = 120.0  # twice any screen's usual rate; slow motion is --speed
+GIF_DELAY_S = 0.01  # GIF frame delays are whole hundredths of a second
+MIN_GIF_DELAYS = 2  # browsers play a delay under 20 ms as 100 ms
+
+
+def sheet_frames(text: str) -> int:
+    value = positive_int(text)
+    if value > MAX_SHEET_FRAMES:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number from 1 to {MAX_SHEET_FRAMES}, got {text!r}"
+        )
+    return value
+
+
+def checked_fps(fps: float | None, suffix: str) -> float | None:
+    """``fps`` if a ``suffix`` file plays it as asked (a GIF's 100/N made exact); UsageError if
+    not."""
+    if fps is None or suffix == ".png":
+        return fps
+    if suffix == ".mp4":
+        if fps > MAX_VIDEO_FPS:
+            raise UsageError(
+                f"--fps {fps:g}: an mp4 has at most {MAX_VIDEO_FPS:g} frames per second (slow "
+                "motion: --speed 0.5)"
+            )
+        return fps
+    delays = 1 / (fps * GIF_DELAY_S)
+    if round(delays) < MIN_GIF_DELAYS or abs(delays - round(delays)) > 0.01:
+        raise UsageError(
+            f"--fps {fps:g}: a GIF plays 100/N frames per second (its delays are whole 10 ms, "
+            "and browsers slow delays under 20 ms): 50, 33.33, 25, 20, 16.67, ..."
+        )
+    return 1 / (round(delays) * GIF_DELAY_S)
 
 
 def image_size(text: str) -> tuple[int, int]:
@@ -162,6 +209,12 @@ def fraction(text: str) -> float:
 
 
 def run_preview(args: argparse.Namespace) -> int:
+    # `kill` or a closed terminal stops a long render as Ctrl-C does: no temporary left behind
+    with stop_signals_as_ctrl_c():
+        return _preview(args)
+
+
+def _preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
         raise UsageError(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
@@ -175,9 +228,11 @@ def run_preview(args: argparse.Namespace) -> int:
         )
     if args.check and (output is not None or args.viewer):
         raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
-    for path in (output, args.report):
-        if path is not None:
-            check_writable(path)
+    fps = checked_fps(args.fps, output.suffix.lower()) if output is not None else args.fps
+    if output is not None:
+        check_writable(output, overwrite=args.overwrite)
+    if args.report is not None:
+        check_writable(args.report)
 
     from choreo import preview  # imports mujoco: only when this command runs
 
@@ -241,7 +296,7 @@ def run_preview(args: argparse.Namespace) -> int:
         render_settings = preview.RenderSettings(
             width=args.size[0],
             height=args.size[1],
-            fps=args.fps,
+            fps=fps,
             sheet_frames=args.frames,
             high_quality=args.hq,
         )

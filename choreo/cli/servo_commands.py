@@ -368,8 +368,10 @@ def run_load(args: argparse.Namespace) -> int:
 
 def run_unload(args: argparse.Namespace) -> int:
     with open_bus(args) as bus:
-        servo_config.set_torque(bus, args.id, False)
-    print(f"servo {args.id}: unloaded (turns freely by hand)")
+        verified = servo_config.set_torque(bus, args.id, False)
+        transport = bus.capabilities.transport
+    unread = "" if verified else f"; not read back: the {transport} cannot read the load state"
+    print(f"servo {args.id}: unloaded (turns freely by hand{unread})")
     return 0
 
 

@@ -8,6 +8,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from choreo.core.file_kind import not_a_file
 from choreo.errors import ChoreoError
 
 
@@ -16,42 +17,92 @@ def atomic_output(path: Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; it replaces ``path`` only when the block
     finishes without an exception (Ctrl-C included), so readers never see a half-written file
     and a good old one is never lost. The temporary ends in ``path``'s suffix, for writers that
-    choose a format by it. The new file gets the permissions of any new file (0666 less the
-    umask), not mkstemp's 0600. The data and the new name are flushed to disk before returning
-    (a crash right after loses nothing)."""
-    path = Path(path)
+    choose a format by it. A symbolic link is written through (the file it points to is
+    replaced, the link stays); anything but a regular file is refused (``check_writable``). The
+    new file gets the permissions of any new file (0666 less the umask), not mkstemp's 0600. The
+    data and the new name are flushed to disk before returning (a crash right after loses
+    nothing)."""
     check_writable(path)
-    handle, temporary = tempfile.mkstemp(
-        prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent
-    )
-    os.close(handle)
+    target = write_target(Path(path))
+    temporary = _new_temporary(target)
     try:
-        yield Path(temporary)
+        yield temporary
         with open(temporary, "rb") as written:
             os.fsync(written.fileno())
         os.chmod(temporary, 0o666 & ~current_umask())
-        os.replace(temporary, path)
-        fsync_directory(path.parent)
+        os.replace(temporary, target)
+        fsync_directory(target.parent)
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
 
 
+def write_target(path: Path) -> Path:
+    """The file a write to ``path`` replaces: a symbolic link's target (followed to the end),
+    else ``path`` itself."""
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
+
+
 def check_writable(path: Path, *, overwrite: bool = True) -> None:
-    """``ChoreoError`` if ``path`` cannot be written: it is a folder, its folder is missing or
-    not writable, or (without ``overwrite``) it exists. Commands call it before their work, so
-    nothing is computed for an output that would fail at the end."""
+    """``ChoreoError`` if ``path`` cannot be written: it is not a regular file (a folder, a
+    FIFO, a device), its name is too long, its folder is missing or does not take new files, or
+    (without ``overwrite``) it exists. Commands call it before their work, so nothing is
+    computed for an output that would fail at the end."""
     path = Path(path)
-    if path.is_dir():
-        raise ChoreoError(f"cannot write {path}: it is a folder")
-    if not path.parent.is_dir():
-        raise ChoreoError(f"cannot write {path}: the folder {path.parent} does not exist")
-    if not os.access(path.parent, os.W_OK | os.X_OK):
-        raise ChoreoError(f"cannot write {path}: the folder {path.parent} is not writable")
+    _check_name_length(path)
+    target = write_target(path)
+    kind = not_a_file(target)
+    if kind is not None:
+        raise ChoreoError(f"cannot write {path}: it is {kind}, not a file")
+    folder = target.parent
+    if not folder.is_dir():
+        raise ChoreoError(f"cannot write {path}: the folder {folder} does not exist")
+    _check_name_length(target)
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ChoreoError(f"cannot write {path}: the folder {folder} is not writable")
     if not overwrite and path.exists():
         raise ChoreoError.naming(
             "overwrite", f"{path} exists: choose another file, or allow replacing it ({{option}})"
         )
+    try:  # the only sure test (root passes os.access, yet /proc takes no new files)
+        os.unlink(_new_temporary(target))
+    except OSError as error:
+        raise ChoreoError(
+            f"cannot write {path}: the folder {folder} does not take new files "
+            f"({(error.strerror or str(error)).lower()})"
+        ) from None
+
+
+def _check_name_length(path: Path) -> None:
+    longest = _longest_name(path.parent)
+    if len(os.fsencode(path.name)) > longest:
+        raise ChoreoError(
+            f"cannot write {path}: the name is {len(os.fsencode(path.name))} bytes long, the "
+            f"most a file name can be here is {longest}"
+        )
+
+
+_RANDOM_AND_TMP = len(".12345678.tmp")  # what mkstemp and the .tmp add to the prefix
+
+
+def _new_temporary(target: Path) -> Path:
+    """A new empty file ``.NAME.XXXXXXXX.tmpSUFFIX`` beside ``target``, NAME shortened so the
+    whole stays within the file system's longest name."""
+    suffix = target.suffix if len(os.fsencode(target.suffix)) <= 16 else ""
+    room = _longest_name(target.parent) - _RANDOM_AND_TMP - 1 - len(os.fsencode(suffix))
+    name = os.fsencode(target.name)[:room].decode(errors="ignore")  # whole characters only
+    handle, temporary = tempfile.mkstemp(
+        prefix=f".{name}.", suffix=f".tmp{suffix}", dir=target.parent
+    )
+    os.close(handle)
+    return Path(temporary)
+
+
+def _longest_name(folder: Path) -> int:
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # Windows has no pathconf; NTFS allows 255
+        return 255
 
 
 def write_text_atomically(path: Path, text: str) -> None:

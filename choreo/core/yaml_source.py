@@ -18,6 +18,7 @@ from pathlib import Path
 
 import yaml
 
+from choreo.core.file_kind import not_a_file
 from choreo.errors import SourceError
 
 Node = yaml.Node
@@ -111,6 +112,9 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 
 def parse_yaml_file(path: Path) -> Node | None:
     """The node tree of a one-document YAML file (``None`` if empty); ``SourceError`` otherwise."""
+    kind = not_a_file(path)
+    if kind is not None:
+        raise SourceError(f"{path}:1:1: cannot read the file: it is {kind}, not a file")
     try:
         with open(path, "rb") as file:
             data = file.read(MAX_FILE_BYTES + 1)
@@ -124,11 +128,34 @@ def parse_yaml_file(path: Path) -> Node | None:
         reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
     try:
+        _check_depth(path, text)
         return yaml.compose(text, Loader=_SAFE_LOADER)
     except yaml.MarkedYAMLError as error:
         raise SourceError(_syntax_message(path, error)) from None
     except yaml.YAMLError as error:  # unmarked: e.g. a character YAML does not allow
         raise SourceError(f"{path}:1:1: not valid YAML: {error}") from None
+
+
+# The loader builds the node tree by recursion: 30,000 nested "[" overflow libyaml's C stack (a
+# segfault) or Python's. The deepest shipped file nests 6 levels; the events are read without
+# recursion, so the depth is known before the tree is built.
+MAX_DEPTH = 64
+
+
+def _check_depth(path: Path, text: str) -> None:
+    depth = 0
+    for event in yaml.parse(text, Loader=_SAFE_LOADER):
+        if isinstance(event, yaml.CollectionStartEvent):
+            depth += 1
+            if depth > MAX_DEPTH:
+                mark = event.start_mark
+                line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+                raise SourceError(
+                    f"{path}:{line}:{col}: nested more than {MAX_DEPTH} "
+                    "lists or mappings deep; robot and motion files need a few levels"
+                )
+        elif isinstance(event, yaml.CollectionEndEvent):
+            depth -= 1
 
 
 def _syntax_message(path: Path, error: yaml.MarkedYAMLError) -> str:
@@ -146,6 +173,8 @@ def describe(node: Node) -> str:
         return "a mapping"
     if isinstance(node, yaml.SequenceNode):
         return "a list"
+    if not node.tag.startswith("tag:yaml.org,2002:"):  # !foo 1: the tag is what is wrong
+        return f"{node.value!r} with the tag {node.tag} (remove the tag: these files use none)"
     if node.tag == "tag:yaml.org,2002:null":
         return "nothing (null)"
     return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value

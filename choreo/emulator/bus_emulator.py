@@ -41,6 +41,7 @@ from choreo.bus.protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, pa
 from choreo.bus.servo_models import servo_model
 from choreo.core.atomic import write_text_atomically
 from choreo.core.clock import Clock, RealClock
+from choreo.core.file_kind import not_a_file, os_error_text
 from choreo.emulator.emulated_servo import (
     DEFAULT_START_GAP_S,
     Eeprom,
@@ -404,15 +405,26 @@ class BusEmulator:
                 for (factory_id, model_name), eeprom in zip(self._layout, self._eeproms)
             ],
         }
-        path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomically(path, json.dumps(document, indent=2) + "\n")
 
     def _load_state(self) -> list[Eeprom] | None:
-        if self.state_path is None or not self.state_path.exists():
+        if self.state_path is None:
             return None
         path = self.state_path
+        kind = not_a_file(path)
+        if kind is not None:
+            raise ChoreoError(f"{path}: cannot read emulator state: it is {kind}, not a file")
+        if not path.exists():
+            if not path.parent.is_dir():  # never made behind the user's back
+                raise ChoreoError(
+                    f"emulator state {path}: the folder {path.parent} does not exist; create "
+                    "it, or name a state file in an existing folder"
+                )
+            return None
         try:
             document = json.loads(path.read_text())
+            if not isinstance(document, dict):
+                raise ValueError(f"not a {STATE_FORMAT} file: a JSON object is expected")
             if document.get("format") != STATE_FORMAT or document.get("version") != STATE_VERSION:
                 raise ValueError(f"not a {STATE_FORMAT} file of version {STATE_VERSION}")
             saved_layout = [(s["factory_id"], s["model"]) for s in document["servos"]]
@@ -422,7 +434,9 @@ class BusEmulator:
                     f"{_describe(self._layout)}; start it with the same servos or delete the file"
                 )
             return [Eeprom(**s["eeprom"]) for s in document["servos"]]
-        except (OSError, ValueError, KeyError, TypeError) as error:
+        except OSError as error:
+            raise ChoreoError(f"cannot read emulator state: {os_error_text(error)}") from error
+        except (ValueError, KeyError, TypeError) as error:
             raise ChoreoError(f"{path}: cannot read emulator state: {error}") from error
 
 

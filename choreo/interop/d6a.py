@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import TypeGuard
 
 from choreo.core.atomic import atomic_output, write_text_atomically
+from choreo.core.file_kind import not_a_file
 from choreo.core.yaml_source import SourceLocation, fmt
 from choreo.errors import SourceError
 from choreo.motion.motion_file import HOME_POSE, Keyframe, Motion
@@ -74,8 +75,9 @@ def read_action_group(path: str | Path) -> ActionGroup:
     """Read a .d6a file (opened read-only); ``SourceError`` with one line saying what is wrong
     if it is not an action group. Values are taken as they are; see ``keyframes_from_group``."""
     path = Path(path)
-    if path.is_dir():
-        raise SourceError(f"{path}: is a folder, not an action group (.d6a) file")
+    kind = not_a_file(path)
+    if kind is not None:
+        raise SourceError(f"{path}: is {kind}, not an action group (.d6a) file")
     if not path.is_file():
         raise SourceError(f"{path}: no such file")
     uri = f"{path.resolve().as_uri()}?mode=ro"

@@ -51,9 +51,13 @@ class Gait:
     period_s: float = 2.0  # one step: every leg swings once
 
     @property
+    def keyframes_per_step(self) -> int:
+        return len(SWING_SAMPLES) * len(GROUPS[self.pattern])
+
+    @property
     def keyframe_s(self) -> float:
         """The time between the gait's keyframes."""
-        return self.period_s / (len(SWING_SAMPLES) * len(GROUPS[self.pattern]))
+        return self.period_s / self.keyframes_per_step
 
 
 @dataclass(frozen=True)

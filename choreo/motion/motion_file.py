@@ -6,6 +6,7 @@ in the robot's joint order) and where it was written, so later stages can point 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -13,6 +14,7 @@ from typing import Literal
 
 import yaml
 
+from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
     Entry,
@@ -30,6 +32,7 @@ from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time,
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
     GaitEnd,
+    GaitSpec,
     SiteTarget,
     Spatial,
     expand_spatial,
@@ -88,10 +91,16 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
     """The problem with playing ``keyframes`` keyframes ``repeat`` times, or ``None``."""
     if keyframes * repeat <= MAX_PLAYED_KEYFRAMES:
         return None
+    if repeat == 1:
+        return (
+            f"{keyframes} keyframes to play; at most {MAX_PLAYED_KEYFRAMES} are played in one "
+            "motion: split it into shorter motions"
+        )
+    most = MAX_PLAYED_KEYFRAMES // keyframes
     return (
         f"{what} {repeat} x {keyframes} keyframe(s) = {keyframes * repeat} keyframes to play; "
-        f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: at most "
-        f"{MAX_PLAYED_KEYFRAMES // keyframes} times"
+        f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: at most {most} "
+        f"time{'s' if most != 1 else ''}"
     )
 
 
@@ -192,14 +201,16 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         or reader.problems
     ):
         return None
+    # counted before the gaits are solved: a long walk is refused before the work, not after
+    unrolled = too_many_played(sum(_keyframes_of(step) for step in steps), repeat)
+    if unrolled is not None:
+        where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
+        reader.report(where, unrolled)
+        return None
     steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
     if reader.problems:
         return None
     keyframes = _fill_poses(robot, steps)
-    unrolled = too_many_played(len(keyframes), repeat)
-    if unrolled is not None:
-        reader.report(fields["repeat"].value, unrolled)
-        return None
     outlasts = None if allow_past_song else past_song(music, keyframes, repeat)
     if outlasts is not None:
         reader.report(
@@ -350,10 +361,29 @@ def _read_space(
 
 def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
     fields = reader.fields(item, "a gait block (only gait: {...})", GAIT.keys)
-    spec = read_gait(reader, fields["gait"].value) if fields and "gait" in fields else None
-    if spec is None:
+    node = fields["gait"].value if fields and "gait" in fields else None
+    spec = read_gait(reader, node) if node is not None else None
+    if node is None or spec is None:
+        return []
+    gait = spec.gait
+    if gait.steps * gait.keyframes_per_step > MAX_PLAYED_KEYFRAMES:
+        steps_node = next(v for k, v in node.value if k.value == "steps")
+        reader.report(
+            steps_node,
+            f"gait: steps {gait.steps} of the {gait.pattern.value} gait are "
+            f"{gait.steps * gait.keyframes_per_step} keyframes ({gait.keyframes_per_step} a "
+            f"step); at most {MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most "
+            f"{MAX_PLAYED_KEYFRAMES // gait.keyframes_per_step}",
+        )
         return []
     return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
+
+
+def _keyframes_of(step: _Step) -> int:
+    """How many keyframes a step becomes: a gait one per swing sample of each step."""
+    if isinstance(step.space, GaitSpec):
+        return step.space.gait.steps * step.space.gait.keyframes_per_step
+    return 1
 
 
 def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
@@ -433,17 +463,20 @@ def _read_include(
         return []
     path = reader.path.parent / relative
     link = _Include(path, reader.where(fields["include"].value), chain[0].music)
-    if any(path.resolve() == earlier.path.resolve() for earlier in chain):
+    if any(_same_file(path, earlier.path) for earlier in chain):
         files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
         reader.report(
             fields["include"].value,
             f"include cycle: {files}; a motion cannot include itself, directly or through others",
         )
         return []
-    if not path.is_file():
+    kind = not_a_file(path)
+    if kind is not None or not path.is_file():
         reader.report(
             fields["include"].value,
-            f"include: {path} does not exist (paths are relative to this file's folder)",
+            f"include: {path} is {kind}, not a motion file"
+            if kind is not None
+            else f"include: {path} does not exist (paths are relative to this file's folder)",
         )
         return []
     steps = _block(
@@ -455,6 +488,11 @@ def _read_include(
     if mirror:
         steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
     return steps
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    # realpath, not Path.resolve: a loop of symbolic links is reported, not a RuntimeError
+    return os.path.realpath(a) == os.path.realpath(b)
 
 
 def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]) -> list[_Step]:

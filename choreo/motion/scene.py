@@ -7,10 +7,10 @@ MuJoCo, so that reading a motion file never imports the simulator.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 
-from choreo.core.yaml_source import Node, Reader
+from choreo.core.yaml_source import Node, Reader, SourceLocation
 
 
 class StartPosture(str, Enum):
@@ -56,6 +56,7 @@ class Prop:
     mass_kg: float | None = None
     friction: float | None = None
     place_at_m: tuple[float, float, float] | None = None
+    where: SourceLocation | None = field(default=None, compare=False)  # its name, for messages
 
     @property
     def free(self) -> bool:
@@ -98,7 +99,9 @@ def _read_prop(reader: Reader, node: Node, what: str) -> Prop | None:
     if name is None or size is None or at is None or yaw is None:
         return None
     free = _read_free(reader, fields, what)
-    return None if free is None else Prop(name, size, at, yaw, *free)
+    if free is None:
+        return None
+    return Prop(name, size, at, yaw, *free, where=reader.where(fields["name"].value))
 
 
 def _read_free(

@@ -73,6 +73,11 @@ Spatial = SitesSpec | BodySpec | GaitSpec
 
 # --- reading ------------------------------------------------------------------------------------
 
+# Lengths within 10 m and angles within a turn: past any desktop or walking robot's reach, and
+# far from the numbers (1e300) that overflow the solver and fill a message with 300 digits.
+MM: dict[str, Any] = {"low": -10_000, "high": 10_000}
+DEGREES: dict[str, Any] = {"low": -180, "high": 180}
+
 
 def read_sites(reader: Reader, node: Node) -> SitesSpec | None:
     """``sites: {name: {at: [x, y, z], pitch: deg, frame: base|world}}`` (mm, degrees)."""
@@ -116,7 +121,7 @@ def _read_point(reader: Reader, node: Node, what: str) -> tuple[float, float, fl
     if len(items) != 3:
         reader.report(node, f"{what} must be [x, y, z] in mm, got {len(items)} numbers")
         return None
-    numbers = [reader.number(item, what) for item in items]
+    numbers = [reader.number(item, what, **MM) for item in items]
     if None in numbers:
         return None
     x, y, z = (float(n) for n in numbers if n is not None)
@@ -128,7 +133,10 @@ def read_body(reader: Reader, node: Node) -> BodySpec | None:
     fields = reader.fields(node, "body", BODY_KEYS)
     if fields is None:
         return None
-    values = {key: reader.number(entry.value, f"body: {key}") for key, entry in fields.items()}
+    values = {
+        key: reader.number(entry.value, f"body: {key}", **(MM if key in "xyz" else DEGREES))
+        for key, entry in fields.items()
+    }
     if None in values.values():
         return None
     names = {"x": "x_mm", "y": "y_mm", "z": "z_mm"}
@@ -149,10 +157,10 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
     )
     steps = reader.integer(fields["steps"].value, "gait: steps", low=1)
     bounds: dict[str, dict[str, Any]] = {
-        "stride": {},
-        "sideways": {},
+        "stride": MM,
+        "sideways": MM,
         "turn": {"low": -45, "high": 45},
-        "lift": {"low": 0},
+        "lift": {"low": 0, "high": MM["high"]},
         "period": {"low": 0, "low_open": True},
     }
     numbers = {

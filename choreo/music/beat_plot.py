@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from choreo.core.atomic import atomic_output
 from choreo.music.beats import BeatAnalysis
 from choreo.music.decode import Audio
 
@@ -38,7 +39,8 @@ def plot_beats(audio: Audio, analysis: BeatAnalysis, path: Path, title: str = ""
     axes.legend(loc="upper right")
     axes.set_title(title, loc="left")
     figure.tight_layout()
-    figure.savefig(path, format="png", dpi=DPI)
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, format="png", dpi=DPI)
 
 
 def _envelope(samples: np.ndarray, rate_hz: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

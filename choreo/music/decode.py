@@ -7,6 +7,7 @@ Decoding needs no extra: ffmpeg reads every format a motion's ``music:`` may nam
 from __future__ import annotations
 
 import functools
+import re
 import subprocess
 import tempfile
 from dataclasses import dataclass
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from choreo.core.file_kind import not_a_file
 from choreo.errors import ChoreoError
 
 SONG_SUFFIXES = (".wav", ".flac", ".ogg", ".mp3")
@@ -45,6 +47,9 @@ def check_song_path(path: Path) -> str | None:
     """Why ``path`` can't be a song (one phrase), or None if it can."""
     if path.suffix.lower() not in SONG_SUFFIXES:
         return f"{path.name} is not a song file: use {', '.join(SONG_SUFFIXES)}"
+    kind = not_a_file(path)
+    if kind is not None:
+        return f"{path} is {kind}, not a song file"
     if not path.is_file():
         return f"{path} does not exist"
     return None
@@ -74,8 +79,7 @@ def _decode(path: str, _mtime_ns: int, _size: int, rate_hz: int, channels: int) 
                 data += chunk
         if ffmpeg.returncode != 0:
             errors.seek(0)
-            reason = errors.read().decode(errors="replace").strip().splitlines()
-            raise ChoreoError(f"cannot decode {path}: {reason[-1] if reason else 'ffmpeg failed'}")
+            raise ChoreoError(f"cannot decode {path}: {ffmpeg_reason(errors.read())}")
     samples = np.frombuffer(data, dtype="<f4", count=len(data) // 4)
     if channels > 1:
         samples = samples.reshape(-1, channels)
@@ -97,7 +101,7 @@ def encode(audio: Audio, path: str | Path) -> Path:
     data = np.ascontiguousarray(audio.samples, dtype="<f4").tobytes()
     result = subprocess.run(command, input=data, capture_output=True, check=False)
     if result.returncode != 0:
-        raise ChoreoError(f"cannot write {path}: {result.stderr.decode(errors='replace').strip()}")
+        raise ChoreoError(f"cannot write {path}: {ffmpeg_reason(result.stderr)}")
     return path
 
 
@@ -114,9 +118,32 @@ def add_song_to_video(video: Path, song: Path, song_at_start_s: float, duration_
     if delay_ms:
         command += ["-af", f"adelay={delay_ms}:all=1"]
     command += ["-t", f"{duration_s:.6f}", str(muxed)]
-    result = subprocess.run(command, capture_output=True, check=False)
+    try:
+        result = subprocess.run(command, capture_output=True, check=False)
+    except BaseException:  # Ctrl-C or SIGTERM while ffmpeg works: leave nothing behind
+        muxed.unlink(missing_ok=True)
+        raise
     if result.returncode != 0:
         muxed.unlink(missing_ok=True)
-        reason = result.stderr.decode(errors="replace").strip()
-        raise ChoreoError(f"cannot add {song.name} to {video}: {reason}")
+        raise ChoreoError(f"cannot add {song.name} to {video}: {ffmpeg_reason(result.stderr)}")
     muxed.replace(video)
+
+
+_FFMPEG_PREFIX = re.compile(r"^\[[^\]]*@ 0x[0-9a-fA-F]+\] ")  # "[out#0/f32le @ 0x55...] "
+
+
+def ffmpeg_reason(stderr: bytes) -> str:
+    """What ffmpeg's error output says, in one phrase: its first line is the cause (the lines
+    after it are what failed because of it), without ffmpeg's ``[stream @ 0x...]`` tags."""
+    lines = [
+        _FFMPEG_PREFIX.sub("", line).strip()
+        for line in stderr.decode(errors="replace").splitlines()
+    ]
+    cause = next((line for line in lines if line), "")
+    if not cause:
+        return "ffmpeg failed without saying why"
+    if "does not contain any stream" in cause:
+        return "it has no audio"
+    if cause.startswith(("Error opening input", "Invalid data found")):
+        return f"it is not a sound file ffmpeg can read ({cause})"
+    return cause

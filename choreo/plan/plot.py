@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from choreo.core.atomic import atomic_output
 from choreo.plan.planner import Trajectory
 from choreo.plan.ticks import TickPlan
 from choreo.robot.types import Robot
@@ -138,7 +139,8 @@ def plot_plan(
         va="top",
         fontsize=11,
     )
-    figure.savefig(path, format="png", dpi=DPI)
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, format="png", dpi=DPI)
 
 
 def _pad_flat_axis(ax, values, min_span: float) -> None:

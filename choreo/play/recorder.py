@@ -37,7 +37,7 @@ import numpy as np
 from choreo.bus import servo_config
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
-from choreo.core.atomic import fsync_directory, write_text_atomically
+from choreo.core.atomic import check_writable, fsync_directory, write_text_atomically
 from choreo.core.clock import Clock
 from choreo.core.yaml_source import SourceLocation, did_you_mean
 from choreo.errors import BusError, ChoreoError, OptionError, UnsupportedByTransport
@@ -251,11 +251,7 @@ class Recording:
                 f"{path} holds {count} capture(s) of an unfinished recording: continue it "
                 "({option}), or delete it to start over",
             )
-        if motion_path.exists() and not overwrite:
-            raise ChoreoError.naming(
-                "overwrite",
-                f"{motion_path} exists: choose another file, or allow replacing it ({{option}})",
-            )
+        check_writable(motion_path, overwrite=overwrite)  # before any servo goes limp
         return cls(motion_path, robot, Journal.create(path, robot))
 
     @classmethod
@@ -462,15 +458,17 @@ class Recorder:
 
     def _hold_taught(self, *, quietly: bool) -> None:
         """Load the taught joints again (a LOAD holds the current position)."""
-        failed = []
+        failed: dict[str, list[str]] = {}  # reason -> joints: a board's refusal once, not 18x
         for joint in self.taught:
             try:
                 servo_config.set_torque(self.bus, joint.servo_id, True)
             except BusError as error:
-                failed.append(f"{joint.name}: {error}")
+                failed.setdefault(str(error), []).append(joint.name)
         if not failed:
             return
-        message = "could not load again, so these joints may be limp: " + "; ".join(failed)
+        message = "could not load again, so these joints may be limp: " + "; ".join(
+            f"{', '.join(names)}: {reason}" for reason, names in failed.items()
+        )
         if quietly:
             log.warning("%s", message)  # an error is on its way out already; don't hide it
         else:

@@ -52,7 +52,13 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
         if not props:
             return mujoco.MjModel.from_xml_path(str(path))
         spec = mujoco.MjSpec.from_file(str(path))
+        taken = {geom.name for geom in spec.geoms if geom.name}
         for prop in props:
+            if prop.name in taken:  # MuJoCo would blame the scene file for the motion's name
+                raise PreviewError(
+                    f"{prop.where or prop.name}: props: the name {prop.name!r} is taken by a "
+                    f"part of the robot or its scene ({path.name}); choose another name"
+                )
             _add_prop(spec, prop)
         return spec.compile()
     except ValueError as error:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from choreo.core.file_kind import not_a_file
 from choreo.core.yaml_source import did_you_mean
 
 ROBOT_FILE = "robot.yaml"
@@ -47,6 +48,9 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
     if is_robot_path(ref):
         path = Path(os.path.normpath(base / ref))  # "parts/../models/x" reads badly in messages
         path = path / ROBOT_FILE if path.is_dir() else path
+        kind = not_a_file(path)
+        if kind is not None:
+            raise LookupError(f"robot file {str(ref)!r} is {kind}, not a robot file")
         if not path.is_file():
             raise LookupError(f"robot file {str(ref)!r} not found (looked for {path})")
         return path

@@ -18,6 +18,7 @@ from choreo.bus.servo_models import (
     ServoModel,
 )
 from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
+from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import (
     Entry,
@@ -505,9 +506,15 @@ def _model_file(reader: Reader, entry: Entry | None, default: str, what: str) ->
     if relative is None:
         return None
     path = reader.path.parent / relative
-    if path.is_file():
+    kind = not_a_file(path)
+    if kind is None and path.is_file():
         return path
-    if entry is None:
+    if kind is not None:
+        where = (
+            reader.where(entry.value) if entry is not None else SourceLocation(reader.path, 1, 1)
+        )
+        reader.problems.add(where, f"{what} {path} is {kind}, not a file")
+    elif entry is None:
         reader.problems.add(
             SourceLocation(reader.path, 1, 1),
             f"{what} {path} does not exist; add it beside {ROBOT_FILE}",

@@ -33,6 +33,7 @@ import serial
 
 from choreo.bus.protocol import BYTE_TIME_S, Command
 from choreo.core.clock import Clock
+from choreo.core.file_kind import not_a_file
 from choreo.errors import PortError, UnsupportedByTransport
 
 # port-string scheme -> the module that opens it; any other scheme is a pyserial URL on the raw bus
@@ -191,14 +192,17 @@ def open_serial(
         port.open()
         return port
     except (serial.SerialException, ValueError, OSError) as error:
-        raise PortError(f"cannot open {url}: {_open_failure(error)}") from error
+        raise PortError(f"cannot open {url}: {_open_failure(url, error)}") from error
 
 
 _LIST_PORTS = "list ports with `choreo ports`; `sim://` is the built-in emulator"
 
 
-def _open_failure(error: Exception) -> str:
+def _open_failure(url: str, error: Exception) -> str:
     """Why a port did not open, in the user's terms, with the hint that fits the cause."""
+    kind = not_a_file(url) if "://" not in url else None
+    if kind not in (None, "a device"):
+        return f"it is {kind}, not a serial port; {_LIST_PORTS}"
     code = getattr(error, "errno", None)
     if code == errno.ENOENT:
         return f"no such port; {_LIST_PORTS}"
