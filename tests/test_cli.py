@@ -15,7 +15,10 @@ from choreo.cli import main
 
 def test_a_usage_error_raised_by_a_handler_is_one_line_and_exit_2(capsys):
     assert main(["play", str(WAVE), "--exit-pose", "nope"]) == 2
-    assert error_line(capsys) == "choreo: error: --exit-pose 'nope' is used only with --exit pose"
+    assert error_line(capsys) == (
+        "choreo: error: --exit-pose nope is used only with --exit pose (now --exit hold): add "
+        "--exit pose, or drop --exit-pose"
+    )
     assert main(["play", str(WAVE), "--exit", "pose", "--exit-pose", "nope"]) == 2
     assert error_line(capsys) == (
         "choreo: error: --exit-pose 'nope' is not a pose of arm6; poses: home, rest, ready"
