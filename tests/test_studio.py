@@ -19,6 +19,7 @@ from choreo.cli.studio_commands import listen_address
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, SimSerial
 from choreo.errors import SourceError
+from choreo.motion.music_block import BeatGrid
 from choreo.plan.planner import APPROACH_LIMIT_SCALE
 from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
@@ -35,6 +36,7 @@ from choreo.studio.yaml_edit import (
     pose_mapping,
     retime_keyframe,
     sites_mapping,
+    timing,
     update_keyframe,
 )
 
@@ -84,20 +86,33 @@ def test_update_rewrites_the_pose_and_keeps_the_timing_and_its_comment():
 
 
 def test_retime_replaces_after_beat_or_bar_by_t_keeping_the_line_comment():
-    new = retime_keyframe(HAND_WRITTEN, 1, "here", 1.25)
+    new = retime_keyframe(HAND_WRITTEN, 1, "here", ("t", 1.25))
     assert new == HAND_WRITTEN.replace("    after: 1.0  # slow\n", "    t: 1.25  # slow\n")
     music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
-    assert retime_keyframe(music, 0, "here", 2) == (
+    assert retime_keyframe(music, 0, "here", ("t", 2)) == (
         "robot: arm6\nkeyframes:\n  - pose: home\n    t: 2\n    stop: true\n"
     )
 
 
+def test_a_dance_is_edited_in_beats_and_times_outside_the_song_in_seconds():
+    grid = BeatGrid((0.0, 0.5, 1.0, 1.5), beats_per_bar=4)  # 120 BPM, beat 1 at t 0
+    assert timing(0.75, grid) == ("beat", 2.5)
+    assert timing(1.0, grid) == ("beat", 3)  # on a beat: a whole number
+    assert timing(2.0, grid) == ("t", 2)  # past the song's last beat
+    assert timing(0.75, None) == ("t", 0.75)  # no music block
+    music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
+    assert retime_keyframe(music, 0, "here", timing(1.0, grid)) == (
+        "robot: arm6\nkeyframes:\n  - pose: home\n    beat: 3\n    stop: true\n"
+    )
+
+
 def test_add_inserts_a_full_pose_after_the_keyframe_before_it():
-    new = add_keyframe(HAND_WRITTEN, 0, "pose", pose_mapping({"base_yaw": 5, "shoulder": 7.5}), 0.5)
+    pose = pose_mapping({"base_yaw": 5, "shoulder": 7.5})
+    new = add_keyframe(HAND_WRITTEN, 0, "pose", pose, ("t", 0.5))
     assert new == HAND_WRITTEN.replace(
         "  - pose: home\n", "  - pose: home\n  - pose: {base_yaw: 5, shoulder: 7.5}\n    t: 0.5\n"
     )
-    first = add_keyframe(HAND_WRITTEN, None, "pose", pose_mapping({"gripper": 10}), 0)
+    first = add_keyframe(HAND_WRITTEN, None, "pose", pose_mapping({"gripper": 10}), ("t", 0))
     assert first.startswith("robot: arm6   # the desk arm\nkeyframes:\n  - pose: {gripper: 10}\n")
 
 
@@ -133,7 +148,7 @@ def test_a_bad_edit_is_refused_before_anything_is_written(tmp_path):
     copy_motion(path)
     # the second keyframe moved after the third: the third's t now goes backwards
     with pytest.raises(SourceError, match=rf"^{re.escape(str(path))}:11:8: t 2 goes backwards"):
-        check_loads(path, retime_keyframe(TEXT, 1, "here", 2.5))
+        check_loads(path, retime_keyframe(TEXT, 1, "here", ("t", 2.5)))
     assert path.read_text() == TEXT
     assert sorted(p.name for p in tmp_path.iterdir()) == ["groove.ogg", "wave.yaml"]
 
@@ -255,7 +270,9 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
         studio.add_keyframe()
         assert not [line for line in said if "nothing written" in line]
         assert (
-            path.read_text() == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    t: 3.4\n"
+            # a dance: written on the song's beats, 1 + 3.4 s x 112 BPM / 60 s = beat 7.347
+            path.read_text()
+            == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    beat: 7.347\n"
         )
     finally:
         studio.close()

@@ -141,10 +141,11 @@ def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, st
 
 
 # The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:
-# these two lines and nothing else.
+# these two lines and nothing else. The motion dances to a 112 BPM song with beat 1 at t 0, so
+# t 2.5 s is written as beat 1 + 2.5 x 112 / 60 = 5.667.
 ADDED = """\
   - pose: {base_yaw: 0, shoulder: 45, elbow: 0, wrist_pitch: 0, wrist_roll: 0, gripper: 0}
-    t: 2.5
+    beat: 5.667
 """
 
 

@@ -326,7 +326,7 @@ class Studio:
             items = self._items(text, plan)
             before = [i for i, t in items if t <= self.time_s + 1e-9]
             after = max(before) if before else None
-            return yaml_edit.add_keyframe(text, after, *self._captured(plan), self._file_t(plan))
+            return yaml_edit.add_keyframe(text, after, *self._captured(plan), self._timing(plan))
 
         self._edit(change, "added a keyframe")
 
@@ -341,7 +341,7 @@ class Studio:
     def retime_keyframe(self) -> None:
         self._edit(
             lambda text, plan: yaml_edit.retime_keyframe(
-                text, *self._selected_item(text, plan), self._file_t(plan)
+                text, *self._selected_item(text, plan), self._timing(plan)
             ),
             "moved the keyframe",
         )
@@ -362,6 +362,11 @@ class Studio:
             return "sites", yaml_edit.sites_mapping(site, at_mm)
         pose = dict(zip(plan.motion.robot.joint_names, (float(a) for a in self._pose())))
         return "pose", yaml_edit.pose_mapping(pose)
+
+    def _timing(self, plan: Plan) -> yaml_edit.Timing:
+        """The timeline's time as a keyframe is written: in beats in a dance, else seconds."""
+        music = plan.motion.music
+        return yaml_edit.timing(self._file_t(plan), music.grid if music else None)
 
     def _file_t(self, plan: Plan) -> float:
         """The timeline's time as the file writes it (before the motion's speed)."""

@@ -16,9 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from choreo.motion.music_block import BeatGrid
 from choreo.studio import require
 
 TIMING_KEYS = ("t", "after", "beat", "bar")
+BEAT_DECIMALS = 3  # a thousandth of a beat: well under a millisecond at any tempo
+Timing = tuple[str, float]  # ("t", seconds) or ("beat", the song's beat number)
 SPACE_KEYS = ("sites", "body", "gait")  # a joint pose written over a keyframe replaces these
 DECIMALS = 1  # degrees and times written with one decimal (0.1° is below a servo's step)
 TIME_DECIMALS = 3  # seconds: to the millisecond
@@ -131,9 +134,9 @@ def _joined(lines: list[str], ending: str) -> str:
     return "\n".join(lines) + ending
 
 
-def add_keyframe(text: str, after: int | None, key: str, value: Any, t_s: float) -> str:
-    """Insert ``key: value`` (``pose:`` or ``sites:``) at ``t: t_s`` after the ``after``-th
-    keyframe item (``None``: first in the list)."""
+def add_keyframe(text: str, after: int | None, key: str, value: Any, timing: Timing) -> str:
+    """Insert ``key: value`` (``pose:`` or ``sites:``) at ``timing`` (``("t", 1.5)`` or
+    ``("beat", 9)``) after the ``after``-th keyframe item (``None``: first in the list)."""
     comments = require("ruamel.yaml.comments")
     items = keyframe_items(text)
     lines, ending = _lines(text)
@@ -141,7 +144,7 @@ def add_keyframe(text: str, after: int | None, key: str, value: Any, t_s: float)
         raise EditRefused("the keyframes: list is empty or written in flow style: add one by hand")
     item = comments.CommentedMap()
     item[key] = value
-    item["t"] = number(t_s, TIME_DECIMALS)
+    item[timing[0]] = timing[1]
     if after is None:
         at, dash_col = items[0].first_line, items[0].dash_col
     else:
@@ -229,9 +232,18 @@ def update_keyframe(text: str, index: int, where: str, key: str, value: Any) -> 
     return _edit_item(text, index, where, key, value, replaces)
 
 
-def retime_keyframe(text: str, index: int, where: str, t_s: float) -> str:
-    """The ``index``-th keyframe item arrives at ``t: t_s`` (replacing after/beat/bar)."""
-    return _edit_item(text, index, where, "t", number(t_s, TIME_DECIMALS), TIMING_KEYS)
+def retime_keyframe(text: str, index: int, where: str, timing: Timing) -> str:
+    """The ``index``-th keyframe item arrives at ``timing`` (``("t", 1.5)`` or ``("beat", 9)``),
+    replacing whatever timed it (t, after, beat, bar)."""
+    return _edit_item(text, index, where, timing[0], timing[1], TIMING_KEYS)
+
+
+def timing(t_s: float, grid: BeatGrid | None) -> Timing:
+    """How a keyframe at file time ``t_s`` is written: on the song's beats (``beat: 9.5``) in a
+    motion with a music block, where the time is inside the song's beats; else ``t:``."""
+    if grid is not None and grid.beats and grid.beat_times_s[0] <= t_s <= grid.beat_times_s[-1]:
+        return "beat", number(grid.beat_at(t_s), BEAT_DECIMALS)
+    return "t", number(t_s, TIME_DECIMALS)
 
 
 def delete_keyframe(text: str, index: int) -> str:
