@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
 from choreo.bus.transports.direction import PRESETS, parse_direction
-from choreo.errors import UsageError
 
 if TYPE_CHECKING:
     from choreo.bus.servo_bus import ServoBus
@@ -258,23 +257,14 @@ def say_built_in_emulator(robot: Robot, doing: str) -> None:
 
 def load_dance(path: Path, allow_past_song: bool) -> Motion:
     """The motion, saying which detected beats ``beats: auto`` took and (allowed) that the dance
-    outlasts its song."""
+    outlasts its song; not allowed, ``load_motion`` has refused it at its line."""
     from choreo.motion.motion_file import load_motion  # the planner's world: not for bus commands
+    from choreo.motion.music_block import past_song
 
     motion = load_motion(path, allow_past_song)
     if motion.music is not None and motion.music.note:
         print(f"choreo: {motion.music.note}", file=sys.stderr)
-    check_past_song(motion, allow_past_song, str(path))
-    return motion
-
-
-def check_past_song(motion: Motion, allowed: bool, what: str) -> None:
-    """Refuse (UsageError) or, allowed, warn of a dance that outlasts its song."""
-    from choreo.motion.music_block import past_song
-
     problem = past_song(motion.music, motion.keyframes, motion.repeat)
-    if problem is None:
-        return
-    if not allowed:
-        raise UsageError(f"{what}: {problem}; give fewer, or pass --allow-past-song")
-    print(f"choreo: warning: {problem}: the dance goes on in silence", file=sys.stderr)
+    if problem is not None:
+        print(f"choreo: warning: {problem}: the dance goes on in silence", file=sys.stderr)
+    return motion
