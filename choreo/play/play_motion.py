@@ -73,7 +73,7 @@ def play_motion(
     (KeyboardInterrupt) stops the servos at once and ends with outcome ``interrupted``; a
     failed health check, ``aborted``.
     """
-    motion = prepared_motion(motion, options)
+    motion = prepared_motion(motion, options, on_note)
     robot = motion.robot
     compiled = compile_motion(
         motion, speed=options.speed, stretch=options.stretch, tolerance_deg=options.tolerance_deg
