@@ -144,12 +144,11 @@ class ServoBus:
             raise ValueError(f"retries must be >= 0, got {retries}")
         self.timeout_s = timeout_s
         self.retries = retries
-        self.echo = EchoMode(echo)
         self._lock = threading.RLock()
-        if isinstance(port, Connection):
+        if isinstance(port, Connection):  # opened already: its backend has its echo mode
             connection = port
         else:
-            connection = transports.connect(port, timeout_s, direction, self.echo)
+            connection = transports.connect(port, timeout_s, direction, EchoMode(echo))
         self.port, self.backend = connection.port, connection.backend
         self.capabilities = connection.capabilities
         self.clock = connection.clock  # what deadlines on this bus are kept on
