@@ -156,10 +156,7 @@ def backend_module(port: str | None) -> ModuleType:
 
 def _register_url_handler(url: str) -> None:
     """Let pyserial open the URL schemes a backend provides itself (``sim://``)."""
-    module_name = BACKENDS.get(urllib.parse.urlsplit(url).scheme.lower()) if "://" in url else None
-    if module_name is None:
-        return
-    register = getattr(importlib.import_module(module_name), "register_url_handler", None)
+    register = getattr(importlib.import_module(_module_name(url)), "register_url_handler", None)
     if register is not None:
         register()
 
