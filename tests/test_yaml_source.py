@@ -3,6 +3,7 @@ hint where YAML 1.1 reads a number as text, and numbers read as PyYAML reads the
 
 from __future__ import annotations
 
+import gc
 import math
 from pathlib import Path
 
@@ -11,8 +12,15 @@ import yaml
 from cli_helpers import error_line, motion_file
 
 from choreo.cli import main
-from choreo.core.yaml_source import Problems, Reader, SourceLocation, parse_yaml_file
+from choreo.core.yaml_source import (
+    Problems,
+    Reader,
+    SourceLocation,
+    parse_yaml_file,
+    reading_a_file,
+)
 from choreo.errors import SourceError
+from choreo.motion.motion_file import load_motion
 
 
 @pytest.mark.parametrize(
@@ -170,3 +178,28 @@ def test_what_is_no_finite_number_is_refused_where_it_is(text):
     problems = Problems()
     assert read_number(text, problems) is None
     assert problems.messages == [f"f.yaml:1:4: x must be a number, got {text}"]
+
+
+def test_reading_a_file_pauses_the_collector_and_gives_back_the_state_it_found():
+    assert gc.isenabled()
+    with reading_a_file():
+        assert not gc.isenabled()
+        with reading_a_file():  # a motion reading its robot
+            assert not gc.isenabled()
+        assert not gc.isenabled()  # the inner read leaves it to the outer one
+    assert gc.isenabled()
+    gc.disable()  # a program that runs without the collector keeps it off
+    try:
+        with reading_a_file():
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
+def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("robot: arm6\nkeyframes: [\n")
+    with pytest.raises(SourceError):
+        load_motion(path)
+    assert gc.isenabled()

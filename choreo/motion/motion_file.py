@@ -26,6 +26,7 @@ from choreo.core.yaml_source import (
     did_you_mean,
     fmt,
     parse_yaml_file,
+    reading_a_file,
 )
 from choreo.errors import SourceError
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
@@ -151,7 +152,8 @@ def load_motion(path: str | Path, allow_past_song: bool = False) -> Motion:
     """
     path = Path(path)
     problems = Problems()
-    motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
+    with reading_a_file():
+        motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
     if motion is None or problems:
         raise SourceError(problems.messages)
     return motion

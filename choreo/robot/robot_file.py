@@ -29,6 +29,7 @@ from choreo.core.yaml_source import (
     did_you_mean,
     fmt,
     parse_yaml_file,
+    reading_a_file,
 )
 from choreo.errors import SourceError
 from choreo.robot.joint_source import JointSource
@@ -72,7 +73,8 @@ def load_robot(path_or_name: str | Path, *, relative_to: Path | None = None) -> 
     except LookupError as error:
         raise SourceError(str(error)) from None
     problems = Problems()
-    robot = _read_robot(Reader(path, problems), parse_yaml_file(path))
+    with reading_a_file():
+        robot = _read_robot(Reader(path, problems), parse_yaml_file(path))
     if robot is None or problems:
         raise SourceError(problems.messages)
     return robot
