@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import signal
+
 import pytest
 from emulated import built_in_emulator_in_virtual_time, home_specs, served_on_a_pty
 
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator
 from choreo.robot.robot_file import load_robot
+
+# A suite started in the background of a non-interactive shell (`pytest &`, some CI runners)
+# inherits SIGINT ignored, and so would every `choreo` it starts: the tests that stop one with
+# Ctrl-C would then watch it play to the end. Ctrl-C is what they test, so restore it.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture

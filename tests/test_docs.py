@@ -210,7 +210,12 @@ def test_readme_block_with_a_server_runs(block, workdir, run):
     finally:
         for server in servers:
             server.send_signal(signal.SIGINT)
-            server.wait(timeout=30)
+        for server in servers:
+            try:
+                server.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                server.kill()  # leave no server behind, holding its port, and fail
+                raise
 
 
 @pytest.mark.parametrize(
