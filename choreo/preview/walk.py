@@ -131,9 +131,10 @@ def _turn(rollout: Rollout, address: int, first: int, last: int) -> float:
 def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> float | None:
     """Over every swing of every foot in the block (the plan lifting it 1 mm or more, and at
     its highest half the gait's lift or more): its highest rise over its height at the block's
-    start, as a share of the planned highest."""
+    start, as a share of the lift the gait asked (the plan may lift it higher, making up for
+    the robot's sag: the robot file's ``gait: lift_sag``)."""
     stance, heights = rollout.stance, rollout.foot_height_m
-    if stance is None or heights is None:
+    if stance is None or heights is None or lift_m <= 0:
         return None
     shares = []
     for foot in range(stance.lift_m.shape[1]):
@@ -144,5 +145,5 @@ def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> fl
         for begin, end in zip(edges[::2], edges[1::2]):
             if planned[begin:end].max() < lift_m / 2:
                 continue  # the plan's floor shifting under a planted foot, not a swing
-            shares.append(float(rise[begin:end].max() / planned[begin:end].max()))
+            shares.append(float(rise[begin:end].max() / lift_m))
     return float(np.mean(shares)) if shares else None
