@@ -136,25 +136,26 @@ def gait_keyframes(stance_mm: np.ndarray, gait: Gait) -> list[GaitKeyframe]:
     for _ in range(moving):
         bodies.append(_compose(bodies[-1], per_slot / phases.slots))
     bodies += [bodies[-1]] * phases.overhang
-    swings = []  # (leg, lift-off keyframe, where it lands on the floor)
+    # every keyframe's swinging legs: (leg, fraction of its swing, from, to on the floor)
+    swinging: dict[int, list[tuple[int, float, np.ndarray, np.ndarray]]] = {}
     for leg, first in enumerate(phases.lift_off):
+        origin = stance_mm[leg]  # floor frame (the body's start)
         for step in range(gait.steps):
             lift_off = step * phases.slots + first
             mid_stance = lift_off + swing + (phases.slots - swing) // 2
-            landing = bodies[moving if step == gait.steps - 1 else mid_stance]
-            swings.append((leg, lift_off, _to_floor(landing, stance_mm)[leg]))
-    footholds = stance_mm.copy()  # floor frame (the body's start)
+            landing = _to_floor(bodies[moving if step == gait.steps - 1 else mid_stance], stance_mm)
+            for slot, fraction in enumerate(SWING_SAMPLES, start=lift_off + 1):
+                swinging.setdefault(slot, []).append((leg, fraction, origin, landing[leg]))
+            origin = landing[leg]
+    footholds = stance_mm.copy()
     keyframes = []
     for slot in range(1, gait.keyframes + 1):
         feet = footholds.copy()
-        for leg, lift_off, landing in swings:
-            if lift_off < slot <= lift_off + swing:
-                fraction = SWING_SAMPLES[slot - lift_off - 1]
-                along = (1 - np.cos(np.pi * fraction)) / 2  # slow off and onto the floor
-                feet[leg] = footholds[leg] + along * (landing - footholds[leg])
-                feet[leg, 2] += gait.lift_mm * np.sin(np.pi * fraction)
-        for leg, lift_off, landing in swings:
-            if slot == lift_off + swing:
+        for leg, fraction, origin, landing in swinging.get(slot, []):
+            along = (1 - np.cos(np.pi * fraction)) / 2  # slow off and onto the floor
+            feet[leg] = origin + along * (landing - origin)
+            feet[leg, 2] += gait.lift_mm * np.sin(np.pi * fraction)
+            if fraction == SWING_SAMPLES[-1]:
                 footholds[leg] = landing
         body = bodies[slot]
         step = min(gait.steps, (slot - 1) // phases.slots + 1)
