@@ -18,6 +18,7 @@ from choreo.motion.gait import (
     feet_under_body,
     gait_keyframes,
 )
+from choreo.preview.stance import support_margin
 
 # the hexapod's feet at home (mm, body frame), left front/middle/rear then right
 STANCE = np.array(
@@ -136,24 +137,15 @@ def test_each_pattern_has_its_duty_factor_and_phases():
     )
 
 
+CENTRE = np.zeros(2)  # the body's centre, standing for its centre of mass
+
+
 def feet_down(frames) -> list[list[int]]:
     """Between each keyframe and the next (the stance before the first): the feet on the floor
     all along, i.e. at the planned floor height at both ends (a swing is one run of keyframes)."""
     heights = [STANCE[:, 2]] + [f.feet_mm[:, 2] for f in frames]
     down = [np.isclose(h, STANCE[:, 2]) for h in heights]
     return [np.flatnonzero(a & b).tolist() for a, b in zip(down, down[1:])]
-
-
-def support_margin(feet_xy: np.ndarray) -> float:
-    """How far the body's centre (the origin) lies inside the convex polygon of ``feet_xy``
-    (negative: outside): the nearest edge of the polygon, its points sorted around their mean."""
-    centre = feet_xy.mean(axis=0)
-    order = np.argsort(np.arctan2(*(feet_xy - centre).T[::-1]))
-    ring = feet_xy[order]
-    edges = np.roll(ring, -1, axis=0) - ring
-    # counter-clockwise ring: the origin's distance to the left of each edge
-    inward = (edges[:, 1] * ring[:, 0] - edges[:, 0] * ring[:, 1]) / np.linalg.norm(edges, axis=1)
-    return float(inward.min())
 
 
 @pytest.mark.parametrize(
@@ -179,7 +171,7 @@ def test_ripple_swings_overlap_with_four_feet_down_and_the_body_inside_them(gait
     before = [STANCE] + [f.feet_mm for f in frames]
     for index, feet in enumerate(down):
         for planted in before[index][feet], before[index + 1][feet]:
-            assert support_margin(planted[:, :2]) > 75  # mm, of a body ~300 by 430 mm wide
+            assert support_margin(planted[:, :2], CENTRE) > 75  # mm, of a body ~300 by 430 mm wide
     # the swings overlap: a leg lifts off while the other side's swing is halfway up
     lf, lm, lr, rf, rm, rr = PHASES[Pattern.RIPPLE].lift_off
     assert 0 < rf - lr < len(SWING_SAMPLES)
@@ -191,4 +183,4 @@ def test_every_pattern_keeps_at_least_three_feet_under_the_body():
         down = feet_down(frames)
         assert min(len(feet) for feet in down) == least
         before = [STANCE] + [f.feet_mm for f in frames]
-        assert min(support_margin(before[i + 1][f][:, :2]) for i, f in enumerate(down)) > 75
+        assert min(support_margin(before[i + 1][f][:, :2], CENTRE) for i, f in enumerate(down)) > 75
