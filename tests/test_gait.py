@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from choreo.motion.gait import (
-    GROUPS,
+    PHASES,
     SWING_SAMPLES,
     BodyPose,
     Gait,
@@ -18,6 +18,7 @@ from choreo.motion.gait import (
     feet_under_body,
     gait_keyframes,
 )
+from choreo.preview.stance import support_margin
 
 # the hexapod's feet at home (mm, body frame), left front/middle/rear then right
 STANCE = np.array(
@@ -54,18 +55,19 @@ GAITS = st.builds(
 @given(gait=GAITS)
 def test_feet_on_the_floor_stay_put_and_swings_follow_the_pattern(gait):
     frames = gait_keyframes(STANCE, gait)
-    groups = GROUPS[gait.pattern]
-    assert len(frames) == gait.steps * len(groups) * len(SWING_SAMPLES)
+    phases = PHASES[gait.pattern]
+    swing = len(SWING_SAMPLES)
+    assert len(frames) == gait.steps * phases.slots + phases.overhang == gait.keyframes
     floor = [to_floor(STANCE_FRAME)] + [to_floor(f) for f in frames]
-    for index in range(len(frames)):
-        group = groups[(index // len(SWING_SAMPLES)) % len(groups)]
-        for leg in range(6):
-            if leg not in group:  # planted: same floor point, on the floor
-                np.testing.assert_allclose(floor[index + 1][leg], floor[index][leg], atol=1e-9)
-                assert floor[index + 1][leg][2] == pytest.approx(STANCE[leg][2])
-        top = frames[index - index % len(SWING_SAMPLES) + 1]  # the middle sample: the top
-        for leg in group:
-            assert to_floor(top)[leg][2] == pytest.approx(STANCE[leg][2] + gait.lift_mm)
+    for leg, first in enumerate(phases.lift_off):
+        lift_offs = [step * phases.slots + first for step in range(gait.steps)]
+        for slot in range(1, len(frames) + 1):
+            lift_off = next((k for k in lift_offs if k < slot <= k + swing), None)
+            if lift_off is None:  # planted: same floor point, on the floor
+                np.testing.assert_allclose(floor[slot][leg], floor[slot - 1][leg], atol=1e-9)
+                assert floor[slot][leg][2] == pytest.approx(STANCE[leg][2])
+            elif slot == lift_off + swing // 2:  # the middle sample: the top
+                assert floor[slot][leg][2] == pytest.approx(STANCE[leg][2] + gait.lift_mm)
 
 
 STANCE_FRAME = type("Frame", (), {"feet_mm": STANCE, "body_mm_deg": (0.0, 0.0, 0.0)})()
@@ -121,3 +123,64 @@ def test_body_roll_lifts_the_left_side():
 def test_body_yaw_turns_the_feet_back():
     feet = feet_under_body(STANCE, BodyPose(yaw_deg=90))
     np.testing.assert_allclose(feet[1], [215.3, 0.0, -75.9], atol=1e-9)
+
+
+def test_each_pattern_has_its_duty_factor_and_phases():
+    """The classic hexapod gaits (Ferrell, "Robust and adaptive locomotion of an autonomous
+    hexapod"): tripod and wave swing one group at a time; ripple runs a wave on each side, rear
+    to front with its legs 1/3 period apart, the two sides half a period apart."""
+    assert [PHASES[p].duty_factor for p in Pattern] == pytest.approx([1 / 2, 2 / 3, 5 / 6])
+    lf, lm, lr, rf, rm, rr = PHASES[Pattern.RIPPLE].offsets
+    assert (lr, lm, lf) == pytest.approx((0, 1 / 3, 2 / 3))
+    assert [(right - left) % 1 for left, right in [(lr, rr), (lm, rm), (lf, rf)]] == (
+        pytest.approx([1 / 2] * 3)
+    )
+
+
+CENTRE = np.zeros(2)  # the body's centre, standing for its centre of mass
+
+
+def feet_down(frames) -> list[list[int]]:
+    """Between each keyframe and the next (the stance before the first): the feet on the floor
+    all along, i.e. at the planned floor height at both ends (a swing is one run of keyframes)."""
+    heights = [STANCE[:, 2]] + [f.feet_mm[:, 2] for f in frames]
+    down = [np.isclose(h, STANCE[:, 2]) for h in heights]
+    return [np.flatnonzero(a & b).tolist() for a, b in zip(down, down[1:])]
+
+
+@pytest.mark.parametrize(
+    "gait",
+    [
+        Gait(Pattern.RIPPLE, 4, stride_mm=40),
+        Gait(Pattern.RIPPLE, 4, stride_mm=0, sideways_mm=30),
+        Gait(Pattern.RIPPLE, 3, stride_mm=0, turn_deg=10),
+    ],
+)
+def test_ripple_swings_overlap_with_four_feet_down_and_the_body_inside_them(gait):
+    """One leg per side in the air at a time, the sides half a period apart: at every instant
+    two legs swing or one does (the swings overlap by half a swing), never two of one side, so
+    four or five feet stand, and the body stays well inside the polygon they make (the support
+    polygon; the body's centre stands for its centre of mass)."""
+    frames = gait_keyframes(STANCE, gait)
+    down = feet_down(frames)
+    assert min(len(feet) for feet in down) == 4
+    assert any(len(feet) == 5 for feet in down)  # one swing lands while the next is in the air
+    for feet in down:
+        lifted = set(range(6)) - set(feet)
+        assert len(lifted & {0, 1, 2}) <= 1 and len(lifted & {3, 4, 5}) <= 1
+    before = [STANCE] + [f.feet_mm for f in frames]
+    for index, feet in enumerate(down):
+        for planted in before[index][feet], before[index + 1][feet]:
+            assert support_margin(planted[:, :2], CENTRE) > 75  # mm, of a body ~300 by 430 mm wide
+    # the swings overlap: a leg lifts off while the other side's swing is halfway up
+    lf, lm, lr, rf, rm, rr = PHASES[Pattern.RIPPLE].lift_off
+    assert 0 < rf - lr < len(SWING_SAMPLES)
+
+
+def test_every_pattern_keeps_at_least_three_feet_under_the_body():
+    for pattern, least in [(Pattern.TRIPOD, 3), (Pattern.RIPPLE, 4), (Pattern.WAVE, 5)]:
+        frames = gait_keyframes(STANCE, Gait(pattern, 2, stride_mm=40))
+        down = feet_down(frames)
+        assert min(len(feet) for feet in down) == least
+        before = [STANCE] + [f.feet_mm for f in frames]
+        assert min(support_margin(before[i + 1][f][:, :2], CENTRE) for i, f in enumerate(down)) > 75

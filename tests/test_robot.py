@@ -317,3 +317,18 @@ def test_a_fifo_given_as_a_robot_file_is_named_so(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(SourceError, match=r"'.*robot.yaml' is a FIFO \(named pipe\), not a robot"):
         load_robot(fifo)
+
+
+def test_a_robot_file_says_what_its_gaits_make_up_for(tmp_path):
+    hexapod = load_robot(REPO / "models" / "hexapod18" / "robot.yaml").gait
+    assert (hexapod.lift_sag_mm, hexapod.stride_scale, hexapod.turn_scale) == (7, 1.06, 1.16)
+    tiny = load_robot(TINY).gait  # no gait: block: nothing added
+    assert (tiny.lift_sag_mm, tiny.stride_scale, tiny.turn_scale) == (0, 1, 1)
+    folder = tmp_path / "tiny"
+    shutil.copytree(DATA / "models" / "tiny", folder)
+    text = (folder / "robot.yaml").read_text()
+    (folder / "robot.yaml").write_text(text + "gait: {lift_sag: -2, stride: 1.1, turn_scale: 3}\n")
+    sag, unknown, turn = problems_of(folder / "robot.yaml")  # in the file's order
+    assert sag.endswith("robot.yaml:28:18: gait: lift_sag must be in 0..100, got -2")
+    assert "unknown key 'stride' in gait (did you mean 'stride_scale'?)" in unknown
+    assert "gait: turn_scale must be in 0.5..2, got 3" in turn

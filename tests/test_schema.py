@@ -55,7 +55,7 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     assert motion.GAIT == Shape(("gait",), ("gait",))
     assert motion.INCLUDE == Shape(("include", "mirror", "t", "after", "beat", "bar"), ("include",))
     assert robot.ROBOT.keys == (
-        "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror",
+        "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror", "gait",
     )  # fmt: skip
     assert robot.ROBOT.required == ("name", "joints", "poses")
     assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
@@ -65,6 +65,7 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     )
     assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
+    assert robot.GAIT == Shape(tuple(robot.GAIT_BOUNDS), ())
     assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)
 
 
@@ -78,6 +79,11 @@ def test_the_ranges_the_robot_schema_repeats_are_the_codes():
     assert joint["properties"]["id"]["maximum"] == MAX_SERVO_ID
     zero = settings["zero"]
     assert (zero["minimum"], zero["maximum"]) == POSITION_RANGE_UNITS
+
+
+def test_the_gait_ranges_the_robot_schema_repeats_are_the_codes():
+    gait = schema("robot")["properties"]["gait"]["properties"]
+    assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == robot.GAIT_BOUNDS
 
 
 def test_a_pointer_to_no_mapping_is_refused():

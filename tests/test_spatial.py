@@ -16,7 +16,9 @@ from choreo.cli import main
 from choreo.errors import SourceError
 from choreo.motion.gait import BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
 from choreo.motion.motion_file import load_motion
+from choreo.motion.spatial import compensated
 from choreo.robot.kinematics import Kinematics
+from choreo.robot.types import GaitCompensation
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))
@@ -111,7 +113,8 @@ def test_every_ik_keyframe_of_the_shipped_motions_is_reached(path):
             turn_deg=spec.get("turn", 0.0),
             lift_mm=spec.get("lift", 30.0),
         )
-        expected = gait_keyframes(stance_mm, gait)
+        # commanded as the robot file's gait: block makes up for its sag and slip
+        expected = gait_keyframes(stance_mm, compensated(gait, motion.robot.gait))
         assert len(frames) == len(expected)
         for keyframe, want in zip(frames, expected):
             for foot, point in zip(kin.feet(), want.feet_mm):
@@ -357,3 +360,13 @@ def test_gaits_and_repeat_together_are_counted_before_the_gaits_are_solved(tmp_p
         f"{path}:2:9: repeat 10 x 8001 keyframe(s) = 80010 keyframes to play; at most 10000 are "
         "played in one motion: at most 1 time"
     ]
+
+
+def test_a_gait_commands_what_the_robot_falls_short_of_and_a_lift_of_0_stays_0():
+    by = GaitCompensation(lift_sag_mm=7, stride_scale=1.06, turn_scale=1.16)
+    asked = Gait(Pattern.RIPPLE, 4, stride_mm=40, sideways_mm=-30, turn_deg=10, lift_mm=25)
+    commanded = compensated(asked, by)
+    assert (commanded.stride_mm, commanded.sideways_mm) == pytest.approx((42.4, -31.8))
+    assert (commanded.turn_deg, commanded.lift_mm) == pytest.approx((11.6, 32))
+    assert (commanded.pattern, commanded.steps, commanded.period_s) == (Pattern.RIPPLE, 4, 2.0)
+    assert compensated(Gait(Pattern.TRIPOD, 1, lift_mm=0), by).lift_mm == 0  # meant to slide

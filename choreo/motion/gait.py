@@ -5,12 +5,13 @@ result is foot positions (mm, body frame) that ``choreo.motion.spatial`` turns i
 by IK.
 
 A gait of ``steps`` steps moves the body by ``stride`` mm forward, ``sideways`` mm to the left
-and turns it ``turn_deg`` counter-clockwise (seen from above) per step; in one step every leg
-swings once, the legs of one group of the pattern at a time. The body moves steadily; each
-swing lands its foot where that foot stands at home under the body's pose halfway through the
-stance that follows (so every foot works as far ahead of its neutral spot as behind it), the
-last ones under the gait's end pose, so after the last step the robot stands as it started,
-``steps`` strides further on.
+and turns it ``turn_deg`` counter-clockwise (seen from above) per step; in one step (the period)
+every leg swings once, each at its own phase of the period (``PHASES``): tripod and wave swing
+their legs in turn, ripple runs a wave on each side with the two sides half a period apart, so
+its swings overlap. The body moves steadily; each swing lands its foot where that foot stands at
+home under the body's pose halfway through the stance that follows (so every foot works as far
+ahead of its neutral spot as behind it), the last ones under the gait's end pose, so after the
+last step the robot stands as it started, ``steps`` strides further on.
 """
 
 from __future__ import annotations
@@ -22,21 +23,51 @@ import numpy as np
 
 # Feet in the order the MJCF lists them: left front, middle, rear, then right front, middle, rear.
 SIX_LEGS = 6
-# Keyframes of one group's swing, as fractions of it: the foot rises, crosses and sets down on a
-# half sine, so the joint-space moves between keyframes stay close to that path.
+# Keyframes of one swing, as fractions of it: the foot rises, crosses and sets down on a half
+# sine, so the joint-space moves between keyframes stay close to that path.
 SWING_SAMPLES = (0.25, 0.5, 0.75, 1.0)
 
 
 class Pattern(Enum):
     TRIPOD = "tripod"  # two groups of three: lf rm lr, then rf lm rr
-    RIPPLE = "ripple"  # three groups of two, one leg per side: lr rf, lm rr, lf rm
+    RIPPLE = "ripple"  # a wave on each side (rear to front), the sides half a period apart
     WAVE = "wave"  # one leg at a time, rear to front: rr rm rf lr lm lf
 
 
-GROUPS: dict[Pattern, tuple[tuple[int, ...], ...]] = {
-    Pattern.TRIPOD: ((0, 4, 2), (3, 1, 5)),
-    Pattern.RIPPLE: ((2, 3), (1, 5), (0, 4)),
-    Pattern.WAVE: ((5,), (4,), (3,), (2,), (1,), (0,)),
+@dataclass(frozen=True)
+class Phases:
+    """When each leg swings within a step, on the gait's keyframe grid: a step is ``slots``
+    keyframes, every swing ``len(SWING_SAMPLES)`` of them, and leg ``i`` lifts off
+    ``lift_off[i]`` keyframes into the step (a swing may run on into the next step)."""
+
+    slots: int
+    lift_off: tuple[int, ...]  # lf lm lr rf rm rr
+
+    @property
+    def duty_factor(self) -> float:
+        """The share of the period each foot is on the floor."""
+        return 1 - len(SWING_SAMPLES) / self.slots
+
+    @property
+    def offsets(self) -> tuple[float, ...]:
+        """Each leg's lift-off as a fraction of the period."""
+        return tuple(slot / self.slots for slot in self.lift_off)
+
+    @property
+    def overhang(self) -> int:
+        """Keyframes the last swings run past the last step's end."""
+        return max(0, max(self.lift_off) + len(SWING_SAMPLES) - self.slots)
+
+
+PHASES: dict[Pattern, Phases] = {
+    # duty factor 1/2: tripod A (lf, rm, lr) swings while B stands, then B: three feet always down
+    Pattern.TRIPOD: Phases(8, (0, 4, 0, 4, 0, 4)),
+    # duty factor 2/3: on each side a wave rear to front, its legs 1/3 period apart (lr 0, lm 1/3,
+    # lf 2/3), the right side half a period behind (rr 1/2, rm 5/6, rf 1/6): one leg per side in
+    # the air, never two neighbours, so four feet are always down and the swings overlap by half
+    Pattern.RIPPLE: Phases(12, (8, 4, 0, 2, 10, 6)),
+    # duty factor 5/6: one leg at a time, rr rm rf lr lm lf, 1/6 period apart: five feet down
+    Pattern.WAVE: Phases(24, (20, 16, 12, 8, 4, 0)),
 }
 
 
@@ -52,7 +83,12 @@ class Gait:
 
     @property
     def keyframes_per_step(self) -> int:
-        return len(SWING_SAMPLES) * len(GROUPS[self.pattern])
+        return PHASES[self.pattern].slots
+
+    @property
+    def keyframes(self) -> int:
+        """All the gait's keyframes: its steps, then the swings that run past the last one."""
+        return self.steps * self.keyframes_per_step + PHASES[self.pattern].overhang
 
     @property
     def keyframe_s(self) -> float:
@@ -90,52 +126,41 @@ def feet_under_body(stance_mm: np.ndarray, pose: BodyPose) -> np.ndarray:
 
 
 def gait_keyframes(stance_mm: np.ndarray, gait: Gait) -> list[GaitKeyframe]:
-    """Foot positions (body frame) at every keyframe of the gait, one per swing sample."""
+    """Foot positions (body frame) at every keyframe of the gait."""
     stance_mm = np.asarray(stance_mm, dtype=float)
-    groups = GROUPS[gait.pattern]
-    per_phase = np.array([gait.stride_mm, gait.sideways_mm, np.radians(gait.turn_deg)]) / len(
-        groups
-    )
-    body = np.zeros(3)  # x mm, y mm, heading rad on the floor
-    footholds = stance_mm.copy()  # floor frame (the body's start)
+    phases = PHASES[gait.pattern]
+    swing = len(SWING_SAMPLES)
+    moving = gait.steps * phases.slots  # the body moves until the last step ends, then stands
+    per_slot = np.array([gait.stride_mm, gait.sideways_mm, np.radians(gait.turn_deg)])
+    bodies = [np.zeros(3)]  # x mm, y mm, heading rad on the floor, at every keyframe
+    for _ in range(moving):
+        bodies.append(_compose(bodies[-1], per_slot / phases.slots))
+    bodies += [bodies[-1]] * phases.overhang
+    # every keyframe's swinging legs: (leg, fraction of its swing, from, to on the floor)
+    swinging: dict[int, list[tuple[int, float, np.ndarray, np.ndarray]]] = {}
+    for leg, first in enumerate(phases.lift_off):
+        origin = stance_mm[leg]  # floor frame (the body's start)
+        for step in range(gait.steps):
+            lift_off = step * phases.slots + first
+            mid_stance = lift_off + swing + (phases.slots - swing) // 2
+            landing = _to_floor(bodies[moving if step == gait.steps - 1 else mid_stance], stance_mm)
+            for slot, fraction in enumerate(SWING_SAMPLES, start=lift_off + 1):
+                swinging.setdefault(slot, []).append((leg, fraction, origin, landing[leg]))
+            origin = landing[leg]
+    footholds = stance_mm.copy()
     keyframes = []
-    last_phase = gait.steps * len(groups)
-    for step in range(1, gait.steps + 1):
-        for index, group in enumerate(groups):
-            landing = _to_floor(
-                _body_after(per_phase, _mid_stance_phase(step, index, len(groups), last_phase)),
-                stance_mm,
-            )
-            for fraction in SWING_SAMPLES:
-                now = _compose(body, per_phase * fraction)
-                feet = footholds.copy()
-                for leg in group:
-                    along = (1 - np.cos(np.pi * fraction)) / 2  # slow off and onto the floor
-                    feet[leg] = footholds[leg] + along * (landing[leg] - footholds[leg])
-                    feet[leg, 2] += gait.lift_mm * np.sin(np.pi * fraction)
-                keyframes.append(GaitKeyframe(_to_body(now, feet), step, _floor_pose(now)))
-            for leg in group:
-                footholds[leg] = landing[leg]
-            body = _compose(body, per_phase)
+    for slot in range(1, gait.keyframes + 1):
+        feet = footholds.copy()
+        for leg, fraction, origin, landing in swinging.get(slot, []):
+            along = (1 - np.cos(np.pi * fraction)) / 2  # slow off and onto the floor
+            feet[leg] = origin + along * (landing - origin)
+            feet[leg, 2] += gait.lift_mm * np.sin(np.pi * fraction)
+            if fraction == SWING_SAMPLES[-1]:
+                footholds[leg] = landing
+        body = bodies[slot]
+        step = min(gait.steps, (slot - 1) // phases.slots + 1)
+        keyframes.append(GaitKeyframe(_to_body(body, feet), step, _floor_pose(body)))
     return keyframes
-
-
-def _mid_stance_phase(step: int, group: int, groups: int, last_phase: int) -> float:
-    """Where (in group phases from the gait's start) the body is halfway through the stance
-    that follows this swing: the swing lands ``group``'s feet under that pose, so each foot
-    works as far ahead of its neutral spot as behind it, whichever group it is in. The last
-    stance ends with the gait, where every foot must stand at its neutral spot."""
-    landed = (step - 1) * groups + group + 1  # the phase its swing ends
-    lifts_again = landed + groups - 1  # its next swing starts then
-    return last_phase if lifts_again >= last_phase else (landed + lifts_again) / 2
-
-
-def _body_after(per_phase: np.ndarray, phases: float) -> np.ndarray:
-    """The body's floor pose after ``phases`` (fractional) group phases from the start."""
-    body = np.zeros(3)
-    for _ in range(int(phases)):
-        body = _compose(body, per_phase)
-    return _compose(body, per_phase * (phases - int(phases)))
 
 
 def _compose(pose: np.ndarray, move: np.ndarray) -> np.ndarray:

@@ -368,23 +368,24 @@ def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
     if node is None or spec is None:
         return []
     gait = spec.gait
-    if gait.steps * gait.keyframes_per_step > MAX_PLAYED_KEYFRAMES:
+    if gait.keyframes > MAX_PLAYED_KEYFRAMES:
         steps_node = next(v for k, v in node.value if k.value == "steps")
+        per_step = gait.keyframes_per_step
+        most = (MAX_PLAYED_KEYFRAMES - (gait.keyframes - gait.steps * per_step)) // per_step
         reader.report(
             steps_node,
             f"gait: steps {gait.steps} of the {gait.pattern.value} gait are "
-            f"{gait.steps * gait.keyframes_per_step} keyframes ({gait.keyframes_per_step} a "
-            f"step); at most {MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most "
-            f"{MAX_PLAYED_KEYFRAMES // gait.keyframes_per_step}",
+            f"{gait.keyframes} keyframes ({per_step} a step); at most "
+            f"{MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most {most}",
         )
         return []
     return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
 def _keyframes_of(step: _Step) -> int:
-    """How many keyframes a step becomes: a gait one per swing sample of each step."""
+    """How many keyframes a step becomes: a gait all of its own."""
     if isinstance(step.space, GaitSpec):
-        return step.space.gait.steps * step.space.gait.keyframes_per_step
+        return step.space.gait.keyframes
     return 1
 
 

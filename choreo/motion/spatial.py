@@ -22,7 +22,7 @@ import yaml
 
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt
 from choreo.motion.gait import SIX_LEGS, BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
-from choreo.robot.types import Robot
+from choreo.robot.types import GaitCompensation, Robot
 
 if TYPE_CHECKING:
     from choreo.robot.kinematics import Kinematics, SiteGoal, Solution
@@ -359,8 +359,11 @@ class _Expander:
             )
             return [step]
         out = []
-        # from the pose it is in (a body pose walks as it is), back to that pose at the end
-        frames = gait_keyframes(self._feet_mm(feet, self.current), gait)
+        # from the pose it is in (a body pose walks as it is), back to that pose at the end;
+        # commanding more than asked where the robot is known to fall short (the preview judges
+        # the walk against what was asked)
+        commanded = compensated(gait, self.robot.gait)
+        frames = gait_keyframes(self._feet_mm(feet, self.current), commanded)
         for index, frame in enumerate(frames):
             what = f"gait step {frame.step} of {gait.steps}"
             angles = self._solve_feet(feet, frame.feet_mm, fixed, step.where, what)
@@ -375,6 +378,18 @@ class _Expander:
             )
         self.stance = self.current.copy()  # the feet are planted anew
         return out
+
+
+def compensated(gait: Gait, by: GaitCompensation) -> Gait:
+    """The gait to command for ``gait`` on a robot that falls short of its plan as ``by`` says;
+    a lift of 0 stays 0 (the feet are meant to slide)."""
+    return replace(
+        gait,
+        stride_mm=gait.stride_mm * by.stride_scale,
+        sideways_mm=gait.sideways_mm * by.stride_scale,
+        turn_deg=gait.turn_deg * by.turn_scale,
+        lift_mm=gait.lift_mm + by.lift_sag_mm if gait.lift_mm > 0 else 0.0,
+    )
 
 
 def _xyz(values: Any) -> tuple[float, float, float]:

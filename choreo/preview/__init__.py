@@ -53,7 +53,7 @@ from choreo.preview.report import (
     start_lines,
 )
 from choreo.preview.sim import MoveStart, Rollout, Settling, SimSettings, simulate
-from choreo.preview.stance import foot_heights, planned_stance
+from choreo.preview.stance import feet_and_centre, planned_stance
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
 from choreo.preview.walk import GaitDue, GaitOutcome, gait_outcomes
@@ -156,7 +156,8 @@ def simulate_motion(
 
 
 def _with_stance(rollout: Rollout, motion: Motion, played) -> Rollout:
-    """A walker's planned stance, its feet's real heights and its gait: blocks' times."""
+    """A walker's planned stance, where its feet and centre of mass really were and its gait:
+    blocks' times."""
     kin = Kinematics(motion.robot)
     model = load_model(motion.robot, motion.props)
     arrivals = rollout.keyframe_times_s
@@ -165,10 +166,12 @@ def _with_stance(rollout: Rollout, motion: Motion, played) -> Rollout:
         for i, p in enumerate(played)
         if (end := p.keyframe.gait_end) is not None
     )
+    feet, centre = feet_and_centre(kin, model, rollout.qpos)
     return dataclasses.replace(
         rollout,
         stance=planned_stance(kin, model, rollout.command_deg, rollout.times_s),
-        foot_height_m=foot_heights(kin, model, rollout.qpos),
+        foot_m=feet,
+        centre_of_mass_m=centre,
         gaits=gaits,
     )
 

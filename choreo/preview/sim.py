@@ -159,7 +159,8 @@ class Rollout:
     joint_jumps: tuple[JointJump, ...] = ()  # sites: keyframes IK met with a large joint move
     end: StartPosture = StartPosture.STANDING  # how the motion means to leave the robot
     stance: PlannedStance | None = None  # a walker's planned feet and body, step by step
-    foot_height_m: np.ndarray | None = None  # (n, feet) its foot sites' height, stance order
+    foot_m: np.ndarray | None = None  # (n, feet, 3) its foot sites in the world, stance order
+    centre_of_mass_m: np.ndarray | None = None  # (n, 3) the robot's, in the world
     gaits: tuple[GaitDue, ...] = ()  # the gait: blocks played, when
 
     @property
@@ -210,7 +211,8 @@ class Rollout:
             contact_depth_m=self.contact_depth_m[keep],
             root_height_m=cut(self.root_height_m),
             root_tilt_deg=cut(self.root_tilt_deg),
-            foot_height_m=cut(self.foot_height_m),
+            foot_m=cut(self.foot_m),
+            centre_of_mass_m=cut(self.centre_of_mass_m),
             stance=None
             if self.stance is None
             else replace(

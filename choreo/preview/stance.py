@@ -98,13 +98,50 @@ def _plane(points: np.ndarray) -> tuple[np.ndarray, float]:
     return normal, -float(centre[2])
 
 
-def foot_heights(kin: Kinematics, model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
-    """(n, feet) each foot site's height above the world's z = 0 at every recorded state."""
+def feet_and_centre(
+    kin: Kinematics, model: mujoco.MjModel, qpos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """At every recorded state: each foot site's position (n, feet, 3) and the robot's centre of
+    mass (n, 3), in the world (m)."""
     data = mujoco.MjData(model)
     sites = [model.site(foot).id for foot in kin.feet()]
-    out = np.empty((len(qpos), len(sites)))
+    root = model.body(kin.base_body).id
+    feet, centre = np.empty((len(qpos), len(sites), 3)), np.empty((len(qpos), 3))
     for step, state in enumerate(qpos):
         data.qpos[:] = state
         mujoco.mj_kinematics(model, data)
-        out[step] = data.site_xpos[sites, 2]
-    return out
+        mujoco.mj_comPos(model, data)
+        feet[step] = data.site_xpos[sites]
+        centre[step] = data.subtree_com[root]
+    return feet, centre
+
+
+def support_margin(feet_xy: np.ndarray, point_xy: np.ndarray) -> float:
+    """How far ``point_xy`` lies inside the convex polygon around ``feet_xy`` (negative: outside
+    by that much): its distance to the nearest edge, for three or more feet."""
+    hull = _convex_hull(feet_xy)
+    edges = np.roll(hull, -1, axis=0) - hull
+    lengths = np.linalg.norm(edges, axis=1)
+    keep = lengths > 1e-12
+    to_point = point_xy - hull[keep]
+    edges, lengths = edges[keep], lengths[keep]
+    # counter-clockwise: a point inside is to the left of every edge
+    return float(((edges[:, 0] * to_point[:, 1] - edges[:, 1] * to_point[:, 0]) / lengths).min())
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """The hull's corners, counter-clockwise (Andrew's monotone chain)."""
+    ordered = sorted(map(tuple, np.asarray(points, dtype=float)))
+
+    def cross(o, a, b) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def half(sequence):
+        chain: list[tuple[float, ...]] = []
+        for point in sequence:
+            while len(chain) >= 2 and cross(chain[-2], chain[-1], point) <= 0:
+                chain.pop()
+            chain.append(point)
+        return chain[:-1]
+
+    return np.array(half(ordered) + half(reversed(ordered)))

@@ -1,6 +1,7 @@
 """Gaits judged in space: the travel and turn a ``gait:`` block asked for against what the
-simulated body did over the block, and how high the swinging feet really rose against the
-commanded lift (feet that drag scuff and stumble on a real floor)."""
+simulated body did over the block, how high the swinging feet really rose against the
+commanded lift (feet that drag scuff and stumble on a real floor), and how far inside the feet
+on the floor the centre of mass stayed (the static stability margin)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,11 @@ import numpy as np
 from choreo.core.yaml_source import SourceLocation
 from choreo.motion.gait import Gait
 from choreo.preview.sim import Rollout
+from choreo.preview.stance import PLANTED_M, support_margin
 
 TRAVEL_WARNING_FRACTION = 0.75  # travel or turn below this share of the asked: a warning
 LIFT_WARNING_FRACTION = 0.5  # swinging feet rising less than this share of the lift: dragging
+_MARGIN_SAMPLE_S = 0.02  # the stability margin is measured this often
 
 
 @dataclass(frozen=True)
@@ -34,7 +37,10 @@ class GaitOutcome:
     got_mm: tuple[float, float]  # in the body's frame at the start of the block
     got_turn_deg: float
     lift_mm: float  # asked
-    lift_fraction: float | None  # mean over swings of the highest rise / the planned one
+    lift_fraction: float | None  # mean over swings of the highest rise / the asked lift
+    # the least distance of the centre of mass inside the polygon of the feet the plan has
+    # down, seen from above (negative: outside it)
+    margin_mm: float | None = None
 
     @property
     def travel_fraction(self) -> float | None:
@@ -67,6 +73,8 @@ class GaitOutcome:
                 f"swinging feet rose {100 * self.lift_fraction:.0f} % of the "
                 f"{self.lift_mm:g} mm lift"
             )
+        if self.margin_mm is not None:
+            parts.append(f"centre of mass at least {self.margin_mm:.0f} mm inside the feet down")
         return f"gait at {self.where}: " + ", ".join(parts or ["stood still, as asked"])
 
     def to_dict(self) -> dict:
@@ -83,6 +91,7 @@ class GaitOutcome:
             "turn_pct": share(self.turn_fraction),
             "lift_mm": self.lift_mm,
             "lift_pct": share(self.lift_fraction),
+            "margin_mm": None if self.margin_mm is None else round(self.margin_mm, 1),
         }
 
 
@@ -109,6 +118,7 @@ def gait_outcomes(rollout: Rollout) -> list[GaitOutcome]:
                 got_turn_deg=float(np.degrees(_turn(rollout, address, first, last))),
                 lift_mm=gait.lift_mm,
                 lift_fraction=_lift_fraction(rollout, first, last, gait.lift_mm / 1000),
+                margin_mm=_margin_mm(rollout, first, last),
             )
         )
     return out
@@ -131,10 +141,12 @@ def _turn(rollout: Rollout, address: int, first: int, last: int) -> float:
 def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> float | None:
     """Over every swing of every foot in the block (the plan lifting it 1 mm or more, and at
     its highest half the gait's lift or more): its highest rise over its height at the block's
-    start, as a share of the planned highest."""
-    stance, heights = rollout.stance, rollout.foot_height_m
-    if stance is None or heights is None:
+    start, as a share of the lift the gait asked (the plan may lift it higher, making up for
+    the robot's sag: the robot file's ``gait: lift_sag``)."""
+    stance, feet = rollout.stance, rollout.foot_m
+    if stance is None or feet is None or lift_m <= 0:
         return None
+    heights = feet[:, :, 2]
     shares = []
     for foot in range(stance.lift_m.shape[1]):
         planned = stance.lift_m[first : last + 1, foot]
@@ -144,5 +156,20 @@ def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> fl
         for begin, end in zip(edges[::2], edges[1::2]):
             if planned[begin:end].max() < lift_m / 2:
                 continue  # the plan's floor shifting under a planted foot, not a swing
-            shares.append(float(rise[begin:end].max() / planned[begin:end].max()))
+            shares.append(float(rise[begin:end].max() / lift_m))
     return float(np.mean(shares)) if shares else None
+
+
+def _margin_mm(rollout: Rollout, first: int, last: int) -> float | None:
+    """The least, over the block, of how far the centre of mass stands inside the polygon of
+    the feet (where they really are) that the plan has on the floor, seen from above."""
+    stance, feet, centre = rollout.stance, rollout.foot_m, rollout.centre_of_mass_m
+    if stance is None or feet is None or centre is None:
+        return None
+    dt = float(rollout.times_s[1] - rollout.times_s[0]) if len(rollout.times_s) > 1 else 1.0
+    margins = [
+        support_margin(feet[step, down, :2], centre[step, :2])
+        for step in range(first, last + 1, max(1, round(_MARGIN_SAMPLE_S / dt)))
+        if (down := stance.lift_m[step] < PLANTED_M).sum() >= 3
+    ]
+    return 1000 * min(margins) if margins else None

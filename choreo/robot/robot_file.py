@@ -35,6 +35,7 @@ from choreo.errors import SourceError
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
 from choreo.robot.types import (
+    GaitCompensation,
     Joint,
     JointLimits,
     MirrorPair,
@@ -50,6 +51,7 @@ DEFAULTS = mapping_shape("robot", "#/$defs/jointSettings")  # a joint's keys but
 BUS = mapping_shape("robot", "#/properties/bus")  # the baud rate is always 115200
 ECHO_MODES = choices("robot", "#/properties/bus/properties/echo")
 MIRROR_PAIR = mapping_shape("robot", "#/properties/mirror/items")
+GAIT = mapping_shape("robot", "#/properties/gait")
 ACTUATOR = mapping_shape("robot", "#/$defs/jointSettings/properties/actuator")
 # Required once the defaults are merged in (a shape the schema cannot say: they may come from
 # either), with what each is for.
@@ -60,6 +62,8 @@ REQUIRED_JOINT_KEYS = {
     "max": "the upper joint limit in degrees",
 }
 RATE_KEYS = ("velocity", "acceleration", "jerk")
+# A gait's lift sag (mm) and its stride and turn scales: beyond these it is not a correction.
+GAIT_BOUNDS = {"lift_sag": (0, 100), "stride_scale": (0.5, 2), "turn_scale": (0.5, 2)}
 TRAVEL_SLACK_UNITS = 1e-6  # float noise when a limit lands exactly on 0 or 1000
 
 
@@ -99,6 +103,7 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     joints = {source.name: source.joint for source in sources}
     poses = _read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
     mirror = _read_mirror(reader, fields["mirror"], joints) if "mirror" in fields else ()
+    gait = _read_gait(reader, fields["gait"]) if "gait" in fields else GaitCompensation()
     folder_name = reader.path.resolve().parent.name
     mjcf_path = _model_file(reader, fields.get("mjcf"), f"{folder_name}.xml", "the MuJoCo model")
     scene_path = _model_file(reader, fields.get("scene"), "scene.xml", "the scene")
@@ -124,6 +129,7 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
         mjcf_path=mjcf_path,
         scene_path=scene_path,
         free_floating=free_floating,
+        gait=gait,
     )
 
 
@@ -175,6 +181,18 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         supply_v=supply_v,
         direction=direction,
     )
+
+
+def _read_gait(reader: Reader, entry: Entry) -> GaitCompensation:
+    fields = reader.fields(entry.value, "gait", GAIT.keys) or {}
+    # A refused value is reported (so the robot is refused too); its default stands in for it.
+    values = {
+        key: reader.number(fields[key].value, f"gait: {key}", low=low, high=high)
+        for key, (low, high) in GAIT_BOUNDS.items()
+        if key in fields
+    }
+    names = {"lift_sag": "lift_sag_mm"}
+    return GaitCompensation(**{names.get(k, k): v for k, v in values.items() if v is not None})
 
 
 def _read_direction(reader: Reader, node: Node) -> str | None:

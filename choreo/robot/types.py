@@ -108,6 +108,17 @@ class MirrorPair:
 
 
 @dataclass(frozen=True)
+class GaitCompensation:
+    """What a legged robot's gaits command beyond what they ask, to make up for how far the
+    robot falls short of its plan (the servos sag under its weight, the feet slip): the robot
+    file's ``gait:`` block; the defaults change nothing."""
+
+    lift_sag_mm: float = 0.0  # added to every lift above 0
+    stride_scale: float = 1.0  # forward and sideways
+    turn_scale: float = 1.0
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     path: Path  # robot.yaml
@@ -118,6 +129,7 @@ class Robot:
     mjcf_path: Path | None = None  # models/<name>/<name>.xml
     scene_path: Path | None = None  # models/<name>/scene.xml
     free_floating: bool = False  # the MJCF root body has a free joint
+    gait: GaitCompensation = field(default_factory=GaitCompensation)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "poses", MappingProxyType(dict(self.poses)))
