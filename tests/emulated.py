@@ -15,6 +15,11 @@ from choreo.robot.types import Robot
 
 WAIT_S = 30
 
+# Read timeouts for a `choreo` process talking to an emulator that a thread of the test process
+# serves on a pty: on a loaded machine that thread can wait a second for the CPU, and the tests
+# using these are about what goes on the wire, not read latency (benchmarks/ measure that).
+PATIENT_READS = ("--timeout-ms", "2000", "--health-timeout-ms", "250")
+
 
 def home_specs(robot: Robot) -> list[ServoSpec]:
     """The robot's servos, standing at its home pose."""

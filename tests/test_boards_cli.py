@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pytest
-from emulated import home_specs, served_on_a_pty, wait_for
+from emulated import PATIENT_READS, home_specs, served_on_a_pty, wait_for
 
 from choreo.bus.protocol import Command, decode_request
 from choreo.cli import main
@@ -84,7 +84,7 @@ def test_a_signal_puts_the_boards_stop_on_the_wire_and_nothing_moves_after_it(
     board, emulator, port = board_on_a_pty
     process = subprocess.Popen(
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
-        + ["--timeout-ms", "500", "--health-timeout-ms", "100"],
+        + list(PATIENT_READS),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

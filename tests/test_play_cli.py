@@ -10,7 +10,7 @@ import sys
 
 import pytest
 from cli_helpers import WAVE, choreo_process, motion_file, packets
-from emulated import wait_for
+from emulated import PATIENT_READS, wait_for
 
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.cli import main
@@ -22,11 +22,9 @@ MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_STA
 def test_a_signal_puts_move_stop_on_the_wire_and_exits_130(arm_on_a_pty, signum):
     """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     emulator, link = arm_on_a_pty
-    # A generous read timeout: on a loaded machine the bridge thread may answer late, and this
-    # test is about the stop, not about read latency.
     process = subprocess.Popen(
         [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", str(link)]
-        + ["--timeout-ms", "500", "--health-timeout-ms", "100"],
+        + list(PATIENT_READS),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -137,8 +135,8 @@ def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
 
     emulator = BusEmulator(home_specs(load_robot("arm6")), clock=RealClock())
     with served_on_a_pty(emulator, tmp_path / "ttyARM") as link:
-        argv = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--timeout-ms", "500"]
-        process = choreo_process(*argv, "--health-timeout-ms", "100")
+        argv = ["play", "motions/arm6/dance.yaml", "--port", str(link)]
+        process = choreo_process(*argv, *PATIENT_READS)
 
         def playing():
             assert process.poll() is None, process.communicate()

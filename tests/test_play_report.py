@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from emulated import wait_for
+from emulated import PATIENT_READS, wait_for
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
@@ -60,9 +60,8 @@ def test_an_interrupted_play_on_a_serial_port_reports_it(arm_on_a_pty, tmp_path)
     emulator, link = arm_on_a_pty
     path = tmp_path / "r.json"
     command = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--report", str(path)]
-    slow_host = ["--timeout-ms", "500", "--health-timeout-ms", "100"]  # a loaded machine
     process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", *command, *slow_host],
+        [sys.executable, "-m", "choreo", *command, *PATIENT_READS],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 from cli_helpers import choreo_process, packets
-from emulated import WAIT_S, home_specs, wait_for
+from emulated import PATIENT_READS, WAIT_S, home_specs, wait_for
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
@@ -622,7 +622,7 @@ def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_pa
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"
     argv = ["record", str(out), "--robot", "arm6", "--port", str(link), "--joints", "elbow"]
-    process = choreo_process(*argv, "--timeout-ms", "500", stdin=subprocess.PIPE)
+    process = choreo_process(*argv, *PATIENT_READS[:2], stdin=subprocess.PIPE)
 
     def torque_of_elbow() -> list[bytes]:
         return [
