@@ -37,11 +37,12 @@ ANGLE_TOLERANCE_DEG = 0.5
 _CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
 _ITERATIONS = 400
 _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
-_RESTART_ITERATIONS = 60
+_RESTART_ITERATIONS = 30
 _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
 _DAMPING = 1e-4
-# a descent that has not cut its residual by 1 % in 10 steps is stuck (a fold, a limit): stop it
-_PROGRESS, _PATIENCE = 0.01, 10
+# a descent that has not cut its residual by 30 % in 10 steps is stuck (a fold, a limit): stop it;
+# the last one, polishing the closest point of a target out of reach, goes on down to 1 %
+_PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.3, 0.01, 10
 _STILL_RAD = 1e-7  # a step this small: the descent is at its closest, reached or not
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
@@ -202,7 +203,7 @@ class Kinematics:
             if tried.cost.min() < best_cost:
                 best, best_cost = tried.angles_deg[np.argmin(tried.cost)], tried.cost.min()
         # the best start may only have been slow to converge (folded poses are): polish it
-        polished = self._descend(task, best[None], free_mask, _ITERATIONS, patience=_ITERATIONS)
+        polished = self._descend(task, best[None], free_mask, _ITERATIONS, _POLISH_PROGRESS)
         return self._measure(goals, sites, polished.angles_deg[0])
 
     def _task(self, goals: Sequence[SiteGoal], sites: list[int]) -> _Task:
@@ -241,13 +242,14 @@ class Kinematics:
         start_deg: np.ndarray,
         free: np.ndarray,
         iterations: int,
-        patience: int = _PATIENCE,
+        progress_needed: float | None = None,
     ) -> _Attempts:
         """Damped least squares from each start (rows) at once, Levenberg-Marquardt style: a
         step that makes things worse is taken back and retried with more damping (near a
         singularity or out of reach, where plain steps swing back and forth). A start stops when
         it has converged, when its steps vanish (it is as close as it gets), or when it has not
-        cut its residual by ``_PROGRESS`` in ``patience`` steps (stuck in a fold, at a limit)."""
+        cut its residual by ``progress_needed`` in ``_PATIENCE`` steps (in a fold, at a limit)."""
+        progress_needed = progress_needed or _PROGRESS
         free_at = np.flatnonzero(free)
         low, high = np.radians(self.lower_deg[free_at]), np.radians(self.upper_deg[free_at])
         q = np.radians(start_deg)
@@ -274,12 +276,12 @@ class Kinematics:
             residuals[at], jacobians[at] = residual[better], jacobian[better]
             damping[at] = np.maximum(_DAMPING, damping[at] / 3)
             damping[moving[~better]] *= 10
-            advanced = best[moving] < progress[moving] * (1 - _PROGRESS)
+            advanced = best[moving] < progress[moving] * (1 - progress_needed)
             progress[moving[advanced]], since[moving[advanced]] = best[moving[advanced]], iteration
             converged = np.all(errors[moving] <= _CONVERGED_MM, axis=1) & np.all(
                 pitch_errors[moving] <= _CONVERGED_DEG, axis=1
             )
-            going = ~converged & ~still[moving] & (iteration - since[moving] < patience)
+            going = ~converged & ~still[moving] & (iteration - since[moving] < _PATIENCE)
             if iteration == iterations or not going.any():
                 break
             moving = moving[going]
@@ -300,17 +302,21 @@ class Kinematics:
 
     def _poses(self, task: _Task, q_rad: np.ndarray) -> _Poses:
         """The task's sites and Jacobians for joint vectors ``(N, joints)`` (radians): MuJoCo's
-        forward kinematics, one vector at a time (a few microseconds each), and the Jacobians
-        from the joints' axes and anchors, for all of them at once."""
-        n, joints = len(q_rad), len(self._joint_ids)
-        positions, frames = np.empty((n, len(task.sites), 3)), np.empty((n, len(task.sites), 9))
-        axes, anchors = np.empty((n, joints, 3)), np.empty((n, joints, 3))
-        data, model, kinematics = self.data, self.model, self._mj.mj_kinematics
-        for row, q in enumerate(q_rad):
-            data.qpos[self._qpos] = q
+        forward kinematics, one vector at a time (a couple of microseconds each), and the
+        Jacobians from the joints' axes and anchors, for all of them at once."""
+        model, data, kinematics = self.model, self.data, self._mj.mj_kinematics
+        n, qpos = len(q_rad), data.qpos
+        rows = np.tile(qpos, (n, 1))  # whole rows copy faster than scattered joints
+        rows[:, self._qpos] = q_rad
+        positions, frames = np.empty((n, *data.site_xpos.shape)), np.empty((n, model.nsite, 9))
+        axes, anchors = np.empty((n, *data.xaxis.shape)), np.empty((n, *data.xanchor.shape))
+        for row in range(n):
+            qpos[:] = rows[row]
             kinematics(model, data)
-            positions[row], frames[row] = data.site_xpos[task.sites], data.site_xmat[task.sites]
-            axes[row], anchors[row] = data.xaxis[self._joint_ids], data.xanchor[self._joint_ids]
+            positions[row], frames[row] = data.site_xpos, data.site_xmat
+            axes[row], anchors[row] = data.xaxis, data.xanchor
+        positions, frames = positions[:, task.sites], frames[:, task.sites]
+        axes, anchors = axes[:, self._joint_ids], anchors[:, self._joint_ids]
         rotation = self._base_rot  # into the base frame: v @ R is R.T @ v for rows v
         positions = (positions - self._base_pos) @ rotation
         axes, anchors = axes @ rotation, (anchors - self._base_pos) @ rotation
