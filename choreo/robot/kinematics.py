@@ -9,15 +9,20 @@ base, a walker's torso, held where the model's ``home`` keyframe puts it). A sit
 elevation of its z axis (its approach direction) above the base frame's horizontal plane:
 +90 points up, -90 straight down.
 
-IK is damped least squares on ``mj_jacSite``, inside the robot's joint limits (a joint at a limit
-that the step would push further drops out of the step), seeded by the caller (the previous
-keyframe), with fixed random restarts if the seed gets stuck: restarts drawn ever farther from the
-seed, of which the reaching solution nearest the seed is kept (so a small move in space stays a
-small move in joints), and joints the goals do not constrain stay where they were. ``mujoco`` is
+IK is damped least squares (Levenberg-Marquardt: a step that makes things worse is retried with
+more damping) inside the robot's joint limits (a joint at a limit that the step would push
+further drops out of the step), seeded by the caller (the previous keyframe). If that gets stuck,
+fixed random restarts are drawn ever farther from the seed, 20 at a time, and descended side by
+side as arrays; of those that reach, the solution nearest the seed is kept (so a small move in
+space stays a small move in joints), and joints the goals do not constrain stay where they were.
+Each step poses the robot with MuJoCo's ``mj_kinematics`` (a couple of microseconds per start)
+and builds the Jacobians from the joints' axes and anchors; a descent stops as soon as it has
+converged, stalls or stops moving, so a target out of reach fails in tens of milliseconds. The
+verdict (``Solution``) is MuJoCo's own forward kinematics of the angles found. ``mujoco`` is
 imported here only when a ``Kinematics`` is made: motions without Cartesian keyframes never load
-it. (mink, a QP
-IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these tasks — site
-positions, one axis' elevation, joint limits — are small enough for damped least squares.)
+it. (mink, a QP IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these
+tasks — site positions, one axis' elevation, joint limits — are small enough for damped least
+squares.)
 """
 
 from __future__ import annotations
@@ -40,9 +45,9 @@ _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
 _RESTART_ITERATIONS = 30
 _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
 _DAMPING = 1e-4
-# a descent that has not cut its residual by 30 % in 10 steps is stuck (a fold, a limit): stop it;
+# a descent that has not cut its residual by 10 % in 10 steps is stuck (a fold, a limit): stop it;
 # the last one, polishing the closest point of a target out of reach, goes on down to 1 %
-_PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.3, 0.01, 10
+_PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.1, 0.01, 10
 _STILL_RAD = 1e-7  # a step this small: the descent is at its closest, reached or not
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
@@ -120,6 +125,9 @@ class Kinematics:
         mj.mj_kinematics(self.model, self.data)
         self._base_pos = self.data.xpos[self._base].copy()
         self._base_rot = self.data.xmat[self._base].reshape(3, 3).copy()
+        # per kind of task (its sites, which have a pitch): a motion asks the same ones again
+        self._moves: dict[tuple[int, ...], np.ndarray] = {}
+        self._constrained_joints: dict[tuple[tuple[int, ...], tuple[bool, ...]], np.ndarray] = {}
 
     # --- names --------------------------------------------------------------------------------
 
@@ -188,7 +196,7 @@ class Kinematics:
         seed = np.clip(np.asarray(seed_deg, dtype=float), self.lower_deg, self.upper_deg)
         free_mask = np.ones(len(seed), bool) if free is None else np.asarray(free, bool)
         free_mask = free_mask & task.moves.any(axis=0)  # restarts must not stir the rest
-        free_mask &= self._constrained(task, seed)  # ... nor joints the task ignores
+        free_mask &= self._constrained(task)  # ... nor joints the task ignores
         first = self._descend(task, seed[None], free_mask, _ITERATIONS)
         if first.reached[0]:
             return self._measure(goals, sites, first.angles_deg[0])
@@ -210,7 +218,7 @@ class Kinematics:
         pitched = np.array([goal.pitch_deg is not None for goal in goals])
         return _Task(
             np.array(sites),
-            np.array([self._moving(site) for site in sites]).reshape(len(sites), -1),
+            self._moving(tuple(sites)),
             np.array([goal.position_mm for goal in goals], dtype=float) / 1000,
             pitched,
             np.array([goal.pitch_deg for goal in goals if goal.pitch_deg is not None], float),
@@ -226,15 +234,18 @@ class Kinematics:
         drawn = rng.uniform(low, np.minimum(self.upper_deg, seed_deg + spread))
         return np.where(free, drawn, seed_deg)
 
-    def _constrained(self, task: _Task, seed_deg: np.ndarray) -> np.ndarray:
+    def _constrained(self, task: _Task) -> np.ndarray:
         """Which joints move what the goals ask (a site's position, its pitch) anywhere: a
-        column of the task Jacobian that is non-zero at the seed or at a few other poses. A
-        wrist roll about a tool's own axis changes neither, so IK leaves it as it was."""
-        rng = np.random.default_rng(1)
-        others = rng.uniform(self.lower_deg, self.upper_deg, (2, len(seed_deg)))
-        angles = np.radians(np.vstack([seed_deg, others]))
-        _, jacobian, _, _ = _linearise(task, self._poses(task, angles))
-        return np.any(np.linalg.norm(jacobian, axis=1) > 1e-6, axis=0)
+        column of the task Jacobian that is non-zero at one of a few random poses (a joint that
+        moves it somewhere moves it almost everywhere). A wrist roll about a tool's own axis
+        changes neither, so IK leaves it as it was."""
+        key = (tuple(task.sites), tuple(task.pitched))
+        if key not in self._constrained_joints:
+            rng = np.random.default_rng(1)
+            angles = rng.uniform(self.lower_deg, self.upper_deg, (3, len(self.lower_deg)))
+            _, jacobian, _, _ = _linearise(task, self._poses(task, np.radians(angles)))
+            self._constrained_joints[key] = np.any(np.linalg.norm(jacobian, axis=1) > 1e-6, axis=0)
+        return self._constrained_joints[key]
 
     def _descend(
         self,
@@ -332,14 +343,20 @@ class Kinematics:
             np.swapaxes(turn, 2, 3),
         )
 
-    def _moving(self, site: int) -> np.ndarray:
-        """Which robot joints move ``site``: those on the way from it to the root."""
-        chain = set()
-        body = int(self.model.site_bodyid[site])
-        while body > 0:
-            chain.add(body)
-            body = int(self.model.body_parentid[body])
-        return np.array([int(self.model.jnt_bodyid[j]) in chain for j in self._joint_ids])
+    def _moving(self, sites: tuple[int, ...]) -> np.ndarray:
+        """Which robot joints move each site (rows): those on the way from it to the root."""
+        if sites in self._moves:
+            return self._moves[sites]
+        moves = np.zeros((len(sites), len(self._joint_ids)), bool)
+        for row, site in enumerate(sites):
+            chain = set()
+            body = int(self.model.site_bodyid[site])
+            while body > 0:
+                chain.add(body)
+                body = int(self.model.body_parentid[body])
+            moves[row] = [int(self.model.jnt_bodyid[j]) in chain for j in self._joint_ids]
+        self._moves[sites] = moves
+        return moves
 
     def _measure(self, goals: Sequence[SiteGoal], sites: list[int], q_deg: np.ndarray) -> Solution:
         """The verdict on a solution, from MuJoCo's own forward kinematics."""
