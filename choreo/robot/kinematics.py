@@ -301,16 +301,17 @@ class Kinematics:
             if iteration == iterations or not going.any():
                 break
             moving = moving[going]
-            rows = np.ix_(moving, free_at)
+            start = best_q[moving]
             step = _limited_step(
                 jacobians[moving][:, :, free_at],
                 residuals[moving],
-                best_q[rows],
+                start[:, free_at],
                 low,
                 high,
                 damping[moving],
             )
-            q[rows] = np.clip(best_q[rows] + step, low, high)
+            start[:, free_at] = np.clip(start[:, free_at] + step, low, high)
+            q[moving] = start
             still[moving] = np.abs(step).max(axis=1, initial=0.0) < _STILL_RAD
         angles_deg = start_deg.copy()  # held joints exactly as given, not via radians
         angles_deg[:, free_at] = np.degrees(best_q[:, free_at])
@@ -488,10 +489,11 @@ def _axis_with_pitch(axis: np.ndarray, position: np.ndarray, pitch: np.ndarray) 
     ``axis`` (``(..., 3)``): same heading, or, where the axis is vertical, heading away from the
     base axis towards the site."""
     heading = axis[..., :2]
-    vertical = np.hypot(heading[..., :1], heading[..., 1:]) < 1e-3
-    heading = np.where(vertical, position[..., :2], heading)
     norm = np.hypot(heading[..., :1], heading[..., 1:])
-    heading = np.where(norm > 1e-9, heading / np.maximum(norm, 1e-9), [1.0, 0.0])
-    return np.concatenate(
-        [pitch[..., :1] * heading, np.broadcast_to(pitch[..., 1:], norm.shape)], -1
-    )
+    if (norm < 1e-3).any():  # rare: (nearly) vertical, and even on the base axis
+        heading = np.where(norm < 1e-3, position[..., :2], heading)
+        norm = np.hypot(heading[..., :1], heading[..., 1:])
+        heading = np.where(norm > 1e-9, heading, [1.0, 0.0])
+        norm = np.where(norm > 1e-9, norm, 1.0)
+    unit = heading / norm
+    return np.concatenate([pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1)
