@@ -188,6 +188,20 @@ def test_a_tool_pointing_nearly_straight_up_is_reached(arm6):
     np.testing.assert_array_equal(solution.angles_deg[held], target[held])
 
 
+@pytest.mark.parametrize("seed_pose", ["home", "ready"])
+def test_a_tool_pointing_straight_up_is_reached(arm6, seed_pose):
+    """Shoulder +30°, elbow -60°, wrist +30° point the tool straight up (pitch 90°, no heading
+    at all) 2.5 mm off the base axis; from the arm straight up (every pitch joint singular for
+    the tool's heading) or bent, the solver reaches it."""
+    position, pitch = mujoco_site(arm6, "tool", [0.0, 30.0, -60.0, 30.0, 0.0, 0.0])
+    assert pitch == pytest.approx(90.0)
+    seed = arm6.robot.pose_vector(seed_pose)
+    solution = arm6.solve([SiteGoal("tool", tuple(position), pitch)], seed)
+    reached, reached_pitch = mujoco_site(arm6, "tool", solution.angles_deg)
+    assert np.linalg.norm(reached - position) <= POSITION_MM
+    assert abs(reached_pitch - pitch) <= ANGLE_DEG
+
+
 def test_the_same_target_always_gives_the_same_angles(arm6):
     goal = SiteGoal("tool", (150.0, 60.0, 30.0), -60.0)
     first = arm6.solve([goal], arm6.robot.pose_vector("home"))
