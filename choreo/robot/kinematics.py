@@ -45,6 +45,9 @@ _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
 _RESTART_ITERATIONS = 30
 _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
 _DAMPING = 1e-4
+# a step that made things worse is retried with 10 times the damping; one that helped eases it
+_STIFFEN, _EASE = 10.0, 3.0
+_LEAST_DAMPING = 1e-4
 # a descent that has not cut its residual by 10 % in 10 steps is stuck (a fold, a limit): stop it;
 # the last one, polishing the closest point of a target out of reach, goes on down to 1 %
 _PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.1, 0.01, 10
@@ -290,8 +293,8 @@ class Kinematics:
             best[at], best_q[at] = cost[better], q[at]
             errors[at], pitch_errors[at] = error_mm[better], pitch_error[better]
             residuals[at], jacobians[at] = residual[better], jacobian[better]
-            damping[at] = np.maximum(_DAMPING, damping[at] / 3)
-            damping[moving[~better]] *= 10
+            damping[at] = np.maximum(_LEAST_DAMPING, damping[at] / _EASE)
+            damping[moving[~better]] *= _STIFFEN
             advanced = best[moving] < progress[moving] * (1 - progress_needed)
             progress[moving[advanced]], since[moving[advanced]] = best[moving[advanced]], iteration
             converged = np.all(errors[moving] <= _CONVERGED_MM, axis=1) & np.all(
@@ -432,11 +435,14 @@ def _linearise(task: _Task, poses: _Poses) -> tuple[np.ndarray, np.ndarray, np.n
     axes = poses.z_axes[:, task.pitched]
     pitch_deg = np.degrees(np.arcsin(np.clip(axes[..., 2], -1.0, 1.0)))
     if task.pitched.any():
-        target = _axis_with_pitch(axes, poses.positions[:, task.pitched], task.pitch_cos_sin)
+        positions = poses.positions[:, task.pitched]
+        target, follow = _axis_with_pitch(axes, positions, task.pitch_cos_sin)
         rows.append((target - axes).reshape(n, -1))
-        # d(axis)/dq = omega x axis, omega the joint's angular velocity
+        # d(axis)/dq = omega x axis, omega the joint's angular velocity; the target turns with
+        # the axis' heading, which leaves the axis' elevation for these rows to ask for
         omega = np.swapaxes(poses.jac_turn[:, task.pitched], 2, 3)
-        turning = _cross(omega, axes[:, :, None, :])
+        turning = _cross(omega, axes[:, :, None, :])  # (N, pitched, joints, 3)
+        turning[..., :2] -= np.einsum("npij,npkj->npki", follow, turning[..., :2])
         jacobians.append(np.swapaxes(turning, 2, 3).reshape(n, -1, joints))
     return (
         np.concatenate(rows, axis=1),
@@ -484,16 +490,25 @@ def _pitch_deg(axis: np.ndarray) -> float:
     return float(np.degrees(np.arcsin(np.clip(axis[2], -1.0, 1.0))))
 
 
-def _axis_with_pitch(axis: np.ndarray, position: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+def _axis_with_pitch(
+    axis: np.ndarray, position: np.ndarray, pitch: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The unit vectors at elevation ``pitch`` (``(..., 2)``: its cosine and sine) nearest
     ``axis`` (``(..., 3)``): same heading, or, where the axis is vertical, heading away from the
-    base axis towards the site."""
+    base axis towards the site. Also how they turn with the axis' horizontal part (``(..., 2,
+    2)``): the target follows the heading, so only the elevation is asked for."""
     heading = axis[..., :2]
     norm = np.hypot(heading[..., :1], heading[..., 1:])
-    if (norm < 1e-3).any():  # rare: (nearly) vertical, and even on the base axis
-        heading = np.where(norm < 1e-3, position[..., :2], heading)
+    vertical = norm < 1e-3
+    if vertical.any():  # rare: (nearly) vertical, and even on the base axis
+        heading = np.where(vertical, position[..., :2], heading)
         norm = np.hypot(heading[..., :1], heading[..., 1:])
         heading = np.where(norm > 1e-9, heading, [1.0, 0.0])
         norm = np.where(norm > 1e-9, norm, 1.0)
     unit = heading / norm
-    return np.concatenate([pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1)
+    target = np.concatenate(
+        [pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1
+    )
+    follow = np.where(vertical, 0.0, pitch[..., :1] / norm)[..., None]  # d unit / d heading
+    turning = follow * (np.eye(2) - unit[..., :, None] * unit[..., None, :])
+    return target, turning
