@@ -47,7 +47,6 @@ _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
 _DAMPING = 1e-4
 # a step that made things worse is retried with 10 times the damping; one that helped eases it
 _STIFFEN, _EASE = 10.0, 3.0
-_LEAST_DAMPING = 1e-4
 # a descent that has not cut its residual by 10 % in 10 steps is stuck (a fold, a limit): stop it;
 # the last one, polishing the closest point of a target out of reach, goes on down to 1 %
 _PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.1, 0.01, 10
@@ -293,7 +292,7 @@ class Kinematics:
             best[at], best_q[at] = cost[better], q[at]
             errors[at], pitch_errors[at] = error_mm[better], pitch_error[better]
             residuals[at], jacobians[at] = residual[better], jacobian[better]
-            damping[at] = np.maximum(_LEAST_DAMPING, damping[at] / _EASE)
+            damping[at] = np.maximum(_DAMPING, damping[at] / _EASE)
             damping[moving[~better]] *= _STIFFEN
             advanced = best[moving] < progress[moving] * (1 - progress_needed)
             progress[moving[advanced]], since[moving[advanced]] = best[moving[advanced]], iteration
