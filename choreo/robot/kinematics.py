@@ -508,6 +508,7 @@ def _axis_with_pitch(
     target = np.concatenate(
         [pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1
     )
-    follow = np.where(vertical, 0.0, pitch[..., :1] / norm)[..., None]  # d unit / d heading
+    # cos(pitch) times the derivative of the unit heading (none where the position gave it)
+    follow = np.where(vertical, 0.0, pitch[..., :1] / norm)[..., None]
     turning = follow * (np.eye(2) - unit[..., :, None] * unit[..., None, :])
     return target, turning
