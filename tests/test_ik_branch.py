@@ -51,6 +51,21 @@ def test_the_solution_nearest_the_seed_is_kept(arm6):
     assert max(moved.values()) < 120
 
 
+def test_a_straight_line_in_small_steps_stays_on_its_branch(arm6):
+    """The tool drawn 100 mm sideways in 5 mm steps, pitch kept, each solve seeded by the one
+    before as a motion's keyframes are: every step is reached and turns no joint more than 6°
+    (5 mm at the tool, ~200 mm from the shoulder, is under 2° of base yaw), so the arm never
+    changes branch on the way."""
+    angles = np.array([30.0, 20.0, 60.0, 60.0, 0.0, 20.0])
+    start = arm6.site_pose("tool", angles)
+    for step in range(1, 21):
+        at = start.position_mm + [0.0, -5.0 * step, 0.0]
+        solution = arm6.solve([SiteGoal("tool", tuple(at), start.pitch_deg)], angles)
+        assert solution.ok, step
+        assert np.abs(solution.angles_deg - angles).max() < 6, step
+        angles = solution.angles_deg
+
+
 def test_a_small_move_needing_a_large_joint_move_is_warned_at_its_keyframe():
     motion = load_motion(REPO / "tests" / "data" / "spatial" / "branch_jump.yaml")
     rollout = simulate_motion(motion)

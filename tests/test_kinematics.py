@@ -151,12 +151,16 @@ def test_tonypi_hand_moves_only_its_arm(tonypi, seed, hand):
             assert after == before, name
 
 
-def test_unreachable_gives_the_closest_point(arm6):
-    """A point 1 m out: the best the arm can do is stretch straight at it from the shoulder
-    axis, which leaves it |target - shoulder| - reach away; the solver gets within 1 mm of that
-    and reports the point it got to and that point's true distance."""
-    far = np.array([1000.0, 0.0, 150.0])
-    solution = arm6.solve([SiteGoal("tool", tuple(far))], arm6.robot.pose_vector("home"))
+@pytest.mark.parametrize("seed_pose", ["home", "ready"])
+@pytest.mark.parametrize("far", [(1000.0, 0.0, 150.0), (0.0, 400.0, 250.0)])
+def test_unreachable_gives_the_closest_point(arm6, far, seed_pose):
+    """A point 1 m out ahead, or 90 mm past the reach to the left: the best the arm can do is
+    stretch straight at it from the shoulder axis (inside the limits for both: base_yaw 0 or 90°,
+    shoulder 82° or 70° from vertical), which leaves it |target - shoulder| - reach away; the
+    solver gets within 1 mm of that, from the arm straight up (a singular pose) or bent, and
+    reports the point it got to and that point's true distance."""
+    far = np.array(far)
+    solution = arm6.solve([SiteGoal("tool", tuple(far))], arm6.robot.pose_vector(seed_pose))
     assert not solution.ok
     shoulder = np.array([0.0, 0.0, 66.0 + 40.0])  # turntable + upper arm pivot (arm6.xml)
     reach = 100 + 95 + 50 + 90  # upper arm, forearm, wrist, hand to the tool site
@@ -166,6 +170,36 @@ def test_unreachable_gives_the_closest_point(arm6):
     assert solution.position_error_mm[0] == pytest.approx(np.linalg.norm(far - closest))
     assert best_distance <= solution.position_error_mm[0] <= best_distance + 1.0
     assert_inside_limits(arm6, solution.angles_deg)
+
+
+def test_a_tool_pointing_nearly_straight_up_is_reached(arm6):
+    """Found by the property test above: the tool 87.5° up near the base axis, the elbow 0.8°
+    from its limit, wrist_roll and gripper held. The solver once aimed the tool's heading away
+    from the base axis whenever it was within 2.9° of vertical, a pose this target has not."""
+    target = np.array([81.79, -27.75, 109.23, -83.97, -56.56, 28.78])
+    position, pitch = mujoco_site(arm6, "tool", target)
+    seed_deg = np.array(arm6.robot.pose_vector("ready"), dtype=float)
+    held = np.array([name in ("wrist_roll", "gripper") for name in arm6.robot.joint_names])
+    seed_deg[held] = target[held]
+    solution = arm6.solve([SiteGoal("tool", tuple(position), pitch)], seed_deg, ~held)
+    reached, reached_pitch = mujoco_site(arm6, "tool", solution.angles_deg)
+    assert np.linalg.norm(reached - position) <= POSITION_MM
+    assert abs(reached_pitch - pitch) <= ANGLE_DEG
+    np.testing.assert_array_equal(solution.angles_deg[held], target[held])
+
+
+@pytest.mark.parametrize("seed_pose", ["home", "ready"])
+def test_a_tool_pointing_straight_up_is_reached(arm6, seed_pose):
+    """Shoulder +30°, elbow -60°, wrist +30° point the tool straight up (pitch 90°, no heading
+    at all) 2.5 mm off the base axis; from the arm straight up (every pitch joint singular for
+    the tool's heading) or bent, the solver reaches it."""
+    position, pitch = mujoco_site(arm6, "tool", [0.0, 30.0, -60.0, 30.0, 0.0, 0.0])
+    assert pitch == pytest.approx(90.0)
+    seed = arm6.robot.pose_vector(seed_pose)
+    solution = arm6.solve([SiteGoal("tool", tuple(position), pitch)], seed)
+    reached, reached_pitch = mujoco_site(arm6, "tool", solution.angles_deg)
+    assert np.linalg.norm(reached - position) <= POSITION_MM
+    assert abs(reached_pitch - pitch) <= ANGLE_DEG
 
 
 def test_the_same_target_always_gives_the_same_angles(arm6):

@@ -9,15 +9,20 @@ base, a walker's torso, held where the model's ``home`` keyframe puts it). A sit
 elevation of its z axis (its approach direction) above the base frame's horizontal plane:
 +90 points up, -90 straight down.
 
-IK is damped least squares on ``mj_jacSite``, inside the robot's joint limits (a joint at a limit
-that the step would push further drops out of the step), seeded by the caller (the previous
-keyframe), with fixed random restarts if the seed gets stuck: restarts drawn ever farther from the
-seed, of which the reaching solution nearest the seed is kept (so a small move in space stays a
-small move in joints), and joints the goals do not constrain stay where they were. ``mujoco`` is
+IK is damped least squares (Levenberg-Marquardt: a step that makes things worse is retried with
+more damping) inside the robot's joint limits (a joint at a limit that the step would push
+further drops out of the step), seeded by the caller (the previous keyframe). If that gets stuck,
+fixed random restarts are drawn ever farther from the seed, 20 at a time, and descended side by
+side as arrays; of those that reach, the solution nearest the seed is kept (so a small move in
+space stays a small move in joints), and joints the goals do not constrain stay where they were.
+Each step poses the robot with MuJoCo's ``mj_kinematics`` (a couple of microseconds per start)
+and builds the Jacobians from the joints' axes and anchors; a descent stops as soon as it has
+converged, stalls or stops moving, so a target out of reach fails in tens of milliseconds. The
+verdict (``Solution``) is MuJoCo's own forward kinematics of the angles found. ``mujoco`` is
 imported here only when a ``Kinematics`` is made: motions without Cartesian keyframes never load
-it. (mink, a QP
-IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these tasks — site
-positions, one axis' elevation, joint limits — are small enough for damped least squares.)
+it. (mink, a QP IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these
+tasks — site positions, one axis' elevation, joint limits — are small enough for damped least
+squares.)
 """
 
 from __future__ import annotations
@@ -37,9 +42,15 @@ ANGLE_TOLERANCE_DEG = 0.5
 _CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
 _ITERATIONS = 400
 _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
-_RESTART_ITERATIONS = 60
-_SOLUTIONS_COMPARED = 3  # restarts that reach the goal, of which the nearest the seed is kept
+_RESTART_ITERATIONS = 30
+_RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
 _DAMPING = 1e-4
+# a step that made things worse is retried with 10 times the damping; one that helped eases it
+_STIFFEN, _EASE = 10.0, 3.0
+# a descent that has not cut its residual by 10 % in 10 steps is stuck (a fold, a limit): stop it;
+# the last one, polishing the closest point of a target out of reach, goes on down to 1 %
+_PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.1, 0.01, 10
+_STILL_RAD = 1e-7  # a step this small: the descent is at its closest, reached or not
 _MAX_STEP_RAD = 0.3
 _POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
 FEET_TEXT = "choreo:feet"  # MJCF <custom><text name=... data="site site ..."/>: a walker's feet
@@ -104,17 +115,21 @@ class Kinematics:
         joint_ids = [
             mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_JOINT, j.mjcf_joint) for j in robot.joints
         ]
-        self._joint_ids = joint_ids
+        self._joint_ids = np.array(joint_ids)
         self._qpos = np.array([self.model.jnt_qposadr[i] for i in joint_ids])
-        self._dof = np.array([self.model.jnt_dofadr[i] for i in joint_ids])
+        # a servo turns a hinge; a slide (a linear actuator) moves along its axis
+        self._hinge = np.array(
+            [self.model.jnt_type[i] == mj.mjtJoint.mjJNT_HINGE for i in joint_ids]
+        )
         self.lower_deg = np.array([j.limits.min_deg for j in robot.joints], dtype=float)
         self.upper_deg = np.array([j.limits.max_deg for j in robot.joints], dtype=float)
         self._base = 1  # the robot's first body; IK holds it (and any free joint) in place
         mj.mj_kinematics(self.model, self.data)
         self._base_pos = self.data.xpos[self._base].copy()
         self._base_rot = self.data.xmat[self._base].reshape(3, 3).copy()
-        self._jacp = np.zeros((3, self.model.nv))
-        self._jacr = np.zeros((3, self.model.nv))
+        # per kind of task (its sites, which have a pitch): a motion asks the same ones again
+        self._moves: dict[tuple[int, ...], np.ndarray] = {}
+        self._constrained_joints: dict[tuple[tuple[int, ...], tuple[bool, ...]], np.ndarray] = {}
 
     # --- names --------------------------------------------------------------------------------
 
@@ -150,7 +165,6 @@ class Kinematics:
     def _set(self, angles_deg: np.ndarray) -> None:
         self.data.qpos[self._qpos] = np.radians(angles_deg)
         self._mj.mj_kinematics(self.model, self.data)
-        self._mj.mj_comPos(self.model, self.data)  # the Jacobians need the dof frames
 
     def _site_in_base(self, site: int) -> tuple[np.ndarray, np.ndarray]:
         """(position m, z axis) of a site in the base frame, for the joints last set."""
@@ -180,104 +194,182 @@ class Kinematics:
         """Joint angles putting every goal's site where it asks, starting from ``seed_deg``;
         only the ``free`` joints move (default: all). The best attempt if none reaches."""
         sites = [self._checked_site(goal.site) for goal in goals]
+        task = self._task(goals, sites)
         seed = np.clip(np.asarray(seed_deg, dtype=float), self.lower_deg, self.upper_deg)
         free_mask = np.ones(len(seed), bool) if free is None else np.asarray(free, bool)
-        free_mask = free_mask & self._moving(sites)  # restarts must not stir unrelated joints
-        free_mask &= self._constrained(goals, sites, seed)  # ... nor joints the task ignores
-        best = self._descend(goals, sites, seed, free_mask, _ITERATIONS)
-        if best.ok:
-            return best
-        rng = np.random.default_rng(0)  # fixed restarts: the same file always gives the same pose
-        reached: list[Solution] = []
-        span = self.upper_deg - self.lower_deg
-        for k in range(_RESTARTS):
-            # restarts widen from the seed outwards, so the first solutions found are near it
-            spread = span * min(1.0, 2 * (k + 1) / _RESTARTS)
-            restart = seed.copy()
-            low = np.maximum(self.lower_deg, seed - spread)
-            drawn = rng.uniform(low, np.minimum(self.upper_deg, seed + spread))
-            restart[free_mask] = drawn[free_mask]
-            attempt = self._descend(goals, sites, restart, free_mask, _RESTART_ITERATIONS)
-            if attempt.ok:
-                reached.append(attempt)
-                if len(reached) >= _SOLUTIONS_COMPARED:
-                    break
-            elif _cost(attempt) < _cost(best):
-                best = attempt
-        if reached:  # the solution nearest the seed: the arm stays on its branch
-            return min(reached, key=lambda s: float(np.abs(s.angles_deg - seed).max()))
-        # the best restart may only have been slow to converge (folded poses are): polish it
-        polished = self._descend(goals, sites, best.angles_deg, free_mask, _ITERATIONS)
-        return polished if _cost(polished) < _cost(best) else best
+        free_mask = free_mask & task.moves.any(axis=0)  # restarts must not stir the rest
+        free_mask &= self._constrained(task)  # ... nor joints the task ignores
+        first = self._descend(task, seed[None], free_mask, _ITERATIONS)
+        if first.reached[0]:
+            return self._measure(goals, sites, first.angles_deg[0])
+        best, best_cost = first.angles_deg[0], first.cost[0]
+        # restarts in rounds, nearer the seed first; the solution nearest the seed is kept
+        for starts in np.split(self._restarts(seed, free_mask), _RESTARTS // _RESTARTS_AT_ONCE):
+            tried = self._descend(task, starts, free_mask, _RESTART_ITERATIONS)
+            if tried.reached.any():  # the arm stays on its branch
+                distance = np.abs(tried.angles_deg - seed).max(axis=1)
+                nearest = np.flatnonzero(tried.reached)[np.argmin(distance[tried.reached])]
+                return self._measure(goals, sites, tried.angles_deg[nearest])
+            if tried.cost.min() < best_cost:
+                best, best_cost = tried.angles_deg[np.argmin(tried.cost)], tried.cost.min()
+        # the best start may only have been slow to converge (folded poses are): polish it
+        polished = self._descend(task, best[None], free_mask, _ITERATIONS, _POLISH_PROGRESS)
+        return self._measure(goals, sites, polished.angles_deg[0])
 
-    def _constrained(
-        self, goals: Sequence[SiteGoal], sites: list[int], seed_deg: np.ndarray
-    ) -> np.ndarray:
+    def _task(self, goals: Sequence[SiteGoal], sites: list[int]) -> _Task:
+        pitched = np.array([goal.pitch_deg is not None for goal in goals])
+        pitch_deg = np.array(
+            [goal.pitch_deg for goal in goals if goal.pitch_deg is not None], float
+        )
+        pitch = np.radians(pitch_deg)
+        return _Task(
+            np.array(sites),
+            self._moving(tuple(sites)),
+            np.array([goal.position_mm for goal in goals], dtype=float) / 1000,
+            pitched,
+            pitch_deg,
+            np.column_stack([np.cos(pitch), np.sin(pitch)]),
+        )
+
+    def _restarts(self, seed_deg: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """Fixed random starts (the same file always gives the same pose) for the free joints,
+        drawn ever farther from the seed so that solutions near it are among them."""
+        rng = np.random.default_rng(0)
+        widening = np.minimum(1.0, 2 * np.arange(1, _RESTARTS + 1) / _RESTARTS)[:, None]
+        spread = (self.upper_deg - self.lower_deg) * widening
+        low = np.maximum(self.lower_deg, seed_deg - spread)
+        drawn = rng.uniform(low, np.minimum(self.upper_deg, seed_deg + spread))
+        return np.where(free, drawn, seed_deg)
+
+    def _constrained(self, task: _Task) -> np.ndarray:
         """Which joints move what the goals ask (a site's position, its pitch) anywhere: a
-        column of the task Jacobian that is non-zero at the seed or at a few other poses. A
-        wrist roll about a tool's own axis changes neither, so IK leaves it as it was."""
-        rng = np.random.default_rng(1)
-        constrained = np.zeros(len(seed_deg), bool)
-        for angles in (seed_deg, *rng.uniform(self.lower_deg, self.upper_deg, (2, len(seed_deg)))):
-            self._set(angles)
-            _, jacobian, _ = self._linearise(goals, sites)
-            constrained |= np.linalg.norm(jacobian, axis=0) > 1e-6
-        return constrained
+        column of the task Jacobian that is non-zero at one of a few random poses (a joint that
+        moves it somewhere moves it almost everywhere). A wrist roll about a tool's own axis
+        changes neither, so IK leaves it as it was."""
+        key = (tuple(task.sites), tuple(task.pitched))
+        if key not in self._constrained_joints:
+            rng = np.random.default_rng(1)
+            angles = rng.uniform(self.lower_deg, self.upper_deg, (3, len(self.lower_deg)))
+            _, jacobian, _, _ = _linearise(task, self._poses(task, np.radians(angles)))
+            self._constrained_joints[key] = np.any(np.linalg.norm(jacobian, axis=1) > 1e-6, axis=0)
+        return self._constrained_joints[key]
 
-    def _moving(self, sites: list[int]) -> np.ndarray:
-        """Which robot joints move any of ``sites``: those on the way from a site to the root."""
-        chain = set()
-        for site in sites:
+    def _descend(
+        self,
+        task: _Task,
+        start_deg: np.ndarray,
+        free: np.ndarray,
+        iterations: int,
+        progress_needed: float | None = None,
+    ) -> _Attempts:
+        """Damped least squares from each start (rows) at once, Levenberg-Marquardt style: a
+        step that makes things worse is taken back and retried with more damping (near a
+        singularity or out of reach, where plain steps swing back and forth). A start stops when
+        it has converged, when its steps vanish (it is as close as it gets), or when it has not
+        cut its residual by ``progress_needed`` in ``_PATIENCE`` steps (in a fold, at a limit)."""
+        progress_needed = progress_needed or _PROGRESS
+        free_at = np.flatnonzero(free)
+        low, high = np.radians(self.lower_deg[free_at]), np.radians(self.upper_deg[free_at])
+        q = np.radians(start_deg)
+        n = len(q)
+        best_q, best = q.copy(), np.full(n, np.inf)
+        errors = np.zeros((n, len(task.targets)))
+        pitch_errors = np.zeros((n, len(task.pitch_deg)))
+        damping = np.full(n, _DAMPING)
+        progress, since, still = best.copy(), np.zeros(n, int), np.zeros(n, bool)
+        residuals: np.ndarray | None = None  # at each row's best point
+        jacobians = np.empty(0)
+        moving = np.arange(n)
+        for iteration in range(iterations + 1):
+            residual, jacobian, error_mm, pitch_error = _linearise(
+                task, self._poses(task, q[moving])
+            )
+            if residuals is None:
+                residuals, jacobians = np.empty_like(residual), np.empty_like(jacobian)
+            cost = np.linalg.norm(residual, axis=1)
+            better = cost < best[moving]
+            at = moving[better]
+            best[at], best_q[at] = cost[better], q[at]
+            errors[at], pitch_errors[at] = error_mm[better], pitch_error[better]
+            residuals[at], jacobians[at] = residual[better], jacobian[better]
+            damping[at] = np.maximum(_DAMPING, damping[at] / _EASE)
+            damping[moving[~better]] *= _STIFFEN
+            advanced = best[moving] < progress[moving] * (1 - progress_needed)
+            progress[moving[advanced]], since[moving[advanced]] = best[moving[advanced]], iteration
+            converged = np.all(errors[moving] <= _CONVERGED_MM, axis=1) & np.all(
+                pitch_errors[moving] <= _CONVERGED_DEG, axis=1
+            )
+            going = ~converged & ~still[moving] & (iteration - since[moving] < _PATIENCE)
+            if iteration == iterations or not going.any():
+                break
+            moving = moving[going]
+            start = best_q[moving]
+            step = _limited_step(
+                jacobians[moving][:, :, free_at],
+                residuals[moving],
+                start[:, free_at],
+                low,
+                high,
+                damping[moving],
+            )
+            start[:, free_at] = np.clip(start[:, free_at] + step, low, high)
+            q[moving] = start
+            still[moving] = np.abs(step).max(axis=1, initial=0.0) < _STILL_RAD
+        angles_deg = start_deg.copy()  # held joints exactly as given, not via radians
+        angles_deg[:, free_at] = np.degrees(best_q[:, free_at])
+        return _Attempts(angles_deg, errors, pitch_errors)
+
+    def _poses(self, task: _Task, q_rad: np.ndarray) -> _Poses:
+        """The task's sites and Jacobians for joint vectors ``(N, joints)`` (radians): MuJoCo's
+        forward kinematics, one vector at a time (a couple of microseconds each), and the
+        Jacobians from the joints' axes and anchors, for all of them at once."""
+        model, data, kinematics = self.model, self.data, self._mj.mj_kinematics
+        n, qpos = len(q_rad), data.qpos
+        rows = np.tile(qpos, (n, 1))  # whole rows copy faster than scattered joints
+        rows[:, self._qpos] = q_rad
+        positions, frames = np.empty((n, *data.site_xpos.shape)), np.empty((n, model.nsite, 9))
+        axes, anchors = np.empty((n, *data.xaxis.shape)), np.empty((n, *data.xanchor.shape))
+        for row in range(n):
+            qpos[:] = rows[row]
+            kinematics(model, data)
+            positions[row], frames[row] = data.site_xpos, data.site_xmat
+            axes[row], anchors[row] = data.xaxis, data.xanchor
+        positions, frames = positions[:, task.sites], frames[:, task.sites]
+        axes, anchors = axes[:, self._joint_ids], anchors[:, self._joint_ids]
+        rotation = self._base_rot  # into the base frame: v @ R is R.T @ v for rows v
+        positions = (positions - self._base_pos) @ rotation
+        axes, anchors = axes @ rotation, (anchors - self._base_pos) @ rotation
+        lever = positions[:, :, None, :] - anchors[:, None, :, :]  # (N, sites, joints, 3)
+        moves = task.moves[None, :, :, None]
+        velocity, turn = _cross(axes[:, None], lever), axes[:, None]
+        if not self._hinge.all():
+            hinge = self._hinge[:, None]
+            velocity, turn = np.where(hinge, velocity, turn), np.where(hinge, turn, 0.0)
+        velocity, turn = velocity * moves, turn * moves
+        return _Poses(
+            positions,
+            frames[..., 2::3] @ rotation,  # the z column of each row-major 3x3
+            np.swapaxes(velocity, 2, 3),
+            np.swapaxes(turn, 2, 3),
+        )
+
+    def _moving(self, sites: tuple[int, ...]) -> np.ndarray:
+        """Which robot joints move each site (rows): those on the way from it to the root."""
+        if sites in self._moves:
+            return self._moves[sites]
+        moves = np.zeros((len(sites), len(self._joint_ids)), bool)
+        for row, site in enumerate(sites):
+            chain = set()
             body = int(self.model.site_bodyid[site])
             while body > 0:
                 chain.add(body)
                 body = int(self.model.body_parentid[body])
-        return np.array([int(self.model.jnt_bodyid[j]) in chain for j in self._joint_ids])
-
-    def _descend(
-        self,
-        goals: Sequence[SiteGoal],
-        sites: list[int],
-        start_deg: np.ndarray,
-        free: np.ndarray,
-        iterations: int,
-    ) -> Solution:
-        q = np.radians(start_deg)
-        low, high = np.radians(self.lower_deg), np.radians(self.upper_deg)
-        for _ in range(iterations):
-            self._set(np.degrees(q))
-            residual, jacobian, done = self._linearise(goals, sites)
-            if done:
-                break
-            step = _limited_step(jacobian[:, free], residual, q[free], low[free], high[free])
-            q[free] = np.clip(q[free] + step, low[free], high[free])
-        angles_deg = start_deg.copy()  # held joints exactly as given, not via radians
-        angles_deg[free] = np.degrees(q[free])
-        return self._measure(goals, sites, angles_deg)
-
-    def _linearise(
-        self, goals: Sequence[SiteGoal], sites: list[int]
-    ) -> tuple[np.ndarray, np.ndarray, bool]:
-        """Stacked weighted residual and Jacobian (robot joint columns); done if converged."""
-        rows, jac_rows, done = [], [], True
-        base_t = self._base_rot.T
-        for goal, site in zip(goals, sites):
-            position, axis = self._site_in_base(site)
-            self._mj.mj_jacSite(self.model, self.data, self._jacp, self._jacr, site)
-            jacp = base_t @ self._jacp[:, self._dof]
-            error = np.asarray(goal.position_mm) / 1000 - position
-            done &= bool(np.linalg.norm(error) * 1000 <= _CONVERGED_MM)
-            rows.append(_POSITION_WEIGHT * error)
-            jac_rows.append(_POSITION_WEIGHT * jacp)
-            if goal.pitch_deg is not None:
-                target = _axis_with_pitch(axis, position, goal.pitch_deg)
-                jacr = base_t @ self._jacr[:, self._dof]
-                rows.append(target - axis)
-                jac_rows.append(np.cross(jacr.T, axis).T)  # d(axis)/dq = omega x axis
-                done &= abs(_pitch_deg(axis) - goal.pitch_deg) <= _CONVERGED_DEG
-        return np.concatenate(rows), np.vstack(jac_rows), done
+            moves[row] = [int(self.model.jnt_bodyid[j]) in chain for j in self._joint_ids]
+        self._moves[sites] = moves
+        return moves
 
     def _measure(self, goals: Sequence[SiteGoal], sites: list[int], q_deg: np.ndarray) -> Solution:
+        """The verdict on a solution, from MuJoCo's own forward kinematics."""
         self._set(q_deg)
         reached, position_errors, pitch_errors = [], [], []
         for goal, site in zip(goals, sites):
@@ -291,39 +383,132 @@ class Kinematics:
         return Solution(q_deg, tuple(reached), tuple(position_errors), tuple(pitch_errors))
 
 
+@dataclass(frozen=True)
+class _Task:
+    """What the goals ask, as arrays: every site's position (m), the pitched ones' pitch."""
+
+    sites: np.ndarray  # (sites,) MuJoCo site ids, goal order
+    moves: np.ndarray  # (sites, joints) bool: the joint moves the site
+    targets: np.ndarray  # (sites, 3) metres, base frame
+    pitched: np.ndarray  # (sites,) bool: the goal asks for a pitch
+    pitch_deg: np.ndarray  # (pitched sites,)
+    pitch_cos_sin: np.ndarray  # (pitched sites, 2)
+
+
+@dataclass(frozen=True)
+class _Attempts:
+    """Where a batch of descents ended (rows), with the solver's own errors there."""
+
+    angles_deg: np.ndarray  # (N, joints)
+    error_mm: np.ndarray  # (N, sites)
+    pitch_error_deg: np.ndarray  # (N, pitched sites)
+
+    @property
+    def reached(self) -> np.ndarray:
+        return np.all(self.error_mm <= POSITION_TOLERANCE_MM, axis=1) & np.all(
+            self.pitch_error_deg <= ANGLE_TOLERANCE_DEG, axis=1
+        )
+
+    @property
+    def cost(self) -> np.ndarray:  # mm and degrees alike, as the tolerances are
+        return self.error_mm.sum(axis=1) + self.pitch_error_deg.sum(axis=1)
+
+
+@dataclass(frozen=True)
+class _Poses:
+    """Where the task's sites are for a batch of joint vectors (N), in the base frame (m)."""
+
+    positions: np.ndarray  # (N, sites, 3)
+    z_axes: np.ndarray  # (N, sites, 3) each site's z axis (its pitch is that axis' elevation)
+    jac_position: np.ndarray  # (N, sites, 3, joints) d position / d joint (rad, m)
+    jac_turn: np.ndarray  # (N, sites, 3, joints) each joint's angular velocity, where it turns
+
+
+def _linearise(task: _Task, poses: _Poses) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For a batch of poses: the stacked weighted residuals ``(N, rows)``, their Jacobians
+    ``(N, rows, joints)``, each site's distance (mm) and each pitch's error (deg)."""
+    n, joints = len(poses.positions), poses.jac_position.shape[-1]
+    error = task.targets - poses.positions
+    rows = [_POSITION_WEIGHT * error.reshape(n, -1)]
+    jacobians = [_POSITION_WEIGHT * poses.jac_position.reshape(n, -1, joints)]
+    axes = poses.z_axes[:, task.pitched]
+    pitch_deg = np.degrees(np.arcsin(np.clip(axes[..., 2], -1.0, 1.0)))
+    if task.pitched.any():
+        positions = poses.positions[:, task.pitched]
+        target, follow = _axis_with_pitch(axes, positions, task.pitch_cos_sin)
+        rows.append((target - axes).reshape(n, -1))
+        # d(axis)/dq = omega x axis, omega the joint's angular velocity; the target turns with
+        # the axis' heading, which leaves the axis' elevation for these rows to ask for
+        omega = np.swapaxes(poses.jac_turn[:, task.pitched], 2, 3)
+        turning = _cross(omega, axes[:, :, None, :])  # (N, pitched, joints, 3)
+        turning[..., :2] -= np.einsum("npij,npkj->npki", follow, turning[..., :2])
+        jacobians.append(np.swapaxes(turning, 2, 3).reshape(n, -1, joints))
+    return (
+        np.concatenate(rows, axis=1),
+        np.concatenate(jacobians, axis=1),
+        np.linalg.norm(error, axis=2) * 1000,
+        np.abs(pitch_deg - task.pitch_deg),
+    )
+
+
 def _limited_step(
-    jacobian: np.ndarray, residual: np.ndarray, q: np.ndarray, low: np.ndarray, high: np.ndarray
+    jacobian: np.ndarray,
+    residual: np.ndarray,
+    q: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    damping: np.ndarray,
 ) -> np.ndarray:
-    """A damped least-squares step; joints at a limit it would push past are held out."""
-    active = np.ones(len(q), bool)
-    step = np.zeros(len(q))
+    """Damped least-squares steps (rows, each with its damping); joints at a limit a step would
+    push past are held out of it (their Jacobian column zeroed leaves them out of the solve)."""
+    active = np.ones(q.shape, bool)
+    damped = damping[:, None, None] * np.eye(jacobian.shape[1])
     for _ in range(3):
-        j = jacobian[:, active]
-        step[:] = 0.0
-        step[active] = j.T @ np.linalg.solve(j @ j.T + _DAMPING * np.eye(len(residual)), residual)
+        j = jacobian * active[:, None, :]
+        jt = np.swapaxes(j, 1, 2)
+        step = (jt @ np.linalg.solve(j @ jt + damped, residual[..., None]))[..., 0]
         blocked = ((q <= low + 1e-9) & (step < 0)) | ((q >= high - 1e-9) & (step > 0))
         if not (blocked & active).any():
             break
         active &= ~blocked
-    largest = np.abs(step).max(initial=0.0)
-    return step * (_MAX_STEP_RAD / largest) if largest > _MAX_STEP_RAD else step
+    largest = np.abs(step).max(axis=1, initial=0.0)
+    return step * np.minimum(1.0, _MAX_STEP_RAD / np.maximum(largest, 1e-12))[:, None]
+
+
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
+_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` over the last axis, broadcast; a third of its cost (it runs at every step)."""
+    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
 
 
 def _pitch_deg(axis: np.ndarray) -> float:
     return float(np.degrees(np.arcsin(np.clip(axis[2], -1.0, 1.0))))
 
 
-def _axis_with_pitch(axis: np.ndarray, position: np.ndarray, pitch_deg: float) -> np.ndarray:
-    """The unit vector at ``pitch_deg`` elevation nearest ``axis``: same heading, or, when the
-    axis is (nearly) vertical, heading away from the base axis towards the site."""
-    heading = np.array([axis[0], axis[1], 0.0])
-    if np.linalg.norm(heading) < 0.05:
-        heading = np.array([position[0], position[1], 0.0])
-    norm = np.linalg.norm(heading)
-    heading = heading / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
-    pitch = np.radians(pitch_deg)
-    return np.cos(pitch) * heading + np.array([0.0, 0.0, np.sin(pitch)])
-
-
-def _cost(solution: Solution) -> float:
-    return sum(solution.position_error_mm) + sum(solution.pitch_error_deg)
+def _axis_with_pitch(
+    axis: np.ndarray, position: np.ndarray, pitch: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The unit vectors at elevation ``pitch`` (``(..., 2)``: its cosine and sine) nearest
+    ``axis`` (``(..., 3)``): same heading, or, where the axis is vertical, heading away from the
+    base axis towards the site. Also how they turn with the axis' horizontal part (``(..., 2,
+    2)``): the target follows the heading, so only the elevation is asked for."""
+    heading = axis[..., :2]
+    norm = np.hypot(heading[..., :1], heading[..., 1:])
+    vertical = norm < 1e-3
+    if vertical.any():  # rare: (nearly) vertical, and even on the base axis
+        heading = np.where(vertical, position[..., :2], heading)
+        norm = np.hypot(heading[..., :1], heading[..., 1:])
+        heading = np.where(norm > 1e-9, heading, [1.0, 0.0])
+        norm = np.where(norm > 1e-9, norm, 1.0)
+    unit = heading / norm
+    target = np.concatenate(
+        [pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1
+    )
+    # cos(pitch) times the derivative of the unit heading (none where the position gave it)
+    follow = np.where(vertical, 0.0, pitch[..., :1] / norm)[..., None]
+    turning = follow * (np.eye(2) - unit[..., :, None] * unit[..., None, :])
+    return target, turning
