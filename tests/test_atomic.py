@@ -4,6 +4,7 @@ behind."""
 from __future__ import annotations
 
 import os
+import signal
 import stat
 from pathlib import Path
 
@@ -40,6 +41,25 @@ def test_the_temporary_is_beside_the_target_so_the_rename_is_atomic(tmp_path):
         assert temporary.parent == tmp_path and temporary.name.startswith(".wave.yaml.")
         temporary.write_bytes(b"\x00\x01")
     assert path.read_bytes() == b"\x00\x01"
+
+
+@pytest.mark.parametrize("write", [check_writable, lambda path: write_text_atomically(path, "x")])
+def test_ctrl_c_just_as_the_temporary_is_made_leaves_nothing_behind(tmp_path, monkeypatch, write):
+    """The signal comes the moment the file exists: it is held until the file is named and
+    cleaned up as any interrupted write is (here, not a timing: a test sending SIGTERM on
+    seeing the temporary found this)."""
+    make = os.open
+
+    def made_then_interrupted(path, *args, **kwargs):
+        made = make(path, *args, **kwargs)
+        if ".tmp" in str(path):
+            os.kill(os.getpid(), signal.SIGINT)
+        return made
+
+    monkeypatch.setattr(os, "open", made_then_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        write(tmp_path / "out.yaml")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_fsync_directory_accepts_a_folder(tmp_path):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
+import secrets
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,17 +24,13 @@ def atomic_output(path: Path) -> Iterator[Path]:
     nothing)."""
     check_writable(path)
     target = write_target(Path(path))
-    temporary = _new_temporary(target)
-    try:
+    with _temporary(target) as temporary:
         yield temporary
         with open(temporary, "rb") as written:
             os.fsync(written.fileno())
         os.chmod(temporary, 0o666 & ~current_umask())
         os.replace(temporary, target)
         fsync_directory(target.parent)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
 
 
 def write_target(path: Path) -> Path:
@@ -65,7 +61,8 @@ def check_writable(path: Path, *, overwrite: bool = True) -> None:
             "overwrite", f"{path} exists: choose another file, or allow replacing it ({{option}})"
         )
     try:  # the only sure test (root passes os.access, yet /proc takes no new files)
-        os.unlink(_new_temporary(target))
+        with _temporary(target):
+            pass
     except OSError as error:
         raise ChoreoError(
             f"cannot write {path}: the folder {folder} does not take new files "
@@ -82,20 +79,32 @@ def _check_name_length(path: Path) -> None:
         )
 
 
-_RANDOM_AND_TMP = len(".12345678.tmp")  # what mkstemp and the .tmp add to the prefix
+@contextlib.contextmanager
+def _temporary(target: Path) -> Iterator[Path]:
+    """A new empty file ``.NAME.RANDOM.tmpSUFFIX`` beside ``target``, gone again when the block
+    ends unless the block renamed it. The name is chosen before the file is made (mkstemp
+    returns it only after), so a Ctrl-C at any moment leaves nothing behind; 64 random bits
+    keep it from ever being another file's."""
+    temporary = _temporary_name(target)
+    try:
+        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        yield temporary
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
 
 
-def _new_temporary(target: Path) -> Path:
-    """A new empty file ``.NAME.XXXXXXXX.tmpSUFFIX`` beside ``target``, NAME shortened so the
-    whole stays within the file system's longest name."""
+_RANDOM_DIGITS = 16
+_RANDOM_AND_TMP = len(f".{'0' * _RANDOM_DIGITS}.tmp")  # what follows the name
+
+
+def _temporary_name(target: Path) -> Path:
+    """``.NAME.RANDOM.tmpSUFFIX`` beside ``target``, NAME shortened so the whole stays within
+    the file system's longest name."""
     suffix = target.suffix if len(os.fsencode(target.suffix)) <= 16 else ""
     room = _longest_name(target.parent) - _RANDOM_AND_TMP - 1 - len(os.fsencode(suffix))
     name = os.fsencode(target.name)[:room].decode(errors="ignore")  # whole characters only
-    handle, temporary = tempfile.mkstemp(
-        prefix=f".{name}.", suffix=f".tmp{suffix}", dir=target.parent
-    )
-    os.close(handle)
-    return Path(temporary)
+    return target.parent / f".{name}.{secrets.token_hex(_RANDOM_DIGITS // 2)}.tmp{suffix}"
 
 
 def _longest_name(folder: Path) -> int:
