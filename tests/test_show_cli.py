@@ -174,6 +174,7 @@ def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_pa
     endpoints = performers({"left": ARM, "right": ARM})
     report_path = tmp_path / "show.json"
     show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
+    show.wait_for("every performer took the start")  # then right dies: lost, not silent
     right = performers.started["right"][0]
     right.wait_for("playing")
     performers.started["left"][0].wait_for("playing")

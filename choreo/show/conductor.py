@@ -239,6 +239,9 @@ class Conductor:
         if silent:
             self.send_stop("a performer did not take the start")
             raise ChoreoError(f"no answer to the start from {', '.join(silent)}: show stopped")
+        self.say(
+            f"every performer took the start: the show begins in {start_s - time.time():.1f} s"
+        )
 
     # --- during the show -----------------------------------------------------------------------
     def _on_finished(self, _key: str, payload: bytes) -> None:
