@@ -65,6 +65,11 @@ class RobotView:
         """This view still draws ``robot`` with ``props`` (else the scene is rebuilt)."""
         return robot == self.robot and tuple(props) == self.props
 
+    @property
+    def qpos(self) -> np.ndarray:
+        """The whole state last shown."""
+        return np.array(self._data.qpos)
+
     def qpos_with(self, qpos: np.ndarray, angles_deg: np.ndarray) -> np.ndarray:
         """``qpos`` (the whole state: the body's place too) with the joints at ``angles_deg``."""
         out = np.array(qpos, dtype=float)

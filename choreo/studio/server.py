@@ -27,7 +27,7 @@ from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
 from choreo.studio.page import SPEEDS, Page
 from choreo.studio.scene import RobotView
-from choreo.studio.session import Plan, Session
+from choreo.studio.session import Plan, Reload, Session
 from choreo.studio.watch import FileWatcher
 
 FRAME_S = 1 / 30  # the player redraws the page at 30 frames a second
@@ -95,29 +95,40 @@ class Studio:
     # --- the files -----------------------------------------------------------------------------
 
     def reload(self) -> None:
+        """Load and plan the files and show the plan at once; then simulate it (the page stays
+        live meanwhile) and show what the physics did."""
         with self._lock:
             result = self.session.reload()
-            for problem in result.problems:
-                self._say(problem)
-            self.page.show_problems(result.problems)
-            plan = self.session.plan
-            if plan is None:
-                return
-            if not result.problems:
-                self._say(f"loaded {plan.motion.path}: {plan.end_s:.2f} s, reload {result.version}")
-            motion = plan.motion
-            if self.view is None or not self.view.matches(motion.robot, motion.props):
-                self.server.scene.reset()
-                self.view = RobotView(self.server, motion.robot, motion.props)
-                self._kinematics = None
-                self._add_site_handles(plan)
-            self.page.show_plan(plan)
-            if self.selected is not None and self.selected >= len(motion.keyframes):
-                self.selected = None
-            self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
-            self._redraw(plan)
-            if self.posing is None:
-                self.page.show_joints(plan.planned_deg(self.time_s))
+            self._show_reload(result)
+        if not result.problems:
+            simulated = self.session.simulate(result.version)
+            if simulated is not None:
+                with self._lock:
+                    self._show_reload(simulated)
+
+    def _show_reload(self, result: Reload) -> None:
+        for problem in result.problems:
+            self._say(problem)
+        self.page.show_problems(result.problems)
+        plan = self.session.plan
+        if plan is None:
+            return
+        motion = plan.motion
+        if not result.problems:
+            done = "simulated" if plan.physics is not None else "planned"
+            self._say(f"{done} {motion.path}: {plan.end_s:.2f} s, reload {result.version}")
+        if self.view is None or not self.view.matches(motion.robot, motion.props):
+            self.server.scene.reset()
+            self.view = RobotView(self.server, motion.robot, motion.props)
+            self._kinematics = None
+            self._add_site_handles(plan)
+        self.page.show_plan(plan, result.version)
+        if self.selected is not None and self.selected >= len(motion.keyframes):
+            self.selected = None
+        self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
+        self._redraw(plan)
+        if self.posing is None:
+            self.page.show_joints(plan.planned_deg(self.time_s))
 
     def _plan(self) -> Plan | None:
         return self.session.plan
@@ -196,9 +207,11 @@ class Studio:
         if self.view is None:
             return
         t = self.time_s
-        step = plan.step_at(t)
-        qpos = plan.rollout.qpos[step]
         planned = plan.planned_deg(t)
+        if plan.physics is not None:
+            qpos = plan.physics.qpos_at(t)
+        else:  # simulating: the robot takes the plan's pose where it stands
+            qpos = self.view.qpos_with(self.view.qpos, planned)
         if self.posing is not None:
             self.view.show(self.view.qpos_with(qpos, self.posing), planned)
         else:
@@ -208,7 +221,7 @@ class Studio:
             self.live.follow(self.posing if self.posing is not None else planned)
 
     def _time_text(self, plan: Plan, t: float) -> str:
-        phase = plan.rollout.phase(t)
+        phase = plan.phase(t)
         text = f"**{t:.2f} s** · {phase}"
         music = plan.motion.music
         if music is not None and t >= 0:
@@ -399,33 +412,38 @@ class Studio:
         return lines.index(where.line), str(where)
 
     def _edit(self, change: Callable[[str, Plan], str], done: str) -> None:
+        if self._write(change, done):
+            self.reload()  # outside the lock: the page stays live while the physics runs
+
+    def _write(self, change: Callable[[str, Plan], str], done: str) -> bool:
+        """Write the file as ``change`` makes it; True when the file is to be reloaded (written,
+        or changed on disk since the page showed it: then it is not overwritten)."""
         with self._lock:
             path, plan = self.session.motion_path, self._plan()
             if plan is None:
                 self.refuse("nothing written: the file has never loaded")
-                return
+                return False
             if self.session.changed_on_disk():
-                self.reload()
                 self.refuse(
                     f"nothing written: {path} changed on disk since the page showed it; "
                     "reloaded it: look, then make the change again"
                 )
-                return
+                return True
             try:
                 text = path.read_text(encoding="utf-8")
                 new = change(text, plan)
                 check_loads(path, new)
             except (yaml_edit.EditRefused, SourceError) as error:
                 self.refuse(f"nothing written: {error}")
-                return
+                return False
             try:
                 write_text_atomically(path, new)
             except (ChoreoError, OSError) as error:  # a folder made read-only, a full disk
                 self.refuse(f"nothing written: {error}")
-                return
+                return False
             self._watcher.seen()
             self.note(f"{done} in {path}")
-            self.reload()
+            return True
 
     # --- the live robot ------------------------------------------------------------------------
 
