@@ -25,6 +25,7 @@ from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
+from choreo.studio.posing import rotation_of
 from choreo.studio.server import Studio, check_loads
 from choreo.studio.session import Session
 from choreo.studio.watch import FileWatcher
@@ -367,5 +368,75 @@ def test_curves_show_the_plan_and_the_physics_of_every_joint_chosen(tmp_path):
         page.curve_picks["base_yaw"].value = page.curve_picks["elbow"].value = False
         studio.redraw_curves()
         assert page.curves is None
+    finally:
+        studio.close()
+
+
+# hexapod18 stands at home, rises 20 mm on its planted feet (a body: keyframe) and comes back.
+BODY_MOTION = """\
+robot: hexapod18
+keyframes:
+  - pose: home
+  - body: {z: 20}   # up
+    t: 1.0
+  - pose: home
+    t: 2.0
+"""
+
+
+def turned(wxyz: np.ndarray, roll_deg: float) -> np.ndarray:
+    """The quaternion ``wxyz`` followed by a roll about its own x axis."""
+    half = np.radians(roll_deg) / 2
+    w, x, y, z = wxyz
+    c, s = np.cos(half), np.sin(half)
+    return np.array([w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s])
+
+
+def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_path):
+    path = tmp_path / "rise.yaml"
+    path.write_text(BODY_MOTION)
+    said: list[str] = []
+    studio = Studio(path, Address("127.0.0.1", 0), say=said.append)
+    studio.start()
+    try:
+        assert studio.view is not None
+        kinematics = Kinematics(load_robot("hexapod18"))
+        feet = kinematics.feet()
+        studio.scrub(2.5)  # after the last keyframe (home): the feet stand where home plants them
+        home = studio.session.plan.motion.keyframes[2].targets_deg
+        position, wxyz = studio.view.root_pose()
+        up = position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.020])
+        studio.drag_body(up, turned(wxyz, 5.0))  # 20 mm up, rolled 5°
+        assert studio.posing is not None
+        # every foot stays where it stood: stance = R posed + t (body frame, mm), R a 5° roll
+        roll = np.radians(5.0)
+        rotation = np.array(
+            [[1, 0, 0], [0, np.cos(roll), -np.sin(roll)], [0, np.sin(roll), np.cos(roll)]]
+        )
+        for foot in feet:
+            stood = kinematics.site_pose(foot, home).position_mm
+            posed = kinematics.site_pose(foot, studio.posing).position_mm
+            assert np.allclose(rotation @ posed + [0, 0, 20], stood, atol=1.0)
+
+        posed = studio.posing.copy()
+        studio.drag_body(position + np.array([0.0, 0.0, 0.3]), wxyz)  # 30 cm up: out of reach
+        assert re.fullmatch(
+            r"⛔ refused: the body cannot go there: foot \w+ would end \d+ mm from where it "
+            r"stands \(out of the leg's reach\); the last pose that works stays",
+            said[-1],
+        )
+        assert np.array_equal(studio.posing, posed)
+
+        studio.add_keyframe()
+        assert path.read_text() == BODY_MOTION + "  - body: {z: 20, roll: 5}\n    t: 2.5\n"
+
+        studio.select_keyframe(1)  # the body: keyframe at t 1: 10 mm more, from home's feet
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert not [line for line in said if "nothing written" in line]
+        assert path.read_text().startswith(
+            BODY_MOTION.replace("body: {z: 20}   # up", "body: {z: 30}   # up")
+        )
     finally:
         studio.close()
