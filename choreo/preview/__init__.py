@@ -59,7 +59,7 @@ from choreo.preview.report import (
     reach_line,
     start_lines,
 )
-from choreo.preview.sim import MoveStart, Rollout, Settling, SimSettings, simulate
+from choreo.preview.sim import MoveStart, Resume, Rollout, Settling, SimSettings, simulate
 from choreo.preview.stance import foot_heights, planned_stance
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
@@ -84,6 +84,7 @@ __all__ = [
     "REACH_WARNING_MM",
     "RenderResult",
     "RenderSettings",
+    "Resume",
     "Rollout",
     "Severity",
     "Settling",
@@ -190,8 +191,12 @@ def simulate_motion(
     return simulate_prepared(prepared, settings)
 
 
-def simulate_prepared(prepared: Prepared, settings: SimSettings | None = None) -> Rollout:
-    """Play a prepared motion's ticks to the simulated robot (``simulate_motion``'s physics)."""
+def simulate_prepared(
+    prepared: Prepared, settings: SimSettings | None = None, resume: Resume | None = None
+) -> Rollout:
+    """Play a prepared motion's ticks to the simulated robot (``simulate_motion``'s physics);
+    ``resume``: an earlier rollout's, to reuse what it simulated before the first tick that
+    differs (``simulate``)."""
     motion, performance = prepared.motion, prepared.performance
     rollout = simulate(
         motion.robot,
@@ -202,6 +207,7 @@ def simulate_prepared(prepared: Prepared, settings: SimSettings | None = None) -
         motion_start_s=performance.approach_s,
         posture=motion.start,
         props=motion.props,
+        resume=resume,
     )
     rollout = dataclasses.replace(rollout, end=motion.end)
     played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=prepared.speed)

@@ -17,6 +17,7 @@ from choreo.motion.motion_file import Keyframe, Motion, load_motion
 from choreo.preview import (
     CheckResult,
     Prepared,
+    Resume,
     Rollout,
     prepare_motion,
     run_checks,
@@ -114,6 +115,7 @@ class Session:
         self.version = 0  # counts reloads, good or bad
         self.loaded_digest: str | None = None  # the motion file's bytes the page was built from
         self._watched: tuple[Path, ...] = (self.motion_path,)
+        self._resume: Resume | None = None  # the last simulation's: the next one starts there
         self._lock = threading.Lock()
 
     @property
@@ -146,7 +148,7 @@ class Session:
             if self.version != version or plan is None or plan.physics is not None:
                 return None
         try:
-            physics = simulate_plan(plan)
+            physics = simulate_plan(plan, self._resume)
         except ChoreoError as error:
             problems = tuple(str(error).splitlines())
             with self._lock:
@@ -157,6 +159,7 @@ class Session:
             if self.version != version or self.plan is not plan:
                 return None
             self.plan = replace(plan, physics=physics)
+            self._resume = physics.rollout.resume
             return Reload(version, ())
 
     def changed_on_disk(self) -> bool:
@@ -172,10 +175,11 @@ def make_plan(motion: Motion) -> Plan:
     return Plan(motion, prepared, times, prepared.commanded_deg(times))
 
 
-def simulate_plan(plan: Plan) -> Physics:
-    """The preview's physics and checks for ``plan``, without rendering."""
+def simulate_plan(plan: Plan, resume: Resume | None = None) -> Physics:
+    """The preview's physics and checks for ``plan``, without rendering; what ``resume``'s
+    rollout simulated before the first tick that changed is taken from it."""
     began = time.perf_counter()
-    rollout = simulate_prepared(plan.prepared).since_start()
+    rollout = simulate_prepared(plan.prepared, resume=resume).since_start()
     findings = tuple(run_checks(rollout))
     return Physics(rollout, findings, time.perf_counter() - began)
 
