@@ -3,9 +3,10 @@ page, and what memory a long session of edits leaves.
 
   save -> page   a motion file is saved (written aside and renamed over, as editors do) with
                  one keyframe changed, and the page in Chromium times, as its text changes,
-                 when it shows the new plan ("reload N simulating": the studio's polling,
-                 loading, planning and the page's update) and when it shows the new plan's
-                 physics ("reload N simulated": the simulation and the page's second update).
+                 when it shows the new plan ("reload N simulating", or its physics if that
+                 came as fast: the studio's polling, loading, planning and the page's update)
+                 and when it shows the new plan's physics ("reload N simulated": the
+                 simulation and the page's second update).
                  The keyframe changed is the one halfway (the physics before it is reused from
                  the last simulation) or the first one (the worst case: all of it simulated
                  again). For an arm6 motion of 30 s and one of 5 minutes. Goal: <= 1 s for 30 s.
@@ -98,7 +99,9 @@ def save_to_page(browser, folder: Path, duration_s: int, changed_s: int) -> dict
         for i in range(SAVES):
             version = studio.session.version + 1
             page.evaluate(
-                f"() => {{ window.planShown = ({WHEN_SHOWN})('reload {version} simulating'); "
+                # the plan is on the page with "simulating", or with its physics if that came
+                # in the same message
+                f"() => {{ window.planShown = ({WHEN_SHOWN})('reload {version} simulat'); "
                 f"window.shown = ({WHEN_SHOWN})('reload {version} simulated'); }}"
             )
             start = time.time()
