@@ -372,14 +372,14 @@ def test_curves_show_the_plan_and_the_physics_of_every_joint_chosen(tmp_path):
         studio.close()
 
 
-# hexapod18 stands at home, rises 20 mm on its planted feet (a body: keyframe) and comes back.
+# hexapod18 stands at home, rises 20 mm on its planted feet (a body: keyframe), crouches.
 BODY_MOTION = """\
 robot: hexapod18
 keyframes:
   - pose: home
   - body: {z: 20}   # up
     t: 1.0
-  - pose: home
+  - pose: crouch
     t: 2.0
 """
 
@@ -402,8 +402,8 @@ def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_
         assert studio.view is not None
         kinematics = Kinematics(load_robot("hexapod18"))
         feet = kinematics.feet()
-        studio.scrub(2.5)  # after the last keyframe (home): the feet stand where home plants them
-        home = studio.session.plan.motion.keyframes[2].targets_deg
+        studio.scrub(2.5)  # after the last keyframe: the feet stand where crouch plants them
+        crouch = studio.session.plan.motion.keyframes[2].targets_deg
         position, wxyz = studio.view.root_pose()
         up = position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.020])
         studio.drag_body(up, turned(wxyz, 5.0))  # 20 mm up, rolled 5°
@@ -414,7 +414,7 @@ def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_
             [[1, 0, 0], [0, np.cos(roll), -np.sin(roll)], [0, np.sin(roll), np.cos(roll)]]
         )
         for foot in feet:
-            stood = kinematics.site_pose(foot, home).position_mm
+            stood = kinematics.site_pose(foot, crouch).position_mm
             posed = kinematics.site_pose(foot, studio.posing).position_mm
             assert np.allclose(rotation @ posed + [0, 0, 20], stood, atol=1.0)
 
@@ -435,8 +435,18 @@ def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_
         studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
         studio.update_keyframe()
         assert not [line for line in said if "nothing written" in line]
-        assert path.read_text().startswith(
+        written = path.read_text()
+        assert written.startswith(
             BODY_MOTION.replace("body: {z: 20}   # up", "body: {z: 30}   # up")
         )
+
+        # crouch made a body: keyframe would rise from home's feet (the keyframe before it
+        # that planted them), not from crouch's, where the handle kept them: refused
+        studio.select_keyframe(2)
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert said[-1].startswith("⛔ nothing written: a body: keyframe there would stand on ")
+        assert path.read_text() == written
     finally:
         studio.close()
