@@ -26,7 +26,7 @@ from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
 from choreo.studio.posing import rotation_of
-from choreo.studio.server import Studio, check_loads
+from choreo.studio.server import LatestOnly, Studio, check_loads
 from choreo.studio.session import Session
 from choreo.studio.watch import FileWatcher
 from choreo.studio.yaml_edit import (
@@ -450,3 +450,27 @@ def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_
         assert path.read_text() == written
     finally:
         studio.close()
+
+
+def test_drag_moves_that_come_while_one_is_solved_are_dropped_but_the_newest():
+    handled: list[int] = []
+    solving, release = threading.Event(), threading.Event()
+
+    def solve(move: int) -> None:
+        handled.append(move)
+        if move == 1:  # a slow solve: moves 2, 3 and 4 arrive meanwhile
+            solving.set()
+            assert release.wait(5.0)
+
+    latest = LatestOnly(solve)
+    first = threading.Thread(target=latest, args=(1,))
+    first.start()
+    assert solving.wait(5.0)
+    for move in (2, 3, 4):
+        latest(move)  # returns at once: the call under way takes the newest next
+    assert handled == [1]
+    release.set()
+    first.join(5.0)
+    assert handled == [1, 4]
+    latest(5)
+    assert handled == [1, 4, 5]

@@ -37,6 +37,37 @@ TIME_SLACK_S = 0.01  # the timeline's ends are shown rounded to its step
 BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
 
 
+class LatestOnly:
+    """Calls ``handle`` with the newest arguments, dropping those that came while it ran: a drag
+    sends dozens of moves a second from viser's threads, and a slow solve (a pose out of reach
+    tries many) must neither queue them nor let an older one land after a newer one."""
+
+    def __init__(self, handle: Callable[..., None]):
+        self._handle = handle
+        self._guard = threading.Lock()
+        self._pending: tuple | None = None
+        self._busy = False
+
+    def __call__(self, *args) -> None:
+        with self._guard:
+            self._pending = args
+            if self._busy:
+                return  # the call under way takes these next
+            self._busy = True
+        try:
+            while True:
+                with self._guard:
+                    newest, self._pending = self._pending, None
+                    if newest is None:
+                        self._busy = False
+                        return
+                self._handle(*newest)
+        except BaseException:
+            with self._guard:
+                self._busy = False
+            raise
+
+
 class Studio:
     """``start`` serves the page and follows the files; ``close`` stops it all."""
 
@@ -307,10 +338,10 @@ class Studio:
         self._kinematics = Kinematics(robot)
         self._feet = self._kinematics.feet() if robot.free_floating else ()
         if self._feet:
-            self.view.add_body_handle(self.drag_body)
+            self.view.add_body_handle(LatestOnly(self.drag_body))
         elif not robot.free_floating:
             sites = [n for n in self._kinematics.site_names if n]
-            self.view.add_site_handles(sites, self.drag_site)
+            self.view.add_site_handles(sites, LatestOnly(self.drag_site))
 
     def drag_site(self, site: str, world_m: np.ndarray) -> None:
         """Solve the pose putting ``site`` at ``world_m`` with the project's IK (as a ``sites:``
