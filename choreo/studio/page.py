@@ -174,7 +174,7 @@ class Page:
             self.curves = self._server.gui.add_uplot(
                 data=tuple(data),
                 series=tuple(series),
-                aspect=1.6,  # type: ignore[arg-type]
+                aspect=1.6,
             )
 
     def _picked(self, name: str) -> bool:
