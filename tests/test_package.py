@@ -183,6 +183,7 @@ TESTED_IN = {
     "studio/address.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/live.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/page.py": ("test_studio.py", "test_studio_browser.py"),
+    "studio/posing.py": ("test_studio.py",),
     "studio/scene.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/server.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/session.py": ("test_studio.py", "test_studio_browser.py"),

@@ -245,6 +245,34 @@ def test_a_free_floating_robot_starts_standing_on_its_home_keyframe(hexapod):
     assert run_checks(rollout) == []
 
 
+def test_a_resumed_rollout_is_the_fresh_one_and_reuses_what_came_before_the_change(hexapod):
+    home = np.array(hexapod.pose_vector("home"))
+    lower = np.array([j.limits.min_deg for j in hexapod.joints])
+    upper = np.array([j.limits.max_deg for j in hexapod.joints])
+    crouch = np.clip(home + 8.0, lower, upper)
+    first = linear_ticks(hexapod, home, crouch, 2400, 100)
+    # the same ticks until 1.5 s, then back home instead of on down
+    midway = home + (crouch - home) * 15 / 24
+    back = linear_ticks(hexapod, midway, home, 900, 100)
+    changed = first[:15] + [dataclasses.replace(t, start_ms=1500 + t.start_ms) for t in back]
+    before = simulate(hexapod, first, home)
+    fresh = simulate(hexapod, changed, home)
+    resumed = simulate(hexapod, changed, home, resume=before.resume)
+    for field in dataclasses.fields(fresh):
+        ours, theirs = getattr(fresh, field.name), getattr(resumed, field.name)
+        if isinstance(ours, np.ndarray):
+            assert np.array_equal(ours, theirs), field.name
+        elif field.name != "resume":
+            assert ours == theirs, field.name
+    assert len(fresh.contact_step) > 0  # the feet on the floor: the contact log resumed too
+    # the physics ran on from the last checkpoint before 1.5 s (1 s): those before it are reused
+    dt = float(fresh.times_s[1] - fresh.times_s[0])
+    checkpoints = resumed.resume.checkpoints
+    reused = [c for c in checkpoints if any(c is b for b in before.resume.checkpoints)]
+    assert [c.step * dt for c in reused] == [0.0]
+    assert checkpoints[len(reused)].step * dt == pytest.approx(1.0)
+
+
 def test_moves_from_the_measured_position_make_a_loaded_joint_sag_more(arm3):
     """The pessimistic assumption: each START forgets the lag."""
     heavy = load_robot(DATA / "models" / "arm3_heavy" / "robot.yaml")

@@ -25,7 +25,8 @@ from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
-from choreo.studio.server import Studio, check_loads
+from choreo.studio.posing import rotation_of
+from choreo.studio.server import LatestOnly, Studio, check_loads
 from choreo.studio.session import Session
 from choreo.studio.watch import FileWatcher
 from choreo.studio.yaml_edit import (
@@ -176,6 +177,30 @@ def test_the_session_keeps_the_last_good_plan_and_says_where_the_file_is_wrong(t
     assert session.reload().problems == () and session.plan is not good
 
 
+def test_the_plan_comes_first_and_the_physics_of_a_superseded_reload_is_dropped(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    session = Session(path)
+    first = session.reload()
+    plan = session.plan
+    assert plan is not None and plan.physics is None  # planned, not simulated yet
+    # the third keyframe, as the file writes it: base_yaw 30 with shoulder 30, elbow 40 kept
+    assert np.allclose(plan.planned_deg(2.0)[:3], [30, 30, 40], atol=0.5)
+    assert plan.start_s == 0.0 and plan.phase(-0.5) == "approach"  # from home: no approach
+
+    second = session.reload()  # a save while the first reload was to be simulated
+    assert session.simulate(first.version) is None and session.plan.physics is None
+    assert session.simulate(second.version) == second
+    physics = session.plan.physics
+    assert physics is not None and session.plan.motion is not plan.motion
+    # the plan shown first is the path the simulated servos were given
+    times = np.linspace(plan.start_s, plan.end_s, 50)
+    given = physics.rollout.command_deg[physics.steps_at(times)]
+    assert np.allclose(given, [session.plan.planned_deg(t) for t in times], atol=0.5)
+    assert np.allclose(physics.simulated_deg(np.array([2.0]))[0][:3], [30, 30, 40], atol=2.0)
+    assert session.simulate(second.version) is None  # simulated already
+
+
 def test_the_watcher_notices_a_save(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text(TEXT)
@@ -256,6 +281,7 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
         origin = kinematics.world_to_base_mm([0, 0, 0])
         axes = np.stack([kinematics.world_to_base_mm(e) - origin for e in np.eye(3) * 1000], 1)
         world_m = np.linalg.solve(axes, target_mm - origin)
+        assert studio.page.findings.content.startswith("**physics**: reload 1 simulated in ")
         studio.select_keyframe(2)  # the third: where it is written, when, and its values
         assert studio.page.keyframe_info.content == (
             f"`{path}:10:5` at 2.00 s: base_yaw 30°, shoulder 30°, elbow 40°, wrist_pitch 0°, "
@@ -313,3 +339,138 @@ def test_scrubbing_drives_the_live_robot_once_asked_and_stop_stops_it(tmp_path):
         assert studio.time_s == 3.0 and studio.speed == 1.0
     finally:
         studio.close()
+
+
+def test_curves_show_the_plan_and_the_physics_of_every_joint_chosen(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    studio = Studio(path, Address("127.0.0.1", 0), say=lambda line: None)
+    studio.start()
+    try:
+        page = studio.page
+        assert [n for n, pick in page.curve_picks.items() if pick.value] == ["base_yaw"]
+        page.curve_picks["elbow"].value = True
+        studio.redraw_curves()
+        labels = [series["label"] for series in page.curves.series]
+        assert labels == [
+            "t (s)",
+            "base_yaw plan (°)",
+            "base_yaw sim (°)",
+            "elbow plan (°)",
+            "elbow sim (°)",
+        ]
+        times, yaw_plan, yaw_sim, elbow_plan, elbow_sim = page.curves.data
+        at_2s = int(np.searchsorted(times, 2.0))  # the third keyframe: base_yaw 30, elbow 40
+        assert yaw_plan[at_2s] == pytest.approx(30, abs=0.5)
+        assert elbow_plan[at_2s] == pytest.approx(40, abs=0.5)
+        assert not np.isnan(elbow_sim).any()  # start() simulated it
+        assert elbow_sim[at_2s] == pytest.approx(40, abs=3.0)
+        page.curve_picks["base_yaw"].value = page.curve_picks["elbow"].value = False
+        studio.redraw_curves()
+        assert page.curves is None
+    finally:
+        studio.close()
+
+
+# hexapod18 stands at home, rises 20 mm on its planted feet (a body: keyframe), crouches.
+BODY_MOTION = """\
+robot: hexapod18
+keyframes:
+  - pose: home
+  - body: {z: 20}   # up
+    t: 1.0
+  - pose: crouch
+    t: 2.0
+"""
+
+
+def turned(wxyz: np.ndarray, roll_deg: float) -> np.ndarray:
+    """The quaternion ``wxyz`` followed by a roll about its own x axis."""
+    half = np.radians(roll_deg) / 2
+    w, x, y, z = wxyz
+    c, s = np.cos(half), np.sin(half)
+    return np.array([w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s])
+
+
+def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_path):
+    path = tmp_path / "rise.yaml"
+    path.write_text(BODY_MOTION)
+    said: list[str] = []
+    studio = Studio(path, Address("127.0.0.1", 0), say=said.append)
+    studio.start()
+    try:
+        assert studio.view is not None
+        kinematics = Kinematics(load_robot("hexapod18"))
+        feet = kinematics.feet()
+        studio.scrub(2.5)  # after the last keyframe: the feet stand where crouch plants them
+        crouch = studio.session.plan.motion.keyframes[2].targets_deg
+        position, wxyz = studio.view.root_pose()
+        up = position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.020])
+        studio.drag_body(up, turned(wxyz, 5.0))  # 20 mm up, rolled 5°
+        assert studio.posing is not None
+        # every foot stays where it stood: stance = R posed + t (body frame, mm), R a 5° roll
+        roll = np.radians(5.0)
+        rotation = np.array(
+            [[1, 0, 0], [0, np.cos(roll), -np.sin(roll)], [0, np.sin(roll), np.cos(roll)]]
+        )
+        for foot in feet:
+            stood = kinematics.site_pose(foot, crouch).position_mm
+            posed = kinematics.site_pose(foot, studio.posing).position_mm
+            assert np.allclose(rotation @ posed + [0, 0, 20], stood, atol=1.0)
+
+        posed = studio.posing.copy()
+        studio.drag_body(position + np.array([0.0, 0.0, 0.3]), wxyz)  # 30 cm up: out of reach
+        assert re.fullmatch(
+            r"⛔ refused: the body cannot go there: foot \w+ would end \d+ mm from where it "
+            r"stands \(out of the leg's reach\); the last pose that works stays",
+            said[-1],
+        )
+        assert np.array_equal(studio.posing, posed)
+
+        studio.add_keyframe()
+        assert path.read_text() == BODY_MOTION + "  - body: {z: 20, roll: 5}\n    t: 2.5\n"
+
+        studio.select_keyframe(1)  # the body: keyframe at t 1: 10 mm more, from home's feet
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert not [line for line in said if "nothing written" in line]
+        written = path.read_text()
+        assert written.startswith(
+            BODY_MOTION.replace("body: {z: 20}   # up", "body: {z: 30}   # up")
+        )
+
+        # crouch made a body: keyframe would rise from home's feet (the keyframe before it
+        # that planted them), not from crouch's, where the handle kept them: refused
+        studio.select_keyframe(2)
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert said[-1].startswith("⛔ nothing written: a body: keyframe there would stand on ")
+        assert path.read_text() == written
+    finally:
+        studio.close()
+
+
+def test_drag_moves_that_come_while_one_is_solved_are_dropped_but_the_newest():
+    handled: list[int] = []
+    solving, release = threading.Event(), threading.Event()
+
+    def solve(move: int) -> None:
+        handled.append(move)
+        if move == 1:  # a slow solve: moves 2, 3 and 4 arrive meanwhile
+            solving.set()
+            assert release.wait(5.0)
+
+    latest = LatestOnly(solve)
+    first = threading.Thread(target=latest, args=(1,))
+    first.start()
+    assert solving.wait(5.0)
+    for move in (2, 3, 4):
+        latest(move)  # returns at once: the call under way takes the newest next
+    assert handled == [1]
+    release.set()
+    first.join(5.0)
+    assert handled == [1, 4]
+    latest(5)
+    assert handled == [1, 4, 5]

@@ -29,6 +29,7 @@ from choreo.core.yaml_source import (
     reading_a_file,
 )
 from choreo.errors import SourceError
+from choreo.motion.gait import BodyPose
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
@@ -60,6 +61,7 @@ class Keyframe:
     label: str = ""  # pose name, or "" for an inline pose
     beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
     sites: tuple[SiteTarget, ...] = ()  # written as sites: (solved into targets_deg by IK)
+    body: BodyPose | None = None  # written as body: (feet planted, legs solved by IK)
     gait_end: GaitEnd | None = None  # the last keyframe of a gait: block
 
 
@@ -130,6 +132,7 @@ class _Step:
     space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
     beat: BeatRef | None = None  # its t was written as a beat or bar
     sites: tuple[SiteTarget, ...] = ()  # the sites: it was written with, once solved
+    body: BodyPose | None = None  # the body: it was written with, once solved
     gait_end: GaitEnd | None = None  # it ends a gait: block
 
 
@@ -636,6 +639,7 @@ def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
                 label=step.label,
                 beat=step.beat,
                 sites=step.sites,
+                body=step.body,
                 gait_end=step.gait_end,
             )
         )

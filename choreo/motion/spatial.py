@@ -239,7 +239,7 @@ class _Expander:
         if isinstance(space, SitesSpec):
             self.stance = solved.copy()
             return [self._joint_step(step, solved, sites=space.targets)]
-        return [self._joint_step(step, solved)]
+        return [self._joint_step(step, solved, body=space.pose)]
 
     def _joint_step(self, step: StepT, angles_deg: np.ndarray, **changes: Any) -> StepT:
         self.current = angles_deg.copy()

@@ -13,12 +13,19 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
+
 from choreo.motion.motion_file import HOME_POSE, Motion
 from choreo.motion.scene import StartPosture
 from choreo.motion.timing import played_keyframes
-from choreo.plan.performance import prepare
+from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.preview.actuator import ActuatorParams, actuator_params
+from choreo.preview.actuator import (
+    ActuatorParams,
+    CommandStream,
+    actuator_params,
+    commanded_path_units,
+)
 from choreo.preview.checks import (
     CheckKind,
     CheckResult,
@@ -52,7 +59,7 @@ from choreo.preview.report import (
     reach_line,
     start_lines,
 )
-from choreo.preview.sim import MoveStart, Rollout, Settling, SimSettings, simulate
+from choreo.preview.sim import MoveStart, Resume, Rollout, Settling, SimSettings, simulate
 from choreo.preview.stance import feet_and_centre, planned_stance
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
@@ -71,11 +78,13 @@ __all__ = [
     "JointJump",
     "JointSummary",
     "MoveStart",
+    "Prepared",
     "PropOutcome",
     "REACH_ERROR_MM",
     "REACH_WARNING_MM",
     "RenderResult",
     "RenderSettings",
+    "Resume",
     "Rollout",
     "Severity",
     "Settling",
@@ -88,6 +97,7 @@ __all__ = [
     "gait_outcomes",
     "has_display",
     "joint_summaries",
+    "prepare_motion",
     "preview_report",
     "prop_outcomes",
     "reach_line",
@@ -97,10 +107,66 @@ __all__ = [
     "show_in_viewer",
     "simulate",
     "simulate_motion",
+    "simulate_prepared",
     "start_pose_deg",
     "start_lines",
     "FIRST_KEYFRAME",
 ]
+
+
+@dataclasses.dataclass(frozen=True)
+class Prepared:
+    """A motion planned and compiled into the ticks ``choreo play`` sends, with the approach from
+    its start pose: everything the simulation needs, and the plan without the physics."""
+
+    motion: Motion
+    start_deg: tuple[float, ...]
+    performance: Performance
+    speed: float  # the motion's own speed, or the one asked for
+
+    @property
+    def approach_s(self) -> float:
+        return self.performance.approach_s
+
+    @property
+    def keyframe_times_s(self) -> tuple[float, ...]:
+        """Arrival at each played keyframe, from the motion's start (after the approach)."""
+        return tuple(float(t) for t in self.performance.trajectory.keyframe_times_s)
+
+    def stream(self) -> CommandStream:
+        return CommandStream.from_ticks(self.performance.ticks, len(self.motion.robot.joints))
+
+    def end_s(self, settings: SimSettings | None = None) -> float:
+        """Where its simulation ends: the last move, then the settings' tail."""
+        return self.stream().end_s + (settings or SimSettings()).tail_s - self.approach_s
+
+    def commanded_deg(self, times_s: np.ndarray) -> np.ndarray:
+        """Where the ticks ask the joints to be at ``times_s`` (from the motion's start; the
+        approach before 0): no load, no lag, as ``Rollout.command_deg``."""
+        robot, stream = self.motion.robot, self.stream()
+        start_units = robot.to_units(np.asarray(self.start_deg))
+        times = np.asarray(times_s, dtype=float) + self.approach_s
+        return robot.to_deg(commanded_path_units(stream, start_units, times))
+
+
+def prepare_motion(
+    motion: Motion,
+    *,
+    speed: float | None = None,
+    stretch: bool = False,
+    tolerance_deg: float = 0.5,
+    start_pose: str | None = None,
+) -> Prepared:
+    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), with the
+    approach the player would play from the start pose (see ``simulate_motion``)."""
+    compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
+    start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
+    return Prepared(
+        motion,
+        tuple(start_deg),
+        prepare(compiled, start_deg),
+        motion.speed if speed is None else speed,
+    )
 
 
 def simulate_motion(
@@ -119,23 +185,32 @@ def simulate_motion(
     keyframe; by default ``home`` (the first keyframe for a motion that starts lying, or a
     robot without a home pose).
     """
-    compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
-    start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
-    performance = prepare(compiled, start_deg)
+    prepared = prepare_motion(
+        motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg, start_pose=start_pose
+    )
+    return simulate_prepared(prepared, settings)
+
+
+def simulate_prepared(
+    prepared: Prepared, settings: SimSettings | None = None, resume: Resume | None = None
+) -> Rollout:
+    """Play a prepared motion's ticks to the simulated robot (``simulate_motion``'s physics);
+    ``resume``: an earlier rollout's, to reuse what it simulated before the first tick that
+    differs (``simulate``)."""
+    motion, performance = prepared.motion, prepared.performance
     rollout = simulate(
         motion.robot,
         performance.ticks,
-        start_deg,
-        keyframe_times_s=compiled.trajectory.keyframe_times_s,
+        prepared.start_deg,
+        keyframe_times_s=prepared.keyframe_times_s,
         settings=settings or SimSettings(),
         motion_start_s=performance.approach_s,
         posture=motion.start,
         props=motion.props,
+        resume=resume,
     )
     rollout = dataclasses.replace(rollout, end=motion.end)
-    played = played_keyframes(
-        motion.keyframes, repeat=motion.repeat, speed=motion.speed if speed is None else speed
-    )
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=prepared.speed)
     if rollout.root_body is not None and Kinematics(motion.robot).feet():
         rollout = _with_stance(rollout, motion, played)
     due = [

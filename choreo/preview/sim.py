@@ -8,6 +8,7 @@ is recorded in a ``Rollout``; nothing here judges it.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -87,6 +88,8 @@ class SimSettings:
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
 
 
+INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # everything stepping depends on
+CHECKPOINT_S = 1.0  # a rollout keeps the whole simulator's state this often (``Resume``)
 STILL_SPEED = 0.01  # m/s and rad/s: every degree of freedom slower than this is still
 STILL_FOR_S = 0.05  # ... for this long
 MIN_SETTLE_S = 0.02
@@ -162,6 +165,7 @@ class Rollout:
     foot_m: np.ndarray | None = None  # (n, feet, 3) its foot sites in the world, stance order
     centre_of_mass_m: np.ndarray | None = None  # (n, 3) the robot's, in the world
     gaits: tuple[GaitDue, ...] = ()  # the gait: blocks played, when
+    resume: Resume | None = None  # to simulate a tick list that begins the same way faster
 
     @property
     def lie_down_from_s(self) -> float | None:
@@ -240,10 +244,15 @@ def simulate(
     motion_start_s: float = 0.0,
     posture: StartPosture = StartPosture.STANDING,
     props: Sequence[Prop] = (),
+    resume: Resume | None = None,
 ) -> Rollout:
     """Play ``ticks`` (what the bus will send) to the simulated robot, which starts at rest at
     ``initial_deg`` (robot joint order), held there until still. The motion itself starts
-    ``motion_start_s`` into the ticks (after the approach), and times are counted from there."""
+    ``motion_start_s`` into the ticks (after the approach), and times are counted from there.
+
+    ``resume``, an earlier rollout's (of the same robot, start and settings): the steps before
+    the first tick that differs are taken from it, and the physics runs on from its last
+    checkpoint before that tick; the result is the same, bit for bit."""
     n_joints = len(robot.joints)
     start_deg = np.asarray(initial_deg, dtype=float)
     if start_deg.shape != (n_joints,):
@@ -271,10 +280,21 @@ def simulate(
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = _Log(max_settle + n_run, model.nq, n_joints)
     loop = _Loop(model, data, index, dead_zone, contacts, record)
-    settled = loop.settle(np.radians(start_deg), max_settle)
-    n_settle = record.count
-    loop.run(stream, servos, robot, settings.move_start, n_run)
+    inputs = (robot, tuple(start_deg), settings, posture, tuple(props))
+    checkpoint = None if resume is None else resume.checkpoint_for(inputs, tuple(ticks), dt, n_run)
+    if resume is not None and checkpoint is not None:
+        settled, n_settle = resume.settled, resume.n_settle
+        servos = loop.restore(checkpoint, resume, n_settle)
+        first = checkpoint.step
+    else:
+        settled = loop.settle(np.radians(start_deg), max_settle)
+        n_settle, first = record.count, 0
+    checkpoints = loop.run(
+        stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt)
+    )
     _check_stable(model, data)
+    if checkpoint is not None:
+        checkpoints = [c for c in resume.checkpoints if c.step < first] + checkpoints  # type: ignore[union-attr]
 
     n = record.count
     stream_times = (np.arange(n) - n_settle) * dt
@@ -316,6 +336,9 @@ def simulate(
         prop_qpos_addresses=tuple(
             (name, int(model.jnt_qposadr[joint])) for name, joint in free_prop_joints(model).items()
         ),
+        resume=Resume(
+            inputs, tuple(ticks), settled, n_settle, record, contacts, tuple(checkpoints)
+        ),
     )
 
 
@@ -325,6 +348,57 @@ def _joint_links(model: mujoco.MjModel, robot: Robot) -> tuple[str, ...]:
         link_name(model, int(links[model.joint(joint.mjcf_joint).bodyid[0]]))
         for joint in robot.joints
     )
+
+
+@dataclass(frozen=True)
+class _Checkpoint:
+    """The simulator as it was at the start of run step ``step`` (before its STARTs): MuJoCo's
+    whole integration state, the servos' moves, and how much had been recorded."""
+
+    step: int  # counted from the first step after the settling
+    state: np.ndarray
+    servos: ServoBank
+    contacts: int  # entries of the contact log
+    pairs: int  # contact pairs named
+
+
+@dataclass(frozen=True)
+class Resume:
+    """What a rollout leaves to simulate faster a tick list that begins as its own did."""
+
+    inputs: tuple  # robot, start angles, settings, posture, props: must be the same
+    ticks: tuple[Tick, ...]
+    settled: bool
+    n_settle: int
+    record: _Log
+    contacts: _ContactLog
+    checkpoints: tuple[_Checkpoint, ...]
+
+    def checkpoint_for(
+        self, inputs: tuple, ticks: tuple[Tick, ...], dt: float, n_run: int
+    ) -> _Checkpoint | None:
+        """The last checkpoint before the first tick that differs, inside a run of ``n_run``
+        steps (None: start afresh)."""
+        if inputs != self.inputs:
+            return None
+        same = 0
+        for old, new in zip(self.ticks, ticks):
+            if old != new:
+                break
+            same += 1
+        if same == len(self.ticks) == len(ticks):
+            changed_s = math.inf
+        else:
+            changed = [t[same].start_ms for t in (self.ticks, ticks) if same < len(t)]
+            changed_s = min(changed) / 1000
+        # the first step a START at changed_s could touch (as _Loop.run rounds it), less one
+        first_touched = math.ceil(changed_s / dt - 1e-6) if math.isfinite(changed_s) else None
+        usable = [
+            c
+            for c in self.checkpoints
+            if c.step < n_run and (first_touched is None or c.step < first_touched)
+        ]
+        return usable[-1] if usable else None
 
 
 class _Log:
@@ -382,16 +456,23 @@ class _Loop:
         robot: Robot,
         move_start: MoveStart,
         n: int,
-    ) -> None:
-        """The tick stream: between two STARTs every set-point is a known function of time, so
-        each stretch's controls are computed at once."""
+        first: int = 0,
+        checkpoint_every: int = 0,
+    ) -> list[_Checkpoint]:
+        """The tick stream from step ``first`` (0, or a restored checkpoint's): between two
+        STARTs every set-point is a known function of time, so each stretch's controls are
+        computed at once. Returns a checkpoint every ``checkpoint_every`` steps (0: none)."""
         dt = float(self.model.opt.timestep)
         times = np.arange(n) * dt
         started = np.flatnonzero(stream.started)
         # the step at which each START happens: the first step at or after its time
         start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
-        boundaries = sorted({0, n, *[int(b) for b in start_steps if b < n]})
+        marks = range(first, n, checkpoint_every) if checkpoint_every else ()
+        boundaries = sorted({first, n, *marks, *[int(b) for b in start_steps if first <= b < n]})
+        checkpoints = []
         for begin, end in zip(boundaries[:-1], boundaries[1:]):
+            if checkpoint_every and begin % checkpoint_every == 0:
+                checkpoints.append(self._checkpoint(begin, servos))
             for tick in started[start_steps == begin]:
                 if move_start is MoveStart.POSITION:
                     position_units = robot.to_units(np.degrees(self.data.qpos[self.index.qpos]))
@@ -401,6 +482,26 @@ class _Loop:
             ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
             for row in ctrl:
                 self.step(row)
+        return checkpoints
+
+    def _checkpoint(self, step: int, servos: ServoBank) -> _Checkpoint:
+        state = np.empty(mujoco.mj_stateSize(self.model, INTEGRATION_STATE))
+        mujoco.mj_getState(self.model, self.data, state, INTEGRATION_STATE)
+        return _Checkpoint(
+            step, state, copy.deepcopy(servos), len(self.contacts.steps), self.contacts.named
+        )
+
+    def restore(self, checkpoint: _Checkpoint, resume: Resume, n_settle: int) -> ServoBank:
+        """The simulator as it was at ``checkpoint`` of ``resume``'s run, with everything
+        recorded before it; the servos' moves then (a copy) are returned."""
+        mujoco.mj_setState(self.model, self.data, checkpoint.state, INTEGRATION_STATE)
+        count = n_settle + checkpoint.step
+        old, log = resume.record, self.log
+        log.qpos[:count], log.ctrl[:count] = old.qpos[:count], old.ctrl[:count]
+        log.torque[:count] = old.torque[:count]
+        log.count = count
+        self.contacts.take_from(resume.contacts, checkpoint.contacts, checkpoint.pairs)
+        return copy.deepcopy(checkpoint.servos)
 
 
 def _check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -467,6 +568,17 @@ class _ContactLog:
         else:
             names = (a, b) if a <= b else (b, a)  # sorted
         return self._pair_ids.setdefault((kind, *names), len(self._pair_ids))
+
+    @property
+    def named(self) -> int:
+        return len(self._pair_ids)
+
+    def take_from(self, other: _ContactLog, entries: int, pairs: int) -> None:
+        """``other``'s first ``entries`` contacts and ``pairs`` named pairs, as this log's."""
+        self.steps = other.steps[:entries]
+        self.pair_index = other.pair_index[:entries]
+        self.depths_m = other.depths_m[:entries]
+        self._pair_ids = dict(list(other._pair_ids.items())[:pairs])
 
     def pairs(self) -> tuple[ContactPair, ...]:
         ordered = sorted(self._pair_ids, key=self._pair_ids.__getitem__)

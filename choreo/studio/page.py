@@ -26,6 +26,7 @@ SPEEDS = ("0.25", "0.5", "1", "2")
 TIME_STEP_S = 0.01
 ANGLE_STEP_DEG = 0.1
 CURVE_POINTS = 600  # per curve: a few per pixel of the panel
+CURVE_COLOURS = ("#2878ff", "#e0561b", "#2ca02c", "#9467bd", "#d62728", "#17becf", "#8c564b")
 MAX_MARKS = 60  # beyond this the slider's marks are a smear: the list below names them all
 
 
@@ -73,15 +74,16 @@ class Page:
             self.retime = gui.add_button("Move keyframe here")
             self.delete = gui.add_button("Delete keyframe")
         self.curve_folder = gui.add_folder("Curves", expand_by_default=False)
-        with self.curve_folder:
-            self.curve_joint = gui.add_dropdown("joint", ("-",), initial_value="-")
+        self.curve_picks: dict[str, Any] = {}  # joint name -> its "curve" checkbox
         self.curves: Any = None
+        self._curve_series: tuple = ()
         self.pose_folder = gui.add_folder("Pose")
         self.joints: dict[str, Any] = {}
         self.pose_names: Any = None
         self._robot: Robot | None = None
         self._keyframe_labels: tuple[str, ...] = ()
         self._song_key: tuple | None = None
+        self._timeline_key: tuple = ()
         self._connect()
 
     def _connect(self) -> None:
@@ -96,7 +98,6 @@ class Page:
             self.unload.on_click(lambda _: studio.unload_joints(self.by_hand.value))
             self.read_pose.on_click(lambda _: studio.read_pose())
             self.hold.on_click(lambda _: studio.hold_joints())
-        self.curve_joint.on_update(from_page(lambda _: studio.redraw_curves()))
         self.add.on_click(lambda _: studio.add_keyframe())
         self.update.on_click(lambda _: studio.update_keyframe())
         self.retime.on_click(lambda _: studio.retime_keyframe())
@@ -104,19 +105,15 @@ class Page:
 
     # --- what the studio shows -------------------------------------------------------------
 
-    def show_plan(self, plan: Plan) -> None:
+    def show_plan(self, plan: Plan, version: int) -> None:
+        """The plan, and once simulated what the physics did (the page is told twice)."""
         motion, robot = plan.motion, plan.motion.robot
         self.title.content = (
             f"**motion** `{motion.name}` · **robot** `{robot.name}` · "
             f"{len(motion.keyframes)} keyframes · {plan.end_s:.2f} s  \n"
             f"`{motion.path}`  \n**joints** " + ", ".join(f"`{n}`" for n in robot.joint_names)
         )
-        # viser sets a slider's marks once: a new plan gets a new slider in the same place
-        order, value = self.time.order, self.time.value
-        self.time.remove()
-        with self.timeline:
-            self.time = self._time_slider(plan.start_s, plan.end_s, self._marks(plan), order)
-        self.time.value = float(np.clip(value, self.time.min, self.time.max))
+        self._show_timeline(plan)
         labels = tuple(
             f"{i + 1} · t {t:.2f} s · {Path(k.where.path).name}:{k.where.line}"
             for i, (k, t) in enumerate(zip(motion.keyframes, plan.keyframe_times_s))
@@ -125,43 +122,95 @@ class Page:
         self.snap.visible = motion.music is not None
         self._show_song(motion.music)
         self.keyframe.options = ("-", *labels)
-        self.findings.content = (
+        self.findings.content = self._findings_text(plan, version)
+        if robot != self._robot:
+            self._build_joints(robot)
+            self._build_curve_picks(robot)
+        self.show_curves(plan)
+
+    @staticmethod
+    def _findings_text(plan: Plan, version: int) -> str:
+        physics = plan.physics
+        if physics is None:
+            return f"**physics**: reload {version} simulating… (the robot shows the plan)"
+        status = f"**physics**: reload {version} simulated in {physics.took_s:.2f} s\n\n"
+        return status + (
             "\n".join(
-                f"- ⚠ {f.time_s:.2f} s {f.severity.value}: {f.message}" for f in plan.findings
+                f"- ⚠ {f.time_s:.2f} s {f.severity.value}: {f.message}" for f in physics.findings
             )
             or "no findings: the simulated robot follows the plan"
         )
-        if robot != self._robot:
-            self._build_joints(robot)
-            self.curve_joint.options = robot.joint_names
-            self.curve_joint.value = robot.joint_names[0]
-        self.show_curves(plan)
 
     def show_curves(self, plan: Plan) -> None:
-        """The selected joint's plan (what the ticks ask) and simulated angle over time."""
+        """The chosen joints' plan (what the ticks ask, solid) and simulated angle (dashed, once
+        the physics is done) over time, one colour per joint."""
         names = plan.motion.robot.joint_names
-        if self.curve_joint.value not in names:
+        chosen = [j for j, name in enumerate(names) if self._picked(name)]
+        if not chosen:
+            self._remove_curves()
             return
-        j = names.index(self.curve_joint.value)
-        rollout = plan.rollout
-        every = max(1, len(rollout.times_s) // CURVE_POINTS)
-        data = (
-            rollout.times_s[::every],
-            rollout.command_deg[::every, j],
-            rollout.position_deg[::every, j],
+        every = max(1, len(plan.times_s) // CURVE_POINTS)
+        times = plan.times_s[::every]
+        simulated = (
+            plan.physics.simulated_deg(times)
+            if plan.physics is not None
+            else np.full((len(times), len(names)), np.nan)
         )
-        if self.curves is not None:
-            self.curves.remove()
+        data = [times]
+        series: list[dict] = [{"label": "t (s)"}]
+        for j in chosen:
+            colour = CURVE_COLOURS[j % len(CURVE_COLOURS)]
+            data += [plan.command_deg[::every, j], simulated[:, j]]
+            series += [
+                {"label": f"{names[j]} plan (°)", "stroke": colour, "width": 2},
+                {"label": f"{names[j]} sim (°)", "stroke": colour, "width": 1, "dash": (5, 4)},
+            ]
+        if self.curves is not None and tuple(series) == self._curve_series:
+            self.curves.data = tuple(data)  # the same joints: new numbers, the same chart
+            return
+        self._remove_curves()
+        self._curve_series = tuple(series)
         with self.curve_folder:
             self.curves = self._server.gui.add_uplot(
-                data=data,
-                series=(
-                    {"label": "t (s)"},
-                    {"label": "plan (°)", "stroke": "#2878ff", "width": 2},
-                    {"label": "simulated (°)", "stroke": "#e0561b", "width": 1},
-                ),
+                data=tuple(data),
+                series=tuple(series),
                 aspect=1.6,
             )
+
+    def _picked(self, name: str) -> bool:
+        pick = self.curve_picks.get(name)
+        return pick is not None and bool(pick.value)
+
+    def _remove_curves(self) -> None:
+        if self.curves is not None:
+            self.curves.remove()
+        self.curves, self._curve_series = None, ()
+
+    def _build_curve_picks(self, robot: Robot) -> None:
+        """A checkbox per joint choosing its curves (the first joint's to begin with)."""
+        for pick in self.curve_picks.values():
+            pick.remove()
+        self._remove_curves()
+        with self.curve_folder:
+            self.curve_picks = {
+                name: self._server.gui.add_checkbox(f"{name} curve", initial_value=i == 0)
+                for i, name in enumerate(robot.joint_names)
+            }
+        for pick in self.curve_picks.values():
+            pick.on_update(from_page(lambda _: self._studio.redraw_curves()))
+
+    def _show_timeline(self, plan: Plan) -> None:
+        """viser sets a slider's marks once: a plan whose ends or marks changed gets a new
+        slider in the same place (only then: a new slider costs the page a re-layout)."""
+        key = (round(plan.start_s, 2), round(plan.end_s, 2), self._marks(plan))
+        if key == self._timeline_key:
+            return
+        self._timeline_key = key
+        order, value = self.time.order, self.time.value
+        self.time.remove()
+        with self.timeline:
+            self.time = self._time_slider(plan.start_s, plan.end_s, key[2], order)
+        self.time.value = float(np.clip(value, self.time.min, self.time.max))
 
     def _time_slider(
         self, start_s: float, end_s: float, marks: tuple, order: float | None = None

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from choreo.motion.scene import Prop
-from choreo.preview.model import index_joints, load_model
+from choreo.preview.model import free_joint, index_joints, load_model
 from choreo.robot.types import Robot
 from choreo.studio import require
 
@@ -21,6 +21,7 @@ GHOST_RGB = (40, 120, 255)
 GHOST_WIDTH = 4.0
 AMBIENT, KEY_LIGHT = 1.2, 2.0  # without the environment map: soft fill, one light from above
 HANDLE_SCALE = 0.25  # a site's drag handle, as a share of the model's size
+BODY = "/body"  # the body's handle among the sites' (no site is named so)
 
 
 class RobotView:
@@ -50,8 +51,11 @@ class RobotView:
         )
         self._bones = self._bones[self._bones[:, 0] > 0]  # bodies hanging from the world: none
         self.ghost_visible = True
-        self._handles: dict[str, Any] = {}
+        self._handles: dict[str, Any] = {}  # site name -> its handle; BODY: the body's
         self._dragging: str | None = None
+        root = free_joint(self.model)
+        self._root_body = None if root is None else int(self.model.jnt_bodyid[root])
+        self._root_qpos = None if root is None else int(self.model.jnt_qposadr[root])
         self._frame_camera(server)
 
     def _frame_camera(self, server) -> None:
@@ -65,11 +69,29 @@ class RobotView:
         """This view still draws ``robot`` with ``props`` (else the scene is rebuilt)."""
         return robot == self.robot and tuple(props) == self.props
 
-    def qpos_with(self, qpos: np.ndarray, angles_deg: np.ndarray) -> np.ndarray:
-        """``qpos`` (the whole state: the body's place too) with the joints at ``angles_deg``."""
+    @property
+    def qpos(self) -> np.ndarray:
+        """The whole state last shown."""
+        return np.array(self._data.qpos)
+
+    def qpos_with(
+        self, qpos: np.ndarray, angles_deg: np.ndarray, root: tuple | None = None
+    ) -> np.ndarray:
+        """``qpos`` (the whole state: the body's place too) with the joints at ``angles_deg``
+        and a free-floating robot's body at ``root`` (position m, quaternion w x y z) if given."""
         out = np.array(qpos, dtype=float)
         out[self._index.qpos] = np.radians(angles_deg)
+        if root is not None and self._root_qpos is not None:
+            out[self._root_qpos : self._root_qpos + 7] = np.concatenate(root)
         return out
+
+    def root_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where a free-floating robot's body is drawn: (position m, quaternion w x y z)."""
+        assert self._root_body is not None, "a robot fixed to the world has no body to pose"
+        return (
+            np.array(self._data.xpos[self._root_body]),
+            np.array(self._data.xquat[self._root_body]),
+        )
 
     def show(self, qpos: np.ndarray, ghost_deg: np.ndarray | None) -> None:
         """The robot at ``qpos``; the ghost at the same place with the joints at ``ghost_deg``."""
@@ -103,20 +125,45 @@ class RobotView:
                 disable_rotations=True,
                 position=np.array(self._data.site(name).xpos),
             )
-            handle.on_update(self._drag_callback(name, on_drag))
+            handle.on_update(self._drag_callback(name, self._site_drag(name, on_drag)))
             self._handles[name] = handle
 
-    def _drag_callback(self, name: str, on_drag: Callable[[str, np.ndarray], None]):
+    @staticmethod
+    def _site_drag(name: str, on_drag: Callable[[str, np.ndarray], None]) -> Callable[[Any], None]:
+        return lambda target: on_drag(name, np.array(target.position))
+
+    def add_body_handle(self, on_drag: Callable[[np.ndarray, np.ndarray], None]) -> None:
+        """A handle on a free-floating robot's body, to move and turn it:
+        ``on_drag(world position m, quaternion w x y z)``."""
+        position, wxyz = self.root_pose()
+        handle = self._server.scene.add_transform_controls(
+            "/body",
+            scale=float(self.model.stat.extent) * HANDLE_SCALE,
+            position=position,
+            wxyz=wxyz,
+        )
+        handle.on_update(
+            self._drag_callback(
+                BODY, lambda target: on_drag(np.array(target.position), np.array(target.wxyz))
+            )
+        )
+        self._handles[BODY] = handle
+
+    def _drag_callback(self, name: str, on_drag: Callable[[Any], None]):
         def callback(event) -> None:
             if event.phase == "start":
                 self._dragging = name
             elif event.phase == "end":
                 self._dragging = None
-            on_drag(name, np.array(event.target.position, dtype=float))
+            on_drag(event.target)
 
         return callback
 
     def _place_handles(self) -> None:
         for name, handle in self._handles.items():
-            if name != self._dragging:  # the one in the user's hand stays where it is put
+            if name == self._dragging:  # the one in the user's hand stays where it is put
+                continue
+            if name == BODY:
+                handle.position, handle.wxyz = self.root_pose()
+            else:
                 handle.position = np.array(self._data.site(name).xpos)

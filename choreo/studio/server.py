@@ -18,7 +18,8 @@ import numpy as np
 
 from choreo.core.atomic import write_text_atomically
 from choreo.errors import ChoreoError, SourceError
-from choreo.motion.motion_file import load_motion
+from choreo.motion.gait import BodyPose
+from choreo.motion.motion_file import Motion, load_motion
 from choreo.play.recorder import limit_problems
 from choreo.robot.kinematics import Kinematics, SiteGoal
 from choreo.robot.types import mirror_pose
@@ -26,12 +27,45 @@ from choreo.studio import require, yaml_edit
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
 from choreo.studio.page import SPEEDS, Page
+from choreo.studio.posing import BodyDrag, farthest_foot, pose_after, rotation_of, solve_body
 from choreo.studio.scene import RobotView
-from choreo.studio.session import Plan, Session
+from choreo.studio.session import Plan, Reload, Session
 from choreo.studio.watch import FileWatcher
 
 FRAME_S = 1 / 30  # the player redraws the page at 30 frames a second
 TIME_SLACK_S = 0.01  # the timeline's ends are shown rounded to its step
+BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
+
+
+class LatestOnly:
+    """Calls ``handle`` with the newest arguments, dropping those that came while it ran: a drag
+    sends dozens of moves a second from viser's threads, and a slow solve (a pose out of reach
+    tries many) must neither queue them nor let an older one land after a newer one."""
+
+    def __init__(self, handle: Callable[..., None]):
+        self._handle = handle
+        self._guard = threading.Lock()
+        self._pending: tuple | None = None
+        self._busy = False
+
+    def __call__(self, *args) -> None:
+        with self._guard:
+            self._pending = args
+            if self._busy:
+                return  # the call under way takes these next
+            self._busy = True
+        try:
+            while True:
+                with self._guard:
+                    newest, self._pending = self._pending, None
+                    if newest is None:
+                        self._busy = False
+                        return
+                self._handle(*newest)
+        except BaseException:
+            with self._guard:
+                self._busy = False
+            raise
 
 
 class Studio:
@@ -65,6 +99,11 @@ class Studio:
         self.selected: int | None = None  # the selected keyframe (index into motion.keyframes)
         # the site a drag handle put the robot's pose for (base frame mm): captured as sites:
         self.site_goal: tuple[str, np.ndarray] | None = None
+        # a legged robot's body pose the body's handle made, feet planted: captured as body:
+        self.body_goal: BodyPose | None = None
+        self._body_drag: BodyDrag | None = None  # from where the body's handle began
+        self._posed_root: tuple[np.ndarray, np.ndarray] | None = None  # where it put the body
+        self._feet: tuple[str, ...] = ()
         self._kinematics: Kinematics | None = None
         self._stop = threading.Event()
         self._watcher = FileWatcher(lambda: self.session.watched_files, self.reload)
@@ -95,29 +134,40 @@ class Studio:
     # --- the files -----------------------------------------------------------------------------
 
     def reload(self) -> None:
+        """Load and plan the files and show the plan at once; then simulate it (the page stays
+        live meanwhile) and show what the physics did."""
         with self._lock:
             result = self.session.reload()
-            for problem in result.problems:
-                self._say(problem)
-            self.page.show_problems(result.problems)
-            plan = self.session.plan
-            if plan is None:
-                return
-            if not result.problems:
-                self._say(f"loaded {plan.motion.path}: {plan.end_s:.2f} s, reload {result.version}")
-            motion = plan.motion
-            if self.view is None or not self.view.matches(motion.robot, motion.props):
-                self.server.scene.reset()
-                self.view = RobotView(self.server, motion.robot, motion.props)
-                self._kinematics = None
-                self._add_site_handles(plan)
-            self.page.show_plan(plan)
-            if self.selected is not None and self.selected >= len(motion.keyframes):
-                self.selected = None
-            self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
-            self._redraw(plan)
-            if self.posing is None:
-                self.page.show_joints(plan.planned_deg(self.time_s))
+            self._show_reload(result)
+        if not result.problems:
+            simulated = self.session.simulate(result.version)
+            if simulated is not None:
+                with self._lock:
+                    self._show_reload(simulated)
+
+    def _show_reload(self, result: Reload) -> None:
+        for problem in result.problems:
+            self._say(problem)
+        self.page.show_problems(result.problems)
+        plan = self.session.plan
+        if plan is None:
+            return
+        motion = plan.motion
+        if not result.problems:
+            done = "simulated" if plan.physics is not None else "planned"
+            self._say(f"{done} {motion.path}: {plan.end_s:.2f} s, reload {result.version}")
+        if self.view is None or not self.view.matches(motion.robot, motion.props):
+            self.server.scene.reset()
+            self.view = RobotView(self.server, motion.robot, motion.props)
+            self._kinematics = None
+            self._add_site_handles(plan)
+        self.page.show_plan(plan, result.version)
+        if self.selected is not None and self.selected >= len(motion.keyframes):
+            self.selected = None
+        self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
+        self._redraw(plan)
+        if self.posing is None:
+            self.page.show_joints(plan.planned_deg(self.time_s))
 
     def _plan(self) -> Plan | None:
         return self.session.plan
@@ -136,7 +186,7 @@ class Studio:
                 )
                 return
             self.time_s = self._snapped(plan, float(np.clip(t_s, plan.start_s, plan.end_s)))
-            self.posing, self.site_goal = None, None
+            self._back_to_the_plan()
             self._redraw(plan)
             self.page.show_joints(plan.planned_deg(self.time_s))
 
@@ -153,7 +203,7 @@ class Studio:
             self.playing = not self.playing
             self.page.play.label = "Pause" if self.playing else "Play"
             if self.playing:
-                self.posing = None
+                self._back_to_the_plan()
 
     def set_speed(self, text: str) -> None:
         if text not in SPEEDS:
@@ -196,11 +246,13 @@ class Studio:
         if self.view is None:
             return
         t = self.time_s
-        step = plan.step_at(t)
-        qpos = plan.rollout.qpos[step]
         planned = plan.planned_deg(t)
+        if plan.physics is not None:
+            qpos = plan.physics.qpos_at(t)
+        else:  # simulating: the robot takes the plan's pose where it stands
+            qpos = self.view.qpos_with(self.view.qpos, planned)
         if self.posing is not None:
-            self.view.show(self.view.qpos_with(qpos, self.posing), planned)
+            self.view.show(self.view.qpos_with(qpos, self.posing, self._posed_root), planned)
         else:
             self.view.show(qpos, planned)
         self.page.show_time(t, self._time_text(plan, t))
@@ -208,7 +260,7 @@ class Studio:
             self.live.follow(self.posing if self.posing is not None else planned)
 
     def _time_text(self, plan: Plan, t: float) -> str:
-        phase = plan.rollout.phase(t)
+        phase = plan.phase(t)
         text = f"**{t:.2f} s** · {phase}"
         music = plan.motion.music
         if music is not None and t >= 0:
@@ -278,13 +330,18 @@ class Studio:
             self._set_pose(np.array([mirrored[n] for n in robot.joint_names]), plan)
 
     def _add_site_handles(self, plan: Plan) -> None:
-        """Handles for an arm's sites (a walker's feet and body are not posed by hand yet)."""
+        """Handles for an arm's sites, or for the body of a robot whose MJCF names its feet
+        (the robots ``body:`` keyframes are written for)."""
         robot = plan.motion.robot
-        if robot.free_floating or robot.mjcf_path is None or self.view is None:
+        if robot.mjcf_path is None or self.view is None:
             return
         self._kinematics = Kinematics(robot)
-        sites = [n for n in self._kinematics.site_names if n]
-        self.view.add_site_handles(sites, self.drag_site)
+        self._feet = self._kinematics.feet() if robot.free_floating else ()
+        if self._feet:
+            self.view.add_body_handle(LatestOnly(self.drag_body))
+        elif not robot.free_floating:
+            sites = [n for n in self._kinematics.site_names if n]
+            self.view.add_site_handles(sites, LatestOnly(self.drag_site))
 
     def drag_site(self, site: str, world_m: np.ndarray) -> None:
         """Solve the pose putting ``site`` at ``world_m`` with the project's IK (as a ``sites:``
@@ -303,6 +360,56 @@ class Studio:
                     f"{solution.position_error_mm[0]:.0f} mm away"
                 )
 
+    def drag_body(self, world_m: np.ndarray, wxyz: np.ndarray) -> None:
+        """Move the body to where its handle is, feet planted: the legs solved by the project's
+        IK as a ``body:`` keyframe is; a pose out of the legs' reach is refused."""
+        with self._lock:
+            plan, kinematics = self._plan(), self._kinematics
+            finite = np.all(np.isfinite(world_m)) and np.all(np.isfinite(wxyz))
+            if plan is None or kinematics is None or not self._feet or not finite:
+                self.refuse(f"refused: no body to move to {world_m} {wxyz}")
+                return
+            if np.linalg.norm(wxyz) < 1e-9:
+                self.refuse(f"refused: {wxyz} is not a rotation")
+                return
+            drag = self._body_drag or self._begin_body_drag(plan)
+            if drag is None:
+                return
+            pose = pose_after(drag, world_m, wxyz)
+            solution = solve_body(kinematics, self._feet, drag, pose)
+            if not solution.ok:
+                foot, miss_mm = farthest_foot(self._feet, solution)
+                self.refuse(
+                    f"refused: the body cannot go there: foot {foot} would end {miss_mm:.0f} mm "
+                    "from where it stands (out of the leg's reach); the last pose "
+                    "that works stays"
+                )
+                return
+            root = (np.array(world_m, dtype=float), np.array(wxyz, dtype=float))
+            self._set_pose(np.array(solution.angles_deg), plan, body=(drag, pose, root))
+
+    def _begin_body_drag(self, plan: Plan) -> BodyDrag | None:
+        """The body is posed from the feet the keyframes planted: those of the last keyframe
+        reached by the timeline's time that is not a ``body:`` keyframe itself."""
+        assert self.view is not None
+        keyframes = plan.motion.keyframes
+        reached = [i for i, t in enumerate(plan.keyframe_times_s) if t <= self.time_s + 1e-9]
+        if not reached:
+            self.refuse("refused: the body is posed from a keyframe: scrub to one first")
+            return None
+        last = reached[-1]
+        planted = [i for i in range(last + 1) if keyframes[i].body is None]
+        robot = plan.motion.robot
+        stance = keyframes[planted[-1]].targets_deg if planted else robot.pose_vector("home")
+        position, wxyz = self.view.root_pose()
+        return BodyDrag(
+            handle_m=position,
+            handle_rotation=rotation_of(wxyz),
+            start=keyframes[last].body or BodyPose(),
+            stance_deg=np.array(stance, dtype=float),
+            seed_deg=np.array(keyframes[last].targets_deg, dtype=float),
+        )
+
     def follow_plan(self) -> None:
         self.scrub(self.time_s)
 
@@ -312,8 +419,22 @@ class Studio:
             return self.posing.copy()
         return np.array(plan.planned_deg(self.time_s)) if plan else np.zeros(0)
 
-    def _set_pose(self, pose: np.ndarray, plan: Plan, site_goal=None) -> None:
+    def _back_to_the_plan(self) -> None:
+        self._set_pose(None)
+
+    def _set_pose(
+        self,
+        pose: np.ndarray | None,
+        plan: Plan | None = None,
+        site_goal: tuple[str, np.ndarray] | None = None,
+        body: tuple[BodyDrag, BodyPose, tuple[np.ndarray, np.ndarray]] | None = None,
+    ) -> None:
+        """The sliders' pose (None: the plan's) and what made it: a site's handle
+        (``site_goal``), or the body's (``body``: the drag, the pose, where the body is)."""
         self.posing, self.site_goal = pose, site_goal
+        self._body_drag, self.body_goal, self._posed_root = body or (None, None, None)
+        if pose is None or plan is None:
+            return
         self.page.show_joints(pose)
         self._redraw(plan)
 
@@ -326,17 +447,40 @@ class Studio:
             items = self._items(text, plan)
             before = [i for i, t in items if t <= self.time_s + 1e-9]
             after = max(before) if before else None
-            return yaml_edit.add_keyframe(text, after, *self._captured(plan), self._timing(plan))
+            new = yaml_edit.add_keyframe(text, after, *self._captured(plan), self._timing(plan))
+            self._check_body(new, 0 if after is None else after + 1)
+            return new
 
         self._edit(change, "added a keyframe")
 
     def update_keyframe(self) -> None:
-        self._edit(
-            lambda text, plan: yaml_edit.update_keyframe(
-                text, *self._selected_item(text, plan), *self._captured(plan)
-            ),
-            "updated the keyframe",
-        )
+        def change(text: str, plan: Plan) -> str:
+            item, where = self._selected_item(text, plan)
+            new = yaml_edit.update_keyframe(text, item, where, *self._captured(plan))
+            self._check_body(new, item)
+            return new
+
+        self._edit(change, "updated the keyframe")
+
+    def _check_body(self, text: str, item: int) -> None:
+        """A ``body:`` pose written as the ``item``-th keyframe of ``text`` must mean the pose on
+        screen: the file moves the body from the feet the keyframes before it planted, and
+        those must be the feet the handle kept (``EditRefused`` if not)."""
+        if self.body_goal is None or self.posing is None:
+            return
+        motion = check_loads(self.session.motion_path, text)
+        line = yaml_edit.keyframe_items(text)[item].content_line + 1
+        written = [
+            k.targets_deg
+            for k in motion.keyframes
+            if k.where.line == line and not k.where.included_at and k.body is not None
+        ]
+        if not written or np.abs(np.subtract(written[0], self.posing)).max() > BODY_MATCH_DEG:
+            raise yaml_edit.EditRefused(
+                "a body: keyframe there would stand on other feet than the pose shown (a body: "
+                "pose moves the body from the feet the keyframes before it planted): scrub to "
+                "the keyframe it follows, pose the body there, and add it"
+            )
 
     def retime_keyframe(self) -> None:
         self._edit(
@@ -360,6 +504,8 @@ class Studio:
         if self.site_goal is not None:
             site, at_mm = self.site_goal
             return "sites", yaml_edit.sites_mapping(site, at_mm)
+        if self.body_goal is not None:
+            return "body", yaml_edit.body_mapping(self.body_goal)
         pose = dict(zip(plan.motion.robot.joint_names, (float(a) for a in self._pose())))
         return "pose", yaml_edit.pose_mapping(pose)
 
@@ -399,33 +545,38 @@ class Studio:
         return lines.index(where.line), str(where)
 
     def _edit(self, change: Callable[[str, Plan], str], done: str) -> None:
+        if self._write(change, done):
+            self.reload()  # outside the lock: the page stays live while the physics runs
+
+    def _write(self, change: Callable[[str, Plan], str], done: str) -> bool:
+        """Write the file as ``change`` makes it; True when the file is to be reloaded (written,
+        or changed on disk since the page showed it: then it is not overwritten)."""
         with self._lock:
             path, plan = self.session.motion_path, self._plan()
             if plan is None:
                 self.refuse("nothing written: the file has never loaded")
-                return
+                return False
             if self.session.changed_on_disk():
-                self.reload()
                 self.refuse(
                     f"nothing written: {path} changed on disk since the page showed it; "
                     "reloaded it: look, then make the change again"
                 )
-                return
+                return True
             try:
                 text = path.read_text(encoding="utf-8")
                 new = change(text, plan)
                 check_loads(path, new)
             except (yaml_edit.EditRefused, SourceError) as error:
                 self.refuse(f"nothing written: {error}")
-                return
+                return False
             try:
                 write_text_atomically(path, new)
             except (ChoreoError, OSError) as error:  # a folder made read-only, a full disk
                 self.refuse(f"nothing written: {error}")
-                return
+                return False
             self._watcher.seen()
             self.note(f"{done} in {path}")
-            self.reload()
+            return True
 
     # --- the live robot ------------------------------------------------------------------------
 
@@ -509,12 +660,13 @@ class Studio:
         self.note(f"⛔ {text}")
 
 
-def check_loads(path: Path, text: str) -> None:
-    """``SourceError`` (naming ``path``) if ``text`` written to ``path`` would not load."""
+def check_loads(path: Path, text: str) -> Motion:
+    """The motion ``text`` written to ``path`` would be; ``SourceError`` (naming ``path``) if
+    it would not load."""
     trial = path.with_name(f".{path.name}.studio-check{path.suffix}")
     try:
         trial.write_text(text, encoding="utf-8")
-        load_motion(trial)
+        return load_motion(trial)
     except SourceError as error:
         raise SourceError([p.replace(str(trial), str(path)) for p in error.problems]) from None
     except ChoreoError as error:

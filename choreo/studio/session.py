@@ -1,57 +1,98 @@
-"""One motion file as the studio sees it: loaded, planned and simulated, or the problems that
-stop it loading, with the last good result kept on screen meanwhile."""
+"""One motion file as the studio sees it: loaded and planned (shown at once), then simulated (shown
+when the physics is done), or the problems that stop it loading, with the last good result kept
+on screen meanwhile."""
 
 from __future__ import annotations
 
 import hashlib
 import threading
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from choreo.errors import ChoreoError
 from choreo.motion.motion_file import Keyframe, Motion, load_motion
-from choreo.preview import CheckResult, Rollout, run_checks, simulate_motion
+from choreo.preview import (
+    CheckResult,
+    Prepared,
+    Resume,
+    Rollout,
+    prepare_motion,
+    run_checks,
+    simulate_prepared,
+)
+
+PLAN_STEP_S = 0.005  # the plan is sampled this finely for the timeline (the physics: 2 ms)
+
+
+@dataclass(frozen=True)
+class Physics:
+    """What the simulated servos did with a plan's ticks, and the preview's findings."""
+
+    rollout: Rollout  # from the robot at rest in its start pose
+    findings: tuple[CheckResult, ...]
+    took_s: float  # how long the simulation took
+
+    def steps_at(self, times_s: np.ndarray) -> np.ndarray:
+        """The physics step at (or just after) each of ``times_s``."""
+        times = self.rollout.times_s
+        return np.clip(np.searchsorted(times, times_s), 0, len(times) - 1)
+
+    def simulated_deg(self, times_s: np.ndarray) -> np.ndarray:
+        return self.rollout.position_deg[self.steps_at(times_s)]
+
+    def qpos_at(self, t_s: float) -> np.ndarray:
+        return self.rollout.qpos[int(self.steps_at(np.array([t_s]))[0])]
 
 
 @dataclass(frozen=True)
 class Plan:
-    """A motion that loaded: the plan as sent to the servos and what the simulated servos did.
+    """A motion that loaded: the plan as sent to the servos and, once simulated (a moment after
+    the plan is shown), what the simulated servos did with it.
 
     Times count from the motion's start; the approach from the start pose is before 0."""
 
     motion: Motion
-    rollout: Rollout  # from the robot at rest in its start pose
-    findings: tuple[CheckResult, ...]
-    keyframe_times_s: tuple[float, ...]  # arrival at each keyframe of the first pass
+    prepared: Prepared
+    times_s: np.ndarray  # (n,) every PLAN_STEP_S from the approach's start to the end
+    command_deg: np.ndarray  # (n, joints) where the ticks ask the joints to be
+    physics: Physics | None = None
 
     @property
     def start_s(self) -> float:
-        return self.rollout.start_s
+        return float(self.times_s[0])
 
     @property
     def end_s(self) -> float:
-        return self.rollout.duration_s
+        return float(self.times_s[-1])
 
-    def step_at(self, t_s: float) -> int:
-        times = self.rollout.times_s
-        return int(np.clip(np.searchsorted(times, t_s), 0, len(times) - 1))
+    @property
+    def keyframe_times_s(self) -> tuple[float, ...]:
+        """Arrival at each keyframe of the first pass."""
+        return self.prepared.keyframe_times_s[: len(self.motion.keyframes)]
+
+    @property
+    def findings(self) -> tuple[CheckResult, ...]:
+        return self.physics.findings if self.physics is not None else ()
 
     def planned_deg(self, t_s: float) -> np.ndarray:
         """Where the ticks ask the joints to be at ``t_s`` (no load, no lag)."""
-        return self.rollout.command_deg[self.step_at(t_s)]
-
-    def simulated_deg(self, t_s: float) -> np.ndarray:
-        return self.rollout.position_deg[self.step_at(t_s)]
+        k = int(np.clip(np.searchsorted(self.times_s, t_s - 1e-9), 0, len(self.times_s) - 1))
+        return self.command_deg[k]
 
     def keyframe_at(self, index: int) -> tuple[Keyframe, float]:
         return self.motion.keyframes[index], self.keyframe_times_s[index]
 
+    @staticmethod
+    def phase(t_s: float) -> str:
+        return "approach" if t_s < -1e-9 else "motion"
+
 
 @dataclass(frozen=True)
 class Reload:
-    """What one reload did: ``problems`` empty when the files loaded, planned and simulated."""
+    """What one reload (or the simulation after it) did: ``problems`` empty when all went well."""
 
     version: int
     problems: tuple[str, ...]
@@ -74,6 +115,7 @@ class Session:
         self.version = 0  # counts reloads, good or bad
         self.loaded_digest: str | None = None  # the motion file's bytes the page was built from
         self._watched: tuple[Path, ...] = (self.motion_path,)
+        self._resume: Resume | None = None  # the last simulation's: the next one starts there
         self._lock = threading.Lock()
 
     @property
@@ -82,6 +124,7 @@ class Session:
         return self._watched
 
     def reload(self) -> Reload:
+        """Load and plan the files as they are now; ``simulate`` adds the physics."""
         with self._lock:
             digest = file_digest(self.motion_path)
             try:
@@ -97,16 +140,48 @@ class Session:
             self.version += 1
             return Reload(self.version, self.problems)
 
+    def simulate(self, version: int) -> Reload | None:
+        """Simulate the plan reload ``version`` made (without holding the lock: the page stays
+        live meanwhile); None when a newer reload came first or there is nothing to simulate."""
+        with self._lock:
+            plan = self.plan
+            if self.version != version or plan is None or plan.physics is not None:
+                return None
+        try:
+            physics = simulate_plan(plan, self._resume)
+        except ChoreoError as error:
+            problems = tuple(str(error).splitlines())
+            with self._lock:
+                if self.version == version:
+                    self.problems = problems
+            return Reload(version, problems)
+        with self._lock:
+            if self.version != version or self.plan is not plan:
+                return None
+            self.plan = replace(plan, physics=physics)
+            self._resume = physics.rollout.resume
+            return Reload(version, ())
+
     def changed_on_disk(self) -> bool:
         """The motion file is no longer the bytes last loaded (an edit the page has not seen)."""
         return file_digest(self.motion_path) != self.loaded_digest
 
 
 def make_plan(motion: Motion) -> Plan:
-    """Plan and simulate ``motion`` as ``choreo preview`` does, without rendering."""
-    rollout = simulate_motion(motion).since_start()
-    times = rollout.keyframe_times_s[: len(motion.keyframes)]
-    return Plan(motion, rollout, tuple(run_checks(rollout)), tuple(float(t) for t in times))
+    """Plan ``motion`` and compile its ticks as ``choreo preview`` does: no physics yet."""
+    prepared = prepare_motion(motion)
+    count = int(np.floor((prepared.end_s() + prepared.approach_s) / PLAN_STEP_S + 1e-9)) + 1
+    times = np.arange(count) * PLAN_STEP_S - prepared.approach_s
+    return Plan(motion, prepared, times, prepared.commanded_deg(times))
+
+
+def simulate_plan(plan: Plan, resume: Resume | None = None) -> Physics:
+    """The preview's physics and checks for ``plan``, without rendering; what ``resume``'s
+    rollout simulated before the first tick that changed is taken from it."""
+    began = time.perf_counter()
+    rollout = simulate_prepared(plan.prepared, resume=resume).since_start()
+    findings = tuple(run_checks(rollout))
+    return Physics(rollout, findings, time.perf_counter() - began)
 
 
 def files_of(motion: Motion) -> tuple[Path, ...]:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 log = logging.getLogger(__name__)
 
-POLL_S = 0.1
+POLL_S = 0.05
 Stamp = tuple[int, int] | None  # (mtime_ns, size), None while the file is missing
 
 

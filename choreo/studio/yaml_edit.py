@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from choreo.motion.gait import BodyPose
 from choreo.motion.music_block import BeatGrid
 from choreo.studio import require
 
@@ -119,6 +120,25 @@ def sites_mapping(site: str, at_mm: Sequence[float] | np.ndarray):
     return sites
 
 
+def body_mapping(pose: BodyPose):
+    """``{x: .., z: .., roll: ..}`` in flow style: the fields that are not 0 (mm and degrees
+    to the tenth), as a ``body:`` keyframe is written; ``{z: 0}`` for the pose it stood in."""
+    comments = require("ruamel.yaml.comments")
+    values = {
+        "x": pose.x_mm,
+        "y": pose.y_mm,
+        "z": pose.z_mm,
+        "roll": pose.roll_deg,
+        "pitch": pose.pitch_deg,
+        "yaw": pose.yaw_deg,
+    }
+    body = comments.CommentedMap((k, number(v)) for k, v in values.items() if number(v) != 0)
+    if not body:
+        body["z"] = 0
+    body.fa.set_flow_style()
+    return body
+
+
 def _item_text(item: Any, dash_col: int) -> list[str]:
     out = io.StringIO()
     _yaml().dump([item], out)
@@ -135,7 +155,7 @@ def _joined(lines: list[str], ending: str) -> str:
 
 
 def add_keyframe(text: str, after: int | None, key: str, value: Any, timing: Timing) -> str:
-    """Insert ``key: value`` (``pose:`` or ``sites:``) at ``timing`` (``("t", 1.5)`` or
+    """Insert ``key: value`` (``pose:``, ``sites:`` or ``body:``) at ``timing`` (``("t", 1.5)`` or
     ``("beat", 9)``) after the ``after``-th keyframe item (``None``: first in the list)."""
     comments = require("ruamel.yaml.comments")
     items = keyframe_items(text)
@@ -226,9 +246,10 @@ def _value_lines(key: str, value: Any, prefix: str) -> list[str]:
 
 
 def update_keyframe(text: str, index: int, where: str, key: str, value: Any) -> str:
-    """The ``index``-th keyframe item's pose (or sites) become ``key: value``; its timing
-    stays. A joint pose replaces sites, body and any pose; sites replace only sites."""
-    replaces = SPACE_KEYS + ("pose",) if key == "pose" else ("sites",)
+    """The ``index``-th keyframe item's pose (or sites, or body) become ``key: value``; its
+    timing stays. A joint pose or a body pose (whose legs are solved whole) replaces sites, body
+    and any pose; sites replace only sites."""
+    replaces = ("sites",) if key == "sites" else SPACE_KEYS + ("pose",)
     return _edit_item(text, index, where, key, value, replaces)
 
 
