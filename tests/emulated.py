@@ -36,7 +36,10 @@ def wait_for(condition, what: str, timeout_s: float = WAIT_S) -> None:
     while not condition():
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.002)
+        # Not faster: a condition often copies the emulator's whole wire log, holding the GIL
+        # that the thread serving the pty needs; polled every 2 ms on a loaded machine, that
+        # thread left a play's reads unanswered for 6 s.
+        time.sleep(0.02)
 
 
 @contextlib.contextmanager

@@ -144,8 +144,10 @@ def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
 
         try:
             wait_for(playing, "the motion to be playing")
-        except BaseException:
+        except BaseException as error:
             process.kill()
+            if isinstance(error, AssertionError) and process.stderr and not process.stderr.closed:
+                raise AssertionError(f"{error}; choreo said: {process.stderr.read()}") from None
             raise
     # the pty is gone, as when the USB adapter is pulled
     try:
