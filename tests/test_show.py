@@ -16,7 +16,15 @@ import yaml
 from choreo.core.clock import RealClock
 from choreo.errors import ChoreoError, PlaybackAborted, SourceError
 from choreo.motion.motion_file import load_motion
-from choreo.show.clock_offset import ClockOffset, RoundTrip, estimate, exceeds, measure
+from choreo.show.clock_offset import (
+    MORE_ROUND_TRIPS,
+    ROUND_TRIPS,
+    ClockOffset,
+    RoundTrip,
+    estimate,
+    exceeds,
+    measure,
+)
 from choreo.show.messages import ClockReading, Finished, Readiness, StagedPart, decode, encode
 from choreo.show.performer import StoppableClock
 from choreo.show.showfile import OnAbort, load_show
@@ -54,6 +62,47 @@ def test_measure_counts_only_answered_round_trips():
     found = measure(lambda: next(answers), rounds=2, clock=lambda: next(times))
     assert found == ClockOffset(pytest.approx(5.0), pytest.approx(0.001), 1)
     assert measure(lambda: None, rounds=3) is None
+
+
+class Network:
+    """Round trips to a performer whose clock is ``offset_s`` ahead: the first ``slow`` take
+    6 ms (a busy machine), the rest 0.2 ms; the conductor's clock advances only by them."""
+
+    def __init__(self, offset_s: float, slow: int):
+        self.now, self.offset_s, self.slow, self.asked = 0.0, offset_s, slow, 0
+
+    def clock(self) -> float:
+        return self.now
+
+    def ask_time(self) -> float:
+        self.asked += 1
+        leg_s = 0.003 if self.asked <= self.slow else 0.0001
+        self.now += leg_s
+        answer = self.now + self.offset_s
+        self.now += leg_s
+        return answer
+
+
+def test_slow_round_trips_are_followed_by_more_until_the_bound_can_be_shown():
+    network = Network(offset_s=0.0, slow=10)
+    found = measure(network.ask_time, clock=network.clock, within_s=0.002)
+    assert found is not None and not exceeds(found, 0.002)
+    assert network.asked == 11  # 8, then one at a time until a fast one came
+    assert found.error_s == pytest.approx(0.0001)
+
+
+def test_clocks_really_apart_are_still_found_apart_after_every_extra_round_trip():
+    network = Network(offset_s=0.005, slow=0)
+    found = measure(network.ask_time, clock=network.clock, within_s=0.002)
+    assert found is not None and exceeds(found, 0.002)
+    assert found.offset_s == pytest.approx(0.005)
+    assert network.asked == ROUND_TRIPS + MORE_ROUND_TRIPS
+
+
+def test_without_a_bound_the_measure_takes_its_rounds_only():
+    network = Network(offset_s=0.0, slow=100)
+    assert exceeds(measure(network.ask_time, clock=network.clock), 0.002)
+    assert network.asked == ROUND_TRIPS
 
 
 @pytest.mark.parametrize(

@@ -178,7 +178,7 @@ class Conductor:
                 reply = self.network.ask(f"{performer_key(name)}/clock", timeout_s=1.0)
                 return None if reply is None else decode(ClockReading, reply).time_s
 
-            offset = measure(ask_time)
+            offset = measure(ask_time, within_s=self.show.max_clock_offset_s)
             if offset is None:
                 problems.append(f"{name}: did not answer the clock round trips")
                 continue
