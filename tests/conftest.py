@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import signal
 
 import pytest
@@ -15,6 +16,25 @@ from choreo.robot.robot_file import load_robot
 # inherits SIGINT ignored, and so would every `choreo` it starts: the tests that stop one with
 # Ctrl-C would then watch it play to the end. Ctrl-C is what they test, so restore it.
 signal.signal(signal.SIGINT, signal.default_int_handler)
+
+# The files whose tests call librosa run on one worker of a parallel run (`-n auto`), which then
+# pays librosa's import and numba's compiling (5 s, 9 s on a loaded machine) once, not on each.
+LIBROSA_FILES = ("test_beats.py", "test_music.py", "test_docs.py")
+
+if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
+
+    def pytest_xdist_make_scheduler(config, log):
+        """``--dist loadfile`` (the default here), with the librosa files as one unit."""
+        if config.getoption("dist") != "loadfile":
+            return None
+        from xdist.scheduler import LoadFileScheduling
+
+        class ByFileLibrosaTogether(LoadFileScheduling):
+            def _split_scope(self, nodeid: str) -> str:
+                file = super()._split_scope(nodeid)
+                return "librosa" if file.rsplit("/", 1)[-1] in LIBROSA_FILES else file
+
+        return ByFileLibrosaTogether(config, log)
 
 
 @pytest.fixture
