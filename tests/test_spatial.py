@@ -38,12 +38,12 @@ def kinematics(motion) -> Kinematics:
 
 def spatial_items(path: Path) -> list[tuple[int, dict]]:
     """(line, item) of every keyframe list item with sites, body or gait."""
-    root = yaml.compose(path.read_text())
+    root = yaml.compose(path.read_text(), Loader=yaml.CSafeLoader)  # at collection: libyaml
     items = []
     for key, value in root.value:
         if key.value == "keyframes":
             for node in value.value:
-                item = yaml.safe_load(yaml.serialize(node))
+                item = yaml.load(yaml.serialize(node), Loader=yaml.CSafeLoader)
                 if {"sites", "body", "gait"} & set(item):
                     items.append((node.start_mark.line + 1, item))
     return items
