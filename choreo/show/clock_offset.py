@@ -64,10 +64,11 @@ def measure(
     ``within_s``, up to ``MORE_ROUND_TRIPS`` more while the estimate ``exceeds`` it. None if
     none was answered."""
     samples = _round_trips(ask_time, rounds, clock)
-    more = MORE_ROUND_TRIPS if within_s is not None else 0
-    while more and samples and exceeds(estimate(samples), within_s or 0.0):
-        samples += _round_trips(ask_time, 1, clock)
-        more -= 1
+    if within_s is not None:
+        for _ in range(MORE_ROUND_TRIPS):
+            if not samples or not exceeds(estimate(samples), within_s):
+                break
+            samples += _round_trips(ask_time, 1, clock)
     return estimate(samples) if samples else None
 
 
