@@ -163,8 +163,26 @@ MAX_DEPTH = 64
 
 
 def _check_depth(path: Path, text: str) -> None:
+    """``SourceError`` where the text opens its 65th level of lists or mappings.
+
+    Newer libyaml (PyYAML 6.0.4) bounds the depth itself, but its scanner reads up to 1,024
+    characters ahead, so it refuses a deep file at a later column and in its own words. When the
+    fast parser fails, the pure-Python one (no bound of its own, and lazy) looks again for our
+    bound first, so a user gets the same line, column and sentence whatever libyaml is installed.
+    """
+    try:
+        _raise_if_too_deep(path, yaml.parse(text, Loader=_SAFE_LOADER))
+    except yaml.YAMLError:
+        if _SAFE_LOADER is yaml.SafeLoader:
+            raise
+        with contextlib.suppress(yaml.YAMLError):  # then the fast parser's error is the one
+            _raise_if_too_deep(path, yaml.parse(text, Loader=yaml.SafeLoader))
+        raise
+
+
+def _raise_if_too_deep(path: Path, events: Iterable[yaml.Event]) -> None:
     depth = 0
-    for event in yaml.parse(text, Loader=_SAFE_LOADER):
+    for event in events:
         if isinstance(event, yaml.CollectionStartEvent):
             depth += 1
             if depth > MAX_DEPTH:
