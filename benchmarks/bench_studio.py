@@ -35,7 +35,8 @@ from choreo.studio.address import Address
 from choreo.studio.server import Studio
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_studio_browser import CHROMIUM, CHROMIUM_ARGS, free_port  # noqa: E402
+from browser import chosen  # noqa: E402
+from test_studio_browser import free_port  # noqa: E402
 
 SAVES = 5
 SESSION_SAVES = 100  # 10 minutes, a save every 6 s
@@ -160,7 +161,7 @@ def session_memory(folder: Path) -> tuple[float, float]:
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as playwright:
         folder = Path(tmp)
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        browser = chosen().launch(playwright)
         for duration_s in (30, 300):
             for changed_s, which in ((duration_s // 2, "halfway"), (1, "first")):
                 times = save_to_page(browser, folder, duration_s, changed_s)

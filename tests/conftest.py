@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import importlib.util
 import signal
+from pathlib import Path
 
+import browser
+import offscreen_gl
 import pytest
 from emulated import built_in_emulator_in_virtual_time, home_specs, served_on_a_pty
 
@@ -35,6 +38,37 @@ if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only wi
                 return "librosa" if file.rsplit("/", 1)[-1] in LIBROSA_FILES else file
 
         return ByFileLibrosaTogether(config, log)
+
+
+BROWSER_TESTS = Path(__file__).with_name("test_studio_browser.py")
+
+
+def pytest_sessionstart(session):
+    """What the suite needs from the machine, found or installed before any test runs, once (not
+    in each xdist worker): offscreen OpenGL, and the browser when the browser tests are among
+    those asked for. Where one cannot be had, the run stops with one line naming what to run."""
+    config = session.config
+    if hasattr(config, "workerinput"):
+        return
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    say = reporter.write_line if reporter is not None else print
+    try:
+        offscreen_gl.provide(say)
+        if _asks_for(config, BROWSER_TESTS):
+            browser.provide(say)
+    except (offscreen_gl.NoOffscreenGL, browser.NoBrowser) as missing:
+        pytest.exit(str(missing), returncode=pytest.ExitCode.USAGE_ERROR)
+
+
+def _asks_for(config, test_file: Path) -> bool:
+    """Whether the run's arguments (or the configured testpaths, without any) include a file."""
+    asked = config.args or [str(config.rootpath / path) for path in config.getini("testpaths")]
+    here = config.invocation_params.dir
+    for argument in asked:
+        path = (here / argument.split("::", 1)[0]).resolve()
+        if path == test_file or path in test_file.parents:
+            return True
+    return False
 
 
 @pytest.fixture

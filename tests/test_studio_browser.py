@@ -1,8 +1,8 @@
-"""choreo studio driven in a real browser: Debian's chromium through Playwright.
+"""choreo studio driven in a real browser: Chromium through Playwright.
 
-Needs ``apt-get install chromium`` and ``pip install playwright 'choreo[studio]'``; there is no
-browser download. Without them these tests fail (they do not skip): the studio is a page, and
-only a browser shows that the page works. One studio and one page serve the whole module (a
+The run finds or installs the browser first (tests/browser.py: Playwright's own, or Debian's
+chromium). Without one these tests fail (they do not skip): the studio is a page, and only a
+browser shows that the page works. One studio and one page serve the whole module (a
 page's first frames cost seconds of software rendering); each test starts from the motion file
 as tests/data/studio/wave.yaml has it.
 """
@@ -15,6 +15,7 @@ import socket
 import time
 from pathlib import Path
 
+import browser as chromium
 import numpy as np
 import pytest
 from PIL import Image
@@ -23,8 +24,6 @@ from playwright.sync_api import expect, sync_playwright
 from choreo.studio.address import Address
 from choreo.studio.server import Studio
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = ["--no-sandbox", "--use-gl=swiftshader", "--enable-unsafe-swiftshader"]
 MOTION = Path(__file__).parent / "data" / "studio" / "wave.yaml"
 VIEWPORT = {"width": 900, "height": 640}
 SCENE = {"x": 80, "y": 150, "width": 460, "height": 420}  # the 3D view, clear of the panels
@@ -35,9 +34,12 @@ WAIT_MS = 30_000  # how long a page may take to show a change (software renderin
 
 @pytest.fixture(scope="module")
 def browser():
-    assert Path(CHROMIUM).is_file(), f"{CHROMIUM} is missing: apt-get install chromium"
+    try:
+        choice = chromium.chosen()
+    except chromium.NoBrowser as error:
+        pytest.fail(str(error), pytrace=False)
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        browser = choice.launch(playwright)
         yield browser
         browser.close()
 
@@ -203,7 +205,7 @@ def screenshot(motion: Path, at_s: float, out: Path) -> None:
     studio.start()
     try:
         with sync_playwright() as playwright:
-            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            browser = chromium.chosen().launch(playwright)
             page = browser.new_page(viewport={"width": 1280, "height": 820})
             page.goto(studio.address.url)
             expect(page.get_by_text("Timeline")).to_be_visible(timeout=WAIT_MS)

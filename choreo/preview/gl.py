@@ -20,10 +20,9 @@ from choreo.errors import PreviewError
 log = logging.getLogger(__name__)
 
 BACKENDS = ("egl", "osmesa")
-INSTALL_HINT = (
-    "install Mesa's EGL and OSMesa, e.g. apt-get install libegl1 libgl1 libgles2 "
-    "libosmesa6 libgl1-mesa-dri"
-)
+# Debian's names for Mesa's EGL and OSMesa with its software rasteriser
+MESA_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1", "libgles2", "libosmesa6", "libgl1-mesa-dri")
+INSTALL_HINT = f"install Mesa's EGL and OSMesa, e.g. apt-get install {' '.join(MESA_PACKAGES)}"
 PROBE_TIMEOUT_S = 60
 
 _PROBE = """
