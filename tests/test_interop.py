@@ -6,8 +6,8 @@ Two drivers from PyPI, used only through their public APIs:
   ``LX16A.initialize(port)``. ``LX16A(id)`` reads POS, OFFSET, ANGLE_LIMIT, VIN_LIMIT,
   TEMP_MAX_LIMIT, MOTOR_MODE (and the speed in motor mode), LOAD, LED_CTRL and LED_ERROR, then loads
   the servo. Replies are read as a fixed byte count with the checksum checked, nothing else.
-  Importing it needs no display: the package is only ``lx16a.py`` (PyQt6 is a declared dependency
-  that nothing imports).
+  Importing it needs no display: the package is only ``pylx16a/lx16a.py`` (PyQt6 is a declared
+  dependency that nothing imports).
 - lewansoul-lx16a 0.1 (``lewansoul_lx16a.ServoController`` on a pyserial port). It scans for
   ``55 55``, skips packets with a bad checksum, another command or another servo's ID, and raises
   its own ``TimeoutError`` after ``timeout`` seconds.

@@ -6,7 +6,7 @@
   ``serial.serial_for_url("sim://?ids=1-6&clock=virtual")`` gives a :class:`SimSerial`.
 - :class:`PtyBridge`: the emulator on a pseudo-terminal (``choreo emulate --pty PATH``).
 - ``boards``: the RRC board and the LOBOT controller in front of the servos
-  (``sim://?board=rrc``, ``choreo emulate --board lobot``); ``direction``: fake GPIO direction
+  (``sim://?board=rrc``, ``choreo emulate --board lobot``); ``direction_gate``: fake GPIO direction
   lines for tests.
 """
 

@@ -95,7 +95,7 @@ class PlayOptions:
     max_missed_reads: int = 3  # consecutive unanswered reads before a servo counts as lost
     max_position_error_deg: float = 15.0
     temp_margin_c: int = 5  # abort this far below the servo's own temperature limit
-    # SCHED_FIFO + locked memory for the play where permitted (choreo/realtime.py); None: only
+    # SCHED_FIFO + locked memory for the play where permitted (choreo/play/realtime.py); None: only
     # with a real clock (a virtual one needs no priority)
     realtime: bool | None = None
 
@@ -388,7 +388,7 @@ class Player:
         self.limits = limits
         self.on_progress = on_progress
         # Called once per play with the clock time of the first START, before anything is sent
-        # (the song is cued on it: choreo/soundtrack.py).
+        # (the song is cued on it: choreo/play/soundtrack.py).
         self.on_first_start: Callable[[float], None] | None = None
         # Called once per play with the priority it got, before anything is sent.
         self.on_scheduling: Callable[[Scheduling], None] | None = None

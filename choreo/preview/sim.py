@@ -1,9 +1,9 @@
 """The MuJoCo rollout of a tick list: servos in, recorded behaviour out.
 
-Each physics step, every servo's own linear interpolation (``servo.ServoBank``) gives its
-set-point; the model's position actuators, made into the servo model (``model.py``), turn it into
-torque, so lag and saturation look like the hardware. Everything the checks and the renderer need
-is recorded in a ``Rollout``; nothing here judges it.
+Each physics step, every servo's own linear interpolation (``actuator.ServoBank``) gives its
+set-point; the model's position actuators, made into the servo model (``preview/model.py``), turn
+it into torque, so lag and saturation look like the hardware. Everything the checks and the
+renderer need is recorded in a ``Rollout``; nothing here judges it.
 """
 
 from __future__ import annotations

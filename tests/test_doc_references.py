@@ -1,0 +1,125 @@
+"""Every module, file and name that a doc, docstring or comment points to exists.
+
+A stale pointer (``choreo/realtime.py`` after the module moved) sends a newcomer looking for a
+room that is gone. Pointers are read from the Markdown files (less the README's table of old
+names) and from the docstrings and comments of every Python file of the package, the tests and
+the benchmarks, in three forms: a path (``choreo/play/player.py``), a dotted name
+(``choreo.play.player.Player``) and a module's file name in backquotes (```player.py```), which
+must name a file of the repository or a module that imports.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import io
+import re
+import tokenize
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+DOCS = sorted([*REPO.glob("*.md"), *(REPO / "docs").glob("*.md")])
+SOURCES = sorted(
+    path
+    for folder in ("choreo", "tests", "benchmarks")
+    for path in (REPO / folder).rglob("*.py")
+    if path.name != Path(__file__).name  # this file's examples of stale pointers are on purpose
+)
+PATH = re.compile(r"\bchoreo/[\w/.-]*\w/?(?![\w<*/])")  # not a key pattern: choreo/x/<name>
+DOTTED = re.compile(r"(?<![\w/.])choreo(?:\.\w+)+")
+FILE_NAME = re.compile(r"`(\w+)\.py`")
+# where a module defines a name: def, class, assignment, import, or a public table's string
+DEFINED = (
+    r"^\s*(?:def|class|async def)\s+{0}\b|^\s*{0}\s*[:=]|^(?:from .* )?import .*\b{0}\b"
+    r"|^\s+{0},|\"{0}\""
+)
+OLD_NAMES = re.compile(r"^### Changes for code.*?(?=^##? |\Z)", re.MULTILINE | re.DOTALL)
+
+
+@cache
+def repo_file_names() -> frozenset[str]:
+    tracked = [*SOURCES, *(REPO / ".ci").iterdir()]
+    return frozenset(path.name for path in tracked)
+
+
+def prose(path: Path) -> str:
+    """What a file says to a reader: a Markdown file less its table of old names; a Python
+    file's comments and docstrings."""
+    text = path.read_text(encoding="utf-8")
+    if path.suffix == ".md":
+        return OLD_NAMES.sub("", text)
+    tokens = tokenize.generate_tokens(io.StringIO(text).readline)
+    comments = [token.string for token in tokens if token.type == tokenize.COMMENT]
+    nodes = [node for node in ast.walk(ast.parse(text)) if isinstance(node, DOCUMENTED)]
+    docstrings = [ast.get_docstring(node, clean=False) or "" for node in nodes]
+    return "\n".join([*comments, *docstrings])
+
+
+DOCUMENTED = (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)
+
+
+def module_file(parts: list[str]) -> Path | None:
+    """The file of the module ``choreo.<parts>``, if there is one."""
+    path = REPO.joinpath("choreo", *parts)
+    for candidate in (path.with_suffix(".py"), path / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def stale_dotted(name: str) -> str | None:
+    """Why ``choreo.a.b.Name`` points nowhere (None if it resolves): the longest prefix that is a
+    module must define the first name after it (as a function, class, assignment or import)."""
+    parts = name.split(".")[1:]
+    if not parts or parts[0].startswith("__"):
+        return None
+    for split in range(len(parts), -1, -1):
+        module = module_file(parts[:split])
+        if module is None:
+            continue
+        rest = parts[split:]
+        if not rest or rest[0].startswith("__"):
+            return None
+        pattern = re.compile(DEFINED.format(re.escape(rest[0])), re.MULTILINE)
+        if pattern.search(module.read_text(encoding="utf-8")):
+            return None
+        return f"{name}: {module.relative_to(REPO)} defines no {rest[0]}"
+    return f"{name}: no module choreo.{parts[0]}"
+
+
+def stale_pointers(text: str) -> list[str]:
+    found = []
+    for match in PATH.finditer(text):
+        target = REPO / match[0]
+        if not target.exists() and not target.with_suffix(".py").is_file():
+            found.append(f"{match[0]}: no such file or folder")
+    for match in DOTTED.finditer(text):
+        why = stale_dotted(match[0].rstrip("."))
+        if why:
+            found.append(why)
+    for match in FILE_NAME.finditer(text):
+        name = f"{match[1]}.py"
+        if name not in repo_file_names() and importlib.util.find_spec(match[1]) is None:
+            found.append(f"{name}: no file of that name")
+    return found
+
+
+@pytest.mark.parametrize("path", [*DOCS, *SOURCES], ids=lambda path: str(path.relative_to(REPO)))
+def test_every_pointer_in_a_file_points_to_something(path):
+    assert stale_pointers(prose(path)) == []
+
+
+def test_a_stale_pointer_is_found():
+    """The check itself: a moved module, a renamed class and a vanished file are each caught."""
+    text = (
+        "see choreo/realtime.py, choreo.play.player.NoSuchPlayer, `soundtrack2.py`;\n"
+        "fine: choreo/play/player.py, choreo.play.player.Player, `player.py`, choreo/bus/\n"
+    )
+    assert stale_pointers(text) == [
+        "choreo/realtime.py: no such file or folder",
+        "choreo.play.player.NoSuchPlayer: choreo/play/player.py defines no NoSuchPlayer",
+        "soundtrack2.py: no file of that name",
+    ]
