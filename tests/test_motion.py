@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -159,7 +160,7 @@ def test_t_and_after_both_given():
 
 def test_wrong_type():
     path, message = only_problem("wrong_type.yaml")
-    assert message == f"{path}:4:12: after must be a number >= 0, got 'soon'"
+    assert message == f"{path}:4:12: after must be a number in 0..86400 s, got 'soon'"
 
 
 def test_unknown_key_with_did_you_mean():
@@ -428,3 +429,22 @@ def test_an_unknown_tag_is_blamed_not_the_number(tmp_path):
         f"{path}:2:8: speed must be a number > 0, got '1' with the tag !foo (remove the tag: "
         "these files use none)"
     ]
+
+
+@pytest.mark.parametrize(
+    "keyframe, where, message",
+    [
+        ("after: 1.0\n    hold: 1.0e+308", "7:11", "hold must be in 0..86400 s, got 1e+308"),
+        ("t: 1.0e+308", "6:8", "t must be in 0..86400 s, got 1e+308"),
+        ("after: 86400.5", "6:12", "after must be in 0..86400 s, got 86400.5"),
+    ],
+)
+def test_absurd_times_are_refused_at_their_number_with_the_range(
+    tmp_path, capsys, keyframe, where, message
+):
+    path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    {keyframe}\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow RuntimeWarning fails the test
+        assert problems_of(path) == [f"{path}:{where}: {message}"]
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == f"choreo: error: {path}:{where}: {message}"

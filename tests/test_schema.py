@@ -15,6 +15,7 @@ from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
 from choreo.motion import motion_file as motion
+from choreo.motion.timing import MAX_TIME_S
 from choreo.robot import robot_file as robot
 
 DATA = Path(__file__).parent / "data"
@@ -84,6 +85,14 @@ def test_the_ranges_the_robot_schema_repeats_are_the_codes():
 def test_the_gait_ranges_the_robot_schema_repeats_are_the_codes():
     gait = schema("robot")["properties"]["gait"]["properties"]
     assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == robot.GAIT_BOUNDS
+
+
+def test_the_time_bound_the_motion_schema_repeats_is_the_codes():
+    definitions = schema("motion")["$defs"]
+    assert definitions["seconds"]["maximum"] == MAX_TIME_S
+    assert definitions["gaitBlock"]["properties"]["gait"]["properties"]["period"]["maximum"] == (
+        MAX_TIME_S
+    )
 
 
 def test_a_pointer_to_no_mapping_is_refused():

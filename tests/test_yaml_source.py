@@ -30,7 +30,7 @@ def test_a_yaml_1_1_exponent_read_as_text_gets_a_hint(tmp_path, capsys, written,
     path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    after: {written}\n")
     assert main(["plan", str(path)]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {path}:6:12: after must be a number >= 0, got {written!r} "
+        f"choreo: error: {path}:6:12: after must be a number in 0..86400 s, got {written!r} "
         f"(YAML reads {written} as text: write {hint})"
     )
 

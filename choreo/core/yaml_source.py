@@ -283,15 +283,17 @@ class Reader:
         low: float | None = None,
         high: float | None = None,
         low_open: bool = False,
+        unit: str = "",
     ) -> float | None:
-        """A finite number in [low, high] (``(low, high]`` with ``low_open``)."""
+        """A finite number in [low, high] (``(low, high]`` with ``low_open``); ``unit`` (``" s"``)
+        follows the range in messages."""
         value = self._scalar(node)
         if (
             isinstance(value, bool)
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
-            valid = _range_words(low, high, low_open)
+            valid = _range_words(low, high, low_open, unit)
             self.report(
                 node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
             )
@@ -299,7 +301,7 @@ class Reader:
         below = low is not None and (value <= low if low_open else value < low)
         if below or (high is not None and value > high):
             self.report(
-                node, f"{what} must be{_range_words(low, high, low_open)}, got {fmt(value)}"
+                node, f"{what} must be{_range_words(low, high, low_open, unit)}, got {fmt(value)}"
             )
             return None
         return float(value)
@@ -363,12 +365,15 @@ def _exponent_hint(node: Node) -> str:
     return f" (YAML reads {node.value} as text: write {number})"
 
 
-def _range_words(low: float | None, high: float | None, low_open: bool) -> str:
-    """`` in 0..1000``, `` in (0, 1]``, `` >= 0``, `` > 0``, or ``""``."""
+def _range_words(low: float | None, high: float | None, low_open: bool, unit: str = "") -> str:
+    """`` in 0..1000``, `` in (0, 1]``, `` >= 0``, `` > 0`` (each followed by ``unit``), or
+    ``""``."""
     if low is not None and high is not None:
-        return f" in ({fmt(low)}, {fmt(high)}]" if low_open else f" in {fmt(low)}..{fmt(high)}"
-    if low is not None:
-        return f" > {fmt(low)}" if low_open else f" >= {fmt(low)}"
-    if high is not None:
-        return f" <= {fmt(high)}"
-    return ""
+        words = f" in ({fmt(low)}, {fmt(high)}]" if low_open else f" in {fmt(low)}..{fmt(high)}"
+    elif low is not None:
+        words = f" > {fmt(low)}" if low_open else f" >= {fmt(low)}"
+    elif high is not None:
+        words = f" <= {fmt(high)}"
+    else:
+        return ""
+    return words + unit

@@ -10,7 +10,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import yaml
 
@@ -43,7 +43,7 @@ from choreo.motion.spatial import (
     read_gait,
     read_sites,
 )
-from choreo.motion.timing import backward_times, known_arrivals_s, played_keyframes
+from choreo.motion.timing import MAX_TIME_S, backward_times, known_arrivals_s, played_keyframes
 from choreo.robot.lookup import find_robot_file
 from choreo.robot.robot_file import load_robot, read_angles
 from choreo.robot.types import Robot, mirror_pose
@@ -307,7 +307,11 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot, top: _Include) -> _
         return None
     pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
     timing = _read_timing(reader, fields, top)
-    hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
+    hold_s = (
+        reader.number(fields["hold"].value, "hold", low=0, high=MAX_TIME_S, unit=" s")
+        if "hold" in fields
+        else 0.0
+    )
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
         reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True)
@@ -420,8 +424,11 @@ def _read_timing(
             return None
         resolved = read_beat_time(reader, fields, top.music)
         return None if resolved is None else (resolved[0], None, resolved[1])
-    t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
-    after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
+    seconds: dict[str, Any] = {"low": 0, "high": MAX_TIME_S, "unit": " s"}
+    t_s = reader.number(fields["t"].value, "t", **seconds) if "t" in fields else None
+    after_s = (
+        reader.number(fields["after"].value, "after", **seconds) if "after" in fields else None
+    )
     if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
         return None
     return t_s, after_s, None

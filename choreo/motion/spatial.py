@@ -22,6 +22,7 @@ import yaml
 
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt
 from choreo.motion.gait import SIX_LEGS, BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
+from choreo.motion.timing import MAX_TIME_S
 from choreo.robot.types import GaitCompensation, Robot
 
 if TYPE_CHECKING:
@@ -161,7 +162,7 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
         "sideways": MM,
         "turn": {"low": -45, "high": 45},
         "lift": {"low": 0, "high": MM["high"]},
-        "period": {"low": 0, "low_open": True},
+        "period": {"low": 0, "low_open": True, "high": MAX_TIME_S, "unit": " s"},
     }
     numbers = {
         key: reader.number(fields[key].value, f"gait: {key}", **limits)

@@ -37,6 +37,7 @@ from choreo.errors import PlanningError
 from choreo.motion.motion_file import Keyframe, Motion, too_many_played
 from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import (
+    MAX_TIME_S,
     PlayedKeyframe,
     Timing,
     estimated_arrivals_s,
@@ -469,7 +470,8 @@ class _Planner:
             f"{p.keyframe.where}: keyframe{p.keyframe.where.through} reached {requested_s:.6g} s "
             "after leaving the one "
             f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
-            f"hold the one before instead (hold: is not limited), or add keyframes in between"
+            f"hold the one before instead (a hold may last up to {MAX_TIME_S:g} s), or add "
+            "keyframes in between"
         )
 
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
@@ -653,6 +655,7 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
     _check_targets(robot, motion.keyframes)
+    _check_times(motion.keyframes)
     unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
     if unrolled is not None:
         raise PlanningError(f"{motion.path}: {unrolled}")
@@ -733,6 +736,19 @@ def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
     if not np.all(np.isfinite(angles)):
         raise ValueError(f"{name} must be finite, got {angles.tolist()}")
     return angles
+
+
+def _check_times(keyframes: tuple[Keyframe, ...]) -> None:
+    """t, after and hold inside 0..MAX_TIME_S (the loader checks this; values built in code may
+    not, and a huge one overflows the sums of times)."""
+    problems = [
+        f"{kf.where}: {name} must be in 0..{MAX_TIME_S:g} s, got {value:g}"
+        for kf in keyframes
+        for name, value in (("t", kf.t_s), ("after", kf.after_s), ("hold", kf.hold_s))
+        if value is not None and not 0 <= value <= MAX_TIME_S
+    ]
+    if problems:
+        raise PlanningError(problems)
 
 
 def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:
