@@ -301,7 +301,7 @@ def test_every_problem_of_a_file_is_reported_at_once():
         f"{path}:4:9: repeat must be a whole number >= 1, got 1.5",
         f"{path}:6:17: pose: yaw 200° is outside its limits -90..90°",
         f"{path}:6:22: pose: unknown joint 'elbow'; the robot's joints are yaw, left, right",
-        f"{path}:8:15: velocity must be in (0, 1], got 1.5",
+        f"{path}:8:15: velocity must be in 0.01..1, got 1.5",
         f"{path}:9:11: stop must be true or false, got 'yes please'",
         f"{path}:12:11: stop: false contradicts hold 1: a hold always comes to rest; "
         f"remove stop: false",
@@ -448,3 +448,11 @@ def test_absurd_times_are_refused_at_their_number_with_the_range(
         assert problems_of(path) == [f"{path}:{where}: {message}"]
     assert main(["plan", str(path)]) == 1
     assert error_line(capsys) == f"choreo: error: {path}:{where}: {message}"
+
+
+def test_a_velocity_below_its_documented_minimum_is_refused_at_its_number(tmp_path, capsys):
+    path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    velocity: 1.0e-300\n")
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:6:15: velocity must be in 0.01..1, got 1e-300"
+    )

@@ -485,3 +485,26 @@ def test_times_made_in_code_are_bounded_as_the_loader_bounds_them():
         with pytest.raises(PlanningError) as raised:
             plan_motion(motion)
     assert raised.value.problems == [f"{WAVE}:8:5: hold must be in 0..86400 s, got 1e+308"]
+
+
+def test_a_move_ruckig_finds_no_trajectory_for_is_one_line_at_its_keyframe():
+    robot = make_robot(2, acc=1e-300)  # numbers ruckig's numerics fail on
+    motion = make_motion(robot, [kf([0, 0], 3), kf([0, 30], 4, after=1.0)])
+    with pytest.raises(PlanningError) as raised:
+        plan_motion(motion)
+    assert raised.value.problems == [
+        "test_motion.yaml:4:5: the move into keyframe could not be planned: ruckig found no "
+        "trajectory for j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration "
+        "and jerk limits in models/bot/robot.yaml and the keyframe's velocity"
+    ]
+
+
+def test_an_approach_ruckig_finds_no_trajectory_for_is_one_line():
+    robot = make_robot(2, jerk=1e-300)
+    with pytest.raises(PlanningError) as raised:
+        plan_approach(robot, [0, 0], [0, 30])
+    assert str(raised.value) == (
+        "the approach to the first keyframe could not be planned: ruckig found no trajectory for "
+        "j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration and jerk limits "
+        "in models/bot/robot.yaml"
+    )

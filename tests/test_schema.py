@@ -95,6 +95,11 @@ def test_the_time_bound_the_motion_schema_repeats_is_the_codes():
     )
 
 
+def test_the_velocity_minimum_the_motion_schema_repeats_is_the_codes():
+    velocity = schema("motion")["$defs"]["poseKeyframe"]["properties"]["velocity"]
+    assert (velocity["minimum"], velocity["maximum"]) == (motion.MIN_VELOCITY_SCALE, 1)
+
+
 def test_a_pointer_to_no_mapping_is_refused():
     with pytest.raises(ValueError, match="describes no mapping"):
         mapping_shape("motion", "#/$defs/seconds")

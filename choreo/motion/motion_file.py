@@ -57,7 +57,7 @@ class Keyframe:
     after_s: float | None = None  # seconds after the previous keyframe (at most one of t/after)
     hold_s: float = 0.0  # stay this long once reached
     stop: bool = False  # come to rest here (implied by hold > 0, and at the ends)
-    velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
+    velocity_scale: float = 1.0  # MIN_VELOCITY_SCALE..1: fraction of the joint velocity limits
     label: str = ""  # pose name, or "" for an inline pose
     beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
     sites: tuple[SiteTarget, ...] = ()  # written as sites: (solved into targets_deg by IK)
@@ -106,6 +106,11 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
         f"time{'s' if most != 1 else ''}"
     )
 
+
+# The slowest a keyframe's velocity may ask for: 1 % of the joints' velocity limits (3 deg/s for
+# an LX-16A: 240° in 80 s). Far below that, a move outlasts what can be planned between two
+# keyframes, and ruckig fails on its numbers (velocity: 1.0e-300).
+MIN_VELOCITY_SCALE = 0.01
 
 # The keys of each mapping, from the JSON Schema (the one description of the file's shape).
 MOTION = mapping_shape("motion")
@@ -314,7 +319,7 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot, top: _Include) -> _
     )
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
-        reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True)
+        reader.number(fields["velocity"].value, "velocity", low=MIN_VELOCITY_SCALE, high=1)
         if "velocity" in fields
         else 1.0
     )

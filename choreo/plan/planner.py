@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from itertools import chain
@@ -238,6 +239,43 @@ class _Segment:
     overshoot: list[int]  # joints that leave the range between their two keyframes
 
 
+class _NoTrajectory(Exception):
+    """ruckig found no trajectory for a segment (limits or times too extreme for its numerics):
+    ``reason`` in its words, ``joint`` the index of the joint it names, if any. The planner
+    says which keyframe's move it was."""
+
+    def __init__(self, reason: str, joint: int | None):
+        super().__init__(reason)
+        self.reason = reason
+        self.joint = joint
+
+    @classmethod
+    def of(cls, error: Exception) -> _NoTrajectory:
+        # ruckig 0.19.4: "\n[ruckig] error in step 1, dof: 1 input: \n" and then its whole input
+        text = " ".join(str(error).split())
+        found = re.search(r"error in step (\d+), dof: (\d+)", text)
+        if found is None:
+            return cls(text[:80] or type(error).__name__, None)
+        return cls(f"error in step {found[1]}", int(found[2]))
+
+    def message(
+        self, robot: Robot, p0: Sequence[float], p1: Sequence[float], also_check: str = ""
+    ) -> str:
+        """What failed, from ``p0`` to ``p1`` (degrees, every joint), and what to check (the
+        limits, and ``also_check``)."""
+        if self.joint is None:
+            return (
+                f"ruckig found no trajectory ({self.reason}); check the velocity, acceleration "
+                f"and jerk limits in {robot.path}{also_check}"
+            )
+        name = robot.joint_names[self.joint]
+        return (
+            f"ruckig found no trajectory for {name} from {p0[self.joint]:g}° to "
+            f"{p1[self.joint]:g}° ({self.reason}); check {name}'s velocity, acceleration and "
+            f"jerk limits in {robot.path}{also_check}"
+        )
+
+
 class _Solver:
     """Reuses one ruckig instance for every segment of a plan."""
 
@@ -271,15 +309,9 @@ class _Solver:
         try:
             result = self._ruckig.calculate(inp, self._output)
         except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
-            raise PlanningError(
-                f"ruckig could not plan a segment from {np.round(p0, 3).tolist()} to "
-                f"{np.round(p1, 3).tolist()}: {str(error).strip().splitlines()[0]}"
-            ) from error
+            raise _NoTrajectory.of(error) from error
         if result != Result.Working:
-            raise PlanningError(
-                f"ruckig could not plan a segment ({result.name}) from "
-                f"{np.round(p0, 3).tolist()} to {np.round(p1, 3).tolist()}"
-            )
+            raise _NoTrajectory(result.name, None)
         return self._output.duration
 
     def solve(
@@ -374,8 +406,29 @@ class _Planner:
 
     def rest_to_rest_s(self, i: int) -> float:
         zero = [0.0] * len(self.robot.joints)
-        return self.solver.duration_s(
-            self.pose_lists[i], zero, self.pose_lists[i + 1], zero, self.segment_limits(i + 1), None
+        try:
+            return self.solver.duration_s(
+                self.pose_lists[i],
+                zero,
+                self.pose_lists[i + 1],
+                zero,
+                self.segment_limits(i + 1),
+                None,
+            )
+        except _NoTrajectory as error:
+            raise self.no_trajectory(i, error) from None
+
+    def no_trajectory(self, i: int, error: _NoTrajectory) -> PlanningError:
+        """The move from keyframe i to i + 1 could not be planned, said at keyframe i + 1."""
+        kf = self.played[i + 1].keyframe
+        return PlanningError(
+            f"{kf.where}: the move into keyframe{kf.where.through} could not be planned: "
+            + error.message(
+                self.robot,
+                self.pose_lists[i],
+                self.pose_lists[i + 1],
+                " and the keyframe's velocity",
+            )
         )
 
     def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
@@ -409,16 +462,19 @@ class _Planner:
             requested = None if wanted is None else wanted - leave
             if requested is not None and requested > MAX_SEGMENT_S:
                 raise PlanningError(self.too_long_message(i + 1, requested))
-            seg = self.solver.solve(
-                self.pose_lists[i],
-                velocities[i].tolist(),
-                self.pose_lists[i + 1],
-                velocities[i + 1].tolist(),
-                self.segment_limits(i + 1),
-                None if requested is None else max(requested, 0.0),
-                self.low[i],
-                self.high[i],
-            )
+            try:
+                seg = self.solver.solve(
+                    self.pose_lists[i],
+                    velocities[i].tolist(),
+                    self.pose_lists[i + 1],
+                    velocities[i + 1].tolist(),
+                    self.segment_limits(i + 1),
+                    None if requested is None else max(requested, 0.0),
+                    self.low[i],
+                    self.high[i],
+                )
+            except _NoTrajectory as error:
+                raise self.no_trajectory(i, error) from None
             if seg.overshoot:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
@@ -698,16 +754,22 @@ def plan_approach(
         )
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
-    segment = _Solver(n).solve(
-        start.tolist(),
-        zero,
-        target.tolist(),
-        zero,
-        _Limits.of(robot, limit_scale),
-        None,
-        low[0],
-        high[0],
-    )
+    try:
+        segment = _Solver(n).solve(
+            start.tolist(),
+            zero,
+            target.tolist(),
+            zero,
+            _Limits.of(robot, limit_scale),
+            None,
+            low[0],
+            high[0],
+        )
+    except _NoTrajectory as error:
+        raise PlanningError(
+            "the approach to the first keyframe could not be planned: "
+            + error.message(robot, start.tolist(), target.tolist())
+        ) from None
     if segment.overshoot:
         raise PlanningError(
             f"internal error: the approach overshoots on "
