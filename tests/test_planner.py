@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import shutil
 import warnings
 from pathlib import Path
 
@@ -508,3 +509,35 @@ def test_an_approach_ruckig_finds_no_trajectory_for_is_one_line():
         "j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration and jerk limits "
         "in models/bot/robot.yaml"
     )
+
+
+def test_a_move_planned_longer_than_a_segment_may_last_is_one_line(tmp_path, capsys):
+    """velocity: 0.01 of a 10 deg/s joint asks 400 s for 40°: the same limit as a t or after
+    that far, though no time was written."""
+    robot = tmp_path / "tiny" / "robot.yaml"
+    shutil.copytree(Path(__file__).parent / "data" / "models" / "tiny", robot.parent)
+    robot.write_text(robot.read_text().replace("    max: 90\n", "    max: 90\n    velocity: 10\n"))
+    path = tmp_path / "m.yaml"
+    path.write_text(
+        "robot: tiny/robot.yaml\nkeyframes:\n  - pose: home\n"
+        "  - pose: {yaw: 40}\n    velocity: 0.01\n"
+    )
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    assert capsys.readouterr().out == (
+        f"{path}:4:5: keyframe takes 400.004 s to reach from the one before: the velocity limit "
+        "of yaw x velocity 0.01 allows no faster; at most 300 s can be planned between two "
+        "keyframes: raise its velocity, or add keyframes in between\n"
+    )
+
+
+def test_a_move_the_robots_own_velocity_makes_too_long_says_so():
+    robot = make_robot(2, vel=0.1)
+    just_in = plan_motion(make_motion(robot, [kf([0, 0], 3), kf([29.9, 0], 4)])).trajectory
+    assert just_in.duration_s == pytest.approx(299.004, abs=1e-3)
+    with pytest.raises(PlanningError) as raised:
+        plan_motion(make_motion(robot, [kf([0, 0], 3), kf([30, 0], 4)]))
+    assert raised.value.problems == [
+        "test_motion.yaml:4:5: keyframe takes 300.004 s to reach from the one before: the "
+        "velocity limit of j0 allows no faster; at most 300 s can be planned between two "
+        "keyframes: add keyframes in between, or raise j0's velocity in models/bot/robot.yaml"
+    ]

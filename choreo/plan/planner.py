@@ -478,6 +478,8 @@ class _Planner:
             if seg.overshoot:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
+            if seg.duration_s > MAX_SEGMENT_S + DURATION_EPS_S:
+                raise PlanningError(self.too_slow_message(i + 1, seg.duration_s))
             shift[i + 1] = 0.0
             too_early.pop(i + 1, None)
             if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
@@ -528,6 +530,22 @@ class _Planner:
             f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
             f"hold the one before instead (a hold may last up to {MAX_TIME_S:g} s), or add "
             "keyframes in between"
+        )
+
+    def too_slow_message(self, i: int, duration_s: float) -> str:
+        """Keyframe i is asked for no later than the limits allow, but that is too late."""
+        kf = self.played[i].keyframe
+        joint = self.robot.joints[self.solver.limiting_joint()].name
+        scale = kf.velocity_scale
+        fix = "raise its velocity, or add keyframes in between"
+        if scale == 1:
+            fix = f"add keyframes in between, or raise {joint}'s velocity in {self.robot.path}"
+        return (
+            f"{kf.where}: keyframe{kf.where.through} takes {duration_s:.6g} s to reach from the "
+            f"one before: the velocity limit of {joint}"
+            + (f" x velocity {scale:g}" if scale != 1 else "")
+            + f" allows no faster; at most {MAX_SEGMENT_S:g} s can be planned between two "
+            f"keyframes: {fix}"
         )
 
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
