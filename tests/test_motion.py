@@ -297,7 +297,7 @@ def test_missing_file(tmp_path):
 def test_every_problem_of_a_file_is_reported_at_once():
     path = BAD / "several_problems.yaml"
     assert problems_of(path) == [
-        f"{path}:3:8: speed must be > 0, got 0",
+        f"{path}:3:8: speed must be in 0.01..100, got 0",
         f"{path}:4:9: repeat must be a whole number >= 1, got 1.5",
         f"{path}:6:17: pose: yaw 200° is outside its limits -90..90°",
         f"{path}:6:22: pose: unknown joint 'elbow'; the robot's joints are yaw, left, right",
@@ -426,8 +426,8 @@ def test_an_unknown_tag_is_blamed_not_the_number(tmp_path):
     path = tmp_path / "m.yaml"
     path.write_text("robot: arm6\nspeed: !foo 1\nkeyframes:\n  - pose: home\n")
     assert problems_of(path) == [
-        f"{path}:2:8: speed must be a number > 0, got '1' with the tag !foo (remove the tag: "
-        "these files use none)"
+        f"{path}:2:8: speed must be a number in 0.01..100, got '1' with the tag !foo (remove the "
+        "tag: these files use none)"
     ]
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import shutil
 import warnings
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import ruckig
-from cli_helpers import WAVE, error_line, motion_file
+from cli_helpers import WAVE, error_line, motion_file, usage_error_line
 from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
@@ -410,13 +411,31 @@ def test_a_segment_longer_than_ruckig_can_plan_is_one_line(
     )
 
 
-def test_a_tiny_speed_is_one_line(capsys):
-    assert main(["plan", str(WAVE), "--speed", "0.0002"]) == 1
+def test_the_slowest_speed_is_held_to_the_segment_limit_in_one_line(tmp_path, capsys):
+    path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    after: 4\n")
+    assert main(["plan", str(path), "--speed", "0.01"]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {WAVE}:8:5: keyframe reached 5000 s after leaving the one before "
-        "(at speed 0.0002); at most 300 s can be planned between two keyframes: hold the one "
+        f"choreo: error: {path}:5:5: keyframe reached 400 s after leaving the one before "
+        "(at speed 0.01); at most 300 s can be planned between two keyframes: hold the one "
         "before instead (a hold may last up to 86400 s), or add keyframes in between"
     )
+
+
+@pytest.mark.parametrize("command", [["plan"], ["preview", "--check"], ["play"]])
+@pytest.mark.parametrize("speed", ["1e308", "1e-308", "0.009", "100.5"])
+def test_a_speed_outside_its_range_is_refused_with_the_range(capsys, command, speed):
+    line = usage_error_line(capsys, [*command, str(WAVE), "--speed", speed])
+    assert line == (
+        f"choreo {command[0]}: error: argument --speed: expected a number in 0.01..100, "
+        f"got {speed!r}"
+    )
+
+
+@pytest.mark.parametrize("speed", [0.0, 1e308, math.nan])
+def test_plan_motion_refuses_a_speed_outside_its_range(speed):
+    with pytest.raises(ValueError) as raised:
+        plan_motion(load_motion(WAVE), speed=speed)
+    assert str(raised.value) == f"speed must be in 0.01..100, got {speed:g}"
 
 
 def test_a_long_hold_is_not_limited_by_the_segment_limit(tmp_path, capsys):

@@ -15,7 +15,7 @@ from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
 from choreo.motion import motion_file as motion
-from choreo.motion.timing import MAX_TIME_S
+from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
 from choreo.robot import robot_file as robot
 
 DATA = Path(__file__).parent / "data"
@@ -95,6 +95,11 @@ def test_the_time_bound_the_motion_schema_repeats_is_the_codes():
     )
 
 
+def test_the_speed_range_the_motion_schema_repeats_is_the_codes():
+    speed = schema("motion")["properties"]["speed"]
+    assert (speed["minimum"], speed["maximum"]) == (MIN_SPEED, MAX_SPEED)
+
+
 def test_the_velocity_minimum_the_motion_schema_repeats_is_the_codes():
     velocity = schema("motion")["$defs"]["poseKeyframe"]["properties"]["velocity"]
     assert (velocity["minimum"], velocity["maximum"]) == (motion.MIN_VELOCITY_SCALE, 1)
@@ -138,7 +143,7 @@ def test_schema_accepts_good_robots(path):
         ("unknown_key.yaml", "'hodl' was unexpected"),
         ("t_and_after.yaml", "should not be valid under {'required': ['t', 'after']}"),
         ("wrong_type.yaml", "'soon' is not of type 'number'"),
-        ("several_problems.yaml", "0 is less than or equal to the minimum of 0"),
+        ("several_problems.yaml", "0 is less than the minimum of 0.01"),
         ("empty.yaml", "None is not of type 'object'"),
     ],
 )

@@ -43,7 +43,14 @@ from choreo.motion.spatial import (
     read_gait,
     read_sites,
 )
-from choreo.motion.timing import MAX_TIME_S, backward_times, known_arrivals_s, played_keyframes
+from choreo.motion.timing import (
+    MAX_SPEED,
+    MAX_TIME_S,
+    MIN_SPEED,
+    backward_times,
+    known_arrivals_s,
+    played_keyframes,
+)
 from choreo.robot.lookup import find_robot_file
 from choreo.robot.robot_file import load_robot, read_angles
 from choreo.robot.types import Robot, mirror_pose
@@ -177,7 +184,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         reader.string(fields["description"].value, "description") if "description" in fields else ""
     )
     speed = (
-        reader.number(fields["speed"].value, "speed", low=0, low_open=True)
+        reader.number(fields["speed"].value, "speed", low=MIN_SPEED, high=MAX_SPEED)
         if "speed" in fields
         else 1.0
     )

@@ -38,7 +38,9 @@ from choreo.errors import PlanningError
 from choreo.motion.motion_file import Keyframe, Motion, too_many_played
 from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import (
+    MAX_SPEED,
     MAX_TIME_S,
+    MIN_SPEED,
     PlayedKeyframe,
     Timing,
     estimated_arrivals_s,
@@ -723,8 +725,8 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     instead, and ``PlanResult.stretches`` says by how much.
     """
     speed = motion.speed if speed is None else speed
-    if not speed > 0 or not math.isfinite(speed):
-        raise ValueError(f"speed must be a finite number > 0, got {speed}")
+    if not MIN_SPEED <= speed <= MAX_SPEED:
+        raise ValueError(f"speed must be in {MIN_SPEED:g}..{MAX_SPEED:g}, got {speed:g}")
     robot = motion.robot
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
