@@ -17,7 +17,9 @@ from choreo.core.yaml_source import (
     Reader,
     SourceLocation,
     parse_yaml_file,
+    quoted,
     reading_a_file,
+    shortened,
 )
 from choreo.errors import SourceError
 from choreo.motion.motion_file import load_motion
@@ -203,3 +205,40 @@ def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
     with pytest.raises(SourceError):
         load_motion(path)
     assert gc.isenabled()
+
+
+def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, capsys):
+    accounts = "".join(
+        f"user{i}:x:{1000 + i}:{1000 + i}::/home/user{i}:/bin/sh\n" for i in range(40)
+    )
+    (tmp_path / "etc").mkdir()
+    (tmp_path / "etc" / "passwd").write_text(accounts)
+    path = tmp_path / "m.yaml"
+    path.write_text("robot: etc/passwd\nkeyframes:\n  - pose: home\n")
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    robot = tmp_path / "etc" / "passwd"
+    assert capsys.readouterr().out.splitlines() == [
+        f"{path}:1:8: robot {robot} has problems (listed after this line); fix them first",
+        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got "
+        "'user0:x:1000:1000::/home/user0:/bin/sh user1:x:1001:1001::/h'…",
+    ]
+
+
+@pytest.mark.parametrize(
+    "value, shown",
+    [
+        ("wave", "'wave'"),
+        ("x" * 60, repr("x" * 60)),
+        ("x" * 61, repr("x" * 60) + "…"),
+        ("first line\nsecond line", "'first line'…"),
+        (b"\x00" * 30, repr(b"\x00" * 30)[:60] + "…"),
+        (12, "12"),
+    ],
+)
+def test_a_value_is_quoted_by_at_most_one_line_of_60_characters(value, shown):
+    assert quoted(value) == shown
+
+
+def test_a_shortened_text_keeps_a_short_line_whole():
+    assert shortened("1.5") == "1.5"
+    assert shortened("1" * 61) == "1" * 60 + "…"

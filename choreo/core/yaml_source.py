@@ -95,6 +95,33 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+# A value quoted in a message is cut to this many characters of its first line: a file read by
+# mistake (a motion's robot: naming /etc/passwd) is one long text, and a message shows what
+# was found, not the whole of it.
+QUOTED_CHARS = 60
+
+
+def _cut(text: str) -> tuple[str, bool]:
+    """The start of ``text`` a message shows, and whether that leaves some of it out."""
+    first, *more = text.splitlines() or [""]
+    return first[:QUOTED_CHARS], bool(more) or len(first) > QUOTED_CHARS
+
+
+def shortened(text: str) -> str:
+    """``text`` cut to its first line and ``QUOTED_CHARS`` characters, "…" where cut."""
+    start, cut = _cut(text)
+    return start + ("…" if cut else "")
+
+
+def quoted(value: object) -> str:
+    """``repr(value)`` for a message, a text cut as ``shortened`` cuts it, outside the quotes:
+    ``'root:x:0:0:root:/root:/bin/bash daemon:x:1:1:daemon:/usr/sb'…``."""
+    if not isinstance(value, str):
+        return shortened(repr(value))
+    start, cut = _cut(value)
+    return repr(start) + ("…" if cut else "")
+
+
 def fmt(value: float) -> str:
     """A number for messages: ``90``, ``-12.5``, ``0.333333``."""
     return f"{value:g}"
@@ -194,10 +221,13 @@ def describe(node: Node) -> str:
     if isinstance(node, yaml.SequenceNode):
         return "a list"
     if not node.tag.startswith("tag:yaml.org,2002:"):  # !foo 1: the tag is what is wrong
-        return f"{node.value!r} with the tag {node.tag} (remove the tag: these files use none)"
+        return (
+            f"{quoted(node.value)} with the tag {shortened(node.tag)} (remove the tag: these "
+            "files use none)"
+        )
     if node.tag == "tag:yaml.org,2002:null":
         return "nothing (null)"
-    return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value
+    return quoted(node.value) if node.tag == "tag:yaml.org,2002:str" else shortened(node.value)
 
 
 class Reader:
@@ -227,7 +257,8 @@ class Reader:
                 first = entries[key_node.value].key_node.start_mark.line + 1
                 self.report(
                     key_node,
-                    f"{what}: {key_node.value!r} is given twice (first at line {first}); keep one",
+                    f"{what}: {quoted(key_node.value)} is given twice (first at line {first}); "
+                    "keep one",
                 )
             else:
                 entries[key_node.value] = Entry(key_node.value, key_node, value)
@@ -247,7 +278,7 @@ class Reader:
             else:
                 self.report(
                     entry.key_node,
-                    f"unknown key {entry.key!r} in {what}"
+                    f"unknown key {quoted(entry.key)} in {what}"
                     f"{did_you_mean(entry.key, allowed)}; valid keys: {', '.join(allowed)}",
                 )
         for key in required:
@@ -343,7 +374,7 @@ class Reader:
         if value is not None and value not in choices:
             self.report(
                 node,
-                f"{what} {value!r} is not one of {', '.join(choices)}"
+                f"{what} {quoted(value)} is not one of {', '.join(choices)}"
                 f"{did_you_mean(value, choices)}",
             )
             return None
@@ -358,7 +389,7 @@ _TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
 def _exponent_hint(node: Node) -> str:
     """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
     match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
-    if match is None or node.tag != "tag:yaml.org,2002:str":
+    if match is None or node.tag != "tag:yaml.org,2002:str" or len(node.value) > QUOTED_CHARS:
         return ""
     whole, fraction, sign, exponent = match.groups()
     number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"

@@ -26,6 +26,7 @@ from choreo.core.yaml_source import (
     did_you_mean,
     fmt,
     parse_yaml_file,
+    quoted,
     reading_a_file,
 )
 from choreo.errors import SourceError
@@ -453,7 +454,7 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
             return dict(robot.poses[node.value]), node.value
         reader.report(
             node,
-            f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
+            f"unknown pose {quoted(node.value)}{did_you_mean(node.value, robot.poses)}; "
             f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
             f"joint angles as {{joint: degrees}}",
         )
