@@ -242,3 +242,35 @@ def test_a_value_is_quoted_by_at_most_one_line_of_60_characters(value, shown):
 def test_a_shortened_text_keeps_a_short_line_whole():
     assert shortened("1.5") == "1.5"
     assert shortened("1" * 61) == "1" * 60 + "…"
+
+
+@pytest.mark.parametrize(
+    "digits, message",
+    [
+        # more digits than Python reads into an int: refused, not a crash
+        (5000, "repeat must be >= 1, got a whole number 5000 digits long"),
+        (
+            300,
+            "repeat 1e+299 x 2 keyframe(s) = 2e+299 keyframes to play; at most 10000 are played "
+            "in one motion: at most 5000 times",
+        ),
+    ],
+)
+def test_a_huge_whole_number_is_one_short_line(tmp_path, capsys, digits, message):
+    path = motion_file(
+        tmp_path, "  - pose: {shoulder: 30}\n", head=f"repeat: 1{'0' * (digits - 1)}\n"
+    )
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == f"choreo: error: {path}:3:9: {message}"
+
+
+def test_fmt_writes_whole_numbers_exactly_up_to_16_digits():
+    from choreo.core.yaml_source import fmt
+
+    assert [fmt(v) for v in (7, 10**16 - 1, 10**16, -(10**400), 0.5)] == [
+        "7",
+        "9999999999999999",
+        "1e+16",
+        "-1e+400",
+        "0.5",
+    ]

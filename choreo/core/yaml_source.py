@@ -15,6 +15,7 @@ import math
 import re
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from decimal import Context, Decimal
 from pathlib import Path
 
 import yaml
@@ -123,11 +124,17 @@ def quoted(value: object) -> str:
 
 
 def fmt(value: float) -> str:
-    """A number for messages: ``90``, ``-12.5``, ``0.333333``."""
+    """A number for messages: ``90``, ``-12.5``, ``0.333333``; a whole number as written up to
+    16 digits, then ``1e+300`` (some are too large for a float)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) < 10**16:
+            return str(value)
+        return f"{Decimal(value).normalize(Context(prec=6)):g}"
     return f"{value:g}"
 
 
 FLOAT_TAG = "tag:yaml.org,2002:float"
+INT_TAG = "tag:yaml.org,2002:int"
 
 # libyaml's parser (same marks, same safety) is several times faster where PyYAML has it.
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -227,6 +234,8 @@ def describe(node: Node) -> str:
         )
     if node.tag == "tag:yaml.org,2002:null":
         return "nothing (null)"
+    if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
+        return f"a whole number {len(node.value)} digits long"
     return quoted(node.value) if node.tag == "tag:yaml.org,2002:str" else shortened(node.value)
 
 
@@ -303,7 +312,8 @@ class Reader:
                 return float(node.value)
         try:
             return self._constructor.construct_object(node)
-        except yaml.constructor.ConstructorError:  # an unknown !tag
+        # an unknown !tag; a whole number of more digits than Python reads (4,300)
+        except (yaml.constructor.ConstructorError, ValueError):
             return node
 
     def number(
@@ -343,10 +353,11 @@ class Reader:
         value = self._scalar(node)
         valid = _range_words(low, high, False)
         if isinstance(value, bool) or not isinstance(value, int):
-            self.report(node, f"{what} must be a whole number{valid}, got {describe(node)}")
+            kind = "" if node.tag == INT_TAG else " a whole number"  # one too long to read
+            self.report(node, f"{what} must be{kind}{valid}, got {describe(node)}")
             return None
         if (low is not None and value < low) or (high is not None and value > high):
-            self.report(node, f"{what} must be{valid}, got {value}")
+            self.report(node, f"{what} must be{valid}, got {fmt(value)}")
             return None
         return value
 

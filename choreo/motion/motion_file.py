@@ -104,12 +104,13 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
         return None
     if repeat == 1:
         return (
-            f"{keyframes} keyframes to play; at most {MAX_PLAYED_KEYFRAMES} are played in one "
+            f"{fmt(keyframes)} keyframes to play; at most {MAX_PLAYED_KEYFRAMES} are played in one "
             "motion: split it into shorter motions"
         )
     most = MAX_PLAYED_KEYFRAMES // keyframes
     return (
-        f"{what} {repeat} x {keyframes} keyframe(s) = {keyframes * repeat} keyframes to play; "
+        f"{what} {fmt(repeat)} x {fmt(keyframes)} keyframe(s) = {fmt(keyframes * repeat)} "
+        "keyframes to play; "
         f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: at most {most} "
         f"time{'s' if most != 1 else ''}"
     )

@@ -52,9 +52,7 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
         if kind is not None:
             raise LookupError(f"robot file {str(ref)!r} is {kind}, not a robot file")
         if not path.is_file():
-            raise LookupError(
-                f"robot file {str(ref)!r} not found (looked for {path})"
-            )
+            raise LookupError(f"robot file {str(ref)!r} not found (looked for {path})")
         return path
     name = str(ref)  # a name (a Path is always a path, above)
     search_dirs = robot_search_dirs(base)
