@@ -30,7 +30,7 @@ from choreo.core.yaml_source import (
     reading_a_file,
 )
 from choreo.errors import SourceError
-from choreo.motion.gait import BodyPose
+from choreo.motion.gait import BodyPose, Gait
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
@@ -221,10 +221,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
     ):
         return None
     # counted before the gaits are solved: a long walk is refused before the work, not after
-    unrolled = too_many_played(sum(_keyframes_of(step) for step in steps), repeat)
-    if unrolled is not None:
-        where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
-        reader.report(where, unrolled)
+    if _too_many_keyframes(reader, fields, steps, repeat):
         return None
     steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
     if reader.problems:
@@ -388,26 +385,45 @@ def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
     spec = read_gait(reader, node) if node is not None else None
     if node is None or spec is None:
         return []
-    gait = spec.gait
-    if gait.keyframes > MAX_PLAYED_KEYFRAMES:
-        steps_node = next(v for k, v in node.value if k.value == "steps")
-        per_step = gait.keyframes_per_step
-        most = (MAX_PLAYED_KEYFRAMES - (gait.keyframes - gait.steps * per_step)) // per_step
-        reader.report(
-            steps_node,
-            f"gait: steps {gait.steps} of the {gait.pattern.value} gait are "
-            f"{gait.keyframes} keyframes ({per_step} a step); at most "
-            f"{MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most {most}",
-        )
-        return []
     return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
-def _keyframes_of(step: _Step) -> int:
-    """How many keyframes a step becomes: a gait all of its own."""
-    if isinstance(step.space, GaitSpec):
-        return step.space.gait.keyframes
-    return 1
+def most_gait_steps(gait: Gait, other_keyframes: int) -> int:
+    """The most steps of ``gait`` (its pattern) a motion with ``other_keyframes`` keyframes
+    besides the gait's plays once: every keyframe of the gait counts."""
+    per_step = gait.keyframes_per_step
+    after_the_steps = gait.keyframes - gait.steps * per_step  # swings running past the last
+    return (MAX_PLAYED_KEYFRAMES - other_keyframes - after_the_steps) // per_step
+
+
+def _too_many_keyframes(
+    reader: Reader, fields: dict[str, Entry], steps: list[_Step], repeat: int
+) -> bool:
+    """Whether the motion plays more keyframes than it may, reported: at a gait's steps where
+    fewer of them would do (the longest gait's), else at repeat or keyframes."""
+    gaits = [step.space for step in steps if isinstance(step.space, GaitSpec)]
+    total = sum(spec.gait.keyframes for spec in gaits) + len(steps) - len(gaits)
+    problem = too_many_played(total, repeat)
+    if problem is None:
+        return False
+    longest = max(gaits, key=lambda spec: spec.gait.keyframes, default=None)
+    if repeat == 1 and longest is not None:
+        gait = longest.gait
+        others = total - gait.keyframes
+        most = most_gait_steps(gait, others)
+        if most >= 1:
+            plural = "s" if others != 1 else ""
+            besides = f", with the motion's {fmt(others)} other keyframe{plural}" if others else ""
+            reader.problems.add(
+                longest.steps_at,
+                f"gait: steps {fmt(gait.steps)} of the {gait.pattern.value} gait are "
+                f"{fmt(gait.keyframes)} keyframes ({gait.keyframes_per_step} a step){besides}; "
+                f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most {most}",
+            )
+            return True
+    where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
+    reader.report(where, problem)
+    return True
 
 
 def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:

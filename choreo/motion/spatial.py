@@ -57,6 +57,7 @@ class BodySpec:
 @dataclass(frozen=True)
 class GaitSpec:
     gait: Gait
+    steps_at: SourceLocation  # where its steps were written
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,7 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
     names = {"stride": "stride_mm", "sideways": "sideways_mm", "turn": "turn_deg"}
     names.update(lift="lift_mm", period="period_s")
     kwargs: dict[str, Any] = {names[k]: v for k, v in numbers.items()}
-    return GaitSpec(Gait(Pattern(pattern), steps, **kwargs))
+    return GaitSpec(Gait(Pattern(pattern), steps, **kwargs), reader.where(fields["steps"].value))
 
 
 # --- expanding ----------------------------------------------------------------------------------
