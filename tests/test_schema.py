@@ -15,6 +15,7 @@ from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
 from choreo.motion import motion_file as motion
+from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
 from choreo.robot import robot_file as robot
 
@@ -103,6 +104,14 @@ def test_the_speed_range_the_motion_schema_repeats_is_the_codes():
 def test_the_velocity_minimum_the_motion_schema_repeats_is_the_codes():
     velocity = schema("motion")["$defs"]["poseKeyframe"]["properties"]["velocity"]
     assert (velocity["minimum"], velocity["maximum"]) == (motion.MIN_VELOCITY_SCALE, 1)
+
+
+def test_the_prop_ranges_the_motion_schema_repeats_are_the_codes():
+    fields = schema("motion")["properties"]["props"]["items"]["properties"]
+    for key, bounds in PROP_BOUNDS.items():
+        field = fields[key].get("items", fields[key])  # a vector's bounds are its items'
+        low = field["exclusiveMinimum" if bounds.get("low_open") else "minimum"]
+        assert (low, field["maximum"]) == (bounds["low"], bounds["high"]), key
 
 
 def test_a_pointer_to_no_mapping_is_refused():
