@@ -7,10 +7,12 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 
 from cli_helpers import REPO, WAVE, error_line
 
 from choreo.cli import main
+from choreo.errors import SourceError
 
 
 def test_a_usage_error_raised_by_a_handler_is_one_line_and_exit_2(capsys):
@@ -73,3 +75,23 @@ def test_a_closed_stdout_does_not_lose_the_play_report(tmp_path):
         )
     assert done.returncode == 1 and b"Traceback" not in done.stderr
     assert json.loads(report.read_text())["outcome"] == "completed"
+
+
+def test_python_warnings_reach_the_terminal_only_with_verbose(tmp_path, capsys, monkeypatch):
+    import choreo.cli.plan_commands as plan_commands
+
+    def warn_and_fail(args):
+        warnings.warn("overflow encountered in multiply", RuntimeWarning, stacklevel=1)
+        raise SourceError("m.yaml:1:1: refused")
+
+    def show_on_stderr(message, category, filename, lineno, file=None, line=None):
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+    monkeypatch.setattr(plan_commands, "run_plan", warn_and_fail)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")  # shown on stderr, as a plain python run shows them
+        warnings.showwarning = show_on_stderr
+        assert main(["plan", "m.yaml"]) == 1
+        assert capsys.readouterr().err == "choreo: error: m.yaml:1:1: refused\n"
+        assert main(["-v", "plan", "m.yaml"]) == 1
+    assert "RuntimeWarning: overflow encountered in multiply" in capsys.readouterr().err

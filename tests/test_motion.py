@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -159,7 +160,7 @@ def test_t_and_after_both_given():
 
 def test_wrong_type():
     path, message = only_problem("wrong_type.yaml")
-    assert message == f"{path}:4:12: after must be a number >= 0, got 'soon'"
+    assert message == f"{path}:4:12: after must be a number in 0..86400 s, got 'soon'"
 
 
 def test_unknown_key_with_did_you_mean():
@@ -296,11 +297,11 @@ def test_missing_file(tmp_path):
 def test_every_problem_of_a_file_is_reported_at_once():
     path = BAD / "several_problems.yaml"
     assert problems_of(path) == [
-        f"{path}:3:8: speed must be > 0, got 0",
+        f"{path}:3:8: speed must be in 0.01..100, got 0",
         f"{path}:4:9: repeat must be a whole number >= 1, got 1.5",
         f"{path}:6:17: pose: yaw 200° is outside its limits -90..90°",
         f"{path}:6:22: pose: unknown joint 'elbow'; the robot's joints are yaw, left, right",
-        f"{path}:8:15: velocity must be in (0, 1], got 1.5",
+        f"{path}:8:15: velocity must be in 0.01..1, got 1.5",
         f"{path}:9:11: stop must be true or false, got 'yes please'",
         f"{path}:12:11: stop: false contradicts hold 1: a hold always comes to rest; "
         f"remove stop: false",
@@ -425,6 +426,33 @@ def test_an_unknown_tag_is_blamed_not_the_number(tmp_path):
     path = tmp_path / "m.yaml"
     path.write_text("robot: arm6\nspeed: !foo 1\nkeyframes:\n  - pose: home\n")
     assert problems_of(path) == [
-        f"{path}:2:8: speed must be a number > 0, got '1' with the tag !foo (remove the tag: "
-        "these files use none)"
+        f"{path}:2:8: speed must be a number in 0.01..100, got '1' with the tag !foo (remove the "
+        "tag: these files use none)"
     ]
+
+
+@pytest.mark.parametrize(
+    "keyframe, where, message",
+    [
+        ("after: 1.0\n    hold: 1.0e+308", "7:11", "hold must be in 0..86400 s, got 1e+308"),
+        ("t: 1.0e+308", "6:8", "t must be in 0..86400 s, got 1e+308"),
+        ("after: 86400.5", "6:12", "after must be in 0..86400 s, got 86400.5"),
+    ],
+)
+def test_absurd_times_are_refused_at_their_number_with_the_range(
+    tmp_path, capsys, keyframe, where, message
+):
+    path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    {keyframe}\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow RuntimeWarning fails the test
+        assert problems_of(path) == [f"{path}:{where}: {message}"]
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == f"choreo: error: {path}:{where}: {message}"
+
+
+def test_a_velocity_below_its_documented_minimum_is_refused_at_its_number(tmp_path, capsys):
+    path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    velocity: 1.0e-300\n")
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:6:15: velocity must be in 0.01..1, got 1e-300"
+    )

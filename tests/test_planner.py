@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 import ruckig
-from cli_helpers import WAVE, error_line, motion_file
+from cli_helpers import WAVE, error_line, motion_file, usage_error_line
 from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
@@ -393,7 +397,7 @@ def test_shipped_motions_plan_on_time_within_limits(path):
 
 @pytest.mark.parametrize(
     "timing, where, seconds",
-    [("after: 20000", "5:5", "20000"), ("t: 1.0e+9", "5:5", "1e+09")],
+    [("after: 20000", "5:5", "20000"), ("t: 86400", "5:5", "86400")],
 )
 def test_a_segment_longer_than_ruckig_can_plan_is_one_line(
     tmp_path, capsys, timing, where, seconds
@@ -403,20 +407,38 @@ def test_a_segment_longer_than_ruckig_can_plan_is_one_line(
     assert error_line(capsys) == (
         f"choreo: error: {path}:{where}: keyframe reached {seconds} s after leaving the one "
         "before; at most 300 s can be planned between two keyframes: hold the one before "
-        "instead (hold: is not limited), or add keyframes in between"
+        "instead (a hold may last up to 86400 s), or add keyframes in between"
     )
 
 
-def test_a_tiny_speed_is_one_line(capsys):
-    assert main(["plan", str(WAVE), "--speed", "0.0002"]) == 1
+def test_the_slowest_speed_is_held_to_the_segment_limit_in_one_line(tmp_path, capsys):
+    path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    after: 4\n")
+    assert main(["plan", str(path), "--speed", "0.01"]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {WAVE}:8:5: keyframe reached 5000 s after leaving the one before "
-        "(at speed 0.0002); at most 300 s can be planned between two keyframes: hold the one "
-        "before instead (hold: is not limited), or add keyframes in between"
+        f"choreo: error: {path}:5:5: keyframe reached 400 s after leaving the one before "
+        "(at speed 0.01); at most 300 s can be planned between two keyframes: hold the one "
+        "before instead (a hold may last up to 86400 s), or add keyframes in between"
     )
 
 
-def test_a_long_hold_is_not_limited(tmp_path, capsys):
+@pytest.mark.parametrize("command", [["plan"], ["preview", "--check"], ["play"]])
+@pytest.mark.parametrize("speed", ["1e308", "1e-308", "0.009", "100.5"])
+def test_a_speed_outside_its_range_is_refused_with_the_range(capsys, command, speed):
+    line = usage_error_line(capsys, [*command, str(WAVE), "--speed", speed])
+    assert line == (
+        f"choreo {command[0]}: error: argument --speed: expected a number in 0.01..100, "
+        f"got {speed!r}"
+    )
+
+
+@pytest.mark.parametrize("speed", [0.0, 1e308, math.nan])
+def test_plan_motion_refuses_a_speed_outside_its_range(speed):
+    with pytest.raises(ValueError) as raised:
+        plan_motion(load_motion(WAVE), speed=speed)
+    assert str(raised.value) == f"speed must be in 0.01..100, got {speed:g}"
+
+
+def test_a_long_hold_is_not_limited_by_the_segment_limit(tmp_path, capsys):
     path = motion_file(tmp_path, "  - pose: {shoulder: 30}\n    after: 1\n    hold: 1000\n")
     assert main(["plan", str(path)]) == 0
     assert "1001.0" in capsys.readouterr().out
@@ -472,3 +494,69 @@ def test_a_planning_error_inside_an_include_says_through_which(tmp_path, capsys)
         "and jerk limits of shoulder allow 1.467 s at the earliest; use after >= 0.467, a lower "
         "speed, or stretch"
     )
+
+
+def test_times_made_in_code_are_bounded_as_the_loader_bounds_them():
+    motion = load_motion(WAVE)
+    huge = dataclasses.replace(motion.keyframes[1], hold_s=1e308)
+    motion = dataclasses.replace(motion, keyframes=(motion.keyframes[0], huge))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy overflow on the way
+        with pytest.raises(PlanningError) as raised:
+            plan_motion(motion)
+    assert raised.value.problems == [f"{WAVE}:8:5: hold must be in 0..86400 s, got 1e+308"]
+
+
+def test_a_move_ruckig_finds_no_trajectory_for_is_one_line_at_its_keyframe():
+    robot = make_robot(2, acc=1e-300)  # numbers ruckig's numerics fail on
+    motion = make_motion(robot, [kf([0, 0], 3), kf([0, 30], 4, after=1.0)])
+    with pytest.raises(PlanningError) as raised:
+        plan_motion(motion)
+    assert raised.value.problems == [
+        "test_motion.yaml:4:5: the move into keyframe could not be planned: ruckig found no "
+        "trajectory for j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration "
+        "and jerk limits in models/bot/robot.yaml and the keyframe's velocity"
+    ]
+
+
+def test_an_approach_ruckig_finds_no_trajectory_for_is_one_line():
+    robot = make_robot(2, jerk=1e-300)
+    with pytest.raises(PlanningError) as raised:
+        plan_approach(robot, [0, 0], [0, 30])
+    assert str(raised.value) == (
+        "the approach to the first keyframe could not be planned: ruckig found no trajectory for "
+        "j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration and jerk limits "
+        "in models/bot/robot.yaml"
+    )
+
+
+def test_a_move_planned_longer_than_a_segment_may_last_is_one_line(tmp_path, capsys):
+    """velocity: 0.01 of a 10 deg/s joint asks 400 s for 40°: the same limit as a t or after
+    that far, though no time was written."""
+    robot = tmp_path / "tiny" / "robot.yaml"
+    shutil.copytree(Path(__file__).parent / "data" / "models" / "tiny", robot.parent)
+    robot.write_text(robot.read_text().replace("    max: 90\n", "    max: 90\n    velocity: 10\n"))
+    path = tmp_path / "m.yaml"
+    path.write_text(
+        "robot: tiny/robot.yaml\nkeyframes:\n  - pose: home\n"
+        "  - pose: {yaw: 40}\n    velocity: 0.01\n"
+    )
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    assert capsys.readouterr().out == (
+        f"{path}:4:5: keyframe takes 400.004 s to reach from the one before: the velocity limit "
+        "of yaw x velocity 0.01 allows no faster; at most 300 s can be planned between two "
+        "keyframes: raise its velocity, or add keyframes in between\n"
+    )
+
+
+def test_a_move_the_robots_own_velocity_makes_too_long_says_so():
+    robot = make_robot(2, vel=0.1)
+    just_in = plan_motion(make_motion(robot, [kf([0, 0], 3), kf([29.9, 0], 4)])).trajectory
+    assert just_in.duration_s == pytest.approx(299.004, abs=1e-3)
+    with pytest.raises(PlanningError) as raised:
+        plan_motion(make_motion(robot, [kf([0, 0], 3), kf([30, 0], 4)]))
+    assert raised.value.problems == [
+        "test_motion.yaml:4:5: keyframe takes 300.004 s to reach from the one before: the "
+        "velocity limit of j0 allows no faster; at most 300 s can be planned between two "
+        "keyframes: add keyframes in between, or raise j0's velocity in models/bot/robot.yaml"
+    ]

@@ -121,3 +121,36 @@ def test_free_prop_fields_are_read_and_bad_ones_refused(tmp_path):
         bad.write_text(f"robot: {robot}\nprops:\n  - {line}\nkeyframes:\n  - pose: home\n")
         with pytest.raises(SourceError, match=rf"bad.yaml:3.*{text}"):
             load_motion(bad)
+
+
+@pytest.mark.parametrize(
+    "fields, where, message",
+    [
+        ("size_m: [1.0e+308, 0.1, 0.1], at_m: [0, 0, 0]", "3:24", "size_m must be in (0, 10] m"),
+        ("size_m: [0.1, 0.1, 0.1], at_m: [0, 1.0e+308, 0]", "3:50", "at_m must be in -10..10 m"),
+        (
+            "size_m: [0.1, 0.1, 0.1], at_m: [0, 0, 0], yaw_deg: 1.0e+308",
+            "3:66",
+            "yaw_deg must be in -180..180°",
+        ),
+        (
+            "size_m: [0.1, 0.1, 0.1], at_m: [0, 0, 0], mass_kg: 1.0e+308",
+            "3:66",
+            "mass_kg must be in (0, 1000] kg",
+        ),
+        (
+            "size_m: [0.1, 0.1, 0.1], at_m: [0, 0, 0], mass_kg: 1, friction: 1.0e+308",
+            "3:79",
+            "friction must be in (0, 10]",
+        ),
+    ],
+)
+def test_absurd_prop_numbers_are_refused_at_their_line_with_the_range(
+    tmp_path, fields, where, message
+):
+    """1e308 reached MuJoCo, which printed a warning every simulation step."""
+    path = tmp_path / "m.yaml"
+    path.write_text(f"robot: arm6\nprops:\n  - {{name: b, {fields}}}\nkeyframes:\n  - pose: home\n")
+    with pytest.raises(SourceError) as raised:
+        load_motion(path)
+    assert raised.value.problems == [f"{path}:{where}: props[0]: {message}, got 1e+308"]

@@ -398,7 +398,7 @@ def test_props_are_read_from_the_motion_file_and_bad_ones_refused(tmp_path):
         load_motion(bad)
     text = str(error.value)
     assert "bad.yaml:2:8: start 'sitting' is not one of standing, lying" in text
-    assert "props[0]: size_m must be > 0, got -1" in text
+    assert "props[0]: size_m must be in (0, 10] m, got -1" in text
     assert "props[0]: at_m needs three numbers" in text
 
 

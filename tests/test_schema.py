@@ -15,6 +15,8 @@ from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
 from choreo.motion import motion_file as motion
+from choreo.motion.scene import PROP_BOUNDS
+from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
 from choreo.robot import robot_file as robot
 
 DATA = Path(__file__).parent / "data"
@@ -86,6 +88,32 @@ def test_the_gait_ranges_the_robot_schema_repeats_are_the_codes():
     assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == robot.GAIT_BOUNDS
 
 
+def test_the_time_bound_the_motion_schema_repeats_is_the_codes():
+    definitions = schema("motion")["$defs"]
+    assert definitions["seconds"]["maximum"] == MAX_TIME_S
+    assert definitions["gaitBlock"]["properties"]["gait"]["properties"]["period"]["maximum"] == (
+        MAX_TIME_S
+    )
+
+
+def test_the_speed_range_the_motion_schema_repeats_is_the_codes():
+    speed = schema("motion")["properties"]["speed"]
+    assert (speed["minimum"], speed["maximum"]) == (MIN_SPEED, MAX_SPEED)
+
+
+def test_the_velocity_minimum_the_motion_schema_repeats_is_the_codes():
+    velocity = schema("motion")["$defs"]["poseKeyframe"]["properties"]["velocity"]
+    assert (velocity["minimum"], velocity["maximum"]) == (motion.MIN_VELOCITY_SCALE, 1)
+
+
+def test_the_prop_ranges_the_motion_schema_repeats_are_the_codes():
+    fields = schema("motion")["properties"]["props"]["items"]["properties"]
+    for key, bounds in PROP_BOUNDS.items():
+        field = fields[key].get("items", fields[key])  # a vector's bounds are its items'
+        low = field["exclusiveMinimum" if bounds.get("low_open") else "minimum"]
+        assert (low, field["maximum"]) == (bounds["low"], bounds["high"]), key
+
+
 def test_a_pointer_to_no_mapping_is_refused():
     with pytest.raises(ValueError, match="describes no mapping"):
         mapping_shape("motion", "#/$defs/seconds")
@@ -124,7 +152,7 @@ def test_schema_accepts_good_robots(path):
         ("unknown_key.yaml", "'hodl' was unexpected"),
         ("t_and_after.yaml", "should not be valid under {'required': ['t', 'after']}"),
         ("wrong_type.yaml", "'soon' is not of type 'number'"),
-        ("several_problems.yaml", "0 is less than or equal to the minimum of 0"),
+        ("several_problems.yaml", "0 is less than the minimum of 0.01"),
         ("empty.yaml", "None is not of type 'object'"),
     ],
 )

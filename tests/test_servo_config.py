@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 
 import pytest
 from cli_helpers import error_line
@@ -185,7 +186,7 @@ def test_offset_adjust_applies_at_once_and_save_persists():
     assert emulator.servo(1).eeprom.offset_units == -10
 
 
-@pytest.mark.parametrize("offset_deg", [30.3, -31])
+@pytest.mark.parametrize("offset_deg", [30.3, -31, 1e308, -1e308, math.nan])
 def test_offset_beyond_30_degrees_is_refused_with_the_range(offset_deg):
     with pytest.raises(ValueError, match=r"within -30.0..\+30.0° \(-125..125 units\)"):
         servo_config.offset_units_from_deg(offset_deg)
@@ -338,7 +339,7 @@ def test_move_in_motor_mode_is_refused():
         servo_config.move(bus, 1, 600, 500)
 
 
-@pytest.mark.parametrize("angle_deg", [-1, 240.2])
+@pytest.mark.parametrize("angle_deg", [-1, 240.2, 1e308, -1e308, math.nan])
 def test_move_angles_outside_the_servo_travel_are_refused(angle_deg):
     with pytest.raises(ValueError, match=r"0..240° \(0..1000 units\)"):
         servo_config.position_units_from_deg(angle_deg)
@@ -553,3 +554,11 @@ def test_servo_limits_name_the_options_the_user_typed(capsys):
     argv = ["servo", "limits", "--id", "1", "--min", "900", "--max", "100", "-y"]
     assert main([*argv, "--port", "sim://?clock=virtual"]) == 2
     assert error_line(capsys) == "choreo: error: --min 900 must be below --max 100"
+
+
+def test_cli_move_to_a_huge_angle_is_one_line_and_sends_nothing(cli_emulator, capsys):
+    assert main(["servo", "move", "--id", "2", "--deg", "1e308", "--port", "sim://?ids=1-6"]) == 2
+    assert error_line(capsys) == (
+        "choreo: error: a servo angle must be in 0..240° (0..1000 units), got 1e+308°"
+    )
+    assert sent(cli_emulator, Command.MOVE_TIME_WRITE) == []

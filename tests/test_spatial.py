@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from cli_helpers import error_line
 
 from choreo.cli import main
 from choreo.errors import SourceError
 from choreo.motion.gait import BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
-from choreo.motion.motion_file import load_motion
+from choreo.motion.motion_file import load_motion, most_gait_steps
 from choreo.motion.spatial import compensated
 from choreo.robot.kinematics import Kinematics
 from choreo.robot.types import GaitCompensation
@@ -346,8 +347,60 @@ def test_a_gait_of_more_keyframes_than_a_motion_plays_is_refused_from_its_step_c
         "robot: hexapod18\nkeyframes:\n  - pose: home\n  - gait: {pattern: wave, steps: 100000}\n",
     )
     assert load_error(path) == [
-        f"{path}:4:34: gait: steps 100000 of the wave gait are 2400000 keyframes (24 a step); at "
-        "most 10000 are played in one motion: steps at most 416"
+        f"{path}:4:34: gait: steps 100000 of the wave gait are 2400000 keyframes (24 a step), "
+        "with the motion's 1 other keyframe; at most 10000 are played in one motion: steps at "
+        "most 416"
+    ]
+
+
+@pytest.mark.parametrize(
+    "pattern, most, keyframes", [("tripod", 1249, 9992), ("ripple", 833, 9998), ("wave", 416, 9984)]
+)
+def test_a_gait_after_a_pose_is_played_up_to_the_documented_steps(
+    tmp_path, pattern, most, keyframes
+):
+    """With the pose before it the motion plays at most 10,000 keyframes: the steps the docs
+    give pass the count (arm6 has no feet, which is said only after counting: solving 10,000
+    keyframes by IK takes 20 s), one more is refused at its steps."""
+    head = "robot: arm6\nkeyframes:\n  - pose: home\n"
+    path = write(tmp_path, f"{head}  - gait: {{pattern: {pattern}, steps: {most}}}\n")
+    assert load_error(path) == [
+        f"{path}:4:5: gait: needs the robot's feet: robot 'arm6' lists none (add <custom><text "
+        'name="choreo:feet" data="foot_site ..."/></custom> to its MJCF)'
+    ]
+    assert Gait(Pattern(pattern), most).keyframes == keyframes
+    path.write_text(f"{head}  - gait: {{pattern: {pattern}, steps: {most + 1}}}\n")
+    [message] = load_error(path)
+    assert message.endswith(
+        "with the motion's 1 other keyframe; at most 10000 are played in one motion: "
+        f"steps at most {most}"
+    )
+
+
+def test_the_documented_most_gait_steps_are_the_codes():
+    row = next(
+        line
+        for line in (REPO / "docs" / "motion-format.md").read_text().splitlines()
+        if line.startswith("| `steps` |")
+    )
+    gaits = [Gait(pattern, 1) for pattern in (Pattern.TRIPOD, Pattern.RIPPLE, Pattern.WAVE)]
+    tripod, ripple, wave = (gait.keyframes_per_step for gait in gaits)
+    assert gaits[1].keyframes == ripple + 2
+    assert f"a step is {tripod} (tripod), {ripple} (ripple, 2 more at the end) or {wave}" in row
+    tripod, ripple, wave = (most_gait_steps(gait, other_keyframes=1) for gait in gaits)
+    assert f"at most {tripod} tripod, {ripple} ripple or {wave} wave steps" in row
+
+
+def test_the_longest_of_several_gaits_is_named_with_the_others_counted(tmp_path):
+    path = write(
+        tmp_path,
+        "robot: hexapod18\nkeyframes:\n  - pose: home\n  - gait: {steps: 1000}\n"
+        "  - gait: {steps: 300}\n",
+    )
+    assert load_error(path) == [
+        f"{path}:4:19: gait: steps 1000 of the tripod gait are 8000 keyframes (8 a step), with "
+        "the motion's 2401 other keyframes; at most 10000 are played in one motion: steps at "
+        "most 949"
     ]
 
 
@@ -370,3 +423,15 @@ def test_a_gait_commands_what_the_robot_falls_short_of_and_a_lift_of_0_stays_0()
     assert (commanded.turn_deg, commanded.lift_mm) == pytest.approx((11.6, 32))
     assert (commanded.pattern, commanded.steps, commanded.period_s) == (Pattern.RIPPLE, 4, 2.0)
     assert compensated(Gait(Pattern.TRIPOD, 1, lift_mm=0), by).lift_mm == 0  # meant to slide
+
+
+def test_the_documented_tripod_steps_plus_one_after_home_is_one_line(tmp_path, capsys):
+    path = write(
+        tmp_path, "robot: hexapod18\nkeyframes:\n  - pose: home\n  - gait: {steps: 1250}\n"
+    )
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == (
+        f"choreo: error: {path}:4:19: gait: steps 1250 of the tripod gait are 10000 keyframes "
+        "(8 a step), with the motion's 1 other keyframe; at most 10000 are played in one motion: "
+        "steps at most 1249"
+    )

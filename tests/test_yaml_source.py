@@ -17,7 +17,9 @@ from choreo.core.yaml_source import (
     Reader,
     SourceLocation,
     parse_yaml_file,
+    quoted,
     reading_a_file,
+    shortened,
 )
 from choreo.errors import SourceError
 from choreo.motion.motion_file import load_motion
@@ -30,7 +32,7 @@ def test_a_yaml_1_1_exponent_read_as_text_gets_a_hint(tmp_path, capsys, written,
     path = motion_file(tmp_path, f"  - pose: {{shoulder: 30}}\n    after: {written}\n")
     assert main(["plan", str(path)]) == 1
     assert error_line(capsys) == (
-        f"choreo: error: {path}:6:12: after must be a number >= 0, got {written!r} "
+        f"choreo: error: {path}:6:12: after must be a number in 0..86400 s, got {written!r} "
         f"(YAML reads {written} as text: write {hint})"
     )
 
@@ -203,3 +205,72 @@ def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
     with pytest.raises(SourceError):
         load_motion(path)
     assert gc.isenabled()
+
+
+def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, capsys):
+    accounts = "".join(
+        f"user{i}:x:{1000 + i}:{1000 + i}::/home/user{i}:/bin/sh\n" for i in range(40)
+    )
+    (tmp_path / "etc").mkdir()
+    (tmp_path / "etc" / "passwd").write_text(accounts)
+    path = tmp_path / "m.yaml"
+    path.write_text("robot: etc/passwd\nkeyframes:\n  - pose: home\n")
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    robot = tmp_path / "etc" / "passwd"
+    assert capsys.readouterr().out.splitlines() == [
+        f"{path}:1:8: robot {robot} has problems (listed after this line); fix them first",
+        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got "
+        "'user0:x:1000:1000::/home/user0:/bin/sh user1:x:1001:1001::/h'…",
+    ]
+
+
+@pytest.mark.parametrize(
+    "value, shown",
+    [
+        ("wave", "'wave'"),
+        ("x" * 60, repr("x" * 60)),
+        ("x" * 61, repr("x" * 60) + "…"),
+        ("first line\nsecond line", "'first line'…"),
+        (b"\x00" * 30, repr(b"\x00" * 30)[:60] + "…"),
+        (12, "12"),
+    ],
+)
+def test_a_value_is_quoted_by_at_most_one_line_of_60_characters(value, shown):
+    assert quoted(value) == shown
+
+
+def test_a_shortened_text_keeps_a_short_line_whole():
+    assert shortened("1.5") == "1.5"
+    assert shortened("1" * 61) == "1" * 60 + "…"
+
+
+@pytest.mark.parametrize(
+    "digits, message",
+    [
+        # more digits than Python reads into an int: refused, not a crash
+        (5000, "repeat must be >= 1, got a whole number 5000 digits long"),
+        (
+            300,
+            "repeat 1e+299 x 2 keyframe(s) = 2e+299 keyframes to play; at most 10000 are played "
+            "in one motion: at most 5000 times",
+        ),
+    ],
+)
+def test_a_huge_whole_number_is_one_short_line(tmp_path, capsys, digits, message):
+    path = motion_file(
+        tmp_path, "  - pose: {shoulder: 30}\n", head=f"repeat: 1{'0' * (digits - 1)}\n"
+    )
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == f"choreo: error: {path}:3:9: {message}"
+
+
+def test_fmt_writes_whole_numbers_exactly_up_to_16_digits():
+    from choreo.core.yaml_source import fmt
+
+    assert [fmt(v) for v in (7, 10**16 - 1, 10**16, -(10**400), 0.5)] == [
+        "7",
+        "9999999999999999",
+        "1e+16",
+        "-1e+400",
+        "0.5",
+    ]

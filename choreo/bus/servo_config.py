@@ -362,11 +362,22 @@ def apply_id_change(bus: ServoBus, change: IdChange) -> None:
 
 
 # --- settings applied at once (not saved) ------------------------------------------------------
+def _nearest_units(angle_deg: float, lo: int, hi: int) -> int | None:
+    """The whole number of units nearest ``angle_deg`` if it is in ``lo..hi``, else ``None``.
+    Compared before rounding: a huge angle (1e308°) is infinite in units, which can't be
+    rounded; NaN is refused too."""
+    units = angle_deg * UNITS_PER_DEG
+    if not lo - 1 < units < hi + 1:
+        return None
+    rounded = round(units)
+    return rounded if lo <= rounded <= hi else None
+
+
 def offset_units_from_deg(offset_deg: float) -> int:
     """The nearest offset in units (0.24° each); ``ValueError`` with the range in both units."""
     lo, hi = field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
-    units = round(offset_deg * UNITS_PER_DEG)
-    if not lo <= units <= hi:
+    units = _nearest_units(offset_deg, lo, hi)
+    if units is None:
         raise ValueError(
             f"an offset must be within {lo * DEG_PER_UNIT:+.1f}..{hi * DEG_PER_UNIT:+.1f}°"
             f" ({lo}..{hi} units), got {offset_deg:g}°"
@@ -393,8 +404,8 @@ def adjust_offset(bus: ServoBus, servo_id: int, offset_units: int) -> None:
 def position_units_from_deg(angle_deg: float) -> int:
     """The nearest servo position (0..240° → 0..1000 units)."""
     lo, hi = field_range(Command.MOVE_TIME_WRITE, "pos_units")
-    units = round(angle_deg * UNITS_PER_DEG)
-    if not lo <= units <= hi:
+    units = _nearest_units(angle_deg, lo, hi)
+    if units is None:
         raise ValueError(
             f"a servo angle must be in {lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}° "
             f"({lo}..{hi} units), got {angle_deg:g}°"

@@ -18,7 +18,9 @@ import os
 import sys
 import tempfile
 import traceback
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from types import ModuleType
 
 from choreo import __version__
@@ -92,7 +94,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         format="%(levelname)s %(name)s: %(message)s",
     )
     try:
-        code = args.handler(args)
+        with python_warnings_for_developers(args.verbose):
+            code = args.handler(args)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's final flush
         return code
     except UsageError as error:
@@ -123,6 +126,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
         return report_bug(error, args.verbose)
+
+
+@contextmanager
+def python_warnings_for_developers(verbose: int) -> Iterator[None]:
+    """Python's warnings (numpy's "overflow encountered", a library's deprecation) are not
+    shown: they speak of choreo's code, not the user's input, which choreo checks itself and
+    reports in one line. ``-v`` shows them, for whoever debugs choreo."""
+    with warnings.catch_warnings():
+        if not verbose:
+            warnings.simplefilter("ignore")
+        yield
 
 
 EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error

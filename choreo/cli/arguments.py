@@ -64,6 +64,20 @@ def float_in(low: float, high: float, unit: str = "") -> Callable[[str], float]:
     return parse
 
 
+def float_range(low: float, high: float) -> Callable[[str], float]:
+    """A number in low..high, both included."""
+
+    def parse(text: str) -> float:
+        value = finite_float(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected a number in {low:g}..{high:g}, got {text!r}"
+            )
+        return value
+
+    return parse
+
+
 def positive_int(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
@@ -137,10 +151,13 @@ def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_tex
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview,
     play)."""
+    from choreo.motion.timing import MAX_SPEED, MIN_SPEED  # these commands plan: no extra cost
+
     parser.add_argument(
         "--speed",
-        type=positive_float,
-        help="time scale (overrides the file's speed): 2 plays twice as fast",
+        type=float_range(MIN_SPEED, MAX_SPEED),
+        help=f"time scale, {MIN_SPEED:g}..{MAX_SPEED:g} (overrides the file's speed): 2 plays "
+        "twice as fast",
     )
     parser.add_argument(
         "--stretch",

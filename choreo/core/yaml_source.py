@@ -15,6 +15,7 @@ import math
 import re
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from decimal import Context, Decimal
 from pathlib import Path
 
 import yaml
@@ -95,12 +96,45 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+# A value quoted in a message is cut to this many characters of its first line: a file read by
+# mistake (a motion's robot: naming /etc/passwd) is one long text, and a message shows what
+# was found, not the whole of it.
+QUOTED_CHARS = 60
+
+
+def _cut(text: str) -> tuple[str, bool]:
+    """The start of ``text`` a message shows, and whether that leaves some of it out."""
+    first, *more = text.splitlines() or [""]
+    return first[:QUOTED_CHARS], bool(more) or len(first) > QUOTED_CHARS
+
+
+def shortened(text: str) -> str:
+    """``text`` cut to its first line and ``QUOTED_CHARS`` characters, "…" where cut."""
+    start, cut = _cut(text)
+    return start + ("…" if cut else "")
+
+
+def quoted(value: object) -> str:
+    """``repr(value)`` for a message, a text cut as ``shortened`` cuts it, outside the quotes:
+    ``'root:x:0:0:root:/root:/bin/bash daemon:x:1:1:daemon:/usr/sb'…``."""
+    if not isinstance(value, str):
+        return shortened(repr(value))
+    start, cut = _cut(value)
+    return repr(start) + ("…" if cut else "")
+
+
 def fmt(value: float) -> str:
-    """A number for messages: ``90``, ``-12.5``, ``0.333333``."""
+    """A number for messages: ``90``, ``-12.5``, ``0.333333``; a whole number as written up to
+    16 digits, then ``1e+300`` (some are too large for a float)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) < 10**16:
+            return str(value)
+        return f"{Decimal(value).normalize(Context(prec=6)):g}"
     return f"{value:g}"
 
 
 FLOAT_TAG = "tag:yaml.org,2002:float"
+INT_TAG = "tag:yaml.org,2002:int"
 
 # libyaml's parser (same marks, same safety) is several times faster where PyYAML has it.
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -212,10 +246,15 @@ def describe(node: Node) -> str:
     if isinstance(node, yaml.SequenceNode):
         return "a list"
     if not node.tag.startswith("tag:yaml.org,2002:"):  # !foo 1: the tag is what is wrong
-        return f"{node.value!r} with the tag {node.tag} (remove the tag: these files use none)"
+        return (
+            f"{quoted(node.value)} with the tag {shortened(node.tag)} (remove the tag: these "
+            "files use none)"
+        )
     if node.tag == "tag:yaml.org,2002:null":
         return "nothing (null)"
-    return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value
+    if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
+        return f"a whole number {len(node.value)} digits long"
+    return quoted(node.value) if node.tag == "tag:yaml.org,2002:str" else shortened(node.value)
 
 
 class Reader:
@@ -245,7 +284,8 @@ class Reader:
                 first = entries[key_node.value].key_node.start_mark.line + 1
                 self.report(
                     key_node,
-                    f"{what}: {key_node.value!r} is given twice (first at line {first}); keep one",
+                    f"{what}: {quoted(key_node.value)} is given twice (first at line {first}); "
+                    "keep one",
                 )
             else:
                 entries[key_node.value] = Entry(key_node.value, key_node, value)
@@ -265,7 +305,7 @@ class Reader:
             else:
                 self.report(
                     entry.key_node,
-                    f"unknown key {entry.key!r} in {what}"
+                    f"unknown key {quoted(entry.key)} in {what}"
                     f"{did_you_mean(entry.key, allowed)}; valid keys: {', '.join(allowed)}",
                 )
         for key in required:
@@ -290,7 +330,8 @@ class Reader:
                 return float(node.value)
         try:
             return self._constructor.construct_object(node)
-        except yaml.constructor.ConstructorError:  # an unknown !tag
+        # an unknown !tag; a whole number of more digits than Python reads (4,300)
+        except (yaml.constructor.ConstructorError, ValueError):
             return node
 
     def number(
@@ -301,15 +342,17 @@ class Reader:
         low: float | None = None,
         high: float | None = None,
         low_open: bool = False,
+        unit: str = "",
     ) -> float | None:
-        """A finite number in [low, high] (``(low, high]`` with ``low_open``)."""
+        """A finite number in [low, high] (``(low, high]`` with ``low_open``); ``unit`` (``" s"``)
+        follows the range in messages."""
         value = self._scalar(node)
         if (
             isinstance(value, bool)
             or not isinstance(value, (int, float))
             or not math.isfinite(value)
         ):
-            valid = _range_words(low, high, low_open)
+            valid = _range_words(low, high, low_open, unit)
             self.report(
                 node, f"{what} must be a number{valid}, got {describe(node)}{_exponent_hint(node)}"
             )
@@ -317,7 +360,7 @@ class Reader:
         below = low is not None and (value <= low if low_open else value < low)
         if below or (high is not None and value > high):
             self.report(
-                node, f"{what} must be{_range_words(low, high, low_open)}, got {fmt(value)}"
+                node, f"{what} must be{_range_words(low, high, low_open, unit)}, got {fmt(value)}"
             )
             return None
         return float(value)
@@ -328,10 +371,11 @@ class Reader:
         value = self._scalar(node)
         valid = _range_words(low, high, False)
         if isinstance(value, bool) or not isinstance(value, int):
-            self.report(node, f"{what} must be a whole number{valid}, got {describe(node)}")
+            kind = "" if node.tag == INT_TAG else " a whole number"  # one too long to read
+            self.report(node, f"{what} must be{kind}{valid}, got {describe(node)}")
             return None
         if (low is not None and value < low) or (high is not None and value > high):
-            self.report(node, f"{what} must be{valid}, got {value}")
+            self.report(node, f"{what} must be{valid}, got {fmt(value)}")
             return None
         return value
 
@@ -359,7 +403,7 @@ class Reader:
         if value is not None and value not in choices:
             self.report(
                 node,
-                f"{what} {value!r} is not one of {', '.join(choices)}"
+                f"{what} {quoted(value)} is not one of {', '.join(choices)}"
                 f"{did_you_mean(value, choices)}",
             )
             return None
@@ -374,19 +418,22 @@ _TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
 def _exponent_hint(node: Node) -> str:
     """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
     match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
-    if match is None or node.tag != "tag:yaml.org,2002:str":
+    if match is None or node.tag != "tag:yaml.org,2002:str" or len(node.value) > QUOTED_CHARS:
         return ""
     whole, fraction, sign, exponent = match.groups()
     number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"
     return f" (YAML reads {node.value} as text: write {number})"
 
 
-def _range_words(low: float | None, high: float | None, low_open: bool) -> str:
-    """`` in 0..1000``, `` in (0, 1]``, `` >= 0``, `` > 0``, or ``""``."""
+def _range_words(low: float | None, high: float | None, low_open: bool, unit: str = "") -> str:
+    """`` in 0..1000``, `` in (0, 1]``, `` >= 0``, `` > 0`` (each followed by ``unit``), or
+    ``""``."""
     if low is not None and high is not None:
-        return f" in ({fmt(low)}, {fmt(high)}]" if low_open else f" in {fmt(low)}..{fmt(high)}"
-    if low is not None:
-        return f" > {fmt(low)}" if low_open else f" >= {fmt(low)}"
-    if high is not None:
-        return f" <= {fmt(high)}"
-    return ""
+        words = f" in ({fmt(low)}, {fmt(high)}]" if low_open else f" in {fmt(low)}..{fmt(high)}"
+    elif low is not None:
+        words = f" > {fmt(low)}" if low_open else f" >= {fmt(low)}"
+    elif high is not None:
+        words = f" <= {fmt(high)}"
+    else:
+        return ""
+    return words + unit

@@ -35,7 +35,7 @@ from typing import TypeGuard
 
 from choreo.core.atomic import atomic_output, write_text_atomically
 from choreo.core.file_kind import not_a_file
-from choreo.core.yaml_source import SourceLocation, fmt
+from choreo.core.yaml_source import SourceLocation, fmt, quoted
 from choreo.errors import SourceError
 from choreo.motion.motion_file import HOME_POSE, Keyframe, Motion
 from choreo.motion.music_block import repetition_clock
@@ -207,7 +207,7 @@ def _row_time_s(row: ActionRow, where: str, problems: list[str]) -> float | None
         return None
     if not _is_number(value) or value < 0:
         problems.append(
-            f"{where}, column {TIME_COLUMN}: {value!r} is not a time; Time is the "
+            f"{where}, column {TIME_COLUMN}: {quoted(value)} is not a time; Time is the "
             f"milliseconds to move here from the previous row, a number >= 0"
         )
         return None
@@ -219,7 +219,7 @@ def _angle(joint: Joint, value, where: str, problems: list[str]) -> float | None
     limits = joint.limits
     if not _is_number(value):
         problems.append(
-            f"{where} (joint {joint.name}): {value!r} is not a servo position; "
+            f"{where} (joint {joint.name}): {quoted(value)} is not a servo position; "
             f"give a number of units, 0..1000"
         )
         return None

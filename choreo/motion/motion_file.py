@@ -10,7 +10,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import yaml
 
@@ -26,10 +26,11 @@ from choreo.core.yaml_source import (
     did_you_mean,
     fmt,
     parse_yaml_file,
+    quoted,
     reading_a_file,
 )
 from choreo.errors import SourceError
-from choreo.motion.gait import BodyPose
+from choreo.motion.gait import BodyPose, Gait
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
@@ -43,7 +44,14 @@ from choreo.motion.spatial import (
     read_gait,
     read_sites,
 )
-from choreo.motion.timing import backward_times, known_arrivals_s, played_keyframes
+from choreo.motion.timing import (
+    MAX_SPEED,
+    MAX_TIME_S,
+    MIN_SPEED,
+    backward_times,
+    known_arrivals_s,
+    played_keyframes,
+)
 from choreo.robot.lookup import find_robot_file
 from choreo.robot.robot_file import load_robot, read_angles
 from choreo.robot.types import Robot, mirror_pose
@@ -57,7 +65,7 @@ class Keyframe:
     after_s: float | None = None  # seconds after the previous keyframe (at most one of t/after)
     hold_s: float = 0.0  # stay this long once reached
     stop: bool = False  # come to rest here (implied by hold > 0, and at the ends)
-    velocity_scale: float = 1.0  # 0 < scale <= 1: fraction of the joint velocity limits
+    velocity_scale: float = 1.0  # MIN_VELOCITY_SCALE..1: fraction of the joint velocity limits
     label: str = ""  # pose name, or "" for an inline pose
     beat: BeatRef | None = None  # t_s was written as a beat or bar of the music
     sites: tuple[SiteTarget, ...] = ()  # written as sites: (solved into targets_deg by IK)
@@ -96,16 +104,22 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
         return None
     if repeat == 1:
         return (
-            f"{keyframes} keyframes to play; at most {MAX_PLAYED_KEYFRAMES} are played in one "
+            f"{fmt(keyframes)} keyframes to play; at most {MAX_PLAYED_KEYFRAMES} are played in one "
             "motion: split it into shorter motions"
         )
     most = MAX_PLAYED_KEYFRAMES // keyframes
     return (
-        f"{what} {repeat} x {keyframes} keyframe(s) = {keyframes * repeat} keyframes to play; "
+        f"{what} {fmt(repeat)} x {fmt(keyframes)} keyframe(s) = {fmt(keyframes * repeat)} "
+        "keyframes to play; "
         f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: at most {most} "
         f"time{'s' if most != 1 else ''}"
     )
 
+
+# The slowest a keyframe's velocity may ask for: 1 % of the joints' velocity limits (3 deg/s for
+# an LX-16A: 240° in 80 s). Far below that, a move outlasts what can be planned between two
+# keyframes, and ruckig fails on its numbers (velocity: 1.0e-300).
+MIN_VELOCITY_SCALE = 0.01
 
 # The keys of each mapping, from the JSON Schema (the one description of the file's shape).
 MOTION = mapping_shape("motion")
@@ -172,7 +186,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         reader.string(fields["description"].value, "description") if "description" in fields else ""
     )
     speed = (
-        reader.number(fields["speed"].value, "speed", low=0, low_open=True)
+        reader.number(fields["speed"].value, "speed", low=MIN_SPEED, high=MAX_SPEED)
         if "speed" in fields
         else 1.0
     )
@@ -207,10 +221,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
     ):
         return None
     # counted before the gaits are solved: a long walk is refused before the work, not after
-    unrolled = too_many_played(sum(_keyframes_of(step) for step in steps), repeat)
-    if unrolled is not None:
-        where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
-        reader.report(where, unrolled)
+    if _too_many_keyframes(reader, fields, steps, repeat):
         return None
     steps = expand_spatial(robot, steps, reader.problems)  # IK: joint keyframes from here on
     if reader.problems:
@@ -307,10 +318,14 @@ def _read_keyframe(reader: Reader, item: Node, robot: Robot, top: _Include) -> _
         return None
     pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
     timing = _read_timing(reader, fields, top)
-    hold_s = reader.number(fields["hold"].value, "hold", low=0) if "hold" in fields else 0.0
+    hold_s = (
+        reader.number(fields["hold"].value, "hold", low=0, high=MAX_TIME_S, unit=" s")
+        if "hold" in fields
+        else 0.0
+    )
     stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
     velocity = (
-        reader.number(fields["velocity"].value, "velocity", low=0, high=1, low_open=True)
+        reader.number(fields["velocity"].value, "velocity", low=MIN_VELOCITY_SCALE, high=1)
         if "velocity" in fields
         else 1.0
     )
@@ -370,26 +385,45 @@ def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
     spec = read_gait(reader, node) if node is not None else None
     if node is None or spec is None:
         return []
-    gait = spec.gait
-    if gait.keyframes > MAX_PLAYED_KEYFRAMES:
-        steps_node = next(v for k, v in node.value if k.value == "steps")
-        per_step = gait.keyframes_per_step
-        most = (MAX_PLAYED_KEYFRAMES - (gait.keyframes - gait.steps * per_step)) // per_step
-        reader.report(
-            steps_node,
-            f"gait: steps {gait.steps} of the {gait.pattern.value} gait are "
-            f"{gait.keyframes} keyframes ({per_step} a step); at most "
-            f"{MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most {most}",
-        )
-        return []
     return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
-def _keyframes_of(step: _Step) -> int:
-    """How many keyframes a step becomes: a gait all of its own."""
-    if isinstance(step.space, GaitSpec):
-        return step.space.gait.keyframes
-    return 1
+def most_gait_steps(gait: Gait, other_keyframes: int) -> int:
+    """The most steps of ``gait`` (its pattern) a motion with ``other_keyframes`` keyframes
+    besides the gait's plays once: every keyframe of the gait counts."""
+    per_step = gait.keyframes_per_step
+    after_the_steps = gait.keyframes - gait.steps * per_step  # swings running past the last
+    return (MAX_PLAYED_KEYFRAMES - other_keyframes - after_the_steps) // per_step
+
+
+def _too_many_keyframes(
+    reader: Reader, fields: dict[str, Entry], steps: list[_Step], repeat: int
+) -> bool:
+    """Whether the motion plays more keyframes than it may, reported: at a gait's steps where
+    fewer of them would do (the longest gait's), else at repeat or keyframes."""
+    gaits = [step.space for step in steps if isinstance(step.space, GaitSpec)]
+    total = sum(spec.gait.keyframes for spec in gaits) + len(steps) - len(gaits)
+    problem = too_many_played(total, repeat)
+    if problem is None:
+        return False
+    longest = max(gaits, key=lambda spec: spec.gait.keyframes, default=None)
+    if repeat == 1 and longest is not None:
+        gait = longest.gait
+        others = total - gait.keyframes
+        most = most_gait_steps(gait, others)
+        if most >= 1:
+            plural = "s" if others != 1 else ""
+            besides = f", with the motion's {fmt(others)} other keyframe{plural}" if others else ""
+            reader.problems.add(
+                longest.steps_at,
+                f"gait: steps {fmt(gait.steps)} of the {gait.pattern.value} gait are "
+                f"{fmt(gait.keyframes)} keyframes ({gait.keyframes_per_step} a step){besides}; "
+                f"at most {MAX_PLAYED_KEYFRAMES} are played in one motion: steps at most {most}",
+            )
+            return True
+    where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
+    reader.report(where, problem)
+    return True
 
 
 def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
@@ -420,8 +454,11 @@ def _read_timing(
             return None
         resolved = read_beat_time(reader, fields, top.music)
         return None if resolved is None else (resolved[0], None, resolved[1])
-    t_s = reader.number(fields["t"].value, "t", low=0) if "t" in fields else None
-    after_s = reader.number(fields["after"].value, "after", low=0) if "after" in fields else None
+    seconds: dict[str, Any] = {"low": 0, "high": MAX_TIME_S, "unit": " s"}
+    t_s = reader.number(fields["t"].value, "t", **seconds) if "t" in fields else None
+    after_s = (
+        reader.number(fields["after"].value, "after", **seconds) if "after" in fields else None
+    )
     if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
         return None
     return t_s, after_s, None
@@ -434,7 +471,7 @@ def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, floa
             return dict(robot.poses[node.value]), node.value
         reader.report(
             node,
-            f"unknown pose {node.value!r}{did_you_mean(node.value, robot.poses)}; "
+            f"unknown pose {quoted(node.value)}{did_you_mean(node.value, robot.poses)}; "
             f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
             f"joint angles as {{joint: degrees}}",
         )

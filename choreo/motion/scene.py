@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
 
 from choreo.core.yaml_source import Node, Reader, SourceLocation
 
@@ -37,6 +38,16 @@ class StartPosture(str, Enum):
 
 
 PROP_KEYS = ("name", "size_m", "at_m", "yaw_deg", "mass_kg", "friction", "place_at_m")
+# A prop's numbers, as reader.number's bounds: a room around a desktop or walking robot, far from
+# the numbers (1.0e+308) that blow up the simulation (and MuJoCo prints a warning a step).
+PROP_BOUNDS: dict[str, dict[str, Any]] = {
+    "size_m": {"low": 0, "high": 10, "low_open": True, "unit": " m"},
+    "at_m": {"low": -10, "high": 10, "unit": " m"},
+    "place_at_m": {"low": -10, "high": 10, "unit": " m"},
+    "yaw_deg": {"low": -180, "high": 180, "unit": "°"},
+    "mass_kg": {"low": 0, "high": 1000, "low_open": True, "unit": " kg"},
+    "friction": {"low": 0, "high": 10, "low_open": True},
+}
 
 
 @dataclass(frozen=True)
@@ -93,9 +104,13 @@ def _read_prop(reader: Reader, node: Node, what: str) -> Prop | None:
     if fields is None or not {"name", "size_m", "at_m"} <= set(fields):
         return None
     name = reader.string(fields["name"].value, f"{what}: name")
-    size = _vector(reader, fields["size_m"].value, f"{what}: size_m", positive=True)
-    at = _vector(reader, fields["at_m"].value, f"{what}: at_m", positive=False)
-    yaw = reader.number(fields["yaw_deg"].value, f"{what}: yaw_deg") if "yaw_deg" in fields else 0.0
+    size = _vector(reader, fields["size_m"].value, f"{what}: size_m", PROP_BOUNDS["size_m"])
+    at = _vector(reader, fields["at_m"].value, f"{what}: at_m", PROP_BOUNDS["at_m"])
+    yaw = (
+        reader.number(fields["yaw_deg"].value, f"{what}: yaw_deg", **PROP_BOUNDS["yaw_deg"])
+        if "yaw_deg" in fields
+        else 0.0
+    )
     if name is None or size is None or at is None or yaw is None:
         return None
     free = _read_free(reader, fields, what)
@@ -119,16 +134,16 @@ def _read_free(
             reader.report(node, f"{what}: {key} needs mass_kg (a prop without it stays fixed)")
             return None
         if key == "place_at_m":
-            values[key] = _vector(reader, node, f"{what}: {key}", positive=False)
+            values[key] = _vector(reader, node, f"{what}: {key}", PROP_BOUNDS[key])
         else:
-            values[key] = reader.number(node, f"{what}: {key}", low=0, low_open=True)
+            values[key] = reader.number(node, f"{what}: {key}", **PROP_BOUNDS[key])
         if values[key] is None:
             return None
     return values["mass_kg"], values["friction"], values["place_at_m"]  # type: ignore[return-value]
 
 
 def _vector(
-    reader: Reader, node: Node, what: str, *, positive: bool
+    reader: Reader, node: Node, what: str, bounds: dict[str, Any]
 ) -> tuple[float, float, float] | None:
     items = reader.sequence(node, what)
     if items is None:
@@ -136,10 +151,7 @@ def _vector(
     if len(items) != 3:
         reader.report(node, f"{what} needs three numbers [x, y, z] in metres, got {len(items)}")
         return None
-    values = [
-        reader.number(item, what, low=0, low_open=True) if positive else reader.number(item, what)
-        for item in items
-    ]
+    values = [reader.number(item, what, **bounds) for item in items]
     x, y, z = values
     if x is None or y is None or z is None:
         return None

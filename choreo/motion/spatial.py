@@ -22,6 +22,7 @@ import yaml
 
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt
 from choreo.motion.gait import SIX_LEGS, BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
+from choreo.motion.timing import MAX_TIME_S
 from choreo.robot.types import GaitCompensation, Robot
 
 if TYPE_CHECKING:
@@ -56,6 +57,7 @@ class BodySpec:
 @dataclass(frozen=True)
 class GaitSpec:
     gait: Gait
+    steps_at: SourceLocation  # where its steps were written
 
 
 @dataclass(frozen=True)
@@ -161,7 +163,7 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
         "sideways": MM,
         "turn": {"low": -45, "high": 45},
         "lift": {"low": 0, "high": MM["high"]},
-        "period": {"low": 0, "low_open": True},
+        "period": {"low": 0, "low_open": True, "high": MAX_TIME_S, "unit": " s"},
     }
     numbers = {
         key: reader.number(fields[key].value, f"gait: {key}", **limits)
@@ -173,7 +175,7 @@ def read_gait(reader: Reader, node: Node) -> GaitSpec | None:
     names = {"stride": "stride_mm", "sideways": "sideways_mm", "turn": "turn_deg"}
     names.update(lift="lift_mm", period="period_s")
     kwargs: dict[str, Any] = {names[k]: v for k, v in numbers.items()}
-    return GaitSpec(Gait(Pattern(pattern), steps, **kwargs))
+    return GaitSpec(Gait(Pattern(pattern), steps, **kwargs), reader.where(fields["steps"].value))
 
 
 # --- expanding ----------------------------------------------------------------------------------

@@ -47,6 +47,14 @@ class TimedKeyframe(Protocol):
 
 K = TypeVar("K", bound=TimedKeyframe)
 
+# The longest time a file may write (t, after, hold, a gait's period): a day. Far beyond any
+# dance (at most 300 s between keyframes is planned; a longer pause is a hold), and far from the
+# numbers (1.0e+308) whose sums overflow to infinity on the way to the planner.
+MAX_TIME_S = 86_400.0
+# The time scale (a file's speed, --speed): beyond these a motion is a still or a blur, and its
+# times (t / speed) overflow.
+MIN_SPEED, MAX_SPEED = 0.01, 100.0
+
 
 class Timing(enum.Enum):
     ASAP = enum.auto()  # as soon as the limits allow

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from itertools import chain
@@ -37,6 +38,9 @@ from choreo.errors import PlanningError
 from choreo.motion.motion_file import Keyframe, Motion, too_many_played
 from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import (
+    MAX_SPEED,
+    MAX_TIME_S,
+    MIN_SPEED,
     PlayedKeyframe,
     Timing,
     estimated_arrivals_s,
@@ -237,6 +241,43 @@ class _Segment:
     overshoot: list[int]  # joints that leave the range between their two keyframes
 
 
+class _NoTrajectory(Exception):
+    """ruckig found no trajectory for a segment (limits or times too extreme for its numerics):
+    ``reason`` in its words, ``joint`` the index of the joint it names, if any. The planner
+    says which keyframe's move it was."""
+
+    def __init__(self, reason: str, joint: int | None):
+        super().__init__(reason)
+        self.reason = reason
+        self.joint = joint
+
+    @classmethod
+    def of(cls, error: Exception) -> _NoTrajectory:
+        # ruckig 0.19.4: "\n[ruckig] error in step 1, dof: 1 input: \n" and then its whole input
+        text = " ".join(str(error).split())
+        found = re.search(r"error in step (\d+), dof: (\d+)", text)
+        if found is None:
+            return cls(text[:80] or type(error).__name__, None)
+        return cls(f"error in step {found[1]}", int(found[2]))
+
+    def message(
+        self, robot: Robot, p0: Sequence[float], p1: Sequence[float], also_check: str = ""
+    ) -> str:
+        """What failed, from ``p0`` to ``p1`` (degrees, every joint), and what to check (the
+        limits, and ``also_check``)."""
+        if self.joint is None:
+            return (
+                f"ruckig found no trajectory ({self.reason}); check the velocity, acceleration "
+                f"and jerk limits in {robot.path}{also_check}"
+            )
+        name = robot.joint_names[self.joint]
+        return (
+            f"ruckig found no trajectory for {name} from {p0[self.joint]:g}° to "
+            f"{p1[self.joint]:g}° ({self.reason}); check {name}'s velocity, acceleration and "
+            f"jerk limits in {robot.path}{also_check}"
+        )
+
+
 class _Solver:
     """Reuses one ruckig instance for every segment of a plan."""
 
@@ -270,15 +311,9 @@ class _Solver:
         try:
             result = self._ruckig.calculate(inp, self._output)
         except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
-            raise PlanningError(
-                f"ruckig could not plan a segment from {np.round(p0, 3).tolist()} to "
-                f"{np.round(p1, 3).tolist()}: {str(error).strip().splitlines()[0]}"
-            ) from error
+            raise _NoTrajectory.of(error) from error
         if result != Result.Working:
-            raise PlanningError(
-                f"ruckig could not plan a segment ({result.name}) from "
-                f"{np.round(p0, 3).tolist()} to {np.round(p1, 3).tolist()}"
-            )
+            raise _NoTrajectory(result.name, None)
         return self._output.duration
 
     def solve(
@@ -373,8 +408,29 @@ class _Planner:
 
     def rest_to_rest_s(self, i: int) -> float:
         zero = [0.0] * len(self.robot.joints)
-        return self.solver.duration_s(
-            self.pose_lists[i], zero, self.pose_lists[i + 1], zero, self.segment_limits(i + 1), None
+        try:
+            return self.solver.duration_s(
+                self.pose_lists[i],
+                zero,
+                self.pose_lists[i + 1],
+                zero,
+                self.segment_limits(i + 1),
+                None,
+            )
+        except _NoTrajectory as error:
+            raise self.no_trajectory(i, error) from None
+
+    def no_trajectory(self, i: int, error: _NoTrajectory) -> PlanningError:
+        """The move from keyframe i to i + 1 could not be planned, said at keyframe i + 1."""
+        kf = self.played[i + 1].keyframe
+        return PlanningError(
+            f"{kf.where}: the move into keyframe{kf.where.through} could not be planned: "
+            + error.message(
+                self.robot,
+                self.pose_lists[i],
+                self.pose_lists[i + 1],
+                " and the keyframe's velocity",
+            )
         )
 
     def estimated_times(self) -> tuple[np.ndarray, np.ndarray]:
@@ -408,19 +464,24 @@ class _Planner:
             requested = None if wanted is None else wanted - leave
             if requested is not None and requested > MAX_SEGMENT_S:
                 raise PlanningError(self.too_long_message(i + 1, requested))
-            seg = self.solver.solve(
-                self.pose_lists[i],
-                velocities[i].tolist(),
-                self.pose_lists[i + 1],
-                velocities[i + 1].tolist(),
-                self.segment_limits(i + 1),
-                None if requested is None else max(requested, 0.0),
-                self.low[i],
-                self.high[i],
-            )
+            try:
+                seg = self.solver.solve(
+                    self.pose_lists[i],
+                    velocities[i].tolist(),
+                    self.pose_lists[i + 1],
+                    velocities[i + 1].tolist(),
+                    self.segment_limits(i + 1),
+                    None if requested is None else max(requested, 0.0),
+                    self.low[i],
+                    self.high[i],
+                )
+            except _NoTrajectory as error:
+                raise self.no_trajectory(i, error) from None
             if seg.overshoot:
                 i = self.damp(i, seg.overshoot, velocities, damping)
                 continue
+            if seg.duration_s > MAX_SEGMENT_S + DURATION_EPS_S:
+                raise PlanningError(self.too_slow_message(i + 1, seg.duration_s))
             shift[i + 1] = 0.0
             too_early.pop(i + 1, None)
             if requested is not None and seg.duration_s > requested + DURATION_EPS_S:
@@ -469,7 +530,24 @@ class _Planner:
             f"{p.keyframe.where}: keyframe{p.keyframe.where.through} reached {requested_s:.6g} s "
             "after leaving the one "
             f"before{speed}; at most {MAX_SEGMENT_S:g} s can be planned between two keyframes: "
-            f"hold the one before instead (hold: is not limited), or add keyframes in between"
+            f"hold the one before instead (a hold may last up to {MAX_TIME_S:g} s), or add "
+            "keyframes in between"
+        )
+
+    def too_slow_message(self, i: int, duration_s: float) -> str:
+        """Keyframe i is asked for no later than the limits allow, but that is too late."""
+        kf = self.played[i].keyframe
+        joint = self.robot.joints[self.solver.limiting_joint()].name
+        scale = kf.velocity_scale
+        fix = "raise its velocity, or add keyframes in between"
+        if scale == 1:
+            fix = f"add keyframes in between, or raise {joint}'s velocity in {self.robot.path}"
+        return (
+            f"{kf.where}: keyframe{kf.where.through} takes {duration_s:.6g} s to reach from the "
+            f"one before: the velocity limit of {joint}"
+            + (f" x velocity {scale:g}" if scale != 1 else "")
+            + f" allows no faster; at most {MAX_SEGMENT_S:g} s can be planned between two "
+            f"keyframes: {fix}"
         )
 
     def too_early_message(self, i: int, wanted: float, earliest: float) -> str:
@@ -647,12 +725,13 @@ def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = F
     instead, and ``PlanResult.stretches`` says by how much.
     """
     speed = motion.speed if speed is None else speed
-    if not speed > 0 or not math.isfinite(speed):
-        raise ValueError(f"speed must be a finite number > 0, got {speed}")
+    if not MIN_SPEED <= speed <= MAX_SPEED:
+        raise ValueError(f"speed must be in {MIN_SPEED:g}..{MAX_SPEED:g}, got {speed:g}")
     robot = motion.robot
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
     _check_targets(robot, motion.keyframes)
+    _check_times(motion.keyframes)
     unrolled = too_many_played(len(motion.keyframes), motion.repeat)  # e.g. play --loop
     if unrolled is not None:
         raise PlanningError(f"{motion.path}: {unrolled}")
@@ -695,16 +774,22 @@ def plan_approach(
         )
     zero = [0.0] * n
     low, high = _ranges(np.stack([start, target]))
-    segment = _Solver(n).solve(
-        start.tolist(),
-        zero,
-        target.tolist(),
-        zero,
-        _Limits.of(robot, limit_scale),
-        None,
-        low[0],
-        high[0],
-    )
+    try:
+        segment = _Solver(n).solve(
+            start.tolist(),
+            zero,
+            target.tolist(),
+            zero,
+            _Limits.of(robot, limit_scale),
+            None,
+            low[0],
+            high[0],
+        )
+    except _NoTrajectory as error:
+        raise PlanningError(
+            "the approach to the first keyframe could not be planned: "
+            + error.message(robot, start.tolist(), target.tolist())
+        ) from None
     if segment.overshoot:
         raise PlanningError(
             f"internal error: the approach overshoots on "
@@ -733,6 +818,19 @@ def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
     if not np.all(np.isfinite(angles)):
         raise ValueError(f"{name} must be finite, got {angles.tolist()}")
     return angles
+
+
+def _check_times(keyframes: tuple[Keyframe, ...]) -> None:
+    """t, after and hold inside 0..MAX_TIME_S (the loader checks this; values built in code may
+    not, and a huge one overflows the sums of times)."""
+    problems = [
+        f"{kf.where}: {name} must be in 0..{MAX_TIME_S:g} s, got {value:g}"
+        for kf in keyframes
+        for name, value in (("t", kf.t_s), ("after", kf.after_s), ("hold", kf.hold_s))
+        if value is not None and not 0 <= value <= MAX_TIME_S
+    ]
+    if problems:
+        raise PlanningError(problems)
 
 
 def _check_targets(robot: Robot, keyframes: tuple[Keyframe, ...]) -> None:

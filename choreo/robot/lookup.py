@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 from choreo.core.file_kind import not_a_file
-from choreo.core.yaml_source import did_you_mean
+from choreo.core.yaml_source import did_you_mean, quoted
 
 ROBOT_FILE = "robot.yaml"
 REPO_MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -61,7 +61,7 @@ def find_robot_file(ref: str | Path, relative_to: Path | None = None) -> Path:
             return folder / name / ROBOT_FILE
     known = known_robots(search_dirs)
     raise LookupError(
-        f"unknown robot {name!r}{did_you_mean(name, known)}; known robots: "
+        f"unknown robot {quoted(name)}{did_you_mean(name, known)}; known robots: "
         f"{', '.join(known) or 'none'} (looked for <name>/{ROBOT_FILE} in "
         f"{', '.join(map(str, search_dirs)) or 'no models folder'}; "
         f"set CHOREO_MODELS to add a folder, or give a path to a {ROBOT_FILE})"
