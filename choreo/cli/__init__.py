@@ -82,10 +82,7 @@ def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
 def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
-    # mujoco sets up a default OpenGL context (GLFW, which runs a subprocess to find its library)
-    # on import; the commands that check a robot's model never draw, and the preview renders
-    # with its own back-end (choreo.preview.gl), so the command line skips that set-up.
-    os.environ.setdefault("MUJOCO_GL", "disable")
+    put_aside_mujoco_gl()
     args = build_parser(argv).parse_args(argv)
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
@@ -123,6 +120,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
         return report_bug(error, args.verbose)
+
+
+# MUJOCO_GL as the user set it (None: not set), while mujoco is imported without it.
+_users_mujoco_gl: str | None = None
+
+
+def put_aside_mujoco_gl() -> None:
+    """mujoco reads MUJOCO_GL once, on import: it sets up that OpenGL context then (GLFW by
+    default, which runs a subprocess to find its library) and refuses a name it does not know,
+    which would stop even the commands that never draw. Only a render needs a back-end, and the
+    preview chooses it then (choreo.preview.gl), so mujoco is imported without one and the
+    user's choice waits for :func:`restore_mujoco_gl`. ``disable`` is taken as not set: it is
+    what an earlier call left (the tests run many commands in one process)."""
+    global _users_mujoco_gl
+    given = os.environ.get("MUJOCO_GL")
+    _users_mujoco_gl = None if given == "disable" else given
+    os.environ["MUJOCO_GL"] = "disable"
+
+
+def restore_mujoco_gl() -> None:
+    """MUJOCO_GL back as the user set it, for a render (once mujoco is imported)."""
+    if _users_mujoco_gl is not None:
+        os.environ["MUJOCO_GL"] = _users_mujoco_gl
 
 
 EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error
