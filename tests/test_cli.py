@@ -73,3 +73,28 @@ def test_a_closed_stdout_does_not_lose_the_play_report(tmp_path):
         )
     assert done.returncode == 1 and b"Traceback" not in done.stderr
     assert json.loads(report.read_text())["outcome"] == "completed"
+
+
+def ascii_choreo(*argv: str) -> subprocess.CompletedProcess:
+    """``choreo *argv`` whose output can only be ASCII (a C locale, an ASCII pipe)."""
+    return subprocess.run(
+        [sys.executable, "-m", "choreo", *argv],
+        cwd=REPO,
+        env={**os.environ, "LC_ALL": "C", "PYTHONIOENCODING": "ascii"},
+        capture_output=True,
+        timeout=120,
+    )
+
+
+def test_what_the_output_cannot_encode_is_escaped_not_an_error(tmp_path):
+    robots = ascii_choreo("robots", "arm6")
+    assert (robots.returncode, robots.stderr) == (0, b"")
+    assert b"| min \\xb0 | max \\xb0 |" in robots.stdout  # degrees
+    motion = tmp_path / "wävé.yaml"
+    motion.write_text(WAVE.read_text())
+    validated = ascii_choreo("validate", str(motion))
+    assert (validated.returncode, validated.stderr) == (0, b"")
+    assert validated.stdout == f"{tmp_path}/w\\xe4v\\xe9.yaml: ok\n".encode()
+    missing = ascii_choreo("beats", str(tmp_path / "nö.ogg"))
+    assert (missing.returncode, missing.stdout) == (1, b"")
+    assert missing.stderr == f"choreo: error: {tmp_path}/n\\xf6.ogg does not exist\n".encode()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import io
 import logging
 import os
 import sys
@@ -80,6 +81,11 @@ def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    for stream in (sys.stdout, sys.stderr):
+        # a terminal or pipe that cannot encode "°" or a file's name shows it escaped (\xb0):
+        # output never fails on its encoding
+        if isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="backslashreplace")
     if argv is None:
         argv = sys.argv[1:]
     put_aside_mujoco_gl()
