@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 
+import pytest
 from cli_helpers import REPO, WAVE, error_line
 
 from choreo.cli import main
@@ -98,3 +100,34 @@ def test_what_the_output_cannot_encode_is_escaped_not_an_error(tmp_path):
     missing = ascii_choreo("beats", str(tmp_path / "nö.ogg"))
     assert (missing.returncode, missing.stdout) == (1, b"")
     assert missing.stderr == f"choreo: error: {tmp_path}/n\\xf6.ogg does not exist\n".encode()
+
+
+# `choreo *argv` that sends itself the signal SIGNAL as it starts importing MODULE: a signal that
+# comes while the command's modules load, at a known point and no timing
+SIGNALLED_WHILE_IMPORTING = """
+import os, sys
+module, signum, *argv = sys.argv[1:]
+
+class Signaller:
+    def find_spec(self, name, path, target=None):
+        if name == module:
+            os.kill(os.getpid(), int(signum))
+
+sys.meta_path.insert(0, Signaller())
+from choreo.cli import main
+sys.exit(main(argv))
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+@pytest.mark.parametrize("command", [["play", "--dry-run"], ["preview", "--check"]])
+def test_a_signal_while_the_modules_load_is_ctrl_c_without_a_traceback(command, signum):
+    done = subprocess.run(
+        [sys.executable, "-c", SIGNALLED_WHILE_IMPORTING, "choreo.plan.pipeline", str(signum)]
+        + [command[0], str(WAVE), *command[1:]],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (130, "", "choreo: interrupted\n")

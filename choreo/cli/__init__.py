@@ -3,9 +3,9 @@
 Each command group lives in its own module with ``register(subparsers)``; a command's handler
 takes the parsed args and returns an exit code. Exit codes: 0 ok, 1 a ``ChoreoError`` (one clear
 line, no traceback), 2 usage (argparse's own, or a ``UsageError`` raised by a handler), 130 after
-Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C), 70 for a bug (any other
-exception: one line saying so, the traceback in a file, or on stderr with -v). Errors are turned
-into exit codes here and nowhere else.
+Ctrl-C (or SIGTERM/SIGHUP while the command's modules load, or where a command turns them into
+Ctrl-C), 70 for a bug (any other exception: one line saying so, the traceback in a file, or on
+stderr with -v). Errors are turned into exit codes here and nowhere else.
 """
 
 from __future__ import annotations
@@ -89,7 +89,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
     put_aside_mujoco_gl()
-    args = build_parser(argv).parse_args(argv)
+    try:
+        # the command's modules load here (a second for play): Ctrl-C, SIGTERM or SIGHUP
+        # meanwhile end the command as they do once it runs
+        from choreo.cli.arguments import stop_signals_as_ctrl_c
+
+        with stop_signals_as_ctrl_c():
+            args = build_parser(argv).parse_args(argv)
+    except KeyboardInterrupt:
+        return interrupted()
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
         format="%(levelname)s %(name)s: %(message)s",
@@ -116,8 +124,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _silence_stdout()
         return 1
     except KeyboardInterrupt:
-        print("choreo: interrupted", file=sys.stderr)
-        return 130
+        return interrupted()
     except OSError as error:
         if error.errno in (None, errno.EBADF):  # not the OS refusing: choreo misused a file
             return report_bug(error, args.verbose)
@@ -149,6 +156,11 @@ def restore_mujoco_gl() -> None:
     """MUJOCO_GL back as the user set it, for a render (once mujoco is imported)."""
     if _users_mujoco_gl is not None:
         os.environ["MUJOCO_GL"] = _users_mujoco_gl
+
+
+def interrupted() -> int:
+    print("choreo: interrupted", file=sys.stderr)
+    return 130
 
 
 EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error
