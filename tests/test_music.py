@@ -203,7 +203,8 @@ def test_music_problems_are_each_one_line(tmp_path, song):
         """,
     )
     assert problems_of(path) == [
-        f"{path}:2:15: song: notes.txt is not a song file: use .wav, .flac, .ogg, .mp3 "
+        f"{path}:2:15: song: {tmp_path}/notes.txt is not a song file: use .wav, .flac, .ogg, "
+        ".mp3 "
         "(paths are relative to this file's folder)",
         f"{path}:6:5: give at most one of t (arrival time from the motion start), beat/bar "
         "(a beat of the music) and after (delay after the previous keyframe); remove one",
