@@ -131,3 +131,19 @@ def test_a_signal_while_the_modules_load_is_ctrl_c_without_a_traceback(command, 
         timeout=120,
     )
     assert (done.returncode, done.stdout, done.stderr) == (130, "", "choreo: interrupted\n")
+
+
+@pytest.mark.parametrize(
+    "command, argv",
+    [
+        ("servo offset adjust", ["servo", "offset", "adjust", "--id", "1", "--deg", "2", "--yes"]),
+        ("play", ["play", str(WAVE), "--yes"]),
+    ],
+)
+def test_an_argument_a_command_does_not_know_gets_that_command_s_usage(command, argv, capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(argv)
+    assert exited.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"usage: choreo {command} [-h]")
+    assert err.splitlines()[-1] == f"choreo {command}: error: unrecognized arguments: --yes"

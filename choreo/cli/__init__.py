@@ -59,10 +59,24 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    subparsers = parser.add_subparsers(
+        dest="command", metavar="COMMAND", required=True, parser_class=CommandParser
+    )
     for group in command_groups(argv):
         group.register(subparsers)
     return parser
+
+
+class CommandParser(argparse.ArgumentParser):
+    """A command's parser (a subcommand's too: argparse makes them of their parent's class).
+    It refuses the arguments it does not know itself, with its own usage; argparse would leave
+    them to the top parser, which prints the usage of ``choreo``, not of the command."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        parsed, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed, extras
 
 
 def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
