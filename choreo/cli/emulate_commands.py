@@ -135,6 +135,12 @@ def run(args) -> int:
         bridge.stop()
 
     with PtyBridge(emulator, args.pty) as bridge:
+        if bridge.replaced_target is not None:
+            print(
+                f"choreo: note: replaced {args.pty}, left linking to {bridge.replaced_target} "
+                "by an emulator that is gone",
+                file=sys.stderr,
+            )
         previous = {
             signum: signal.signal(signum, stop) for signum in (signal.SIGINT, *STOP_SIGNALS)
         }
