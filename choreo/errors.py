@@ -20,10 +20,12 @@ class ChoreoError(Exception):
     A message that tells how an argument would fix the problem is made with :meth:`naming`:
     ``option`` is the argument (as the library spells it) and ``template`` the message with
     ``{option}`` where its name goes, so that the CLI can put its own flag there instead
-    (with :meth:`worded`)."""
+    (with :meth:`worded`). ``mentions`` are other arguments the message names, each written
+    ``{name}`` in the template."""
 
     option: str | None = None
     template: str | None = None
+    mentions: tuple[str, ...] = ()
 
     @classmethod
     def naming(cls, option: str, template: str, **data: Any) -> Self:
@@ -32,25 +34,37 @@ class ChoreoError(Exception):
         return error
 
     def worded(self, name_of: Callable[[str], str]) -> str:
-        """The message with the argument it names spelled by ``name_of`` (e.g. as a flag)."""
+        """The message with the arguments it names spelled by ``name_of`` (e.g. as flags)."""
         if self.option is None or self.template is None:
             return str(self)
-        return self.template.replace("{option}", name_of(self.option))
+        return _spelled(self.template, self.option, self.mentions, name_of)
 
 
 class OptionError(ChoreoError, ValueError):
     """An argument of a library call that cannot be used as given: ``option`` names it (as the
     call spells it, ``exit_pose``) and ``problem`` says what is wrong and what would be valid
-    (where it names the argument again, it writes ``{option}``). The CLI shows its own flag in
-    the argument's place (``--exit-pose``)."""
+    (where it names the argument again, it writes ``{option}``; another argument, ``{name}``,
+    listed in ``mentions``). The CLI shows its own flags in the arguments' place
+    (``--exit-pose``)."""
 
     option: str
 
-    def __init__(self, option: str, problem: str):
-        super().__init__(f"{option} {problem.replace('{option}', option)}")
+    def __init__(self, option: str, problem: str, *, mentions: tuple[str, ...] = ()):
+        self.problem = _spelled(problem, option, mentions, str)
+        super().__init__(f"{option} {self.problem}")
         self.option = option
-        self.problem = problem.replace("{option}", option)
         self.template = "{option} " + problem
+        self.mentions = mentions
+
+
+def _spelled(
+    template: str, option: str, mentions: tuple[str, ...], name_of: Callable[[str], str]
+) -> str:
+    """``template`` with ``{option}`` and each ``{mention}`` replaced by ``name_of`` its name."""
+    text = template.replace("{option}", name_of(option))
+    for name in mentions:
+        text = text.replace("{" + name + "}", name_of(name))
+    return text
 
 
 class UsageError(ChoreoError):

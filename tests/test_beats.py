@@ -103,7 +103,11 @@ def test_a_file_that_is_not_a_song_is_one_line(tmp_path, capsys):
     text.write_text("la la la")
     assert main(["beats", str(text)]) == 1
     assert capsys.readouterr().err == (
-        "choreo: error: notes.txt is not a song file: use .wav, .flac, .ogg, .mp3\n"
+        f"choreo: error: {text} is not a song file: use .wav, .flac, .ogg, .mp3\n"
+    )
+    assert main(["beats", "/dev/null"]) == 1  # the whole path: not "null is not a song file"
+    assert capsys.readouterr().err == (
+        "choreo: error: /dev/null is not a song file: use .wav, .flac, .ogg, .mp3\n"
     )
     broken = tmp_path / "broken.ogg"
     broken.write_bytes(b"OggS but not really")

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import warnings
 
+import pytest
 from cli_helpers import REPO, WAVE, error_line
 
 from choreo.cli import main
@@ -95,3 +97,75 @@ def test_python_warnings_reach_the_terminal_only_with_verbose(tmp_path, capsys, 
         assert capsys.readouterr().err == "choreo: error: m.yaml:1:1: refused\n"
         assert main(["-v", "plan", "m.yaml"]) == 1
     assert "RuntimeWarning: overflow encountered in multiply" in capsys.readouterr().err
+
+
+def ascii_choreo(*argv: str) -> subprocess.CompletedProcess:
+    """``choreo *argv`` whose output can only be ASCII (a C locale, an ASCII pipe)."""
+    return subprocess.run(
+        [sys.executable, "-m", "choreo", *argv],
+        cwd=REPO,
+        env={**os.environ, "LC_ALL": "C", "PYTHONIOENCODING": "ascii"},
+        capture_output=True,
+        timeout=120,
+    )
+
+
+def test_what_the_output_cannot_encode_is_escaped_not_an_error(tmp_path):
+    robots = ascii_choreo("robots", "arm6")
+    assert (robots.returncode, robots.stderr) == (0, b"")
+    assert b"| min \\xb0 | max \\xb0 |" in robots.stdout  # degrees
+    motion = tmp_path / "wävé.yaml"
+    motion.write_text(WAVE.read_text())
+    validated = ascii_choreo("validate", str(motion))
+    assert (validated.returncode, validated.stderr) == (0, b"")
+    assert validated.stdout == f"{tmp_path}/w\\xe4v\\xe9.yaml: ok\n".encode()
+    missing = ascii_choreo("beats", str(tmp_path / "nö.ogg"))
+    assert (missing.returncode, missing.stdout) == (1, b"")
+    assert missing.stderr == f"choreo: error: {tmp_path}/n\\xf6.ogg does not exist\n".encode()
+
+
+# `choreo *argv` that sends itself the signal SIGNAL as it starts importing MODULE: a signal that
+# comes while the command's modules load, at a known point and no timing
+SIGNALLED_WHILE_IMPORTING = """
+import os, sys
+module, signum, *argv = sys.argv[1:]
+
+class Signaller:
+    def find_spec(self, name, path, target=None):
+        if name == module:
+            os.kill(os.getpid(), int(signum))
+
+sys.meta_path.insert(0, Signaller())
+from choreo.cli import main
+sys.exit(main(argv))
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+@pytest.mark.parametrize("command", [["play", "--dry-run"], ["preview", "--check"]])
+def test_a_signal_while_the_modules_load_is_ctrl_c_without_a_traceback(command, signum):
+    done = subprocess.run(
+        [sys.executable, "-c", SIGNALLED_WHILE_IMPORTING, "choreo.plan.pipeline", str(signum)]
+        + [command[0], str(WAVE), *command[1:]],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (130, "", "choreo: interrupted\n")
+
+
+@pytest.mark.parametrize(
+    "command, argv",
+    [
+        ("servo offset adjust", ["servo", "offset", "adjust", "--id", "1", "--deg", "2", "--yes"]),
+        ("play", ["play", str(WAVE), "--yes"]),
+    ],
+)
+def test_an_argument_a_command_does_not_know_gets_that_command_s_usage(command, argv, capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(argv)
+    assert exited.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"usage: choreo {command} [-h]")
+    assert err.splitlines()[-1] == f"choreo {command}: error: unrecognized arguments: --yes"

@@ -11,14 +11,17 @@ import jsonschema
 import numpy as np
 import pytest
 import yaml
+from cli_helpers import error_line
 from music_helpers import click_track, steady_times, write_clicks
 
 from choreo.cli import main
-from choreo.errors import PlanningError, SourceError
+from choreo.errors import OptionError, PlanningError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.music.beats import detect_beats
 from choreo.music.decode import Audio, decode, encode
 from choreo.plan.planner import plan_motion
+from choreo.play.play_motion import play_motion
+from choreo.play.player import PlayOptions
 
 # librosa warmed once per session (see conftest.py), not in the first test that calls it
 pytestmark = pytest.mark.usefixtures("warm_librosa")
@@ -200,7 +203,8 @@ def test_music_problems_are_each_one_line(tmp_path, song):
         """,
     )
     assert problems_of(path) == [
-        f"{path}:2:15: song: notes.txt is not a song file: use .wav, .flac, .ogg, .mp3 "
+        f"{path}:2:15: song: {tmp_path}/notes.txt is not a song file: use .wav, .flac, .ogg, "
+        ".mp3 "
         "(paths are relative to this file's folder)",
         f"{path}:6:5: give at most one of t (arrival time from the motion start), beat/bar "
         "(a beat of the music) and after (delay after the previous keyframe); remove one",
@@ -477,7 +481,17 @@ def test_a_dance_past_its_song_is_refused_unless_allowed(tmp_path, song, capsys)
     assert "the dance goes on in silence" in capsys.readouterr().err
     once = write(tmp_path, "once.yaml", text.replace("repeat: 3", "repeat: 1"))
     assert main(["play", str(once), "--loop", "3", "--dry-run", "--no-audio"]) == 2
-    assert "--loop 3: the dance (repeat 3) runs to at least t 16.000 s" in capsys.readouterr().err
+    assert error_line(capsys) == (
+        "choreo: error: --loop 3: the dance (repeat 3) runs to at least t 16.000 s, 6.500 s past "
+        "the end of song.wav (which ends at t 9.500 after start 0.5 s); loop fewer times, or "
+        "pass --allow-past-song to dance on in silence"
+    )
+    with pytest.raises(OptionError) as refused:  # the library names its own argument
+        play_motion(once, port="sim://?ids=1-6&clock=virtual", options=PlayOptions(loop=3))
+    assert (refused.value.option, refused.value.mentions) == ("loop", ("allow_past_song",))
+    assert refused.value.problem.endswith(
+        "loop fewer times, or pass allow_past_song to dance on in silence"
+    )
     late = write(
         tmp_path,
         "late.yaml",

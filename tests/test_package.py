@@ -317,3 +317,10 @@ def test_an_option_error_speaks_of_the_argument_and_the_cli_of_its_flag():
         "9 is too many: loop at most 3",
     )
     assert error.worded(flag_of) == "--loop 9 is too many: --loop at most 3"
+    other = OptionError(
+        "loop", "9: {option} fewer, or {allow_past_song}", mentions=("allow_past_song",)
+    )
+    assert (str(other), other.worded(flag_of)) == (
+        "loop 9: loop fewer, or allow_past_song",
+        "--loop 9: --loop fewer, or --allow-past-song",
+    )

@@ -125,3 +125,13 @@ def test_no_serial_port_says_what_to_check(monkeypatch, capsys):
     fake_system(monkeypatch, [], [])
     assert main(["ports"]) == 0
     assert "no serial ports found" in capsys.readouterr().out
+
+
+def test_a_port_string_the_shell_would_split_is_printed_quoted(monkeypatch, capsys):
+    odd = SerialRecord("/dev/serial/by-id/usb-WCH CH340 (arm)", 0x1A86, 0x7523, "USB2.0-Serial")
+    fake_system(monkeypatch, [odd], [])
+    assert main(["ports"]) == 0
+    out = capsys.readouterr().out
+    assert "    --port '/dev/serial/by-id/usb-WCH CH340 (arm)'\n" in out
+    assert "    --port 'rrc:///dev/serial/by-id/usb-WCH CH340 (arm)'\n" in out
+    assert "choreo ports --probe '/dev/serial/by-id/usb-WCH CH340 (arm)'`" in out

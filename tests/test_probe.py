@@ -69,8 +69,9 @@ def test_ports_probe_on_the_command_line(capsys):
     raw, rrc = "sim://?ids=1&clock=virtual", "sim://?board=rrc&ids=3&clock=virtual"
     assert main(["ports", "--probe", raw, rrc]) == 0
     out = capsys.readouterr().out
-    assert f"{raw}  raw LX bus, servo IDs 1\n    --port {raw}" in out
-    assert f"{rrc}  RRC board, supply 7.4 V, servo IDs 3\n    --port {rrc}" in out
+    # quoted for the shell: pasted bare, & would run the command in the background
+    assert f"{raw}  raw LX bus, servo IDs 1\n    --port '{raw}'\n" in out
+    assert f"{rrc}  RRC board, supply 7.4 V, servo IDs 3\n    --port '{rrc}'\n" in out
     assert main(["ports", "--probe", rrc, "--json"]) == 0
     (entry,) = json.loads(capsys.readouterr().out)["probed"]
     assert entry["transport"] == "RRC board" and entry["servo_ids"] == [3]

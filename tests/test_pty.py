@@ -119,6 +119,72 @@ def test_an_existing_path_is_refused_and_left_alone(link):
     assert link.read_text() == "not a tty"
 
 
+def replaced_note(link, target: str) -> str:
+    return f"choreo: note: replaced {link}, left linking to {target} by an emulator that is gone\n"
+
+
+def test_the_link_of_a_killed_emulator_to_the_pty_it_gets_again_is_replaced(link, monkeypatch):
+    """A dead emulator's pty number goes to the next pty opened: often the new bridge's."""
+    from choreo.emulator import BusEmulator
+    from choreo.emulator import pty as pty_module
+
+    master, slave = os.openpty()
+    left = os.ttyname(slave)
+    os.symlink(left, link)  # as an emulator killed with SIGKILL leaves it
+    monkeypatch.setattr(pty_module.os, "openpty", lambda: (master, slave))
+    with pty_module.PtyBridge(BusEmulator([1]), link) as bridge:
+        assert bridge.replaced_target == left
+        assert os.readlink(link) == bridge.slave_name == left
+    assert not os.path.lexists(link)
+
+
+@pytest.mark.parametrize("pty_of_a_terminal", [False, True])
+def test_a_link_to_a_pty_no_emulator_serves_is_replaced_with_a_note(link, pty_of_a_terminal):
+    """The pty a killed emulator's link names is gone, or now someone else's (not a bridge)."""
+    terminal = os.openpty() if pty_of_a_terminal else None
+    left = os.ttyname(terminal[1]) if terminal else "/dev/pts/999999"
+    os.symlink(left, link)
+    process = start_emulator("--pty", str(link))
+    try:
+        ready = ready_line(process)
+        served = os.readlink(link)
+    finally:
+        returncode, stderr = stop(process)
+        for fd in terminal or ():
+            os.close(fd)
+    assert served != left and ready.endswith(f"-> {served}; Ctrl-C to stop\n")
+    assert (returncode, stderr) == (130, replaced_note(link, left))
+    assert not os.path.lexists(link)
+
+
+def test_the_link_of_a_running_emulator_is_refused_and_left_alone(link):
+    running = start_emulator("--pty", str(link))
+    try:
+        ready_line(running)
+        target = os.readlink(link)
+        second = start_emulator("--pty", str(link))
+        _, stderr = second.communicate(timeout=STARTUP_TIMEOUT_S)
+        assert second.returncode == 1
+        assert stderr == (
+            f"choreo: error: {link} already links to {target}, which another emulator serves; "
+            "stop that one, or choose another path (--pty)\n"
+        )
+        assert os.readlink(link) == target
+    finally:
+        stop(running)
+
+
+def test_a_link_to_anything_but_a_pty_is_refused_and_left_alone(link, tmp_path):
+    os.symlink(tmp_path / "gone", link)
+    process = start_emulator("--pty", str(link))
+    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
+    assert process.returncode == 1
+    assert stderr == (
+        f"choreo: error: {link} already exists; remove it or choose another path (--pty)\n"
+    )
+    assert os.readlink(link) == str(tmp_path / "gone")
+
+
 def test_bad_servo_list_is_a_usage_error(link):
     process = start_emulator("--pty", str(link), "--servos", "1-x")
     _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)

@@ -93,6 +93,62 @@ def test_mujoco_gl_in_the_environment_is_used_without_probing(monkeypatch):
     assert gl.choose_backend() == "osmesa"
 
 
+@pytest.mark.parametrize("value", ["glfw", " GLFW "])
+def test_glfw_named_is_used_without_probing(monkeypatch, value):
+    monkeypatch.setenv("MUJOCO_GL", value)
+    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    assert gl.choose_backend() == "glfw"
+
+
+def test_a_mujoco_gl_that_names_no_backend_is_refused_naming_the_valid_ones(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "bogus")
+    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    with pytest.raises(PreviewError) as raised:
+        gl.choose_backend()
+    assert str(raised.value) == (
+        "MUJOCO_GL=bogus is not an OpenGL back-end to render with: set it to egl, osmesa or "
+        "glfw, or unset it to use the first that works"
+    )
+
+
+def test_glfw_without_a_window_system_is_one_error(monkeypatch):
+    monkeypatch.setattr(gl, "window_system_problem", lambda: "no display")
+    with pytest.raises(PreviewError) as raised:
+        gl.context_class("glfw")
+    assert str(raised.value) == (
+        "cannot render with glfw: no display; unset MUJOCO_GL to render with egl or osmesa"
+    )
+
+
+def choreo_with_mujoco_gl(value: str, *argv: str) -> subprocess.CompletedProcess:
+    """``choreo *argv`` in a process of its own (mujoco reads MUJOCO_GL when first imported)."""
+    return subprocess.run(
+        [sys.executable, "-m", "choreo", *argv],
+        cwd=REPO,
+        env={**os.environ, "MUJOCO_GL": value},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_a_bad_mujoco_gl_stops_no_command_that_does_not_render():
+    for argv in (["preview", str(FINE), "--check"], ["robots", "arm6"]):
+        done = choreo_with_mujoco_gl("bogus", *argv)
+        assert (done.returncode, done.stderr) == (0, ""), argv
+
+
+def test_a_bad_mujoco_gl_stops_a_render_with_one_line(tmp_path):
+    output = tmp_path / "sheet.png"
+    done = choreo_with_mujoco_gl("bogus", "preview", str(FINE), "-o", str(output))
+    assert done.returncode == 1
+    assert done.stderr == (
+        "choreo: error: MUJOCO_GL=bogus is not an OpenGL back-end to render with: set it to "
+        "egl, osmesa or glfw, or unset it to use the first that works\n"
+    )
+    assert not output.exists()
+
+
 def test_rendering_without_a_backend_is_an_error_not_a_skip(fine, tmp_path, monkeypatch):
     def unavailable():
         raise PreviewError("cannot render offscreen: no OpenGL back-end works")

@@ -1,4 +1,5 @@
-"""Show files, clock offsets, staging and the messages of a show (no network here)."""
+"""Show files, clock offsets, staging, endpoints and the messages of a show (no network here but
+one session that cannot open)."""
 
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ import pytest
 import yaml
 
 from choreo.core.clock import RealClock
-from choreo.errors import ChoreoError, PlaybackAborted, SourceError
+from choreo.errors import ChoreoError, OptionError, PlaybackAborted, SourceError
 from choreo.motion.motion_file import load_motion
+from choreo.show import network as zenoh_network
 from choreo.show.clock_offset import (
     MORE_ROUND_TRIPS,
     ROUND_TRIPS,
@@ -263,3 +265,44 @@ def test_the_conductor_refuses_clocks_past_the_bound_naming_each_performer():
     assert lines[1].endswith(
         "over the show's bound of 2 ms; synchronise the clocks (chrony/NTP, or PTP)"
     )
+
+
+@pytest.mark.parametrize(
+    "endpoint",
+    [
+        "tcp/192.168.1.5:7447",
+        "udp/host.local:0",
+        "tcp/[::1]:7447",
+        "ws/10.0.0.2:80?iface=eth0",
+        "unixsock-stream//tmp/choreo.sock",
+    ],
+)
+def test_endpoints_of_the_zenoh_form_pass_the_check(endpoint):
+    zenoh_network.check_endpoint("connect", endpoint)
+
+
+@pytest.mark.parametrize(
+    "endpoint",
+    [
+        "bogus",
+        "tcp/192.168.1.5",
+        "tcp/192.168.1.5:65536",
+        "http/1.2.3.4:80",
+        "tcp/my host:1",
+        "unixsock-stream/",
+        "",
+    ],
+)
+def test_an_endpoint_of_another_form_is_an_option_error_naming_the_argument(endpoint):
+    with pytest.raises(OptionError) as raised:
+        zenoh_network.Network(listen=["tcp/127.0.0.1:0"], connect=[endpoint])
+    assert raised.value.option == "connect"
+    assert raised.value.problem.startswith(f"{endpoint!r} is not a Zenoh endpoint: write ")
+
+
+def test_a_session_that_cannot_open_says_so_without_zenoh_s_source_lines():
+    with pytest.raises(ChoreoError) as raised:
+        zenoh_network.Network(listen=["tcp/192.0.2.1:7447"])  # TEST-NET-1: no interface here has it
+    message = str(raised.value)
+    assert message.startswith("cannot open the Zenoh session: ")
+    assert ".rs:" not in message and "\n" not in message

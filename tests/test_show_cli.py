@@ -224,3 +224,22 @@ def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, t
     assert (parts["right"]["outcome"], parts["left"]["outcome"]) == ("lost", "completed")
     assert parts["left"]["ticks_played"] == parts["left"]["ticks_total"]
     assert json.loads(report_path.read_text())["stop_sent_s"] is None
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["show", str(SHOWS / "trio.yaml"), "--no-audio", "--connect", "bogus"],
+        ["perform", "--port", ARM, "--listen", "bogus"],
+    ],
+)
+def test_an_endpoint_that_is_not_one_is_refused_before_zenoh_sees_it(argv, capsys):
+    from choreo.cli import main
+
+    flag = argv[-2]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        f"choreo: error: {flag} 'bogus' is not a Zenoh endpoint: write PROTOCOL/HOST:PORT "
+        "(PROTOCOL one of tcp, udp, tls, quic, ws; PORT 0-65535) or unixsock-stream/PATH, "
+        "e.g. tcp/192.168.1.5:7447\n"
+    )

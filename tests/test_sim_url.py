@@ -7,9 +7,11 @@ import json
 
 import pytest
 import serial
+from cli_helpers import error_line
 
 from choreo.bus.protocol import Command as C
 from choreo.bus.protocol import encode_request
+from choreo.cli import main
 from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import (
     BusEmulator,
@@ -18,6 +20,7 @@ from choreo.emulator import (
     parse_servo_specs,
     register_url_handler,
 )
+from choreo.emulator.protocol_sim import emulator_from_url
 
 BYTE_S = 10 / 115200
 POS_READ_500 = bytes.fromhex("55 55 01 05 1C F4 01 E8")
@@ -88,7 +91,8 @@ def test_url_options_configure_the_emulator(tmp_path):
         ("sim://?colour=red", "unknown option 'colour'"),
         ("sim://?clock=fast", "clock must be real or virtual"),
         ("sim://?echo=yes", "echo must be 0 or 1"),
-        ("sim://?turnaround_ms=soon", "turnaround_ms must be a number"),
+        ("sim://?turnaround_ms=soon", "turnaround_ms must be a number of milliseconds"),
+        ("sim://?seed=1.5", "seed must be a whole number, got '1.5'"),
         ("sim://?ids=1-x", "bad servo IDs '1-x'"),
         ("sim://?ids=300", r"bad servo IDs '300' \(servo IDs must be in 0..253"),
         ("sim://?ids=1-2,:LX-224HV", r"bad servo IDs ':LX-224HV' .*an ID or a range like 1-6"),
@@ -98,6 +102,33 @@ def test_url_options_configure_the_emulator(tmp_path):
 def test_bad_urls_raise_serial_exceptions_that_say_what_is_valid(url, message):
     with pytest.raises(serial.SerialException, match=message):
         serial.serial_for_url(url)
+
+
+@pytest.mark.parametrize(
+    "query, valid",
+    [
+        ("start_gap_ms=-1", ">= 0"),
+        ("start_gap_ms=nan", ">= 0"),
+        ("start_gap_ms=inf", ">= 0"),
+        ("turnaround_ms=-1", "from 0 to 1000"),
+        ("turnaround_ms=1001", "from 0 to 1000"),
+        ("turnaround_ms=inf", "from 0 to 1000"),
+    ],
+)
+def test_a_time_out_of_range_is_told_as_the_url_writes_it(query, valid):
+    name, _, value = query.partition("=")
+    with pytest.raises(ValueError) as raised:
+        emulator_from_url(f"sim://?{query}")
+    assert str(raised.value) == f"{name} must be a number of milliseconds {valid}, got {value!r}"
+
+
+def test_the_command_line_tells_a_bad_url_option_in_one_line(capsys):
+    assert main(["scan", "--port", "sim://?start_gap_ms=-1"]) == 1
+    assert error_line(capsys) == (
+        "choreo: error: cannot open sim://?start_gap_ms=-1: bad port 'sim://?start_gap_ms=-1': "
+        "start_gap_ms must be a number of milliseconds >= 0, got '-1'; list ports with "
+        "`choreo ports`; `sim://` is the built-in emulator"
+    )
 
 
 def test_parse_servo_specs():

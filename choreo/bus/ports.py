@@ -10,6 +10,7 @@ enumerations are plain functions passed in, so tests feed fake records: there is
 from __future__ import annotations
 
 import os
+import shlex
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
@@ -125,7 +126,7 @@ def identify_serial(record: SerialRecord, *, on_board: bool) -> FoundPort:
             "controller board",
             (device, f"rrc://{device}"),
             "the raw LX bus at 115200 baud, or the RRC board at 1,000,000 baud; "
-            + PROBE_HINT.format(device=device),
+            + PROBE_HINT.format(device=shlex.quote(device)),
         )
     if on_board and device in PI_UARTS:
         return found(

@@ -3,9 +3,9 @@
 Each command group lives in its own module with ``register(subparsers)``; a command's handler
 takes the parsed args and returns an exit code. Exit codes: 0 ok, 1 a ``ChoreoError`` (one clear
 line, no traceback), 2 usage (argparse's own, or a ``UsageError`` raised by a handler), 130 after
-Ctrl-C (or SIGTERM/SIGHUP where a command turns them into Ctrl-C), 70 for a bug (any other
-exception: one line saying so, the traceback in a file, or on stderr with -v). Errors are turned
-into exit codes here and nowhere else.
+Ctrl-C (or SIGTERM/SIGHUP while the command's modules load, or where a command turns them into
+Ctrl-C), 70 for a bug (any other exception: one line saying so, the traceback in a file, or on
+stderr with -v). Errors are turned into exit codes here and nowhere else.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import io
 import logging
 import os
 import sys
@@ -60,10 +61,24 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    subparsers = parser.add_subparsers(
+        dest="command", metavar="COMMAND", required=True, parser_class=CommandParser
+    )
     for group in command_groups(argv):
         group.register(subparsers)
     return parser
+
+
+class CommandParser(argparse.ArgumentParser):
+    """A command's parser (a subcommand's too: argparse makes them of their parent's class).
+    It refuses the arguments it does not know itself, with its own usage; argparse would leave
+    them to the top parser, which prints the usage of ``choreo``, not of the command."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        parsed, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed, extras
 
 
 def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
@@ -82,13 +97,23 @@ def command_groups(argv: Sequence[str] | None) -> list[ModuleType]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    for stream in (sys.stdout, sys.stderr):
+        # a terminal or pipe that cannot encode "°" or a file's name shows it escaped (\xb0):
+        # output never fails on its encoding
+        if isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="backslashreplace")
     if argv is None:
         argv = sys.argv[1:]
-    # mujoco sets up a default OpenGL context (GLFW, which runs a subprocess to find its library)
-    # on import; the commands that check a robot's model never draw, and the preview renders
-    # with its own back-end (choreo.preview.gl), so the command line skips that set-up.
-    os.environ.setdefault("MUJOCO_GL", "disable")
-    args = build_parser(argv).parse_args(argv)
+    put_aside_mujoco_gl()
+    try:
+        # the command's modules load here (a second for play): Ctrl-C, SIGTERM or SIGHUP
+        # meanwhile end the command as they do once it runs
+        from choreo.cli.arguments import stop_signals_as_ctrl_c
+
+        with stop_signals_as_ctrl_c():
+            args = build_parser(argv).parse_args(argv)
+    except KeyboardInterrupt:
+        return interrupted()
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
         format="%(levelname)s %(name)s: %(message)s",
@@ -116,8 +141,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _silence_stdout()
         return 1
     except KeyboardInterrupt:
-        print("choreo: interrupted", file=sys.stderr)
-        return 130
+        return interrupted()
     except OSError as error:
         if error.errno in (None, errno.EBADF):  # not the OS refusing: choreo misused a file
             return report_bug(error, args.verbose)
@@ -137,6 +161,34 @@ def python_warnings_for_developers(verbose: int) -> Iterator[None]:
         if not verbose:
             warnings.simplefilter("ignore")
         yield
+
+
+# MUJOCO_GL as the user set it (None: not set), while mujoco is imported without it.
+_users_mujoco_gl: str | None = None
+
+
+def put_aside_mujoco_gl() -> None:
+    """mujoco reads MUJOCO_GL once, on import: it sets up that OpenGL context then (GLFW by
+    default, which runs a subprocess to find its library) and refuses a name it does not know,
+    which would stop even the commands that never draw. Only a render needs a back-end, and the
+    preview chooses it then (choreo.preview.gl), so mujoco is imported without one and the
+    user's choice waits for :func:`restore_mujoco_gl`. ``disable`` is taken as not set: it is
+    what an earlier call left (the tests run many commands in one process)."""
+    global _users_mujoco_gl
+    given = os.environ.get("MUJOCO_GL")
+    _users_mujoco_gl = None if given == "disable" else given
+    os.environ["MUJOCO_GL"] = "disable"
+
+
+def restore_mujoco_gl() -> None:
+    """MUJOCO_GL back as the user set it, for a render (once mujoco is imported)."""
+    if _users_mujoco_gl is not None:
+        os.environ["MUJOCO_GL"] = _users_mujoco_gl
+
+
+def interrupted() -> int:
+    print("choreo: interrupted", file=sys.stderr)
+    return 130
 
 
 EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error

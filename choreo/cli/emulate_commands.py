@@ -11,11 +11,14 @@ from choreo.cli.arguments import STOP_SIGNALS, non_negative_float
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, parse_servo_specs
 from choreo.emulator.boards import BOARDS
-from choreo.emulator.bus_emulator import DEFAULT_START_GAP_S, DEFAULT_TURNAROUND_S
+from choreo.emulator.bus_emulator import (
+    DEFAULT_START_GAP_S,
+    DEFAULT_TURNAROUND_S,
+    MAX_TURNAROUND_MS,
+)
 from choreo.emulator.pty import PtyBridge
 
 EMULATE_LOG_LIMIT = 1000
-MAX_TURNAROUND_MS = 1000.0
 
 
 def register(subparsers) -> None:
@@ -88,7 +91,7 @@ def pty_path(text: str) -> str:
 
 def turnaround_ms(text: str) -> float:
     value = non_negative_float(text)
-    if value > MAX_TURNAROUND_MS:  # a real servo answers in under a millisecond
+    if value > MAX_TURNAROUND_MS:
         raise argparse.ArgumentTypeError(
             f"expected a number in 0..{MAX_TURNAROUND_MS:g} ms, got {text!r}"
         )
@@ -132,6 +135,12 @@ def run(args) -> int:
         bridge.stop()
 
     with PtyBridge(emulator, args.pty) as bridge:
+        if bridge.replaced_target is not None:
+            print(
+                f"choreo: note: replaced {args.pty}, left linking to {bridge.replaced_target} "
+                "by an emulator that is gone",
+                file=sys.stderr,
+            )
         previous = {
             signum: signal.signal(signum, stop) for signum in (signal.SIGINT, *STOP_SIGNALS)
         }

@@ -1,10 +1,12 @@
-"""``choreo ports``: the serial ports and HID devices here, and the ``--port`` string for each."""
+"""``choreo ports``: the serial ports and HID devices here, and the ``--port`` string for each
+(shell-quoted: ``sim://?board=rrc&ids=1-6`` pasted bare would run in the background)."""
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import json
+import shlex
 
 from choreo.bus.ports import FoundPort, list_ports
 from choreo.bus.probe import ProbeResult, probe_port
@@ -54,7 +56,7 @@ def _describe(port: FoundPort) -> str:
     usb = f" [{port.usb_id}]" if port.usb_id else ""
     what = port.known_as or port.description or ("HID device" if port.kind == "hid" else "")
     lines = [f"{port.device}{usb}  {what}".rstrip()]
-    lines += [f"    --port {text}" for text in port.port_strings]
+    lines += [f"    --port {shlex.quote(text)}" for text in port.port_strings]
     if port.note:
         lines.append(f"    ({port.note})")
     return "\n".join(lines)
@@ -80,7 +82,7 @@ def _run_probe(targets: list[str], *, as_json: bool) -> int:
 
 
 def _describe_probe(result: ProbeResult) -> str:
-    if result.transport is None:
+    if result.transport is None or result.port_string is None:
         return f"{result.device}  nothing found\n    ({result.note})"
     found = [result.transport]
     if result.battery_mv is not None:
@@ -88,7 +90,10 @@ def _describe_probe(result: ProbeResult) -> str:
     if result.servo_ids is not None:
         ids = ", ".join(map(str, result.servo_ids))
         found.append(f"servo IDs {ids}" if ids else "no servo answered")
-    lines = [f"{result.device}  {', '.join(found)}", f"    --port {result.port_string}"]
+    lines = [
+        f"{result.device}  {', '.join(found)}",
+        f"    --port {shlex.quote(result.port_string)}",
+    ]
     if result.note:
         lines.append(f"    ({result.note})")
     return "\n".join(lines)

@@ -12,6 +12,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from choreo.cli import restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
     load_dance,
@@ -235,6 +236,10 @@ def _preview(args: argparse.Namespace) -> int:
         check_writable(args.report)
 
     from choreo import preview  # imports mujoco: only when this command runs
+
+    if output is not None:  # a render that cannot be is known before the simulation
+        restore_mujoco_gl()  # mujoco is imported: now the back-end MUJOCO_GL names is used
+        preview.gl.offscreen_backend()
 
     motion = load_dance(args.motion, args.allow_past_song)
     if args.start is not None:

@@ -63,6 +63,7 @@ class DirectionGate(Protocol):
 logger = logging.getLogger(__name__)
 
 DEFAULT_TURNAROUND_S = 0.0006  # one measurement of a real servo (protocol.md)
+MAX_TURNAROUND_MS = 1000.0  # a real servo answers in under a millisecond
 DEFAULT_LOG_LIMIT = 100_000  # entries per log list; a long-running emulator must not grow forever
 STATE_FORMAT = "choreo-emulator-state"
 STATE_VERSION = 1

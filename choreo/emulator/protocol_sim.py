@@ -34,6 +34,7 @@ from choreo.emulator.boards import BOARDS
 from choreo.emulator.bus_emulator import (
     DEFAULT_START_GAP_S,
     DEFAULT_TURNAROUND_S,
+    MAX_TURNAROUND_MS,
     BusEmulator,
     parse_servo_specs,
 )
@@ -76,21 +77,38 @@ def emulator_from_url(url: str) -> BusEmulator:
         parse_servo_specs(options.get("ids", "1-6")),
         model=options.get("model", "LX-16A"),
         clock=VirtualClock() if clock_name == "virtual" else RealClock(),
-        turnaround_s=_number(options, "turnaround_ms", DEFAULT_TURNAROUND_S * 1000) / 1000,
+        turnaround_s=_ms(options, "turnaround_ms", DEFAULT_TURNAROUND_S, MAX_TURNAROUND_MS),
         echo=echo == "1",
-        start_gap_s=_number(options, "start_gap_ms", DEFAULT_START_GAP_S * 1000) / 1000,
-        seed=int(_number(options, "seed", 0)),
+        start_gap_s=_ms(options, "start_gap_ms", DEFAULT_START_GAP_S),
+        seed=_integer(options, "seed", 0),
         state_path=options.get("state") or None,
     )
 
 
-def _number(options: dict[str, str], name: str, default: float) -> float:
+def _ms(options: dict[str, str], name: str, default_s: float, high_ms: float = math.inf) -> float:
+    """The option ``name``, milliseconds from 0 to ``high_ms``, in seconds. Checked here, so a
+    bad value is told as the URL writes it, not as the emulator's argument in seconds."""
     if name not in options:
+        return default_s
+    text = options[name]
+    try:
+        value_ms = float(text)
+    except ValueError:
+        value_ms = math.nan
+    if not (math.isfinite(value_ms) and 0 <= value_ms <= high_ms):
+        valid = f"from 0 to {high_ms:g}" if math.isfinite(high_ms) else ">= 0"
+        raise ValueError(f"{name} must be a number of milliseconds {valid}, got {text!r}")
+    return value_ms / 1000
+
+
+def _integer(options: dict[str, str], name: str, default: int) -> int:
+    text = options.get(name)
+    if text is None:
         return default
     try:
-        return float(options[name])
+        return int(text)
     except ValueError:
-        raise ValueError(f"{name} must be a number, got {options[name]!r}") from None
+        raise ValueError(f"{name} must be a whole number, got {text!r}") from None
 
 
 class SimSerial(SerialBase):

@@ -46,7 +46,7 @@ def ffmpeg_exe() -> str:
 def check_song_path(path: Path) -> str | None:
     """Why ``path`` can't be a song (one phrase), or None if it can."""
     if path.suffix.lower() not in SONG_SUFFIXES:
-        return f"{path.name} is not a song file: use {', '.join(SONG_SUFFIXES)}"
+        return f"{path} is not a song file: use {', '.join(SONG_SUFFIXES)}"
     kind = not_a_file(path)
     if kind is not None:
         return f"{path} is {kind}, not a song file"

@@ -121,7 +121,10 @@ def prepared_motion(
     outlasting = past_song(looped.music, looped.keyframes, looped.repeat)
     if outlasting is not None and not options.allow_past_song:
         raise OptionError(
-            "loop", f"{options.loop}: {outlasting}; loop fewer times, or allow_past_song"
+            "loop",
+            f"{options.loop}: {outlasting}; loop fewer times, or pass {{allow_past_song}} to "
+            "dance on in silence",
+            mentions=("allow_past_song",),
         )
     if outlasting is not None:
         on_note(f"warning: {outlasting}: the dance goes on in silence")

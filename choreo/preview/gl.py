@@ -1,10 +1,12 @@
-"""Choosing the offscreen OpenGL back-end: EGL (Mesa) if it works, else OSMesa.
+"""Choosing the offscreen OpenGL back-end: EGL (Mesa) if it works, else OSMesa, unless
+``MUJOCO_GL`` names one (GLFW too: an invisible window, so only with a display).
 
 PyOpenGL fixes its platform at its first import, so a back-end that fails half-way cannot be
 swapped for another in the same process: each candidate is tried in a subprocess first. The
 renderer then creates its context from the chosen back-end's own class, so the choice holds even
 when ``mujoco`` was imported earlier (by the robot loader) without ``MUJOCO_GL``.
-``MUJOCO_GL=egl`` or ``osmesa`` in the environment skips the probe.
+``MUJOCO_GL=egl``, ``osmesa`` or ``glfw`` in the environment skips the probe; any other name is
+refused when rendering, not before (the command line imports mujoco without it: see choreo.cli).
 """
 
 from __future__ import annotations
@@ -12,14 +14,19 @@ from __future__ import annotations
 import functools
 import logging
 import os
+import re
 import subprocess
 import sys
+import warnings
 
 from choreo.errors import PreviewError
 
 log = logging.getLogger(__name__)
 
-BACKENDS = ("egl", "osmesa")
+BACKENDS = ("egl", "osmesa")  # tried in this order when MUJOCO_GL names none
+NAMED_BACKENDS = (*BACKENDS, "glfw")
+# MUJOCO_GL values that name no back-end: unset, or mujoco's words for "no OpenGL at import"
+UNNAMED = ("", "disable", "disabled", "off", "false", "0")
 # Debian's names for Mesa's EGL and OSMesa with its software rasteriser
 MESA_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1", "libgles2", "libosmesa6", "libgl1-mesa-dri")
 INSTALL_HINT = f"install Mesa's EGL and OSMesa, e.g. apt-get install {' '.join(MESA_PACKAGES)}"
@@ -48,9 +55,16 @@ def offscreen_backend() -> str:
 
 def choose_backend() -> str:
     """MUJOCO_GL if it names a back-end, else the first that works: EGL, then OSMesa."""
-    requested = os.environ.get("MUJOCO_GL", "").strip().lower()
-    if requested in BACKENDS:
+    given = os.environ.get("MUJOCO_GL", "")
+    requested = given.strip().lower()
+    if requested in NAMED_BACKENDS:
         return requested
+    if requested not in UNNAMED:
+        raise PreviewError(
+            f"MUJOCO_GL={given} is not an OpenGL back-end to render with: set it to "
+            f"{', '.join(NAMED_BACKENDS[:-1])} or {NAMED_BACKENDS[-1]}, or unset it to use "
+            "the first that works"
+        )
     if "OpenGL" in sys.modules:  # PyOpenGL's platform is already fixed in this process
         platform = os.environ.get("PYOPENGL_PLATFORM", "").lower()
         if platform in BACKENDS:
@@ -87,15 +101,39 @@ def probe(backend: str) -> str | None:
 
 def context_class(backend: str):
     """The GL context class of ``backend`` (imports PyOpenGL for that platform)."""
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown offscreen back-end {backend!r}; valid: {', '.join(BACKENDS)}")
+    if backend not in NAMED_BACKENDS:
+        raise ValueError(
+            f"unknown offscreen back-end {backend!r}; valid: {', '.join(NAMED_BACKENDS)}"
+        )
+    if backend == "glfw":
+        problem = window_system_problem()
+        if problem is not None:
+            raise PreviewError(
+                f"cannot render with glfw: {problem}; unset MUJOCO_GL to render with "
+                f"{' or '.join(BACKENDS)}"
+            )
     try:
         if backend == "egl":
             from mujoco.egl import GLContext
-        else:
+        elif backend == "osmesa":
             from mujoco.osmesa import GLContext
+        else:
+            from mujoco.glfw import GLContext
     except (ImportError, OSError, AttributeError) as error:
         raise PreviewError(
             f"cannot render offscreen with {backend}: {error}; {INSTALL_HINT}"
         ) from None
     return GLContext
+
+
+def window_system_problem() -> str | None:
+    """Why GLFW cannot reach the display (e.g. a stale DISPLAY over SSH), or None if it can."""
+    import glfw
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if glfw.init():
+            return None
+    # GLFW's warnings read "(65550) b'X11: Failed to open display :99'"
+    reasons = [re.sub(r"^\(\d+\) b?'(.*)'$", r"\1", str(w.message)) for w in caught]
+    return "; ".join(reasons) or "GLFW could not start"

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import os
-import re
 import time
-import warnings
 
 import mujoco
 import numpy as np
 
 from choreo.errors import PreviewError
+from choreo.preview.gl import window_system_problem
 from choreo.preview.model import load_model
 from choreo.preview.sim import Rollout
 
@@ -22,22 +21,15 @@ def has_display() -> bool:
 
 
 def _check_window_system() -> None:
-    """PreviewError (one line) if GLFW cannot reach the display, e.g. a stale DISPLAY over SSH:
-    mujoco's viewer would print GLFW's warnings and exit the process instead."""
-    import glfw
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        if glfw.init():
-            return
-    # GLFW's warnings read "(65550) b'X11: Failed to open display :99'"
-    reasons = [re.sub(r"^\(\d+\) b?'(.*)'$", r"\1", str(w.message)) for w in caught]
-    display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-    raise PreviewError(
-        f"the viewer cannot open a window on display {display!r} "
-        f"({'; '.join(reasons) or 'GLFW could not start'}); render to a "
-        "file instead: choreo preview MOTION -o out.mp4"
-    )
+    """PreviewError (one line) if GLFW cannot reach the display: mujoco's viewer would print
+    GLFW's warnings and exit the process instead."""
+    problem = window_system_problem()
+    if problem is not None:
+        display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        raise PreviewError(
+            f"the viewer cannot open a window on display {display!r} ({problem}); render to a "
+            "file instead: choreo preview MOTION -o out.mp4"
+        )
 
 
 def show_in_viewer(rollout: Rollout) -> None:

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 from collections.abc import Callable, Sequence
 
-from choreo.errors import ChoreoError
+from choreo.errors import ChoreoError, OptionError
 
 try:
     import zenoh
@@ -21,6 +22,15 @@ except ImportError:  # pragma: no cover - depends on the installed extras
 log = logging.getLogger(__name__)
 
 ROOT = "choreo"
+
+# The Zenoh locators a peer can listen on or connect to: PROTOCOL/HOST:PORT ([v6 address]:PORT)
+# for the IP ones, PROTOCOL/PATH for a Unix socket; metadata (?...) and config (#...) may follow.
+IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+PATH_PROTOCOLS = ("unixsock-stream",)  # one: the message names it alone
+ENDPOINT_EXAMPLE = "tcp/192.168.1.5:7447"
+_HOST_PORT = re.compile(r"(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]?#]+):(\d{1,5})")
+# Zenoh's messages end with the Rust source line that raised them: not for a user
+_RUST_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
 
 
 def performer_key(name: str) -> str:
@@ -36,6 +46,24 @@ def show_key(show_id: str) -> str:
 def name_of(key: str) -> str:
     """The last chunk of a key: a performer's name."""
     return key.rsplit("/", 1)[-1]
+
+
+def check_endpoint(option: str, endpoint: str) -> None:
+    """OptionError naming ``option`` unless ``endpoint`` has the form of a Zenoh endpoint (whether
+    anything answers there is for the session to find)."""
+    protocol, _, rest = endpoint.partition("/")
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    if protocol in PATH_PROTOCOLS and address:
+        return
+    port = _HOST_PORT.fullmatch(address)
+    if protocol in IP_PROTOCOLS and port and int(port[1]) <= 65535:
+        return
+    raise OptionError(
+        option,
+        f"{endpoint!r} is not a Zenoh endpoint: write PROTOCOL/HOST:PORT (PROTOCOL one of "
+        f"{', '.join(IP_PROTOCOLS)}; PORT 0-65535) or {PATH_PROTOCOLS[0]}/PATH, e.g. "
+        f"{ENDPOINT_EXAMPLE}",
+    )
 
 
 class Request:
@@ -56,21 +84,25 @@ class Network:
     """One Zenoh session; closing it withdraws every token, queryable and subscriber."""
 
     def __init__(self, listen: Sequence[str] = (), connect: Sequence[str] = ()):
+        for option, endpoints in (("listen", listen), ("connect", connect)):
+            for endpoint in endpoints:
+                check_endpoint(option, endpoint)
         if zenoh is None:
             raise ChoreoError(
                 "shows need Zenoh: install the show extra, pip install 'choreo[show]'"
             )
-        config = zenoh.Config()
-        config.insert_json5("mode", '"peer"')
-        if listen or connect:  # only the endpoints named: no scouting, no other interface
-            config.insert_json5("scouting/multicast/enabled", "false")
-            config.insert_json5("scouting/gossip/enabled", "false")
-            config.insert_json5("listen/endpoints", json.dumps(list(listen)))
-            config.insert_json5("connect/endpoints", json.dumps(list(connect)))
         try:
+            config = zenoh.Config()
+            config.insert_json5("mode", '"peer"')
+            if listen or connect:  # only the endpoints named: no scouting, no other interface
+                config.insert_json5("scouting/multicast/enabled", "false")
+                config.insert_json5("scouting/gossip/enabled", "false")
+                config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+                config.insert_json5("connect/endpoints", json.dumps(list(connect)))
             self._session = zenoh.open(config)
         except zenoh.ZError as error:
-            raise ChoreoError(f"cannot open the Zenoh session: {error}") from None
+            reason = _RUST_LOCATION.sub("", str(error))
+            raise ChoreoError(f"cannot open the Zenoh session: {reason}") from None
         self._keep: list = []  # declared entities live as long as they are referenced
 
     def close(self) -> None:
