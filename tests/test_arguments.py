@@ -1,12 +1,18 @@
 """choreo.cli.arguments and the commands' own argument types: every number and ID range a user
-types is bounded, and a refusal says what would be valid."""
+types is bounded, and a refusal says what would be valid; choreo.core.arguments: the ranges the
+library checks its arguments against, which the flags share."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 from cli_helpers import WAVE, usage_error_line
 
+from choreo.bus.settings import TIMEOUT_S
 from choreo.cli import main
+from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE
+from choreo.plan.ticks import TOLERANCE_DEG
 
 
 @pytest.mark.parametrize(
@@ -56,3 +62,35 @@ def test_plan_tolerance_has_a_maximum(capsys):
         "choreo plan: error: argument --tolerance: expected a number > 0 and <= 5°, got '1000'"
     )
     assert main(["plan", str(WAVE), "--tolerance", "5"]) == 0
+
+
+# --- the ranges the library and the command line share (choreo.core.arguments) ----------------
+def test_a_range_says_its_bounds_in_words():
+    assert [str(r) for r in (NUMBER, POSITIVE, NON_NEGATIVE, COUNT, TOLERANCE_DEG)] == [
+        "a number",
+        "a number > 0",
+        "a number >= 0",
+        "a whole number >= 1",
+        "a number > 0 and <= 5°",
+    ]
+    assert str(TIMEOUT_S.scaled(1000, " ms")) == "a number > 0 and <= 5000 ms"
+
+
+@pytest.mark.parametrize(
+    "valid, value, number",
+    [
+        (POSITIVE, 2, 2.0),
+        (POSITIVE, 10**400, None),  # beyond any float
+        (POSITIVE, True, None),  # a flag, not a number
+        (POSITIVE, math.nan, None),
+        (COUNT, 3, 3),
+        (COUNT, 3.0, None),  # a whole number is an int
+        (COUNT, 10**400, 10**400),  # whole and finite, however large
+        (NON_NEGATIVE, -0.0, 0.0),
+        (TOLERANCE_DEG, 5, 5.0),
+        (TOLERANCE_DEG, 5.000001, None),
+    ],
+)
+def test_a_range_takes_only_numbers_inside_it(valid, value, number):
+    assert valid.number(value) == number
+    assert (value in valid) is (number is not None)
