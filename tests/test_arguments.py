@@ -10,9 +10,11 @@ import pytest
 from cli_helpers import WAVE, usage_error_line
 
 from choreo.bus.settings import TIMEOUT_S
-from choreo.cli import main
+from choreo.cli import build_parser, main
 from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE
+from choreo.errors import OptionError
 from choreo.plan.ticks import TOLERANCE_DEG
+from choreo.play.player import PlayOptions
 
 
 @pytest.mark.parametrize(
@@ -94,3 +96,33 @@ def test_a_range_says_its_bounds_in_words():
 def test_a_range_takes_only_numbers_inside_it(valid, value, number):
     assert valid.number(value) == number
     assert (value in valid) is (number is not None)
+
+
+@pytest.mark.parametrize(
+    "text, value",
+    [
+        ("0", 0),
+        ("0.01", 0.01),
+        ("5", 5),
+        ("5.01", 5.01),
+        ("-1", -1),
+        ("nan", math.nan),
+        ("inf", math.inf),
+        ("1e308", 1e308),
+    ],
+)
+def test_the_tolerance_flag_and_argument_take_the_same_values(capsys, text, value):
+    try:
+        build_parser(["play"]).parse_args(["play", str(WAVE), "--tolerance", text])
+        flag = None
+    except SystemExit:
+        flag = capsys.readouterr().err.splitlines()[-1]
+    try:
+        PlayOptions(tolerance_deg=value)
+        argument = None
+    except OptionError as error:
+        argument = str(error)
+    assert (flag is None) == (argument is None) == (0 < value <= 5)
+    if flag is not None:
+        assert flag.endswith(f"--tolerance: expected {TOLERANCE_DEG}, got {text!r}")
+        assert argument == f"tolerance_deg must be {TOLERANCE_DEG}, got {value!r}"
