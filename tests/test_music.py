@@ -17,7 +17,7 @@ from choreo.cli import main
 from choreo.errors import PlanningError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.music.beats import detect_beats
-from choreo.music.decode import Audio, decode, encode
+from choreo.music.decode import Audio, decode_song, encode
 from choreo.plan.planner import plan_motion
 
 # librosa warmed once per session (see conftest.py), not in the first test that calls it
@@ -282,7 +282,7 @@ def test_the_shipped_dances_validate_and_keep_to_their_song(capsys):
     assert main(["validate", *map(str, DANCES)]) == 0  # planned and simulated: no fall
     song = REPO / "motions" / "songs" / "groove.ogg"
     assert song.stat().st_size < 500_000
-    detected = detect_beats(decode(song))
+    detected = detect_beats(decode_song(song))
     for path in DANCES:
         music = load_motion(path).music
         assert music.song.resolve() == song.resolve()
