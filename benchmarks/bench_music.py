@@ -35,7 +35,7 @@ from choreo.bus.servo_bus import ServoBus  # noqa: E402
 from choreo.core.clock import RealClock  # noqa: E402
 from choreo.emulator import BusEmulator, ServoSpec, connection  # noqa: E402
 from choreo.motion.motion_file import load_motion  # noqa: E402
-from choreo.music.decode import Audio, decode, encode  # noqa: E402
+from choreo.music.decode import Audio, decode_song, encode  # noqa: E402
 from choreo.plan.pipeline import compile_motion  # noqa: E402
 from choreo.play.player import Player, PlayOptions, preflight, prepare  # noqa: E402
 from choreo.play.soundtrack import RecordingSink, SongCue, play_with_song  # noqa: E402
@@ -63,7 +63,7 @@ def beat_detection() -> None:
         import librosa.beat  # noqa: F401  (what detect_beats loads)
 
         imported = time.perf_counter()
-        audio = decode(song)
+        audio = decode_song(song)
         decoded = time.perf_counter()
         analysis = detect_beats(audio)
         detected = time.perf_counter()

@@ -56,6 +56,7 @@ PUBLIC = {
     "choreo.play.report": ("report_document",),
     "choreo.preview": ("simulate_motion", "run_checks"),
     "choreo.preview.report": ("preview_report",),
+    "choreo.music.decode": ("Audio", "decode_song"),
     "choreo.music.beats": ("BeatAnalysis", "detect_beats"),
     "choreo.music.report": ("beats_report",),
 }
@@ -88,6 +89,7 @@ if TYPE_CHECKING:
     from choreo.core.clock import RealClock, VirtualClock
     from choreo.motion.motion_file import Keyframe, Motion, load_motion
     from choreo.music.beats import BeatAnalysis, detect_beats
+    from choreo.music.decode import Audio, decode_song
     from choreo.music.report import beats_report
     from choreo.plan.performance import Performance, prepare
     from choreo.plan.pipeline import CompiledMotion, compile_motion

@@ -1,8 +1,9 @@
 """The whole exception tree of choreo.
 
-Bad arguments to a function are plain ``ValueError`` (naming the field and its valid range).
-Everything a user can run into at the edges is a ``ChoreoError``; the CLI prints its message as
-one line and exits 1, or 2 for a ``UsageError``.
+A bad argument to a public call is an ``OptionError`` (a ``ValueError`` too) naming the argument,
+what was given and what would be valid (``choreo.core.arguments`` checks them). Everything a user
+can run into at the edges is a ``ChoreoError``; the CLI prints its message as one line and exits
+1, or 2 for a ``UsageError``.
 """
 
 from __future__ import annotations

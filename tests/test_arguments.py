@@ -1,12 +1,20 @@
 """choreo.cli.arguments and the commands' own argument types: every number and ID range a user
-types is bounded, and a refusal says what would be valid."""
+types is bounded, and a refusal says what would be valid; choreo.core.arguments: the ranges the
+library checks its arguments against, which the flags share."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 from cli_helpers import WAVE, usage_error_line
 
-from choreo.cli import main
+from choreo.bus.settings import TIMEOUT_S
+from choreo.cli import build_parser, main
+from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE
+from choreo.errors import OptionError
+from choreo.plan.ticks import TOLERANCE_DEG
+from choreo.play.player import PlayOptions
 
 
 @pytest.mark.parametrize(
@@ -56,3 +64,65 @@ def test_plan_tolerance_has_a_maximum(capsys):
         "choreo plan: error: argument --tolerance: expected a number > 0 and <= 5°, got '1000'"
     )
     assert main(["plan", str(WAVE), "--tolerance", "5"]) == 0
+
+
+# --- the ranges the library and the command line share (choreo.core.arguments) ----------------
+def test_a_range_says_its_bounds_in_words():
+    assert [str(r) for r in (NUMBER, POSITIVE, NON_NEGATIVE, COUNT, TOLERANCE_DEG)] == [
+        "a number",
+        "a number > 0",
+        "a number >= 0",
+        "a whole number >= 1",
+        "a number > 0 and <= 5°",
+    ]
+    assert str(TIMEOUT_S.scaled(1000, " ms")) == "a number > 0 and <= 5000 ms"
+
+
+@pytest.mark.parametrize(
+    "valid, value, number",
+    [
+        (POSITIVE, 2, 2.0),
+        (POSITIVE, 10**400, None),  # beyond any float
+        (POSITIVE, True, None),  # a flag, not a number
+        (POSITIVE, math.nan, None),
+        (COUNT, 3, 3),
+        (COUNT, 3.0, None),  # a whole number is an int
+        (COUNT, 10**400, 10**400),  # whole and finite, however large
+        (NON_NEGATIVE, -0.0, 0.0),
+        (TOLERANCE_DEG, 5, 5.0),
+        (TOLERANCE_DEG, 5.000001, None),
+    ],
+)
+def test_a_range_takes_only_numbers_inside_it(valid, value, number):
+    assert valid.number(value) == number
+    assert (value in valid) is (number is not None)
+
+
+@pytest.mark.parametrize(
+    "text, value",
+    [
+        ("0", 0),
+        ("0.01", 0.01),
+        ("5", 5),
+        ("5.01", 5.01),
+        ("-1", -1),
+        ("nan", math.nan),
+        ("inf", math.inf),
+        ("1e308", 1e308),
+    ],
+)
+def test_the_tolerance_flag_and_argument_take_the_same_values(capsys, text, value):
+    try:
+        build_parser(["play"]).parse_args(["play", str(WAVE), "--tolerance", text])
+        flag = None
+    except SystemExit:
+        flag = capsys.readouterr().err.splitlines()[-1]
+    try:
+        PlayOptions(tolerance_deg=value)
+        argument = None
+    except OptionError as error:
+        argument = str(error)
+    assert (flag is None) == (argument is None) == (0 < value <= 5)
+    if flag is not None:
+        assert flag.endswith(f"--tolerance: expected {TOLERANCE_DEG}, got {text!r}")
+        assert argument == f"tolerance_deg must be {TOLERANCE_DEG}, got {value!r}"

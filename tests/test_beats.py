@@ -18,7 +18,7 @@ from choreo.cli import main
 from choreo.errors import ChoreoError
 from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
-from choreo.music.decode import Audio, decode, encode, ffmpeg_exe
+from choreo.music.decode import Audio, decode_song, encode, ffmpeg_exe
 
 # librosa warmed once per session (see conftest.py), not in the first test that calls it
 pytestmark = pytest.mark.usefixtures("warm_librosa")
@@ -69,9 +69,18 @@ def test_silence_has_no_beats():
 def test_every_song_format_decodes_with_its_clicks_in_place(tmp_path, suffix):
     times = steady_times(120, 0.5, 9.5)
     song = write_clicks(tmp_path / f"clicks{suffix}", times, 10.0)
-    audio = decode(song)
+    audio = decode_song(song)
     assert abs(audio.duration_s - 10.0) < 0.06
     assert_beats_match(detect_beats(audio).beats_s, times)
+
+
+def test_a_song_s_path_is_detected_as_its_decoded_samples(tmp_path):
+    times = steady_times(120, 0.5, 9.5)
+    song = write_clicks(tmp_path / "clicks.ogg", times, 10.0)
+    from_path, from_samples = detect_beats(song), detect_beats(decode_song(song))
+    assert from_path == from_samples
+    assert_beats_match(from_path.beats_s, times)
+    assert detect_beats(str(song)) == from_path
 
 
 def test_cli_json_and_plot(tmp_path, capsys):

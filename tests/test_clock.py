@@ -8,6 +8,7 @@ import threading
 import pytest
 
 from choreo.core.clock import RealClock, VirtualClock
+from choreo.errors import OptionError
 
 
 def test_a_virtual_clock_stands_still_until_slept_on():
@@ -29,7 +30,7 @@ def test_advance_adds_and_refuses_to_go_back():
     clock.advance(0.25)
     clock.advance(0.0)
     assert clock.now() == 0.25
-    with pytest.raises(ValueError, match="dt_s must be >= 0, got -0.1"):
+    with pytest.raises(OptionError, match="dt_s must be a number >= 0, got -0.1"):
         clock.advance(-0.1)
     assert clock.now() == 0.25
 

@@ -18,7 +18,7 @@ from choreo.cli import main
 from choreo.errors import OptionError, PlanningError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.music.beats import detect_beats
-from choreo.music.decode import Audio, decode, encode
+from choreo.music.decode import Audio, decode_song, encode
 from choreo.plan.planner import plan_motion
 from choreo.play.play_motion import play_motion
 from choreo.play.player import PlayOptions
@@ -286,7 +286,7 @@ def test_the_shipped_dances_validate_and_keep_to_their_song(capsys):
     assert main(["validate", *map(str, DANCES)]) == 0  # planned and simulated: no fall
     song = REPO / "motions" / "songs" / "groove.ogg"
     assert song.stat().st_size < 500_000
-    detected = detect_beats(decode(song))
+    detected = detect_beats(decode_song(song))
     for path in DANCES:
         music = load_motion(path).music
         assert music.song.resolve() == song.resolve()

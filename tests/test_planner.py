@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.cli import main
-from choreo.errors import PlanningError
+from choreo.errors import OptionError, PlanningError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_approach, plan_motion
 
@@ -426,16 +426,17 @@ def test_the_slowest_speed_is_held_to_the_segment_limit_in_one_line(tmp_path, ca
 def test_a_speed_outside_its_range_is_refused_with_the_range(capsys, command, speed):
     line = usage_error_line(capsys, [*command, str(WAVE), "--speed", speed])
     assert line == (
-        f"choreo {command[0]}: error: argument --speed: expected a number in 0.01..100, "
+        f"choreo {command[0]}: error: argument --speed: expected a number >= 0.01 and <= 100, "
         f"got {speed!r}"
     )
 
 
 @pytest.mark.parametrize("speed", [0.0, 1e308, math.nan])
 def test_plan_motion_refuses_a_speed_outside_its_range(speed):
-    with pytest.raises(ValueError) as raised:
+    with pytest.raises(OptionError) as raised:
         plan_motion(load_motion(WAVE), speed=speed)
-    assert str(raised.value) == f"speed must be in 0.01..100, got {speed:g}"
+    assert raised.value.option == "speed"
+    assert str(raised.value) == f"speed must be a number >= 0.01 and <= 100, got {speed!r}"
 
 
 def test_a_long_hold_is_not_limited_by_the_segment_limit(tmp_path, capsys):

@@ -74,7 +74,7 @@ def test_bad_arguments_are_usage_errors(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["play", "motions/arm6/wave.yaml", "--speed", "0"])
     assert exit_info.value.code == 2
-    assert "expected a number in 0.01..100, got '0'" in capsys.readouterr().err
+    assert "expected a number >= 0.01 and <= 100, got '0'" in capsys.readouterr().err
     assert main(["play", "motions/arm6/wave.yaml", "--exit", "pose", "--exit-pose", "nope"]) == 2
     assert "'nope' is not a pose of arm6; poses: home, rest, ready" in capsys.readouterr().err
 

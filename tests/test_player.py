@@ -286,7 +286,7 @@ def progress_time(rig, tick):
 
 def test_dry_run_schedule_matches_what_is_sent():
     rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
-    rig.play(options=PlayOptions(health_timeout_s=10.0))  # no time for health reads
+    rig.play(options=PlayOptions(health_timeout_s=5.0))  # no time for health reads
     schedule = packet_schedule(rig.performance.ticks, rig.robot)
     sent = [
         p.packet.encode()

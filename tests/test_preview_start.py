@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from choreo.cli import main
-from choreo.errors import SourceError
+from choreo.errors import OptionError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.motion.scene import Prop, StartPosture
 from choreo.plan.performance import prepare
@@ -123,7 +123,7 @@ def test_from_a_pose_or_the_first_keyframe():
     motion = load_motion(REPO / "motions" / "tonypi" / "bow.yaml")
     first = simulate_motion(motion, start_pose="first")
     assert first.approach_start_s == 0
-    with pytest.raises(ValueError, match="no pose 'nope'.*home.*first"):
+    with pytest.raises(OptionError, match="start_pose .nope.: no such pose .*home.*first"):
         simulate_motion(motion, start_pose="nope")
 
 

@@ -17,6 +17,7 @@ import struct
 from dataclasses import dataclass, field
 
 from choreo.bus.servo_models import POSITION_RANGE_UNITS
+from choreo.errors import OptionError
 
 HEADER = b"\x55\x55"
 BROADCAST_ID = 0xFE
@@ -200,10 +201,12 @@ def encode_packet(servo_id: int, command: int, params: bytes = b"") -> bytes:
 
 
 def _check_range(name: str, value: int, lo: int, hi: int) -> None:
+    """``OptionError`` naming the field (a ``ValueError``) if ``value`` is not a whole number in
+    ``lo..hi``: a command's fields are its caller's arguments."""
     if isinstance(value, bool) or not isinstance(value, int):
-        raise ValueError(f"{name} must be an integer in {lo}..{hi}, got {value!r}")
+        raise OptionError(name, f"must be an integer in {lo}..{hi}, got {value!r}")
     if not lo <= value <= hi:
-        raise ValueError(f"{name} must be in {lo}..{hi}, got {value}")
+        raise OptionError(name, f"must be in {lo}..{hi}, got {value}")
 
 
 def pack_fields(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:

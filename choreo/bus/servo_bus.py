@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import enum
 import logging
+import os
 import threading
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -30,12 +31,17 @@ from choreo.bus.protocol import (
     BROADCAST_ID,
     SPECS,
     Command,
+    CommandSpec,
     ErrorMask,
     encode_request,
 )
+from choreo.bus.settings import RETRIES, TIMEOUT_S
 from choreo.bus.transports import Connection
 from choreo.bus.transports.raw import EchoMode
-from choreo.errors import BusTimeoutError, PortError, ProtocolError
+from choreo.core.arguments import check_flag, check_member, check_number, shown
+from choreo.errors import BusTimeoutError, OptionError, PortError, ProtocolError
+
+PORT_EXAMPLES = "/dev/ttyUSB0, COM3 or sim://?ids=1-6"  # what a port name looks like
 
 # What a port failing under us raises. pyserial's POSIX port lets termios.error (not an
 # OSError) out of flushes on a lost port.
@@ -138,17 +144,15 @@ class ServoBus:
         echo: EchoMode | str = EchoMode.AUTO,
         direction=None,
     ):
-        if timeout_s <= 0:
-            raise ValueError(f"timeout_s must be > 0, got {timeout_s}")
-        if retries < 0:
-            raise ValueError(f"retries must be >= 0, got {retries}")
-        self.timeout_s = timeout_s
-        self.retries = retries
+        port = _port_argument(port)
+        self.timeout_s = check_number("timeout_s", timeout_s, TIMEOUT_S)
+        self.retries = int(check_number("retries", retries, RETRIES))
+        echo = check_member("echo", echo, EchoMode)
         self._lock = threading.RLock()
         if isinstance(port, Connection):  # opened already: its backend has its echo mode
             connection = port
         else:
-            connection = transports.connect(port, timeout_s, direction, EchoMode(echo))
+            connection = transports.connect(port, timeout_s, direction, echo)
         self.port, self.backend = connection.port, connection.backend
         self.capabilities = connection.capabilities
         self.clock = connection.clock  # what deadlines on this bus are kept on
@@ -180,13 +184,15 @@ class ServoBus:
     # --- transactions --------------------------------------------------------------------------
     def send(self, command: Command, servo_id: int, /, **fields: int) -> None:
         """Send a write command (no reply exists for writes)."""
-        spec = SPECS[Command(command)]
+        spec = _spec(command)
         if spec.is_read:
-            raise ValueError(f"{spec.command.name} is a read: use request()")
+            raise OptionError("command", f"{spec.command.name} is a read: use request()")
         if spec.command == Command.ID_WRITE and servo_id == BROADCAST_ID:
-            raise ValueError(
-                "refusing to broadcast ID_WRITE: it renumbers every servo on the bus; address the "
-                "servo by its ID (`choreo servo set-id` finds it when it is alone on the bus)"
+            raise OptionError(
+                "servo_id",
+                f"{BROADCAST_ID}: refusing to broadcast ID_WRITE: it renumbers every servo on the "
+                "bus; address the servo by its ID (`choreo servo set-id` finds it when it is alone "
+                "on the bus)",
             )
         encode_request(spec.command, servo_id, **fields)  # checks every field's range
         self._require(spec.command)
@@ -203,14 +209,21 @@ class ServoBus:
         timeout_s: float | None = None,
     ) -> dict[str, int]:
         """Send a read command and return its reply's fields, retrying on silence or garbage."""
-        spec = SPECS[Command(command)]
+        spec = _spec(command)
         if not spec.is_read:
-            raise ValueError(f"{spec.command.name} has no reply: use send()")
+            raise OptionError("command", f"{spec.command.name} has no reply: use send()")
         if servo_id == BROADCAST_ID and spec.command != Command.ID_READ:
-            raise ValueError(f"only ID_READ is answered on broadcast, not {spec.command.name}")
+            raise OptionError(
+                "servo_id",
+                f"{BROADCAST_ID}: only ID_READ is answered on broadcast, not {spec.command.name}",
+            )
         self._require(spec.command)
-        attempts = 1 + (self.retries if retries is None else retries)
-        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        attempts = 1 + int(
+            self.retries if retries is None else check_number("retries", retries, RETRIES)
+        )
+        timeout_s = (
+            self.timeout_s if timeout_s is None else check_number("timeout_s", timeout_s, TIMEOUT_S)
+        )
         with self._lock:
             bad_before = self.backend.bad_checksums
             echo_seen, received = False, b""
@@ -336,7 +349,7 @@ class ServoBus:
         self.send(Command.OR_MOTOR_MODE_WRITE, servo_id, mode=0, reserved=0, speed=0)
 
     def set_led(self, servo_id: int, on: bool) -> None:
-        self.send(Command.LED_CTRL_WRITE, servo_id, led_off=0 if on else 1)
+        self.send(Command.LED_CTRL_WRITE, servo_id, led_off=0 if check_flag("on", on) else 1)
 
     def set_led_errors(self, servo_id: int, mask: ErrorMask | int) -> None:
         """Which faults make the LED flash."""
@@ -446,6 +459,8 @@ class ServoBus:
     ) -> ScanResult:
         """Probe each ID in order. Each absent ID costs ``timeout_s`` (the bus's by default; USB
         adapters add up to 16 ms of latency) times ``1 + retries``."""
+        if not isinstance(ids, Iterable):
+            raise OptionError("ids", f"must be servo IDs (e.g. range(1, 7)), got {shown(ids)}")
         presence = {i: self.probe(i, timeout_s=timeout_s, retries=retries) for i in ids}
         return ScanResult(
             found=tuple(i for i, p in presence.items() if p is Presence.ANSWERS),
@@ -515,3 +530,35 @@ def _maybe(make, fields: dict[str, int] | None, key: str | None = None):
     if fields is None:
         return None
     return make(fields[key]) if key else make(**fields)
+
+
+def _spec(command: Command | int) -> CommandSpec:
+    """The spec of ``command`` (a Command or its number); ``OptionError`` if it is none."""
+    try:
+        return SPECS[Command(command)]
+    except (ValueError, TypeError):
+        raise OptionError(
+            "command", f"must be a Command (e.g. Command.POS_READ), got {shown(command)}"
+        ) from None
+
+
+def _port_argument(port: object) -> str | serial.SerialBase | Connection:
+    """``ServoBus``'s port as given, a path as its string; ``OptionError`` if it is no port."""
+    if isinstance(port, os.PathLike):
+        port = os.fspath(port)
+    if isinstance(port, str):
+        if not port.strip():
+            raise OptionError(
+                "port", f"is empty: give a port such as {PORT_EXAMPLES} (`choreo ports` lists them)"
+            )
+        return port
+    # an open port: a pyserial one or anything that reads and writes like it (a test's fake)
+    if isinstance(port, Connection) or all(
+        callable(getattr(port, name, None)) for name in ("read", "write", "close")
+    ):
+        return port  # type: ignore[return-value]  # duck-typed: it reads and writes
+    raise OptionError(
+        "port",
+        f"must be a port name such as {PORT_EXAMPLES} (a str or os.PathLike) or an open serial "
+        f"port, got {shown(port)}",
+    )

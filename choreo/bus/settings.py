@@ -7,10 +7,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-# The ranges the command line and the robot file's ``bus:`` section both accept. A servo answers
-# within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a slow one.
+from choreo.core.arguments import Range
+
+# The ranges the command line, the robot file's ``bus:`` section and ServoBus all accept. A servo
+# answers within milliseconds; a read waiting longer than MAX_TIMEOUT_MS is a dead link, not a
+# slow one.
 MAX_RETRIES = 9
 MAX_TIMEOUT_MS = 5000.0
+TIMEOUT_S = Range(above=0, at_most=MAX_TIMEOUT_MS / 1000, unit=" s")
+RETRIES = Range(at_least=0, at_most=MAX_RETRIES, whole=True)
 
 
 @dataclass(frozen=True)

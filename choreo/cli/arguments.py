@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import math
 import signal
 import sys
 from collections.abc import Callable, Iterator
@@ -13,8 +12,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
-from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
+from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, TIMEOUT_S, BusSettings
 from choreo.bus.transports.direction import PRESETS, parse_direction
+from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE, Range
 
 if TYPE_CHECKING:
     from choreo.bus.servo_bus import ServoBus
@@ -22,66 +22,36 @@ if TYPE_CHECKING:
     from choreo.robot.types import Robot
 
 BUILT_IN_PORT = "sim://?ids=1-6"
-# Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost.
-MAX_TOLERANCE_DEG = 5.0
 
 
-def finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
-    return value
+def number_in(valid: Range) -> Callable[[str], float]:
+    """The argparse type of a number in ``valid``: the range the library checks the same
+    argument against, so the flag and the argument accept the same values."""
+
+    def parse(text: str) -> float:
+        try:
+            value = valid.number(int(text) if valid.whole else float(text))
+        except ValueError:
+            value = None
+        if value is None:
+            raise argparse.ArgumentTypeError(f"expected {valid}, got {text!r}")
+        return value
+
+    return parse
 
 
-def non_negative_float(text: str) -> float:
-    value = finite_float(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
-    return value
+finite_float = number_in(NUMBER)
+non_negative_float = number_in(NON_NEGATIVE)
+positive_float = number_in(POSITIVE)
 
 
-def positive_float(text: str) -> float:
-    value = finite_float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
+def positive_int(text: str) -> int:
+    return int(number_in(COUNT)(text))
 
 
 def float_in(low: float, high: float, unit: str = "") -> Callable[[str], float]:
     """A number in (low, high]: options whose huge values would overflow a timer."""
-
-    def parse(text: str) -> float:
-        value = finite_float(text)
-        if not low < value <= high:
-            raise argparse.ArgumentTypeError(
-                f"expected a number > {low:g} and <= {high:g}{unit}, got {text!r}"
-            )
-        return value
-
-    return parse
-
-
-def float_range(low: float, high: float) -> Callable[[str], float]:
-    """A number in low..high, both included."""
-
-    def parse(text: str) -> float:
-        value = finite_float(text)
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(
-                f"expected a number in {low:g}..{high:g}, got {text!r}"
-            )
-        return value
-
-    return parse
-
-
-def positive_int(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(text)
+    return number_in(Range(above=low, at_most=high, unit=unit))
 
 
 def servo_id(text: str) -> int:
@@ -151,13 +121,14 @@ def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_tex
 def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview,
     play)."""
-    from choreo.motion.timing import MAX_SPEED, MIN_SPEED  # these commands plan: no extra cost
+    from choreo.motion.timing import SPEED  # these commands plan: no extra cost
+    from choreo.plan.ticks import TOLERANCE_DEG  # the planner's world: not for bus commands
 
     parser.add_argument(
         "--speed",
-        type=float_range(MIN_SPEED, MAX_SPEED),
-        help=f"time scale, {MIN_SPEED:g}..{MAX_SPEED:g} (overrides the file's speed): 2 plays "
-        "twice as fast",
+        type=number_in(SPEED),
+        help=f"time scale, {SPEED.at_least:g}..{SPEED.at_most:g} (overrides the file's speed): "
+        "2 plays twice as fast",
     )
     parser.add_argument(
         "--stretch",
@@ -168,11 +139,12 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     add_past_song_argument(parser)
     parser.add_argument(
         "--tolerance",
-        type=float_in(0, MAX_TOLERANCE_DEG, "°"),
+        type=number_in(TOLERANCE_DEG),
         default=0.5,
         metavar="DEG",
         help="how far the servos' linear moves may leave the smooth plan, up to "
-        f"{MAX_TOLERANCE_DEG:g}° (default 0.5°; rounding to whole servo units adds up to 0.12°)",
+        f"{TOLERANCE_DEG.at_most:g}° (default 0.5°; rounding to whole servo units adds up to "
+        "0.12°)",
     )
 
 
@@ -198,7 +170,7 @@ def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--timeout-ms",
-        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
+        type=number_in(TIMEOUT_S.scaled(1000, " ms")),
         help=f"per-read timeout, up to {MAX_TIMEOUT_MS:g} (default "
         f"{defaults.timeout_s * 1000:g} ms; USB adapters add latency)",
     )

@@ -10,7 +10,7 @@ from choreo.cli.arguments import finite_float, positive_int
 from choreo.cli.plan_commands import png_path
 from choreo.core.atomic import check_writable
 from choreo.music.beats import LEVELS, BeatAnalysis, detect_beats
-from choreo.music.decode import decode
+from choreo.music.decode import decode_song
 from choreo.music.report import beats_report, suggested_music
 
 
@@ -53,7 +53,7 @@ def register(subparsers) -> None:
 def run_beats(args: argparse.Namespace) -> int:
     if args.plot is not None:
         check_writable(args.plot)
-    audio = decode(args.song)
+    audio = decode_song(args.song)
     analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats)
     if args.json:
         report = beats_report(args.song, analysis, args.level or "", args.offset_beats)

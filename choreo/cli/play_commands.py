@@ -12,14 +12,13 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from choreo.bus.settings import MAX_TIMEOUT_MS
 from choreo.bus.transports import backend_module
 from choreo.cli.arguments import (
     add_planning_arguments,
     add_port_arguments,
     bus_settings,
-    float_in,
     load_dance,
+    number_in,
     positive_int,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
@@ -31,6 +30,8 @@ from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.play_motion import check_options, play_motion, prepared_motion
 from choreo.play.player import (
+    AUDIO_LATENCY_S,
+    HEALTH_TIMEOUT_S,
     ExitMode,
     Outcome,
     PlayOptions,
@@ -42,7 +43,6 @@ from choreo.play.player import Progress as PlayProgress
 from choreo.play.report import report_document, write_report
 from choreo.play.soundtrack import AudioSink, SongCue, SoundDeviceSink
 
-MAX_AUDIO_LATENCY_MS = 2000.0  # Bluetooth speakers reach a few hundred ms; seconds is a mistake
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
 
 
@@ -78,7 +78,7 @@ def register(subparsers) -> None:
     play.add_argument("--exit-pose", help="pose for --exit pose (default home)")
     play.add_argument(
         "--health-timeout-ms",
-        type=float_in(0, MAX_TIMEOUT_MS, " ms"),
+        type=number_in(HEALTH_TIMEOUT_S.scaled(1000, " ms")),
         default=20.0,
         metavar="MS",
         help="timeout of the health reads made between ticks (default 20 ms; raise "
@@ -100,7 +100,7 @@ def register(subparsers) -> None:
     )
     music.add_argument(
         "--audio-latency-ms",
-        type=float_in(0, MAX_AUDIO_LATENCY_MS, " ms"),
+        type=number_in(AUDIO_LATENCY_S.scaled(1000, " ms")),
         metavar="MS",
         help="the output's latency to make up for, instead of what the device reports "
         "(raise it if the song comes late, e.g. on Bluetooth speakers)",

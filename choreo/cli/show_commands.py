@@ -26,7 +26,7 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.core.atomic import check_writable
-from choreo.music.decode import decode
+from choreo.music.decode import decode_song
 from choreo.play.play_motion import open_robot_bus
 from choreo.play.report import write_report
 from choreo.play.soundtrack import OUTPUT_RATE_HZ, NoAudioOutput, SoundDeviceSink
@@ -194,7 +194,7 @@ def _open_song(args: argparse.Namespace, show: Show):
     if show.music is None:
         return None, None
     try:
-        song = decode(show.music.song, rate_hz=OUTPUT_RATE_HZ, channels=2)
+        song = decode_song(show.music.song, rate_hz=OUTPUT_RATE_HZ, channels=2)
         return SoundDeviceSink(args.audio_device), song
     except NoAudioOutput as error:
         _say(f"choreo: no audio output: {error}; the show goes on without the music")

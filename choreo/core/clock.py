@@ -10,6 +10,10 @@ import threading
 import time
 from typing import Protocol
 
+from choreo.core.arguments import NON_NEGATIVE, NUMBER, Range, check_number
+
+SPIN_S = Range(at_least=0, at_most=0.1, unit=" s")  # a busy wait longer than this wastes a core
+
 
 class Clock(Protocol):
     def now(self) -> float:
@@ -23,7 +27,7 @@ class RealClock:
     """``time.monotonic``; sleeps, then spins the last ``spin_s`` for a precise wake-up."""
 
     def __init__(self, spin_s: float = 0.001):
-        self.spin_s = spin_s
+        self.spin_s = check_number("spin_s", spin_s, SPIN_S)
 
     def now(self) -> float:
         return time.monotonic()
@@ -40,7 +44,7 @@ class VirtualClock:
     """A clock that only moves when somebody sleeps (or calls ``advance``)."""
 
     def __init__(self, start_s: float = 0.0):
-        self._now = start_s
+        self._now = check_number("start_s", start_s, NUMBER)
         self._lock = threading.Lock()
 
     def now(self) -> float:
@@ -51,7 +55,6 @@ class VirtualClock:
             self._now = max(self._now, deadline_s)
 
     def advance(self, dt_s: float) -> None:
-        if dt_s < 0:
-            raise ValueError(f"dt_s must be >= 0, got {dt_s}")
+        check_number("dt_s", dt_s, NON_NEGATIVE)
         with self._lock:
             self._now += dt_s

@@ -14,6 +14,7 @@ from typing import Any, Literal
 
 import yaml
 
+from choreo.core.arguments import check_flag, check_path, is_path, shown
 from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
@@ -29,7 +30,7 @@ from choreo.core.yaml_source import (
     quoted,
     reading_a_file,
 )
-from choreo.errors import SourceError
+from choreo.errors import OptionError, SourceError
 from choreo.motion.gait import BodyPose, Gait
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
@@ -160,20 +161,34 @@ class _Include:
     music_refused: bool = False  # its music block had a problem (reported there)
 
 
-def load_motion(path: str | Path, allow_past_song: bool = False) -> Motion:
+def load_motion(path: str | os.PathLike[str], allow_past_song: bool = False) -> Motion:
     """Read a motion file and its robot; expand includes; fill partial poses.
 
     Every problem of the file, its includes and its robot is reported at once in one
     ``SourceError`` whose messages start ``path:line:col:``. A dance that would outlast its song
     is one of them unless ``allow_past_song``.
     """
-    path = Path(path)
+    path = check_path("path", path, "a motion file's path")
+    check_flag("allow_past_song", allow_past_song)
     problems = Problems()
     with reading_a_file():
         motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
     if motion is None or problems:
         raise SourceError(problems.messages)
     return motion
+
+
+def motion_of(motion: object, allow_past_song: bool = False) -> Motion:
+    """``motion`` itself, or the motion file it names, loaded (``OptionError`` for anything
+    else): what the calls that take a motion accept."""
+    if isinstance(motion, Motion):
+        return motion
+    if is_path(motion):
+        return load_motion(motion, allow_past_song)
+    raise OptionError(
+        "motion",
+        f"must be a Motion or a motion file's path (a str or os.PathLike), got {shown(motion)}",
+    )
 
 
 def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Motion | None:

@@ -27,7 +27,7 @@ from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, fmt
 from choreo.errors import ChoreoError, OptionError
 from choreo.motion.timing import TimedKeyframe
 from choreo.music.beats import LEVELS
-from choreo.music.decode import check_song_path, decode
+from choreo.music.decode import check_song_path, decode_song
 
 MUSIC_KEYS = ("song", "start", "bpm", "meter", "beats", "level", "offset_beats")
 DEFAULT_METER = 4
@@ -131,7 +131,7 @@ def read_music(reader: Reader, entry: Entry) -> Music | None:
     if "meter" in fields and per_bar is None:
         return None
     try:
-        audio = decode(song)
+        audio = decode_song(song)
     except ChoreoError as error:
         reader.report(fields["song"].value, str(error))
         return None

@@ -28,6 +28,8 @@ from typing import Generic, Protocol, TypeVar
 
 import numpy as np
 
+from choreo.core.arguments import Range
+
 
 class TimedKeyframe(Protocol):
     """What the timing rules read of a keyframe (times in the file's seconds)."""
@@ -54,6 +56,7 @@ MAX_TIME_S = 86_400.0
 # The time scale (a file's speed, --speed): beyond these a motion is a still or a blur, and its
 # times (t / speed) overflow.
 MIN_SPEED, MAX_SPEED = 0.01, 100.0
+SPEED = Range(at_least=MIN_SPEED, at_most=MAX_SPEED)  # a motion's speed, and --speed
 
 
 class Timing(enum.Enum):

@@ -25,12 +25,20 @@ Features are computed on ``CHUNK_S`` blocks, so memory stays near the decoded sa
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.core.arguments import (
+    COUNT,
+    check_choice,
+    check_number,
+    check_optional_number,
+    check_path,
+)
 from choreo.errors import ChoreoError
-from choreo.music.decode import Audio
+from choreo.music.decode import Audio, decode_song
 
 COARSE_HOP = 512  # ~23 ms frames at 22050 Hz: what the tracker is tuned for
 FINE_HOP = 64  # ~3 ms frames: where beats are snapped to
@@ -123,13 +131,19 @@ class _Features:
 
 
 def detect_beats(
-    audio: Audio, beats_per_bar: int | None = None, level: str = "", offset_beats: float = 0.0
+    audio: Audio | str | os.PathLike[str],
+    beats_per_bar: int | None = None,
+    level: str = "",
+    offset_beats: float = 0.0,
 ) -> BeatAnalysis:
-    """The song's beats; ``beats_per_bar`` None: the meter is estimated. ``level`` "half" or
-    "double" and ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid
-    a warning offers."""
-    if beats_per_bar is not None and beats_per_bar < 1:
-        raise ValueError(f"beats_per_bar must be >= 1, got {beats_per_bar}")
+    """The beats of a song: ``audio`` decoded (``decode_song``) or its file's path (wav, flac,
+    ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` "half" or "double" and
+    ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid a warning
+    offers."""
+    check_optional_number("beats_per_bar", beats_per_bar, COUNT)
+    check_grid(level, offset_beats)
+    if not isinstance(audio, Audio):
+        audio = decode_song(check_path("audio", audio, "an Audio (decode_song) or a song's path"))
     librosa = require_librosa()
     y, sr = audio.mono, audio.rate_hz
     if len(y) < sr // 2 or not np.any(y):
@@ -150,6 +164,13 @@ def detect_beats(
         meter_confidence=meter_confidence,
         warnings=_warnings(features, beats),
     )
+
+
+def check_grid(level: object, offset_beats: object) -> None:
+    """Refuse an alternative grid that is none: ``level`` "", "half" or "double", and a finite
+    ``offset_beats``."""
+    check_choice("level", level, ("", *LEVELS))
+    check_number("offset_beats", offset_beats)
 
 
 # --- features ----------------------------------------------------------------------------------
@@ -305,8 +326,6 @@ def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: fl
     elif level == "half":
         _, downbeat, _ = _bars(features, beats, None)
         beats = beats[downbeat % 2 :: 2]
-    elif level:
-        raise ValueError(f"level must be one of {LEVELS}, got {level!r}")
     if offset_beats:
         index = np.arange(len(beats)) + offset_beats
         inside = (index >= 0) & (index <= len(beats) - 1)

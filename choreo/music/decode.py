@@ -7,6 +7,7 @@ Decoding needs no extra: ffmpeg reads every format a motion's ``music:`` may nam
 from __future__ import annotations
 
 import functools
+import os
 import re
 import subprocess
 import tempfile
@@ -15,12 +16,15 @@ from pathlib import Path
 
 import numpy as np
 
+from choreo.core.arguments import Range, check_number, check_path
 from choreo.core.file_kind import not_a_file
 from choreo.errors import ChoreoError
 
 SONG_SUFFIXES = (".wav", ".flac", ".ogg", ".mp3")
 ANALYSIS_RATE_HZ = 22050  # enough for beats; what the beat tracker expects
 DECODE_CHUNK_BYTES = 1 << 20
+RATE_HZ = Range(at_least=8000, at_most=192_000, whole=True, unit=" Hz")  # telephone to studio
+CHANNELS = Range(at_least=1, at_most=8, whole=True)  # mono to 7.1
 
 
 @dataclass(frozen=True)
@@ -55,9 +59,14 @@ def check_song_path(path: Path) -> str | None:
     return None
 
 
-def decode(path: str | Path, rate_hz: int = ANALYSIS_RATE_HZ, channels: int = 1) -> Audio:
-    """The song at ``path`` as float samples at ``rate_hz``; ChoreoError if ffmpeg can't read it."""
-    path = Path(path)
+def decode_song(
+    path: str | os.PathLike[str], rate_hz: int = ANALYSIS_RATE_HZ, channels: int = 1
+) -> Audio:
+    """The song at ``path`` (wav, flac, ogg, mp3) as float samples at ``rate_hz``, mixed down
+    to ``channels``; ChoreoError if ffmpeg can't read it."""
+    path = check_path("path", path, "a song file's path")
+    check_number("rate_hz", rate_hz, RATE_HZ)
+    check_number("channels", channels, CHANNELS)
     problem = check_song_path(path)
     if problem:
         raise ChoreoError(problem)

@@ -4,17 +4,22 @@ prints and ``choreo beats --json`` writes."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
-from choreo.music.beats import BeatAnalysis
+from choreo.core.arguments import check_path, check_type
+from choreo.music.beats import BeatAnalysis, check_grid
 
 
 def beats_report(
-    song: Path, analysis: BeatAnalysis, level: str = "", offset_beats: float = 0.0
+    song: str | os.PathLike[str], analysis: BeatAnalysis, level: str = "", offset_beats: float = 0.0
 ) -> dict[str, Any]:
     """The analysis as plain JSON-ready values (``choreo beats --json``), with the ``music:``
     block it suggests for a motion (None when the song has no steady beat)."""
+    song = check_path("song", song, "the song's path")
+    check_type("analysis", analysis, BeatAnalysis, "a BeatAnalysis (from detect_beats)")
+    check_grid(level, offset_beats)
     return {
         "song": str(song),
         "duration_s": analysis.duration_s,

@@ -9,9 +9,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from choreo.bus.protocol import SPECS, Command
+from choreo.core.arguments import check_type
+from choreo.errors import OptionError
 from choreo.plan.pipeline import CompiledMotion
-from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
+from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach, pose_array
 from choreo.plan.ticks import Tick, TickPlan, segment
+from choreo.robot.types import Robot
 
 
 @dataclass(frozen=True)
@@ -45,10 +49,30 @@ class Performance:
         return out
 
 
+# what a servo reports where it is (POS_READ): a start pose beyond it is no servo's
+_REPORTED = SPECS[Command.POS_READ].reply[0]  # type: ignore[index]  # POS_READ is answered
+
+
+def _servo_pose(robot: Robot, start_pose_deg: object) -> list[float]:
+    """``start_pose_deg`` if each angle is one its servo could report (``OptionError`` if not)."""
+    angles = pose_array(robot, start_pose_deg, "start_pose_deg")
+    for joint, angle in zip(robot.joints, angles):
+        low, high = sorted((joint.to_deg(_REPORTED.lo), joint.to_deg(_REPORTED.hi)))
+        if not low <= angle <= high:
+            raise OptionError(
+                "start_pose_deg",
+                f"puts {joint.name} at {angle:g}°, where no servo can be ({_REPORTED.lo}.."
+                f"{_REPORTED.hi} units): pass where the servos are (what preflight measures)",
+            )
+    return angles.tolist()
+
+
 def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Performance:
     """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose, at
     ``APPROACH_LIMIT_SCALE`` of the joint limits."""
+    check_type("compiled", compiled, CompiledMotion, "a CompiledMotion (from compile_motion)")
     robot = compiled.robot
+    start_pose_deg = _servo_pose(robot, start_pose_deg)
     first_pose = compiled.trajectory.at(0.0)[0]
     approach = plan_approach(robot, start_pose_deg, first_pose, APPROACH_LIMIT_SCALE)
     return Performance(

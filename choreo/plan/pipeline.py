@@ -4,11 +4,13 @@ validate all start from here."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
-from choreo.motion.motion_file import Motion
+from choreo.core.arguments import check_number
+from choreo.motion.motion_file import Motion, motion_of
 from choreo.plan.planner import Stretch, Trajectory, plan_motion
-from choreo.plan.ticks import TickPlan, segment
+from choreo.plan.ticks import TOLERANCE_DEG, TickPlan, segment
 from choreo.robot.types import Robot
 
 
@@ -28,9 +30,17 @@ class CompiledMotion:
 
 
 def compile_motion(
-    motion: Motion, *, speed: float | None = None, stretch: bool = False, tolerance_deg: float = 0.5
+    motion: Motion | str | os.PathLike[str],
+    *,
+    speed: float | None = None,
+    stretch: bool = False,
+    tolerance_deg: float = 0.5,
 ) -> CompiledMotion:
-    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion``."""
+    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion`` (a
+    :class:`Motion`, or its file's path). ``tolerance_deg``: how far the ticks may stray from
+    the smooth plan, up to 5°."""
+    motion = motion_of(motion)
+    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)  # before the planning's work
     plan = plan_motion(motion, speed=speed, stretch=stretch)
     return CompiledMotion(
         motion.robot,

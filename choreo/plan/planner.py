@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -33,14 +34,14 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
+from choreo.core.arguments import check_flag, check_number, shown
 from choreo.core.yaml_source import SourceLocation
-from choreo.errors import PlanningError
-from choreo.motion.motion_file import Keyframe, Motion, too_many_played
+from choreo.errors import OptionError, PlanningError
+from choreo.motion.motion_file import Keyframe, Motion, motion_of, too_many_played
 from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import (
-    MAX_SPEED,
     MAX_TIME_S,
-    MIN_SPEED,
+    SPEED,
     PlayedKeyframe,
     Timing,
     estimated_arrivals_s,
@@ -716,17 +717,20 @@ def _shortest_period_s(motion: Motion, speed: float, block: range) -> float | No
 
 
 # --- public entry points -----------------------------------------------------------------------
-def plan_motion(motion: Motion, *, speed: float | None = None, stretch: bool = False) -> PlanResult:
-    """The trajectory of a whole motion (``repeat`` unrolled, times divided by the speed).
+def plan_motion(
+    motion: Motion | str | os.PathLike[str], *, speed: float | None = None, stretch: bool = False
+) -> PlanResult:
+    """The trajectory of a whole motion (``repeat`` unrolled, times divided by the speed);
+    ``motion`` may be given by its file's path.
 
     ``speed`` overrides ``motion.speed``. A keyframe time the limits cannot meet raises
     ``PlanningError`` starting ``path:line:col:`` (its keyframe) that names the limiting joint and
     the earliest feasible time; with ``stretch=True`` that keyframe and the later ones move
     instead, and ``PlanResult.stretches`` says by how much.
     """
-    speed = motion.speed if speed is None else speed
-    if not MIN_SPEED <= speed <= MAX_SPEED:
-        raise ValueError(f"speed must be in {MIN_SPEED:g}..{MAX_SPEED:g}, got {speed:g}")
+    motion = motion_of(motion)
+    speed = motion.speed if speed is None else check_number("speed", speed, SPEED)
+    check_flag("stretch", stretch)
     robot = motion.robot
     if not motion.keyframes:
         raise PlanningError(f"{motion.path}: the motion has no keyframes")
@@ -762,8 +766,8 @@ def plan_approach(
     monotonically from it, so it only ever moves towards its target.
     """
     n = len(robot.joints)
-    start = _pose_array(robot, start_deg, "start_deg")
-    target = _pose_array(robot, target_deg, "target_deg")
+    start = pose_array(robot, start_deg, "start_deg")
+    target = pose_array(robot, target_deg, "target_deg")
     if not 0 < limit_scale <= 1:
         raise ValueError(f"limit_scale must be in (0, 1], got {limit_scale}")
     outside = robot.limit_violations(target.tolist())
@@ -808,15 +812,18 @@ def plan_approach(
     )
 
 
-def _pose_array(robot: Robot, angles_deg, name: str) -> np.ndarray:
-    angles = np.asarray(angles_deg, dtype=float)
+def pose_array(robot: Robot, angles_deg: object, option: str) -> np.ndarray:
+    """``angles_deg`` as an array: one finite angle per joint of ``robot``, in its order;
+    ``OptionError`` naming ``option`` otherwise."""
+    joints = f"one angle per joint ({', '.join(robot.joint_names)})"
+    try:
+        angles = np.asarray(angles_deg, dtype=float)
+    except (TypeError, ValueError):
+        raise OptionError(option, f"needs {joints}, got {shown(angles_deg)}") from None
     if angles.shape != (len(robot.joints),):
-        raise ValueError(
-            f"{name} needs one angle per joint ({', '.join(robot.joint_names)}), "
-            f"got shape {angles.shape}"
-        )
+        raise OptionError(option, f"needs {joints}, got shape {angles.shape}")
     if not np.all(np.isfinite(angles)):
-        raise ValueError(f"{name} must be finite, got {angles.tolist()}")
+        raise OptionError(option, f"must be finite, got {angles.tolist()}")
     return angles
 
 

@@ -7,8 +7,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from choreo.core.arguments import check_number, check_type
+from choreo.errors import OptionError
 from choreo.motion.motion_file import Motion
 from choreo.motion.music_block import Music
+from choreo.motion.timing import SPEED
 from choreo.plan.pipeline import CompiledMotion
 
 
@@ -24,7 +27,16 @@ class JointFigures:
 
 def plan_report(motion: Motion, compiled: CompiledMotion, speed: float) -> dict[str, Any]:
     """The figures of a compiled motion (``choreo plan`` prints them, ``--json`` as they are),
-    as plain JSON-ready values."""
+    as plain JSON-ready values; ``speed``: the one it was compiled at."""
+    check_type("motion", motion, Motion, "a Motion (from load_motion)")
+    check_type("compiled", compiled, CompiledMotion, "a CompiledMotion (from compile_motion)")
+    if compiled.robot.joint_names != motion.robot.joint_names:
+        raise OptionError(
+            "compiled",
+            f"is a motion of {compiled.robot.name}, not of {motion.robot.name}: compile this "
+            "motion (compile_motion)",
+        )
+    check_number("speed", speed, SPEED)
     trajectory, ticks = compiled.trajectory, compiled.ticks
     peak_vel = trajectory.peak_velocity_deg_s()
     peak_acc = trajectory.peak_acceleration_deg_s2()

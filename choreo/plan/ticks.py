@@ -29,12 +29,16 @@ import numpy as np
 
 from choreo.bus.protocol import BYTE_TIME_S, SPECS, Command
 from choreo.bus.servo_models import DEG_PER_UNIT, POSITION_RANGE_UNITS
+from choreo.core.arguments import Range, check_number
 from choreo.errors import PlanningError
 from choreo.plan.planner import Trajectory
 from choreo.robot.types import Robot, Values
 
 log = logging.getLogger(__name__)
 
+# Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost (and an
+# unbounded tolerance would overflow the tick search).
+TOLERANCE_DEG = Range(above=0, at_most=5.0, unit="°")
 _STAGE = SPECS[Command.MOVE_TIME_WAIT_WRITE]
 MOVE_BYTES = _STAGE.request_len + 3  # a whole staged-move packet: 10 bytes
 START_BYTES = SPECS[Command.MOVE_START].request_len + 3  # broadcast MOVE_START: 6 bytes
@@ -102,8 +106,7 @@ def segment(
     ``PlanningError`` if a servo would leave its range (0..1000 units; never clamped) or if the
     bus floor makes the tolerance unreachable.
     """
-    if not tolerance_deg > 0:
-        raise ValueError(f"tolerance_deg must be > 0, got {tolerance_deg}")
+    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)
     if bus_margin_ms < 0:
         raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
     if trajectory.joint_names != robot.joint_names:

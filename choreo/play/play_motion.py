@@ -18,16 +18,16 @@ import logging
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
-from choreo.bus.servo_bus import ServoBus
+from choreo.bus.servo_bus import PORT_EXAMPLES, ServoBus
 from choreo.bus.settings import BusSettings
+from choreo.core.arguments import check_callable, check_type, shown
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.backend import connection as emulator_connection
 from choreo.emulator.trace import start_skew_ms
 from choreo.errors import NoAudioOutput, OptionError
-from choreo.motion.motion_file import Motion, load_motion, too_many_played
+from choreo.motion.motion_file import Motion, motion_of, too_many_played
 from choreo.motion.music_block import check_speed, past_song
 from choreo.music.decode import Audio
 from choreo.plan.performance import Performance, prepare
@@ -49,11 +49,12 @@ log = logging.getLogger(__name__)
 Note = Callable[[str], None]
 OpenAudio = Callable[[str | None, float | None], AudioSink]
 DEFAULT_OPTIONS = PlayOptions()
+PLAY_OPTIONS = "a PlayOptions, e.g. PlayOptions(speed=2) (from a dict: PlayOptions(**options))"
 
 
 def play_motion(
     motion: Motion | str | os.PathLike[str],
-    port: str | ServoBus | None = None,
+    port: str | os.PathLike[str] | ServoBus | None = None,
     options: PlayOptions = DEFAULT_OPTIONS,
     *,
     bus_settings: BusSettings | None = None,
@@ -73,6 +74,13 @@ def play_motion(
     (KeyboardInterrupt) stops the servos at once and ends with outcome ``interrupted``; a
     failed health check, ``aborted``.
     """
+    check_type("options", options, PlayOptions, PLAY_OPTIONS)
+    if bus_settings is not None:
+        check_type("bus_settings", bus_settings, BusSettings, "a BusSettings, or None")
+    check_callable("open_audio", open_audio)
+    check_callable("on_progress", on_progress, optional=True)
+    check_callable("on_note", on_note)
+    port = _port_or_bus(port)
     motion = prepared_motion(motion, options, on_note)
     robot = motion.robot
     compiled = compile_motion(
@@ -102,13 +110,26 @@ def play_motion(
         return _described(report, motion, bus, performance, start_pose, exit_move)
 
 
+def _port_or_bus(port: object) -> str | ServoBus | None:
+    """``play_motion``'s port as given (a path as its string); ``OptionError`` if it is none."""
+    if isinstance(port, os.PathLike):
+        port = os.fspath(port)
+    if port is None or isinstance(port, (str, ServoBus)):
+        return port
+    raise OptionError(
+        "port",
+        f"must be a port name such as {PORT_EXAMPLES} (a str or os.PathLike), a ServoBus you "
+        f"opened, or None, got {shown(port)}",
+    )
+
+
 def prepared_motion(
     motion: Motion | str | os.PathLike[str], options: PlayOptions, on_note: Note = log.warning
 ) -> Motion:
     """The motion to play (loaded from a path), its options checked against it, ``loop``
     applied."""
     if not isinstance(motion, Motion):
-        motion = load_motion(Path(motion), options.allow_past_song)
+        motion = motion_of(motion, options.allow_past_song)
         if motion.music is not None and motion.music.note:
             on_note(motion.music.note)  # which detected beats beats: auto took
     check_options(motion, options)

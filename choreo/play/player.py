@@ -34,18 +34,33 @@ import numpy as np
 
 from choreo.bus.protocol import BROADCAST_ID, BYTE_TIME_S, SPECS, Command, encode_request
 from choreo.bus.servo_bus import Presence, ServoBus
-from choreo.bus.servo_models import servo_model
+from choreo.bus.servo_models import DEG_PER_UNIT, POSITION_RANGE_UNITS, servo_model
+from choreo.bus.settings import TIMEOUT_S
+from choreo.core.arguments import (
+    COUNT,
+    Range,
+    check_callable,
+    check_flag,
+    check_member,
+    check_number,
+    check_optional_number,
+    check_text,
+    check_type,
+    shown,
+)
 from choreo.core.clock import Clock, RealClock
 from choreo.errors import (
     BusError,
     BusTimeoutError,
     ChoreoError,
+    OptionError,
     PlaybackAborted,
     ProtocolError,
     ServoFault,
 )
+from choreo.motion.timing import SPEED
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
-from choreo.plan.ticks import MOVE_BYTES, START_BYTES, Tick, segment
+from choreo.plan.ticks import MOVE_BYTES, START_BYTES, TOLERANCE_DEG, Tick, segment
 from choreo.play.realtime import NOT_ASKED, Scheduling, realtime_priority
 from choreo.robot.types import Joint, Robot
 
@@ -74,11 +89,24 @@ class Reading(enum.Enum):
     TEMPERATURE = (Command.TEMP_READ, "temp_c")
 
 
+# The ranges PlayOptions accepts (the command line's flags too): each argument is checked when
+# the options are made, so a bad one never waits for the play to start.
+HEALTH_TIMEOUT_S = TIMEOUT_S  # a health read is one more read on the bus
+AUDIO_LATENCY_S = Range(above=0, at_most=2.0, unit=" s")  # Bluetooth: 0.2-0.3 s; seconds: a mistake
+LEAD_S = Range(at_least=0, at_most=5.0, unit=" s")  # play_motion adds the audio latency to it
+START_GUARD_S = Range(at_least=0, at_most=0.1, unit=" s")  # ticks last tens of ms
+POSITION_ERROR_DEG = Range(above=0, at_most=POSITION_RANGE_UNITS[1] * DEG_PER_UNIT, unit="°")
+TEMP_MARGIN_C = Range(at_least=0, at_most=100, whole=True, unit=" °C")  # limits are 50-100 °C
+
+
 @dataclass(frozen=True)
 class PlayOptions:
+    """How a motion is played; every argument is checked here (``OptionError`` naming it).
+    ``exit_mode`` may be given by name (``"pose"``)."""
+
     exit_mode: ExitMode = ExitMode.HOLD
     exit_pose: str = "home"  # where ExitMode.POSE goes, slowly
-    tolerance_deg: float = 0.5  # how far the ticks may stray from the smooth plan
+    tolerance_deg: float = 0.5  # how far the ticks may stray from the smooth plan, up to 5°
     # how the motion is planned (play_motion): its speed, stretching keyframes the servos
     # cannot reach in time, and a number of times to play it instead of the file's repeat
     speed: float | None = None
@@ -88,9 +116,9 @@ class PlayOptions:
     # the song of a motion with a music: block (play_motion)
     audio: bool = True
     audio_device: str | None = None  # None: the system's output
-    audio_latency_s: float | None = None  # None: what the device reports
+    audio_latency_s: float | None = None  # None: what the device reports; else up to 2 s
     lead_s: float = 0.01  # spare time between staging the first tick and its START
-    health_timeout_s: float = 0.02  # per health read; reads happen only when they fit
+    health_timeout_s: float = 0.02  # per health read, up to 5 s; reads happen only when they fit
     start_guard_s: float = 0.002  # bus time kept free before every START
     max_missed_reads: int = 3  # consecutive unanswered reads before a servo counts as lost
     max_position_error_deg: float = 15.0
@@ -98,6 +126,25 @@ class PlayOptions:
     # SCHED_FIFO + locked memory for the play where permitted (choreo/play/realtime.py); None: only
     # with a real clock (a virtual one needs no priority)
     realtime: bool | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "exit_mode", check_member("exit_mode", self.exit_mode, ExitMode))
+        check_text("exit_pose", self.exit_pose)
+        check_number("tolerance_deg", self.tolerance_deg, TOLERANCE_DEG)
+        check_optional_number("speed", self.speed, SPEED)
+        check_optional_number("loop", self.loop, COUNT)
+        for flag in ("stretch", "allow_past_song", "audio"):
+            check_flag(flag, getattr(self, flag))
+        check_text("audio_device", self.audio_device, optional=True)
+        check_optional_number("audio_latency_s", self.audio_latency_s, AUDIO_LATENCY_S)
+        check_number("lead_s", self.lead_s, LEAD_S)
+        check_number("health_timeout_s", self.health_timeout_s, HEALTH_TIMEOUT_S)
+        check_number("start_guard_s", self.start_guard_s, START_GUARD_S)
+        check_number("max_missed_reads", self.max_missed_reads, COUNT)
+        check_number("max_position_error_deg", self.max_position_error_deg, POSITION_ERROR_DEG)
+        check_number("temp_margin_c", self.temp_margin_c, TEMP_MARGIN_C)
+        if self.realtime is not None:
+            check_flag("realtime", self.realtime)
 
 
 @dataclass(frozen=True)
@@ -190,6 +237,7 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
     Returns the measured pose (degrees, joint order) and each joint's servo limits. Raises a
     ChoreoError listing every problem; nothing has moved then.
     """
+    _check_bus_and_robot(bus, robot)
     presence = {j: bus.probe(j.servo_id, retries=2) for j in robot.joints}
     silent = [j for j, p in presence.items() if p is Presence.SILENT]
     garbled = [j for j, p in presence.items() if p is Presence.GARBLED]
@@ -222,6 +270,33 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
         for joint in robot.joints:
             bus.load(joint.servo_id)
     return tuple(pose), limits
+
+
+def _check_bus_and_robot(bus: object, robot: object) -> None:
+    check_type("bus", bus, ServoBus, "an open ServoBus: ServoBus(port)")
+    check_type("robot", robot, Robot, "a Robot (load_robot, or a motion's .robot)")
+
+
+def _check_player(bus, robot, clock, limits, options, on_progress) -> None:
+    """Refuse what a Player cannot play with (``OptionError`` naming the argument)."""
+    _check_bus_and_robot(bus, robot)
+    if not all(callable(getattr(clock, name, None)) for name in ("now", "sleep_until")):
+        raise OptionError(
+            "clock", f"must be a clock (bus.clock, RealClock(), VirtualClock()), got {shown(clock)}"
+        )
+    if not isinstance(limits, dict):
+        raise OptionError(
+            "limits",
+            f"must be each joint's ServoLimits by name, as preflight returns them, got "
+            f"{shown(limits)}",
+        )
+    missing = [j.name for j in robot.joints if j.name not in limits]
+    if missing:
+        raise OptionError(
+            "limits", f"has none for {', '.join(missing)}: pass what preflight returns"
+        )
+    check_type("options", options, PlayOptions, "a PlayOptions: PlayOptions(speed=2)")
+    check_callable("on_progress", on_progress, optional=True)
 
 
 PREFLIGHT_READS = {
@@ -384,6 +459,7 @@ class Player:
         options: PlayOptions = PlayOptions(),
         on_progress: Callable[[Progress], None] | None = None,
     ):
+        _check_player(bus, robot, clock, limits, options, on_progress)
         self.bus, self.robot, self.clock, self.options = bus, robot, clock, options
         self.limits = limits
         self.on_progress = on_progress

@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from choreo.core.arguments import check_type
 from choreo.core.atomic import write_text_atomically
 from choreo.play.player import PlayReport
 
@@ -53,6 +54,7 @@ def report_document(report: PlayReport) -> dict[str, Any]:
     """The JSON document of a :func:`~choreo.play.play_motion.play_motion` report. The measured
     start skew and the path errors come from an emulator's wire log (None on real servos: the
     skew is then the transport's own)."""
+    check_type("report", report, PlayReport, "a PlayReport (from play_motion)")
     skew_ms = report.measured_start_skew_ms
     path_errors_deg = report.path_errors_deg
     transport = transport_of(report.port, report)

@@ -22,7 +22,7 @@ import numpy as np
 from choreo.core.clock import Clock
 from choreo.errors import NoAudioOutput
 from choreo.motion.music_block import Music
-from choreo.music.decode import Audio, decode
+from choreo.music.decode import Audio, decode_song
 from choreo.plan.performance import Performance
 from choreo.play.player import Player, PlayReport
 
@@ -81,7 +81,7 @@ def play_with_song(
 
 
 def song_for_output(music: Music) -> Audio:
-    return decode(music.song, rate_hz=OUTPUT_RATE_HZ, channels=2)
+    return decode_song(music.song, rate_hz=OUTPUT_RATE_HZ, channels=2)
 
 
 # --- a sink that records (tests, dry runs, benchmarks) -----------------------------------------

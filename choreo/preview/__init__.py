@@ -12,10 +12,13 @@ that imports ``mujoco``.
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
-from choreo.motion.motion_file import HOME_POSE, Motion
+from choreo.core.arguments import check_text, check_type
+from choreo.errors import OptionError
+from choreo.motion.motion_file import HOME_POSE, Motion, motion_of
 from choreo.motion.scene import StartPosture
 from choreo.motion.timing import played_keyframes
 from choreo.plan.performance import Performance, prepare
@@ -150,7 +153,7 @@ class Prepared:
 
 
 def prepare_motion(
-    motion: Motion,
+    motion: Motion | str | os.PathLike[str],
     *,
     speed: float | None = None,
     stretch: bool = False,
@@ -159,6 +162,8 @@ def prepare_motion(
 ) -> Prepared:
     """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), with the
     approach the player would play from the start pose (see ``simulate_motion``)."""
+    motion = motion_of(motion)
+    check_text("start_pose", start_pose, optional=True)
     compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
     start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
     return Prepared(
@@ -170,7 +175,7 @@ def prepare_motion(
 
 
 def simulate_motion(
-    motion: Motion,
+    motion: Motion | str | os.PathLike[str],
     settings: SimSettings | None = None,
     *,
     speed: float | None = None,
@@ -183,8 +188,10 @@ def simulate_motion(
 
     The start pose is the robot's pose ``start_pose``, or "first" for the motion's first
     keyframe; by default ``home`` (the first keyframe for a motion that starts lying, or a
-    robot without a home pose).
+    robot without a home pose). ``motion`` may be given by its file's path.
     """
+    if settings is not None:
+        check_type("settings", settings, SimSettings, "a SimSettings, or None")
     prepared = prepare_motion(
         motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg, start_pose=start_pose
     )
@@ -260,8 +267,9 @@ def start_pose_deg(motion: Motion, first_deg, start_pose: str | None) -> tuple[f
     if start_pose == FIRST_KEYFRAME:
         return tuple(float(a) for a in first_deg)
     if start_pose not in robot.poses:
-        raise ValueError(
-            f"no pose {start_pose!r} in {robot.path}; start from one of "
-            f"{', '.join([*robot.poses, FIRST_KEYFRAME])}"
+        raise OptionError(
+            "start_pose",
+            f"{start_pose!r}: no such pose in {robot.path}; start from one of "
+            f"{', '.join([*robot.poses, FIRST_KEYFRAME])}",
         )
     return robot.pose_vector(start_pose)

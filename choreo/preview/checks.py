@@ -6,12 +6,12 @@ gaps merged) and reports one ``CheckResult`` per episode, at the time it starts.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from enum import Enum
 
 import numpy as np
 
+from choreo.core.arguments import NON_NEGATIVE, Range, check_number, check_type
 from choreo.preview.props import PLACE_TOLERANCE_M, prop_outcomes
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
 from choreo.preview.sim import Rollout
@@ -64,6 +64,9 @@ class CheckResult:
         return record
 
 
+FRACTION = Range(above=0, at_most=1)
+
+
 @dataclass(frozen=True)
 class CheckThresholds:
     max_tracking_error_deg: float = 10.0  # joint angle vs the path the ticks ask for
@@ -84,17 +87,16 @@ class CheckThresholds:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
-        for name in ("saturation_fraction", "near_miss_fraction"):
-            if not 0 < getattr(self, name) <= 1:
-                raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
+            fraction = name in ("saturation_fraction", "near_miss_fraction")
+            check_number(name, value, FRACTION if fraction else NON_NEGATIVE)
 
 
 def run_checks(
     rollout: Rollout, thresholds: CheckThresholds = CheckThresholds()
 ) -> list[CheckResult]:
     """Every problem found from the start (settled, before the approach), in time order."""
+    check_type("rollout", rollout, Rollout, "a Rollout (from simulate_motion)")
+    check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds")
     rollout = rollout.since_start()
     results = [
         *check_contacts(rollout, thresholds),

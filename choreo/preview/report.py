@@ -7,6 +7,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from choreo.core.arguments import check_text, check_type, shown
+from choreo.errors import OptionError
 from choreo.preview.checks import CheckResult, CheckThresholds, Severity
 from choreo.preview.props import prop_outcomes
 from choreo.preview.sim import Rollout
@@ -135,6 +137,16 @@ def preview_report(
     motion: str = "",
     thresholds: CheckThresholds | None = None,
 ) -> dict:
+    """What ``choreo preview --report`` writes: the checks' ``results`` on ``rollout`` (of the
+    motion file ``motion``) and the figures they were judged by."""
+    check_type("rollout", rollout, Rollout, "a Rollout (from simulate_motion)")
+    if not isinstance(results, list) or not all(isinstance(r, CheckResult) for r in results):
+        raise OptionError(
+            "results", f"must be a list of CheckResult (from run_checks), got {shown(results)}"
+        )
+    check_text("motion", motion)
+    if thresholds is not None:
+        check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds, or None")
     thresholds = thresholds or CheckThresholds()
     errors = sum(r.severity is Severity.ERROR for r in results)
     settling = rollout.settling

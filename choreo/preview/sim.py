@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from choreo.core.arguments import NON_NEGATIVE, Range, check_member, check_number
 from choreo.errors import PreviewError
 from choreo.motion.scene import Prop, StartPosture
 from choreo.plan.ticks import Tick
@@ -72,6 +73,10 @@ class MoveStart(str, Enum):
     POSITION = "position"
 
 
+# the settling before the motion and the tail after it: a minute of either is already a mistake
+SIMULATED_S = Range(at_least=0, at_most=60.0, unit=" s")
+
+
 @dataclass(frozen=True)
 class SimSettings:
     max_settle_s: float = 2.0  # the start pose is held until the robot is still, at most this
@@ -82,10 +87,12 @@ class SimSettings:
     actuator_overrides: Mapping[str, Mapping[str, float]] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("max_settle_s", "tail_s", "min_contact_depth_m"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+        check_number("max_settle_s", self.max_settle_s, SIMULATED_S)
+        object.__setattr__(
+            self, "move_start", check_member("move_start", self.move_start, MoveStart)
+        )
+        check_number("tail_s", self.tail_s, SIMULATED_S)
+        check_number("min_contact_depth_m", self.min_contact_depth_m, NON_NEGATIVE)
 
 
 INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # everything stepping depends on

@@ -18,6 +18,7 @@ from choreo.bus.servo_models import (
     ServoModel,
 )
 from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, BusSettings
+from choreo.core.arguments import check_path
 from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import (
@@ -72,8 +73,12 @@ def load_robot(path_or_name: str | Path, *, relative_to: Path | None = None) -> 
 
     Every problem found in the file and its MJCF is reported at once in one ``SourceError``.
     """
+    path = check_path("path_or_name", path_or_name, "a robot's name or its robot.yaml's path")
+    ref = path_or_name if isinstance(path_or_name, str) else path  # a name is a str
+    if relative_to is not None:
+        relative_to = check_path("relative_to", relative_to, "the path of the file naming it")
     try:
-        path = find_robot_file(path_or_name, relative_to)
+        path = find_robot_file(ref, relative_to)
     except LookupError as error:
         raise SourceError(str(error)) from None
     problems = Problems()

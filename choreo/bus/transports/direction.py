@@ -31,8 +31,9 @@ from pathlib import Path
 from typing import Protocol
 
 from choreo.bus.transports import jetson
+from choreo.core.arguments import shown
 from choreo.core.clock import Clock, RealClock
-from choreo.errors import ChoreoError
+from choreo.errors import ChoreoError, OptionError
 
 DEFAULT_CHIP = "/dev/gpiochip0"
 
@@ -149,6 +150,12 @@ def direction_lines(direction, compatibles: list[str] | None = None) -> Directio
         direction = board_pins(direction, compatibles)
     if isinstance(direction, DirectionPins):
         return GpiodLines(direction)
+    if not all(callable(getattr(direction, name, None)) for name in ("transmit", "receive")):
+        raise OptionError(
+            "direction",
+            f"must be a preset ({', '.join(PRESETS)}), 'rx=N,tx=N[,chip=PATH]' or "
+            f"DirectionPins, got {shown(direction)}",
+        )
     return direction
 
 
