@@ -91,7 +91,7 @@ def test_timing_and_keyframe_options_are_kept(tmp_path):
         "  - pose: {base_yaw: 10}\n    after: 0.25\n"
         "  - pose: {base_yaw: -20, wrist_roll: 5}\n    t: 1.5\n    hold: 0.3\n"
         "  - pose: ready\n    after: 0.7\n    stop: true\n    velocity: 0.4\n"
-        "  - pose: home\n    velocity: 0.00001\n"
+        "  - pose: home\n    hold: 0.00001\n"
     )  # YAML 1.1 would read 1e-05 as a string
     out = mirror(source, tmp_path / "timed_mirrored.yaml")
     motion = load_motion(out)
@@ -101,7 +101,7 @@ def test_timing_and_keyframe_options_are_kept(tmp_path):
         (None, 0.25, 0.0, False, 1.0),
         (1.5, None, 0.3, True, 1.0),
         (None, 0.7, 0.0, True, 0.4),
-        (None, None, 0.0, False, 0.00001),
+        (None, None, 0.00001, True, 1.0),
     ]
     assert (motion.speed, motion.repeat) == (1.5, 2)
     text = out.read_text()
