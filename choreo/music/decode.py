@@ -139,6 +139,10 @@ def add_song_to_video(video: Path, song: Path, song_at_start_s: float, duration_
 
 
 _FFMPEG_PREFIX = re.compile(r"^\[[^\]]*@ 0x[0-9a-fA-F]+\] ")  # "[out#0/f32le @ 0x55...] "
+# How ffmpeg says it could not open an input: "Error opening input: ..." in newer releases,
+# "<path>: Invalid data found when processing input" in older ones, after the demuxer's own
+# detail ("[ogg @ 0x...] ogg page, unsupported version").
+_UNREADABLE_INPUT = ("Error opening input", "Invalid data found when processing input")
 
 
 def ffmpeg_reason(stderr: bytes) -> str:
@@ -153,6 +157,6 @@ def ffmpeg_reason(stderr: bytes) -> str:
         return "ffmpeg failed without saying why"
     if "does not contain any stream" in cause:
         return "it has no audio"
-    if cause.startswith(("Error opening input", "Invalid data found")):
+    if any(marker in line for line in lines for marker in _UNREADABLE_INPUT):
         return f"it is not a sound file ffmpeg can read ({cause})"
     return cause

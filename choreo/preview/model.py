@@ -60,9 +60,11 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
                     f"part of the robot or its scene ({path.name}); choose another name"
                 )
             _add_prop(spec, prop)
-        return spec.compile()
+        model = spec.compile()
     except ValueError as error:
         raise PreviewError(f"{path}: MuJoCo cannot load it: {error}") from None
+    _start_props_in_place(model)
+    return model
 
 
 def _add_prop(spec: mujoco.MjSpec, prop: Prop) -> None:
@@ -85,6 +87,15 @@ def _add_prop(spec: mujoco.MjSpec, prop: Prop) -> None:
     geom.name = prop.name
     geom.type = mujoco.mjtGeom.mjGEOM_BOX
     geom.size = [size / 2 for size in prop.size_m]
+
+
+def _start_props_in_place(model: mujoco.MjModel) -> None:
+    """Each free prop in the scene's keyframes (the home pose the preview starts from) where the
+    motion puts it: the scene's keyframes know nothing of the props, and MuJoCo before 3.15
+    fills a joint added to them with zeros, the world's origin."""
+    for joint in free_prop_joints(model).values():
+        address = model.jnt_qposadr[joint]
+        model.key_qpos[:, address : address + 7] = model.qpos0[address : address + 7]
 
 
 def index_joints(model: mujoco.MjModel, robot: Robot) -> JointIndex:
