@@ -148,8 +148,7 @@ def parse_yaml_file(path: Path) -> Node | None:
         reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
     try:
-        _check_depth(path, text)
-        return yaml.compose(text, Loader=_SAFE_LOADER)
+        return _compose(path, text)
     except yaml.MarkedYAMLError as error:
         raise SourceError(_syntax_message(path, error)) from None
     except yaml.YAMLError as error:  # unmarked: e.g. a character YAML does not allow
@@ -157,9 +156,45 @@ def parse_yaml_file(path: Path) -> Node | None:
 
 
 # The loader builds the node tree by recursion: 30,000 nested "[" overflow libyaml's C stack (a
-# segfault) or Python's. The deepest shipped file nests 6 levels; the events are read without
-# recursion, so the depth is known before the tree is built.
+# segfault) or Python's. The deepest shipped file nests 6 levels.
 MAX_DEPTH = 64
+
+
+def _compose(path: Path, text: str) -> Node | None:
+    """The node tree, in one pass where nothing is nested more than MAX_DEPTH deep and the
+    composer finds no fault. Otherwise the events are read first, without recursion, as
+    ever: a syntax error or a collection nested too deep is said where it comes first, and
+    the tree is built only if there is neither."""
+    with contextlib.suppress(_DeepNode, yaml.composer.ComposerError):
+        return yaml.compose(text, Loader=_BoundedLoader)
+    _check_depth(path, text)
+    return yaml.compose(text, Loader=_SAFE_LOADER)
+
+
+class _DeepNode(Exception):
+    """A node on the path MAX_DEPTH + 1 deep: a collection nested too deep, or a scalar in a
+    collection just deep enough."""
+
+
+class _BoundedLoader(_SAFE_LOADER):  # type: ignore[valid-type,misc]
+    """The safe loader, stopping before it builds a node more than MAX_DEPTH deep.
+
+    The composer (libyaml's too) calls ``descend_resolver`` before it builds each node and
+    ``ascend_resolver`` after. The safe loader has no path resolvers, the one thing the base
+    methods would follow, so these replace them.
+    """
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self._depth = 0
+
+    def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
+        self._depth += 1
+        if self._depth > MAX_DEPTH:
+            raise _DeepNode
+
+    def ascend_resolver(self) -> None:
+        self._depth -= 1
 
 
 def _check_depth(path: Path, text: str) -> None:
