@@ -7,7 +7,10 @@ subprocess several times (best and median wall time, and its CPU time), and its 
 in-process (CPU time, after a warm-up run) to show where the time goes: YAML loading, reading the
 motion (and its robot), planning, ticks, report; start-up is what the command takes beyond them
 (the interpreter, imports, MuJoCo's model check's first load).
-Goal: the whole command within 1.2 s on the 2-core development machine.
+choreo's modules are byte-compiled first, as pip does when it installs them: where
+PYTHONDONTWRITEBYTECODE is set (it is in this project's development environment) each run would
+otherwise compile them again, some 0.1-0.2 s that no installed choreo spends.
+Goal: the whole command within 1.0 s (median) on the 2-core development machine.
 
 Run: python benchmarks/bench_load.py [--runs N]
 """
@@ -15,6 +18,7 @@ Run: python benchmarks/bench_load.py [--runs N]
 from __future__ import annotations
 
 import argparse
+import compileall
 import contextlib
 import os
 import resource
@@ -37,7 +41,7 @@ from choreo.plan.report import plan_report
 from choreo.plan.ticks import segment
 from choreo.robot.robot_file import load_robot
 
-GOAL_S = 1.2
+GOAL_S = 1.0  # median
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -100,6 +104,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
+    compileall.compile_dir(REPO / "choreo", quiet=1)  # as an installed choreo has it
     with tempfile.TemporaryDirectory() as folder:
         path = write_dance(Path(folder))
         motion = load_motion(path)
@@ -124,9 +129,9 @@ def main() -> None:
     print(f"{'start-up':>18}: {cpu - sum(medians.values()):.3f} s (the rest: Python, imports)")
     for name, seconds in medians.items():
         print(f"{name:>18}: {seconds:.3f} s")
-    verdict = "met" if min(cli_s) <= GOAL_S else "NOT met"
+    verdict = "met" if statistics.median(cli_s) <= GOAL_S else "NOT met"
     print(
-        f"goal choreo plan <= {GOAL_S:g} s end to end: {verdict} (load average "
+        f"goal choreo plan <= {GOAL_S:g} s end to end (median): {verdict} (load average "
         f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores while measuring)"
     )
 

@@ -12,8 +12,23 @@ models' datasheet facts and their configuration.
 
 from __future__ import annotations
 
-from choreo.bus.protocol import Command
-from choreo.bus.servo_bus import ServoBus
-from choreo.bus.transports import Capabilities
+import importlib
+from typing import TYPE_CHECKING
 
+from choreo.bus.protocol import Command
+
+# The bus and its transports (pyserial) are imported on first use: the planner reads the codec
+# and the datasheet table from here without them.
+_MODULE_OF = {"Capabilities": "choreo.bus.transports", "ServoBus": "choreo.bus.servo_bus"}
 __all__ = ["Capabilities", "Command", "ServoBus"]
+
+
+def __getattr__(name: str) -> object:
+    if name not in _MODULE_OF:
+        raise AttributeError(f"module 'choreo.bus' has no attribute {name!r}")
+    return getattr(importlib.import_module(_MODULE_OF[name]), name)
+
+
+if TYPE_CHECKING:
+    from choreo.bus.servo_bus import ServoBus
+    from choreo.bus.transports import Capabilities

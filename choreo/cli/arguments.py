@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
 from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, TIMEOUT_S, BusSettings
-from choreo.bus.transports.direction import PRESETS, parse_direction
 from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE, Range
 
 if TYPE_CHECKING:
@@ -75,6 +74,8 @@ def id_ranges(text: str) -> tuple[int, ...]:
 
 
 def _direction(text: str) -> str:
+    from choreo.bus.transports.direction import parse_direction  # the transports: bus commands
+
     try:
         parse_direction(text)
     except ValueError as error:
@@ -159,6 +160,8 @@ def add_past_song_argument(parser: argparse.ArgumentParser) -> None:
 def add_port_arguments(parser: argparse.ArgumentParser) -> None:
     """--port, --timeout-ms, --retries, --echo; unset ones come from the robot file's ``bus:``
     section where a robot is involved, else from the defaults."""
+    from choreo.bus.transports.direction import PRESETS  # the transports: bus commands only
+
     defaults = BusSettings()
     parser.add_argument(
         "--port",

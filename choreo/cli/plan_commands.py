@@ -10,7 +10,6 @@ from rich.console import Console
 from rich.table import Table
 
 from choreo.cli.arguments import add_planning_arguments, load_dance, non_negative_float
-from choreo.core.atomic import check_writable
 from choreo.errors import UsageError
 from choreo.plan.pipeline import compile_motion
 from choreo.plan.report import plan_report
@@ -69,6 +68,8 @@ def run_plan(args: argparse.Namespace) -> int:
             f"--plot-from {args.plot_from:g} must be before --plot-to {args.plot_to:g}"
         )
     if args.plot is not None:
+        from choreo.core.atomic import check_writable  # only with a plot to write
+
         check_writable(args.plot)
     motion = load_dance(args.motion, args.allow_past_song)
     compiled = compile_motion(

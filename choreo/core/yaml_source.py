@@ -17,6 +17,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from decimal import Context, Decimal
 from pathlib import Path
+from typing import NamedTuple
 
 import yaml
 
@@ -48,8 +49,7 @@ class SourceLocation:
         return " (" + ", ".join(f"included at {entry}" for entry in self.included_at) + ")"
 
 
-@dataclass(frozen=True)
-class Entry:
+class Entry(NamedTuple):  # (a tuple: made for every key of a file, and quicker to make)
     """One ``key: value`` of a YAML mapping."""
 
     key: str
@@ -182,8 +182,7 @@ def parse_yaml_file(path: Path) -> Node | None:
         reason = error.strerror if isinstance(error, OSError) else "it is not UTF-8 text"
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
     try:
-        _check_depth(path, text)
-        return yaml.compose(text, Loader=_SAFE_LOADER)
+        return _compose(path, text)
     except yaml.MarkedYAMLError as error:
         raise SourceError(_syntax_message(path, error)) from None
     except yaml.YAMLError as error:  # unmarked: e.g. a character YAML does not allow
@@ -191,9 +190,46 @@ def parse_yaml_file(path: Path) -> Node | None:
 
 
 # The loader builds the node tree by recursion: 30,000 nested "[" overflow libyaml's C stack (a
-# segfault) or Python's. The deepest shipped file nests 6 levels; the events are read without
-# recursion, so the depth is known before the tree is built.
+# segfault) or Python's. The deepest shipped file nests 6 levels.
 MAX_DEPTH = 64
+
+
+def _compose(path: Path, text: str) -> Node | None:
+    """The node tree, in one pass where nothing is nested more than MAX_DEPTH deep and the
+    file is valid YAML. Otherwise the events are read first, without recursion, as ever: a
+    syntax error or a collection nested too deep is said where it comes first, and the tree is
+    built only if there is neither (libyaml's own depth bound is a syntax error to the fast
+    pass, so any fault takes the careful path)."""
+    with contextlib.suppress(_DeepNode, yaml.YAMLError):
+        return yaml.compose(text, Loader=_BoundedLoader)
+    _check_depth(path, text)
+    return yaml.compose(text, Loader=_SAFE_LOADER)
+
+
+class _DeepNode(Exception):
+    """A node on the path MAX_DEPTH + 1 deep: a collection nested too deep, or a scalar in a
+    collection just deep enough."""
+
+
+class _BoundedLoader(_SAFE_LOADER):  # type: ignore[valid-type,misc]
+    """The safe loader, stopping before it builds a node more than MAX_DEPTH deep.
+
+    The composer (libyaml's too) calls ``descend_resolver`` before it builds each node and
+    ``ascend_resolver`` after. The safe loader has no path resolvers, the one thing the base
+    methods would follow, so these replace them.
+    """
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self._depth = 0
+
+    def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
+        self._depth += 1
+        if self._depth > MAX_DEPTH:
+            raise _DeepNode
+
+    def ascend_resolver(self) -> None:
+        self._depth -= 1
 
 
 def _check_depth(path: Path, text: str) -> None:
@@ -326,8 +362,10 @@ class Reader:
         if not isinstance(node, yaml.ScalarNode):
             return node
         if node.tag == FLOAT_TAG:  # most of a motion file: Python reads these as PyYAML does
-            with contextlib.suppress(ValueError):  # .inf, .nan, 1__0.5, 190:20:30 (base 60)
+            try:  # (not contextlib.suppress: this runs for every number of a file)
                 return float(node.value)
+            except ValueError:  # .inf, .nan, 1__0.5, 190:20:30 (base 60)
+                pass
         try:
             return self._constructor.construct_object(node)
         # an unknown !tag; a whole number of more digits than Python reads (4,300)

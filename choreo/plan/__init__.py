@@ -11,11 +11,16 @@ trajectories, compiled into the servos' own linear moves (ticks).
 
 from __future__ import annotations
 
-from choreo.plan.performance import Performance, prepare
+import importlib
+from typing import TYPE_CHECKING
+
 from choreo.plan.pipeline import CompiledMotion, compile_motion
 from choreo.plan.planner import PlanResult, Trajectory, plan_motion
 from choreo.plan.ticks import Tick, TickPlan
 
+# The performance (what play and preview start from) is imported on first use: `choreo plan`
+# does without it.
+_MODULE_OF = {"Performance": "choreo.plan.performance", "prepare": "choreo.plan.performance"}
 __all__ = [
     "CompiledMotion",
     "Performance",
@@ -27,3 +32,13 @@ __all__ = [
     "plan_motion",
     "prepare",
 ]
+
+
+def __getattr__(name: str) -> object:
+    if name not in _MODULE_OF:
+        raise AttributeError(f"module 'choreo.plan' has no attribute {name!r}")
+    return getattr(importlib.import_module(_MODULE_OF[name]), name)
+
+
+if TYPE_CHECKING:
+    from choreo.plan.performance import Performance, prepare

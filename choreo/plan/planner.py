@@ -166,8 +166,7 @@ class Trajectory:
             )
             dt = times_s - np.repeat(self.knots_s[j], counts)
             p, v, a_half, j_sixth = (np.repeat(column[j], counts) for column in self._taylor)
-            for array, values in zip(out, _taylor_values(p, v, a_half, j_sixth, dt, rates)):
-                array[j] = values
+            _taylor_values(p, v, a_half, j_sixth, dt, rates, out=[array[j] for array in out])
         return out
 
 
@@ -178,8 +177,10 @@ def _taylor_values(
     j_sixth: np.ndarray,
     dt: np.ndarray,
     rates: bool,
+    out: Sequence[np.ndarray | None] = (None, None, None),
 ) -> list[np.ndarray]:
-    pos = j_sixth * dt
+    """Position (and velocity, acceleration if ``rates``), into the arrays ``out`` if given."""
+    pos = np.multiply(j_sixth, dt, out=out[0])
     pos += a_half
     pos *= dt
     pos += v
@@ -187,11 +188,11 @@ def _taylor_values(
     pos += p
     if not rates:
         return [pos]
-    vel = 3 * j_sixth * dt
+    vel = np.multiply(3 * j_sixth, dt, out=out[1])
     vel += 2 * a_half
     vel *= dt
     vel += v
-    acc = 6 * j_sixth * dt
+    acc = np.multiply(6 * j_sixth, dt, out=out[2])
     acc += 2 * a_half
     return [pos, vel, acc]
 

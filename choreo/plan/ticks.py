@@ -47,6 +47,7 @@ DEFAULT_BUS_MARGIN_MS = 1.5  # slack per tick beyond the wire time (host jitter,
 QUANTIZATION_DEG = DEG_PER_UNIT / 2  # rounding a target to whole units
 MAX_STEP_MS = 2  # the sample lattice (1 ms when the tolerance is too tight for 2)
 MARGIN_SHARE = 0.02  # of the tolerance the lattice margin may take
+GUESS_MARGIN = 12  # lattice steps past the last tick's reach where the next is first sought
 
 
 @dataclass(frozen=True)
@@ -130,8 +131,13 @@ def segment(
     servo.check_targets(targets, bounds_ms)
     staged = targets[1:] != targets[:-1]
     ticks = tuple(
-        Tick(int(a), int(b - a), tuple(t.tolist()), tuple(s.tolist()))
-        for a, b, t, s in zip(bounds_ms[:-1], bounds_ms[1:], targets[1:], staged)
+        Tick(a, d, tuple(t), tuple(s))
+        for a, d, t, s in zip(
+            bounds_ms[:-1].tolist(),
+            np.diff(bounds_ms).tolist(),
+            targets[1:].tolist(),
+            staged.tolist(),
+        )
     )
     deviation = search.max_deviation(bounds, robot.to_deg(targets))
     n_staged = staged.sum(axis=1)
@@ -191,25 +197,22 @@ class _Search:
     """Greedy farthest reach over the sampled trajectory, in lattice steps (see the module
     docstring).
 
-    Samples are stored joint-major, one row per joint and then per negated joint (``[x, -x]``),
-    so that one running maximum along a row gives both bounds of the cone: ``max(slope - tol)``
+    A window's slopes are taken one row per joint and then per joint negated (``[s, -s]``), so
+    that one running maximum along a row gives both bounds of the cone: ``max(slope - tol)``
     (the low side) and ``max(-slope - tol) = -min(slope + tol)`` (minus the high side).
     """
 
     def __init__(self, trajectory: Trajectory, tolerance_deg: float, end_ms: int):
         self.trajectory = trajectory
         self.tolerance_deg = tolerance_deg
-        self.n = n = trajectory.n_joints
+        self.n = trajectory.n_joints
         peak_acc = trajectory.peak_acceleration_deg_s2()
         self.step_ms = _lattice_step_ms(tolerance_deg * MARGIN_SHARE, float(peak_acc.max()))
         self.margin_deg = peak_acc * (self.step_ms / 1000) ** 2 / 8  # per joint
         self.end = math.ceil(end_ms / self.step_ms)  # last lattice point: at or after the end
         self.max_steps = MAX_TICK_MS // self.step_ms
-        samples = trajectory.positions(np.arange(self.end + 1) * self.step_ms / 1000).T
-        self.samples_pm = np.empty((2 * n, self.end + 1))
-        self.samples_pm[:n] = samples
-        np.negative(samples, out=self.samples_pm[n:])
-        self.samples_deg = self.samples_pm[:n]  # (n, lattice points)
+        times_s = np.arange(self.end + 1) * self.step_ms / 1000
+        self.samples_deg = trajectory.positions(times_s).T  # (n, lattice points), contiguous
         # 1/d and tolerance/d for chords d = 1..max steps long
         steps = np.arange(1, min(self.end, self.max_steps) + 1)
         self.inv_d = 1.0 / steps
@@ -227,7 +230,7 @@ class _Search:
             start = bounds[-1]
             limit = min(self.end - start, self.max_steps)
             reach = self.reach(start, limit, guess)
-            guess = reach + reach // 2 + 4  # the next tick is likely about as long
+            guess = reach + GUESS_MARGIN  # the next tick is likely about as long
             if reach < min(floor, limit):
                 forced.append(len(bounds) - 1)
                 reach = min(floor, limit)
@@ -241,22 +244,27 @@ class _Search:
         (D_d - tol)/d and (D_d + tol)/d: a cone that only narrows, so one pass over a window
         finds every chord that fits, and the search stops once a joint's cone is closed.
         """
-        n, samples, inv_d, tol_d = self.n, self.samples_pm, self.inv_d, self.tol_d
+        n, samples, inv_d, tol_d = self.n, self.samples_deg, self.inv_d, self.tol_d
         base = samples[:, start : start + 1]
         best, first, carry = 0, 1, None
         while first <= limit:
             last = min(first + guess - 1, limit)
-            slope = samples[:, start + first : start + last + 1] - base
-            slope *= inv_d[first - 1 : last]
+            slope = np.empty((2 * n, last - first + 1))
+            joints = slope[:n]
+            np.subtract(samples[:, start + first : start + last + 1], base, out=joints)
+            np.multiply(joints, inv_d[first - 1 : last], out=joints)
+            np.negative(joints, out=slope[n:])
             bound = np.subtract(slope, tol_d[:, first - 1 : last])
             np.maximum.accumulate(bound, axis=1, out=bound)
             if carry is not None:
                 np.maximum(bound, carry, out=bound)
-            fits = np.flatnonzero((bound <= slope).all(axis=0))
-            if len(fits):
+            # the ufuncs' own methods: ndarray.all and np.flatnonzero add Python calls, and
+            # this runs for every tick
+            fits = np.logical_and.reduce(bound <= slope, axis=0).nonzero()[0]
+            if fits.size:
                 best = first + int(fits[-1])
             carry = bound[:, -1:]
-            if np.add(carry[:n], carry[n:]).max() > 0:  # the cone closed: no longer chord fits
+            if np.maximum.reduce(carry[:n] + carry[n:], axis=None) > 0:  # the cone closed
                 break
             first, guess = last + 1, 2 * guess
         return best
