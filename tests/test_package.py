@@ -223,6 +223,8 @@ TESTED_IN = {
     "preview/model.py": ("test_preview.py",),
     "preview/report.py": ("test_preview.py",),
     "preview/sim.py": ("test_preview.py",),
+    "preview/pipeline.py": ("test_preview.py", "test_preview_start.py"),
+    "preview/simulated.py": ("test_preview_gaits.py", "test_preview_props.py"),
     "preview/start.py": ("test_preview_start.py",),
     "preview/travel.py": ("test_spatial_preview.py",),
     "preview/gl.py": ("test_render.py",),

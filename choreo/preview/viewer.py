@@ -12,6 +12,7 @@ from choreo.errors import PreviewError
 from choreo.preview.gl import window_system_problem
 from choreo.preview.model import load_model
 from choreo.preview.sim import Rollout
+from choreo.preview.simulated import SimulatedMotion, rollout_of
 
 FRAME_S = 1 / 60
 
@@ -32,8 +33,10 @@ def _check_window_system() -> None:
         )
 
 
-def show_in_viewer(rollout: Rollout) -> None:
-    """Loop the rollout in the viewer until its window is closed."""
+def show_in_viewer(rollout: SimulatedMotion | Rollout) -> None:
+    """Loop the rollout (``simulate_motion``'s, or ``simulate``'s) in the viewer until its window
+    is closed."""
+    recorded = rollout_of(rollout)
     # mujoco's viewer kills the whole process when it cannot open a window: check first
     if not has_display():
         raise PreviewError(
@@ -43,15 +46,15 @@ def show_in_viewer(rollout: Rollout) -> None:
     _check_window_system()
     from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
 
-    model = load_model(rollout.robot, rollout.props)
+    model = load_model(recorded.robot, recorded.props)
     data = mujoco.MjData(model)
     with mujoco_viewer.launch_passive(model, data) as viewer:
         started = time.monotonic()
         while viewer.is_running():
-            span = rollout.duration_s - rollout.start_s
-            t = rollout.start_s + ((time.monotonic() - started) % span if span else 0.0)
-            step = min(int(np.searchsorted(rollout.times_s, t)), len(rollout.times_s) - 1)
-            data.qpos[:] = rollout.qpos[step]
+            span = recorded.duration_s - recorded.start_s
+            t = recorded.start_s + ((time.monotonic() - started) % span if span else 0.0)
+            step = min(int(np.searchsorted(recorded.times_s, t)), len(recorded.times_s) - 1)
+            data.qpos[:] = recorded.qpos[step]
             mujoco.mj_forward(model, data)
             viewer.sync()
             time.sleep(FRAME_S)
