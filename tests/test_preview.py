@@ -32,6 +32,7 @@ from choreo.preview import (
     joint_summaries,
     preview_report,
     run_checks,
+    show_in_viewer,
     simulate,
     simulate_motion,
 )
@@ -490,11 +491,15 @@ def test_preview_usage_errors_exit_2(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
-def test_the_viewer_without_a_display_says_so(monkeypatch, capsys):
+def test_the_viewer_without_a_display_says_so(arm3, monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    problem = "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set"
+    with pytest.raises(PreviewError) as refused:  # the library names its own call
+        show_in_viewer(simulate(arm3, [], [0, 0, 0]))
+    assert str(refused.value) == f"{problem}; render to a file instead (render_preview)"
     assert main(["preview", str(MOTIONS / "fine.yaml"), "--viewer"]) == 1
-    assert "the viewer needs a display" in capsys.readouterr().err
+    assert error_line(capsys) == f"choreo: error: {problem}; render to a file instead (-o FILE)"
 
 
 def test_no_ticks_means_holding_the_first_pose(arm3):
@@ -560,5 +565,5 @@ def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, caps
     assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), "--viewer"]) == 1
     assert error_line(capsys) == (
         "choreo: error: the viewer cannot open a window on display ':99' (X11: Failed to open "
-        "display :99); render to a file instead: choreo preview MOTION -o out.mp4"
+        "display :99); render to a file instead (-o FILE)"
     )

@@ -33,6 +33,7 @@ from choreo.preview import (
     run_checks,
     simulate,
     simulate_motion,
+    start_lines,
 )
 from choreo.preview.model import load_model
 from choreo.preview.start import lowest_clearance_m
@@ -317,6 +318,9 @@ def test_torque_and_speed_scale_with_the_supply_and_the_file_can_say_so(tmp_path
     assert "supply 5.55 V (rated 7.4 V)" in report["assumptions"]["summary"]
     assert "(elbow 7.4)" in report["assumptions"]["summary"]
     assert report["assumptions"]["move_start"] == "setpoint"
+    # the library names its argument; the command line, its flag (the next test)
+    assert report["assumptions"]["summary"].endswith("moves start from the setpoint (move_start)")
+    assert start_lines(rollout)[-1].endswith("moves start from the setpoint (move_start)")
 
 
 def test_a_negative_backlash_in_the_robot_file_is_refused_where_it_is_written(tmp_path):
@@ -411,7 +415,10 @@ def test_the_cli_says_how_it_started_and_what_it_assumed(capsys):
     out = capsys.readouterr().out
     assert "start: standing on the floor; settled for" in out
     assert "approach: " in out and "as the player plays it" in out
-    assert "servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash" in out
+    assert (
+        f"{motion}: servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash, "
+        "moves start from the setpoint (--move-start)\n"
+    ) in out
     assert re.search(r"hardest-working servo: \w+ at up to \d+ % of its stall torque", out)
     assert main(["preview", "--check", str(motion), "--from", "nope"]) == 2
     assert "--from nope: tonypi has no such pose; valid: home" in capsys.readouterr().err
@@ -428,4 +435,5 @@ def test_the_cli_can_start_a_motion_lying_and_writes_the_start_to_the_report(tmp
     assert written["start"]["feet"] == ["left_foot", "right_foot"]
     assert written["approach_start_s"] == 0 and written["start_s"] < 0
     assert "0.5° backlash" in written["assumptions"]["summary"]
+    assert written["assumptions"]["summary"].endswith("from the setpoint (--move-start)")
     assert {"peak_torque_pct", "near_limit_s", "supply_v"} <= set(written["joints"][0])

@@ -12,7 +12,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from choreo.cli import restore_mujoco_gl
+from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
     load_dance,
@@ -271,7 +271,7 @@ def _preview(args: argparse.Namespace) -> int:
     rollout = simulated.rollout
     results = preview.run_checks(simulated, thresholds)
     for line in preview.start_lines(rollout):
-        print(f"{args.motion}: {line}")
+        print(f"{args.motion}: {in_flags(line)}")
     for result in results:
         where = heading_for(motion, rollout.keyframe_times_s, result.time_s)
         print(f"{where}: {result.severity.value}: {result.message}")
@@ -295,7 +295,8 @@ def _preview(args: argparse.Namespace) -> int:
         report = preview.preview_report(
             simulated, results, motion=str(args.motion), thresholds=thresholds
         )
-        write_text_atomically(args.report, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+        text = json.dumps(report_in_flags(report), indent=2, ensure_ascii=False)
+        write_text_atomically(args.report, text + "\n")
         print(f"wrote {args.report}")
     if output is not None:
         render_settings = preview.RenderSettings(

@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from choreo.core.arguments import check_text, check_type, shown
-from choreo.errors import OptionError
+from choreo.errors import OptionError, Worded, joined
 from choreo.preview.checks import CheckResult, CheckThresholds, Severity
 from choreo.preview.sim import Rollout
 from choreo.preview.simulated import SimulatedMotion, simulated_of
@@ -59,7 +59,8 @@ def joint_summaries(
 
 
 def start_lines(rollout: Rollout) -> list[str]:
-    """How the simulation started and what it assumed, one line each, for the CLI."""
+    """How the simulation started and what it assumed, one line each, for the CLI (the servo
+    model's line names the argument that changes its assumption: ``worded``)."""
     lines = []
     settling = rollout.settling
     if settling is not None:
@@ -77,7 +78,7 @@ def start_lines(rollout: Rollout) -> list[str]:
             f"approach: {-rollout.approach_start_s:.2f} s into the first keyframe "
             f"(from t={rollout.approach_start_s:.2f} s), as the player plays it"
         )
-    lines.append(f"servo model: {assumptions_text(rollout)}")
+    lines.append(joined("", ("servo model: ", assumptions_text(rollout))))
     return lines
 
 
@@ -106,7 +107,8 @@ def reach_line(simulated: SimulatedMotion) -> str | None:
 
 
 def assumptions_text(rollout: Rollout) -> str:
-    """The servo model's assumptions, each value once with the joints that differ named."""
+    """The servo model's assumptions, each value once with the joints that differ named, and
+    where moves start (naming ``SimSettings.move_start``)."""
     parts = []
     for field, unit in (
         ("supply_v", " V"),
@@ -125,8 +127,10 @@ def assumptions_text(rollout: Rollout) -> str:
             rated = sorted({a.rated_supply_v for a in rollout.actuators})
             text = f"supply {text} (rated {', '.join(f'{r:g}' for r in rated)} V)"
         parts.append(text + (f" ({', '.join(others)})" if others else ""))
-    parts.append(f"moves start from the {rollout.move_start.value} (--move-start)")
-    return ", ".join(parts)
+    parts.append(
+        Worded(f"moves start from the {rollout.move_start.value} ({{move_start}})", ("move_start",))
+    )
+    return joined(", ", parts)
 
 
 def preview_report(

@@ -8,17 +8,22 @@ import time
 import mujoco
 import numpy as np
 
-from choreo.errors import PreviewError
+from choreo.errors import PreviewError, Worded, joined
 from choreo.preview.gl import window_system_problem
 from choreo.preview.model import load_model
 from choreo.preview.sim import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
 
 FRAME_S = 1 / 60
+RENDER_INSTEAD = Worded("render to a file instead ({render_preview})", ("render_preview",))
 
 
 def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _cannot_view(problem: str) -> PreviewError:
+    return PreviewError(joined("; ", (problem, RENDER_INSTEAD)))
 
 
 def _check_window_system() -> None:
@@ -27,10 +32,7 @@ def _check_window_system() -> None:
     problem = window_system_problem()
     if problem is not None:
         display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-        raise PreviewError(
-            f"the viewer cannot open a window on display {display!r} ({problem}); render to a "
-            "file instead: choreo preview MOTION -o out.mp4"
-        )
+        raise _cannot_view(f"the viewer cannot open a window on display {display!r} ({problem})")
 
 
 def show_in_viewer(rollout: SimulatedMotion | Rollout) -> None:
@@ -39,9 +41,8 @@ def show_in_viewer(rollout: SimulatedMotion | Rollout) -> None:
     recorded = rollout_of(rollout)
     # mujoco's viewer kills the whole process when it cannot open a window: check first
     if not has_display():
-        raise PreviewError(
-            "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY "
-            "is set; render to a file instead: choreo preview MOTION -o out.mp4"
+        raise _cannot_view(
+            "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set"
         )
     _check_window_system()
     from mujoco import viewer as mujoco_viewer  # needs GLFW: imported only with a display
