@@ -64,7 +64,7 @@ def physics(repeat: int) -> None:
 
 
 def rendering(repeat: int) -> None:
-    rollout = simulate_motion(load_motion(RENDERED))
+    rollout = simulate_motion(load_motion(RENDERED)).rollout
     started = time.perf_counter()
     backend = offscreen_backend()
     print(f"offscreen back-end: {backend} (chosen in {time.perf_counter() - started:.2f} s)")

@@ -54,7 +54,9 @@ PUBLIC = {
     ),
     "choreo.play.play_motion": ("play_motion",),
     "choreo.play.report": ("report_document",),
-    "choreo.preview": ("simulate_motion", "run_checks"),
+    "choreo.preview.pipeline": ("simulate_motion",),
+    "choreo.preview.simulated": ("SimulatedMotion",),
+    "choreo.preview.checks": ("run_checks",),
     "choreo.preview.report": ("preview_report",),
     "choreo.music.decode": ("Audio", "decode_song"),
     "choreo.music.beats": ("BeatAnalysis", "detect_beats"),
@@ -105,7 +107,9 @@ if TYPE_CHECKING:
         preflight,
     )
     from choreo.play.report import report_document
-    from choreo.preview import run_checks, simulate_motion
+    from choreo.preview.checks import run_checks
+    from choreo.preview.pipeline import simulate_motion
     from choreo.preview.report import preview_report
+    from choreo.preview.simulated import SimulatedMotion
     from choreo.robot.robot_file import load_robot
     from choreo.robot.types import Joint, Robot

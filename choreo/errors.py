@@ -1,44 +1,88 @@
-"""The whole exception tree of choreo.
+"""The whole exception tree of choreo, and the words it speaks to a user.
 
 A bad argument to a public call is an ``OptionError`` (a ``ValueError`` too) naming the argument,
 what was given and what would be valid (``choreo.core.arguments`` checks them). Everything a user
 can run into at the edges is a ``ChoreoError``; the CLI prints its message as one line and exits
 1, or 2 for a ``UsageError``.
+
+Messages, notes and warnings speak of the library's arguments (``allow_past_song``). One that
+names an argument is a :class:`Worded` text, which the CLI spells with its flags instead
+(``--allow-past-song``): errors, notes and warnings alike.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any, Self
 
 if TYPE_CHECKING:
     from choreo.bus.protocol import Command
 
+NameOf = Callable[[str], str]  # an argument's name -> how to spell it (the CLI: its flag)
+
+
+class Worded(str):
+    """Words for a user that name library arguments. As a ``str`` they spell each name as the
+    library does (``pass allow_past_song``); :meth:`worded` spells them another way, as the CLI
+    does with its flags (``pass --allow-past-song``). ``template`` writes each argument as
+    ``{name}``; ``names`` lists them."""
+
+    template: str
+    names: tuple[str, ...]
+
+    def __new__(cls, template: str, names: Iterable[str]) -> Self:
+        names = tuple(names)
+        text = super().__new__(cls, _spelled(template, names, str))
+        text.template, text.names = template, names
+        return text
+
+    def worded(self, name_of: NameOf) -> str:
+        return _spelled(self.template, self.names, name_of)
+
+
+def worded(text: str, name_of: NameOf) -> str:
+    """``text`` with the arguments it names spelled by ``name_of``: a :class:`Worded` text
+    reworded, any other as it is."""
+    return text.worded(name_of) if isinstance(text, Worded) else str(text)
+
+
+def joined(separator: str, texts: Iterable[str]) -> str:
+    """``separator.join(texts)``, still :class:`Worded` where any of them is (``str.join`` and
+    f-strings forget what a text names)."""
+    texts = list(texts)
+    if not any(isinstance(text, Worded) for text in texts):
+        return separator.join(texts)
+    names = dict.fromkeys(name for text in texts if isinstance(text, Worded) for name in text.names)
+    template = separator.join(text.template if isinstance(text, Worded) else text for text in texts)
+    return Worded(template, names)
+
+
+def _spelled(template: str, names: Iterable[str], name_of: NameOf) -> str:
+    """``template`` with each ``{name}`` of ``names`` replaced by ``name_of`` the name."""
+    for name in names:
+        template = template.replace("{" + name + "}", name_of(name))
+    return template
+
 
 class ChoreoError(Exception):
     """Base of every error choreo reports to a user.
 
-    A message that tells how an argument would fix the problem is made with :meth:`naming`:
-    ``option`` is the argument (as the library spells it) and ``template`` the message with
-    ``{option}`` where its name goes, so that the CLI can put its own flag there instead
-    (with :meth:`worded`). ``mentions`` are other arguments the message names, each written
-    ``{name}`` in the template."""
+    Its message may be :class:`Worded`: a message that tells how an argument would fix the
+    problem is made with :meth:`naming`, ``option`` the argument (as the library spells it) and
+    ``template`` the message with ``{option}`` where its name goes, so that the CLI can put its
+    own flag there instead (with :meth:`worded`)."""
 
     option: str | None = None
-    template: str | None = None
-    mentions: tuple[str, ...] = ()
 
     @classmethod
     def naming(cls, option: str, template: str, **data: Any) -> Self:
-        error = cls(template.replace("{option}", option), **data)
-        error.option, error.template = option, template
+        error = cls(Worded(template.replace("{option}", "{" + option + "}"), (option,)), **data)
+        error.option = option
         return error
 
-    def worded(self, name_of: Callable[[str], str]) -> str:
+    def worded(self, name_of: NameOf) -> str:
         """The message with the arguments it names spelled by ``name_of`` (e.g. as flags)."""
-        if self.option is None or self.template is None:
-            return str(self)
-        return _spelled(self.template, self.option, self.mentions, name_of)
+        return worded(self.args[0], name_of) if len(self.args) == 1 else str(self)
 
 
 class OptionError(ChoreoError, ValueError):
@@ -51,21 +95,12 @@ class OptionError(ChoreoError, ValueError):
     option: str
 
     def __init__(self, option: str, problem: str, *, mentions: tuple[str, ...] = ()):
-        self.problem = _spelled(problem, option, mentions, str)
-        super().__init__(f"{option} {self.problem}")
+        names = (option, *mentions)
+        template = problem.replace("{option}", "{" + option + "}")
+        self.problem = _spelled(template, names, str)
+        super().__init__(Worded("{" + option + "} " + template, names))
         self.option = option
-        self.template = "{option} " + problem
         self.mentions = mentions
-
-
-def _spelled(
-    template: str, option: str, mentions: tuple[str, ...], name_of: Callable[[str], str]
-) -> str:
-    """``template`` with ``{option}`` and each ``{mention}`` replaced by ``name_of`` its name."""
-    text = template.replace("{option}", name_of(option))
-    for name in mentions:
-        text = text.replace("{" + name + "}", name_of(name))
-    return text
 
 
 class UsageError(ChoreoError):
@@ -104,11 +139,12 @@ class ServoFault(BusError):
 
 # --- files, plans, previews, playback ----------------------------------------------------------
 class SourceError(ChoreoError):
-    """One or more problems in robot or motion files; each message starts ``path:line:col:``."""
+    """One or more problems in robot or motion files; each message starts ``path:line:col:``
+    (a :class:`Worded` one where it names an argument)."""
 
     def __init__(self, problems: list[str] | str):
         self.problems = [problems] if isinstance(problems, str) else list(problems)
-        super().__init__("\n".join(self.problems))
+        super().__init__(joined("\n", self.problems))
 
 
 class PlanningError(ChoreoError):
@@ -117,7 +153,7 @@ class PlanningError(ChoreoError):
 
     def __init__(self, problems: list[str] | str):
         self.problems = [problems] if isinstance(problems, str) else list(problems)
-        super().__init__("\n".join(self.problems))
+        super().__init__(joined("\n", self.problems))
 
 
 class PreviewError(ChoreoError):

@@ -300,6 +300,7 @@ RESULTS = {
     "PlanResult",
     "PlayReport",
     "Robot",
+    "SimulatedMotion",
     "Trajectory",
 }
 

@@ -14,7 +14,7 @@ from fifo_helpers import fifo_that_never_blocks
 from music_helpers import band_track, click_track, steady_times, write_clicks
 from test_plan_cli import png_size
 
-from choreo.cli import main
+from choreo.cli import flag_of, main
 from choreo.errors import ChoreoError
 from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
@@ -211,7 +211,13 @@ def test_the_alternative_grids_half_double_and_off_beat(tmp_path, capsys):
     assert_beats_match(reports["0.5"]["beats_s"], middles)
     assert "try --level half" in reports["double"]["warnings"][0]  # 240 BPM
     assert "try --level double" in reports["half"]["warnings"][0]  # 60 BPM
-    assert "--offset-beats 0.5" in reports["0.5"]["warnings"][0]  # the clicks fall between
+    assert "(try --offset-beats 0.5)" in reports["0.5"]["warnings"][0]  # the clicks fall between
+    # the library's warnings name its arguments; the command line's, its flags
+    (off_beat,) = detect_beats(song, beats_per_bar=4, offset_beats=0.5).warnings
+    assert "(try offset_beats 0.5)" in off_beat and "(try level double)" in off_beat
+    assert main(["beats", str(song), "--meter", "4", "--offset-beats", "0.5"]) == 0
+    assert f"warning: {off_beat.worded(flag_of)}" in capsys.readouterr().out.splitlines()
+    assert "(try --offset-beats 0.5)" in off_beat.worded(flag_of)
 
 
 def test_detection_needs_little_more_memory_than_the_samples():

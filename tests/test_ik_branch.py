@@ -68,9 +68,9 @@ def test_a_straight_line_in_small_steps_stays_on_its_branch(arm6):
 
 def test_a_small_move_needing_a_large_joint_move_is_warned_at_its_keyframe():
     motion = load_motion(REPO / "tests" / "data" / "spatial" / "branch_jump.yaml")
-    rollout = simulate_motion(motion)
-    (jump,) = [r for r in run_checks(rollout) if r.kind is CheckKind.JOINT_JUMP]
+    simulated = simulate_motion(motion)
+    (jump,) = [r for r in run_checks(simulated) if r.kind is CheckKind.JOINT_JUMP]
     assert jump.severity is Severity.WARNING and jump.value > 45
-    assert jump.time_s == pytest.approx(rollout.keyframe_times_s[1])
-    (found,) = rollout.joint_jumps
+    assert jump.time_s == pytest.approx(simulated.rollout.keyframe_times_s[1])
+    (found,) = simulated.joint_jumps
     assert found.moved_mm < 20 and found.where.line == 9

@@ -472,11 +472,17 @@ def test_a_dance_past_its_song_is_refused_unless_allowed(tmp_path, song, capsys)
         """
     path = write(tmp_path, "long.yaml", text)
     # a repetition is 3 bars (beat 9 is in bar 3): the third ends on beat 33, the song at beat 19
-    assert problems_of(path) == [
+    problem = (
         f"{path}:2:1: the dance (repeat 3) runs to at least t 16.000 s, 6.500 s past the end of "
         "song.wav (which ends at t 9.500 after start 0.5 s); end it sooner, start earlier in "
-        "the song, or pass --allow-past-song to dance on in silence"
-    ]
+        "the song, or pass {} to dance on in silence"
+    )
+    # the library names its own argument; the command line, its flag
+    assert problems_of(path) == [problem.format("allow_past_song")]
+    assert main(["plan", str(path)]) == 1
+    assert error_line(capsys) == "choreo: error: " + problem.format("--allow-past-song")
+    assert main(["validate", "--no-physics", str(path)]) == 1
+    assert capsys.readouterr().out.splitlines()[0] == problem.format("--allow-past-song")
     assert main(["plan", str(path), "--allow-past-song"]) == 0
     assert "the dance goes on in silence" in capsys.readouterr().err
     once = write(tmp_path, "once.yaml", text.replace("repeat: 3", "repeat: 1"))

@@ -223,6 +223,8 @@ TESTED_IN = {
     "preview/model.py": ("test_preview.py",),
     "preview/report.py": ("test_preview.py",),
     "preview/sim.py": ("test_preview.py",),
+    "preview/pipeline.py": ("test_preview.py", "test_preview_start.py"),
+    "preview/simulated.py": ("test_preview_gaits.py", "test_preview_props.py"),
     "preview/start.py": ("test_preview_start.py",),
     "preview/travel.py": ("test_spatial_preview.py",),
     "preview/gl.py": ("test_render.py",),
@@ -323,4 +325,31 @@ def test_an_option_error_speaks_of_the_argument_and_the_cli_of_its_flag():
     assert (str(other), other.worded(flag_of)) == (
         "loop 9: loop fewer, or allow_past_song",
         "--loop 9: --loop fewer, or --allow-past-song",
+    )
+
+
+def test_notes_and_warnings_name_arguments_the_same_way_errors_do():
+    """A note naming an argument is Worded: a str in the library's words, in flags for the CLI;
+    joined into a longer text (a file's problems, a line of the report) it stays so."""
+    from choreo.cli import flag_of, in_flags, report_in_flags
+    from choreo.errors import ChoreoError, SourceError, Worded, joined
+
+    note = Worded("the beat may be twice that (try {level} double)", ("level",))
+    assert note == "the beat may be twice that (try level double)"
+    assert in_flags(note) == "the beat may be twice that (try --level double)"
+    assert in_flags("no arguments named") == "no arguments named"
+    line = joined(": ", ("song.yaml:2:1", note))
+    assert (line, in_flags(line)) == (
+        "song.yaml:2:1: the beat may be twice that (try level double)",
+        "song.yaml:2:1: the beat may be twice that (try --level double)",
+    )
+    error = SourceError([line, "song.yaml:3:1: plain"])
+    assert str(error).splitlines() == [line, "song.yaml:3:1: plain"]
+    assert error.worded(flag_of).splitlines() == [in_flags(line), "song.yaml:3:1: plain"]
+    assert report_in_flags({"warnings": [note], "n": 1}) == {"warnings": [in_flags(note)], "n": 1}
+    named = ChoreoError.naming("overwrite", "out.mp4 exists: pass {option} to replace it")
+    assert (str(named), named.worded(flag_of), named.option) == (
+        "out.mp4 exists: pass overwrite to replace it",
+        "out.mp4 exists: pass --overwrite to replace it",
+        "overwrite",
     )

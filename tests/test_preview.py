@@ -32,6 +32,7 @@ from choreo.preview import (
     joint_summaries,
     preview_report,
     run_checks,
+    show_in_viewer,
     simulate,
     simulate_motion,
 )
@@ -239,9 +240,9 @@ def test_a_free_floating_robot_starts_standing_on_its_home_keyframe(hexapod):
     rollout = simulate(hexapod, linear_ticks(hexapod, home, home, 300, 100), home)
     model = mujoco.MjModel.from_xml_path(str(hexapod.mjcf_path))
     key_height = model.key("home").qpos[2]
-    assert rollout.root_body == "torso"
-    assert rollout.root_height_m[rollout.start_step] == pytest.approx(key_height, abs=0.005)
-    assert rollout.root_tilt_deg.max() < 1.0
+    assert rollout.body.name == "torso"
+    assert rollout.body.height_m[rollout.start_step] == pytest.approx(key_height, abs=0.005)
+    assert rollout.body.tilt_deg.max() < 1.0
     assert run_checks(rollout) == []
 
 
@@ -258,13 +259,20 @@ def test_a_resumed_rollout_is_the_fresh_one_and_reuses_what_came_before_the_chan
     before = simulate(hexapod, first, home)
     fresh = simulate(hexapod, changed, home)
     resumed = simulate(hexapod, changed, home, resume=before.resume)
-    for field in dataclasses.fields(fresh):
-        ours, theirs = getattr(fresh, field.name), getattr(resumed, field.name)
+
+    def assert_same(ours, theirs, name):
         if isinstance(ours, np.ndarray):
-            assert np.array_equal(ours, theirs), field.name
-        elif field.name != "resume":
-            assert ours == theirs, field.name
-    assert len(fresh.contact_step) > 0  # the feet on the floor: the contact log resumed too
+            assert np.array_equal(ours, theirs), name
+        elif dataclasses.is_dataclass(ours) and name in ("contacts", "body"):
+            for field in dataclasses.fields(ours):
+                assert_same(getattr(ours, field.name), getattr(theirs, field.name), field.name)
+        else:
+            assert ours == theirs, name
+
+    for field in dataclasses.fields(fresh):
+        if field.name != "resume":
+            assert_same(getattr(fresh, field.name), getattr(resumed, field.name), field.name)
+    assert len(fresh.contacts.step) > 0  # the feet on the floor: the contact log resumed too
     # the physics ran on from the last checkpoint before 1.5 s (1 s): those before it are reused
     dt = float(fresh.times_s[1] - fresh.times_s[0])
     checkpoints = resumed.resume.checkpoints
@@ -350,8 +358,8 @@ def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
     trajectory = plan_motion(motion).trajectory
     ticks = segment(trajectory, motion.robot).ticks
     expected_s = first_overload_s(motion.robot, trajectory, "shoulder")
-    rollout = simulate_motion(motion, start_pose="first")  # at rest in the first pose
-    stalls = [r for r in run_checks(rollout) if r.kind is CheckKind.SATURATION]
+    simulated = simulate_motion(motion, start_pose="first")  # at rest in the first pose
+    stalls = [r for r in run_checks(simulated) if r.kind is CheckKind.SATURATION]
     assert stalls and stalls[0].joint == "shoulder" and stalls[0].severity is Severity.ERROR
     assert abs(stalls[0].time_s - expected_s) <= tick_at(ticks, expected_s).duration_ms / 1000
     assert stalls[0].duration_s >= CheckThresholds().stall_after_s
@@ -359,8 +367,8 @@ def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
 
 
 def test_the_same_swing_slowly_does_not_stall():
-    rollout = simulate_motion(load_motion(MOTIONS / "slow_swing.yaml"), start_pose="first")
-    results = run_checks(rollout)
+    simulated = simulate_motion(load_motion(MOTIONS / "slow_swing.yaml"), start_pose="first")
+    results = run_checks(simulated)
     assert not [r for r in results if r.severity is Severity.ERROR]
     # turning round at 25° with the payload out is close to the servo's limit: a near miss
     assert {r.kind for r in results} <= {CheckKind.NEAR_MISS}
@@ -440,9 +448,10 @@ def test_the_shipped_motions_pass(path):
 
 # --- the report --------------------------------------------------------------------------------
 def test_the_report_has_every_result_and_each_joints_peaks():
-    rollout = simulate_motion(load_motion(MOTIONS / "floor.yaml"))
-    results = run_checks(rollout)
-    report = json.loads(json.dumps(preview_report(rollout, results, motion="floor")))
+    simulated = simulate_motion(load_motion(MOTIONS / "floor.yaml"))
+    rollout = simulated.rollout
+    results = run_checks(simulated)
+    report = json.loads(json.dumps(preview_report(simulated, results, motion="floor")))
     assert report["ok"] is False and report["errors"] == len(results)
     assert [c["kind"] for c in report["checks"]] == [r.kind.value for r in results]
     shoulder = report["joints"][1]
@@ -482,11 +491,15 @@ def test_preview_usage_errors_exit_2(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
-def test_the_viewer_without_a_display_says_so(monkeypatch, capsys):
+def test_the_viewer_without_a_display_says_so(arm3, monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    problem = "the viewer needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set"
+    with pytest.raises(PreviewError) as refused:  # the library names its own call
+        show_in_viewer(simulate(arm3, [], [0, 0, 0]))
+    assert str(refused.value) == f"{problem}; render to a file instead (render_preview)"
     assert main(["preview", str(MOTIONS / "fine.yaml"), "--viewer"]) == 1
-    assert "the viewer needs a display" in capsys.readouterr().err
+    assert error_line(capsys) == f"choreo: error: {problem}; render to a file instead (-o FILE)"
 
 
 def test_no_ticks_means_holding_the_first_pose(arm3):
@@ -552,5 +565,5 @@ def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, caps
     assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), "--viewer"]) == 1
     assert error_line(capsys) == (
         "choreo: error: the viewer cannot open a window on display ':99' (X11: Failed to open "
-        "display :99); render to a file instead: choreo preview MOTION -o out.mp4"
+        "display :99); render to a file instead (-o FILE)"
     )

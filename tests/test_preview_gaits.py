@@ -22,10 +22,11 @@ def test_a_gait_that_never_lifts_its_feet_goes_nowhere_and_is_warned(tmp_path):
     text = (HEXAPOD / "walk_forward.yaml").read_text().replace("lift: 30,", "lift: 0,")
     path = tmp_path / "shuffle.yaml"
     path.write_text(text.replace("robot: hexapod18", f"robot: {ROBOT.as_posix()}"))
-    rollout = simulate_motion(load_motion(path))
-    (gait,) = gait_outcomes(rollout)
+    simulated = simulate_motion(load_motion(path))
+    (gait,) = simulated.gaits  # measured once, from the rollout and the walk
+    assert gait_outcomes(simulated.rollout, simulated.walk) == [gait]
     assert gait.asked_mm == (240.0, 0.0) and gait.travel_fraction < 0.2
-    (warning,) = run_checks(rollout)
+    (warning,) = run_checks(simulated)
     assert warning.kind is CheckKind.GAIT and warning.severity is Severity.WARNING
     assert "travels" in warning.message and "of the 240 mm" in warning.message
 
@@ -33,15 +34,15 @@ def test_a_gait_that_never_lifts_its_feet_goes_nowhere_and_is_warned(tmp_path):
 def test_walk_forward_reports_its_travel_and_feet_within_the_thresholds():
     """Six 40 mm tripod steps: the body does ~232 mm, the swinging feet rise ~102 % of the
     30 mm lift (hexapod18's robot file makes up for its sag and slip): no warning."""
-    rollout = simulate_motion(load_motion(HEXAPOD / "walk_forward.yaml"))
-    (gait,) = gait_outcomes(rollout)
+    simulated = simulate_motion(load_motion(HEXAPOD / "walk_forward.yaml"))
+    (gait,) = simulated.gaits
     assert gait.travel_fraction == pytest.approx(1, abs=TOLERANCE)
     assert gait.lift_fraction == pytest.approx(1, abs=TOLERANCE)
     # the plan's geometry keeps the body's centre >= 79 mm inside the feet down; the simulated
     # centre of mass, a little off the centre, and the real feet keep close to that
     assert 70 < gait.margin_mm < 90
     assert abs(gait.got_mm[1]) < 30  # straight ahead
-    assert run_checks(rollout) == []
+    assert run_checks(simulated) == []
     assert "travelled" in gait.line() and str(gait.where).endswith(":9:5")
 
 
@@ -52,7 +53,7 @@ TOLERANCE = 0.1  # the docs' promise: lift, stride and turn achieved within +-10
 def test_the_shipped_gaits_achieve_what_they_ask_within_the_tolerance(name):
     """Without hexapod18's gait: compensation its walks fell 3-16 % short and its swinging feet
     rose 71-79 % of the lift (the servos give way under the body, the feet slip)."""
-    outcomes = gait_outcomes(simulate_motion(load_motion(HEXAPOD / f"{name}.yaml")))
+    outcomes = simulate_motion(load_motion(HEXAPOD / f"{name}.yaml")).gaits
     assert outcomes
     for gait in outcomes:
         travel = gait.travel_fraction if gait.turn_fraction is None else gait.turn_fraction

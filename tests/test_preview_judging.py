@@ -39,8 +39,8 @@ def test_short_pushes_at_the_torque_limit_repeated_are_a_near_miss(tmp_path):
     assert near.value >= 98  # it reaches the limit
     # a 0.2 s window holds too little of it to count
     narrow = CheckThresholds(near_miss_window_s=0.2)
-    rollout = simulate_motion(load_motion(repeated(tmp_path, TONYPI / "left_move_fast.yaml", 6)))
-    assert run_checks(rollout, narrow) == []
+    simulated = simulate_motion(load_motion(repeated(tmp_path, TONYPI / "left_move_fast.yaml", 6)))
+    assert run_checks(simulated, narrow) == []
 
 
 def test_a_declared_lie_down_passes_and_the_same_motion_undeclared_is_a_fall():
@@ -49,10 +49,11 @@ def test_a_declared_lie_down_passes_and_the_same_motion_undeclared_is_a_fall():
     the motion means to do from its last keyframe but one on."""
     undeclared = run_checks(simulate_motion(load_motion(MOTIONS / "lie_down.yaml")))
     assert {r.kind for r in undeclared} == {CheckKind.FALL}
-    rollout = simulate_motion(load_motion(MOTIONS / "lie_down_declared.yaml"))
-    assert run_checks(rollout) == []
-    assert rollout.lie_down_from_s == rollout.keyframe_times_s[1]  # from crouch on
-    assert all(r.time_s >= rollout.lie_down_from_s for r in undeclared)
+    declared = simulate_motion(load_motion(MOTIONS / "lie_down_declared.yaml"))
+    assert run_checks(declared) == []
+    lying_from = declared.lie_down_from_s
+    assert lying_from == declared.rollout.keyframe_times_s[1]  # from crouch on
+    assert all(r.time_s >= lying_from for r in undeclared)
 
 
 def test_end_is_read_like_start_and_refused_in_an_included_file(tmp_path):
@@ -73,8 +74,8 @@ def test_a_stumble_onto_lifted_legs_is_judged_against_the_plan():
     body comes down ~7 mm onto two of the lifted legs. The old rules miss it (no link but the
     tibias touches the floor, a few degrees of tilt, far from half its height); against the
     plan, the body is lower than planned and two feet the plan holds 15 mm up are on the floor."""
-    rollout = simulate_motion(load_motion(MOTIONS / "four_legs_up.yaml"))
-    results = run_checks(rollout)
+    simulated = simulate_motion(load_motion(MOTIONS / "four_legs_up.yaml"))
+    results = run_checks(simulated)
     assert {(r.kind, r.severity) for r in results} == {(CheckKind.FALL, Severity.ERROR)}
     lower = [r for r in results if "lower than its plan" in r.message]
     assert len(lower) == 1 and lower[0].value > 5
@@ -82,7 +83,8 @@ def test_a_stumble_onto_lifted_legs_is_judged_against_the_plan():
     down = [r.bodies[0] for r in results if "lifted leg" in r.message]
     assert len(down) == 2 and set(down) <= set(corners)
     # the plan: the four corner feet 15 mm up, the two middle ones on the floor
-    lifts = 1000 * rollout.stance.lift_m[np.searchsorted(rollout.times_s, 1.0)]
-    planned = dict(zip(rollout.stance.foot_links, lifts))
+    stance = simulated.walk.stance
+    lifts = 1000 * stance.lift_m[np.searchsorted(simulated.rollout.times_s, 1.0)]
+    planned = dict(zip(stance.foot_links, lifts))
     assert planned["lm_tibia"] < 1 and planned["rm_tibia"] < 1
     assert all(abs(planned[foot] - 15) < 1 for foot in corners)

@@ -26,9 +26,10 @@ def test_a_free_prop_falls_and_comes_to_rest_on_the_floor():
     """Dropped from 5 cm beside the arm (out of its reach), a free block lands on the floor: its
     bottom face ends at z = 0, 50 mm lower, upright, and nothing is reported."""
     block = Prop("block", (0.03, 0.03, 0.03), (-0.2, 0.0, 0.05), mass_kg=0.02)
-    rollout = simulate_motion(with_props(MOTIONS / "fine.yaml", block))
-    assert run_checks(rollout) == []
-    (outcome,) = prop_outcomes(rollout)
+    simulated = simulate_motion(with_props(MOTIONS / "fine.yaml", block))
+    assert run_checks(simulated) == []
+    (outcome,) = simulated.props
+    assert prop_outcomes(simulated.rollout) == [outcome]
     assert outcome.end_m[2] == pytest.approx(0.0, abs=0.002)  # it fell during settling
     assert outcome.start_m[2] == pytest.approx(0.0, abs=0.002)
     assert not outcome.lifted and not outcome.knocked_over
@@ -46,10 +47,10 @@ def test_pushing_a_free_prop_is_expected_pushing_a_fixed_one_is_not():
         if "block" in r.bodies
     ]
     assert fixed_hits and fixed_hits[0].kind is CheckKind.FLOOR_CONTACT
-    rollout = simulate_motion(with_props(MOTIONS / "floor.yaml", free))
-    results = run_checks(rollout)
+    simulated = simulate_motion(with_props(MOTIONS / "floor.yaml", free))
+    results = run_checks(simulated)
     assert not [r for r in results if "block" in r.bodies]
-    (outcome,) = prop_outcomes(rollout)
+    (outcome,) = simulated.props
     assert outcome.displacement_m > 0.001  # shoved (pinned to the floor under the forearm)
 
 
@@ -80,10 +81,10 @@ def test_a_grip_that_does_not_squeeze_never_lifts_the_block(tmp_path):
     almost no force (inside the servo's dead band): friction cannot lift it, so it stays where
     it was, 245 mm from its target."""
     motion = pick_and_place_variant(tmp_path, "gripper: 16}", "gripper: 21}")
-    rollout = simulate_motion(motion)
-    (result,) = [r for r in run_checks(rollout) if r.kind is CheckKind.PROP]
+    simulated = simulate_motion(motion)
+    (result,) = [r for r in run_checks(simulated) if r.kind is CheckKind.PROP]
     assert result.severity is Severity.ERROR and "from its place target" in result.message
-    (outcome,) = prop_outcomes(rollout)
+    (outcome,) = simulated.props
     assert not outcome.lifted and outcome.displacement_m < 0.005
 
 
@@ -92,11 +93,11 @@ def test_a_heavy_block_in_a_light_grip_is_dropped_on_the_way(tmp_path):
     while the arm swings across, falling freely (a warning), and misses its target."""
     motion = pick_and_place_variant(tmp_path, "gripper: 16}", "gripper: 19}")
     block = dataclasses.replace(motion.props[0], mass_kg=0.25)
-    rollout = simulate_motion(dataclasses.replace(motion, props=(block,)))
-    results = [r for r in run_checks(rollout) if r.kind is CheckKind.PROP]
+    simulated = simulate_motion(dataclasses.replace(motion, props=(block,)))
+    results = [r for r in run_checks(simulated) if r.kind is CheckKind.PROP]
     assert [r.severity for r in results] == [Severity.WARNING, Severity.ERROR]
     assert "dropped" in results[0].message
-    (outcome,) = prop_outcomes(rollout)
+    (outcome,) = simulated.props
     assert outcome.lifted and outcome.dropped_at_s == results[0].time_s
 
 

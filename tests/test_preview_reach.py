@@ -24,13 +24,13 @@ ARM6 = Path(__file__).resolve().parents[1] / "motions" / "arm6"
 
 
 def reach_results(name: str):
-    rollout = simulate_motion(load_motion(MOTIONS / name))
-    return rollout, [r for r in run_checks(rollout) if r.kind is CheckKind.REACH]
+    simulated = simulate_motion(load_motion(MOTIONS / name))
+    return simulated, [r for r in run_checks(simulated) if r.kind is CheckKind.REACH]
 
 
 def test_a_payload_that_makes_the_arm_sag_is_a_warning():
-    rollout, (result,) = reach_results("reach_sags.yaml")
-    (reach,) = rollout.site_reach
+    simulated, (result,) = reach_results("reach_sags.yaml")
+    (reach,) = simulated.site_reach
     assert REACH_WARNING_MM < reach.error_mm <= REACH_ERROR_MM
     assert result.severity is Severity.WARNING and result.value == pytest.approx(reach.error_mm)
     # the sag is down and outwards: the tip is lower and farther out than asked
@@ -40,8 +40,8 @@ def test_a_payload_that_makes_the_arm_sag_is_a_warning():
 
 
 def test_a_payload_the_shoulder_cannot_hold_is_an_error_measured_over_the_hold():
-    rollout, (result,) = reach_results("reach_collapses.yaml")
-    (reach,) = rollout.site_reach
+    simulated, (result,) = reach_results("reach_collapses.yaml")
+    (reach,) = simulated.site_reach
     assert reach.error_mm > REACH_ERROR_MM and result.severity is Severity.ERROR
     assert 2.0 < reach.time_s <= 2.5 + 1e-6  # it sank after arriving, during the hold
 

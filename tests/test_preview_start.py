@@ -33,6 +33,7 @@ from choreo.preview import (
     run_checks,
     simulate,
     simulate_motion,
+    start_lines,
 )
 from choreo.preview.model import load_model
 from choreo.preview.start import lowest_clearance_m
@@ -68,26 +69,28 @@ def kinds(results) -> set[CheckKind]:
 def test_stand_up_starts_lying_on_the_floor_in_its_first_pose():
     motion = load_motion(REPO / "motions" / "hexapod18" / "stand_up.yaml")
     assert motion.start is StartPosture.LYING
-    rollout = simulate_motion(motion)
+    simulated = simulate_motion(motion)
+    rollout = simulated.rollout
     s0 = rollout.start_step
     # it lies in its first pose already: no approach, and the body where the MJCF's lying key is
     assert rollout.approach_start_s == 0
     lying_height = mjcf_key_height(motion.robot, "lying")
-    assert rollout.root_height_m[s0] == pytest.approx(lying_height, abs=0.003)
+    assert rollout.body.height_m[s0] == pytest.approx(lying_height, abs=0.003)
     assert abs(clearance_at(rollout, 0)) < 0.0005  # put down with its lowest geometry on the floor
     settling = rollout.settling
     assert settling.still and settling.duration_s < 1.0
     assert abs(settling.drop_m) < 0.002 and settling.tilt_deg < 1.0
     # lying at the start is not a fall; standing up is not one either
-    assert run_checks(rollout) == []
-    assert rollout.root_height_m[-1] == pytest.approx(
+    assert run_checks(simulated) == []
+    assert rollout.body.height_m[-1] == pytest.approx(
         mjcf_key_height(motion.robot, "home"), abs=0.01
     )
 
 
 def test_squat_starts_standing_at_home_and_approaches_as_the_player_does():
     motion = load_motion(REPO / "motions" / "tonypi" / "squat.yaml")
-    rollout = simulate_motion(motion)
+    simulated = simulate_motion(motion)
+    rollout = simulated.rollout
     home = motion.robot.pose_vector("home")
     performance = prepare(compile_motion(motion), home)
     assert rollout.approach_start_s == pytest.approx(-performance.approach_s)
@@ -103,25 +106,25 @@ def test_squat_starts_standing_at_home_and_approaches_as_the_player_does():
     at_zero = int(np.searchsorted(rollout.times_s, 0.0))
     squat = motion.robot.pose_vector("squat")
     assert rollout.position_deg[at_zero] == pytest.approx(squat, abs=3.0)
-    assert rollout.root_height_m[at_zero] < rollout.root_height_m[s0] - 0.02
+    assert rollout.body.height_m[at_zero] < rollout.body.height_m[s0] - 0.02
     assert rollout.phase(rollout.approach_start_s - 0.01) == "settling"
     assert rollout.phase(-0.01) == "approach" and rollout.phase(0.0) == "motion"
-    assert run_checks(rollout) == []
+    assert run_checks(simulated) == []
 
 
 @pytest.mark.parametrize(
     "path", sorted((REPO / "motions" / "tonypi").glob("*.yaml")), ids=lambda p: p.stem
 )
 def test_a_humanoid_starts_upright_with_its_feet_on_the_floor(path):
-    rollout = simulate_motion(load_motion(path))
+    rollout = simulate_motion(load_motion(path)).rollout
     s0 = rollout.start_step
     assert abs(clearance_at(rollout, s0)) < 0.001
-    assert rollout.root_tilt_deg[s0] < 1.0
+    assert rollout.body.tilt_deg[s0] < 1.0
 
 
 def test_from_a_pose_or_the_first_keyframe():
     motion = load_motion(REPO / "motions" / "tonypi" / "bow.yaml")
-    first = simulate_motion(motion, start_pose="first")
+    first = simulate_motion(motion, start_pose="first").rollout
     assert first.approach_start_s == 0
     with pytest.raises(OptionError, match="start_pose .nope.: no such pose .*home.*first"):
         simulate_motion(motion, start_pose="nope")
@@ -131,9 +134,9 @@ def test_a_robot_lying_face_down_is_turned_onto_its_front():
     motion = load_motion(REPO / "motions" / "tonypi" / "stand.yaml")
     face_down = simulate_motion(
         dataclasses.replace(motion, start=StartPosture.LYING_FRONT), start_pose="first"
-    )
+    ).rollout
     s0 = face_down.start_step
-    assert face_down.root_tilt_deg[s0] == pytest.approx(90, abs=5)
+    assert face_down.body.tilt_deg[s0] == pytest.approx(90, abs=5)
     assert abs(clearance_at(face_down, s0)) < 0.002
     # its face (+x of the body when standing) points down
     w, x, y, z = face_down.qpos[s0, 3:7]
@@ -177,8 +180,8 @@ def test_an_unloaded_servo_at_full_speed_does_not_stall():
 def test_a_shoulder_swinging_at_its_limits_lags_but_does_not_stall():
     """Issue 11: arm6 shoulder -80° -> 80° at default limits, called a stall while the shaft
     moved at 250°/s: it can't keep up (a warning naming the lag), nothing worse."""
-    rollout = simulate_motion(load_motion(MOTIONS / "arm6_shoulder_sweep.yaml"), start_pose="first")
-    results = run_checks(rollout)
+    sweep = load_motion(MOTIONS / "arm6_shoulder_sweep.yaml")
+    results = run_checks(simulate_motion(sweep, start_pose="first"))
     assert not [r for r in results if r.severity is Severity.ERROR]
     slow = [r for r in results if r.kind is CheckKind.CANT_KEEP_UP]
     assert [r.joint for r in slow] == ["shoulder"]
@@ -231,15 +234,15 @@ def test_standing_up_fast_with_a_payload_is_a_near_miss(payload_robots):
         "robot: hexapod_2kg/robot.yaml\nstart: lying\nkeyframes:\n  - pose: lying\n"
         "  - pose: home\n    hold: 0.5\n"
     )
-    rollout = simulate_motion(load_motion(motion))
-    results = run_checks(rollout)
+    simulated = simulate_motion(load_motion(motion))
+    results = run_checks(simulated)
     assert not [r for r in results if r.severity is Severity.ERROR]
     near = [r for r in results if r.kind is CheckKind.NEAR_MISS]
     femurs = {f"{leg}_femur" for leg in ("lf", "lm", "lr", "rf", "rm", "rr")}
     assert {r.joint for r in near} == femurs
     assert all(r.severity is Severity.WARNING and 0.1 <= r.duration_s < 0.25 for r in near)
     assert all(r.value >= 98 for r in near)  # peak % of stall
-    report = preview_report(rollout, results)
+    report = preview_report(simulated, results)
     femur = next(j for j in report["joints"] if j["joint"] == "lf_femur")
     assert femur["peak_torque_pct"] >= 98 and femur["near_limit_s"] >= 0.1
 
@@ -249,16 +252,17 @@ def test_the_hexapod_tipping_onto_its_side_is_caught_with_body_and_time():
     """Issue 11: three left femurs to 80° tip it over (83 -> 48 mm, a coxa on the floor,
     11.7° tilt), which the old check let through."""
     motion = load_motion(MOTIONS / "hexapod_tip.yaml")
-    rollout = simulate_motion(motion)
-    falls = [r for r in run_checks(rollout) if r.kind is CheckKind.FALL]
+    simulated = simulate_motion(motion)
+    falls = [r for r in run_checks(simulated) if r.kind is CheckKind.FALL]
     assert falls and all(r.severity is Severity.ERROR for r in falls)
     first = falls[0]
     assert first.bodies[0] in {"lf_coxa", "lm_coxa", "lr_coxa"} and first.bodies[1] == "floor"
     assert 0 < first.time_s < 2.0
     assert f"{first.bodies[0]} touches the floor at t={first.time_s:.2f} s" in first.message
     # the body really dropped by then: MuJoCo's own record of it
+    rollout = simulated.rollout
     step = int(np.searchsorted(rollout.times_s, first.time_s))
-    assert rollout.root_height_m[step] < rollout.root_height_m[rollout.start_step] - 0.01
+    assert rollout.body.height_m[step] < rollout.body.height_m[rollout.start_step] - 0.01
 
 
 # --- contacts MuJoCo simulates between neighbours ----------------------------------------------
@@ -314,6 +318,9 @@ def test_torque_and_speed_scale_with_the_supply_and_the_file_can_say_so(tmp_path
     assert "supply 5.55 V (rated 7.4 V)" in report["assumptions"]["summary"]
     assert "(elbow 7.4)" in report["assumptions"]["summary"]
     assert report["assumptions"]["move_start"] == "setpoint"
+    # the library names its argument; the command line, its flag (the next test)
+    assert report["assumptions"]["summary"].endswith("moves start from the setpoint (move_start)")
+    assert start_lines(rollout)[-1].endswith("moves start from the setpoint (move_start)")
 
 
 def test_a_negative_backlash_in_the_robot_file_is_refused_where_it_is_written(tmp_path):
@@ -408,7 +415,10 @@ def test_the_cli_says_how_it_started_and_what_it_assumed(capsys):
     out = capsys.readouterr().out
     assert "start: standing on the floor; settled for" in out
     assert "approach: " in out and "as the player plays it" in out
-    assert "servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash" in out
+    assert (
+        f"{motion}: servo model: supply 11.1 V (rated 11.1 V), 0.24° dead band, 0.5° backlash, "
+        "moves start from the setpoint (--move-start)\n"
+    ) in out
     assert re.search(r"hardest-working servo: \w+ at up to \d+ % of its stall torque", out)
     assert main(["preview", "--check", str(motion), "--from", "nope"]) == 2
     assert "--from nope: tonypi has no such pose; valid: home" in capsys.readouterr().err
@@ -425,4 +435,5 @@ def test_the_cli_can_start_a_motion_lying_and_writes_the_start_to_the_report(tmp
     assert written["start"]["feet"] == ["left_foot", "right_foot"]
     assert written["approach_start_s"] == 0 and written["start_s"] < 0
     assert "0.5° backlash" in written["assumptions"]["summary"]
+    assert written["assumptions"]["summary"].endswith("from the setpoint (--move-start)")
     assert {"peak_torque_pct", "near_limit_s", "supply_v"} <= set(written["joints"][0])

@@ -68,8 +68,8 @@ def test_climb_stairs_really_climbs_its_step(tmp_path):
     scene.write_text(
         f"robot: tonypi\n{SCENES['climb_stairs']}keyframes:\n  - include: {imported.name}\n"
     )
-    rollout = simulate_motion(load_motion(scene), stretch=True)
-    height = rollout.root_height_m
+    rollout = simulate_motion(load_motion(scene), stretch=True).rollout
+    height = rollout.body.height_m
     assert height[-1] - height[rollout.start_step] == pytest.approx(0.015, abs=0.003)
 
 

@@ -70,7 +70,7 @@ def test_the_mp4_carries_the_song_from_its_start(dance, tmp_path, capsys):
     assert abs(len(audio) / RATE_HZ - video_s) <= 0.05  # the track lasts as long as the video
     # the video opens with the settling and the approach (rollout.start_s before t=0); the
     # song's 0.8 s is heard at t=0, so its first click (at 1.0 s) 0.2 s after
-    before_s = -simulate_motion(load_motion(dance)).start_s
+    before_s = -simulate_motion(load_motion(dance)).rollout.start_s
     assert before_s > 0
     assert first_click_s(audio, RATE_HZ) == pytest.approx(before_s + 0.2, abs=0.01)
     assert not list(tmp_path.glob(".*.mp4"))  # the intermediate file is gone
@@ -78,7 +78,7 @@ def test_the_mp4_carries_the_song_from_its_start(dance, tmp_path, capsys):
 
 def test_frames_show_the_bar_and_beat(dance):
     motion = load_motion(dance)
-    rollout = simulate_motion(motion)
+    rollout = simulate_motion(motion).rollout
     grid = motion.music.grid
     names, values = status_text(rollout, 0.0, grid)
     assert names.splitlines()[-1] == "bar / beat" and values.splitlines()[-1] == "1 / 1"
@@ -92,7 +92,7 @@ def test_before_the_first_beat_frames_count_in(dance):
     """Settling and the approach come before beat 1 (the beats are not clamped to "1 / 1"):
     the overlay counts the beats still to come, at the first beats' interval."""
     motion = load_motion(dance)
-    rollout = simulate_motion(motion)
+    rollout = simulate_motion(motion).rollout
     grid = motion.music.grid
     first, interval = grid.beat_times_s[0], grid.beat_times_s[1] - grid.beat_times_s[0]
     names, values = status_text(rollout, first - 2.5 * interval, grid)
@@ -105,10 +105,10 @@ def test_before_the_first_beat_frames_count_in(dance):
 
 def test_a_contact_sheet_marks_each_frames_beat(dance, tmp_path):
     motion = load_motion(dance)
-    rollout = simulate_motion(motion)
+    simulated = simulate_motion(motion)
     settings = RenderSettings(width=160, height=120, sheet_frames=4)
-    marked = render_preview(rollout, tmp_path / "marked.png", settings, music=motion.music)
-    plain = render_preview(rollout, tmp_path / "plain.png", settings)
+    marked = render_preview(simulated, tmp_path / "marked.png", settings, music=motion.music)
+    plain = render_preview(simulated.rollout, tmp_path / "plain.png", settings)
     with_beats = np.asarray(Image.open(marked.path).convert("L"), dtype=int)
     without = np.asarray(Image.open(plain.path).convert("L"), dtype=int)
     assert with_beats.shape == without.shape

@@ -17,7 +17,6 @@ from choreo.preview import (
     Severity,
     SimSettings,
     body_travel,
-    prop_outcomes,
     run_checks,
     simulate_motion,
 )
@@ -44,9 +43,9 @@ def site_path_mm(rollout, motion, site: str, every: int = 5) -> np.ndarray:
 
 def walked(name: str, settings: SimSettings | None = None):
     motion = load_motion(HEXAPOD / f"{name}.yaml")
-    rollout = simulate_motion(motion, settings)
-    errors = [r for r in run_checks(rollout) if r.severity is Severity.ERROR]
-    return body_travel(rollout), errors
+    simulated = simulate_motion(motion, settings)
+    errors = [r for r in run_checks(simulated) if r.severity is Severity.ERROR]
+    return simulated.travel, errors
 
 
 def ideal_servos(name: str) -> SimSettings:
@@ -92,9 +91,11 @@ def test_side_step_goes_left_then_back_right():
 @pytest.mark.parametrize("path", [DATA / "body_pose.yaml", HEXAPOD / "body_sway.yaml"])
 def test_body_poses_keep_every_foot_where_it_was_planted(path):
     motion = load_motion(path)
-    rollout = simulate_motion(motion)
-    assert [r for r in run_checks(rollout) if r.severity is Severity.ERROR] == []
+    simulated = simulate_motion(motion)
+    rollout = simulated.rollout
+    assert [r for r in run_checks(simulated) if r.severity is Severity.ERROR] == []
     travel = body_travel(rollout)
+    assert travel == simulated.travel  # measured once, from the rollout
     assert travel.path_mm > 20  # the body did move
     for foot in ("lf_foot", "lm_foot", "lr_foot", "rf_foot", "rm_foot", "rr_foot"):
         feet = site_path_mm(rollout, motion, foot)
@@ -103,8 +104,9 @@ def test_body_poses_keep_every_foot_where_it_was_planted(path):
 
 def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_target():
     motion = load_motion(REPO / "motions" / "arm6" / "pick_and_place.yaml")
-    rollout = simulate_motion(motion)
-    assert run_checks(rollout) == []  # no collision, the block neither dropped nor misplaced
+    simulated = simulate_motion(motion)
+    rollout = simulated.rollout
+    assert run_checks(simulated) == []  # no collision, the block neither dropped nor misplaced
     tool = site_path_mm(rollout, motion, "tool", every=1)
     times = rollout.since_start().times_s
     at = rollout.keyframe_times_s
@@ -114,7 +116,7 @@ def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_ta
     # inside the 15 mm from the block's centre to its side, so the fingers close round it.
     grasp = tool[np.searchsorted(times, at[3] + 0.3)]
     assert np.linalg.norm(grasp[:2] - block) <= 8 and abs(grasp[2] - 20) <= 8
-    (outcome,) = prop_outcomes(rollout)
+    (outcome,) = simulated.props
     # carried: lifted with the tool (from 20 to 90 mm less the sag) and set down 245 mm away
     # (2 x 122.6 mm across), within the 10 mm place tolerance of its target
     assert outcome.lifted_m * 1000 >= 55
@@ -158,5 +160,5 @@ def test_a_fixed_robot_has_no_body_travel(tmp_path):
 
 
 def test_tonypi_hands_placed_in_space_play_cleanly():
-    rollout = simulate_motion(load_motion(DATA / "reach_and_clap.yaml"))
-    assert run_checks(rollout) == []  # no fall, no hands through each other
+    simulated = simulate_motion(load_motion(DATA / "reach_and_clap.yaml"))
+    assert run_checks(simulated) == []  # no fall, no hands through each other

@@ -300,6 +300,11 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
             path.read_text()
             == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    beat: 7.347\n"
         )
+        studio.drive(True)  # a request its page does not offer: it was given no robot
+        studio.read_pose()
+        refused = "⛔ refused: no robot: this studio was started without one to drive"
+        assert said[-2:] == [refused, refused]
+        assert not studio.driving
     finally:
         studio.close()
 

@@ -26,7 +26,7 @@ from types import ModuleType
 
 from choreo import __version__
 from choreo.core.file_kind import os_error_text
-from choreo.errors import BusError, ChoreoError, OptionError, UsageError
+from choreo.errors import BusError, ChoreoError, OptionError, UsageError, worded
 
 # Which module registers (and runs) each command. Only the module of the command being run is
 # imported, so that `choreo scan --help` does not pay for planning, MuJoCo or music; the whole
@@ -222,12 +222,30 @@ FLAGS = {
     "Recording.resume": "--resume",
     "width/height": "--size",
     "taught": "--joints",
+    "render_preview": "-o FILE",
 }
 
 
 def flag_of(option: str) -> str:
     """The command-line flag of a library argument: ``exit_pose`` is ``--exit-pose``."""
     return FLAGS.get(option, "--" + option.replace("_", "-"))
+
+
+def in_flags(text: str) -> str:
+    """A library's note or warning as the command line says it: the arguments it names (a
+    ``Worded`` text) spelled as flags, as errors are (``ChoreoError.worded``)."""
+    return worded(text, flag_of)
+
+
+def report_in_flags(document: object) -> object:
+    """A JSON-ready report with every text in it :func:`in_flags`."""
+    if isinstance(document, str):
+        return in_flags(document)
+    if isinstance(document, dict):
+        return {key: report_in_flags(value) for key, value in document.items()}
+    if isinstance(document, list | tuple):
+        return [report_in_flags(value) for value in document]
+    return document
 
 
 def hint_for(error: ChoreoError) -> str | None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from choreo.cli import in_flags
 from choreo.cli.arguments import add_past_song_argument
 from choreo.validate import check_file
 
@@ -51,9 +52,9 @@ def run_validate(args: argparse.Namespace) -> int:
             allow_past_song=args.allow_past_song,
         )
         for line in result.problems:
-            print(line)
+            print(in_flags(line))
         for line in result.warnings:
-            print(f"warning: {line}")
+            print(f"warning: {in_flags(line)}")
         if result.ok:
             print(f"{path}: ok")
         failed = failed or not result.ok

@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from choreo.cli import in_flags, report_in_flags
 from choreo.cli.arguments import finite_float, positive_int
 from choreo.cli.plan_commands import png_path
 from choreo.core.atomic import check_writable
@@ -57,7 +58,7 @@ def run_beats(args: argparse.Namespace) -> int:
     analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats)
     if args.json:
         report = beats_report(args.song, analysis, args.level or "", args.offset_beats)
-        print(json.dumps(report, indent=2))
+        print(json.dumps(report_in_flags(report), indent=2))
     else:
         print_beats(args.song, analysis, args.level or "", args.offset_beats)
     if args.plot is not None:
@@ -108,7 +109,7 @@ def print_beats(song: Path, analysis: BeatAnalysis, level: str = "", offset_beat
     print("beats (s):     " + " ".join(f"{b:.3f}" for b in analysis.beats_s))
     print("downbeats (s): " + " ".join(f"{b:.3f}" for b in analysis.downbeats_s))
     for warning in analysis.warnings if analysis.steady else ():
-        print(f"warning: {warning}")
+        print(f"warning: {in_flags(warning)}")
     suggestion = suggested_music(song, analysis, level, offset_beats)
     if suggestion is None:
         print(

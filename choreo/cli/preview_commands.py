@@ -12,7 +12,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from choreo.cli import restore_mujoco_gl
+from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
     load_dance,
@@ -260,7 +260,7 @@ def _preview(args: argparse.Namespace) -> int:
             f"--from {args.start_pose}: {motion.robot.name} has no such pose; "
             f"valid: {', '.join(poses)}"
         )
-    rollout = preview.simulate_motion(
+    simulated = preview.simulate_motion(
         motion,
         settings,
         speed=args.speed,
@@ -268,20 +268,20 @@ def _preview(args: argparse.Namespace) -> int:
         tolerance_deg=args.tolerance,
         start_pose=args.start_pose,
     )
-    results = preview.run_checks(rollout, thresholds)
+    rollout = simulated.rollout
+    results = preview.run_checks(simulated, thresholds)
     for line in preview.start_lines(rollout):
-        print(f"{args.motion}: {line}")
+        print(f"{args.motion}: {in_flags(line)}")
     for result in results:
         where = heading_for(motion, rollout.keyframe_times_s, result.time_s)
         print(f"{where}: {result.severity.value}: {result.message}")
-    travel = preview.body_travel(rollout)
-    if travel is not None:
-        print(f"{args.motion}: {describe_travel(travel)}")
-    for outcome in preview.prop_outcomes(rollout):
+    if simulated.travel is not None:
+        print(f"{args.motion}: {describe_travel(simulated.travel)}")
+    for outcome in simulated.props:
         print(f"{args.motion}: {outcome.line()}")
-    for gait in preview.gait_outcomes(rollout):
+    for gait in simulated.gaits:
         print(f"{args.motion}: {gait.line()}")
-    reach = preview.reach_line(rollout)
+    reach = preview.reach_line(simulated)
     if reach is not None:
         print(f"{args.motion}: {reach}")
     errors = sum(r.severity is preview.Severity.ERROR for r in results)
@@ -293,9 +293,10 @@ def _preview(args: argparse.Namespace) -> int:
 
     if args.report is not None:
         report = preview.preview_report(
-            rollout, results, motion=str(args.motion), thresholds=thresholds
+            simulated, results, motion=str(args.motion), thresholds=thresholds
         )
-        write_text_atomically(args.report, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+        text = json.dumps(report_in_flags(report), indent=2, ensure_ascii=False)
+        write_text_atomically(args.report, text + "\n")
         print(f"wrote {args.report}")
     if output is not None:
         render_settings = preview.RenderSettings(

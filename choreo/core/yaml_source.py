@@ -22,7 +22,7 @@ from typing import NamedTuple
 import yaml
 
 from choreo.core.file_kind import not_a_file
-from choreo.errors import SourceError
+from choreo.errors import SourceError, joined
 
 Node = yaml.Node
 
@@ -64,7 +64,7 @@ class Problems:
         self._lines: list[str] = []
 
     def add(self, where: SourceLocation, message: str) -> None:
-        self.extend([f"{where}: {message}"])
+        self.extend([joined(": ", (str(where), message))])  # a Worded message stays one
 
     def extend(self, lines: Iterable[str]) -> None:
         for line in lines:

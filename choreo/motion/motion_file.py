@@ -30,7 +30,7 @@ from choreo.core.yaml_source import (
     quoted,
     reading_a_file,
 )
-from choreo.errors import OptionError, SourceError
+from choreo.errors import OptionError, SourceError, Worded
 from choreo.motion.gait import BodyPose, Gait
 from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
@@ -246,8 +246,11 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
     if outlasts is not None:
         reader.report(
             fields["repeat" if "repeat" in fields else "keyframes"].key_node,
-            f"{outlasts}; end it sooner, start earlier in the song, or pass --allow-past-song "
-            "to dance on in silence",
+            Worded(
+                f"{outlasts}; end it sooner, start earlier in the song, or pass "
+                "{allow_past_song} to dance on in silence",
+                ("allow_past_song",),
+            ),
         )
         return None
     return Motion(

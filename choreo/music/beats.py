@@ -37,7 +37,7 @@ from choreo.core.arguments import (
     check_optional_number,
     check_path,
 )
-from choreo.errors import ChoreoError
+from choreo.errors import ChoreoError, Worded
 from choreo.music.decode import Audio, decode_song
 
 COARSE_HOP = 512  # ~23 ms frames at 22050 Hz: what the tracker is tuned for
@@ -53,6 +53,7 @@ OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: may
 FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
 METERS = (2, 3, 4)
 LEVELS = ("half", "double")  # the alternative grids: every other beat, a beat between each two
+GRID_OPTIONS = ("level", "offset_beats")  # detect_beats' arguments a warning offers
 CHORD_CHANGE_WEIGHT = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
 UNSURE_METER = 0.2  # a runner-up meter within this fraction of the winner: say so
 
@@ -74,7 +75,8 @@ class BeatAnalysis:
     tempi: tuple[TempoSpan, ...]  # steady stretches, in order
     meter_detected: bool = False  # beats_per_bar was estimated (no meter was given)
     meter_confidence: float = 1.0  # 0..1: how far the chosen meter's bars stand out
-    warnings: tuple[str, ...] = ()  # the grid may be off-beat, at half or double tempo
+    # the grid may be off-beat, at half or double tempo (Worded: naming detect_beats' arguments)
+    warnings: tuple[str, ...] = ()
 
     @property
     def bpm(self) -> float:
@@ -456,11 +458,11 @@ def _warnings(features: _Features, beats: np.ndarray) -> tuple[str, ...]:
         how_strong = f"{between / on:.2f} times as strong as" if on > 0 else "there, not"
         warnings.append(
             f"the onsets between the beats are {how_strong} on them: the beats may sit on the "
-            f"off-beat (try --offset-beats 0.5) or the tempo be twice {bpm:.1f} (try --level "
-            "double)"
+            "off-beat (try {offset_beats} 0.5) or the tempo be twice "
+            f"{bpm:.1f} (try {{level}} double)"
         )
     elif bpm > FAST_BPM:
-        warnings.append(f"{bpm:.1f} BPM is fast: the beat may be half that (try --level half)")
+        warnings.append(f"{bpm:.1f} BPM is fast: the beat may be half that (try {{level}} half)")
     elif bpm < SLOW_BPM:
-        warnings.append(f"{bpm:.1f} BPM is slow: the beat may be twice that (try --level double)")
-    return tuple(warnings)
+        warnings.append(f"{bpm:.1f} BPM is slow: the beat may be twice that (try {{level}} double)")
+    return tuple(Worded(warning, GRID_OPTIONS) for warning in warnings)

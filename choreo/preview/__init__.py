@@ -1,9 +1,22 @@
 """Preview a motion in MuJoCo: what the servos will really do with the ticks they receive,
-checked for problems and rendered offscreen.
+checked for problems and rendered offscreen::
 
-    rollout = simulate_motion(motion)          # start pose -> approach -> the motion's ticks
-    results = run_checks(rollout)              # collisions, limits, stalls, tracking, falls
-    render_preview(rollout, "out.mp4", results=results)
+    simulated = simulate_motion(motion)        # start pose -> approach -> the motion's ticks
+    results = run_checks(simulated)            # collisions, limits, stalls, tracking, falls
+    render_preview(simulated, "out.mp4", results=results)
+
+- :mod:`~choreo.preview.pipeline`: :func:`simulate_motion`, a motion planned, compiled, played
+  to the simulated robot from its start pose and measured (``prepare_motion``: without the
+  physics);
+- :mod:`~choreo.preview.sim`: :func:`simulate`, ticks in, a :class:`Rollout` out: what the
+  simulation recorded; ``model``, ``actuator`` and ``start`` make the robot, its servos and its
+  start for it;
+- :mod:`~choreo.preview.simulated`: :class:`SimulatedMotion`, a rollout with what was measured on
+  it: ``travel`` (the body), ``props``, ``walk`` (a walker's stance; ``stance``) and its gaits,
+  ``reach`` (``sites:`` targets);
+- :mod:`~choreo.preview.checks`: :func:`run_checks`, what would go wrong on the robot;
+- :mod:`~choreo.preview.report`: the ``--report`` JSON and the lines the CLI prints;
+- :mod:`~choreo.preview.render`, ``gl``, ``viewer``: pictures, offscreen or in a window.
 
 The package is the only place besides ``choreo.robot.model_check`` (the robot loader's MJCF checks)
 that imports ``mujoco``.
@@ -11,24 +24,7 @@ that imports ``mujoco``.
 
 from __future__ import annotations
 
-import dataclasses
-import os
-
-import numpy as np
-
-from choreo.core.arguments import check_text, check_type
-from choreo.errors import OptionError
-from choreo.motion.motion_file import HOME_POSE, Motion, motion_of
-from choreo.motion.scene import StartPosture
-from choreo.motion.timing import played_keyframes
-from choreo.plan.performance import Performance, prepare
-from choreo.plan.pipeline import compile_motion
-from choreo.preview.actuator import (
-    ActuatorParams,
-    CommandStream,
-    actuator_params,
-    commanded_path_units,
-)
+from choreo.preview.actuator import ActuatorParams, actuator_params
 from choreo.preview.checks import (
     CheckKind,
     CheckResult,
@@ -36,17 +32,16 @@ from choreo.preview.checks import (
     Severity,
     run_checks,
 )
-from choreo.preview.model import load_model
-from choreo.preview.props import PropOutcome, prop_outcomes
-from choreo.preview.reach import (
-    REACH_ERROR_MM,
-    REACH_WARNING_MM,
-    JointJump,
-    SiteReach,
-    SitesDue,
-    joint_jumps,
-    site_reach,
+from choreo.preview.pipeline import (
+    FIRST_KEYFRAME,
+    Prepared,
+    prepare_motion,
+    simulate_motion,
+    simulate_prepared,
+    start_pose_deg,
 )
+from choreo.preview.props import PropOutcome, prop_outcomes
+from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM, JointJump, SiteReach
 from choreo.preview.render import (
     RenderResult,
     RenderSettings,
@@ -63,13 +58,10 @@ from choreo.preview.report import (
     start_lines,
 )
 from choreo.preview.sim import MoveStart, Resume, Rollout, Settling, SimSettings, simulate
-from choreo.preview.stance import feet_and_centre, planned_stance
+from choreo.preview.simulated import SimulatedMotion
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
-from choreo.preview.walk import GaitDue, GaitOutcome, gait_outcomes
-from choreo.robot.kinematics import Kinematics
-
-FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
+from choreo.preview.walk import GaitOutcome, Walk, gait_outcomes
 
 __all__ = [
     "ActuatorParams",
@@ -77,6 +69,7 @@ __all__ = [
     "CheckKind",
     "CheckResult",
     "CheckThresholds",
+    "FIRST_KEYFRAME",
     "GaitOutcome",
     "JointJump",
     "JointSummary",
@@ -89,13 +82,15 @@ __all__ = [
     "RenderSettings",
     "Resume",
     "Rollout",
-    "Severity",
     "Settling",
+    "Severity",
     "SimSettings",
+    "SimulatedMotion",
     "SiteReach",
+    "Walk",
     "actuator_params",
-    "busiest_line",
     "body_travel",
+    "busiest_line",
     "frame_times",
     "gait_outcomes",
     "has_display",
@@ -111,165 +106,6 @@ __all__ = [
     "simulate",
     "simulate_motion",
     "simulate_prepared",
-    "start_pose_deg",
     "start_lines",
-    "FIRST_KEYFRAME",
+    "start_pose_deg",
 ]
-
-
-@dataclasses.dataclass(frozen=True)
-class Prepared:
-    """A motion planned and compiled into the ticks ``choreo play`` sends, with the approach from
-    its start pose: everything the simulation needs, and the plan without the physics."""
-
-    motion: Motion
-    start_deg: tuple[float, ...]
-    performance: Performance
-    speed: float  # the motion's own speed, or the one asked for
-
-    @property
-    def approach_s(self) -> float:
-        return self.performance.approach_s
-
-    @property
-    def keyframe_times_s(self) -> tuple[float, ...]:
-        """Arrival at each played keyframe, from the motion's start (after the approach)."""
-        return tuple(float(t) for t in self.performance.trajectory.keyframe_times_s)
-
-    def stream(self) -> CommandStream:
-        return CommandStream.from_ticks(self.performance.ticks, len(self.motion.robot.joints))
-
-    def end_s(self, settings: SimSettings | None = None) -> float:
-        """Where its simulation ends: the last move, then the settings' tail."""
-        return self.stream().end_s + (settings or SimSettings()).tail_s - self.approach_s
-
-    def commanded_deg(self, times_s: np.ndarray) -> np.ndarray:
-        """Where the ticks ask the joints to be at ``times_s`` (from the motion's start; the
-        approach before 0): no load, no lag, as ``Rollout.command_deg``."""
-        robot, stream = self.motion.robot, self.stream()
-        start_units = robot.to_units(np.asarray(self.start_deg))
-        times = np.asarray(times_s, dtype=float) + self.approach_s
-        return robot.to_deg(commanded_path_units(stream, start_units, times))
-
-
-def prepare_motion(
-    motion: Motion | str | os.PathLike[str],
-    *,
-    speed: float | None = None,
-    stretch: bool = False,
-    tolerance_deg: float = 0.5,
-    start_pose: str | None = None,
-) -> Prepared:
-    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), with the
-    approach the player would play from the start pose (see ``simulate_motion``)."""
-    motion = motion_of(motion)
-    check_text("start_pose", start_pose, optional=True)
-    compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
-    start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
-    return Prepared(
-        motion,
-        tuple(start_deg),
-        prepare(compiled, start_deg),
-        motion.speed if speed is None else speed,
-    )
-
-
-def simulate_motion(
-    motion: Motion | str | os.PathLike[str],
-    settings: SimSettings | None = None,
-    *,
-    speed: float | None = None,
-    stretch: bool = False,
-    tolerance_deg: float = 0.5,
-    start_pose: str | None = None,
-) -> Rollout:
-    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), add the
-    approach the player would play from the start pose, and play it all to the simulated robot.
-
-    The start pose is the robot's pose ``start_pose``, or "first" for the motion's first
-    keyframe; by default ``home`` (the first keyframe for a motion that starts lying, or a
-    robot without a home pose). ``motion`` may be given by its file's path.
-    """
-    if settings is not None:
-        check_type("settings", settings, SimSettings, "a SimSettings, or None")
-    prepared = prepare_motion(
-        motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg, start_pose=start_pose
-    )
-    return simulate_prepared(prepared, settings)
-
-
-def simulate_prepared(
-    prepared: Prepared, settings: SimSettings | None = None, resume: Resume | None = None
-) -> Rollout:
-    """Play a prepared motion's ticks to the simulated robot (``simulate_motion``'s physics);
-    ``resume``: an earlier rollout's, to reuse what it simulated before the first tick that
-    differs (``simulate``)."""
-    motion, performance = prepared.motion, prepared.performance
-    rollout = simulate(
-        motion.robot,
-        performance.ticks,
-        prepared.start_deg,
-        keyframe_times_s=prepared.keyframe_times_s,
-        settings=settings or SimSettings(),
-        motion_start_s=performance.approach_s,
-        posture=motion.start,
-        props=motion.props,
-        resume=resume,
-    )
-    rollout = dataclasses.replace(rollout, end=motion.end)
-    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=prepared.speed)
-    if rollout.root_body is not None and Kinematics(motion.robot).feet():
-        rollout = _with_stance(rollout, motion, played)
-    due = [
-        SitesDue(index, arrival, p.hold_s, p.keyframe.sites)
-        for index, (p, arrival) in enumerate(zip(played, rollout.keyframe_times_s))
-        if p.keyframe.sites
-    ]
-    if not due:
-        return rollout
-    kin = Kinematics(motion.robot)
-    model = load_model(motion.robot, motion.props)
-    reach = site_reach(
-        model, rollout.qpos, rollout.times_s, due, kin.base_body, kin.world_to_base_mm
-    )
-    targets = [p.keyframe.targets_deg for p in played]
-    jumps = joint_jumps(kin, due, targets, motion.robot.joint_names)
-    return dataclasses.replace(rollout, site_reach=reach, joint_jumps=jumps)
-
-
-def _with_stance(rollout: Rollout, motion: Motion, played) -> Rollout:
-    """A walker's planned stance, where its feet and centre of mass really were and its gait:
-    blocks' times."""
-    kin = Kinematics(motion.robot)
-    model = load_model(motion.robot, motion.props)
-    arrivals = rollout.keyframe_times_s
-    gaits = tuple(
-        GaitDue(arrivals[max(i - end.keyframes, 0)], arrivals[i], end.gait, end.where)
-        for i, p in enumerate(played)
-        if (end := p.keyframe.gait_end) is not None
-    )
-    feet, centre = feet_and_centre(kin, model, rollout.qpos)
-    return dataclasses.replace(
-        rollout,
-        stance=planned_stance(kin, model, rollout.command_deg, rollout.times_s),
-        foot_m=feet,
-        centre_of_mass_m=centre,
-        gaits=gaits,
-    )
-
-
-def start_pose_deg(motion: Motion, first_deg, start_pose: str | None) -> tuple[float, ...]:
-    """Where the robot is before the approach (see ``simulate_motion``)."""
-    robot = motion.robot
-    if start_pose is None:
-        lying = motion.start is not StartPosture.STANDING
-        start_pose = "first" if lying or HOME_POSE not in robot.poses else HOME_POSE
-    if start_pose == FIRST_KEYFRAME:
-        return tuple(float(a) for a in first_deg)
-    if start_pose not in robot.poses:
-        raise OptionError(
-            "start_pose",
-            f"{start_pose!r}: no such pose in {robot.path}; start from one of "
-            f"{', '.join([*robot.poses, FIRST_KEYFRAME])}",
-        )
-    return robot.pose_vector(start_pose)

@@ -12,10 +12,11 @@ from enum import Enum
 import numpy as np
 
 from choreo.core.arguments import NON_NEGATIVE, Range, check_number, check_type
-from choreo.preview.props import PLACE_TOLERANCE_M, prop_outcomes
+from choreo.preview.props import PLACE_TOLERANCE_M
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
 from choreo.preview.sim import Rollout
-from choreo.preview.walk import LIFT_WARNING_FRACTION, TRAVEL_WARNING_FRACTION, gait_outcomes
+from choreo.preview.simulated import SimulatedMotion, simulated_of
+from choreo.preview.walk import LIFT_WARNING_FRACTION, TRAVEL_WARNING_FRACTION
 
 
 class Severity(str, Enum):
@@ -92,22 +93,23 @@ class CheckThresholds:
 
 
 def run_checks(
-    rollout: Rollout, thresholds: CheckThresholds = CheckThresholds()
+    rollout: SimulatedMotion | Rollout, thresholds: CheckThresholds = CheckThresholds()
 ) -> list[CheckResult]:
-    """Every problem found from the start (settled, before the approach), in time order."""
-    check_type("rollout", rollout, Rollout, "a Rollout (from simulate_motion)")
+    """Every problem found from the start (settled, before the approach), in time order:
+    ``rollout`` is ``simulate_motion``'s, or a bare ``Rollout`` (``simulate``'s)."""
+    simulated = simulated_of(rollout).since_start()
     check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds")
-    rollout = rollout.since_start()
+    recorded = simulated.rollout
     results = [
-        *check_contacts(rollout, thresholds),
-        *check_joint_limits(rollout, thresholds),
-        *check_saturation(rollout, thresholds),
-        *check_tracking(rollout, thresholds),
-        *check_fall(rollout, thresholds),
-        *check_stumble(rollout, thresholds),
-        *check_props(rollout),
-        *check_reach(rollout),
-        *check_gaits(rollout),
+        *check_contacts(recorded, thresholds),
+        *check_joint_limits(recorded, thresholds),
+        *check_saturation(recorded, thresholds),
+        *check_tracking(recorded, thresholds),
+        *check_fall(simulated, thresholds),
+        *check_stumble(simulated, thresholds),
+        *check_props(simulated),
+        *check_reach(simulated),
+        *check_gaits(simulated),
     ]
     return sorted(results, key=lambda r: (r.time_s, r.kind.value, r.joint or "", r.bodies))
 
@@ -145,25 +147,15 @@ class _Timeline:
         return (run[1] - run[0]) * self.dt
 
 
-def contact_mask(rollout: Rollout, pair_index: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per step: whether the pair touches, and how deep (m)."""
-    mine = rollout.contact_pair == pair_index
-    mask = np.zeros(len(rollout.times_s), dtype=bool)
-    mask[rollout.contact_step[mine]] = True
-    depth = np.zeros(len(rollout.times_s))
-    np.maximum.at(depth, rollout.contact_step[mine], rollout.contact_depth_m[mine])
-    return mask, depth
-
-
 def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
     """Self-collisions, a fixed robot's links on the floor or a prop, and parent/child links
     that MuJoCo lets collide (a free-floating robot on the ground: ``check_fall``)."""
     timeline = _Timeline(rollout, thresholds)
     results = []
-    for pair_index, pair in enumerate(rollout.contact_pairs):
+    for pair_index, pair in enumerate(rollout.contacts.pairs):
         if pair.kind in ("ground", "foot"):
             continue
-        mask, depth_by_step = contact_mask(rollout, pair_index)
+        mask, depth_by_step = rollout.contacts.mask(pair_index, len(rollout.times_s))
         for run in timeline.episodes(mask):
             depth_mm = 1000 * float(depth_by_step[run[0] : run[1]].max())
             when = f"at t={timeline.start(run):.2f} s for {timeline.duration(run):.2f} s"
@@ -398,10 +390,10 @@ def _touching(rollout: Rollout, j: int, run: tuple[int, int]) -> str:
     of a servo straining), or ""."""
     if not rollout.joint_links:
         return ""
-    link = rollout.joint_links[j]
-    during = (rollout.contact_step >= run[0]) & (rollout.contact_step < run[1])
-    for pair_index in np.unique(rollout.contact_pair[during]):
-        pair = rollout.contact_pairs[pair_index]
+    link, contacts = rollout.joint_links[j], rollout.contacts
+    during = (contacts.step >= run[0]) & (contacts.step < run[1])
+    for pair_index in np.unique(contacts.pair[during]):
+        pair = contacts.pairs[pair_index]
         if pair.kind != "foot" and link in (pair.body_a, pair.body_b):
             return f", pushed by a contact: {pair.body_a} touches {pair.body_b}"
     return ""
@@ -432,16 +424,17 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
     return results
 
 
-def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[CheckResult]:
     """A free-floating robot falling or collapsing after its start (the robot at rest before the
     approach): a link other than a foot touching the ground when it did not at the start, its
     body below ``fall_height_fraction`` of its start height, or tilted more than
     ``fall_tilt_deg`` once it has been upright (so lying at the start is not a fall). A motion
     that declares ``end: lying`` may lie down from its last keyframe but one on."""
-    if rollout.root_height_m is None or rollout.root_tilt_deg is None:
+    rollout, body = simulated.rollout, simulated.rollout.body
+    if body is None:
         return []
     s0 = rollout.start_step
-    height, tilt = rollout.root_height_m, rollout.root_tilt_deg
+    height, tilt = body.height_m, body.tilt_deg
     start_height = float(height[s0])
     after = np.arange(len(height)) >= s0
     low = after & (height < thresholds.fall_height_fraction * start_height)
@@ -449,14 +442,13 @@ def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResul
     been_upright = np.logical_or.accumulate(upright & after)
     tilted = after & been_upright & ~upright
     results = [*_ground_contacts(rollout, thresholds, s0, been_upright)]
-    lying_from = rollout.lie_down_from_s
+    lying_from = simulated.lie_down_from_s
     if lying_from is not None:  # lying down at the end, as declared: low and on the floor
         lying = rollout.times_s >= lying_from
         low &= ~lying
-        if rollout.end.pitch_deg:  # on its front or back: turned over too
+        if simulated.end.pitch_deg:  # on its front or back: turned over too
             tilted &= ~lying
         results = [r for r in results if r.time_s < lying_from]
-    body = rollout.root_body or ""
     for mask, why in (
         (
             low,
@@ -475,9 +467,9 @@ def check_fall(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResul
                 CheckResult(
                     CheckKind.FALL,
                     Severity.ERROR,
-                    f"{body} falls at t={t:.2f} s: {why(k)}",
+                    f"{body.name} falls at t={t:.2f} s: {why(k)}",
                     t,
-                    bodies=(body,),
+                    bodies=(body.name,),
                     value=float(tilt[k]) if mask is tilted else float(height[k]),
                 )
             )
@@ -490,13 +482,14 @@ def _ground_contacts(
     """Links other than feet on the ground after the start, once the robot has been upright
     (while it still lies, anything may rest on the floor)."""
     timeline = _Timeline(rollout, thresholds)
-    height, tilt = rollout.root_height_m, rollout.root_tilt_deg
-    assert height is not None and tilt is not None  # check_fall's caller made sure
+    body = rollout.body
+    assert body is not None  # check_fall made sure
+    height, tilt = body.height_m, body.tilt_deg
     start_height = float(height[s0])
-    for pair_index, pair in enumerate(rollout.contact_pairs):
+    for pair_index, pair in enumerate(rollout.contacts.pairs):
         if pair.kind != "ground":
             continue
-        mask, _ = contact_mask(rollout, pair_index)
+        mask, _ = rollout.contacts.mask(pair_index, len(rollout.times_s))
         if mask[s0 : s0 + timeline.merge_steps + 1].any():
             continue  # it rested there at the start (lying)
         mask &= been_upright
@@ -509,7 +502,7 @@ def _ground_contacts(
             CheckKind.FALL,
             Severity.ERROR,
             f"{pair.body_a} touches the {pair.body_b} at t={t:.2f} s: the robot collapses or "
-            f"falls ({rollout.root_body} {1000 * start_height:.0f} -> "
+            f"falls ({body.name} {1000 * start_height:.0f} -> "
             f"{1000 * float(height[k : runs[0][1]].min()):.0f} mm high, tilted up to "
             f"{float(tilt[k : runs[0][1]].max()):.1f}°)",
             t,
@@ -519,12 +512,12 @@ def _ground_contacts(
         )
 
 
-def check_props(rollout: Rollout) -> list[CheckResult]:
+def check_props(simulated: SimulatedMotion) -> list[CheckResult]:
     """Free props dropped (warning), knocked over (warning), or not ending at their
     ``place_at_m`` (error: the motion does not do what it says)."""
     results = []
-    end_s = float(rollout.times_s[-1])
-    for outcome in prop_outcomes(rollout):
+    end_s = simulated.rollout.duration_s
+    for outcome in simulated.props:
         name = outcome.name
         if outcome.dropped_at_s is not None:
             results.append(
@@ -569,12 +562,12 @@ def check_props(rollout: Rollout) -> list[CheckResult]:
     return results
 
 
-def check_reach(rollout: Rollout) -> list[CheckResult]:
+def check_reach(simulated: SimulatedMotion) -> list[CheckResult]:
     """A site more than ``REACH_WARNING_MM`` (warning) or ``REACH_ERROR_MM`` (error) from its
     ``sites:`` target when its keyframe is due; a small move in space that needed a large move
     in joints (warning)."""
     results = []
-    for reach in rollout.site_reach:
+    for reach in simulated.site_reach:
         error = reach.error_mm
         if error <= REACH_WARNING_MM:
             continue
@@ -594,7 +587,7 @@ def check_reach(rollout: Rollout) -> list[CheckResult]:
                 value=error,
             )
         )
-    for jump in rollout.joint_jumps:
+    for jump in simulated.joint_jumps:
         results.append(
             CheckResult(
                 CheckKind.JOINT_JUMP,
@@ -612,25 +605,25 @@ def check_reach(rollout: Rollout) -> list[CheckResult]:
     return results
 
 
-def check_stumble(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+def check_stumble(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[CheckResult]:
     """A walker judged against its plan (``stance.py``), once upright and until a declared
     lie-down: its body lower than planned by ``stumble_drop_mm`` or tilted from the planned
     tilt by ``stumble_tilt_deg`` (both changes since the start), or a foot on the floor while
     the plan has it ``stumble_lift_mm`` up (the body came down onto a lifted leg)."""
-    stance = rollout.stance
-    height, address = rollout.root_height_m, rollout.root_qpos_address
-    if stance is None or height is None or address is None or rollout.posture.lying:
+    rollout, walk, body = simulated.rollout, simulated.walk, simulated.rollout.body
+    stance = None if walk is None else walk.stance
+    if stance is None or body is None or rollout.posture.lying:
         return []
+    height, address = body.height_m, body.qpos_address
     timeline = _Timeline(rollout, thresholds)
     judged = np.ones(len(rollout.times_s), dtype=bool)
-    if rollout.lie_down_from_s is not None:
-        judged &= rollout.times_s < rollout.lie_down_from_s
+    if simulated.lie_down_from_s is not None:
+        judged &= rollout.times_s < simulated.lie_down_from_s
     drop_mm = 1000 * ((stance.height_m - stance.height_m[0]) - (height - height[0]))
     w, x, y, z = (rollout.qpos[:, address + 3 + i] for i in range(4))
     up = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1)
     off = np.degrees(np.arccos(np.clip(np.sum(up * stance.up_base, axis=1), -1.0, 1.0)))
     tilt = off - off[0]
-    body = rollout.root_body or ""
     results = []
     drop_limit, tilt_limit = thresholds.stumble_drop_mm, thresholds.stumble_tilt_deg
     for mask, what, values, limit, unit in (
@@ -646,25 +639,24 @@ def check_stumble(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckRe
                 CheckResult(
                     CheckKind.FALL,
                     Severity.ERROR,
-                    f"{body} stumbles at t={t:.2f} s: {worst:.1f} {unit} {what} (more than "
-                    f"{limit:g} {unit}), for {timeline.duration(run):.2f} s",
+                    f"{body.name} stumbles at t={t:.2f} s: {worst:.1f} {unit} {what} (more "
+                    f"than {limit:g} {unit}), for {timeline.duration(run):.2f} s",
                     t,
                     timeline.duration(run),
-                    bodies=(body,),
+                    bodies=(body.name,),
                     value=worst,
                 )
             )
-    results += _lifted_feet_down(rollout, timeline, thresholds, judged)
+    results += _lifted_feet_down(rollout, stance, timeline, thresholds, judged)
     return results
 
 
-def _lifted_feet_down(rollout, timeline, thresholds, judged):
-    stance = rollout.stance
-    for pair_index, pair in enumerate(rollout.contact_pairs):
+def _lifted_feet_down(rollout, stance, timeline, thresholds, judged):
+    for pair_index, pair in enumerate(rollout.contacts.pairs):
         if pair.kind != "foot" or pair.body_a not in stance.foot_links:
             continue
         lift_mm = 1000 * stance.lift_m[:, stance.foot_links.index(pair.body_a)]
-        touching, _ = contact_mask(rollout, pair_index)
+        touching, _ = rollout.contacts.mask(pair_index, len(rollout.times_s))
         runs = timeline.episodes(touching & judged & (lift_mm >= thresholds.stumble_lift_mm))
         if not runs:
             continue
@@ -682,12 +674,13 @@ def _lifted_feet_down(rollout, timeline, thresholds, judged):
         )
 
 
-def check_gaits(rollout: Rollout) -> list[CheckResult]:
+def check_gaits(simulated: SimulatedMotion) -> list[CheckResult]:
     """A ``gait:`` block whose body travels or turns less than ``TRAVEL_WARNING_FRACTION`` of
     what it asked, or whose swinging feet rise less than ``LIFT_WARNING_FRACTION`` of the
     lift (they drag): warnings at the block's end."""
     results = []
-    for outcome, due in zip(gait_outcomes(rollout), rollout.gaits):
+    dues = () if simulated.walk is None else simulated.walk.gaits
+    for outcome, due in zip(simulated.gaits, dues):
         short = []
         travel, turn, lift = outcome.travel_fraction, outcome.turn_fraction, outcome.lift_fraction
         if travel is not None and travel < TRAVEL_WARNING_FRACTION:

@@ -26,6 +26,7 @@ from choreo.preview.checks import CheckKind, CheckResult
 from choreo.preview.gl import context_class, offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.sim import Rollout
+from choreo.preview.simulated import SimulatedMotion, rollout_of
 
 log = logging.getLogger(__name__)
 
@@ -89,16 +90,17 @@ def frame_times(duration_s: float, fps: float) -> np.ndarray:
 
 
 def render_preview(
-    rollout: Rollout,
+    rollout: SimulatedMotion | Rollout,
     path: str | Path,
     settings: RenderSettings = RenderSettings(),
     results: Sequence[CheckResult] = (),
     on_frame: ProgressCallback | None = None,
     music: Music | None = None,
 ) -> RenderResult:
-    """Render ``rollout`` to ``path`` (.mp4, .gif, or .png = a contact sheet). With ``music``
-    every frame shows its bar and beat, and an mp4 carries the song, ``music.start_s`` of it at the
-    motion's t=0."""
+    """Render ``rollout`` (``simulate_motion``'s, or ``simulate``'s) to ``path`` (.mp4, .gif, or
+    .png = a contact sheet). With ``music`` every frame shows its bar and beat, and an mp4
+    carries the song, ``music.start_s`` of it at the motion's t=0."""
+    recorded = rollout_of(rollout)
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
@@ -109,12 +111,12 @@ def render_preview(
         )
     fps = settings.fps or DEFAULT_FPS[suffix]
     if suffix == ".png":
-        times = np.linspace(rollout.start_s, rollout.duration_s, settings.sheet_frames)
+        times = np.linspace(recorded.start_s, recorded.duration_s, settings.sheet_frames)
     else:
-        times = rollout.start_s + frame_times(rollout.duration_s - rollout.start_s, fps)
+        times = recorded.start_s + frame_times(recorded.duration_s - recorded.start_s, fps)
     backend = offscreen_backend()
     grid = music.grid if music is not None else None
-    frames = render_frames(rollout, times, settings, results, backend, on_frame, grid)
+    frames = render_frames(recorded, times, settings, results, backend, on_frame, grid)
     if suffix == ".mp4":
         _write_mp4(path, frames, fps, settings)
         if music is not None:
@@ -221,10 +223,10 @@ def frame_cameras(
     the robot alone and follows its body across the floor, its path smoothed over
     ``FOLLOW_SMOOTHING_S`` (so it glides, neither bobbing nor swaying with the steps)."""
     fixed = frame_camera(model, rollout, aspect)
-    address = rollout.root_qpos_address
-    if address is None or len(rollout.times_s) < 2:
+    if rollout.body is None or len(rollout.times_s) < 2:
         return [fixed] * len(steps)
     dt = float(rollout.times_s[1] - rollout.times_s[0])
+    address = rollout.body.qpos_address
     path = _smoothed(rollout.qpos[:, address : address + 2], round(FOLLOW_SMOOTHING_S / dt))
     sampled, corners = _robot_corners(model, rollout)
     corners[..., :2] -= path[sampled][:, None, :]  # the robot as seen from its smoothed path

@@ -8,12 +8,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from choreo.core.arguments import check_text, check_type, shown
-from choreo.errors import OptionError
+from choreo.errors import OptionError, Worded, joined
 from choreo.preview.checks import CheckResult, CheckThresholds, Severity
-from choreo.preview.props import prop_outcomes
 from choreo.preview.sim import Rollout
-from choreo.preview.travel import body_travel
-from choreo.preview.walk import gait_outcomes
+from choreo.preview.simulated import SimulatedMotion, simulated_of
 
 
 @dataclass(frozen=True)
@@ -61,15 +59,16 @@ def joint_summaries(
 
 
 def start_lines(rollout: Rollout) -> list[str]:
-    """How the simulation started and what it assumed, one line each, for the CLI."""
+    """How the simulation started and what it assumed, one line each, for the CLI (the servo
+    model's line names the argument that changes its assumption: ``worded``)."""
     lines = []
     settling = rollout.settling
     if settling is not None:
         still = "still" if settling.still else "still moving"
-        if rollout.root_body is not None:
+        if rollout.body is not None:
             lines.append(
                 f"start: {rollout.posture.value} on the floor; settled for "
-                f"{settling.duration_s:.2f} s until {still}: {rollout.root_body} dropped "
+                f"{settling.duration_s:.2f} s until {still}: {rollout.body.name} dropped "
                 f"{1000 * settling.drop_m:.1f} mm and tilted {settling.tilt_deg:.1f}°"
             )
         else:
@@ -79,7 +78,7 @@ def start_lines(rollout: Rollout) -> list[str]:
             f"approach: {-rollout.approach_start_s:.2f} s into the first keyframe "
             f"(from t={rollout.approach_start_s:.2f} s), as the player plays it"
         )
-    lines.append(f"servo model: {assumptions_text(rollout)}")
+    lines.append(joined("", ("servo model: ", assumptions_text(rollout))))
     return lines
 
 
@@ -96,19 +95,20 @@ def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
     return line
 
 
-def reach_line(rollout: Rollout) -> str | None:
+def reach_line(simulated: SimulatedMotion) -> str | None:
     """The worst ``sites:`` target, for the CLI (each one's figures are in the report)."""
-    if not rollout.site_reach:
+    if not simulated.site_reach:
         return None
-    worst = max(rollout.site_reach, key=lambda r: r.error_mm)
+    worst = max(simulated.site_reach, key=lambda r: r.error_mm)
     return (
-        f"sites: {len(rollout.site_reach)} target(s) reached within {worst.error_mm:.1f} mm "
+        f"sites: {len(simulated.site_reach)} target(s) reached within {worst.error_mm:.1f} mm "
         f"(worst: {worst.site} at t={worst.time_s:.2f} s, {worst.where})"
     )
 
 
 def assumptions_text(rollout: Rollout) -> str:
-    """The servo model's assumptions, each value once with the joints that differ named."""
+    """The servo model's assumptions, each value once with the joints that differ named, and
+    where moves start (naming ``SimSettings.move_start``)."""
     parts = []
     for field, unit in (
         ("supply_v", " V"),
@@ -127,19 +127,23 @@ def assumptions_text(rollout: Rollout) -> str:
             rated = sorted({a.rated_supply_v for a in rollout.actuators})
             text = f"supply {text} (rated {', '.join(f'{r:g}' for r in rated)} V)"
         parts.append(text + (f" ({', '.join(others)})" if others else ""))
-    parts.append(f"moves start from the {rollout.move_start.value} (--move-start)")
-    return ", ".join(parts)
+    parts.append(
+        Worded(f"moves start from the {rollout.move_start.value} ({{move_start}})", ("move_start",))
+    )
+    return joined(", ", parts)
 
 
 def preview_report(
-    rollout: Rollout,
+    rollout: SimulatedMotion | Rollout,
     results: list[CheckResult],
     motion: str = "",
     thresholds: CheckThresholds | None = None,
 ) -> dict:
-    """What ``choreo preview --report`` writes: the checks' ``results`` on ``rollout`` (of the
-    motion file ``motion``) and the figures they were judged by."""
-    check_type("rollout", rollout, Rollout, "a Rollout (from simulate_motion)")
+    """What ``choreo preview --report`` writes: the checks' ``results`` on ``rollout``
+    (``simulate_motion``'s, of the motion file ``motion``) and the figures they were judged
+    by."""
+    simulated = simulated_of(rollout)
+    recorded = simulated.rollout
     if not isinstance(results, list) or not all(isinstance(r, CheckResult) for r in results):
         raise OptionError(
             "results", f"must be a list of CheckResult (from run_checks), got {shown(results)}"
@@ -149,25 +153,26 @@ def preview_report(
         check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds, or None")
     thresholds = thresholds or CheckThresholds()
     errors = sum(r.severity is Severity.ERROR for r in results)
-    settling = rollout.settling
+    settling = recorded.settling
     return {
-        "robot": rollout.robot.name,
+        "robot": recorded.robot.name,
         "motion": motion,
-        "start_s": round(rollout.start_s, 4),
-        "approach_start_s": round(rollout.approach_start_s, 4),
-        "duration_s": round(rollout.duration_s, 4),
-        "commands_end_s": round(rollout.commands_end_s, 4),
+        "start_s": round(recorded.start_s, 4),
+        "approach_start_s": round(recorded.approach_start_s, 4),
+        "duration_s": round(recorded.duration_s, 4),
+        "commands_end_s": round(recorded.commands_end_s, 4),
         "start": {
-            "posture": rollout.posture.value,
+            "posture": recorded.posture.value,
             "settle_s": round(settling.duration_s, 4) if settling else 0.0,
             "still": settling.still if settling else True,
             "drop_mm": round(1000 * settling.drop_m, 2) if settling else 0.0,
             "tilt_deg": round(settling.tilt_deg, 2) if settling else 0.0,
-            "feet": list(rollout.feet),  # what may touch the ground (a free-floating robot)
+            # what may touch the ground (a free-floating robot)
+            "feet": list(recorded.body.feet) if recorded.body else [],
         },
         "assumptions": {
-            "move_start": rollout.move_start.value,
-            "summary": assumptions_text(rollout),
+            "move_start": recorded.move_start.value,
+            "summary": assumptions_text(recorded),
         },
         "ok": errors == 0,
         "errors": errors,
@@ -175,10 +180,11 @@ def preview_report(
         "checks": [r.to_dict() for r in results],
         # judged like the checks: from the start, after settling
         "joints": [
-            asdict(s) for s in joint_summaries(rollout.since_start(), thresholds.near_miss_fraction)
+            asdict(s)
+            for s in joint_summaries(recorded.since_start(), thresholds.near_miss_fraction)
         ],
-        "body_travel": travel.to_dict() if (travel := body_travel(rollout)) else None,
-        "props": [outcome.to_dict() for outcome in prop_outcomes(rollout)],
-        "site_reach": [reach.to_dict() for reach in rollout.site_reach],
-        "gaits": [outcome.to_dict() for outcome in gait_outcomes(rollout)],
+        "body_travel": simulated.travel.to_dict() if simulated.travel else None,
+        "props": [outcome.to_dict() for outcome in simulated.props],
+        "site_reach": [reach.to_dict() for reach in simulated.site_reach],
+        "gaits": [outcome.to_dict() for outcome in simulated.gaits],
     }

@@ -3,7 +3,8 @@
 Each physics step, every servo's own linear interpolation (``actuator.ServoBank``) gives its
 set-point; the model's position actuators, made into the servo model (``preview/model.py``), turn
 it into torque, so lag and saturation look like the hardware. Everything the checks and the
-renderer need is recorded in a ``Rollout``; nothing here judges it.
+renderer need is recorded in a ``Rollout``; nothing here judges it, and nothing here knows the
+motion the ticks came from (``pipeline.py`` measures the rollout against it).
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -48,13 +48,8 @@ from choreo.preview.model import (
     link_of_body,
     load_model,
 )
-from choreo.preview.reach import JointJump, SiteReach
-from choreo.preview.stance import PlannedStance
-from choreo.robot.types import Robot
-
-if TYPE_CHECKING:
-    from choreo.preview.walk import GaitDue
 from choreo.preview.start import foot_links, start_state
+from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 
@@ -134,9 +129,49 @@ class Settling:
 
 
 @dataclass(frozen=True)
+class Contacts:
+    """The touches worth reporting, one entry per physics step and pair touching: the step, the
+    pair (an index into ``pairs``) and how deep."""
+
+    pairs: tuple[ContactPair, ...]
+    step: np.ndarray  # (k,) step index of each recorded contact
+    pair: np.ndarray  # (k,) index into pairs
+    depth_m: np.ndarray  # (k,) penetration depth
+
+    def mask(self, pair_index: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Per step of ``steps``: whether the pair touches, and how deep (m)."""
+        mine = self.pair == pair_index
+        touching = np.zeros(steps, dtype=bool)
+        touching[self.step[mine]] = True
+        depth = np.zeros(steps)
+        np.maximum.at(depth, self.step[mine], self.depth_m[mine])
+        return touching, depth
+
+    def since(self, k: int) -> Contacts:
+        """The contacts from step ``k`` on, their steps counted from there."""
+        keep = self.step >= k
+        return Contacts(self.pairs, self.step[keep] - k, self.pair[keep], self.depth_m[keep])
+
+
+@dataclass(frozen=True)
+class FreeBody:
+    """A free-floating robot's root body (the one carrying the free joint), step by step."""
+
+    name: str
+    qpos_address: int  # where its position and quaternion start in qpos
+    height_m: np.ndarray  # (n,)
+    tilt_deg: np.ndarray  # (n,) angle between its z axis and the vertical
+    feet: tuple[str, ...] = ()  # the robot's foot links: what may touch the ground
+
+    def since(self, k: int) -> FreeBody:
+        return replace(self, height_m=self.height_m[k:], tilt_deg=self.tilt_deg[k:])
+
+
+@dataclass(frozen=True)
 class Rollout:
-    """What happened, sampled at every physics step. Times count from the motion's start:
-    negative ones are the settling, then the approach (from ``approach_start_s``)."""
+    """What the simulation recorded, sampled at every physics step. Times count from the
+    motion's start: negative ones are the settling, then the approach (from
+    ``approach_start_s``)."""
 
     robot: Robot
     times_s: np.ndarray  # (n,)
@@ -146,42 +181,19 @@ class Rollout:
     torque_nm: np.ndarray  # (n, joints) actuator torque
     qpos: np.ndarray  # (n, nq) full MuJoCo state, for rendering
     actuators: tuple[ActuatorParams, ...]
-    contact_pairs: tuple[ContactPair, ...]
-    contact_step: np.ndarray  # (k,) step index of each recorded contact
-    contact_pair: np.ndarray  # (k,) index into contact_pairs
-    contact_depth_m: np.ndarray  # (k,) penetration depth
+    contacts: Contacts
     commands_end_s: float  # when the last commanded move is due to finish
     keyframe_times_s: tuple[float, ...] = ()
-    root_body: str | None = None  # free-floating robots: the body carrying the free joint
-    root_height_m: np.ndarray | None = None  # (n,)
-    root_tilt_deg: np.ndarray | None = None  # (n,) angle between its z axis and the vertical
+    body: FreeBody | None = None  # a free-floating robot's root body; None: fixed to the world
     approach_start_s: float = 0.0  # <= 0: when the approach into the first pose begins
     settling: Settling | None = None
     posture: StartPosture = StartPosture.STANDING
     props: tuple[Prop, ...] = ()
-    feet: tuple[str, ...] = ()  # a free-floating robot's foot links
     move_start: MoveStart = MoveStart.SETPOINT
     joint_links: tuple[str, ...] = ()  # the link each joint moves (robot joint order)
-    root_qpos_address: int | None = None  # where its position and quaternion start in qpos
     # each free prop's name and where its position and quaternion start in qpos
     prop_qpos_addresses: tuple[tuple[str, int], ...] = ()
-    site_reach: tuple[SiteReach, ...] = ()  # each sites: target against where the site was
-    joint_jumps: tuple[JointJump, ...] = ()  # sites: keyframes IK met with a large joint move
-    end: StartPosture = StartPosture.STANDING  # how the motion means to leave the robot
-    stance: PlannedStance | None = None  # a walker's planned feet and body, step by step
-    foot_m: np.ndarray | None = None  # (n, feet, 3) its foot sites in the world, stance order
-    centre_of_mass_m: np.ndarray | None = None  # (n, 3) the robot's, in the world
-    gaits: tuple[GaitDue, ...] = ()  # the gait: blocks played, when
     resume: Resume | None = None  # to simulate a tick list that begins the same way faster
-
-    @property
-    def lie_down_from_s(self) -> float | None:
-        """A motion that ends lying lies down from its last keyframe but one on: from then on,
-        the body low or on the floor is what it means to do (None: it ends standing)."""
-        if not self.end.lying:
-            return None
-        times = self.keyframe_times_s
-        return times[-2] if len(times) >= 2 else 0.0
 
     @property
     def duration_s(self) -> float:
@@ -204,11 +216,6 @@ class Rollout:
         """The rollout from the start (the robot at rest before the approach): what the checks
         judge; the settling before it is the simulation finding its feet, reported apart."""
         k = self.start_step
-        keep = self.contact_step >= k
-
-        def cut(signal):
-            return None if signal is None else signal[k:]
-
         return replace(
             self,
             times_s=self.times_s[k:],
@@ -217,21 +224,8 @@ class Rollout:
             command_deg=self.command_deg[k:],
             torque_nm=self.torque_nm[k:],
             qpos=self.qpos[k:],
-            contact_step=self.contact_step[keep] - k,
-            contact_pair=self.contact_pair[keep],
-            contact_depth_m=self.contact_depth_m[keep],
-            root_height_m=cut(self.root_height_m),
-            root_tilt_deg=cut(self.root_tilt_deg),
-            foot_m=cut(self.foot_m),
-            centre_of_mass_m=cut(self.centre_of_mass_m),
-            stance=None
-            if self.stance is None
-            else replace(
-                self.stance,
-                height_m=self.stance.height_m[k:],
-                up_base=self.stance.up_base[k:],
-                lift_m=self.stance.lift_m[k:],
-            ),
+            contacts=self.contacts.since(k),
+            body=None if self.body is None else self.body.since(k),
         )
 
     def phase(self, t: float) -> str:
@@ -305,13 +299,21 @@ def simulate(
 
     n = record.count
     stream_times = (np.arange(n) - n_settle) * dt
-    height = tilt = None
+    body = None
     if root is not None:
-        height, tilt = _root_pose(record.qpos[:n], model.jnt_qposadr[root])
+        address = int(model.jnt_qposadr[root])
+        height, tilt = _root_pose(record.qpos[:n], address)
+        body = FreeBody(
+            link_name(model, int(model.jnt_bodyid[root])),
+            address,
+            height,
+            tilt,
+            tuple(link_name(model, link) for link in feet),
+        )
     settling = Settling(
         duration_s=n_settle * dt,
-        drop_m=float(height[0] - height[n_settle]) if height is not None else 0.0,
-        tilt_deg=float(abs(tilt[n_settle] - tilt[0])) if tilt is not None else 0.0,
+        drop_m=float(body.height_m[0] - body.height_m[n_settle]) if body else 0.0,
+        tilt_deg=float(abs(body.tilt_deg[n_settle] - body.tilt_deg[0])) if body else 0.0,
         still=settled,
     )
     return Rollout(
@@ -323,23 +325,16 @@ def simulate(
         torque_nm=record.torque[:n],
         qpos=record.qpos[:n],
         actuators=params,
-        contact_pairs=contacts.pairs(),
-        contact_step=np.array(contacts.steps, dtype=int),
-        contact_pair=np.array(contacts.pair_index, dtype=int),
-        contact_depth_m=np.array(contacts.depths_m, dtype=float),
+        contacts=contacts.recorded(),
         commands_end_s=stream.end_s - motion_start_s,
         keyframe_times_s=tuple(float(t) for t in keyframe_times_s),
-        root_body=link_name(model, int(model.jnt_bodyid[root])) if root is not None else None,
-        root_height_m=height,
-        root_tilt_deg=tilt,
+        body=body,
         approach_start_s=-motion_start_s,
         settling=settling,
         posture=posture,
         props=tuple(props),
-        feet=tuple(link_name(model, link) for link in feet),
         move_start=settings.move_start,
         joint_links=_joint_links(model, robot),
-        root_qpos_address=int(model.jnt_qposadr[root]) if root is not None else None,
         prop_qpos_addresses=tuple(
             (name, int(model.jnt_qposadr[joint])) for name, joint in free_prop_joints(model).items()
         ),
@@ -587,6 +582,11 @@ class _ContactLog:
         self.depths_m = other.depths_m[:entries]
         self._pair_ids = dict(list(other._pair_ids.items())[:pairs])
 
-    def pairs(self) -> tuple[ContactPair, ...]:
+    def recorded(self) -> Contacts:
         ordered = sorted(self._pair_ids, key=self._pair_ids.__getitem__)
-        return tuple(ContactPair(CONTACT_NAMES[kind], a, b) for kind, a, b in ordered)
+        return Contacts(
+            tuple(ContactPair(CONTACT_NAMES[kind], a, b) for kind, a, b in ordered),
+            np.array(self.steps, dtype=int),
+            np.array(self.pair_index, dtype=int),
+            np.array(self.depths_m, dtype=float),
+        )

@@ -34,6 +34,9 @@ class PlannedStance:
     up_base: np.ndarray  # (n, 3)
     lift_m: np.ndarray  # (n, feet)
 
+    def since(self, k: int) -> PlannedStance:
+        return PlannedStance(self.foot_links, self.height_m[k:], self.up_base[k:], self.lift_m[k:])
+
 
 def planned_stance(
     kin: Kinematics, model: mujoco.MjModel, command_deg: np.ndarray, times_s: np.ndarray

@@ -33,9 +33,9 @@ def body_travel(rollout: Rollout) -> BodyTravel | None:
     """The root body's travel from the start (after settling, as the checks judge it) to the
     end of the rollout, or None for a robot fixed to the world."""
     rollout = rollout.since_start()
-    address = rollout.root_qpos_address
-    if address is None or not len(rollout.times_s):
+    if rollout.body is None or not len(rollout.times_s):
         return None
+    address = rollout.body.qpos_address
     position_mm = rollout.qpos[:, address : address + 3] * 1000
     w, x, y, z = (rollout.qpos[:, address + 3 + i] for i in range(4))
     heading = np.unwrap(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
@@ -44,7 +44,7 @@ def body_travel(rollout: Rollout) -> BodyTravel | None:
     floor = np.vstack([position_mm[::stride, :2], position_mm[-1:, :2]])
     start, end = position_mm[0], position_mm[-1]
     return BodyTravel(
-        body=rollout.root_body or "",
+        body=rollout.body.name,
         start_mm=_rounded(start),
         end_mm=_rounded(end),
         start_heading_deg=_heading_deg(heading[0]),

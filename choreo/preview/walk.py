@@ -1,7 +1,9 @@
-"""Gaits judged in space: the travel and turn a ``gait:`` block asked for against what the
-simulated body did over the block, how high the swinging feet really rose against the
-commanded lift (feet that drag scuff and stumble on a real floor), and how far inside the feet
-on the floor the centre of mass stayed (the static stability margin)."""
+"""A walker in the simulation: its planned stance and where its feet and centre of mass really
+were (a ``Walk``, measured from a rollout), and its gaits judged in space: the travel and turn a
+``gait:`` block asked for against what the simulated body did over the block, how high the
+swinging feet really rose against the commanded lift (feet that drag scuff and stumble on a
+real floor), and how far inside the feet on the floor the centre of mass stayed (the static
+stability margin)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ import numpy as np
 from choreo.core.yaml_source import SourceLocation
 from choreo.motion.gait import Gait
 from choreo.preview.sim import Rollout
-from choreo.preview.stance import PLANTED_M, support_margin
+from choreo.preview.stance import PLANTED_M, PlannedStance, support_margin
 
 TRAVEL_WARNING_FRACTION = 0.75  # travel or turn below this share of the asked: a warning
 LIFT_WARNING_FRACTION = 0.5  # swinging feet rising less than this share of the lift: dragging
@@ -27,6 +29,26 @@ class GaitDue:
     end_s: float
     gait: Gait
     where: SourceLocation
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A walker (a free-floating robot with foot sites) step by step, the rollout's steps: the
+    plan's stance, where its foot sites and its centre of mass really were, and the ``gait:``
+    blocks it played."""
+
+    stance: PlannedStance | None  # None: fewer than three feet, no plane to stand on
+    foot_m: np.ndarray  # (n, feet, 3) the foot sites in the world, stance order
+    centre_of_mass_m: np.ndarray  # (n, 3) the robot's, in the world
+    gaits: tuple[GaitDue, ...] = ()
+
+    def since(self, k: int) -> Walk:
+        return Walk(
+            None if self.stance is None else self.stance.since(k),
+            self.foot_m[k:],
+            self.centre_of_mass_m[k:],
+            self.gaits,
+        )
 
 
 @dataclass(frozen=True)
@@ -95,12 +117,13 @@ class GaitOutcome:
         }
 
 
-def gait_outcomes(rollout: Rollout) -> list[GaitOutcome]:
-    address = rollout.root_qpos_address
-    if address is None:
+def gait_outcomes(rollout: Rollout, walk: Walk | None) -> list[GaitOutcome]:
+    """Each ``gait:`` block of ``walk`` (measured on ``rollout``) against what it asked."""
+    if rollout.body is None or walk is None:
         return []
+    address = rollout.body.qpos_address
     out = []
-    for due in rollout.gaits:
+    for due in walk.gaits:
         first, last = (
             min(int(np.searchsorted(rollout.times_s, t - 1e-9)), len(rollout.times_s) - 1)
             for t in (due.start_s, due.end_s)
@@ -117,8 +140,8 @@ def gait_outcomes(rollout: Rollout) -> list[GaitOutcome]:
                 got_mm=(1000 * (c * dx + s * dy), 1000 * (-s * dx + c * dy)),
                 got_turn_deg=float(np.degrees(_turn(rollout, address, first, last))),
                 lift_mm=gait.lift_mm,
-                lift_fraction=_lift_fraction(rollout, first, last, gait.lift_mm / 1000),
-                margin_mm=_margin_mm(rollout, first, last),
+                lift_fraction=_lift_fraction(walk, first, last, gait.lift_mm / 1000),
+                margin_mm=_margin_mm(rollout, walk, first, last),
             )
         )
     return out
@@ -138,15 +161,15 @@ def _turn(rollout: Rollout, address: int, first: int, last: int) -> float:
     return float(heading[-1] - heading[0])
 
 
-def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> float | None:
+def _lift_fraction(walk: Walk, first: int, last: int, lift_m: float) -> float | None:
     """Over every swing of every foot in the block (the plan lifting it 1 mm or more, and at
     its highest half the gait's lift or more): its highest rise over its height at the block's
     start, as a share of the lift the gait asked (the plan may lift it higher, making up for
     the robot's sag: the robot file's ``gait: lift_sag``)."""
-    stance, feet = rollout.stance, rollout.foot_m
-    if stance is None or feet is None or lift_m <= 0:
+    stance = walk.stance
+    if stance is None or lift_m <= 0:
         return None
-    heights = feet[:, :, 2]
+    heights = walk.foot_m[:, :, 2]
     shares = []
     for foot in range(stance.lift_m.shape[1]):
         planned = stance.lift_m[first : last + 1, foot]
@@ -160,11 +183,11 @@ def _lift_fraction(rollout: Rollout, first: int, last: int, lift_m: float) -> fl
     return float(np.mean(shares)) if shares else None
 
 
-def _margin_mm(rollout: Rollout, first: int, last: int) -> float | None:
+def _margin_mm(rollout: Rollout, walk: Walk, first: int, last: int) -> float | None:
     """The least, over the block, of how far the centre of mass stands inside the polygon of
     the feet (where they really are) that the plan has on the floor, seen from above."""
-    stance, feet, centre = rollout.stance, rollout.foot_m, rollout.centre_of_mass_m
-    if stance is None or feet is None or centre is None:
+    stance, feet, centre = walk.stance, walk.foot_m, walk.centre_of_mass_m
+    if stance is None:
         return None
     dt = float(rollout.times_s[1] - rollout.times_s[0]) if len(rollout.times_s) > 1 else 1.0
     margins = [

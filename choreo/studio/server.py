@@ -35,6 +35,8 @@ from choreo.studio.watch import FileWatcher
 FRAME_S = 1 / 30  # the player redraws the page at 30 frames a second
 TIME_SLACK_S = 0.01  # the timeline's ends are shown rounded to its step
 BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
+# what the page hears when it asks for the robot of a studio given none (its controls are hidden)
+NO_ROBOT = "refused: no robot: this studio was started without one to drive"
 
 
 class LatestOnly:
@@ -583,7 +585,7 @@ class Studio:
     def drive(self, on: bool) -> None:
         with self._lock:
             if self.live is None:
-                self.refuse("refused: no robot: start the studio with --port to drive one")
+                self.refuse(NO_ROBOT)
                 return
             plan = self._plan()
             if on and (plan is None or plan.motion.robot != self.live.robot):
@@ -610,7 +612,7 @@ class Studio:
         """Stop driving and let the joints named in ``text`` (comma or space separated; blank:
         all) go limp, to be posed by hand."""
         if self.live is None:
-            self.refuse("refused: no robot: start the studio with --port")
+            self.refuse(NO_ROBOT)
             return
         names = text.replace(",", " ").split() or None
         self.stop_robot()
@@ -629,7 +631,7 @@ class Studio:
         with self._lock:
             plan = self._plan()
             if self.live is None or plan is None:
-                self.refuse("refused: no robot: start the studio with --port")
+                self.refuse(NO_ROBOT)
                 return
             angles = self.live.read_pose()
             problems = limit_problems(self.live.robot, [float(a) for a in angles])
@@ -641,7 +643,7 @@ class Studio:
 
     def hold_joints(self) -> None:
         if self.live is None:
-            self.refuse("refused: no robot: start the studio with --port")
+            self.refuse(NO_ROBOT)
             return
         self.live.hold()
         self.note("the joints hold again")

@@ -179,9 +179,9 @@ def simulate_plan(plan: Plan, resume: Resume | None = None) -> Physics:
     """The preview's physics and checks for ``plan``, without rendering; what ``resume``'s
     rollout simulated before the first tick that changed is taken from it."""
     began = time.perf_counter()
-    rollout = simulate_prepared(plan.prepared, resume=resume).since_start()
-    findings = tuple(run_checks(rollout))
-    return Physics(rollout, findings, time.perf_counter() - began)
+    simulated = simulate_prepared(plan.prepared, resume=resume).since_start()
+    findings = tuple(run_checks(simulated))
+    return Physics(simulated.rollout, findings, time.perf_counter() - began)
 
 
 def files_of(motion: Motion) -> tuple[Path, ...]:
