@@ -22,6 +22,7 @@ import urllib.parse
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.bus.transports import (
     Attempt,
@@ -75,37 +76,18 @@ class Frame:
     params: bytes
 
 
-class FrameDecoder:
-    """Bytes to frames, resynchronising on ``55 55``. Never raises."""
+class FrameDecoder(ResyncDecoder[Frame]):
+    """Bytes to frames, resynchronising on ``55 55`` (no checksum to check). Never raises."""
 
-    def __init__(self) -> None:
-        self._buffer = bytearray()
+    header = HEADER
 
-    def reset(self) -> None:
-        self._buffer.clear()
+    def frame_length(self, buf: bytearray) -> int:
+        if len(buf) < 3:
+            return MORE
+        return 2 + buf[2] if buf[2] >= 2 else NOT_A_FRAME
 
-    def feed(self, data: bytes) -> list[Frame]:
-        self._buffer += data
-        frames: list[Frame] = []
-        buf = self._buffer
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                del buf[: len(buf) - (1 if buf[-1:] == HEADER[:1] else 0)]
-                return frames
-            del buf[:start]
-            if len(buf) >= 3 and buf[2] < 2:
-                del buf[:1]
-                continue
-            if len(buf) < 4 or len(buf) < 2 + buf[2]:
-                return frames
-            total = 2 + buf[2]
-            frames.append(Frame(buf[3], bytes(buf[4:total])))
-            del buf[:total]
-
-    def bytes_to_complete(self, expected_total: int) -> int:
-        buf = self._buffer
-        return 2 + buf[2] - len(buf) if len(buf) >= 3 else expected_total - len(buf)
+    def frame(self, buf: bytearray, total: int) -> Frame:
+        return Frame(buf[3], bytes(buf[4:total]))
 
 
 def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
