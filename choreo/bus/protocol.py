@@ -6,7 +6,8 @@ corrected there). A packet is ``55 55 ID LEN CMD P1..Pn CHK`` with ``LEN = n + 3
 
 Requests are built with :func:`encode_request`, which checks every argument against its field's
 valid range and raises ``ValueError`` naming the field; nothing is clamped (:func:`check_request`
-is that check alone, for values a user confirms before they are sent). Replies are parsed with
+is that check alone, for values a user confirms before they are sent, and :func:`encode_checked`
+the encoding alone, for values checked already). Replies are parsed with
 :func:`decode_reply`, which does not range-check (a servo may report -12 or 1130 as its position).
 """
 
@@ -194,7 +195,7 @@ def checksum(body: bytes | bytearray) -> int:
 
 def encode_packet(servo_id: int, command: int, params: bytes = b"") -> bytes:
     """Frame raw parameters; checks only what makes a packet valid at all."""
-    _check_range("servo_id", servo_id, 0, BROADCAST_ID)
+    check_servo_id(servo_id)
     if len(params) > MAX_LEN - MIN_LEN:
         raise ValueError(f"params must be at most {MAX_LEN - MIN_LEN} bytes, got {len(params)}")
     body = bytes((servo_id, len(params) + MIN_LEN, command)) + params
@@ -244,9 +245,21 @@ def check_request(command: Command, /, **values: int) -> None:
             raise ValueError(f"{low} must be less than {high}, got {values[low]} >= {values[high]}")
 
 
+def check_servo_id(servo_id: int) -> None:
+    """``OptionError`` (a ``ValueError``) unless ``servo_id`` is a servo's ID or the broadcast
+    ID."""
+    _check_range("servo_id", servo_id, 0, BROADCAST_ID)
+
+
 def encode_request(command: Command, servo_id: int, /, **values: int) -> bytes:
     """A request packet; ``ValueError`` naming the field if any argument is out of range."""
     check_request(command, **values)
+    return encode_checked(command, servo_id, values)
+
+
+def encode_checked(command: Command, servo_id: int, values: dict[str, int]) -> bytes:
+    """The packet of a request whose ``values`` have passed :func:`check_request` (``ServoBus``
+    checks each command once, before anything is sent; its transport then encodes it once)."""
     spec = SPECS[Command(command)]
     return encode_packet(servo_id, spec.command, _pack(spec.request, values))
 

@@ -33,7 +33,8 @@ from choreo.bus.protocol import (
     Command,
     CommandSpec,
     ErrorMask,
-    encode_request,
+    check_request,
+    check_servo_id,
 )
 from choreo.bus.settings import RETRIES, TIMEOUT_S
 from choreo.bus.transports import Connection
@@ -194,7 +195,8 @@ class ServoBus:
                 "bus; address the servo by its ID (`choreo servo set-id` finds it when it is alone "
                 "on the bus)",
             )
-        encode_request(spec.command, servo_id, **fields)  # checks every field's range
+        check_request(spec.command, **fields)  # every field's range: the transport encodes once
+        check_servo_id(servo_id)
         self._require(spec.command)
         with self._lock, self._port_io():
             self.backend.send(spec.command, servo_id, fields)
@@ -217,6 +219,7 @@ class ServoBus:
                 "servo_id",
                 f"{BROADCAST_ID}: only ID_READ is answered on broadcast, not {spec.command.name}",
             )
+        check_servo_id(servo_id)
         self._require(spec.command)
         attempts = 1 + int(
             self.retries if retries is None else check_number("retries", retries, RETRIES)
@@ -412,7 +415,8 @@ class ServoBus:
         board, one MOVE_TIME_WRITE per servo on the raw bus. Returns the bytes sent."""
         moves = list(moves)
         for servo_id, pos_units in moves:  # every range checked before anything is sent
-            encode_request(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+            check_request(Command.MOVE_TIME_WRITE, pos_units=pos_units, time_ms=time_ms)
+            check_servo_id(servo_id)
         with self._lock, self._port_io():
             return self.backend.move_many(moves, time_ms)
 

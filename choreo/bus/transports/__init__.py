@@ -108,13 +108,15 @@ class Backend(Protocol):
         """Replies so far that failed their checksum (two servos answering at once)."""
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        """Send an LX write the transport can carry; returns the bytes sent."""
+        """Send an LX write the transport can carry, its servo ID and fields checked already
+        (``ServoBus`` checks, the backend encodes: once); returns the bytes sent."""
 
     def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
         """One attempt at an LX read."""
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
-        """Move several servos (id, pos_units) over one duration now; bytes sent."""
+        """Move several servos (id, pos_units, checked already) over one duration now; bytes
+        sent."""
 
     def stop_many(self, servo_ids: Sequence[int]) -> None:
         """Stop these servos with the best means the transport has."""

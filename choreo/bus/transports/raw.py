@@ -21,6 +21,7 @@ from choreo.bus.protocol import (
     Packet,
     PacketDecoder,
     decode_reply,
+    encode_checked,
     encode_request,
 )
 from choreo.bus.transports import RAW, Attempt, Capabilities, Connection, open_serial
@@ -67,6 +68,15 @@ def connect(
     return Connection(port, RawBus(port, EchoMode(echo), clock), clock)
 
 
+def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
+    """Several servos (id, pos_units) moved now over one duration: a MOVE_TIME_WRITE each, the
+    values checked already."""
+    return b"".join(
+        encode_checked(Command.MOVE_TIME_WRITE, i, {"pos_units": p, "time_ms": time_ms})
+        for i, p in moves
+    )
+
+
 class RawBus:
     """LX packets on a byte port; ``ServoBus`` holds the lock around every call."""
 
@@ -83,15 +93,12 @@ class RawBus:
         return self.decoder.bad_checksums
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        packet = encode_request(command, servo_id, **fields)
+        packet = encode_checked(command, servo_id, fields)
         self.port.write(packet)  # its echo, if any, is skipped by the next request
         return len(packet)
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
-        data = b"".join(
-            encode_request(Command.MOVE_TIME_WRITE, i, pos_units=p, time_ms=time_ms)
-            for i, p in moves
-        )
+        data = move_frame(moves, time_ms)
         self.port.write(data)  # their echoes, if any, are skipped by the next request
         return len(data)
 
