@@ -17,6 +17,7 @@ See docs/transports.md.
 
 from __future__ import annotations
 
+import functools
 import logging
 import urllib.parse
 from collections.abc import Sequence
@@ -26,8 +27,11 @@ from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.bus.transports import (
     Attempt,
+    BytePort,
     Capabilities,
     Connection,
+    Direction,
+    Link,
     open_serial,
     path_of,
     refuse_direction,
@@ -122,18 +126,32 @@ def positions(frame: Frame) -> dict[int, int]:
 
 
 # --- the board ---------------------------------------------------------------------------------
-def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection:
+def connect(
+    url: str, timeout_s: float, direction: Direction | None = None, echo: object = None
+) -> Connection:
     """The controller on ``lobot://hid`` or the UART ``lobot://PATH`` names (no echo on its
     link: ``echo`` is moot)."""
     if direction is not None:
         raise refuse_direction(url, CAPABILITIES)
-    path = path_of(url)
-    if path.lower().split("?")[0] == "hid":
-        capabilities = hid_capabilities(report_ms(url))
-        port = HidReportPort.open_first(timeout_s)
-        return Connection(port, LobotBoard(port, capabilities), RealClock())
-    port = open_serial(path, timeout_s, BAUDRATE)
-    return Connection(port, LobotBoard(port), RealClock())
+    on = link(url)
+    if _is_hid(url):
+        port: BytePort = HidReportPort.open_first(timeout_s)
+    else:
+        port = open_serial(path_of(url), timeout_s, BAUDRATE)
+    return Connection(port, on.backend_on(port), RealClock())
+
+
+def link(url: str) -> Link:
+    """The controller's frames; over HID, at the report interval ``lobot://hid?report_ms=N``
+    gives."""
+    if not _is_hid(url):
+        return LINK
+    capabilities = hid_capabilities(report_ms(url))
+    return Link(capabilities, functools.partial(LobotBoard, capabilities=capabilities), move_frame)
+
+
+def _is_hid(url: str) -> bool:
+    return path_of(url).lower().split("?")[0] == "hid"
 
 
 def report_ms(url: str) -> float:
@@ -153,14 +171,14 @@ def report_ms(url: str) -> float:
     return value
 
 
-def board_on(port) -> LobotBoard:
+def board_on(port: BytePort) -> LobotBoard:
     return LobotBoard(port)
 
 
 class LobotBoard:
     """The LOBOT controller's commands on an open port (serial or :class:`HidReportPort`)."""
 
-    def __init__(self, port, capabilities: Capabilities = CAPABILITIES):
+    def __init__(self, port: BytePort, capabilities: Capabilities = CAPABILITIES):
         self.port = port
         self.capabilities = capabilities
         self.bad_checksums = 0  # the controller checks the servos' replies itself
@@ -316,6 +334,11 @@ class HidReportPort:
         del self._buffer[:size]
         return data
 
+    @property
+    def in_waiting(self) -> int:
+        """What is left of the last report read (the device is not asked)."""
+        return len(self._buffer)
+
     def reset_input_buffer(self) -> None:
         self._buffer.clear()
         while self.device.read(HID_REPORT, 1):  # what is waiting (0 ms would block)
@@ -329,3 +352,6 @@ class HidReportPort:
 
     def close(self) -> None:
         self.device.close()
+
+
+LINK = Link(CAPABILITIES, board_on, move_frame)

@@ -12,8 +12,6 @@ import enum
 import logging
 from collections.abc import Sequence
 
-import serial
-
 from choreo.bus.protocol import (
     BROADCAST_ID,
     SPECS,
@@ -24,7 +22,16 @@ from choreo.bus.protocol import (
     encode_checked,
     encode_request,
 )
-from choreo.bus.transports import RAW, Attempt, Capabilities, Connection, open_serial
+from choreo.bus.transports import (
+    RAW,
+    Attempt,
+    BytePort,
+    Capabilities,
+    Connection,
+    Direction,
+    Link,
+    open_serial,
+)
 from choreo.core.clock import Clock, RealClock
 
 log = logging.getLogger(__name__)
@@ -42,18 +49,17 @@ class EchoMode(enum.Enum):
 
 
 def connect(
-    port: str | serial.SerialBase,
+    port: str | BytePort,
     timeout_s: float,
-    direction=None,
-    echo=EchoMode.AUTO,
+    direction: Direction | None = None,
+    echo: EchoMode | str = EchoMode.AUTO,
     clock: Clock | None = None,
 ) -> Connection:
     """The raw bus on a device path or pyserial URL (or a port opened already), optionally
     behind GPIO direction lines; ``clock``: what the port's timeouts run on (real time, unless
     the port is an emulator's)."""
     opened_here = isinstance(port, str)
-    if isinstance(port, str):
-        port = open_serial(port, timeout_s, BAUDRATE)
+    wired: BytePort = open_serial(port, timeout_s, BAUDRATE) if isinstance(port, str) else port
     if direction is not None:
         from choreo.bus.transports.direction import DirectionSerial, direction_lines
 
@@ -61,11 +67,11 @@ def connect(
             lines = direction_lines(direction)
         except BaseException:
             if opened_here:  # a preset this computer cannot resolve, or no gpiod
-                port.close()
+                wired.close()
             raise
-        port = DirectionSerial(port, lines)
+        wired = DirectionSerial(wired, lines)
     clock = clock or RealClock()
-    return Connection(port, RawBus(port, EchoMode(echo), clock), clock)
+    return Connection(wired, RawBus(wired, EchoMode(echo), clock), clock)
 
 
 def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
@@ -77,12 +83,17 @@ def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
     )
 
 
+def link(port: str) -> Link:
+    """LX packets as they are, whatever the device or pyserial URL."""
+    return LINK
+
+
 class RawBus:
     """LX packets on a byte port; ``ServoBus`` holds the lock around every call."""
 
     capabilities: Capabilities = CAPABILITIES
 
-    def __init__(self, port, echo: EchoMode = EchoMode.AUTO, clock: Clock | None = None):
+    def __init__(self, port: BytePort, echo: EchoMode = EchoMode.AUTO, clock: Clock | None = None):
         self.port = port
         self.echo = echo
         self.clock = clock or RealClock()  # a read's deadline, on the clock the port runs on
@@ -144,6 +155,9 @@ class RawBus:
             else:  # the host ran late (descheduled): look at what has arrived, without waiting
                 overdue, wait_s, wanted = True, 0, max(port.in_waiting, 1)
         return Attempt(None, echo_seen, bytes(received))
+
+
+LINK = Link(CAPABILITIES, RawBus, move_frame)
 
 
 def _is_reply(reply: Packet, command: Command, servo_id: int) -> bool:

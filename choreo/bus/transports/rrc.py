@@ -20,8 +20,11 @@ from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.protocol import SPECS, Command, pack_fields, unpack_fields
 from choreo.bus.transports import (
     Attempt,
+    BytePort,
     Capabilities,
     Connection,
+    Direction,
+    Link,
     open_serial,
     path_of,
     refuse_direction,
@@ -161,7 +164,9 @@ def battery_mv(frame: Frame) -> int | None:
 
 
 # --- the board ---------------------------------------------------------------------------------
-def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection:
+def connect(
+    url: str, timeout_s: float, direction: Direction | None = None, echo: object = None
+) -> Connection:
     """The board on the device ``rrc://PATH`` names (its link has no echo: ``echo`` is moot)."""
     if direction is not None:
         raise refuse_direction(url, CAPABILITIES)
@@ -170,7 +175,12 @@ def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection
     return Connection(port, board_on(port), RealClock())
 
 
-def board_on(port) -> RrcBoard:
+def link(url: str) -> Link:
+    """The board's frames, on whichever link ``rrc://PATH`` names."""
+    return LINK
+
+
+def board_on(port: BytePort) -> RrcBoard:
     return RrcBoard(port)
 
 
@@ -179,7 +189,7 @@ class RrcBoard:
 
     capabilities = CAPABILITIES
 
-    def __init__(self, port):
+    def __init__(self, port: BytePort):
         self.port = port
         self.decoder = FrameDecoder()
         self.battery_mv: int | None = None  # from the board's unsolicited battery frames
@@ -235,3 +245,6 @@ class RrcBoard:
         if reply is None or len(data) != reply_total(command) - 5:
             return None
         return unpack_fields(reply, data[3:])
+
+
+LINK = Link(CAPABILITIES, board_on, move_frame)
