@@ -16,6 +16,7 @@ from choreo.bus.servo_bus import (
     ServoBus,
     VinLimits,
 )
+from choreo.bus.settings import BUILT_IN_PORT, BusSettings
 from choreo.bus.transports import Connection, lobot, raw, rrc
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial, connection
@@ -438,6 +439,30 @@ def test_lx16a_does_not_answer_wait_read_and_info_says_so():
 def test_open_by_url_and_exclusive_access():
     with ServoBus("sim://?ids=4-5&clock=virtual") as bus:
         assert bus.scan(range(0, 8)) == [4, 5]
+
+
+def test_from_settings_opens_the_port_they_name_with_their_timeout_retries_and_echo():
+    settings = BusSettings(port="sim://?ids=4-5&clock=virtual", timeout_s=0.02, retries=1)
+    emulator = BusEmulator([9], clock=VirtualClock())
+    with ServoBus.from_settings(settings, emulated=connection(emulator)) as bus:
+        assert (bus.name, bus.timeout_s, bus.retries) == (settings.port, 0.02, 1)
+        assert bus.scan(range(0, 10)) == [4, 5]
+    discarding = ServoBus.from_settings(BusSettings(port="sim://?clock=virtual", echo="discard"))
+    assert discarding.backend.echo is EchoMode.DISCARD
+
+
+def test_from_settings_without_a_port_is_the_one_built_in_emulated_bus_unless_given_another():
+    with ServoBus.from_settings(BusSettings()) as bus:
+        assert bus.name == BUILT_IN_PORT == "sim://?ids=1-6"
+        assert [s.servo_id for s in bus.emulator.servos] == [1, 2, 3, 4, 5, 6]
+    emulator = BusEmulator([9], clock=VirtualClock())
+    with ServoBus.from_settings(BusSettings(retries=0), emulated=connection(emulator)) as bus:
+        assert bus.emulator is emulator and bus.scan(range(0, 10)) == [9]
+
+
+def test_from_settings_takes_only_settings():
+    with pytest.raises(OptionError, match="settings must be a BusSettings, e.g. BusSettings"):
+        ServoBus.from_settings({"port": "sim://"})
 
 
 def test_unopenable_port_is_a_port_error():

@@ -36,10 +36,10 @@ from choreo.bus.protocol import (
     check_request,
     check_servo_id,
 )
-from choreo.bus.settings import RETRIES, TIMEOUT_S
+from choreo.bus.settings import BUILT_IN_PORT, RETRIES, TIMEOUT_S, BusSettings
 from choreo.bus.transports import Connection
 from choreo.bus.transports.raw import EchoMode
-from choreo.core.arguments import check_flag, check_member, check_number, shown
+from choreo.core.arguments import check_flag, check_member, check_number, check_type, shown
 from choreo.errors import BusTimeoutError, OptionError, PortError, ProtocolError
 
 PORT_EXAMPLES = "/dev/ttyUSB0, COM3 or sim://?ids=1-6"  # what a port name looks like
@@ -160,6 +160,28 @@ class ServoBus:
         self.emulator = connection.emulator  # an emulated backend's emulator (its wire log)
         named = port if isinstance(port, str) else getattr(self.port, "name", None)
         self.name = named or repr(self.port)
+
+    @classmethod
+    def from_settings(
+        cls, settings: BusSettings, *, emulated: str | Connection = BUILT_IN_PORT
+    ) -> ServoBus:
+        """The bus ``settings`` describe (a robot file's ``bus:`` section under the command
+        line's options). Where they name no port, ``emulated``: the built-in emulated bus of
+        servos 1-6, or an emulator the caller made (a robot's servos, at its home pose)."""
+        check_type("settings", settings, BusSettings, "a BusSettings, e.g. BusSettings(port=...)")
+        if not isinstance(emulated, (str, Connection)):
+            raise OptionError(
+                "emulated",
+                f"must be a port string such as {BUILT_IN_PORT} or a Connection (e.g. "
+                f"choreo.emulator.connection(emulator)), got {shown(emulated)}",
+            )
+        return cls(
+            settings.port if settings.port is not None else emulated,
+            timeout_s=settings.timeout_s,
+            retries=settings.retries,
+            echo=settings.echo,
+            direction=settings.direction,
+        )
 
     # --- lifetime ------------------------------------------------------------------------------
     def close(self) -> None:
