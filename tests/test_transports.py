@@ -8,6 +8,7 @@ import os
 import sys
 
 import pytest
+import serial
 from cli_helpers import error_line
 
 from choreo.bus import transports
@@ -40,8 +41,6 @@ def test_a_file_that_is_not_a_port_says_so(tmp_path, capsys):
 
 def test_only_a_busy_port_asks_about_another_program(capsys):
     import pty
-
-    import serial
 
     master, slave = pty.openpty()
     name = os.ttyname(slave)
@@ -179,6 +178,8 @@ def test_an_unknown_scheme_is_one_line_naming_the_schemes_there_are(capsys):
 
 def test_sim_missing_from_choreo_s_entry_points_says_to_reinstall(monkeypatch, capsys):
     monkeypatch.setattr(transports, "added_backends", dict)  # a stale install: no entry points
+    # nor has this process told pyserial where sim:// is (it would open it as a plain URL)
+    monkeypatch.setattr(serial, "protocol_handler_packages", ["serial.urlhandler"])
     assert scan_error(capsys, "sim://?ids=1") == (
         "choreo: error: sim://?ids=1: no backend for sim://; there are rrc://, lobot://, a device "
         "path and the URLs pyserial opens (loop://, socket://, rfc2217://); sim:// comes with "
