@@ -28,6 +28,7 @@ from choreo import (
     plan_motion,
     play_motion,
 )
+from choreo.bus.settings import BusSettings
 
 REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
@@ -117,6 +118,10 @@ CALLS = {
     "PlayOptions": (lambda w: PlayOptions, lambda w: {}),
     "play_motion": (lambda w: play_motion, lambda w: dict(motion=w.motion, port=PORT)),
     "ServoBus": (lambda w: ServoBus, lambda w: dict(port=PORT)),
+    "ServoBus.from_settings": (
+        lambda w: ServoBus.from_settings,
+        lambda w: dict(settings=BusSettings(port=PORT)),
+    ),
     "ServoBus.move": (lambda w: w.bus.move, lambda w: dict(servo_id=1, pos_units=500, time_ms=0)),
     "ServoBus.probe": (lambda w: w.bus.probe, lambda w: dict(servo_id=1)),
     "ServoBus.set_led": (lambda w: w.bus.set_led, lambda w: dict(servo_id=1, on=True)),
@@ -191,6 +196,10 @@ REFUSED = {
         "retries": NOT_NUMBERS + NOT_FINITE + [-1, 10, 1.5, 1e308],
         "echo": ["bogus", "AUTO", 5, None],
         "direction": [5, 1.5, NAN],
+    },
+    "ServoBus.from_settings": {
+        "settings": [None, 5, "sim://", {"port": "sim://"}],
+        "emulated": [None, 5, object()],
     },
     "ServoBus.move": {
         "servo_id": [-1, 255, 1.5, NAN, "1", None],

@@ -15,6 +15,7 @@ import importlib.util
 import io
 import re
 import tokenize
+import tomllib
 from functools import cache
 from pathlib import Path
 
@@ -70,9 +71,19 @@ def module_file(parts: list[str]) -> Path | None:
     return None
 
 
+@cache
+def entry_point_groups() -> frozenset[str]:
+    """The entry-point groups pyproject.toml declares (``choreo.backends``): dotted, not modules."""
+    project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    return frozenset(project.get("entry-points", {}))
+
+
 def stale_dotted(name: str) -> str | None:
     """Why ``choreo.a.b.Name`` points nowhere (None if it resolves): the longest prefix that is a
-    module must define the first name after it (as a function, class, assignment or import)."""
+    module must define the first name after it (as a function, class, assignment or import), or
+    the name is an entry-point group of pyproject.toml."""
+    if name in entry_point_groups():
+        return None
     parts = name.split(".")[1:]
     if not parts or parts[0].startswith("__"):
         return None
@@ -113,13 +124,17 @@ def test_every_pointer_in_a_file_points_to_something(path):
 
 
 def test_a_stale_pointer_is_found():
-    """The check itself: a moved module, a renamed class and a vanished file are each caught."""
+    """The check itself: a moved module, a renamed class, a vanished file and a misspelt
+    entry-point group are each caught."""
     text = (
-        "see choreo/realtime.py, choreo.play.player.NoSuchPlayer, `soundtrack2.py`;\n"
-        "fine: choreo/play/player.py, choreo.play.player.Player, `player.py`, choreo/bus/\n"
+        "see choreo/realtime.py, choreo.play.player.NoSuchPlayer, `soundtrack2.py`, "
+        "choreo.backend;\n"
+        "fine: choreo/play/player.py, choreo.play.player.Player, `player.py`, choreo/bus/, "
+        "choreo.backends\n"
     )
     assert stale_pointers(text) == [
         "choreo/realtime.py: no such file or folder",
         "choreo.play.player.NoSuchPlayer: choreo/play/player.py defines no NoSuchPlayer",
+        "choreo.backend: choreo/__init__.py defines no backend",
         "soundtrack2.py: no file of that name",
     ]

@@ -16,10 +16,11 @@ from choreo.bus.servo_bus import (
     ServoBus,
     VinLimits,
 )
-from choreo.bus.transports import raw
+from choreo.bus.settings import BUILT_IN_PORT, BusSettings
+from choreo.bus.transports import Connection, lobot, raw, rrc
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial, connection
-from choreo.errors import BusTimeoutError, PortError, ProtocolError
+from choreo.errors import BusTimeoutError, OptionError, PortError, ProtocolError
 
 BYTE_TIME_S = 10 / 115200  # start + 8 data + stop bits at 115200 baud
 
@@ -364,6 +365,70 @@ def test_out_of_range_arguments_are_value_errors():
         bus.request(Command.MOVE_STOP, 1)
 
 
+class WrittenPort:
+    """A port that keeps what is written and never answers."""
+
+    name, timeout = "written", 0.01
+
+    def __init__(self):
+        self.writes: list[bytes] = []
+
+    def write(self, data: bytes) -> int:
+        self.writes.append(bytes(data))
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        return b""
+
+    def flush(self) -> None: ...
+
+    reset_input_buffer = reset_output_buffer = close = flush
+
+
+def test_each_packet_is_checked_once_and_encoded_once(monkeypatch):
+    """The real-time path: ServoBus checks a command's values, its transport encodes the packet
+    once, and it goes out as one write."""
+    from choreo.bus import protocol
+
+    encoded = []
+    encode_packet = protocol.encode_packet
+    monkeypatch.setattr(
+        protocol, "encode_packet", lambda *a: encoded.append(a) or encode_packet(*a)
+    )
+    port = WrittenPort()
+    bus = ServoBus(port)
+    bus.stage_move(3, 512, 40)
+    bus.start()
+    assert len(encoded) == 2
+    assert port.writes == [
+        encode_packet(3, Command.MOVE_TIME_WAIT_WRITE, bytes.fromhex("00 02 28 00")),
+        encode_packet(BROADCAST_ID, Command.MOVE_START),
+    ]
+    encoded.clear()
+    assert bus.move_many([(i, 500) for i in range(1, 19)], 40) == 18 * 10
+    assert len(encoded) == 18 and len(port.writes) == 3
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda bus: bus.move(1, 1001, 40),
+        lambda bus: bus.move(255, 500, 40),
+        lambda bus: bus.move_many([(1, 500), (2, 1001)], 40),
+        lambda bus: bus.move_many([(1, 500), (300, 500)], 40),
+        lambda bus: bus.read_position(300),
+    ],
+    ids=["field", "servo_id", "move_many field", "move_many servo_id", "read servo_id"],
+)
+@pytest.mark.parametrize("board", [raw.RawBus, rrc.RrcBoard, lobot.LobotBoard])
+def test_a_bad_value_is_refused_the_same_on_every_transport_before_anything_is_sent(call, board):
+    port = WrittenPort()
+    bus = ServoBus(Connection(port, board(port), VirtualClock()), retries=0)
+    with pytest.raises(OptionError, match=r"^(pos_units|servo_id) must be in 0\.\.(1000|254)"):
+        call(bus)
+    assert port.writes == []
+
+
 def test_lx16a_does_not_answer_wait_read_and_info_says_so():
     bus, _ = make_bus(model="LX-16A")
     info = bus.read_info(1)
@@ -374,6 +439,30 @@ def test_lx16a_does_not_answer_wait_read_and_info_says_so():
 def test_open_by_url_and_exclusive_access():
     with ServoBus("sim://?ids=4-5&clock=virtual") as bus:
         assert bus.scan(range(0, 8)) == [4, 5]
+
+
+def test_from_settings_opens_the_port_they_name_with_their_timeout_retries_and_echo():
+    settings = BusSettings(port="sim://?ids=4-5&clock=virtual", timeout_s=0.02, retries=1)
+    emulator = BusEmulator([9], clock=VirtualClock())
+    with ServoBus.from_settings(settings, emulated=connection(emulator)) as bus:
+        assert (bus.name, bus.timeout_s, bus.retries) == (settings.port, 0.02, 1)
+        assert bus.scan(range(0, 10)) == [4, 5]
+    discarding = ServoBus.from_settings(BusSettings(port="sim://?clock=virtual", echo="discard"))
+    assert discarding.backend.echo is EchoMode.DISCARD
+
+
+def test_from_settings_without_a_port_is_the_one_built_in_emulated_bus_unless_given_another():
+    with ServoBus.from_settings(BusSettings()) as bus:
+        assert bus.name == BUILT_IN_PORT == "sim://?ids=1-6"
+        assert [s.servo_id for s in bus.emulator.servos] == [1, 2, 3, 4, 5, 6]
+    emulator = BusEmulator([9], clock=VirtualClock())
+    with ServoBus.from_settings(BusSettings(retries=0), emulated=connection(emulator)) as bus:
+        assert bus.emulator is emulator and bus.scan(range(0, 10)) == [9]
+
+
+def test_from_settings_takes_only_settings():
+    with pytest.raises(OptionError, match="settings must be a BusSettings, e.g. BusSettings"):
+        ServoBus.from_settings({"port": "sim://"})
 
 
 def test_unopenable_port_is_a_port_error():

@@ -225,3 +225,23 @@ def test_the_start_gap_fault_is_off_unless_the_url_sets_it(query, gap_s):
     port.flush()
     port.emulator.clock.advance(0.5)
     assert round(port.emulator.servo(1).position_units) == (500 if gap_s else 300)
+
+
+@pytest.mark.parametrize(("query", "transport"), [("", "raw LX bus"), ("?board=rrc", "RRC board")])
+def test_the_sim_backend_says_what_the_host_speaks_without_opening_anything(query, transport):
+    from choreo.emulator import backend
+
+    link = backend.link(f"sim://{query}")
+    assert link.capabilities.transport == transport
+
+
+def test_a_dry_run_on_an_emulated_board_prints_its_frames_and_a_bad_board_is_one_line(capsys):
+    argv = ["play", "motions/arm6/wave.yaml", "--dry-run", "--port"]
+    assert main([*argv, "sim://?board=lobot&ids=1-6"]) == 0
+    out = capsys.readouterr().out
+    assert "through the LOBOT controller: no staging, one move frame per tick" in out
+    assert "55 55 17 03 06" in out  # the first tick: one LOBOT move frame for six servos
+    assert main([*argv, "sim://?board=xyz"]) == 1
+    assert error_line(capsys) == (
+        "choreo: error: sim://?board=xyz: board must be one of rrc, lobot, got 'xyz'"
+    )

@@ -146,7 +146,7 @@ def test_rrc_crc_check_value_and_resynchronisation():
     good = h("AA 55 05 04 01 09 00 20 D6")
     frames = decoder.feed(b"\xaa\x55\x0f" + bytes(corrupt) + good)  # FUNC 15: resynchronise
     assert frames == [rrc.Frame(5, h("01 09 00 20"))]
-    assert decoder.bad_crcs == 1
+    assert decoder.bad_checksums == 1
 
 
 def test_rrc_reply_for_another_request_is_not_taken():

@@ -2,9 +2,13 @@
 models' datasheet facts and their configuration.
 
 - :mod:`~choreo.bus.protocol`: the LX packet codec (commands, fields and their ranges);
+- :mod:`~choreo.bus.framing`: the resync core every frame decoder shares (LX, RRC, LOBOT);
 - :mod:`~choreo.bus.servo_bus`: :class:`ServoBus`, the one place commands are sent and read;
+- :mod:`~choreo.bus.settings`: how to reach a robot's bus (:class:`BusSettings`), the built-in
+  emulated bus where no port is named;
 - :mod:`~choreo.bus.transports`: the backends a port string picks (raw LX, ``rrc://``,
-  ``lobot://``, the emulated boards), each declaring its :class:`Capabilities`;
+  ``lobot://``, and those packages add: the emulator's ``sim://``), each keeping one contract
+  (``Transport``) and declaring its :class:`Capabilities`;
 - :mod:`~choreo.bus.ports`: which port is which (``choreo ports``);
 - :mod:`~choreo.bus.servo_models`: the datasheet table (LX-16A, LX-224HV ...);
 - :mod:`~choreo.bus.servo_config`: reading and changing what a servo keeps (``choreo servo``).

@@ -6,7 +6,8 @@ corrected there). A packet is ``55 55 ID LEN CMD P1..Pn CHK`` with ``LEN = n + 3
 
 Requests are built with :func:`encode_request`, which checks every argument against its field's
 valid range and raises ``ValueError`` naming the field; nothing is clamped (:func:`check_request`
-is that check alone, for values a user confirms before they are sent). Replies are parsed with
+is that check alone, for values a user confirms before they are sent, and :func:`encode_checked`
+the encoding alone, for values checked already). Replies are parsed with
 :func:`decode_reply`, which does not range-check (a servo may report -12 or 1130 as its position).
 """
 
@@ -16,6 +17,7 @@ import enum
 import struct
 from dataclasses import dataclass, field
 
+from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.servo_models import POSITION_RANGE_UNITS
 from choreo.errors import OptionError
 
@@ -193,7 +195,7 @@ def checksum(body: bytes | bytearray) -> int:
 
 def encode_packet(servo_id: int, command: int, params: bytes = b"") -> bytes:
     """Frame raw parameters; checks only what makes a packet valid at all."""
-    _check_range("servo_id", servo_id, 0, BROADCAST_ID)
+    check_servo_id(servo_id)
     if len(params) > MAX_LEN - MIN_LEN:
         raise ValueError(f"params must be at most {MAX_LEN - MIN_LEN} bytes, got {len(params)}")
     body = bytes((servo_id, len(params) + MIN_LEN, command)) + params
@@ -243,9 +245,21 @@ def check_request(command: Command, /, **values: int) -> None:
             raise ValueError(f"{low} must be less than {high}, got {values[low]} >= {values[high]}")
 
 
+def check_servo_id(servo_id: int) -> None:
+    """``OptionError`` (a ``ValueError``) unless ``servo_id`` is a servo's ID or the broadcast
+    ID."""
+    _check_range("servo_id", servo_id, 0, BROADCAST_ID)
+
+
 def encode_request(command: Command, servo_id: int, /, **values: int) -> bytes:
     """A request packet; ``ValueError`` naming the field if any argument is out of range."""
     check_request(command, **values)
+    return encode_checked(command, servo_id, values)
+
+
+def encode_checked(command: Command, servo_id: int, values: dict[str, int]) -> bytes:
+    """The packet of a request whose ``values`` have passed :func:`check_request` (``ServoBus``
+    checks each command once, before anything is sent; its transport then encodes it once)."""
     spec = SPECS[Command(command)]
     return encode_packet(servo_id, spec.command, _pack(spec.request, values))
 
@@ -290,68 +304,28 @@ def decode_reply(command: Command, packet: Packet) -> dict[str, int]:
     return unpack_fields(spec.reply, packet.params)
 
 
-class PacketDecoder:
+class PacketDecoder(ResyncDecoder[Packet]):
     """Turns a byte stream into packets with valid frames and checksums.
 
     Resynchronizes on ``55 55`` after garbage, skips frames with a bad checksum or an impossible
     length (without losing a real header inside them), and never raises on any input.
     """
 
-    def __init__(self) -> None:
-        self._buffer = bytearray()
-        self.bad_checksums = 0
-        self.discarded_bytes = 0
+    header = HEADER
 
-    def feed(self, data: bytes) -> list[Packet]:
-        self._buffer += data
-        packets = []
-        while (packet := self._next_packet()) is not None:
-            packets.append(packet)
-        return packets
+    def frame_length(self, buf: bytearray) -> int:
+        if len(buf) < 4:
+            return MORE
+        servo_id, length = buf[2], buf[3]
+        if servo_id > BROADCAST_ID or not MIN_LEN <= length <= MAX_LEN:
+            return NOT_A_FRAME
+        return length + 3
 
-    def reset(self) -> None:
-        self._buffer.clear()
+    def intact(self, buf: bytearray, total: int) -> bool:
+        return checksum(buf[2 : total - 1]) == buf[total - 1]
 
-    def bytes_to_complete(self, expected_len: int) -> int:
-        """How many more bytes finish the frame begun in the buffer: counted from its LEN byte
-        once that has arrived, else assuming a frame of ``expected_len`` bytes (the reply the
-        caller waits for). So a reader can ask for exactly what is missing and not block for
-        bytes that never come."""
-        buf = self._buffer  # after feed(): empty, a lone 0x55, or the start of a frame
-        if len(buf) >= 4:
-            return buf[3] + 3 - len(buf)  # LEN was checked when the frame was parsed
-        return expected_len - len(buf)
-
-    def _next_packet(self) -> Packet | None:
-        buf = self._buffer
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                # Keep a trailing 0x55: it may be the first half of a header.
-                keep = 1 if buf[-1:] == HEADER[:1] else 0
-                self._discard(len(buf) - keep)
-                return None
-            self._discard(start)
-            if len(buf) < 4:
-                return None
-            servo_id, length = buf[2], buf[3]
-            if servo_id > BROADCAST_ID or not MIN_LEN <= length <= MAX_LEN:
-                self._discard(1)
-                continue
-            total = length + 3
-            if len(buf) < total:
-                return None
-            if checksum(buf[2 : total - 1]) != buf[total - 1]:
-                self.bad_checksums += 1
-                self._discard(1)
-                continue
-            packet = Packet(servo_id, _command_or_int(buf[4]), bytes(buf[5 : total - 1]))
-            del buf[:total]
-            return packet
-
-    def _discard(self, count: int) -> None:
-        self.discarded_bytes += count
-        del self._buffer[:count]
+    def frame(self, buf: bytearray, total: int) -> Packet:
+        return Packet(buf[2], _command_or_int(buf[4]), bytes(buf[5 : total - 1]))
 
 
 def parse_ids(text: str) -> tuple[int, ...]:

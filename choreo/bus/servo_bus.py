@@ -33,12 +33,13 @@ from choreo.bus.protocol import (
     Command,
     CommandSpec,
     ErrorMask,
-    encode_request,
+    check_request,
+    check_servo_id,
 )
-from choreo.bus.settings import RETRIES, TIMEOUT_S
+from choreo.bus.settings import BUILT_IN_PORT, RETRIES, TIMEOUT_S, BusSettings
 from choreo.bus.transports import Connection
 from choreo.bus.transports.raw import EchoMode
-from choreo.core.arguments import check_flag, check_member, check_number, shown
+from choreo.core.arguments import check_flag, check_member, check_number, check_type, shown
 from choreo.errors import BusTimeoutError, OptionError, PortError, ProtocolError
 
 PORT_EXAMPLES = "/dev/ttyUSB0, COM3 or sim://?ids=1-6"  # what a port name looks like
@@ -160,6 +161,28 @@ class ServoBus:
         named = port if isinstance(port, str) else getattr(self.port, "name", None)
         self.name = named or repr(self.port)
 
+    @classmethod
+    def from_settings(
+        cls, settings: BusSettings, *, emulated: str | Connection = BUILT_IN_PORT
+    ) -> ServoBus:
+        """The bus ``settings`` describe (a robot file's ``bus:`` section under the command
+        line's options). Where they name no port, ``emulated``: the built-in emulated bus of
+        servos 1-6, or an emulator the caller made (a robot's servos, at its home pose)."""
+        check_type("settings", settings, BusSettings, "a BusSettings, e.g. BusSettings(port=...)")
+        if not isinstance(emulated, (str, Connection)):
+            raise OptionError(
+                "emulated",
+                f"must be a port string such as {BUILT_IN_PORT} or a Connection (e.g. "
+                f"choreo.emulator.connection(emulator)), got {shown(emulated)}",
+            )
+        return cls(
+            settings.port if settings.port is not None else emulated,
+            timeout_s=settings.timeout_s,
+            retries=settings.retries,
+            echo=settings.echo,
+            direction=settings.direction,
+        )
+
     # --- lifetime ------------------------------------------------------------------------------
     def close(self) -> None:
         with self._lock, self._port_io():
@@ -194,7 +217,8 @@ class ServoBus:
                 "bus; address the servo by its ID (`choreo servo set-id` finds it when it is alone "
                 "on the bus)",
             )
-        encode_request(spec.command, servo_id, **fields)  # checks every field's range
+        check_request(spec.command, **fields)  # every field's range: the transport encodes once
+        check_servo_id(servo_id)
         self._require(spec.command)
         with self._lock, self._port_io():
             self.backend.send(spec.command, servo_id, fields)
@@ -217,6 +241,7 @@ class ServoBus:
                 "servo_id",
                 f"{BROADCAST_ID}: only ID_READ is answered on broadcast, not {spec.command.name}",
             )
+        check_servo_id(servo_id)
         self._require(spec.command)
         attempts = 1 + int(
             self.retries if retries is None else check_number("retries", retries, RETRIES)
@@ -412,7 +437,8 @@ class ServoBus:
         board, one MOVE_TIME_WRITE per servo on the raw bus. Returns the bytes sent."""
         moves = list(moves)
         for servo_id, pos_units in moves:  # every range checked before anything is sent
-            encode_request(Command.MOVE_TIME_WRITE, servo_id, pos_units=pos_units, time_ms=time_ms)
+            check_request(Command.MOVE_TIME_WRITE, pos_units=pos_units, time_ms=time_ms)
+            check_servo_id(servo_id)
         with self._lock, self._port_io():
             return self.backend.move_many(moves, time_ms)
 

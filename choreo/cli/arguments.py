@@ -12,15 +12,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from choreo.bus.protocol import MAX_SERVO_ID, parse_id_sequence, parse_ids
-from choreo.bus.settings import MAX_RETRIES, MAX_TIMEOUT_MS, TIMEOUT_S, BusSettings
+from choreo.bus.settings import BUILT_IN_PORT, MAX_RETRIES, MAX_TIMEOUT_MS, TIMEOUT_S, BusSettings
 from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE, Range
 
 if TYPE_CHECKING:
     from choreo.bus.servo_bus import ServoBus
     from choreo.motion.motion_file import Motion
     from choreo.robot.types import Robot
-
-BUILT_IN_PORT = "sim://?ids=1-6"
 
 
 def number_in(valid: Range) -> Callable[[str], float]:
@@ -225,17 +223,11 @@ def open_bus(args: argparse.Namespace) -> ServoBus:
     from choreo.bus.servo_bus import ServoBus  # when a command runs, not for its --help
 
     settings = bus_settings(args)
-    port = settings.port
-    if port is None:
-        port = BUILT_IN_PORT
-        print(f"no --port given: using the built-in emulated bus ({port})", file=sys.stderr)
-    return ServoBus(
-        port,
-        timeout_s=settings.timeout_s,
-        retries=settings.retries,
-        echo=settings.echo,
-        direction=settings.direction,
-    )
+    if settings.port is None:
+        print(
+            f"no --port given: using the built-in emulated bus ({BUILT_IN_PORT})", file=sys.stderr
+        )
+    return ServoBus.from_settings(settings)
 
 
 def say_built_in_emulator(robot: Robot, doing: str) -> None:

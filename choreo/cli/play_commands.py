@@ -12,7 +12,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from choreo.bus.transports import backend_module
+from choreo.bus import transports
 from choreo.cli.arguments import (
     add_planning_arguments,
     add_port_arguments,
@@ -245,19 +245,19 @@ def dry_run(motion: Motion, options: PlayOptions, port: str | None) -> int:
     )
     for stretch in compiled.stretches:
         _note(f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written")
-    backend = backend_module(port)
+    link = transports.link(port)
     music = motion.music if options.audio else None
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
-    if backend.CAPABILITIES.staged_start:
+    if link.capabilities.staged_start:
         schedule = packet_schedule(performance.ticks, robot)
     else:
         print(
-            f"through the {backend.CAPABILITIES.transport}: no staging, one move frame per tick, "
+            f"through the {link.capabilities.transport}: no staging, one move frame per tick, "
             "forwarded one servo at a time"
         )
-        schedule = frame_schedule(performance.ticks, robot, backend.move_frame)
+        schedule = frame_schedule(performance.ticks, robot, link.move_frame)
     cue = SongCue.of(music, performance) if music is not None else None
     song_ms = round(max(0.0, -cue.from_s) * 1000) if cue else None
     for packet in schedule:

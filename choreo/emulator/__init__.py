@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from choreo.emulator.backend import connection, register_url_handler  # noqa: I001 (after the above)
 from choreo.emulator.bus_emulator import (
     BusEmulator,
@@ -29,6 +31,12 @@ from choreo.emulator.emulated_servo import (
     StartedMove,
 )
 from choreo.emulator.protocol_sim import SimSerial, emulator_from_url
+
+if TYPE_CHECKING:  # mypy checks that sim:// keeps the contract every backend keeps
+    from choreo.bus.transports import Transport
+    from choreo.emulator import backend
+
+    _SIM_KEEPS_IT: Transport = backend
 
 __all__ = [
     "BusEmulator",

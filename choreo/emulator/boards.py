@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import math
 import struct
+from typing import ClassVar
 
 from choreo.bus.protocol import BYTE_TIME_S, Command, PacketDecoder, encode_packet
-from choreo.bus.transports import lobot, rrc
+from choreo.bus.transports import Link, lobot, rrc
 from choreo.emulator.bus_emulator import BusEmulator, SentReply
 from choreo.emulator.emulated_servo import ReplyFate
 
@@ -34,6 +35,7 @@ BATTERY_MV = 7400
 class BoardEmulator(BusEmulator):
     """Common part: frames in from the host, LX packets out to the servos one at a time."""
 
+    host_link: ClassVar[Link]  # what the host speaks to this board: the real board's frames
     _frames: rrc.FrameDecoder | lobot.FrameDecoder  # the board's own framing
 
     def __init__(self, *args, **kwargs):
@@ -92,6 +94,7 @@ class RrcBoardEmulator(BoardEmulator):
     """The RRC board's bus-servo sub-commands (FUNC 5), as its firmware handles them."""
 
     board_kind = "rrc"
+    host_link = rrc.LINK
     host_byte_time_s = rrc.CAPABILITIES.host_byte_time_s
     _next_battery_s = math.inf  # set once the servos exist
 
@@ -167,6 +170,7 @@ class LobotBoardEmulator(BoardEmulator):
     """The LOBOT Bus Servo Controller on its 9600-baud UART: commands 03, 0F, 14, 15."""
 
     board_kind = "lobot"
+    host_link = lobot.LINK
     host_byte_time_s = lobot.CAPABILITIES.host_byte_time_s
 
     def __init__(self, *args, **kwargs):
@@ -204,4 +208,4 @@ class LobotBoardEmulator(BoardEmulator):
         return start_s
 
 
-BOARDS = {"rrc": RrcBoardEmulator, "lobot": LobotBoardEmulator}
+BOARDS: dict[str, type[BoardEmulator]] = {"rrc": RrcBoardEmulator, "lobot": LobotBoardEmulator}

@@ -184,15 +184,11 @@ def open_robot_bus(
     the built-in emulator; ``settings`` (timeout, retries, echo, direction) default to the robot
     file's ``bus:`` section. The caller closes it."""
     settings = settings if settings is not None else robot.bus
-    port = port if port is not None else settings.port
-    target = port if port is not None else emulator_connection(built_in_emulator(robot))
-    return ServoBus(
-        target,
-        timeout_s=settings.timeout_s,
-        retries=settings.retries,
-        echo=settings.echo,
-        direction=settings.direction,
-    )
+    if port is not None:
+        settings = dataclasses.replace(settings, port=port)
+    if settings.port is not None:
+        return ServoBus.from_settings(settings)
+    return ServoBus.from_settings(settings, emulated=emulator_connection(built_in_emulator(robot)))
 
 
 def built_in_emulator(robot: Robot) -> BusEmulator:

@@ -1,33 +1,36 @@
 """Transports: the backends between the host and the LX servo bus, chosen by name in the port
 string.
 
-Like python-can's interfaces (its ``BACKENDS`` table and ``BusABC``) and pyserial's URL schemes,
-the scheme of the port string picks a module from :data:`BACKENDS`, and every backend is an
-ordinary implementation of :class:`Backend` that declares what it can do
-(:class:`Capabilities`); nothing asks which backend it is:
+Like python-can's interfaces (its ``BACKENDS`` table and ``BusABC``) and pyserial's URL handlers,
+the scheme of the port string picks a backend, and every backend keeps one contract,
+:class:`Transport`: it opens a port string into a :class:`Connection` (the byte port, the
+:class:`Backend` speaking on it, the clock) and says, without opening anything, what the host
+would speak there (its :class:`Link`: :class:`Capabilities`, the backend, a tick's move frame).
+Nothing asks which backend it is:
 
-- a plain device (``/dev/ttyUSB0``, ``COM3``) or another pyserial URL: the raw LX bus
-  (:mod:`~choreo.bus.transports.raw`), every LX command, staged moves and broadcast MOVE_START;
-  optionally with GPIO direction control (``direction``) for a Raspberry Pi / Jetson UART;
+- a plain device (``/dev/ttyUSB0``, ``COM3``) or a URL pyserial opens itself (``loop://``,
+  ``socket://``): the raw LX bus (:mod:`~choreo.bus.transports.raw`), every LX command, staged
+  moves and broadcast MOVE_START; optionally with GPIO direction control (``direction``) for a
+  Raspberry Pi / Jetson UART;
 - ``rrc://PATH``: Hiwonder's STM32 "RRC" controller board (``rrc``), 1,000,000 baud;
 - ``lobot://PATH`` (its 9600-baud UART) or ``lobot://hid``: the LOBOT Bus Servo Controller
   (``lobot``) of the xArm;
-- ``sim://...``: the built-in emulator (``choreo.emulator.backend``), the raw bus or, with
-  ``board=rrc|lobot``, that board in front of the emulated servos; its clock is the emulator's.
+- any scheme a package adds with an entry point in the ``choreo.backends`` group, naming a module
+  or object that keeps the contract. choreo adds its emulator so (``sim://``:
+  ``choreo.emulator.backend``): the bus never imports a layer above it.
 
-:func:`connect` opens a port string and returns a :class:`Connection`: the byte port, the
-backend that speaks on it, and the clock the bus runs on.
+:func:`connect` opens a port string; :func:`link` tells what it would speak, for a dry run.
 """
 
 from __future__ import annotations
 
 import errno
-import importlib
+import functools
+import importlib.util
 import urllib.parse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from types import ModuleType
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, runtime_checkable
 
 import serial
 
@@ -36,13 +39,16 @@ from choreo.core.clock import Clock
 from choreo.core.file_kind import not_a_file
 from choreo.errors import PortError, UnsupportedByTransport
 
-# port-string scheme -> the module that opens it; any other scheme is a pyserial URL on the raw bus
-BACKENDS = {
-    "rrc": "choreo.bus.transports.rrc",
-    "lobot": "choreo.bus.transports.lobot",
-    "sim": "choreo.emulator.backend",
-}
-RAW_BACKEND = "choreo.bus.transports.raw"
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
+
+    from choreo.bus.transports.direction import DirectionLines, DirectionPins
+    from choreo.bus.transports.raw import EchoMode
+
+ENTRY_POINTS = "choreo.backends"  # the entry-point group a package adds a backend in
+# What ``direction`` may be: a preset name or "rx=N,tx=N" text, pins, or lines as they are.
+Direction: TypeAlias = "str | DirectionPins | DirectionLines"
+Echo: TypeAlias = "EchoMode | str"  # how a one-wire bus's echo is treated: raw.EchoMode
 INSTEAD_RAW = (
     "connect the servos to the raw LX bus instead (a BusLinker-style USB adapter, or a Pi UART "
     "with its GPIO direction lines, {option})"
@@ -98,6 +104,29 @@ class Attempt:
     received: bytes = b""
 
 
+class BytePort(Protocol):
+    """What a backend reads and writes: a pyserial port, or anything with its methods (the LOBOT
+    controller's HID reports, GPIO direction control around a UART, a test's fake)."""
+
+    timeout: Any  # seconds a read waits (pyserial: None waits for ever)
+
+    @property
+    def in_waiting(self) -> int:
+        """Bytes received and not read yet."""
+
+    def read(self, size: int = 1) -> bytes: ...
+
+    def write(self, data: bytes) -> int | None: ...
+
+    def flush(self) -> None: ...
+
+    def reset_input_buffer(self) -> None: ...
+
+    def reset_output_buffer(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
 class Backend(Protocol):
     """What speaks to the servos on a byte port; ``ServoBus`` holds the lock around calls."""
 
@@ -108,13 +137,15 @@ class Backend(Protocol):
         """Replies so far that failed their checksum (two servos answering at once)."""
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        """Send an LX write the transport can carry; returns the bytes sent."""
+        """Send an LX write the transport can carry, its servo ID and fields checked already
+        (``ServoBus`` checks, the backend encodes: once); returns the bytes sent."""
 
     def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
         """One attempt at an LX read."""
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
-        """Move several servos (id, pos_units) over one duration now; bytes sent."""
+        """Move several servos (id, pos_units, checked already) over one duration now; bytes
+        sent."""
 
     def stop_many(self, servo_ids: Sequence[int]) -> None:
         """Stop these servos with the best means the transport has."""
@@ -122,7 +153,9 @@ class Backend(Protocol):
 
 @dataclass(frozen=True)
 class Connection:
-    port: Any  # a pyserial port, or any object with its read/write/flush/close methods
+    """An open port string: what ``ServoBus`` runs on."""
+
+    port: BytePort
     backend: Backend
     clock: Clock  # what the bus's deadlines are kept on: real time, or an emulator's clock
     emulator: Any = None  # the emulator behind an emulated backend (its wire log), else None
@@ -132,11 +165,75 @@ class Connection:
         return self.backend.capabilities
 
 
-def connect(port: str | serial.SerialBase, timeout_s: float, direction=None, echo="auto"):
-    """Open a port string (or adopt an open port: the raw bus) with the backend its scheme
-    names."""
-    module = importlib.import_module(_module_name(port if isinstance(port, str) else None))
-    return module.connect(port, timeout_s, direction, echo)
+@dataclass(frozen=True)
+class Link:
+    """What the host speaks on a byte port: the raw LX bus, or a controller board's frames."""
+
+    capabilities: Capabilities
+    backend_on: Callable[[BytePort], Backend]  # the backend speaking it on an open port
+    move_frame: Callable[[Sequence[tuple[int, int]], int], bytes]  # a tick's moves, as sent
+
+
+@runtime_checkable
+class Transport(Protocol):
+    """What a backend provides, the contract every scheme of a port string keeps: ``raw``,
+    ``rrc`` and ``lobot`` are modules that keep it (:data:`BACKENDS`), and so is any module or
+    object a package names with an entry point in the ``choreo.backends`` group."""
+
+    def connect(
+        self, port: str, timeout_s: float, direction: Direction | None, echo: Echo, /
+    ) -> Connection:
+        """Open ``port``: the byte port, the backend speaking on it, the clock its deadlines are
+        kept on. ``PortError`` (one line) if it cannot be opened as asked (``direction`` through
+        a board that drives its own servo bus)."""
+
+    def link(self, port: str, /) -> Link:
+        """What the host would speak on ``port``, found without opening anything."""
+
+
+@runtime_checkable
+class OpensItsUrls(Protocol):
+    """A backend whose port strings pyserial opens once told where their handler is
+    (``sim://``): :func:`open_serial` lets it register the handler first."""
+
+    def register_url_handler(self) -> None: ...
+
+
+def connect(
+    port: str | BytePort,
+    timeout_s: float,
+    direction: Direction | None = None,
+    echo: Echo = "auto",
+) -> Connection:
+    """Open a port string with the backend its scheme names, or adopt an open port (the raw
+    bus)."""
+    if not isinstance(port, str):
+        return raw.connect(port, timeout_s, direction, echo)
+    return transport_for(port).connect(port, timeout_s, direction, echo)
+
+
+def link(port: str | None) -> Link:
+    """What the host would speak on ``port``, without opening anything (None: the built-in
+    emulated bus, a raw bus)."""
+    return transport_for(port).link(port or "")
+
+
+def transport_for(port: str | None) -> Transport:
+    """The backend the scheme of ``port`` names: bus/'s own (:data:`BACKENDS`), else the one a
+    package added under that name (entry point group ``choreo.backends``), else, for a device
+    path or a URL pyserial opens itself, the raw bus. ``PortError`` for any other scheme, saying
+    which there are."""
+    scheme = _scheme(port)
+    if not scheme:
+        return RAW_BACKEND
+    if scheme in BACKENDS:
+        return BACKENDS[scheme]
+    added = _load_added(scheme, port or "")
+    if added is not None:
+        return added
+    if _pyserial_opens(scheme):
+        return RAW_BACKEND
+    raise PortError(_no_backend(port or "", scheme))
 
 
 def refuse_direction(port: str, capabilities: Capabilities) -> PortError:
@@ -146,24 +243,75 @@ def refuse_direction(port: str, capabilities: Capabilities) -> PortError:
     )
 
 
-def backend_module(port: str | None) -> ModuleType:
-    """The module of the backend a port string names, without opening anything: for ``sim://``,
-    the module of what the host talks to (the raw bus, or the board named by ``board=``)."""
-    module = importlib.import_module(_module_name(port))
-    host_module = getattr(module, "host_module", None)
-    return host_module(port) if host_module is not None else module
+def _scheme(port: str | None) -> str:
+    return urllib.parse.urlsplit(port).scheme.lower() if port and "://" in port else ""
 
 
-def _register_url_handler(url: str) -> None:
-    """Let pyserial open the URL schemes a backend provides itself (``sim://``)."""
-    register = getattr(importlib.import_module(_module_name(url)), "register_url_handler", None)
-    if register is not None:
-        register()
+@functools.cache
+def added_backends() -> dict[str, EntryPoint]:
+    """The backends installed packages add, by scheme (their ``choreo.backends`` entry points),
+    read once: python-can reads its interfaces' entry points so too."""
+    from importlib.metadata import entry_points
+
+    found: dict[str, EntryPoint] = {}
+    for entry in entry_points(group=ENTRY_POINTS):
+        found.setdefault(entry.name.lower(), entry)  # the first on sys.path, as imports go
+    return found
 
 
-def _module_name(port: str | None) -> str:
-    scheme = urllib.parse.urlsplit(port).scheme.lower() if port and "://" in port else ""
-    return BACKENDS.get(scheme, RAW_BACKEND)
+def _load_added(scheme: str, port: str) -> Transport | None:
+    entry = added_backends().get(scheme)
+    if entry is None:
+        return None
+    where = f"{entry.value} (package {_package(entry)})"
+    try:
+        loaded = entry.load()
+    except (ImportError, AttributeError) as error:
+        raise PortError(
+            f"{port}: the {scheme}:// backend {where} cannot be loaded: {error}"
+        ) from error
+    if not isinstance(loaded, Transport):
+        raise PortError(
+            f"{port}: the {scheme}:// backend {where} does not keep choreo's contract: it "
+            "provides no connect() and link() (choreo.bus.transports.Transport)"
+        )
+    return loaded
+
+
+def _package(entry: EntryPoint) -> str:
+    return entry.dist.name if entry.dist is not None else "unknown"
+
+
+def _pyserial_opens(scheme: str) -> bool:
+    """Whether pyserial has a URL handler for ``scheme`` (``loop``, ``socket``, ``rfc2217``...)."""
+    for package in serial.protocol_handler_packages:
+        try:
+            if importlib.util.find_spec(f"{package}.protocol_{scheme}") is not None:
+                return True
+        except (ImportError, ValueError):  # a handler package that is gone, a scheme no name
+            continue
+    return False
+
+
+# Schemes choreo itself adds through an entry point: the package to reinstall if one is missing.
+ADDED_BY_CHOREO = {"sim": "choreo (its emulator)"}
+
+
+def _no_backend(port: str, scheme: str) -> str:
+    """One line: the scheme has no backend, which ones there are, what adds the missing one."""
+    added = ", ".join(f"{n}:// ({_package(e)})" for n, e in sorted(added_backends().items()))
+    known = ", ".join(f"{n}://" for n in BACKENDS) + (f", {added}" if added else "")
+    if scheme in ADDED_BY_CHOREO:
+        fix = (
+            f"{scheme}:// comes with {ADDED_BY_CHOREO[scheme]} through its entry points, which "
+            "this Python does not see: reinstall choreo (in a checkout: pip install -e .)"
+        )
+    else:
+        fix = f"a package adds one with an entry point in the {ENTRY_POINTS} group"
+    return (
+        f"{port}: no backend for {scheme}://; there are {known}, a device path and the URLs "
+        f"pyserial opens (loop://, socket://, rfc2217://); {fix}"
+    )
 
 
 def open_serial(
@@ -171,7 +319,7 @@ def open_serial(
 ) -> serial.SerialBase:
     """A serial port (or pyserial URL, ``sim://`` included) at ``baudrate``, 8N1, exclusive;
     ``quiet_lines``: RTS and DTR held low from the moment it opens."""
-    _register_url_handler(url)
+    _let_pyserial_open(url)
     try:
         port = serial.serial_for_url(
             url,
@@ -190,6 +338,14 @@ def open_serial(
         return port
     except (serial.SerialException, ValueError, OSError) as error:
         raise PortError(f"cannot open {url}: {_open_failure(url, error)}") from error
+
+
+def _let_pyserial_open(url: str) -> None:
+    """A backend a package added may have pyserial open its URLs: it registers its handler."""
+    scheme = _scheme(url)
+    added = _load_added(scheme, url) if scheme and scheme not in BACKENDS else None
+    if isinstance(added, OpensItsUrls):
+        added.register_url_handler()
 
 
 _LIST_PORTS = "list ports with `choreo ports`; `sim://` is the built-in emulator"
@@ -221,3 +377,11 @@ def path_of(url: str) -> str:
     if not rest:
         raise PortError(f"{url}: name the device after the scheme, as in rrc:///dev/ttyAMA0")
     return rest
+
+
+# bus/'s own backends, by the scheme of the port string. They import the contract above, so they
+# are imported after it.
+from choreo.bus.transports import lobot, raw, rrc  # noqa: E402
+
+BACKENDS: dict[str, Transport] = {"rrc": rrc, "lobot": lobot}
+RAW_BACKEND: Transport = raw  # a device path, or a URL pyserial opens itself

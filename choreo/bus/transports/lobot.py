@@ -17,16 +17,21 @@ See docs/transports.md.
 
 from __future__ import annotations
 
+import functools
 import logging
 import urllib.parse
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.bus.transports import (
     Attempt,
+    BytePort,
     Capabilities,
     Connection,
+    Direction,
+    Link,
     open_serial,
     path_of,
     refuse_direction,
@@ -75,37 +80,18 @@ class Frame:
     params: bytes
 
 
-class FrameDecoder:
-    """Bytes to frames, resynchronising on ``55 55``. Never raises."""
+class FrameDecoder(ResyncDecoder[Frame]):
+    """Bytes to frames, resynchronising on ``55 55`` (no checksum to check). Never raises."""
 
-    def __init__(self) -> None:
-        self._buffer = bytearray()
+    header = HEADER
 
-    def reset(self) -> None:
-        self._buffer.clear()
+    def frame_length(self, buf: bytearray) -> int:
+        if len(buf) < 3:
+            return MORE
+        return 2 + buf[2] if buf[2] >= 2 else NOT_A_FRAME
 
-    def feed(self, data: bytes) -> list[Frame]:
-        self._buffer += data
-        frames: list[Frame] = []
-        buf = self._buffer
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                del buf[: len(buf) - (1 if buf[-1:] == HEADER[:1] else 0)]
-                return frames
-            del buf[:start]
-            if len(buf) >= 3 and buf[2] < 2:
-                del buf[:1]
-                continue
-            if len(buf) < 4 or len(buf) < 2 + buf[2]:
-                return frames
-            total = 2 + buf[2]
-            frames.append(Frame(buf[3], bytes(buf[4:total])))
-            del buf[:total]
-
-    def bytes_to_complete(self, expected_total: int) -> int:
-        buf = self._buffer
-        return 2 + buf[2] - len(buf) if len(buf) >= 3 else expected_total - len(buf)
+    def frame(self, buf: bytearray, total: int) -> Frame:
+        return Frame(buf[3], bytes(buf[4:total]))
 
 
 def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
@@ -140,18 +126,32 @@ def positions(frame: Frame) -> dict[int, int]:
 
 
 # --- the board ---------------------------------------------------------------------------------
-def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection:
+def connect(
+    url: str, timeout_s: float, direction: Direction | None = None, echo: object = None
+) -> Connection:
     """The controller on ``lobot://hid`` or the UART ``lobot://PATH`` names (no echo on its
     link: ``echo`` is moot)."""
     if direction is not None:
         raise refuse_direction(url, CAPABILITIES)
-    path = path_of(url)
-    if path.lower().split("?")[0] == "hid":
-        capabilities = hid_capabilities(report_ms(url))
-        port = HidReportPort.open_first(timeout_s)
-        return Connection(port, LobotBoard(port, capabilities), RealClock())
-    port = open_serial(path, timeout_s, BAUDRATE)
-    return Connection(port, LobotBoard(port), RealClock())
+    on = link(url)
+    if _is_hid(url):
+        port: BytePort = HidReportPort.open_first(timeout_s)
+    else:
+        port = open_serial(path_of(url), timeout_s, BAUDRATE)
+    return Connection(port, on.backend_on(port), RealClock())
+
+
+def link(url: str) -> Link:
+    """The controller's frames; over HID, at the report interval ``lobot://hid?report_ms=N``
+    gives."""
+    if not _is_hid(url):
+        return LINK
+    capabilities = hid_capabilities(report_ms(url))
+    return Link(capabilities, functools.partial(LobotBoard, capabilities=capabilities), move_frame)
+
+
+def _is_hid(url: str) -> bool:
+    return path_of(url).lower().split("?")[0] == "hid"
 
 
 def report_ms(url: str) -> float:
@@ -171,14 +171,14 @@ def report_ms(url: str) -> float:
     return value
 
 
-def board_on(port) -> LobotBoard:
+def board_on(port: BytePort) -> LobotBoard:
     return LobotBoard(port)
 
 
 class LobotBoard:
     """The LOBOT controller's commands on an open port (serial or :class:`HidReportPort`)."""
 
-    def __init__(self, port, capabilities: Capabilities = CAPABILITIES):
+    def __init__(self, port: BytePort, capabilities: Capabilities = CAPABILITIES):
         self.port = port
         self.capabilities = capabilities
         self.bad_checksums = 0  # the controller checks the servos' replies itself
@@ -334,6 +334,11 @@ class HidReportPort:
         del self._buffer[:size]
         return data
 
+    @property
+    def in_waiting(self) -> int:
+        """What is left of the last report read (the device is not asked)."""
+        return len(self._buffer)
+
     def reset_input_buffer(self) -> None:
         self._buffer.clear()
         while self.device.read(HID_REPORT, 1):  # what is waiting (0 ms would block)
@@ -347,3 +352,6 @@ class HidReportPort:
 
     def close(self) -> None:
         self.device.close()
+
+
+LINK = Link(CAPABILITIES, board_on, move_frame)

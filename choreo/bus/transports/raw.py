@@ -12,8 +12,6 @@ import enum
 import logging
 from collections.abc import Sequence
 
-import serial
-
 from choreo.bus.protocol import (
     BROADCAST_ID,
     SPECS,
@@ -21,9 +19,19 @@ from choreo.bus.protocol import (
     Packet,
     PacketDecoder,
     decode_reply,
+    encode_checked,
     encode_request,
 )
-from choreo.bus.transports import RAW, Attempt, Capabilities, Connection, open_serial
+from choreo.bus.transports import (
+    RAW,
+    Attempt,
+    BytePort,
+    Capabilities,
+    Connection,
+    Direction,
+    Link,
+    open_serial,
+)
 from choreo.core.clock import Clock, RealClock
 
 log = logging.getLogger(__name__)
@@ -41,18 +49,17 @@ class EchoMode(enum.Enum):
 
 
 def connect(
-    port: str | serial.SerialBase,
+    port: str | BytePort,
     timeout_s: float,
-    direction=None,
-    echo=EchoMode.AUTO,
+    direction: Direction | None = None,
+    echo: EchoMode | str = EchoMode.AUTO,
     clock: Clock | None = None,
 ) -> Connection:
     """The raw bus on a device path or pyserial URL (or a port opened already), optionally
     behind GPIO direction lines; ``clock``: what the port's timeouts run on (real time, unless
     the port is an emulator's)."""
     opened_here = isinstance(port, str)
-    if isinstance(port, str):
-        port = open_serial(port, timeout_s, BAUDRATE)
+    wired: BytePort = open_serial(port, timeout_s, BAUDRATE) if isinstance(port, str) else port
     if direction is not None:
         from choreo.bus.transports.direction import DirectionSerial, direction_lines
 
@@ -60,11 +67,25 @@ def connect(
             lines = direction_lines(direction)
         except BaseException:
             if opened_here:  # a preset this computer cannot resolve, or no gpiod
-                port.close()
+                wired.close()
             raise
-        port = DirectionSerial(port, lines)
+        wired = DirectionSerial(wired, lines)
     clock = clock or RealClock()
-    return Connection(port, RawBus(port, EchoMode(echo), clock), clock)
+    return Connection(wired, RawBus(wired, EchoMode(echo), clock), clock)
+
+
+def move_frame(moves: Sequence[tuple[int, int]], time_ms: int) -> bytes:
+    """Several servos (id, pos_units) moved now over one duration: a MOVE_TIME_WRITE each, the
+    values checked already."""
+    return b"".join(
+        encode_checked(Command.MOVE_TIME_WRITE, i, {"pos_units": p, "time_ms": time_ms})
+        for i, p in moves
+    )
+
+
+def link(port: str) -> Link:
+    """LX packets as they are, whatever the device or pyserial URL."""
+    return LINK
 
 
 class RawBus:
@@ -72,7 +93,7 @@ class RawBus:
 
     capabilities: Capabilities = CAPABILITIES
 
-    def __init__(self, port, echo: EchoMode = EchoMode.AUTO, clock: Clock | None = None):
+    def __init__(self, port: BytePort, echo: EchoMode = EchoMode.AUTO, clock: Clock | None = None):
         self.port = port
         self.echo = echo
         self.clock = clock or RealClock()  # a read's deadline, on the clock the port runs on
@@ -83,15 +104,12 @@ class RawBus:
         return self.decoder.bad_checksums
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        packet = encode_request(command, servo_id, **fields)
+        packet = encode_checked(command, servo_id, fields)
         self.port.write(packet)  # its echo, if any, is skipped by the next request
         return len(packet)
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
-        data = b"".join(
-            encode_request(Command.MOVE_TIME_WRITE, i, pos_units=p, time_ms=time_ms)
-            for i, p in moves
-        )
+        data = move_frame(moves, time_ms)
         self.port.write(data)  # their echoes, if any, are skipped by the next request
         return len(data)
 
@@ -137,6 +155,9 @@ class RawBus:
             else:  # the host ran late (descheduled): look at what has arrived, without waiting
                 overdue, wait_s, wanted = True, 0, max(port.in_waiting, 1)
         return Attempt(None, echo_seen, bytes(received))
+
+
+LINK = Link(CAPABILITIES, RawBus, move_frame)
 
 
 def _is_reply(reply: Packet, command: Command, servo_id: int) -> bool:

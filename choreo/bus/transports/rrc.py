@@ -16,11 +16,15 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.protocol import SPECS, Command, pack_fields, unpack_fields
 from choreo.bus.transports import (
     Attempt,
+    BytePort,
     Capabilities,
     Connection,
+    Direction,
+    Link,
     open_serial,
     path_of,
     refuse_direction,
@@ -76,7 +80,7 @@ CAPABILITIES = Capabilities(
 )
 
 
-def crc8(data: bytes) -> int:
+def crc8(data: bytes | bytearray) -> int:
     """CRC-8/MAXIM (Dallas): reflected polynomial 0x8C, init 0, no final XOR."""
     crc = 0
     for byte in data:
@@ -99,43 +103,22 @@ class Frame:
     data: bytes
 
 
-class FrameDecoder:
-    """Bytes to frames; resynchronises on ``AA 55`` and drops frames failing the CRC. Never
-    raises."""
+class FrameDecoder(ResyncDecoder[Frame]):
+    """Bytes to frames; resynchronises on ``AA 55`` and drops frames failing the CRC
+    (``bad_checksums`` counts them). Never raises."""
 
-    def __init__(self) -> None:
-        self._buffer = bytearray()
-        self.bad_crcs = 0
+    header = HEADER
 
-    def reset(self) -> None:
-        self._buffer.clear()
+    def frame_length(self, buf: bytearray) -> int:
+        if len(buf) >= 3 and buf[2] > MAX_FUNC:
+            return NOT_A_FRAME
+        return 5 + buf[3] if len(buf) >= 4 else MORE
 
-    def feed(self, data: bytes) -> list[Frame]:
-        self._buffer += data
-        frames: list[Frame] = []
-        buf = self._buffer
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                del buf[: len(buf) - (1 if buf[-1:] == HEADER[:1] else 0)]
-                return frames
-            del buf[:start]
-            if len(buf) >= 3 and buf[2] > MAX_FUNC:
-                del buf[:1]
-                continue
-            if len(buf) < 4 or len(buf) < 5 + buf[3]:
-                return frames
-            total = 5 + buf[3]
-            if crc8(bytes(buf[2 : total - 1])) != buf[total - 1]:
-                self.bad_crcs += 1
-                del buf[:1]
-                continue
-            frames.append(Frame(buf[2], bytes(buf[4 : total - 1])))
-            del buf[:total]
+    def intact(self, buf: bytearray, total: int) -> bool:
+        return crc8(buf[2 : total - 1]) == buf[total - 1]
 
-    def bytes_to_complete(self, expected_total: int) -> int:
-        buf = self._buffer
-        return 5 + buf[3] - len(buf) if len(buf) >= 4 else expected_total - len(buf)
+    def frame(self, buf: bytearray, total: int) -> Frame:
+        return Frame(buf[2], bytes(buf[4 : total - 1]))
 
 
 # --- host -> board packets ---------------------------------------------------------------------
@@ -181,7 +164,9 @@ def battery_mv(frame: Frame) -> int | None:
 
 
 # --- the board ---------------------------------------------------------------------------------
-def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection:
+def connect(
+    url: str, timeout_s: float, direction: Direction | None = None, echo: object = None
+) -> Connection:
     """The board on the device ``rrc://PATH`` names (its link has no echo: ``echo`` is moot)."""
     if direction is not None:
         raise refuse_direction(url, CAPABILITIES)
@@ -190,7 +175,12 @@ def connect(url: str, timeout_s: float, direction=None, echo=None) -> Connection
     return Connection(port, board_on(port), RealClock())
 
 
-def board_on(port) -> RrcBoard:
+def link(url: str) -> Link:
+    """The board's frames, on whichever link ``rrc://PATH`` names."""
+    return LINK
+
+
+def board_on(port: BytePort) -> RrcBoard:
     return RrcBoard(port)
 
 
@@ -199,7 +189,7 @@ class RrcBoard:
 
     capabilities = CAPABILITIES
 
-    def __init__(self, port):
+    def __init__(self, port: BytePort):
         self.port = port
         self.decoder = FrameDecoder()
         self.battery_mv: int | None = None  # from the board's unsolicited battery frames
@@ -255,3 +245,6 @@ class RrcBoard:
         if reply is None or len(data) != reply_total(command) - 5:
             return None
         return unpack_fields(reply, data[3:])
+
+
+LINK = Link(CAPABILITIES, board_on, move_frame)
