@@ -18,6 +18,7 @@ from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE, Range
 if TYPE_CHECKING:
     from choreo.bus.servo_bus import ServoBus
     from choreo.motion.motion_file import Motion
+    from choreo.plan.pipeline import PlanOptions
     from choreo.robot.types import Robot
 
 
@@ -121,7 +122,10 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --stretch, --tolerance: how a motion is planned and compiled (plan, preview,
     play)."""
     from choreo.motion.timing import SPEED  # these commands plan: no extra cost
-    from choreo.plan.ticks import TOLERANCE_DEG  # the planner's world: not for bus commands
+    from choreo.plan.ticks import (  # the planner's world: not for bus commands
+        DEFAULT_TOLERANCE_DEG,
+        TOLERANCE_DEG,
+    )
 
     parser.add_argument(
         "--speed",
@@ -139,12 +143,19 @@ def add_planning_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--tolerance",
         type=number_in(TOLERANCE_DEG),
-        default=0.5,
+        default=DEFAULT_TOLERANCE_DEG,
         metavar="DEG",
         help="how far the servos' linear moves may leave the smooth plan, up to "
-        f"{TOLERANCE_DEG.at_most:g}° (default 0.5°; rounding to whole servo units adds up to "
-        "0.12°)",
+        f"{TOLERANCE_DEG.at_most:g}° (default {DEFAULT_TOLERANCE_DEG:g}°; rounding to whole "
+        "servo units adds up to 0.12°)",
     )
+
+
+def plan_options(args: argparse.Namespace) -> PlanOptions:
+    """--speed, --stretch and --tolerance (``add_planning_arguments``) as the library takes them."""
+    from choreo.plan.pipeline import PlanOptions
+
+    return PlanOptions(speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance)
 
 
 def add_past_song_argument(parser: argparse.ArgumentParser) -> None:

@@ -9,7 +9,12 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from choreo.cli.arguments import add_planning_arguments, load_dance, non_negative_float
+from choreo.cli.arguments import (
+    add_planning_arguments,
+    load_dance,
+    non_negative_float,
+    plan_options,
+)
 from choreo.errors import UsageError
 from choreo.plan.pipeline import compile_motion
 from choreo.plan.report import plan_report
@@ -72,9 +77,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
         check_writable(args.plot)
     motion = load_dance(args.motion, args.allow_past_song)
-    compiled = compile_motion(
-        motion, speed=args.speed, stretch=args.stretch, tolerance_deg=args.tolerance
-    )
+    compiled = compile_motion(motion, plan_options(args))
     window = plot_window(args, compiled.trajectory.duration_s) if window_asked else None
     speed = motion.speed if args.speed is None else args.speed
     report = plan_report(motion, compiled, speed)

@@ -16,6 +16,7 @@ from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
     load_dance,
+    plan_options,
     positive_float,
     positive_int,
     stop_signals_as_ctrl_c,
@@ -263,9 +264,7 @@ def _preview(args: argparse.Namespace) -> int:
     simulated = preview.simulate_motion(
         motion,
         settings,
-        speed=args.speed,
-        stretch=args.stretch,
-        tolerance_deg=args.tolerance,
+        plan=plan_options(args),
         start_pose=args.start_pose,
     )
     rollout = simulated.rollout

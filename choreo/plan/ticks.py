@@ -39,6 +39,7 @@ log = logging.getLogger(__name__)
 # Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost (and an
 # unbounded tolerance would overflow the tick search).
 TOLERANCE_DEG = Range(above=0, at_most=5.0, unit="°")
+DEFAULT_TOLERANCE_DEG = 0.5  # about two servo steps (0.24° each)
 _STAGE = SPECS[Command.MOVE_TIME_WAIT_WRITE]
 MOVE_BYTES = _STAGE.request_len + 3  # a whole staged-move packet: 10 bytes
 START_BYTES = SPECS[Command.MOVE_START].request_len + 3  # broadcast MOVE_START: 6 bytes
@@ -96,7 +97,7 @@ def segment(
     trajectory: Trajectory,
     robot: Robot,
     *,
-    tolerance_deg: float = 0.5,
+    tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
     bus_margin_ms: float = DEFAULT_BUS_MARGIN_MS,
 ) -> TickPlan:
     """The fewest ticks (greedy farthest reach) that follow ``trajectory`` within

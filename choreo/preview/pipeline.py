@@ -18,7 +18,8 @@ from choreo.motion.motion_file import HOME_POSE, Keyframe, Motion, motion_of
 from choreo.motion.scene import StartPosture
 from choreo.motion.timing import PlayedKeyframe, played_keyframes
 from choreo.plan.performance import Performance, prepare
-from choreo.plan.pipeline import compile_motion
+from choreo.plan.pipeline import PlanOptions, compile_motion, plan_options
+from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG
 from choreo.preview.actuator import CommandStream, commanded_path_units
 from choreo.preview.model import load_model
 from choreo.preview.reach import JointJump, SiteReach, SitesDue, joint_jumps, site_reach
@@ -69,22 +70,21 @@ class Prepared:
 def prepare_motion(
     motion: Motion | str | os.PathLike[str],
     *,
-    speed: float | None = None,
-    stretch: bool = False,
-    tolerance_deg: float = 0.5,
+    plan: PlanOptions | None = None,
     start_pose: str | None = None,
 ) -> Prepared:
-    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), with the
-    approach the player would play from the start pose (see ``simulate_motion``)."""
+    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (the same ``plan``), with
+    the approach the player would play from the start pose (see ``simulate_motion``)."""
     motion = motion_of(motion)
+    plan = PlanOptions() if plan is None else plan
     check_text("start_pose", start_pose, optional=True)
-    compiled = compile_motion(motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg)
+    compiled = compile_motion(motion, plan)
     start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
     return Prepared(
         motion,
         tuple(start_deg),
         prepare(compiled, start_deg),
-        motion.speed if speed is None else speed,
+        motion.speed if plan.speed is None else plan.speed,
     )
 
 
@@ -92,14 +92,16 @@ def simulate_motion(
     motion: Motion | str | os.PathLike[str],
     settings: SimSettings | None = None,
     *,
+    plan: PlanOptions | None = None,
     speed: float | None = None,
     stretch: bool = False,
-    tolerance_deg: float = 0.5,
+    tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
     start_pose: str | None = None,
 ) -> SimulatedMotion:
-    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (same options), add the
-    approach the player would play from the start pose, play it all to the simulated robot, and
-    measure the rollout against what the motion asked.
+    """Plan ``motion`` and compile it into ticks as ``choreo play`` does (as ``plan`` says, or
+    without it ``speed``, ``stretch`` and ``tolerance_deg``), add the approach the player would
+    play from the start pose, play it all to the simulated robot, and measure the rollout
+    against what the motion asked.
 
     The start pose is the robot's pose ``start_pose``, or "first" for the motion's first
     keyframe; by default ``home`` (the first keyframe for a motion that starts lying, or a
@@ -107,9 +109,8 @@ def simulate_motion(
     """
     if settings is not None:
         check_type("settings", settings, SimSettings, "a SimSettings, or None")
-    prepared = prepare_motion(
-        motion, speed=speed, stretch=stretch, tolerance_deg=tolerance_deg, start_pose=start_pose
-    )
+    plan = plan_options(plan, speed, stretch, tolerance_deg)
+    prepared = prepare_motion(motion, plan=plan, start_pose=start_pose)
     return simulate_prepared(prepared, settings)
 
 
