@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from choreo.motion.motion_file import load_motion
+from choreo.plan.approach import slow_approach
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.plan.planner import APPROACH_LIMIT_SCALE
 
 WAVE = Path(__file__).resolve().parents[1] / "motions" / "arm6" / "wave.yaml"
 
@@ -35,11 +35,12 @@ def test_the_approach_runs_from_the_measured_pose_into_the_first_pose(compiled, 
     assert from_rest.approach_s > 0
 
 
-def test_the_approach_moves_at_a_share_of_every_joint_limit(compiled, from_rest):
-    times = np.linspace(0, from_rest.approach_trajectory.duration_s, 400)
-    _, velocity, _ = from_rest.approach_trajectory.sample(times)
-    limits = np.array([j.limits.vel_deg_s for j in compiled.robot.joints])
-    assert np.all(np.abs(velocity) <= APPROACH_LIMIT_SCALE * limits + 1e-6)
+def test_the_approach_is_the_slow_approach_within_the_motions_tolerance(compiled, from_rest):
+    robot = compiled.robot
+    first_pose = compiled.trajectory.at(0.0)[0]
+    approach = slow_approach(robot, robot.pose_vector("rest"), first_pose, compiled.tolerance_deg)
+    assert from_rest.approach == approach.tick_plan
+    assert from_rest.approach_trajectory.duration_s == approach.duration_s
 
 
 def test_the_motion_ticks_follow_the_approach_ticks_without_a_gap(compiled, from_rest):

@@ -41,7 +41,8 @@ from choreo.motion.motion_file import HOME_POSE, Keyframe, Motion
 from choreo.motion.music_block import repetition_clock
 from choreo.motion.timing import PlayedKeyframe, known_arrivals_s, played_keyframes
 from choreo.motion.writer import motion_text, robot_reference
-from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach, plan_motion
+from choreo.plan.approach import slow_approach
+from choreo.plan.planner import plan_motion
 from choreo.robot.types import Joint, Robot
 
 log = logging.getLogger(__name__)
@@ -369,9 +370,7 @@ def _first_move_ms(robot: Robot, first: Keyframe) -> int:
     """Row 1's Time for an untimed first keyframe: as long as choreo's approach from the home
     pose takes, and at least the editor's 20 ms (the runner needs a move time even if the
     robot is already there)."""
-    approach = plan_approach(
-        robot, robot.pose_vector(HOME_POSE), first.targets_deg, APPROACH_LIMIT_SCALE
-    )
+    approach = slow_approach(robot, robot.pose_vector(HOME_POSE), first.targets_deg)
     time_ms = max(math.ceil(1000 * approach.duration_s), TIME_RANGE_MS[0])
     log.info(
         "%s: the first keyframe has no time: row 1 gets %d ms, the approach from home",

@@ -12,9 +12,10 @@ import numpy as np
 from choreo.bus.protocol import SPECS, Command
 from choreo.core.arguments import check_type
 from choreo.errors import OptionError
+from choreo.plan.approach import slow_approach
 from choreo.plan.pipeline import CompiledMotion
-from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach, pose_array
-from choreo.plan.ticks import Tick, TickPlan, segment
+from choreo.plan.planner import Trajectory, pose_array
+from choreo.plan.ticks import Tick, TickPlan
 from choreo.robot.types import Robot
 
 
@@ -68,16 +69,11 @@ def _servo_pose(robot: Robot, start_pose_deg: object) -> list[float]:
 
 
 def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Performance:
-    """Add the approach from ``start_pose_deg`` (where the servos are) into the first pose, at
-    ``APPROACH_LIMIT_SCALE`` of the joint limits."""
+    """Add the slow approach (``choreo.plan.approach``) from ``start_pose_deg`` (where the servos
+    are) into the first pose."""
     check_type("compiled", compiled, CompiledMotion, "a CompiledMotion (from compile_motion)")
     robot = compiled.robot
     start_pose_deg = _servo_pose(robot, start_pose_deg)
     first_pose = compiled.trajectory.at(0.0)[0]
-    approach = plan_approach(robot, start_pose_deg, first_pose, APPROACH_LIMIT_SCALE)
-    return Performance(
-        segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
-        compiled.ticks,
-        compiled.trajectory,
-        approach,
-    )
+    approach = slow_approach(robot, start_pose_deg, first_pose, compiled.tolerance_deg)
+    return Performance(approach.tick_plan, compiled.ticks, compiled.trajectory, approach.trajectory)

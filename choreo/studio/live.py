@@ -20,9 +20,8 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.bus.servo_config import set_torque
 from choreo.core.clock import Clock
 from choreo.errors import ChoreoError
-from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
-from choreo.plan.ticks import segment
-from choreo.play.player import Outcome, Player, PlayOptions, preflight
+from choreo.plan.approach import slow_approach
+from choreo.play.player import Outcome, Player, preflight
 from choreo.play.recorder import taught_joints
 from choreo.robot.types import Joint, Robot
 
@@ -121,8 +120,7 @@ class LiveRobot:
         self._say("stopped the servos")
 
     def _move(self, wanted: np.ndarray) -> None:
-        trajectory = plan_approach(self.robot, self.pose_deg, wanted, APPROACH_LIMIT_SCALE)
-        ticks = segment(trajectory, self.robot, tolerance_deg=PlayOptions().tolerance_deg).ticks
+        ticks = slow_approach(self.robot, self.pose_deg, wanted).tick_plan.ticks
         player = Player(self.bus, self.robot, self.clock, self._limits, on_progress=self._check)
         try:
             with self._bus_lock:
