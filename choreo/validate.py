@@ -56,10 +56,7 @@ def check_file(
         return FileCheck(path, list(error.problems))
     except PlanningError as error:  # one line per problem, each path:line:col
         return FileCheck(path, str(error).splitlines())
-    stretched = [
-        f"{s.where}: stretched: reached {s.shift_s:.3f} s later than written"
-        for s in compiled.stretches
-    ]
+    stretched = [s.describe() for s in compiled.stretches]
     outlasts = past_song(motion.music, motion.keyframes, motion.repeat)
     stretched += [f"{path}: {outlasts}"] if outlasts else []
     if not physics:

@@ -204,6 +204,10 @@ class Stretch(NamedTuple):
     where: SourceLocation
     shift_s: float  # played seconds (after speed scaling) this keyframe and the later ones moved
 
+    def describe(self) -> str:
+        """The warning play, its dry run and validate give for it."""
+        return f"{self.where}: stretched: reached {self.shift_s:.3f} s later than written"
+
 
 @dataclass(frozen=True)
 class PlanResult:
