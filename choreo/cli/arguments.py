@@ -251,15 +251,10 @@ def say_built_in_emulator(robot: Robot, doing: str) -> None:
 
 
 def load_dance(path: Path, allow_past_song: bool) -> Motion:
-    """The motion, saying which detected beats ``beats: auto`` took and (allowed) that the dance
-    outlasts its song; not allowed, ``load_motion`` has refused it at its line."""
-    from choreo.motion.motion_file import load_motion  # the planner's world: not for bus commands
-    from choreo.motion.music_block import past_song
+    """The motion, saying on stderr which detected beats ``beats: auto`` took and (allowed) that
+    the dance outlasts its song; not allowed, ``load_motion`` has refused it at its line."""
+    from choreo.motion.dance import dance_of  # the planner's world: not for bus commands
 
-    motion = load_motion(path, allow_past_song)
-    if motion.music is not None and motion.music.note:
-        print(f"choreo: {motion.music.note}", file=sys.stderr)
-    problem = past_song(motion.music, motion.keyframes, motion.repeat)
-    if problem is not None:
-        print(f"choreo: warning: {problem}: the dance goes on in silence", file=sys.stderr)
-    return motion
+    return dance_of(
+        path, allow_past_song, on_note=lambda text: print(f"choreo: {text}", file=sys.stderr)
+    )
