@@ -18,7 +18,8 @@ from choreo.core.clock import RealClock
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.play.player import Player, preflight
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
 
 PORT = "sim://?ids=1-18&model=LX-224HV&echo=1"
 

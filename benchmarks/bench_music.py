@@ -36,8 +36,11 @@ from choreo.core.clock import RealClock  # noqa: E402
 from choreo.emulator import BusEmulator, ServoSpec, connection  # noqa: E402
 from choreo.motion.motion_file import load_motion  # noqa: E402
 from choreo.music.decode import Audio, decode_song, encode  # noqa: E402
+from choreo.plan.performance import prepare  # noqa: E402
 from choreo.plan.pipeline import compile_motion  # noqa: E402
-from choreo.play.player import Player, PlayOptions, preflight, prepare  # noqa: E402
+from choreo.play.play_options import PlayOptions  # noqa: E402
+from choreo.play.player import Player  # noqa: E402
+from choreo.play.preflight import preflight  # noqa: E402
 from choreo.play.soundtrack import RecordingSink, SongCue, play_with_song  # noqa: E402
 
 LATENCY_S = 0.08

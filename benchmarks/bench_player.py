@@ -32,8 +32,11 @@ from choreo.emulator import BusEmulator, ServoSpec, connection, trace
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
+from choreo.play.dry_run import packet_schedule
 from choreo.play.path_errors import path_errors_deg
-from choreo.play.player import Player, PlayOptions, packet_schedule, preflight
+from choreo.play.play_options import PlayOptions
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
 from choreo.play.realtime import realtime_priority
 from choreo.robot.types import Robot
 

@@ -28,7 +28,8 @@ from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.path_errors import path_errors_deg
-from choreo.play.player import Player, preflight
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
 
 MOTIONS = [
     "motions/arm6/wave.yaml",

@@ -39,21 +39,16 @@ PUBLIC = {
     "choreo.robot.robot_file": ("load_robot",),
     "choreo.motion.motion_file": ("Motion", "Keyframe", "load_motion"),
     "choreo.plan.planner": ("Trajectory", "PlanResult", "plan_motion"),
-    "choreo.plan.pipeline": ("CompiledMotion", "compile_motion"),
+    "choreo.plan.pipeline": ("CompiledMotion", "PlanOptions", "compile_motion"),
     "choreo.plan.performance": ("Performance", "prepare"),
     "choreo.plan.report": ("plan_report",),
     "choreo.bus.servo_bus": ("ServoBus",),
     "choreo.core.clock": ("RealClock", "VirtualClock"),
-    "choreo.play.player": (
-        "Player",
-        "PlayOptions",
-        "PlayReport",
-        "ExitMode",
-        "Outcome",
-        "preflight",
-    ),
+    "choreo.play.play_options": ("PlayOptions", "ExitMode"),
+    "choreo.play.preflight": ("preflight",),
+    "choreo.play.player": ("Player",),
     "choreo.play.play_motion": ("play_motion",),
-    "choreo.play.report": ("report_document",),
+    "choreo.play.report": ("PlayReport", "StreamReport", "Outcome", "report_document"),
     "choreo.preview.pipeline": ("simulate_motion",),
     "choreo.preview.simulated": ("SimulatedMotion",),
     "choreo.preview.checks": ("run_checks",),
@@ -94,19 +89,14 @@ if TYPE_CHECKING:
     from choreo.music.decode import Audio, decode_song
     from choreo.music.report import beats_report
     from choreo.plan.performance import Performance, prepare
-    from choreo.plan.pipeline import CompiledMotion, compile_motion
+    from choreo.plan.pipeline import CompiledMotion, PlanOptions, compile_motion
     from choreo.plan.planner import PlanResult, Trajectory, plan_motion
     from choreo.plan.report import plan_report
     from choreo.play.play_motion import play_motion
-    from choreo.play.player import (
-        ExitMode,
-        Outcome,
-        Player,
-        PlayOptions,
-        PlayReport,
-        preflight,
-    )
-    from choreo.play.report import report_document
+    from choreo.play.play_options import ExitMode, PlayOptions
+    from choreo.play.player import Player
+    from choreo.play.preflight import preflight
+    from choreo.play.report import Outcome, PlayReport, StreamReport, report_document
     from choreo.preview.checks import run_checks
     from choreo.preview.pipeline import simulate_motion
     from choreo.preview.report import preview_report

@@ -83,7 +83,7 @@ def arm_on_a_pty(tmp_path):
 def virtual_built_in_emulator(monkeypatch) -> list[BusEmulator]:
     """Commands without --port play on the built-in emulator on a virtual clock (their subject
     isn't timing); the emulators made, in order, so a test can read their clocks and logs."""
-    from choreo.play import play_motion
+    from choreo.play import robot_bus
 
     made: list[BusEmulator] = []
 
@@ -91,7 +91,7 @@ def virtual_built_in_emulator(monkeypatch) -> list[BusEmulator]:
         made.append(built_in_emulator_in_virtual_time(robot))
         return made[-1]
 
-    monkeypatch.setattr(play_motion, "built_in_emulator", built_in_emulator)
+    monkeypatch.setattr(robot_bus, "built_in_emulator", built_in_emulator)
     return made
 
 

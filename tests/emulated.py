@@ -58,7 +58,7 @@ def served_on_a_pty(emulator: BusEmulator, link_path: Path) -> Iterator[Path]:
 
 
 def built_in_emulator_in_virtual_time(robot: Robot) -> BusEmulator:
-    """What ``choreo.play.play_motion.built_in_emulator`` makes (the robot at home), on a
+    """What ``choreo.play.robot_bus.built_in_emulator`` makes (the robot at home), on a
     VirtualClock: a command played without ``--port`` takes no real time where its subject isn't
     timing (tests patch it in; see conftest.py and virtual_choreo.py)."""
     return BusEmulator(home_specs(robot), clock=VirtualClock())

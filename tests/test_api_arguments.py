@@ -116,6 +116,7 @@ ANALYSIS = BeatAnalysis(1.0, (), (), 4, ())
 # name -> (the callable, given the world; its valid keyword arguments)
 CALLS = {
     "PlayOptions": (lambda w: PlayOptions, lambda w: {}),
+    "PlanOptions": (lambda w: choreo.PlanOptions, lambda w: {}),
     "play_motion": (lambda w: play_motion, lambda w: dict(motion=w.motion, port=PORT)),
     "ServoBus": (lambda w: ServoBus, lambda w: dict(port=PORT)),
     "ServoBus.from_settings": (
@@ -212,8 +213,14 @@ REFUSED = {
     "load_robot": {"path_or_name": NOT_PATHS, "relative_to": [5, NAN, ""]},
     "load_motion": {"path": NOT_PATHS, "allow_past_song": NOT_FLAGS},
     "plan_motion": {"motion": NOT_PATHS, "speed": optional(POSITIVE_BAD), "stretch": NOT_FLAGS},
+    "PlanOptions": {
+        "speed": optional(POSITIVE_BAD),
+        "stretch": NOT_FLAGS,
+        "tolerance_deg": BOUNDED_BAD + [5.01],
+    },
     "compile_motion": {
         "motion": NOT_PATHS,
+        "plan": [5, {}, "fast", PlayOptions()],
         "speed": optional(POSITIVE_BAD),
         "stretch": NOT_FLAGS,
         "tolerance_deg": BOUNDED_BAD + [5.01],
@@ -253,6 +260,7 @@ REFUSED = {
     "simulate_motion": {
         "motion": NOT_PATHS,
         "settings": [{}, 5],
+        "plan": [5, {}, PlayOptions()],
         "speed": optional(POSITIVE_BAD),
         "stretch": NOT_FLAGS,
         "tolerance_deg": BOUNDED_BAD + [5.01],
@@ -309,6 +317,7 @@ RESULTS = {
     "PlanResult",
     "PlayReport",
     "Robot",
+    "StreamReport",
     "SimulatedMotion",
     "Trajectory",
 }

@@ -14,7 +14,7 @@ from choreo.cli import build_parser, main
 from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE
 from choreo.errors import OptionError
 from choreo.plan.ticks import TOLERANCE_DEG
-from choreo.play.player import PlayOptions
+from choreo.play.play_options import PlayOptions
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,9 @@ from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.path_errors import path_errors_deg
-from choreo.play.player import Outcome, Player, preflight, unchecked
+from choreo.play.player import Player
+from choreo.play.preflight import preflight, unchecked
+from choreo.play.report import Outcome
 
 LX_MOVE_S = 10 * BYTE_TIME_S  # one 10-byte MOVE_TIME_WRITE on the servo bus
 TRANSPORT = {"rrc": "RRC board", "lobot": "LOBOT controller"}

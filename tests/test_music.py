@@ -21,7 +21,7 @@ from choreo.music.beats import detect_beats
 from choreo.music.decode import Audio, decode_song, encode
 from choreo.plan.planner import plan_motion
 from choreo.play.play_motion import play_motion
-from choreo.play.player import PlayOptions
+from choreo.play.play_options import PlayOptions
 
 # librosa warmed once per session (see conftest.py), not in the first test that calls it
 pytestmark = pytest.mark.usefixtures("warm_librosa")

@@ -16,7 +16,10 @@ def test_after_a_stop_the_path_error_covers_only_the_part_played():
     from choreo.plan.performance import prepare
     from choreo.plan.pipeline import compile_motion
     from choreo.play.path_errors import measured_path_errors
-    from choreo.play.player import Outcome, Player, PlayOptions, preflight
+    from choreo.play.play_options import PlayOptions
+    from choreo.play.player import Player
+    from choreo.play.preflight import preflight
+    from choreo.play.report import Outcome
 
     def play(stop_at_tick: int | None):
         motion = load_motion(REPO / "motions" / "arm6" / "dance.yaml")

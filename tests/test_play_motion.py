@@ -14,7 +14,8 @@ from choreo.emulator import BusEmulator, connection
 from choreo.errors import OptionError
 from choreo.motion.motion_file import load_motion
 from choreo.play.play_motion import play_motion
-from choreo.play.player import ExitMode, Outcome, PlayOptions
+from choreo.play.play_options import ExitMode, PlayOptions
+from choreo.play.report import Outcome
 
 VIRTUAL_ARM = "sim://?ids=1-6&clock=virtual"
 

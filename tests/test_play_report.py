@@ -21,8 +21,15 @@ from choreo.emulator.trace import start_skew_ms
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.play.player import Outcome, Player, preflight
-from choreo.play.report import report_document, transport_of, write_report
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
+from choreo.play.report import (
+    Outcome,
+    PlayReport,
+    report_document,
+    transport_of,
+    write_report,
+)
 
 
 def test_play_writes_a_report_that_reads_back(tmp_path, capsys, virtual_built_in_emulator):
@@ -140,7 +147,7 @@ def test_the_report_of_an_aborted_echoing_play_in_virtual_time(tmp_path):
     reached = [j.to_deg(u) for j, u in zip(robot.joints, ticks[cut - 1].targets_units)]
     aborted = player.play(ticks[cut:], reached)
     assert report.outcome is Outcome.COMPLETED and aborted.outcome is Outcome.ABORTED
-    described = dataclasses.replace(
+    described = PlayReport.of(
         aborted,
         motion="tripod_gait.yaml",
         robot=robot.name,
@@ -185,8 +192,6 @@ def test_an_unmeasured_skew_is_the_transports_own():
 
 
 def _empty_report():
-    from choreo.play.player import PlayReport
-
     return PlayReport(Outcome.COMPLETED, "", 0, 0, 0, (), 0, 0.0, 0.0, (), 0.0)
 
 

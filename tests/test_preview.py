@@ -21,7 +21,7 @@ from choreo.errors import PreviewError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
 from choreo.plan.ticks import Tick, segment
-from choreo.play.player import packet_schedule
+from choreo.play.dry_run import packet_schedule
 from choreo.preview import (
     CheckKind,
     CheckThresholds,

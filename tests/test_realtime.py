@@ -11,7 +11,7 @@ from test_player import MOTIONS, Rig
 
 from choreo.bus.protocol import Command
 from choreo.play import realtime
-from choreo.play.player import PlayOptions
+from choreo.play.play_options import PlayOptions
 from choreo.play.report import report_document
 
 

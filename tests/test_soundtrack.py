@@ -19,7 +19,10 @@ from choreo.core.clock import VirtualClock
 from choreo.music.decode import Audio
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.play.player import Outcome, Player, PlayOptions, preflight
+from choreo.play.play_options import PlayOptions
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
+from choreo.play.report import Outcome
 from choreo.play.soundtrack import (
     OUTPUT_RATE_HZ,
     NoAudioOutput,

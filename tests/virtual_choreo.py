@@ -15,7 +15,7 @@ from emulated import built_in_emulator_in_virtual_time
 
 from choreo.cli import main
 from choreo.emulator import backend
-from choreo.play import play_motion
+from choreo.play import robot_bus
 
 connect_sim_url = backend.connect
 
@@ -29,7 +29,7 @@ def connect_in_virtual_time(url: str, *args, **kwargs):
 def in_virtual_time(set_attribute: Callable[[object, str, object], None]) -> None:
     """Every emulator a command makes runs in virtual time: ``set_attribute`` is ``setattr`` in
     a process of its own, ``monkeypatch.setattr`` in a test."""
-    set_attribute(play_motion, "built_in_emulator", built_in_emulator_in_virtual_time)
+    set_attribute(robot_bus, "built_in_emulator", built_in_emulator_in_virtual_time)
     set_attribute(backend, "connect", connect_in_virtual_time)
 
 

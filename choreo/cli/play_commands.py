@@ -28,19 +28,10 @@ from choreo.errors import UsageError
 from choreo.motion.motion_file import HOME_POSE, Motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
+from choreo.play.dry_run import schedule
 from choreo.play.play_motion import check_options, play_motion, prepared_motion
-from choreo.play.player import (
-    AUDIO_LATENCY_S,
-    HEALTH_TIMEOUT_S,
-    ExitMode,
-    Outcome,
-    PlayOptions,
-    PlayReport,
-    frame_schedule,
-    packet_schedule,
-)
-from choreo.play.player import Progress as PlayProgress
-from choreo.play.report import report_document, write_report
+from choreo.play.play_options import AUDIO_LATENCY_S, HEALTH_TIMEOUT_S, ExitMode, PlayOptions
+from choreo.play.report import Outcome, PlayProgress, PlayReport, report_document, write_report
 from choreo.play.soundtrack import AudioSink, SongCue, SoundDeviceSink
 
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.ABORTED: 1, Outcome.INTERRUPTED: 130}
@@ -240,34 +231,30 @@ def _print_report(report: PlayReport) -> None:
 def dry_run(motion: Motion, options: PlayOptions, port: str | None) -> int:
     """Print every packet (through a board: every move frame) with its time, and when the song
     starts."""
-    compiled = compile_motion(
-        motion, speed=options.speed, stretch=options.stretch, tolerance_deg=options.tolerance_deg
-    )
+    compiled = compile_motion(motion, options.plan)
     for stretch in compiled.stretches:
-        _note(f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written")
+        _note(stretch.describe())
     link = transports.link(port)
     music = motion.music if options.audio else None
     robot = compiled.robot
     performance = prepare(compiled, robot.pose_vector("home"))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
-    if link.capabilities.staged_start:
-        schedule = packet_schedule(performance.ticks, robot)
-    else:
+    if not link.capabilities.staged_start:
         print(
             f"through the {link.capabilities.transport}: no staging, one move frame per tick, "
             "forwarded one servo at a time"
         )
-        schedule = frame_schedule(performance.ticks, robot, link.move_frame)
+    packets = schedule(performance.ticks, robot, link)
     cue = SongCue.of(music, performance) if music is not None else None
     song_ms = round(max(0.0, -cue.from_s) * 1000) if cue else None
-    for packet in schedule:
+    for packet in packets:
         if cue and song_ms is not None and packet.time_ms > song_ms:
             print(f"{song_ms:8d} ms  {cue.describe()}")
             song_ms = None
         print(f"{packet.time_ms:8d} ms  {packet.packet.hex(' ')}  {packet.description}")
     if cue and song_ms is not None:
         print(f"{song_ms:8d} ms  {cue.describe()}")
-    total = sum(len(p.packet) for p in schedule)
+    total = sum(len(p.packet) for p in packets)
     print(
         f"{len(performance.ticks)} ticks over {performance.ticks[-1].end_ms / 1000:.3f} s, "
         f"{total} bytes"

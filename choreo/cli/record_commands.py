@@ -17,7 +17,6 @@ from choreo.cli.arguments import (
 )
 from choreo.core.clock import RealClock
 from choreo.errors import BusError, ChoreoError, UsageError
-from choreo.play.play_motion import robot_bus
 from choreo.play.recorder import (
     Captured,
     Ending,
@@ -30,6 +29,7 @@ from choreo.play.recorder import (
     UnknownInput,
     journal_path,
 )
+from choreo.play.robot_bus import robot_bus
 from choreo.robot.robot_file import load_robot
 from choreo.robot.types import Robot
 

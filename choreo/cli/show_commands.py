@@ -27,8 +27,8 @@ from choreo.cli.arguments import (
 )
 from choreo.core.atomic import check_writable
 from choreo.music.decode import decode_song
-from choreo.play.play_motion import open_robot_bus
 from choreo.play.report import write_report
+from choreo.play.robot_bus import open_robot_bus
 from choreo.play.soundtrack import OUTPUT_RATE_HZ, NoAudioOutput, SoundDeviceSink
 from choreo.robot.types import Robot
 from choreo.show.showfile import NAME, Show, load_show

@@ -17,7 +17,7 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.errors import UsageError
-from choreo.play.play_motion import open_robot_bus
+from choreo.play.robot_bus import open_robot_bus
 from choreo.studio.address import Address
 
 if TYPE_CHECKING:

@@ -8,6 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
 from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TickPlan, segment
 from choreo.robot.types import Robot
@@ -25,8 +27,8 @@ class Approach:
 
 def slow_approach(
     robot: Robot,
-    start_deg: Sequence[float],
-    target_deg: Sequence[float],
+    start_deg: Sequence[float] | np.ndarray,
+    target_deg: Sequence[float] | np.ndarray,
     tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
 ) -> Approach:
     """The approach from ``start_deg`` (where the servos are; may lie outside the joint limits)

@@ -13,7 +13,7 @@ import numpy as np
 from choreo.emulator.emulated_servo import StartedMove
 from choreo.emulator.trace import executed_units
 from choreo.plan.performance import Performance
-from choreo.play.player import Outcome, PlayReport
+from choreo.play.report import Outcome, StreamReport
 from choreo.robot.types import Robot
 
 SAMPLE_S = 0.002  # the path is compared every 2 ms
@@ -45,7 +45,7 @@ def measured_path_errors(
     moves: Iterable[StartedMove],
     robot: Robot,
     performance: Performance,
-    report: PlayReport,
+    report: StreamReport,
     start_pose: Sequence[float],
 ) -> tuple[float, ...]:
     """Per joint, how far the emulated servos strayed from the smooth plan (every 2 ms) during

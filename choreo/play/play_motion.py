@@ -16,25 +16,26 @@ import bisect
 import dataclasses
 import logging
 import os
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 
 from choreo.bus.servo_bus import PORT_EXAMPLES, ServoBus
 from choreo.bus.settings import BusSettings
 from choreo.core.arguments import check_callable, check_type, shown
-from choreo.core.clock import RealClock
-from choreo.emulator import BusEmulator, ServoSpec
-from choreo.emulator.backend import connection as emulator_connection
 from choreo.emulator.trace import start_skew_ms
 from choreo.errors import NoAudioOutput, OptionError
-from choreo.motion.motion_file import Motion, motion_of, too_many_played
-from choreo.motion.music_block import check_speed, past_song
+from choreo.motion.dance import dance_of
+from choreo.motion.motion_file import Motion
+from choreo.motion.music_block import check_speed
 from choreo.music.decode import Audio
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.path_errors import measured_path_errors
-from choreo.play.player import Player, PlayOptions, PlayReport, Progress, preflight, unchecked
+from choreo.play.play_options import PlayOptions
+from choreo.play.player import Player
+from choreo.play.preflight import preflight, unchecked
 from choreo.play.realtime import Scheduling
+from choreo.play.report import PlayProgress, PlayReport, StreamReport
+from choreo.play.robot_bus import robot_bus
 from choreo.play.soundtrack import (
     AudioSink,
     SongCue,
@@ -42,7 +43,6 @@ from choreo.play.soundtrack import (
     play_with_song,
     song_for_output,
 )
-from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +59,7 @@ def play_motion(
     *,
     bus_settings: BusSettings | None = None,
     open_audio: OpenAudio = SoundDeviceSink,
-    on_progress: Callable[[Progress], None] | None = None,
+    on_progress: Callable[[PlayProgress], None] | None = None,
     on_note: Note = log.warning,
 ) -> PlayReport:
     """Play ``motion`` on the servos behind ``port`` and return the report.
@@ -83,11 +83,9 @@ def play_motion(
     port = _port_or_bus(port)
     motion = prepared_motion(motion, options, on_note)
     robot = motion.robot
-    compiled = compile_motion(
-        motion, speed=options.speed, stretch=options.stretch, tolerance_deg=options.tolerance_deg
-    )
+    compiled = compile_motion(motion, options.plan)
     for stretch in compiled.stretches:  # said before anything moves
-        on_note(f"{stretch.where}: stretched: reached {stretch.shift_s:.3f} s later than written")
+        on_note(stretch.describe())
     with robot_bus(robot, port, bus_settings) as bus:
         missing = unchecked(bus)
         if missing:
@@ -126,30 +124,11 @@ def _port_or_bus(port: object) -> str | ServoBus | None:
 def prepared_motion(
     motion: Motion | str | os.PathLike[str], options: PlayOptions, on_note: Note = log.warning
 ) -> Motion:
-    """The motion to play (loaded from a path), its options checked against it, ``loop``
-    applied."""
-    if not isinstance(motion, Motion):
-        motion = motion_of(motion, options.allow_past_song)
-        if motion.music is not None and motion.music.note:
-            on_note(motion.music.note)  # which detected beats beats: auto took
+    """The motion to play (loaded from a path, played ``options.loop`` times: ``dance_of``),
+    the options checked against it."""
+    motion = dance_of(motion, options.allow_past_song, loop=options.loop, on_note=on_note)
     check_options(motion, options)
-    if options.loop is None:
-        return motion
-    problem = too_many_played(len(motion.keyframes), options.loop, "loop")
-    if problem is not None:
-        raise OptionError("loop", problem.removeprefix("loop "))
-    looped = dataclasses.replace(motion, repeat=options.loop)
-    outlasting = past_song(looped.music, looped.keyframes, looped.repeat)
-    if outlasting is not None and not options.allow_past_song:
-        raise OptionError(
-            "loop",
-            f"{options.loop}: {outlasting}; loop fewer times, or pass {{allow_past_song}} to "
-            "dance on in silence",
-            mentions=("allow_past_song",),
-        )
-    if outlasting is not None:
-        on_note(f"warning: {outlasting}: the dance goes on in silence")
-    return looped
+    return motion
 
 
 def check_options(motion: Motion, options: PlayOptions) -> None:
@@ -162,43 +141,6 @@ def check_options(motion: Motion, options: PlayOptions) -> None:
             f"{options.exit_pose!r} is not a pose of {motion.robot.name}; poses: "
             f"{', '.join(motion.robot.poses)}",
         )
-
-
-@contextmanager
-def robot_bus(
-    robot: Robot, port: str | ServoBus | None, settings: BusSettings | None = None
-) -> Iterator[ServoBus]:
-    """The robot's bus, closed on the way out unless the caller opened it (see
-    :func:`play_motion` for how the port is chosen)."""
-    if isinstance(port, ServoBus):
-        yield port
-        return
-    with open_robot_bus(robot, port, settings) as bus:
-        yield bus
-
-
-def open_robot_bus(
-    robot: Robot, port: str | None = None, settings: BusSettings | None = None
-) -> ServoBus:
-    """Open the robot's bus: ``port``, else the ``settings``' port, else the robot file's, else
-    the built-in emulator; ``settings`` (timeout, retries, echo, direction) default to the robot
-    file's ``bus:`` section. The caller closes it."""
-    settings = settings if settings is not None else robot.bus
-    if port is not None:
-        settings = dataclasses.replace(settings, port=port)
-    if settings.port is not None:
-        return ServoBus.from_settings(settings)
-    return ServoBus.from_settings(settings, emulated=emulator_connection(built_in_emulator(robot)))
-
-
-def built_in_emulator(robot: Robot) -> BusEmulator:
-    """The robot's servos on an emulated bus in real time, standing at its home pose."""
-    home = robot.pose_vector("home")
-    specs = [
-        ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
-        for j, a in zip(robot.joints, home)
-    ]
-    return BusEmulator(specs, clock=RealClock())
 
 
 def _once(note: Callable[[Scheduling], None]) -> Callable[[Scheduling], None]:
@@ -214,12 +156,12 @@ def _once(note: Callable[[Scheduling], None]) -> Callable[[Scheduling], None]:
 
 
 def _with_stage(
-    on_progress: Callable[[Progress], None], performance: Performance
-) -> Callable[[Progress], None]:
+    on_progress: Callable[[PlayProgress], None], performance: Performance
+) -> Callable[[PlayProgress], None]:
     """``on_progress`` told the stage too: the approach, or the last keyframe passed."""
     keyframes = [performance.approach_s + t for t in performance.trajectory.keyframe_times_s]
 
-    def update(progress: Progress) -> None:
+    def update(progress: PlayProgress) -> None:
         passed = bisect.bisect_right(keyframes, progress.time_s)
         stage = (
             "approach"
@@ -248,12 +190,12 @@ def _audio_output(
 
 
 def _described(
-    report: PlayReport,
+    report: StreamReport,
     motion: Motion,
     bus: ServoBus,
     performance: Performance,
     start_pose: tuple[float, ...],
-    exit_move: PlayReport | None,
+    exit_move: StreamReport | None,
 ) -> PlayReport:
     """The report with what the play was of and, on an emulator, what its wire log shows."""
     errors = skew_ms = None
@@ -261,7 +203,7 @@ def _described(
         moves = bus.emulator.log.moves
         errors = measured_path_errors(moves, motion.robot, performance, report, start_pose)
         skew_ms = start_skew_ms(moves, report.start_time_s, report.start_time_s + report.elapsed_s)
-    return dataclasses.replace(
+    return PlayReport.of(
         report,
         motion=str(motion.path),
         robot=motion.robot.name,

@@ -1,22 +1,105 @@
-"""The machine-readable report of one play (``choreo play --report FILE.json``).
+"""What a play tells: its progress while it runs (``PlayProgress``), and after it the report.
 
-One JSON document per play, written atomically: what happened (outcome, ticks, re-targets), how
-well it was timed (START lateness, first-to-last start skew), what it cost the bus (bytes, bus
-use, missed health reads), what the health reads saw on each servo, and, on the emulator, how far
-the servos' real paths strayed from the smooth plan.
+``Player.play`` reports what it measured on the stream of ticks (``StreamReport``): the
+outcome, ticks, re-targets, START lateness, bytes, and what the health reads saw on each servo.
+``play_motion``'s report (``PlayReport``) adds what was played where and, on the emulator, how
+far the servos' real paths strayed from the smooth plan and how far apart a tick's servos
+started. ``report_document`` gives that as one JSON document (``choreo play --report
+FILE.json``), written atomically.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import json
 import urllib.parse
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from choreo.bus.protocol import BYTE_TIME_S
 from choreo.core.arguments import check_type
 from choreo.core.atomic import write_text_atomically
-from choreo.play.player import PlayReport
+from choreo.play.health import ServoHealth
+from choreo.play.realtime import NOT_ASKED, Scheduling
+
+
+class Outcome(enum.Enum):
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"  # Ctrl-C / SIGTERM
+    ABORTED = "aborted"  # a health check failed
+
+
+@dataclass(frozen=True)
+class PlayProgress:
+    """Where a play is, told after each START (``on_progress``)."""
+
+    time_s: float  # since the first START
+    duration_s: float
+    tick: int  # ticks started so far
+    ticks: int
+    bus_use: float
+    stage: str = ""  # what is being played, in words (play_motion: approach, keyframe 3/12)
+
+
+@dataclass(frozen=True)
+class StreamReport:
+    """What the player measured playing a list of ticks (``Player.play``)."""
+
+    outcome: Outcome
+    reason: str
+    ticks_played: int
+    ticks_total: int
+    retargeted: int
+    lateness_ms: tuple[float, ...]  # per START, against its deadline
+    bytes_sent: int
+    planned_s: float
+    elapsed_s: float
+    health: tuple[ServoHealth, ...]
+    start_time_s: float  # clock time of the first START's deadline
+    transport: str = "raw LX bus"
+    start_skew_ms: float = 0.0  # first-to-last start of a tick's moves (a board forwarding them)
+    scheduling: Scheduling = NOT_ASKED  # the priority the play ran with
+
+    @property
+    def bus_use(self) -> float:
+        return self.bytes_sent * BYTE_TIME_S / self.elapsed_s if self.elapsed_s > 0 else 0.0
+
+    def lateness_percentile_ms(self, q: float) -> float:
+        return float(np.percentile(self.lateness_ms, q)) if self.lateness_ms else 0.0
+
+    @property
+    def missed_reads(self) -> int:
+        """Health reads that went unanswered or came back garbled, over every servo."""
+        return sum(h.missed_total for h in self.health)
+
+    @property
+    def end_error_ms(self) -> float:
+        return (self.elapsed_s - self.planned_s) * 1000
+
+
+@dataclass(frozen=True)
+class PlayReport(StreamReport):
+    """``play_motion``'s report: the stream's, and what was played where and, on an emulator,
+    what its wire shows."""
+
+    motion: str = ""
+    robot: str = ""
+    port: str = ""
+    emulated: bool = False
+    measured_start_skew_ms: float | None = None
+    path_errors_deg: tuple[float, ...] | None = None  # per joint, against the smooth plan
+    exit_move: StreamReport | None = None  # the move to the exit pose, if one was made
+
+    @classmethod
+    def of(cls, stream: StreamReport, **played: Any) -> PlayReport:
+        """``stream``'s report with ``played`` (this class's own fields) added."""
+        measured = {f.name: getattr(stream, f.name) for f in dataclasses.fields(StreamReport)}
+        return cls(**measured, **played)
+
 
 REPORT_FORMAT = "choreo-play-report"
 REPORT_VERSION = 1
@@ -50,11 +133,14 @@ def transport_of(port_name: str, report: PlayReport | None = None) -> Transport:
     return replace(transport, name=report.transport, start_skew_ms=report.start_skew_ms)
 
 
-def report_document(report: PlayReport) -> dict[str, Any]:
-    """The JSON document of a :func:`~choreo.play.play_motion.play_motion` report. The measured
-    start skew and the path errors come from an emulator's wire log (None on real servos: the
-    skew is then the transport's own)."""
-    check_type("report", report, PlayReport, "a PlayReport (from play_motion)")
+def report_document(report: StreamReport) -> dict[str, Any]:
+    """The JSON document of a :func:`~choreo.play.play_motion.play_motion` report (or of a
+    ``Player.play`` report, which says nothing of what was played where). The measured start
+    skew and the path errors come from an emulator's wire log (None on real servos: the skew is
+    then the transport's own)."""
+    check_type("report", report, StreamReport, "a PlayReport (from play_motion)")
+    if not isinstance(report, PlayReport):
+        report = PlayReport.of(report)
     skew_ms = report.measured_start_skew_ms
     path_errors_deg = report.path_errors_deg
     transport = transport_of(report.port, report)
@@ -103,20 +189,26 @@ def report_document(report: PlayReport) -> dict[str, Any]:
             "missed_reads": report.missed_reads,
         },
         "path_error_deg_max": max(path_errors_deg) if path_errors_deg else None,
-        "servos": [
-            {
-                "joint": h.joint,
-                "id": h.servo_id,
-                "temp_c": {"min": h.temp_c_min, "max": h.temp_c_max},
-                "vin_mv": {"min": h.vin_mv_min, "max": h.vin_mv_max},
-                "position_error_deg_max": h.position_error_deg_max,
-                "path_error_deg": path_errors_deg[i] if path_errors_deg else None,
-                "reads": h.reads,
-                "missed_reads": h.missed_total,
-            }
-            for i, h in enumerate(report.health)
-        ],
+        "servos": _servo_rows(report.health, path_errors_deg),
     }
+
+
+def _servo_rows(
+    health: tuple[ServoHealth, ...], path_errors_deg: tuple[float, ...] | None
+) -> list[dict[str, Any]]:
+    return [
+        {
+            "joint": h.joint,
+            "id": h.servo_id,
+            "temp_c": {"min": h.temp_c_min, "max": h.temp_c_max},
+            "vin_mv": {"min": h.vin_mv_min, "max": h.vin_mv_max},
+            "position_error_deg_max": h.position_error_deg_max,
+            "path_error_deg": path_errors_deg[i] if path_errors_deg else None,
+            "reads": h.reads,
+            "missed_reads": h.missed_total,
+        }
+        for i, h in enumerate(health)
+    ]
 
 
 def write_report(path: Path, document: dict[str, Any]) -> None:

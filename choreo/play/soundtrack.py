@@ -24,7 +24,8 @@ from choreo.errors import NoAudioOutput
 from choreo.motion.music_block import Music
 from choreo.music.decode import Audio, decode_song
 from choreo.plan.performance import Performance
-from choreo.play.player import Player, PlayReport
+from choreo.play.player import Player
+from choreo.play.report import StreamReport
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +67,7 @@ def play_with_song(
     sink: AudioSink | None,
     audio: Audio | None,
     cue: SongCue | None,
-) -> PlayReport:
+) -> StreamReport:
     """Play ``performance`` with the song cued on the first START; every way out (the end,
     Ctrl-C, SIGTERM, an abort, an error) stops the song too."""
     if sink is None or audio is None or cue is None:

@@ -25,7 +25,7 @@ from choreo.show.messages import (
     ClockReading,
     Finished,
     Go,
-    Progress,
+    PartProgress,
     Readiness,
     Stop,
     decode,
@@ -87,7 +87,7 @@ class ShowReport:
 
 
 Say = Callable[[str], None]
-OnProgress = Callable[[Progress], None]
+OnProgress = Callable[[PartProgress], None]
 
 
 class Conductor:
@@ -117,7 +117,8 @@ class Conductor:
         self.network.subscribe(f"{self.key}/events/*", self._on_finished)
         if on_progress is not None:
             self.network.subscribe(
-                f"{self.key}/progress/*", lambda _k, payload: on_progress(decode(Progress, payload))
+                f"{self.key}/progress/*",
+                lambda _k, payload: on_progress(decode(PartProgress, payload)),
             )
         self.wait_for_performers()
         self.network.watch(PERFORMERS, self._on_performer)

@@ -101,7 +101,10 @@ class Stop:
 
 
 @dataclass(frozen=True)
-class Progress:
+class PartProgress:
+    """How far a performer is into its part (a player's ``PlayProgress``, in the motion's
+    time)."""
+
     performer: str
     time_s: float  # since the motion's t=0 (negative during the approach)
     duration_s: float

@@ -25,15 +25,10 @@ from choreo.emulator import BusEmulator
 from choreo.errors import ChoreoError, PlaybackAborted, SourceError
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
-from choreo.play.player import (
-    Outcome,
-    Player,
-    PlayOptions,
-    PlayReport,
-    ServoLimits,
-    preflight,
-    unchecked,
-)
+from choreo.play.play_options import PlayOptions
+from choreo.play.player import Player
+from choreo.play.preflight import ServoLimits, preflight, unchecked
+from choreo.play.report import Outcome, PlayProgress, StreamReport
 
 # Loading a robot checks its MJCF with MuJoCo, slow to import (a second on a Pi): import it when
 # the performer starts, not while it stages a part during the show's countdown.
@@ -44,7 +39,7 @@ from choreo.show.messages import (
     ClockReading,
     Finished,
     Go,
-    Progress,
+    PartProgress,
     Readiness,
     StagedPart,
     Stop,
@@ -246,7 +241,7 @@ class Performer:
             raise KeyboardInterrupt  # Ctrl-C here: after the conductor was told
 
     def _finished(
-        self, staged: _Staged, report: PlayReport, began_s: float, wall_to_clock_s: float
+        self, staged: _Staged, report: StreamReport, began_s: float, wall_to_clock_s: float
     ) -> Finished:
         outcome, reason = report.outcome.value, report.reason
         if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
@@ -286,17 +281,17 @@ class Performer:
 
 def play_part(
     performer: Performer, staged: _Staged, clock: StoppableClock, first_start_s: float
-) -> PlayReport:
+) -> StreamReport:
     """The one place a performer uses the player: its part from the staged pose, first START at
     ``first_start_s`` on ``clock``; servos left holding."""
     last = [-PROGRESS_PERIOD_S]
     events = f"{show_key(staged.show_id)}/progress/{performer.name}"
     approach_s = staged.performance.approach_s
 
-    def progress(p) -> None:
+    def progress(p: PlayProgress) -> None:
         if p.time_s - last[0] >= PROGRESS_PERIOD_S or p.tick == p.ticks:
             last[0] = p.time_s
-            message = Progress(performer.name, p.time_s - approach_s, p.duration_s - approach_s)
+            message = PartProgress(performer.name, p.time_s - approach_s, p.duration_s - approach_s)
             performer.network.publish(events, encode(message))
 
     player = Player(

@@ -21,8 +21,10 @@ from choreo.bus.servo_config import set_torque
 from choreo.core.clock import Clock
 from choreo.errors import ChoreoError
 from choreo.plan.approach import slow_approach
-from choreo.play.player import Outcome, Player, preflight
+from choreo.play.player import Player
+from choreo.play.preflight import preflight
 from choreo.play.recorder import taught_joints
+from choreo.play.report import Outcome
 from choreo.robot.types import Joint, Robot
 
 MIN_MOVE_DEG = 0.2  # below a servo's step (0.24°): not worth a move
