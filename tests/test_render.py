@@ -24,7 +24,7 @@ from choreo.cli import main
 from choreo.errors import PreviewError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 from choreo.preview import (
     CheckKind,
     CheckResult,
@@ -50,7 +50,7 @@ REPO = Path(__file__).resolve().parents[1]
 def fine():
     """The arm3 test motion, its rollout, and how long the preview runs (from its ticks)."""
     motion = load_motion(FINE)
-    ticks = segment(plan_motion(motion).trajectory, motion.robot).ticks
+    ticks = compile_ticks(plan_motion(motion).trajectory, motion.robot).ticks
     return simulate_motion(motion).rollout, ticks[-1].end_ms / 1000 + SimSettings().tail_s
 
 

@@ -14,7 +14,7 @@ from choreo.core.arguments import check_type
 from choreo.errors import OptionError
 from choreo.plan.pipeline import CompiledMotion
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach, pose_array
-from choreo.plan.ticks import Tick, TickPlan, segment
+from choreo.plan.ticks import Tick, TickPlan, compile_ticks
 from choreo.robot.types import Robot
 
 
@@ -76,7 +76,7 @@ def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Perfor
     first_pose = compiled.trajectory.at(0.0)[0]
     approach = plan_approach(robot, start_pose_deg, first_pose, APPROACH_LIMIT_SCALE)
     return Performance(
-        segment(approach, robot, tolerance_deg=compiled.tolerance_deg),
+        compile_ticks(approach, robot, tolerance_deg=compiled.tolerance_deg),
         compiled.ticks,
         compiled.trajectory,
         approach,

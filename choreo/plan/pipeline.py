@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from choreo.core.arguments import check_number
 from choreo.motion.motion_file import Motion, motion_of
 from choreo.plan.planner import Stretch, Trajectory, plan_motion
-from choreo.plan.ticks import TOLERANCE_DEG, TickPlan, segment
+from choreo.plan.ticks import TOLERANCE_DEG, TickPlan, compile_ticks
 from choreo.robot.types import Robot
 
 
@@ -36,7 +36,7 @@ def compile_motion(
     stretch: bool = False,
     tolerance_deg: float = 0.5,
 ) -> CompiledMotion:
-    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion`` (a
+    """``plan_motion`` then ``compile_ticks``: the ticks ``choreo play`` sends for ``motion`` (a
     :class:`Motion`, or its file's path). ``tolerance_deg``: how far the ticks may stray from
     the smooth plan, up to 5°."""
     motion = motion_of(motion)
@@ -45,6 +45,6 @@ def compile_motion(
     return CompiledMotion(
         motion.robot,
         plan.trajectory,
-        segment(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
+        compile_ticks(plan.trajectory, motion.robot, tolerance_deg=tolerance_deg),
         plan.stretches,
     )

@@ -60,7 +60,7 @@ from choreo.errors import (
 )
 from choreo.motion.timing import SPEED
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
-from choreo.plan.ticks import MOVE_BYTES, START_BYTES, TOLERANCE_DEG, Tick, segment
+from choreo.plan.ticks import MOVE_BYTES, START_BYTES, TOLERANCE_DEG, Tick, compile_ticks
 from choreo.play.realtime import NOT_ASKED, Scheduling, realtime_priority
 from choreo.robot.types import Joint, Robot
 
@@ -843,4 +843,6 @@ def go_to_pose(player: Player, pose: str) -> PlayReport:
     start = [j.to_deg(player.bus.read_position(j.servo_id)) for j in robot.joints]
     trajectory = plan_approach(robot, start, robot.pose_vector(pose), APPROACH_LIMIT_SCALE)
     mover = Player(player.bus, robot, player.clock, player.limits, options)
-    return mover.play(segment(trajectory, robot, tolerance_deg=options.tolerance_deg).ticks, start)
+    return mover.play(
+        compile_ticks(trajectory, robot, tolerance_deg=options.tolerance_deg).ticks, start
+    )

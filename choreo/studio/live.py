@@ -21,7 +21,7 @@ from choreo.bus.servo_config import set_torque
 from choreo.core.clock import Clock
 from choreo.errors import ChoreoError
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 from choreo.play.player import Outcome, Player, PlayOptions, preflight
 from choreo.play.recorder import taught_joints
 from choreo.robot.types import Joint, Robot
@@ -122,7 +122,9 @@ class LiveRobot:
 
     def _move(self, wanted: np.ndarray) -> None:
         trajectory = plan_approach(self.robot, self.pose_deg, wanted, APPROACH_LIMIT_SCALE)
-        ticks = segment(trajectory, self.robot, tolerance_deg=PlayOptions().tolerance_deg).ticks
+        ticks = compile_ticks(
+            trajectory, self.robot, tolerance_deg=PlayOptions().tolerance_deg
+        ).ticks
         player = Player(self.bus, self.robot, self.clock, self._limits, on_progress=self._check)
         try:
             with self._bus_lock:
