@@ -238,7 +238,7 @@ def preflight(bus: ServoBus, robot: Robot) -> tuple[tuple[float, ...], dict[str,
     ChoreoError listing every problem; nothing has moved then.
     """
     _check_bus_and_robot(bus, robot)
-    presence = {j: bus.probe(j.servo_id, retries=2) for j in robot.joints}
+    presence = {j: bus.presence(j.servo_id, retries=2) for j in robot.joints}
     silent = [j for j, p in presence.items() if p is Presence.SILENT]
     garbled = [j for j, p in presence.items() if p is Presence.GARBLED]
     problems = []
