@@ -44,6 +44,7 @@ from choreo.show.messages import (
     ClockReading,
     Finished,
     Go,
+    PartOutcome,
     Progress,
     Readiness,
     StagedPart,
@@ -239,7 +240,9 @@ class Performer:
         )
         finished = self._finished(staged, report, began_s, wall_to_clock_s)
         self.network.publish(f"{show_key(staged.show_id)}/events/{self.name}", encode(finished))
-        self.say(f"part {finished.outcome}{': ' + finished.reason if finished.reason else ''}")
+        self.say(
+            f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
+        )
         if staged.emulator is not None:
             self.say(wire_summary(staged.emulator, began_s))
         if report.outcome is Outcome.INTERRUPTED:
@@ -248,9 +251,9 @@ class Performer:
     def _finished(
         self, staged: _Staged, report: PlayReport, began_s: float, wall_to_clock_s: float
     ) -> Finished:
-        outcome, reason = report.outcome.value, report.reason
+        outcome, reason = PartOutcome(report.outcome.value), report.reason
         if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
-            outcome, reason = "stopped", self.stop_reason
+            outcome, reason = PartOutcome.STOPPED, self.stop_reason
         first_start = report.start_time_s + staged.performance.approach_s
         approach_start = report.start_time_s + (
             report.lateness_ms[0] / 1000 if report.lateness_ms else 0
