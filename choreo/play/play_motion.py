@@ -25,7 +25,7 @@ from choreo.core.arguments import check_callable, check_type, shown
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.backend import connection as emulator_connection
-from choreo.emulator.trace import start_skew_ms
+from choreo.emulator.trace import WireTrace, start_skew_ms
 from choreo.errors import NoAudioOutput, OptionError
 from choreo.motion.motion_file import Motion, motion_of, too_many_played
 from choreo.motion.music_block import check_speed, past_song
@@ -258,7 +258,7 @@ def _described(
     """The report with what the play was of and, on an emulator, what its wire log shows."""
     errors = skew_ms = None
     if bus.emulator is not None:
-        moves = bus.emulator.log.moves
+        moves = WireTrace.of(bus.emulator).moves
         errors = measured_path_errors(moves, motion.robot, performance, report, start_pose)
         skew_ms = start_skew_ms(moves, report.start_time_s, report.start_time_s + report.elapsed_s)
     return dataclasses.replace(
