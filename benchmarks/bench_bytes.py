@@ -25,7 +25,7 @@ from rich.table import Table
 
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import Trajectory, plan_motion
-from choreo.plan.ticks import MOVE_BYTES, QUANTIZATION_DEG, segment, staging_bytes
+from choreo.plan.ticks import MOVE_BYTES, QUANTIZATION_DEG, compile_ticks, staging_bytes
 from choreo.robot.types import Robot
 
 TOLERANCE_DEG = 0.5
@@ -97,7 +97,7 @@ def main() -> None:
     for name, motion in rows:
         robot = motion.robot
         trajectory = plan_motion(motion, stretch=True).trajectory
-        plan = segment(trajectory, robot, tolerance_deg=TOLERANCE_DEG)
+        plan = compile_ticks(trajectory, robot, tolerance_deg=TOLERANCE_DEG)
         ours = plan.total_bytes
         bounds, _, staged20, dev20 = fixed_period(robot, trajectory, STREAM_MS)
         stream20 = (len(bounds) - 1) * len(robot.joints) * MOVE_BYTES

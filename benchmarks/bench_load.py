@@ -38,7 +38,7 @@ from choreo.motion.writer import motion_text, robot_reference
 from choreo.plan.pipeline import CompiledMotion
 from choreo.plan.planner import plan_motion
 from choreo.plan.report import plan_report
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 from choreo.robot.robot_file import load_robot
 
 GOAL_S = 1.0  # median
@@ -90,7 +90,7 @@ def stage_times_s(path: Path) -> dict[str, float]:
     plan = plan_motion(motion, stretch=True)
     times["planning"] = clock() - start
     start = clock()
-    ticks = segment(plan.trajectory, motion.robot)
+    ticks = compile_ticks(plan.trajectory, motion.robot)
     times["ticks"] = clock() - start
     start = clock()
     compiled = CompiledMotion(motion.robot, plan.trajectory, ticks, plan.stretches)

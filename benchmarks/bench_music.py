@@ -34,6 +34,7 @@ from choreo.bus.protocol import Command  # noqa: E402
 from choreo.bus.servo_bus import ServoBus  # noqa: E402
 from choreo.core.clock import RealClock  # noqa: E402
 from choreo.emulator import BusEmulator, ServoSpec, connection  # noqa: E402
+from choreo.emulator.trace import WireTrace  # noqa: E402
 from choreo.motion.motion_file import load_motion  # noqa: E402
 from choreo.music.decode import Audio, decode_song, encode  # noqa: E402
 from choreo.plan.performance import prepare  # noqa: E402
@@ -110,7 +111,9 @@ def song_offsets(runs: int) -> None:
         cue = SongCue.of(motion.music, performance)
         play_with_song(player, performance, start, sink, Audio(np.zeros(1, np.float32), 1), cue)
         first_start = next(
-            p.time_s for p in emulator.log.packets if p.packet.command is Command.MOVE_START
+            p.time_s
+            for p in WireTrace.of(emulator).packets
+            if p.packet.command is Command.MOVE_START
         )
         offsets_ms.append((sink.sounds_at_s - first_start) * 1000)
     offsets = np.array(offsets_ms)

@@ -1,8 +1,8 @@
-"""Planning + segmenting speed on a long motion.
+"""Planning + tick compiling speed on a long motion.
 
 A generated 10-minute, 18-servo, 2,000-keyframe motion (benchmarks/motion_gen.py): time
-``plan_motion`` and ``segment`` separately, best and median of several runs.
-Goal: plan + segment under 1 s on the 2-core development machine.
+``plan_motion`` and ``compile_ticks`` separately, best and median of several runs.
+Goal: plan + compile_ticks under 1 s on the 2-core development machine.
 
 Run: python benchmarks/bench_planner.py [--runs N]
 """
@@ -17,7 +17,7 @@ import time
 from motion_gen import dance, servo_robot
 
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 
 GOAL_S = 1.0
 
@@ -29,17 +29,17 @@ def main() -> None:
 
     robot = servo_robot(18)
     motion = dance(robot, n_keyframes=2000, duration_s=600.0)
-    plan_s, segment_s, total_s, cpu_s = [], [], [], []
+    plan_s, ticks_s, total_s, cpu_s = [], [], [], []
     for _ in range(args.runs):
         c0 = time.process_time()
         t0 = time.perf_counter()
         result = plan_motion(motion, stretch=True)
         t1 = time.perf_counter()
-        ticks = segment(result.trajectory, robot)
+        ticks = compile_ticks(result.trajectory, robot)
         t2 = time.perf_counter()
         cpu_s.append(time.process_time() - c0)
         plan_s.append(t1 - t0)
-        segment_s.append(t2 - t1)
+        ticks_s.append(t2 - t1)
         total_s.append(t2 - t0)
 
     trajectory = result.trajectory
@@ -55,8 +55,8 @@ def main() -> None:
     )
     for name, runs in (
         ("plan", plan_s),
-        ("segment", segment_s),
-        ("plan + segment", total_s),
+        ("compile_ticks", ticks_s),
+        ("plan + compile_ticks", total_s),
         ("(CPU time)", cpu_s),
     ):
         print(
@@ -66,7 +66,7 @@ def main() -> None:
     verdict = "met" if min(total_s) < GOAL_S else "NOT met"
     load = os.getloadavg()[0]
     print(
-        f"goal plan + segment < {GOAL_S:g} s: {verdict} (load average {load:.1f} on "
+        f"goal plan + compile_ticks < {GOAL_S:g} s: {verdict} (load average {load:.1f} on "
         f"{os.cpu_count()} cores while measuring)"
     )
 

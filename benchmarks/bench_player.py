@@ -29,6 +29,7 @@ import numpy as np
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, connection, trace
+from choreo.emulator.trace import WireTrace
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
@@ -152,11 +153,12 @@ class Way:
 
 def start_skew_ms(emulator: BusEmulator) -> float:
     """Largest spread of move start times within one burst of commands."""
-    return trace.start_skew_ms(emulator.log.moves)
+    return trace.start_skew_ms(WireTrace.of(emulator).moves)
 
 
 def written_bytes(emulator: BusEmulator, since_s: float) -> int:
-    return sum(len(p.packet.encode()) for p in emulator.log.packets if p.time_s >= since_s)
+    packets = WireTrace.of(emulator).packets
+    return sum(len(p.packet.encode()) for p in packets if p.time_s >= since_s)
 
 
 # Every way starts with the servos at the motion's first pose, so only playing is compared.
@@ -174,7 +176,7 @@ def play_choreo(motion) -> Way:
     starts = [j.to_units(a) for j, a in zip(motion.robot.joints, start)]
     times = np.arange(0.0, report.planned_s, 0.002)
     errors = path_errors_deg(
-        emulator.log.moves,
+        WireTrace.of(emulator).moves,
         motion.robot,
         starts,
         report.start_time_s,
@@ -237,7 +239,7 @@ def _measure(name, emulator, robot, trajectory, t0) -> Way:
     start_units = [j.to_units(a) for j, a in zip(robot.joints, trajectory.at(0.0)[0])]
     error = max(
         path_errors_deg(
-            emulator.log.moves, robot, start_units, t0, times, trajectory.positions(times)
+            WireTrace.of(emulator).moves, robot, start_units, t0, times, trajectory.positions(times)
         )
     )
     return Way(name, start_skew_ms(emulator), error, written_bytes(emulator, t0))

@@ -35,7 +35,7 @@ RENDERED = REPO / "motions" / "hexapod18" / "tripod_gait.yaml"
 
 
 def physics(repeat: int) -> None:
-    print("hexapod physics, no rendering (planning and segmenting not timed):")
+    print("hexapod physics, no rendering (planning and compiling the ticks not timed):")
     for path in HEXAPOD_MOTIONS:
         motion = load_motion(path)
         compiled = compile_motion(motion)

@@ -27,6 +27,7 @@ from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.boards import BOARDS
 from choreo.emulator.pty import PtyBridge
+from choreo.emulator.trace import WireTrace
 from choreo.robot.robot_file import load_robot
 
 REPO = Path(__file__).resolve().parents[1]
@@ -55,7 +56,7 @@ PLAYING = {
 
 def playing(kind: str, emulator: BusEmulator) -> bool:
     command, count = PLAYING[kind]
-    return sum(p.packet.command == command for p in list(emulator.log.packets)) >= count
+    return sum(p.packet.command == command for p in WireTrace.of(emulator).packets) >= count
 
 
 def signal_to_stop_ms(kind: str, folder: Path) -> float:
@@ -79,7 +80,7 @@ def signal_to_stop_ms(kind: str, folder: Path) -> float:
             if process.poll() is not None:
                 raise SystemExit(f"choreo play on {port} exited early: {process.communicate()[1]}")
             time.sleep(0.002)
-        sent_before = len(emulator.log.packets)
+        sent_before = len(WireTrace.of(emulator).packets)
         pressed_s = time.monotonic()  # the emulator's RealClock is time.monotonic
         process.send_signal(signal.SIGINT)
         process.wait(timeout=30)
@@ -88,7 +89,7 @@ def signal_to_stop_ms(kind: str, folder: Path) -> float:
         bridge.stop()
         thread.join(30)
         bridge.close()
-    after = list(emulator.log.packets)[sent_before:]
+    after = WireTrace.of(emulator).packets[sent_before:]
     stop = next(p for p in after if p.packet.command == STOP[kind])
     return (stop.time_s - pressed_s) * 1000
 

@@ -24,6 +24,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, connection
 from choreo.emulator.boards import BOARDS
+from choreo.emulator.trace import WireTrace, start_skew_ms
 from choreo.motion.motion_file import load_motion
 from choreo.plan.performance import prepare
 from choreo.plan.pipeline import compile_motion
@@ -40,18 +41,11 @@ TRANSPORTS = {"raw LX bus": BusEmulator, "RRC board": BOARDS["rrc"], "LOBOT UART
 MOVE_COMMANDS = (Command.MOVE_TIME_WRITE, Command.MOVE_START)
 
 
-def tick_skew_ms(emulator: BusEmulator, t0: float, gap_s: float = 0.0015) -> float:
+def tick_skew_ms(wire: WireTrace, t0: float, gap_s: float = 0.0015) -> float:
     """Largest first-to-last spread of one tick's move starts: a board forwards a frame's
     moves 0.87 ms apart, so starts closer than ``gap_s`` to the previous belong to one tick."""
-    times = sorted(
-        m.time_s for m in emulator.log.moves if m.time_s >= t0 and m.command in MOVE_COMMANDS
-    )
-    skew, first, last = 0.0, None, None
-    for t in times:
-        if last is None or t - last > gap_s:
-            first = t
-        skew, last = max(skew, t - first), t
-    return skew * 1000
+    moves = [m for m in wire.moves if m.command in MOVE_COMMANDS]
+    return start_skew_ms(moves, since_s=t0, group_gap_s=gap_s)
 
 
 def play(path: str, emulator_class) -> dict:
@@ -70,8 +64,9 @@ def play(path: str, emulator_class) -> dict:
         performance = prepare(compiled, start)
         report = Player(bus, robot, clock, limits).play(performance.ticks, start)
     times = np.arange(0.0, report.planned_s, 0.002)
+    wire = WireTrace.of(emulator)
     errors = path_errors_deg(
-        emulator.log.moves,
+        wire.moves,
         robot,
         [j.to_units(a) for j, a in zip(robot.joints, start)],
         report.start_time_s,
@@ -80,7 +75,7 @@ def play(path: str, emulator_class) -> dict:
     )
     return {
         "outcome": report.outcome.value,
-        "skew_ms": tick_skew_ms(emulator, report.start_time_s - 0.1),
+        "skew_ms": tick_skew_ms(wire, report.start_time_s - 0.1),
         "declared_skew_ms": report.start_skew_ms,
         "path_error_deg": max(errors),
         "bytes": report.bytes_sent,

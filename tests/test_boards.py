@@ -48,7 +48,7 @@ def test_rrc_answers_status_ff_for_a_silent_servo_after_its_5_ms():
     with board_bus("rrc") as bus:
         emulator = bus.emulator
         sent_s = emulator.clock.now()
-        assert bus.probe(9) is Presence.SILENT
+        assert bus.presence(9) is Presence.SILENT
         # the board's FF reply arrived: the host did not wait its own 50 ms timeout
         assert emulator.clock.now() - sent_s < SERVO_REPLY_TIMEOUT_S + 0.002
         assert emulator.clock.now() - sent_s >= SERVO_REPLY_TIMEOUT_S

@@ -26,7 +26,7 @@ from choreo.interop.d6a import (
 )
 from choreo.motion.motion_file import Motion, load_motion
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 from choreo.robot.robot_file import load_robot
 from choreo.validate import check_file
 
@@ -110,7 +110,7 @@ def test_every_vendor_file_plans_and_compiles_with_stretch(source, tonypi):
     assert result.trajectory.duration_s == pytest.approx(
         rows_s + sum(s.shift_s for s in result.stretches), abs=1e-6
     )
-    assert segment(result.trajectory, tonypi).ticks
+    assert compile_ticks(result.trajectory, tonypi).ticks
 
 
 def test_times_and_angles_of_wave_come_from_its_rows(tmp_path):

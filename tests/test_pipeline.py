@@ -9,7 +9,7 @@ from choreo.errors import OptionError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.pipeline import PlanOptions, compile_motion
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, segment
+from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, compile_ticks
 
 WAVE = "motions/arm6/wave.yaml"
 
@@ -23,7 +23,7 @@ def test_compiling_is_planning_then_segmenting_with_the_options_passed_on():
     assert compiled.trajectory.duration_s == plan.trajectory.duration_s
     times = np.linspace(0, plan.trajectory.duration_s, 50)
     assert np.array_equal(compiled.trajectory.positions(times), plan.trajectory.positions(times))
-    assert compiled.ticks == segment(plan.trajectory, motion.robot, tolerance_deg=0.25)
+    assert compiled.ticks == compile_ticks(plan.trajectory, motion.robot, tolerance_deg=0.25)
     assert compiled.stretches == ()
 
 

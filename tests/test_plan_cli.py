@@ -12,7 +12,7 @@ from choreo.cli import main
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
 from choreo.plan.plot import plot_size_px
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 
 REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
@@ -36,7 +36,7 @@ def test_report_names_the_figures_of_the_plan(capsys):
     out = capsys.readouterr().out
     motion = load_motion(WAVE)
     trajectory = plan_motion(motion).trajectory
-    ticks = segment(trajectory, motion.robot)
+    ticks = compile_ticks(trajectory, motion.robot)
     assert f"{trajectory.duration_s:.3f} s" in out
     assert f"{len(ticks.ticks)} ticks, {ticks.total_bytes} bytes" in out
     assert "peak bus use" in out and "max deviation" in out
@@ -48,7 +48,7 @@ def test_json_report_agrees_with_the_api(capsys):
     report = run_json(capsys, WAVE)
     motion = load_motion(WAVE)
     trajectory = plan_motion(motion).trajectory
-    ticks = segment(trajectory, motion.robot)
+    ticks = compile_ticks(trajectory, motion.robot)
     assert report["duration_s"] == pytest.approx(trajectory.duration_s)
     assert report["ticks"] == len(ticks.ticks)
     assert report["bytes"] == ticks.total_bytes == sum(t.bytes for t in ticks.ticks)

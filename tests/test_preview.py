@@ -20,7 +20,7 @@ from choreo.cli import main
 from choreo.errors import PreviewError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import Tick, segment
+from choreo.plan.ticks import Tick, compile_ticks
 from choreo.play.dry_run import packet_schedule
 from choreo.preview import (
     CheckKind,
@@ -128,7 +128,7 @@ def test_the_command_stream_is_what_the_player_sends(arm3):
     """Cross-check with the player's packet schedule: the same STARTs, each after the same
     staged servos."""
     motion = load_motion(MOTIONS / "fine.yaml")
-    ticks = segment(plan_motion(motion).trajectory, arm3).ticks
+    ticks = compile_ticks(plan_motion(motion).trajectory, arm3).ticks
     stream = CommandStream.from_ticks(ticks, len(arm3.joints))
     ids = [j.servo_id for j in arm3.joints]
     sent_starts, staged_ids = [], set()
@@ -325,7 +325,7 @@ def tick_at(ticks, t_s: float) -> Tick:
 def test_a_collision_is_caught_naming_the_bodies_within_a_tick(name, kind, bodies, touching):
     motion = load_motion(MOTIONS / name)
     trajectory = plan_motion(motion).trajectory
-    ticks = segment(trajectory, motion.robot).ticks
+    ticks = compile_ticks(trajectory, motion.robot).ticks
     expected_s = first_touch_s(motion.robot, trajectory, touching)
     results = run_checks(simulate_motion(motion))
     found = [r for r in results if r.kind is kind]
@@ -356,7 +356,7 @@ def first_overload_s(robot, trajectory, joint: str) -> float:
 def test_a_stall_is_caught_at_the_shoulder_within_a_tick_of_the_overload(name):
     motion = load_motion(MOTIONS / name)
     trajectory = plan_motion(motion).trajectory
-    ticks = segment(trajectory, motion.robot).ticks
+    ticks = compile_ticks(trajectory, motion.robot).ticks
     expected_s = first_overload_s(motion.robot, trajectory, "shoulder")
     simulated = simulate_motion(motion, start_pose="first")  # at rest in the first pose
     stalls = [r for r in run_checks(simulated) if r.kind is CheckKind.SATURATION]

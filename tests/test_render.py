@@ -24,7 +24,7 @@ from choreo.cli import main
 from choreo.errors import PreviewError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
-from choreo.plan.ticks import segment
+from choreo.plan.ticks import compile_ticks
 from choreo.preview import (
     CheckKind,
     CheckResult,
@@ -50,7 +50,7 @@ REPO = Path(__file__).resolve().parents[1]
 def fine():
     """The arm3 test motion, its rollout, and how long the preview runs (from its ticks)."""
     motion = load_motion(FINE)
-    ticks = segment(plan_motion(motion).trajectory, motion.robot).ticks
+    ticks = compile_ticks(plan_motion(motion).trajectory, motion.robot).ticks
     return simulate_motion(motion).rollout, ticks[-1].end_ms / 1000 + SimSettings().tail_s
 
 
@@ -67,14 +67,16 @@ def video_frames(path: Path) -> np.ndarray:
 def test_an_offscreen_backend_works_on_this_machine():
     backend = gl.offscreen_backend()
     assert backend in ("egl", "osmesa")
-    assert gl.probe(backend) is None
+    assert gl.backend_problem(backend) is None
 
 
 def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "")
     tried = []
     monkeypatch.setattr(
-        gl, "probe", lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None)
+        gl,
+        "backend_problem",
+        lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None),
     )
     assert gl.choose_backend() == "osmesa"
     assert tried == ["egl", "osmesa"]
@@ -82,27 +84,27 @@ def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
 
 def test_no_working_backend_fails_saying_what_to_install(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "")
-    monkeypatch.setattr(gl, "probe", lambda backend: f"{backend} library missing")
+    monkeypatch.setattr(gl, "backend_problem", lambda backend: f"{backend} library missing")
     with pytest.raises(PreviewError, match="egl: egl library missing; osmesa: .*libosmesa6"):
         gl.choose_backend()
 
 
-def test_mujoco_gl_in_the_environment_is_used_without_probing(monkeypatch):
+def test_mujoco_gl_in_the_environment_is_used_without_trying_others(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "osmesa")
-    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
     assert gl.choose_backend() == "osmesa"
 
 
 @pytest.mark.parametrize("value", ["glfw", " GLFW "])
-def test_glfw_named_is_used_without_probing(monkeypatch, value):
+def test_glfw_named_is_used_without_trying_others(monkeypatch, value):
     monkeypatch.setenv("MUJOCO_GL", value)
-    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
     assert gl.choose_backend() == "glfw"
 
 
 def test_a_mujoco_gl_that_names_no_backend_is_refused_naming_the_valid_ones(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "bogus")
-    monkeypatch.setattr(gl, "probe", lambda backend: pytest.fail("probed"))
+    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
     with pytest.raises(PreviewError) as raised:
         gl.choose_backend()
     assert str(raised.value) == (

@@ -95,7 +95,7 @@ def test_scan_tries_each_id_once_with_the_bus_timeout():
 def test_servos_sharing_an_id_are_garbled_not_absent():
     emulator = BusEmulator([ServoSpec(1), ServoSpec(1), ServoSpec(2)], clock=VirtualClock())
     bus = ServoBus(connection(emulator))
-    assert [bus.probe(i) for i in (1, 2, 3)] == [
+    assert [bus.presence(i) for i in (1, 2, 3)] == [
         Presence.GARBLED,
         Presence.ANSWERS,
         Presence.SILENT,

@@ -14,6 +14,7 @@ import jsonschema
 import pytest
 import yaml
 
+from choreo import Outcome
 from choreo.core.clock import RealClock
 from choreo.errors import ChoreoError, OptionError, PlaybackAborted, SourceError
 from choreo.motion.motion_file import load_motion
@@ -27,7 +28,15 @@ from choreo.show.clock_offset import (
     exceeds,
     measure,
 )
-from choreo.show.messages import ClockReading, Finished, Readiness, StagedPart, decode, encode
+from choreo.show.messages import (
+    ClockReading,
+    Finished,
+    PartOutcome,
+    Readiness,
+    StagedPart,
+    decode,
+    encode,
+)
 from choreo.show.performer import StoppableClock
 from choreo.show.showfile import OnAbort, load_show
 from choreo.show.staging import pack, unpack
@@ -219,10 +228,22 @@ def test_a_staged_file_outside_the_folder_is_refused(tmp_path, name):
 def test_messages_round_trip_and_a_foreign_one_is_one_clear_error():
     ready = Readiness("tony", "tonypi", ("a", "b"), 1.5, 17.0, ("temperature",))
     assert decode(Readiness, encode(ready)) == ready
-    finished = Finished("tony", "completed", "", 5, 5, 1.0, 2.0, None, 0.1)
+    finished = Finished("tony", PartOutcome.STOPPED, "", 5, 5, 1.0, 2.0, None, 0.1)
+    assert json.loads(encode(finished))["outcome"] == "stopped"  # the wire keeps plain values
     assert decode(Finished, encode(finished)) == finished
     with pytest.raises(ChoreoError, match="a Readiness message could not be read"):
         decode(Readiness, b'{"who": 1}')
+
+
+def test_an_outcome_this_version_does_not_know_is_one_clear_error():
+    sent = json.loads(encode(Finished("tony", PartOutcome.COMPLETED, "", 5, 5, 1.0, 2.0, None, 0)))
+    with pytest.raises(ChoreoError, match="a Finished message could not be read"):
+        decode(Finished, json.dumps({**sent, "outcome": "vanished"}).encode())
+
+
+def test_every_way_a_play_ends_is_a_way_a_part_ends():
+    """The performer reports its player's Outcome as the PartOutcome of the same value."""
+    assert [PartOutcome(o.value).name for o in Outcome] == [o.name for o in Outcome]
 
 
 def test_without_zenoh_a_show_says_which_extra_to_install(monkeypatch):

@@ -19,7 +19,7 @@ from choreo.plan.ticks import (
     MOVE_BYTES,
     START_BYTES,
     Tick,
-    segment,
+    compile_ticks,
     staging_bytes,
     wire_time_ms,
 )
@@ -91,7 +91,7 @@ def test_final_targets_are_the_servo_units_of_the_last_pose():
     trajectory = plan_motion(
         make_motion(robot, [kf([0, 0, 0], 1), kf([30, 30, -90], 2)])
     ).trajectory
-    plan = segment(trajectory, robot)
+    plan = compile_ticks(trajectory, robot)
     # 500 + 30 * 1000/240 = 625; direction -1: 375; -90° = -375 units
     assert plan.ticks[-1].targets_units == (625, 375, 125)
     check_plan(robot, trajectory, plan, 0.5)
@@ -102,7 +102,7 @@ def test_a_joint_that_never_moves_is_never_staged():
     trajectory = plan_motion(
         make_motion(robot, [kf([0, 10, 0], 1), kf([40, 10, -20], 2), kf([-40, 10, 20], 3)])
     ).trajectory
-    plan = segment(trajectory, robot)
+    plan = compile_ticks(trajectory, robot)
     assert not any(t.staged[1] for t in plan.ticks)
     assert all(t.targets_units[1] == 458 for t in plan.ticks)  # 500 - 10 * 1000/240
     assert plan.total_bytes == sum(10 * sum(t.staged) + 6 for t in plan.ticks if any(t.staged))
@@ -113,7 +113,7 @@ def test_a_long_hold_is_split_into_moves_the_servo_accepts_and_costs_nothing():
     trajectory = plan_motion(
         make_motion(robot, [kf([0, 0], 1), kf([20, 20], 2, hold=65.0), kf([0, 0], 3)])
     ).trajectory
-    plan = segment(trajectory, robot)
+    plan = compile_ticks(trajectory, robot)
     assert max(t.duration_ms for t in plan.ticks) == MAX_TICK_MS
     idle = [t for t in plan.ticks if t.duration_ms == MAX_TICK_MS]
     assert len(idle) >= 2 and all(t.bytes == 0 for t in idle[1:])
@@ -127,8 +127,8 @@ def test_tighter_tolerance_needs_more_ticks():
         [kf([0] * 6, 1), kf([60, -40, 30, 10, -70, 20], 2), kf([-50, 40, -30, 0, 70, -20], 3)],
     )
     trajectory = plan_motion(motion).trajectory
-    coarse = segment(trajectory, robot, tolerance_deg=1.0)
-    fine = segment(trajectory, robot, tolerance_deg=0.2)
+    coarse = compile_ticks(trajectory, robot, tolerance_deg=1.0)
+    fine = compile_ticks(trajectory, robot, tolerance_deg=0.2)
     assert len(fine.ticks) > len(coarse.ticks)
     check_plan(robot, trajectory, coarse, 1.0)
     check_plan(robot, trajectory, fine, 0.2)
@@ -137,7 +137,7 @@ def test_tighter_tolerance_needs_more_ticks():
 def test_an_empty_trajectory_has_no_ticks():
     robot = make_robot(2)
     trajectory = plan_motion(make_motion(robot, [kf([10, 10], 1)])).trajectory
-    assert segment(trajectory, robot).ticks == ()
+    assert compile_ticks(trajectory, robot).ticks == ()
 
 
 # --- errors ------------------------------------------------------------------------------------
@@ -151,7 +151,7 @@ def test_leaving_the_servo_range_is_an_error_not_a_clamp():
         match=r"j1 \(servo 2\) would need position -\d+ .*"
         r"outside the servo's 0..1000",
     ) as caught:
-        segment(trajectory, robot)
+        compile_ticks(trajectory, robot)
     assert len(caught.value.problems) == 1 and str(caught.value) == caught.value.problems[0]
 
 
@@ -165,16 +165,16 @@ def test_a_tolerance_the_bus_cannot_reach_is_an_error_that_says_what_would_do():
         match=r"tolerance 0.1° cannot be met at the bus rate: a "
         r"tick must last at least 18 ms to stage 18 servos",
     ):
-        segment(trajectory, robot, tolerance_deg=0.1)
+        compile_ticks(trajectory, robot, tolerance_deg=0.1)
 
 
 def test_bad_arguments():
     robot = make_robot(2)
     trajectory = plan_motion(make_motion(robot, [kf([0, 0], 1), kf([10, 0], 2)])).trajectory
     with pytest.raises(ValueError, match="tolerance_deg"):
-        segment(trajectory, robot, tolerance_deg=0)
+        compile_ticks(trajectory, robot, tolerance_deg=0)
     with pytest.raises(ValueError, match="joints"):
-        segment(trajectory, make_robot(3))
+        compile_ticks(trajectory, make_robot(3))
 
 
 # --- quality -----------------------------------------------------------------------------------
@@ -213,7 +213,7 @@ def test_greedy_is_within_one_tick_of_the_fewest(tolerance_deg):
         ],
     )
     trajectory = plan_motion(motion).trajectory
-    plan = segment(trajectory, robot, tolerance_deg=tolerance_deg)
+    plan = compile_ticks(trajectory, robot, tolerance_deg=tolerance_deg)
     floor_ms = math.ceil(wire_time_ms(staging_bytes(6)) + 1.5)
     # ticks on the 2 ms lattice: within one of the fewest there, and of the fewest on whole
     # milliseconds within 5 % (plus that one)
@@ -224,14 +224,14 @@ def test_greedy_is_within_one_tick_of_the_fewest(tolerance_deg):
 def test_approach_segments_too():
     robot = make_robot(6)
     trajectory = plan_approach(robot, [85, -85, 40, 0, 10, -60], [0] * 6)
-    check_plan(robot, trajectory, segment(trajectory, robot), 0.5)
+    check_plan(robot, trajectory, compile_ticks(trajectory, robot), 0.5)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(motions())
 def test_random_motions_compile_to_ticks_within_tolerance_bus_floor_and_range(motion):
     trajectory = plan_motion(motion, stretch=True).trajectory
-    plan = segment(trajectory, motion.robot)
+    plan = compile_ticks(trajectory, motion.robot)
     if trajectory.duration_s == 0:
         assert plan.ticks == ()
         return
@@ -245,4 +245,4 @@ SHIPPED = sorted((Path(__file__).resolve().parents[1] / "motions").glob("*/*.yam
 def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
     motion = load_motion(path)
     trajectory = plan_motion(motion).trajectory
-    check_plan(motion.robot, trajectory, segment(trajectory, motion.robot), 0.5)
+    check_plan(motion.robot, trajectory, compile_ticks(trajectory, motion.robot), 0.5)

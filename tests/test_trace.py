@@ -1,5 +1,5 @@
-"""choreo.emulator.trace: the servos' paths rebuilt from the wire log's move starts, and the
-spread of the starts within a tick."""
+"""choreo.emulator.trace: the wire log read back (when STARTs and STOPs reached the servos), the
+servos' paths rebuilt from its move starts, and the spread of the starts within a tick."""
 
 from __future__ import annotations
 
@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, connection
 from choreo.emulator.emulated_servo import StartedMove
-from choreo.emulator.trace import executed_units, start_skew_ms
+from choreo.emulator.trace import WireTrace, executed_units, start_skew_ms
 
 
 def move(time_s, servo_id, from_units, to_units, duration_s):
@@ -47,3 +50,28 @@ def test_start_skew_is_the_spread_within_a_burst_of_starts():
     assert start_skew_ms(starts(0, 0, 0, 100, 100)) == 0.0
     assert start_skew_ms(starts(0, 0.87, 1.74, 100, 100.87)) == pytest.approx(1.74)
     assert start_skew_ms(starts(0, 3, 50), since_s=0.01) == 0.0
+
+
+def test_a_wire_trace_says_when_each_start_and_the_last_stop_reached_the_servos():
+    clock = VirtualClock()
+    emulator = BusEmulator((1, 2), clock=clock)
+    bus = ServoBus(connection(emulator))
+    for at_s in (1.0, 2.0, 3.0):  # three ticks, each staged then started at at_s
+        clock.sleep_until(at_s)
+        bus.stage_move(1, 300, 100)
+        bus.stage_move(2, 700, 100)
+        bus.start()
+    clock.sleep_until(4.0)
+    bus.stop()
+    clock.sleep_until(4.1)  # its bytes on the wire
+    trace = WireTrace.of(emulator)
+    clock.sleep_until(5.0)
+    bus.stop()  # after the copy: not in it
+    clock.sleep_until(5.1)
+
+    starts = trace.start_times_s(since_s=1.5)  # the one at 1.0 is before
+    assert len(starts) == 2  # one time per START, though each began two moves
+    assert 2.0 < starts[0] < 2.01 and 3.0 < starts[1] < 3.01  # the START's bytes on the wire
+    assert 4.0 < trace.last_stop_s(since_s=0.0) < 4.01
+    assert trace.last_stop_s(since_s=4.5) is None
+    assert WireTrace.of(emulator).last_stop_s(since_s=4.5) > 5.0

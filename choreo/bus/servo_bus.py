@@ -58,7 +58,7 @@ log = logging.getLogger(__name__)
 
 
 class Presence(enum.Enum):
-    """What a probe with ID_READ found at one ID."""
+    """Whether a servo answers ID_READ at one ID (``ServoBus.presence``)."""
 
     ANSWERS = "answers"
     SILENT = "silent"  # nothing came back: no servo has this ID (or it is unpowered)
@@ -449,7 +449,9 @@ class ServoBus:
             self.backend.stop_many(list(servo_ids))
 
     # --- several commands ----------------------------------------------------------------------
-    def probe(self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0) -> Presence:
+    def presence(
+        self, servo_id: int, *, timeout_s: float | None = None, retries: int = 0
+    ) -> Presence:
         """Whether a servo answers ID_READ at ``servo_id``, stays silent, or answers garbled.
 
         A ``ProtocolError`` that is not about garbled replies (no try saw its echo in DISCARD
@@ -483,11 +485,11 @@ class ServoBus:
         timeout_s: float | None = None,
         retries: int = 0,
     ) -> ScanResult:
-        """Probe each ID in order. Each absent ID costs ``timeout_s`` (the bus's by default; USB
-        adapters add up to 16 ms of latency) times ``1 + retries``."""
+        """Each ID's ``presence``, in order. Each absent ID costs ``timeout_s`` (the bus's by
+        default; USB adapters add up to 16 ms of latency) times ``1 + retries``."""
         if not isinstance(ids, Iterable):
             raise OptionError("ids", f"must be servo IDs (e.g. range(1, 7)), got {shown(ids)}")
-        presence = {i: self.probe(i, timeout_s=timeout_s, retries=retries) for i in ids}
+        presence = {i: self.presence(i, timeout_s=timeout_s, retries=retries) for i in ids}
         return ScanResult(
             found=tuple(i for i, p in presence.items() if p is Presence.ANSWERS),
             garbled=tuple(i for i, p in presence.items() if p is Presence.GARBLED),

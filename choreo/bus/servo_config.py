@@ -327,7 +327,7 @@ def plan_id_change(
         change = IdChange(current_id, new_id, found_alone=True)
     else:
         _check_addressable(current_id)
-        presence = bus.probe(current_id, retries=2)
+        presence = bus.presence(current_id, retries=2)
         if presence is Presence.GARBLED:
             raise BusError(
                 f"replies at ID {current_id} are garbled: several servos share it, and "
@@ -339,7 +339,7 @@ def plan_id_change(
                 "power and wiring"
             )
         change = IdChange(current_id, new_id, found_alone=False)
-    if not change.unchanged and bus.probe(new_id, retries=1) is not Presence.SILENT:
+    if not change.unchanged and bus.presence(new_id, retries=1) is not Presence.SILENT:
         raise BusError(
             f"ID {new_id} is already used by another servo on the bus: two servos with one ID "
             "garble each other's replies; choose a free ID (`choreo scan` lists those in use)"

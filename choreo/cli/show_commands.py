@@ -34,7 +34,6 @@ from choreo.robot.types import Robot
 from choreo.show.showfile import NAME, Show, load_show
 
 MAX_WAIT_S = 3600.0
-EXIT_CODES = {"completed": 0, "staged": 0, "interrupted": 130}
 
 
 def register(subparsers) -> None:
@@ -214,7 +213,7 @@ def report_document(report) -> dict:
             {
                 "name": p.performer,
                 "robot": p.robot,
-                "outcome": p.outcome,
+                "outcome": p.outcome.value,
                 "reason": p.reason,
                 "clock_offset_ms": p.clock.offset_s * 1000,
                 "clock_offset_error_ms": p.clock.error_s * 1000,
@@ -243,7 +242,7 @@ def _print_report(report) -> None:
             if p.first_start_s is not None
             else "-"
         )
-        table.add_row(p.performer, p.robot, p.outcome, p.clock.describe(), first, p.reason)
+        table.add_row(p.performer, p.robot, p.outcome.value, p.clock.describe(), first, p.reason)
     console.print(table)
     spread = report.first_start_spread_s()
     if spread is not None:

@@ -1,14 +1,55 @@
-"""Where the emulated servos really went: their paths rebuilt from the wire log's move starts
-(servo IDs and units only: ``choreo.play.path_errors`` reads them through a robot's joints)."""
+"""What happened on the emulated wire, read back: ``WireTrace.of(emulator)`` is the one reader
+of the emulator's wire log outside the emulator (a copy taken at once: the emulator keeps
+logging), and the rest of this module reads the copy: when the STARTs and the last STOP reached
+the servos, where the servos really went (servo IDs and units only: ``choreo.play.path_errors``
+reads them through a robot's joints) and how far apart one tick's moves began."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.bus.protocol import Command
+from choreo.emulator.bus_emulator import BusEmulator, ReceivedPacket
 from choreo.emulator.emulated_servo import StartedMove
+
+START_SLACK_S = 0.0005  # a START's moves begin up to this long before the instant asked
+
+
+@dataclass(frozen=True)
+class WireTrace:
+    """The packets the servos received and the moves they began, oldest first."""
+
+    packets: tuple[ReceivedPacket, ...]
+    moves: tuple[StartedMove, ...]
+
+    @staticmethod
+    def of(emulator: BusEmulator) -> WireTrace:
+        """The emulator's wire log up to now (as long as its ``log_limit`` keeps)."""
+        log = emulator.log
+        return WireTrace(tuple(log.packets), tuple(log.moves))
+
+    def start_times_s(self, since_s: float) -> list[float]:
+        """When each MOVE_START began the servos' moves (once per START), from ``since_s`` on."""
+        return sorted(
+            {
+                m.time_s
+                for m in self.moves
+                if m.command is Command.MOVE_START and m.time_s >= since_s - START_SLACK_S
+            }
+        )
+
+    def last_stop_s(self, since_s: float) -> float | None:
+        """When the last MOVE_STOP from ``since_s`` on reached the servos."""
+        stops = [
+            p.time_s
+            for p in self.packets
+            if p.packet.command == Command.MOVE_STOP and p.time_s >= since_s
+        ]
+        return max(stops, default=None)
 
 
 def executed_units(

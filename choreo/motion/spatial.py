@@ -8,7 +8,7 @@ ordinary joint keyframes by inverse kinematics when the motion loads.
 
 Each IK is seeded from the keyframe before it and stays inside the joint limits; an
 unreachable target is reported at its line with the closest point the site can reach.
-The planner, segmenter and player only ever see the joint keyframes that come out.
+The planner, the tick compiler and the player only ever see the joint keyframes that come out.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
-from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TickPlan, segment
+from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TickPlan, compile_ticks
 from choreo.robot.types import Robot
 
 
@@ -34,4 +34,4 @@ def slow_approach(
     """The approach from ``start_deg`` (where the servos are; may lie outside the joint limits)
     to ``target_deg``, and its ticks within ``tolerance_deg``."""
     trajectory = plan_approach(robot, start_deg, target_deg, APPROACH_LIMIT_SCALE)
-    return Approach(trajectory, segment(trajectory, robot, tolerance_deg=tolerance_deg))
+    return Approach(trajectory, compile_ticks(trajectory, robot, tolerance_deg=tolerance_deg))

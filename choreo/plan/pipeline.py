@@ -12,7 +12,7 @@ from choreo.errors import OptionError
 from choreo.motion.motion_file import Motion, motion_of
 from choreo.motion.timing import SPEED
 from choreo.plan.planner import Stretch, Trajectory, plan_motion
-from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TOLERANCE_DEG, TickPlan, segment
+from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TOLERANCE_DEG, TickPlan, compile_ticks
 from choreo.robot.types import Robot
 
 
@@ -56,7 +56,7 @@ def compile_motion(
     stretch: bool = False,
     tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
 ) -> CompiledMotion:
-    """``plan_motion`` then ``segment``: the ticks ``choreo play`` sends for ``motion`` (a
+    """``plan_motion`` then ``compile_ticks``: the ticks ``choreo play`` sends for ``motion`` (a
     :class:`Motion`, or its file's path), as ``plan`` says, or without it ``speed``,
     ``stretch`` and ``tolerance_deg`` (see :class:`PlanOptions`)."""
     motion = motion_of(motion)
@@ -65,7 +65,7 @@ def compile_motion(
     return CompiledMotion(
         motion.robot,
         result.trajectory,
-        segment(result.trajectory, motion.robot, tolerance_deg=plan.tolerance_deg),
+        compile_ticks(result.trajectory, motion.robot, tolerance_deg=plan.tolerance_deg),
         result.stretches,
     )
 

@@ -93,7 +93,7 @@ def wire_time_ms(n_bytes: Values) -> Values:
     return n_bytes * BYTE_TIME_S * 1000
 
 
-def segment(
+def compile_ticks(
     trajectory: Trajectory,
     robot: Robot,
     *,

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from choreo.bus.servo_bus import PORT_EXAMPLES, ServoBus
 from choreo.bus.settings import BusSettings
 from choreo.core.arguments import check_callable, check_type, shown
-from choreo.emulator.trace import start_skew_ms
+from choreo.emulator.trace import WireTrace, start_skew_ms
 from choreo.errors import NoAudioOutput, OptionError
 from choreo.motion.dance import dance_of
 from choreo.motion.motion_file import Motion
@@ -200,7 +200,7 @@ def _described(
     """The report with what the play was of and, on an emulator, what its wire log shows."""
     errors = skew_ms = None
     if bus.emulator is not None:
-        moves = bus.emulator.log.moves
+        moves = WireTrace.of(bus.emulator).moves
         errors = measured_path_errors(moves, motion.robot, performance, report, start_pose)
         skew_ms = start_skew_ms(moves, report.start_time_s, report.start_time_s + report.elapsed_s)
     return PlayReport.of(

@@ -104,7 +104,7 @@ def names(joints: Sequence[Joint]) -> str:
 
 
 def _check_presence(bus: ServoBus, robot: Robot) -> None:
-    presence = {j: bus.probe(j.servo_id, retries=2) for j in robot.joints}
+    presence = {j: bus.presence(j.servo_id, retries=2) for j in robot.joints}
     silent = [j for j, p in presence.items() if p is Presence.SILENT]
     garbled = [j for j, p in presence.items() if p is Presence.GARBLED]
     problems = []

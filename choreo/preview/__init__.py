@@ -6,8 +6,8 @@ checked for problems and rendered offscreen::
     render_preview(simulated, "out.mp4", results=results)
 
 - :mod:`~choreo.preview.pipeline`: :func:`simulate_motion`, a motion planned, compiled, played
-  to the simulated robot from its start pose and measured (``prepare_motion``: without the
-  physics);
+  to the simulated robot from its start pose and measured (its ``Rehearsal``, ``rehearsal_of``:
+  the ticks from the start pose, without the physics);
 - :mod:`~choreo.preview.sim`: :func:`simulate`, ticks in, a :class:`Rollout` out: what the
   simulation recorded; ``model``, ``actuator`` and ``start`` make the robot, its servos and its
   start for it;
@@ -34,10 +34,10 @@ from choreo.preview.checks import (
 )
 from choreo.preview.pipeline import (
     FIRST_KEYFRAME,
-    Prepared,
-    prepare_motion,
+    Rehearsal,
+    rehearsal_of,
     simulate_motion,
-    simulate_prepared,
+    simulate_rehearsal,
     start_pose_deg,
 )
 from choreo.preview.props import PropOutcome, prop_outcomes
@@ -74,10 +74,10 @@ __all__ = [
     "JointJump",
     "JointSummary",
     "MoveStart",
-    "Prepared",
     "PropOutcome",
     "REACH_ERROR_MM",
     "REACH_WARNING_MM",
+    "Rehearsal",
     "RenderResult",
     "RenderSettings",
     "Resume",
@@ -95,17 +95,17 @@ __all__ = [
     "gait_outcomes",
     "has_display",
     "joint_summaries",
-    "prepare_motion",
     "preview_report",
     "prop_outcomes",
     "reach_line",
+    "rehearsal_of",
     "render_frames",
     "render_preview",
     "run_checks",
     "show_in_viewer",
     "simulate",
     "simulate_motion",
-    "simulate_prepared",
+    "simulate_rehearsal",
     "start_lines",
     "start_pose_deg",
 ]

@@ -5,7 +5,7 @@ PyOpenGL fixes its platform at its first import, so a back-end that fails half-w
 swapped for another in the same process: each candidate is tried in a subprocess first. The
 renderer then creates its context from the chosen back-end's own class, so the choice holds even
 when ``mujoco`` was imported earlier (by the robot loader) without ``MUJOCO_GL``.
-``MUJOCO_GL=egl``, ``osmesa`` or ``glfw`` in the environment skips the probe; any other name is
+``MUJOCO_GL=egl``, ``osmesa`` or ``glfw`` in the environment skips the trials; any other name is
 refused when rendering, not before (the command line imports mujoco without it: see choreo.cli).
 """
 
@@ -30,9 +30,9 @@ UNNAMED = ("", "disable", "disabled", "off", "false", "0")
 # Debian's names for Mesa's EGL and OSMesa with its software rasteriser
 MESA_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1", "libgles2", "libosmesa6", "libgl1-mesa-dri")
 INSTALL_HINT = f"install Mesa's EGL and OSMesa, e.g. apt-get install {' '.join(MESA_PACKAGES)}"
-PROBE_TIMEOUT_S = 60
+TRIAL_TIMEOUT_S = 60
 
-_PROBE = """
+_TRIAL = """
 import importlib, sys
 backend = sys.argv[1]
 context = importlib.import_module("mujoco." + backend).GLContext(16, 16)
@@ -71,7 +71,7 @@ def choose_backend() -> str:
             return platform
     failures = []
     for backend in BACKENDS:
-        problem = probe(backend)
+        problem = backend_problem(backend)
         if problem is None:
             return backend
         failures.append(f"{backend}: {problem}")
@@ -80,19 +80,20 @@ def choose_backend() -> str:
     )
 
 
-def probe(backend: str) -> str | None:
-    """None if ``backend`` can create a context and a MuJoCo render context, else why not."""
+def backend_problem(backend: str) -> str | None:
+    """Why ``backend`` cannot create a GL context and a MuJoCo render context (tried in a
+    subprocess), or None if it can."""
     env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
     try:
         done = subprocess.run(
-            [sys.executable, "-c", _PROBE, backend],
+            [sys.executable, "-c", _TRIAL, backend],
             env=env,
             capture_output=True,
             text=True,
-            timeout=PROBE_TIMEOUT_S,
+            timeout=TRIAL_TIMEOUT_S,
         )
     except subprocess.TimeoutExpired:
-        return f"no answer within {PROBE_TIMEOUT_S} s"
+        return f"no answer within {TRIAL_TIMEOUT_S} s"
     if done.returncode == 0:
         return None
     lines = done.stderr.strip().splitlines()

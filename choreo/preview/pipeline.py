@@ -1,7 +1,7 @@
 """A motion previewed end to end: planned and compiled into the ticks ``choreo play`` sends, the
-player's approach from the start pose added (``prepare_motion``), played to the simulated robot
-(``sim.simulate``), and the rollout measured against what the motion asked: a walker's stance
-and gaits, its ``sites:`` targets (``simulate_motion``, ``simulate_prepared``).
+player's approach from the start pose added (a ``Rehearsal``: ``rehearsal_of``), played to the
+simulated robot (``sim.simulate``), and the rollout measured against what the motion asked: a
+walker's stance and gaits, its ``sites:`` targets (``simulate_motion``, ``simulate_rehearsal``).
 """
 
 from __future__ import annotations
@@ -33,9 +33,10 @@ FIRST_KEYFRAME = "first"  # start pose name meaning the motion's first keyframe
 
 
 @dataclass(frozen=True)
-class Prepared:
-    """A motion planned and compiled into the ticks ``choreo play`` sends, with the approach from
-    its start pose: everything the simulation needs, and the plan without the physics."""
+class Rehearsal:
+    """The ``Performance`` the player would give of a motion (the approach from its start pose,
+    then the motion's ticks), with the motion and the start pose it is played from: what the
+    simulation plays, and the plan without the physics."""
 
     motion: Motion
     start_deg: tuple[float, ...]
@@ -67,20 +68,21 @@ class Prepared:
         return robot.to_deg(commanded_path_units(stream, start_units, times))
 
 
-def prepare_motion(
+def rehearsal_of(
     motion: Motion | str | os.PathLike[str],
     *,
     plan: PlanOptions | None = None,
     start_pose: str | None = None,
-) -> Prepared:
+) -> Rehearsal:
     """Plan ``motion`` and compile it into ticks as ``choreo play`` does (the same ``plan``), with
-    the approach the player would play from the start pose (see ``simulate_motion``)."""
+    the approach the player would play from the start pose (see ``simulate_motion``); no
+    physics."""
     motion = motion_of(motion)
     plan = PlanOptions() if plan is None else plan
     check_text("start_pose", start_pose, optional=True)
     compiled = compile_motion(motion, plan)
     start_deg = start_pose_deg(motion, compiled.trajectory.at(0.0)[0], start_pose)
-    return Prepared(
+    return Rehearsal(
         motion,
         tuple(start_deg),
         prepare(compiled, start_deg),
@@ -110,29 +112,29 @@ def simulate_motion(
     if settings is not None:
         check_type("settings", settings, SimSettings, "a SimSettings, or None")
     plan = plan_options(plan, speed, stretch, tolerance_deg)
-    prepared = prepare_motion(motion, plan=plan, start_pose=start_pose)
-    return simulate_prepared(prepared, settings)
+    rehearsal = rehearsal_of(motion, plan=plan, start_pose=start_pose)
+    return simulate_rehearsal(rehearsal, settings)
 
 
-def simulate_prepared(
-    prepared: Prepared, settings: SimSettings | None = None, resume: Resume | None = None
+def simulate_rehearsal(
+    rehearsal: Rehearsal, settings: SimSettings | None = None, resume: Resume | None = None
 ) -> SimulatedMotion:
-    """Play a prepared motion's ticks to the simulated robot (``simulate_motion``'s physics);
+    """Play a rehearsal's ticks to the simulated robot (``simulate_motion``'s physics);
     ``resume``: an earlier rollout's, to reuse what it simulated before the first tick that
     differs (``simulate``)."""
-    motion, performance = prepared.motion, prepared.performance
+    motion, performance = rehearsal.motion, rehearsal.performance
     rollout = simulate(
         motion.robot,
         performance.ticks,
-        prepared.start_deg,
-        keyframe_times_s=prepared.keyframe_times_s,
+        rehearsal.start_deg,
+        keyframe_times_s=rehearsal.keyframe_times_s,
         settings=settings or SimSettings(),
         motion_start_s=performance.approach_s,
         posture=motion.start,
         props=motion.props,
         resume=resume,
     )
-    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=prepared.speed)
+    played = played_keyframes(motion.keyframes, repeat=motion.repeat, speed=rehearsal.speed)
     reach, jumps = _sites(rollout, motion, played)
     return SimulatedMotion.of(
         rollout,

@@ -25,6 +25,7 @@ from choreo.show.messages import (
     ClockReading,
     Finished,
     Go,
+    PartOutcome,
     PartProgress,
     Readiness,
     Stop,
@@ -55,7 +56,7 @@ class PartResult:
     clock: ClockOffset
     offset_s: float
     start_s: float  # its motion's t=0, conductor's clock
-    outcome: str  # completed, stopped, interrupted, aborted, lost; staged after a dry run
+    outcome: PartOutcome
     reason: str
     finished: Finished | None  # its own word (None: lost, or a dry run)
 
@@ -78,7 +79,7 @@ class ShowReport:
 
     @property
     def completed(self) -> bool:
-        return all(p.outcome in ("completed", "staged") for p in self.parts)
+        return all(p.outcome in (PartOutcome.COMPLETED, PartOutcome.STAGED) for p in self.parts)
 
     def first_start_spread_s(self) -> float | None:
         """First to last first START, each less its part's offset (on the conductor's clock)."""
@@ -129,7 +130,7 @@ class Conductor:
             self.send_stop("dry run: nothing plays")
             parts = tuple(
                 PartResult(p.performer, readiness[p.performer].robot, clocks[p.performer],
-                           p.offset_s, 0.0, "staged", "dry run", None)
+                           p.offset_s, 0.0, PartOutcome.STAGED, "dry run", None)
                 for p in self.show.parts
             )  # fmt: skip
             return ShowReport(self.show.name, 0.0, parts, None, "dry run", called_at)
@@ -268,7 +269,7 @@ class Conductor:
         end_s = start_s + max(
             p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
         )
-        outcomes: dict[str, tuple[str, str, Finished | None]] = {}
+        outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
         stop_sent: float | None = None
         stop_reason = ""
         deadline = end_s + FINISH_GRACE_S
@@ -287,14 +288,14 @@ class Conductor:
                 deadline = time.time() + STOP_REPLIES_S
                 continue
             if kind == "lost" and what in self.names and what not in outcomes:
-                outcomes[what] = ("lost", "its liveliness token vanished", None)
+                outcomes[what] = (PartOutcome.LOST, "its liveliness token vanished", None)
                 self.say(f"{what}: lost (its liveliness token vanished)")
                 failed = what
             elif isinstance(what, Finished) and what.performer in self.names:
                 outcomes[what.performer] = (what.outcome, what.reason, what)
-                self.say(f"{what.performer}: {what.outcome}"
+                self.say(f"{what.performer}: {what.outcome.value}"
                          f"{': ' + what.reason if what.reason else ''}")  # fmt: skip
-                failed = what.performer if what.outcome == "aborted" else ""
+                failed = what.performer if what.outcome is PartOutcome.ABORTED else ""
             else:
                 continue
             if failed and stop_sent is None and self.show.on_abort is OnAbort.STOP:
@@ -304,7 +305,7 @@ class Conductor:
         parts = []
         for part in self.show.parts:
             outcome, reason, finished = outcomes.get(
-                part.performer, ("lost", "no word from it after the show's end", None)
+                part.performer, (PartOutcome.LOST, "no word from it after the show's end", None)
             )
             parts.append(
                 PartResult(part.performer, readiness[part.performer].robot, clocks[part.performer],

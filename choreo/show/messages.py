@@ -1,14 +1,17 @@
 """What conductor and performers say to each other: small frozen dataclasses, sent as JSON.
 
 Times on the wire are wall-clock seconds (``time.time()``) on the sender's clock; the conductor
-corrects a performer's by the offset it measured (:mod:`choreo.show.clock_offset`).
+corrects a performer's by the offset it measured (:mod:`choreo.show.clock_offset`). An enum
+field travels as its value and is an enum again once decoded.
 """
 
 from __future__ import annotations
 
 import base64
 import dataclasses
+import enum
 import json
+import typing
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -18,19 +21,44 @@ M = TypeVar("M")
 
 
 def encode(message: Any) -> bytes:
-    return json.dumps(dataclasses.asdict(message)).encode()
+    return json.dumps(dataclasses.asdict(message), default=_enum_value).encode()
+
+
+def _enum_value(value: object) -> object:
+    if isinstance(value, enum.Enum):
+        return value.value
+    raise TypeError(f"{type(value).__name__} is not sent on the wire")
 
 
 def decode(kind: type[M], payload: bytes) -> M:
     """A ``kind`` from its JSON; a ChoreoError saying what came instead (another version?)."""
     try:
         fields = json.loads(payload)
-        return kind(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+        types = typing.get_type_hints(kind)
+        return kind(**{k: _field(types.get(k), v) for k, v in fields.items()})
     except (ValueError, TypeError) as error:
         raise ChoreoError(
             f"a {kind.__name__} message could not be read ({error}); are both sides the same "
             "choreo version?"
         ) from None
+
+
+def _field(kind: object, value: object) -> object:
+    if isinstance(kind, type) and issubclass(kind, enum.Enum):
+        return kind(value)  # ValueError for a value this version does not know
+    return tuple(value) if isinstance(value, list) else value
+
+
+class PartOutcome(enum.Enum):
+    """How a performer's part ended: as the player's ``Outcome`` (same values), or as only a
+    show can end it."""
+
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"  # Ctrl-C / SIGTERM at the performer
+    ABORTED = "aborted"  # a health check failed
+    STOPPED = "stopped"  # the conductor's stop: Ctrl-C there, or another part aborted
+    LOST = "lost"  # the conductor heard nothing more from the performer
+    STAGED = "staged"  # a dry run: staged and preflighted, then released
 
 
 @dataclass(frozen=True)
@@ -115,7 +143,7 @@ class Finished:
     """How a performer's part ended; times on its own wall clock."""
 
     performer: str
-    outcome: str  # completed, interrupted, aborted
+    outcome: PartOutcome  # not LOST or STAGED: the conductor's own
     reason: str
     ticks_played: int
     ticks_total: int

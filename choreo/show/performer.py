@@ -18,10 +18,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import Clock, RealClock
 from choreo.emulator import BusEmulator
+from choreo.emulator.trace import START_SLACK_S, WireTrace
 from choreo.errors import ChoreoError, PlaybackAborted, SourceError
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
@@ -39,6 +39,7 @@ from choreo.show.messages import (
     ClockReading,
     Finished,
     Go,
+    PartOutcome,
     PartProgress,
     Readiness,
     StagedPart,
@@ -232,30 +233,40 @@ class Performer:
         report = play_part(
             self, staged, StoppableClock(clock, self.stopped, lambda: self.stop_reason), first_start
         )
-        finished = self._finished(staged, report, began_s, wall_to_clock_s)
+        wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
+        finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
         self.network.publish(f"{show_key(staged.show_id)}/events/{self.name}", encode(finished))
-        self.say(f"part {finished.outcome}{': ' + finished.reason if finished.reason else ''}")
-        if staged.emulator is not None:
-            self.say(wire_summary(staged.emulator, began_s))
+        self.say(
+            f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
+        )
+        if wire is not None:
+            self.say(wire_summary(wire, began_s))
         if report.outcome is Outcome.INTERRUPTED:
             raise KeyboardInterrupt  # Ctrl-C here: after the conductor was told
 
     def _finished(
-        self, staged: _Staged, report: StreamReport, began_s: float, wall_to_clock_s: float
+        self,
+        staged: _Staged,
+        report: StreamReport,
+        began_s: float,
+        wall_to_clock_s: float,
+        wire: WireTrace | None,
     ) -> Finished:
-        outcome, reason = report.outcome.value, report.reason
+        """How the part ended; on an emulated bus (``wire``), its STARTs and STOP as the wire
+        saw them."""
+        outcome, reason = PartOutcome(report.outcome.value), report.reason
         if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
-            outcome, reason = "stopped", self.stop_reason
+            outcome, reason = PartOutcome.STOPPED, self.stop_reason
         first_start = report.start_time_s + staged.performance.approach_s
         approach_start = report.start_time_s + (
             report.lateness_ms[0] / 1000 if report.lateness_ms else 0
         )
         stop = None
-        if staged.emulator is not None:  # what happened on the wire
-            starts = started_at(staged.emulator, report.start_time_s)
+        if wire is not None:
+            starts = wire.start_times_s(report.start_time_s)
             approach_start = starts[0] if starts else approach_start
-            first_start = next((s for s in starts if s >= first_start - 0.0005), first_start)
-            stop = stopped_at(staged.emulator, began_s)
+            first_start = next((s for s in starts if s >= first_start - START_SLACK_S), first_start)
+            stop = wire.last_stop_s(began_s)
         return Finished(
             self.name,
             outcome,
@@ -309,35 +320,12 @@ def _real_clock(bus: ServoBus) -> Clock:
     return clock
 
 
-# --- the emulated bus's wire log -----------------------------------------------------------------
-def started_at(emulator: BusEmulator, since_s: float) -> list[float]:
-    """When each START began the servos' moves (once per START), from ``since_s`` on."""
-    times = sorted(
-        {
-            m.time_s
-            for m in emulator.log.moves
-            if m.command is Command.MOVE_START and m.time_s >= since_s - 0.0005
-        }
-    )
-    return times
-
-
-def stopped_at(emulator: BusEmulator, since_s: float) -> float | None:
-    """When the last MOVE_STOP from ``since_s`` on reached the servos."""
-    stops = [
-        p.time_s
-        for p in emulator.log.packets
-        if p.packet.command == Command.MOVE_STOP and p.time_s >= since_s
-    ]
-    return max(stops, default=None)
-
-
-def wire_summary(emulator: BusEmulator, since_s: float) -> str:
+def wire_summary(wire: WireTrace, since_s: float) -> str:
     """One line on how the emulated servos were left: stopped, and nothing started after."""
-    stop = stopped_at(emulator, since_s)
+    stop = wire.last_stop_s(since_s)
     if stop is None:
         return "emulated bus: no MOVE_STOP on the wire (the part ran to its end)"
-    later = [m for m in emulator.log.moves if m.time_s > stop]
+    later = [m for m in wire.moves if m.time_s > stop]
     return f"emulated bus: MOVE_STOP on the wire; {len(later)} move(s) started after it" + (
         "" if later else ": every servo stopped"
     )

@@ -16,12 +16,12 @@ from choreo.errors import ChoreoError
 from choreo.motion.motion_file import Keyframe, Motion, load_motion
 from choreo.preview import (
     CheckResult,
-    Prepared,
+    Rehearsal,
     Resume,
     Rollout,
-    prepare_motion,
+    rehearsal_of,
     run_checks,
-    simulate_prepared,
+    simulate_rehearsal,
 )
 
 PLAN_STEP_S = 0.005  # the plan is sampled this finely for the timeline (the physics: 2 ms)
@@ -55,7 +55,7 @@ class Plan:
     Times count from the motion's start; the approach from the start pose is before 0."""
 
     motion: Motion
-    prepared: Prepared
+    rehearsal: Rehearsal
     times_s: np.ndarray  # (n,) every PLAN_STEP_S from the approach's start to the end
     command_deg: np.ndarray  # (n, joints) where the ticks ask the joints to be
     physics: Physics | None = None
@@ -71,7 +71,7 @@ class Plan:
     @property
     def keyframe_times_s(self) -> tuple[float, ...]:
         """Arrival at each keyframe of the first pass."""
-        return self.prepared.keyframe_times_s[: len(self.motion.keyframes)]
+        return self.rehearsal.keyframe_times_s[: len(self.motion.keyframes)]
 
     @property
     def findings(self) -> tuple[CheckResult, ...]:
@@ -169,17 +169,17 @@ class Session:
 
 def make_plan(motion: Motion) -> Plan:
     """Plan ``motion`` and compile its ticks as ``choreo preview`` does: no physics yet."""
-    prepared = prepare_motion(motion)
-    count = int(np.floor((prepared.end_s() + prepared.approach_s) / PLAN_STEP_S + 1e-9)) + 1
-    times = np.arange(count) * PLAN_STEP_S - prepared.approach_s
-    return Plan(motion, prepared, times, prepared.commanded_deg(times))
+    rehearsal = rehearsal_of(motion)
+    count = int(np.floor((rehearsal.end_s() + rehearsal.approach_s) / PLAN_STEP_S + 1e-9)) + 1
+    times = np.arange(count) * PLAN_STEP_S - rehearsal.approach_s
+    return Plan(motion, rehearsal, times, rehearsal.commanded_deg(times))
 
 
 def simulate_plan(plan: Plan, resume: Resume | None = None) -> Physics:
     """The preview's physics and checks for ``plan``, without rendering; what ``resume``'s
     rollout simulated before the first tick that changed is taken from it."""
     began = time.perf_counter()
-    simulated = simulate_prepared(plan.prepared, resume=resume).since_start()
+    simulated = simulate_rehearsal(plan.rehearsal, resume=resume).since_start()
     findings = tuple(run_checks(simulated))
     return Physics(simulated.rollout, findings, time.perf_counter() - began)
 
