@@ -3,19 +3,18 @@ and the aborts a lost, hot, low or blocked servo causes (with MOVE_STOP)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from test_player import MOTIONS, Rig
 
-import numpy as np
-
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.bus.servo_bus import ServoBus
-from choreo.play.health import HealthReads, ServoHealth
-from choreo.play.preflight import preflight
-from choreo.robot.robot_file import load_robot
 from choreo.emulator import ReplyFaults
+from choreo.play.health import HealthReads, ServoHealth
 from choreo.play.play_options import PlayOptions
+from choreo.play.preflight import preflight
 from choreo.play.report import Outcome
+from choreo.robot.robot_file import load_robot
 
 
 @pytest.mark.parametrize("echo_mode", ["auto", "none", "discard"])
