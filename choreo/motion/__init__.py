@@ -3,6 +3,7 @@
 - :mod:`~choreo.motion.motion_file`: :func:`load_motion`, :class:`Motion`, :class:`Keyframe`;
 - :mod:`~choreo.motion.timing`: the keyframe timing rules (t, after, hold, repeat, speed);
 - :mod:`~choreo.motion.music_block`: the ``music:`` block, beats and bars to seconds;
+- :mod:`~choreo.motion.dance`: a motion as danced: looped, and held against its song;
 - :mod:`~choreo.motion.scene`: how a motion starts (standing, lying) and its props;
 - :mod:`~choreo.motion.spatial`, :mod:`~choreo.motion.gait`: keyframes in space (sites, body
   poses, gaits), turned into joint angles;

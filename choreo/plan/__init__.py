@@ -3,8 +3,10 @@ trajectories, compiled into the servos' own linear moves (ticks).
 
 - :mod:`~choreo.plan.planner`: :func:`plan_motion`, :class:`Trajectory`;
 - :mod:`~choreo.plan.ticks`: trajectories cut into ticks within a tolerance and the bus's bytes;
-- :mod:`~choreo.plan.pipeline`: :func:`compile_motion`, the plan and its ticks;
-- :mod:`~choreo.plan.performance`: :func:`prepare`, the approach from where the servos are, then
+- :mod:`~choreo.plan.pipeline`: :class:`PlanOptions` (speed, stretch, tolerance) and
+  :func:`compile_motion`, the plan and its ticks;
+- :mod:`~choreo.plan.approach`: the slow move from wherever the servos stand to a pose;
+- :mod:`~choreo.plan.performance`: :func:`prepare`, that approach from where the servos are, then
   the motion: what the player plays and the preview simulates;
 - :mod:`~choreo.plan.plot`: the plan as a picture.
 """
@@ -14,7 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from choreo.plan.pipeline import CompiledMotion, compile_motion
+from choreo.plan.pipeline import CompiledMotion, PlanOptions, compile_motion
 from choreo.plan.planner import PlanResult, Trajectory, plan_motion
 from choreo.plan.ticks import Tick, TickPlan
 
@@ -24,6 +26,7 @@ _MODULE_OF = {"Performance": "choreo.plan.performance", "prepare": "choreo.plan.
 __all__ = [
     "CompiledMotion",
     "Performance",
+    "PlanOptions",
     "PlanResult",
     "Tick",
     "TickPlan",
