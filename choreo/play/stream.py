@@ -133,9 +133,11 @@ class Stream:
         send_at = self.deadline(k) - sending.start_lead_s(len(moves))
         clock.sleep_until(send_at)  # also for a tick without START: what follows is timed from it
         if moves:
-            leaves_s = sending.link_free_s(clock.now(), self.wire_free_s)
+            now = clock.now()
+            sent = sending.start(tick, moves)  # first: the bookkeeping can wait, the START not
+            leaves_s = sending.link_free_s(now, self.wire_free_s)
             self.lateness_ms.append((leaves_s - send_at) * 1000)
-            self.sent(*sending.start(tick, moves))
+            self.sent(*sent)
         self.previous_units = self.current_units
         self.current_units = np.asarray(tick.targets_units, dtype=float)
         self.played = k + 1
