@@ -28,6 +28,7 @@ def start_emulator(*options: str) -> subprocess.Popen:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},  # a hung child's stacks, on SIGABRT
     )
 
 
@@ -46,8 +47,10 @@ def stop(process: subprocess.Popen, signum=signal.SIGINT) -> tuple[int, str]:
     try:
         _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
     except subprocess.TimeoutExpired:
-        process.kill()
-        raise
+        process.send_signal(signal.SIGABRT)  # faulthandler prints where every thread stands
+        _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
+        hung = f"the emulator did not stop on {signum!r}; its stacks:\n{stderr}"
+        raise AssertionError(hung) from None
     return process.returncode, stderr
 
 
