@@ -94,3 +94,30 @@ def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
     reached = [m.to_units for m in rig.emulator.log.moves if m.servo_id == 1]
     assert further[0] in reached  # the re-targeted tick really moved the servo
     assert rig.emulator.servo(1).position_units == pytest.approx(here[0])
+
+
+def test_the_next_tick_is_staged_before_progress_and_health_reads():
+    """What the next START needs goes first, right after a START: its staged moves; then the
+    progress callback and health reads, in the time left (they never delay the staging)."""
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    events: list[str] = []
+
+    def recorded(name, method):
+        def call(*args, **kwargs):
+            events.append(name)
+            return method(*args, **kwargs)
+
+        return call
+
+    bus = rig.bus
+    # one letter each: T a START, s a staged move, r a read, p a progress callback
+    bus.start = recorded("T", bus.start)  # type: ignore[method-assign]
+    bus.stage_move = recorded("s", bus.stage_move)  # type: ignore[method-assign]
+    bus.request = recorded("r", bus.request)  # type: ignore[method-assign]
+    rig.play(on_progress=lambda progress: events.append("p"))
+    played = "".join(events[events.index("T") :])  # from the first START (after preflight)
+    assert played.count("p") > 10 and "r" in played and "s" in played
+    # after each progress, only reads until the next START: nothing staged late
+    assert all("s" not in after.split("T")[0] for after in played.split("p")[1:])
+    # and the staging came between the START and the progress, not after
+    assert "Tsss" in played and "sp" in played

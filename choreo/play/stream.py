@@ -86,8 +86,12 @@ class Stream:
         while k < len(self.ticks):
             k = self.catch_up(k)
             self.start(k)
+            # what the next START needs first (its staged moves fill most of the bus time
+            # before it), then the progress callback and health reads in the time that is left
             if k + 1 < len(self.ticks):
                 self.stage(self.ticks[k + 1], all_servos=False)
+            self.report_progress(k)
+            if k + 1 < len(self.ticks):
                 self.use_spare_time(k)
             k += 1
         self.clock.sleep_until(self.t0 + self.planned_s)
@@ -141,7 +145,6 @@ class Stream:
         self.previous_units = self.current_units
         self.current_units = np.asarray(tick.targets_units, dtype=float)
         self.played = k + 1
-        self.report_progress(k)
 
     def stage(self, tick: Tick, *, all_servos: bool) -> None:
         count = self.sending.stage(tick, all_servos=all_servos)
