@@ -4,7 +4,9 @@ replaced by fakes that record the order of events (this test must not raise its 
 
 from __future__ import annotations
 
+import getpass
 import os
+import sys
 
 import pytest
 from test_player import MOTIONS, Rig
@@ -61,7 +63,19 @@ def test_where_not_permitted_one_line_says_how_to_allow_it(monkeypatch):
     line = got.describe()
     assert "\n" not in line and line.startswith("scheduling: normal priority (SCHED_OTHER)")
     assert "setcap cap_sys_nice" in line and "rtprio" in line and "limits.conf" in line
+    # this interpreter's real file, and this user (`@name` would be a group in limits.conf)
+    assert f"cap_ipc_lock+ep {os.path.realpath(sys.executable)}`" in line
+    assert f"`{getpass.getuser()} - rtprio 50` and `{getpass.getuser()} - memlock" in line
     assert system.events == []  # nothing changed, nothing to give back
+
+
+def test_a_user_without_a_name_is_named_for_limits_conf_by_uid(monkeypatch):
+    def no_name():
+        raise KeyError("getpwuid(): uid not found: 1234")
+
+    monkeypatch.setattr(getpass, "getuser", no_name)
+    monkeypatch.setattr(os, "getuid", lambda: 1234)
+    assert "`1234:1234 - rtprio 50` and `1234:1234 - memlock unlimited`" in realtime.how_to_allow()
 
 
 def test_the_player_plays_under_the_priority_and_the_report_records_it(monkeypatch):

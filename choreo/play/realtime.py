@@ -16,19 +16,16 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import getpass
 import os
 import resource
+import shlex
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 
 PLAY_PRIORITY = 50  # SCHED_FIFO 1-99: above normal work, below the kernel's own (IRQ threads)
 MCL_CURRENT, MCL_FUTURE = 1, 2  # <sys/mman.h> on Linux
-HOW_TO_ALLOW = (
-    "to allow it, run as root, or give Python the capabilities "
-    '(`sudo setcap cap_sys_nice,cap_ipc_lock+ep "$(readlink -f "$(command -v python3)")"`), '
-    "or give your user an rtprio limit (`@USER - rtprio 50` and `@USER - memlock unlimited` in "
-    "/etc/security/limits.conf, then log in again)"
-)
 
 
 @dataclass(frozen=True)
@@ -53,8 +50,29 @@ class Scheduling:
             return f"scheduling: real-time priority ({self.policy} {self.priority}), {locked}"
         return (
             f"scheduling: normal priority ({self.policy}): real-time priority is not permitted "
-            f"here, so a busy computer can make STARTs late; {HOW_TO_ALLOW}"
+            f"here, so a busy computer can make STARTs late; {how_to_allow()}"
         )
+
+
+def how_to_allow() -> str:
+    """How to permit real-time priority, naming this user and the interpreter that runs choreo
+    (file capabilities belong to the real file, not to a virtualenv's link to it)."""
+    python = shlex.quote(os.path.realpath(sys.executable))
+    user = _user_name()
+    return (
+        "to allow it, run as root, or give this Python the capabilities "
+        f"(`sudo setcap cap_sys_nice,cap_ipc_lock+ep {python}`), or give your user an rtprio "
+        f"limit (`{user} - rtprio {PLAY_PRIORITY}` and `{user} - memlock unlimited` in "
+        "/etc/security/limits.conf, then log in again)"
+    )
+
+
+def _user_name() -> str:
+    """This user's name as limits.conf takes it (``@name`` would be a group)."""
+    try:
+        return getpass.getuser()
+    except (KeyError, OSError):  # a uid without a name (a container): limits.conf takes uid:uid
+        return f"{os.getuid()}:{os.getuid()}"
 
 
 NOT_ASKED = Scheduling("SCHED_OTHER", 0, False, asked=False)
