@@ -24,25 +24,18 @@ class Clock(Protocol):
 
 
 class RealClock:
-    """``time.monotonic``; a wait is slept to its deadline, not spun.
+    """``time.monotonic``; sleeps, then spins the last ``spin_s`` for a precise wake-up."""
 
-    On a busy computer the scheduler wakes a sleeping thread promptly, ahead of the programs
-    that keep the CPU busy, while a thread that spins uses up its share of the CPU and then waits
-    behind them, milliseconds late (``benchmarks/bench_player.py``). ``time.sleep`` sleeps on the
-    monotonic clock to an absolute time on Linux (``clock_nanosleep``), so nothing is gained by
-    spinning. ``spin_s``: spin the last part anyway, where one wake-up must be as exact as the
-    CPU allows (a UART's direction line switched right after the last stop bit).
-    """
-
-    def __init__(self, spin_s: float = 0.0):
+    def __init__(self, spin_s: float = 0.001):
         self.spin_s = check_number("spin_s", spin_s, SPIN_S)
 
     def now(self) -> float:
         return time.monotonic()
 
     def sleep_until(self, deadline_s: float) -> None:
-        while (remaining := deadline_s - time.monotonic()) > self.spin_s:
-            time.sleep(remaining - self.spin_s)  # again if woken early (a signal)
+        remaining = deadline_s - time.monotonic()
+        if remaining > self.spin_s:
+            time.sleep(remaining - self.spin_s)
         while time.monotonic() < deadline_s:
             pass
 

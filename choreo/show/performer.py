@@ -67,9 +67,10 @@ class StoppableClock:
         return self.clock.now()
 
     def sleep_until(self, deadline_s: float) -> None:
-        # slept, not spun: see RealClock
-        while not self.stopped.wait(max(0.0, deadline_s - self.clock.now())):
-            if self.clock.now() >= deadline_s:
+        spin_s = 0.001
+        while not self.stopped.wait(max(0.0, deadline_s - self.clock.now() - spin_s)):
+            if self.clock.now() >= deadline_s - spin_s:
+                self.clock.sleep_until(deadline_s)
                 return
         raise PlaybackAborted(self.reason())
 
