@@ -111,6 +111,23 @@ def test_sigterm_also_exits_cleanly_and_echo_works(link):
     assert not os.path.lexists(link)
 
 
+def test_signals_blocked_by_the_parent_still_stop_it(link):
+    """A parent that blocked SIGINT and SIGTERM (as some libraries do in the thread that starts
+    a process) passes the mask on through fork and exec; choreo unblocks them, so it stops."""
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "emulate", "--pty", str(link), "--servos", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+        preexec_fn=lambda: signal.pthread_sigmask(signal.SIG_BLOCK, blocked),
+    )
+    ready_line(process)
+    returncode, stderr = stop(process, signal.SIGTERM)
+    assert returncode == 128 + signal.SIGTERM, stderr
+
+
 def test_an_existing_path_is_refused_and_left_alone(link):
     link.write_text("not a tty")
     process = start_emulator("--pty", str(link))

@@ -16,6 +16,7 @@ import importlib
 import io
 import logging
 import os
+import signal
 import sys
 import tempfile
 import traceback
@@ -105,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
     put_aside_mujoco_gl()
+    unblock_stop_signals()
     try:
         # the command's modules load here (a second for play): Ctrl-C, SIGTERM or SIGHUP
         # meanwhile end the command as they do once it runs
@@ -165,6 +167,14 @@ def python_warnings_for_developers(verbose: int) -> Iterator[None]:
 
 # MUJOCO_GL as the user set it (None: not set), while mujoco is imported without it.
 _users_mujoco_gl: str | None = None
+
+
+def unblock_stop_signals() -> None:
+    """A parent may have blocked signals (the mask survives fork and exec): a choreo started so
+    would never hear Ctrl-C, SIGTERM or SIGHUP, and could not be stopped. (Windows has no mask.)"""
+    if hasattr(signal, "pthread_sigmask"):
+        names = ("SIGINT", "SIGTERM", "SIGHUP")
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {getattr(signal, n) for n in names})
 
 
 def put_aside_mujoco_gl() -> None:
