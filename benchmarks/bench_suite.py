@@ -22,7 +22,7 @@ GOAL_S = 180.0
 
 
 def run_suite() -> tuple[float, str]:
-    """The suite's wall time and pytest's closing line."""
+    """The suite's wall time, and pytest's closing line after the names of any failed tests."""
     started = time.monotonic()
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-n", "auto", "-p", "no:cacheprovider"],
@@ -32,7 +32,9 @@ def run_suite() -> tuple[float, str]:
         check=False,
     )
     lines = done.stdout.strip().splitlines()
-    return time.monotonic() - started, lines[-1] if lines else f"exit status {done.returncode}"
+    failed = [line for line in lines if line.startswith(("FAILED ", "ERROR "))]
+    closing = lines[-1] if lines else f"exit status {done.returncode}"
+    return time.monotonic() - started, "\n".join([*failed, closing])
 
 
 def main() -> None:
