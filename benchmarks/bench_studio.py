@@ -15,7 +15,7 @@ page, and what memory a long session of edits leaves.
   memory         the process's resident memory after a 10-minute session of edits (a save every
                  6 s: 100 saves), and before it.
 
-Needs the studio extra, Playwright and Debian's chromium (as tests/test_studio_browser.py).
+Needs the studio extra, Playwright and Debian's chromium (as tests/studio/test_studio_browser.py).
 Run: python benchmarks/bench_studio.py
 """
 

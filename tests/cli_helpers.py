@@ -3,15 +3,16 @@ argparse's refusal, a small motion file, a `choreo` subprocess."""
 
 from __future__ import annotations
 
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
 from choreo.cli import main
 
-REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
 
 
@@ -70,3 +71,17 @@ def write_d6a(path: Path) -> Path:
     columns, rows = ARM6_D6A_ROWS
     write_action_group(path, columns, [ActionRow(*row) for row in rows])
     return path
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def mirror(source: Path, out: Path) -> Path:
+    assert main(["mirror", str(source), "-o", str(out)]) == 0
+    return out
+
+
+PREVIEW_MOTIONS = Path("tests/data/preview/motions")

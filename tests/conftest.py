@@ -22,7 +22,7 @@ signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # The files whose tests call librosa run on one worker of a parallel run (`-n auto`), which then
 # pays librosa's import and numba's compiling (5 s, 9 s on a loaded machine) once, not on each.
-LIBROSA_FILES = ("test_beats.py", "test_music.py", "test_docs.py")
+LIBROSA_FILES = ("test_beats.py", "test_music_block.py", "test_docs.py")
 
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 
@@ -40,7 +40,8 @@ if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only wi
         return ByFileLibrosaTogether(config, log)
 
 
-BROWSER_TESTS = Path(__file__).with_name("test_studio_browser.py")
+# The tests that drive Chromium are the files named test_*_browser.py
+BROWSER_TESTS = sorted(Path(__file__).parent.rglob("test_*_browser.py"))
 
 
 def pytest_sessionstart(session):
@@ -54,7 +55,7 @@ def pytest_sessionstart(session):
     say = reporter.write_line if reporter is not None else print
     try:
         offscreen_gl.provide(say)
-        if _asks_for(config, BROWSER_TESTS):
+        if any(_asks_for(config, test_file) for test_file in BROWSER_TESTS):
             browser.provide(say)
     except (offscreen_gl.NoOffscreenGL, browser.NoBrowser) as missing:
         pytest.exit(str(missing), returncode=pytest.ExitCode.USAGE_ERROR)

@@ -8,6 +8,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from choreo.bus.protocol import Command
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.pty import PtyBridge
@@ -62,3 +63,7 @@ def built_in_emulator_in_virtual_time(robot: Robot) -> BusEmulator:
     VirtualClock: a command played without ``--port`` takes no real time where its subject isn't
     timing (tests patch it in; see conftest.py and virtual_choreo.py)."""
     return BusEmulator(home_specs(robot), clock=VirtualClock())
+
+
+def sent(emulator: BusEmulator, command: Command):
+    return [p.packet for p in emulator.log.packets if p.packet.command == command]

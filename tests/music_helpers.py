@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -77,3 +78,21 @@ def band_track(times_s, per_bar: int = 4, pickup: int = 0, snare_gain: float = 0
             chord = sum(np.sin(2 * np.pi * root * r * bar_t) for r in (0.5, 1, 1.26, 1.5))
             add(at, chord * np.exp(-bar_t / 0.8), 0.1)
     return Audio(samples / np.max(np.abs(samples)), RATE_HZ)
+
+
+def write(folder, name: str, text: str):
+    path = folder / name
+    path.write_text(textwrap.dedent(text).lstrip())
+    return path
+
+
+BPM_TOLERANCE = 0.5
+
+
+BEAT_TOLERANCE_S = 0.015
+
+
+def assert_beats_match(detected, expected) -> None:
+    detected, expected = np.asarray(detected), np.asarray(expected)
+    assert len(detected) == len(expected), (detected, expected)
+    assert np.max(np.abs(detected - expected)) <= BEAT_TOLERANCE_S

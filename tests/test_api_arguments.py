@@ -11,6 +11,7 @@ from functools import cached_property
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
 import choreo
 from choreo import (
@@ -30,7 +31,6 @@ from choreo import (
 )
 from choreo.bus.settings import BusSettings
 
-REPO = Path(__file__).resolve().parents[1]
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
 PORT = "sim://?ids=1-6&clock=virtual"
 NAN, INF = math.nan, math.inf

@@ -20,8 +20,8 @@ from functools import cache
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 DOCS = sorted([*REPO.glob("*.md"), *(REPO / "docs").glob("*.md")])
 SOURCES = sorted(
     path

@@ -14,11 +14,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from paths import REPO
 from virtual_choreo import in_virtual_time
 
 from choreo.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 HARDWARE_PORT = re.compile(r"--port\s+(/dev/|COM)")
 

@@ -1,16 +1,19 @@
 """The package as users get it: its version, its type hints, and a start-up that stays light."""
 
 import ast
+import importlib
 import subprocess
 import sys
 import tomllib
+import types
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
 import choreo
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 
 
 def run_choreo(*args: str) -> subprocess.CompletedProcess:
@@ -161,97 +164,62 @@ def test_an_unknown_name_is_an_attribute_error():
         choreo.compile  # noqa: B018
 
 
-# Modules whose tests live in a test file not named after them: the one place that says where.
-# Every other module under choreo/ has its own tests/test_<module>.py.
-TESTED_IN = {
-    "bus/transports/jetson.py": ("test_direction.py",),
-    "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
-    "preview/props.py": ("test_preview_props.py",),
-    "preview/reach.py": ("test_preview_reach.py",),
-    "preview/stance.py": ("test_preview_judging.py",),
-    "preview/walk.py": ("test_preview_gaits.py",),
-    "cli/show_commands.py": ("test_show_cli.py",),
-    "cli/studio_commands.py": ("test_studio.py", "test_studio_browser.py"),
-    "music/report.py": ("test_beats.py", "test_music.py"),
-    "show/clock_offset.py": ("test_show.py", "test_show_cli.py"),
-    "show/conductor.py": ("test_show.py", "test_show_cli.py"),
-    "show/messages.py": ("test_show.py", "test_show_cli.py"),
-    "show/network.py": ("test_show.py", "test_show_cli.py"),
-    "show/performer.py": ("test_show.py", "test_show_cli.py"),
-    "show/showfile.py": ("test_show.py", "test_show_cli.py"),
-    "show/staging.py": ("test_show.py", "test_show_cli.py"),
-    "studio/address.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/live.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/page.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/posing.py": ("test_studio.py",),
-    "studio/scene.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/server.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/session.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/song.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/watch.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/yaml_edit.py": ("test_studio.py", "test_studio_browser.py"),
-    "bus/transports/lobot.py": ("test_transport_codecs.py", "test_boards.py"),
-    "bus/transports/rrc.py": ("test_transport_codecs.py", "test_boards.py"),
-    "bus/transports/raw.py": ("test_direction.py", "test_servo_bus.py"),
-    "cli/bus_commands.py": ("test_bus_cli.py",),
-    "cli/emulate_commands.py": ("test_pty.py", "test_boards_cli.py"),
-    "cli/interop_commands.py": ("test_d6a.py", "test_mirror.py"),
-    "cli/motion_commands.py": ("test_validate.py",),
-    "cli/music_commands.py": ("test_beats.py",),
-    "cli/plan_commands.py": ("test_plan_cli.py", "test_plot.py"),
-    "cli/play_commands.py": ("test_play_cli.py",),
-    "cli/ports_commands.py": ("test_ports.py",),
-    "cli/preview_commands.py": ("test_preview.py", "test_render.py"),
-    "cli/record_commands.py": ("test_recorder.py",),
-    "cli/robot_commands.py": ("test_robot_cli.py",),
-    "cli/servo_commands.py": ("test_servo_config.py",),
-    "emulator/backend.py": ("test_sim_url.py",),
-    "emulator/protocol_sim.py": ("test_sim_url.py",),
-    "emulator/bus_emulator.py": ("test_emulator.py",),
-    "emulator/emulated_servo.py": ("test_emulator.py",),
-    "emulator/direction_gate.py": ("test_direction.py",),
-    "errors.py": ("test_package.py", "test_cli.py"),
-    "motion/motion_file.py": ("test_motion.py",),
-    "motion/music_block.py": ("test_music.py",),
-    "motion/scene.py": ("test_preview_start.py",),
-    "music/beat_plot.py": ("test_beats.py",),
-    "music/decode.py": ("test_beats.py",),
-    "plan/report.py": ("test_plan_report.py",),
-    "play/report.py": ("test_play_report.py",),
-    "preview/actuator.py": ("test_preview.py",),
-    "preview/checks.py": ("test_preview.py", "test_preview_start.py"),
-    "preview/model.py": ("test_preview.py",),
-    "preview/report.py": ("test_preview.py",),
-    "preview/sim.py": ("test_preview.py",),
-    "preview/pipeline.py": ("test_preview.py", "test_preview_start.py"),
-    "preview/simulated.py": ("test_preview_gaits.py", "test_preview_props.py"),
-    "preview/start.py": ("test_preview_start.py",),
-    "preview/travel.py": ("test_spatial_preview.py",),
-    "preview/gl.py": ("test_render.py",),
-    "preview/viewer.py": ("test_preview.py",),
-    "robot/joint_source.py": ("test_robot.py", "test_model_check.py"),
-    "robot/robot_file.py": ("test_robot.py",),
-    "robot/types.py": ("test_robot.py",),
-}
+def modules_named_by(test_file: Path) -> set[str]:
+    """The choreo modules a test file imports, as dotted names (``choreo.bus.servo_bus``); a name
+    a package re-exports (``from choreo.preview import simulate_motion``) counts for the module
+    that defines it."""
+    named = set()
+    for node in ast.walk(ast.parse(test_file.read_text())):
+        if isinstance(node, ast.Import):
+            named.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            named.add(node.module)
+            for alias in node.names:
+                named.add(defining_module(node.module, alias.name))
+    return {name for name in named if name.startswith("choreo.")}
 
 
-def test_every_module_has_a_test_file():
-    """The README's promise: a test file per module (tests/test_<module>.py, or TESTED_IN)."""
+def defining_module(module: str, name: str) -> str:
+    """Where ``from <module> import <name>`` really comes from."""
+    if not module.startswith("choreo"):
+        return module
+    value = getattr(importlib.import_module(module), name, None)
+    if isinstance(value, types.ModuleType):
+        return value.__name__
+    return getattr(value, "__module__", None) or f"{module}.{name}"
+
+
+def test_every_module_is_tested_in_the_folder_that_mirrors_it():
+    """tests/ mirrors choreo/: the tests of ``choreo/<folder>/<module>.py`` are in
+    ``tests/<folder>/``, in ``test_<module>.py`` or in a test file there that imports the module
+    (one file may test a few modules that work together, as tests/show/test_show.py does)."""
     package = Path(choreo.__file__).parent
     tests = Path(__file__).parent
-    modules = sorted(
-        p.relative_to(package).as_posix()
-        for p in package.rglob("*.py")
-        if p.name not in ("__init__.py", "__main__.py")
-    )
-    untested = [
-        m
-        for m in modules
-        if not (tests / f"test_{Path(m).stem}.py").is_file()
-        and not all((tests / f).is_file() for f in TESTED_IN.get(m, ("",)))
-    ]
+    untested = []
+    for module in sorted(package.rglob("*.py")):
+        if module.name in ("__init__.py", "__main__.py"):
+            continue
+        folder = module.parent.relative_to(package)
+        dotted = ".".join(("choreo", *folder.parts, module.stem))
+        test_files = sorted((tests / folder).glob("test_*.py"))
+        if (tests / folder / f"test_{module.stem}.py") not in test_files and not any(
+            dotted in modules_named_by(test_file) for test_file in test_files
+        ):
+            untested.append(f"{module.relative_to(package.parent)}: no tests in tests/{folder}/")
     assert untested == []
-    assert set(TESTED_IN) <= set(modules)  # no entry for a module that is gone
+
+
+def test_every_test_file_sits_in_a_folder_of_the_package():
+    """A test folder with no package folder behind it would teach a layout that is not there."""
+    package = Path(choreo.__file__).parent
+    tests = Path(__file__).parent
+    strays = [
+        test_file.relative_to(tests).as_posix()
+        for test_file in tests.rglob("test_*.py")
+        if "data" not in test_file.relative_to(tests).parts
+        and not (package / test_file.parent.relative_to(tests)).is_dir()
+    ]
+    assert strays == []
 
 
 def test_a_bug_is_reported_as_one_line_exit_70_with_its_traceback_in_a_file(

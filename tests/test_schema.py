@@ -9,6 +9,7 @@ from pathlib import Path
 import jsonschema
 import pytest
 import yaml
+from paths import DATA, REPO
 
 from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_bus import EchoMode
@@ -18,9 +19,6 @@ from choreo.motion import motion_file as motion
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
 from choreo.robot import robot_file as robot
-
-DATA = Path(__file__).parent / "data"
-REPO = Path(__file__).resolve().parents[1]
 
 
 def schema(name: str) -> dict:

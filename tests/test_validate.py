@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from cli_helpers import PREVIEW_MOTIONS
+
 from choreo.cli import main
 from choreo.validate import check_file
-
-PREVIEW_MOTIONS = Path("tests/data/preview/motions")
 
 
 def write(tmp_path: Path, keyframes: str) -> Path:
@@ -31,18 +31,6 @@ def test_a_self_collision_is_reported_at_the_keyframe_heading_into_it():
         p.startswith(f"{PREVIEW_MOTIONS / 'collide.yaml'}:6:5: preview: self-collision")
         for p in result.problems
     )
-
-
-def test_physics_can_be_skipped(capsys):
-    assert main(["validate", "--no-physics", str(PREVIEW_MOTIONS / "collide.yaml")]) == 0
-    assert main(["validate", str(PREVIEW_MOTIONS / "collide.yaml")]) == 1
-    assert "self-collision" in capsys.readouterr().out
-
-
-def test_a_fine_motion_and_a_robot_pass(capsys):
-    assert main(["validate", str(PREVIEW_MOTIONS / "fine.yaml"), "models/arm6/robot.yaml"]) == 0
-    out = capsys.readouterr().out
-    assert f"{PREVIEW_MOTIONS / 'fine.yaml'}: ok" in out and "models/arm6/robot.yaml: ok" in out
 
 
 def test_stretch_turns_an_unreachable_time_into_a_warning(tmp_path, capsys):

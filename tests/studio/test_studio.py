@@ -1,0 +1,465 @@
+"""choreo studio without a browser: the keyframe edits (golden texts written by hand), the
+session that keeps the last good plan, the file watcher and the command line."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from emulated import home_specs, wait_for
+from paths import DATA
+
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.clock import VirtualClock
+from choreo.emulator import BusEmulator, SimSerial
+from choreo.errors import SourceError
+from choreo.motion.music_block import BeatGrid
+from choreo.plan.planner import APPROACH_LIMIT_SCALE
+from choreo.robot.kinematics import Kinematics
+from choreo.robot.robot_file import load_robot
+from choreo.studio.address import Address
+from choreo.studio.live import LiveRobot
+from choreo.studio.posing import rotation_of
+from choreo.studio.server import LatestOnly, Studio, check_loads
+from choreo.studio.session import Session
+from choreo.studio.watch import FileWatcher
+from choreo.studio.yaml_edit import (
+    EditRefused,
+    add_keyframe,
+    delete_keyframe,
+    keyframe_items,
+    pose_mapping,
+    retime_keyframe,
+    sites_mapping,
+    timing,
+    update_keyframe,
+)
+
+MOTION = DATA / "studio" / "wave.yaml"
+TEXT = MOTION.read_text()
+ROUNDING = 1.05  # a move's units and milliseconds are whole numbers: its speed is a bit off
+
+# A file written by hand the way people do: a wrapped flow mapping, anchors, a bar and beat,
+# comments everywhere. The edits below must leave every line they don't own as it is.
+HAND_WRITTEN = """\
+robot: arm6   # the desk arm
+keyframes:
+  - pose: home
+  # a wrapped flow mapping
+  - pose: {base_yaw: 10, shoulder: 20,
+           elbow: 30}
+    after: 1.0  # slow
+  - pose: &up {shoulder: -20}
+    after: 0.5
+  - pose: *up
+    after: 0.5
+    hold: 0.2   # wait
+speed: 1.0
+"""
+
+
+def copy_motion(path: Path) -> None:
+    """tests/data/studio/wave.yaml and its song to ``path``'s folder."""
+    shutil.copy(MOTION, path)
+    shutil.copy(MOTION.with_name("groove.ogg"), path.with_name("groove.ogg"))
+
+
+def test_keyframe_items_span_their_own_lines_and_leave_comments_to_the_next():
+    items = keyframe_items(HAND_WRITTEN)
+    assert [(i.first_line, i.last_line) for i in items] == [(2, 2), (4, 6), (7, 8), (9, 11)]
+    assert {i.dash_col for i in items} == {2}
+
+
+def test_update_rewrites_the_pose_and_keeps_the_timing_and_its_comment():
+    pose = pose_mapping({"base_yaw": 12.34, "shoulder": -0.04})
+    new = update_keyframe(HAND_WRITTEN, 1, "here", "pose", pose)
+    assert new == HAND_WRITTEN.replace(
+        "  - pose: {base_yaw: 10, shoulder: 20,\n           elbow: 30}\n",
+        "  - pose: {base_yaw: 12.3, shoulder: 0}\n",
+    )
+
+
+def test_retime_replaces_after_beat_or_bar_by_t_keeping_the_line_comment():
+    new = retime_keyframe(HAND_WRITTEN, 1, "here", ("t", 1.25))
+    assert new == HAND_WRITTEN.replace("    after: 1.0  # slow\n", "    t: 1.25  # slow\n")
+    music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
+    assert retime_keyframe(music, 0, "here", ("t", 2)) == (
+        "robot: arm6\nkeyframes:\n  - pose: home\n    t: 2\n    stop: true\n"
+    )
+
+
+def test_a_dance_is_edited_in_beats_and_times_outside_the_song_in_seconds():
+    grid = BeatGrid((0.0, 0.5, 1.0, 1.5), beats_per_bar=4)  # 120 BPM, beat 1 at t 0
+    assert timing(0.75, grid) == ("beat", 2.5)
+    assert timing(1.0, grid) == ("beat", 3)  # on a beat: a whole number
+    assert timing(2.0, grid) == ("t", 2)  # past the song's last beat
+    assert timing(0.75, None) == ("t", 0.75)  # no music block
+    music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
+    assert retime_keyframe(music, 0, "here", timing(1.0, grid)) == (
+        "robot: arm6\nkeyframes:\n  - pose: home\n    beat: 3\n    stop: true\n"
+    )
+
+
+def test_add_inserts_a_full_pose_after_the_keyframe_before_it():
+    pose = pose_mapping({"base_yaw": 5, "shoulder": 7.5})
+    new = add_keyframe(HAND_WRITTEN, 0, "pose", pose, ("t", 0.5))
+    assert new == HAND_WRITTEN.replace(
+        "  - pose: home\n", "  - pose: home\n  - pose: {base_yaw: 5, shoulder: 7.5}\n    t: 0.5\n"
+    )
+    first = add_keyframe(HAND_WRITTEN, None, "pose", pose_mapping({"gripper": 10}), ("t", 0))
+    assert first.startswith("robot: arm6   # the desk arm\nkeyframes:\n  - pose: {gripper: 10}\n")
+
+
+def test_a_site_handle_writes_sites_over_the_sites_it_had_and_keeps_its_pose():
+    text = (
+        "robot: arm6\nkeyframes:\n  - pose: home\n"
+        "  - sites: {tool: {at: [100, 0, 50], pitch: -70}}  # reach\n"
+        "    pose: {gripper: 40}\n    after: 1.5\n"
+    )
+    new = update_keyframe(text, 1, "here", "sites", sites_mapping("tool", [120.04, -3.25, 60]))
+    assert new == text.replace(
+        "{tool: {at: [100, 0, 50], pitch: -70}}", "{tool: {at: [120, -3.2, 60]}}"
+    )
+
+
+def test_delete_removes_only_the_keyframe_lines():
+    assert delete_keyframe(HAND_WRITTEN, 1) == HAND_WRITTEN.replace(
+        "  - pose: {base_yaw: 10, shoulder: 20,\n           elbow: 30}\n    after: 1.0  # slow\n",
+        "",
+    )
+    with pytest.raises(EditRefused, match="last one"):
+        delete_keyframe("robot: arm6\nkeyframes:\n  - pose: home\n", 0)
+
+
+@pytest.mark.parametrize("index", [2, 3])
+def test_keyframes_tied_by_an_anchor_or_alias_are_left_to_the_text_editor(index):
+    with pytest.raises(EditRefused, match=r"^motion.yaml:9: .*YAML (anchor|alias)"):
+        update_keyframe(HAND_WRITTEN, index, "motion.yaml:9", "pose", pose_mapping({"shoulder": 1}))
+
+
+def test_a_bad_edit_is_refused_before_anything_is_written(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    # the second keyframe moved after the third: the third's t now goes backwards
+    with pytest.raises(SourceError, match=rf"^{re.escape(str(path))}:11:8: t 2 goes backwards"):
+        check_loads(path, retime_keyframe(TEXT, 1, "here", ("t", 2.5)))
+    assert path.read_text() == TEXT
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["groove.ogg", "wave.yaml"]
+
+
+def test_the_session_keeps_the_last_good_plan_and_says_where_the_file_is_wrong(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    session = Session(path)
+    assert session.reload().problems == ()
+    good = session.plan
+    assert good is not None and good.keyframe_times_s[1:] == (1.0, 2.0, 3.0)
+    assert path.resolve() in session.watched_files
+    assert (DATA.parent.parent / "models" / "arm6" / "robot.yaml").resolve() in (
+        session.watched_files
+    )
+
+    path.write_text(TEXT.replace("elbow: 40", "elbow: 400"))
+    problems = session.reload().problems
+    assert problems and problems[0].startswith(f"{path}:8:")
+    assert "elbow" in problems[0] and session.plan is good
+
+    assert not session.changed_on_disk()
+    path.write_text(TEXT)
+    assert session.changed_on_disk()
+    assert session.reload().problems == () and session.plan is not good
+
+
+def test_the_plan_comes_first_and_the_physics_of_a_superseded_reload_is_dropped(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    session = Session(path)
+    first = session.reload()
+    plan = session.plan
+    assert plan is not None and plan.physics is None  # planned, not simulated yet
+    # the third keyframe, as the file writes it: base_yaw 30 with shoulder 30, elbow 40 kept
+    assert np.allclose(plan.planned_deg(2.0)[:3], [30, 30, 40], atol=0.5)
+    assert plan.start_s == 0.0 and plan.phase(-0.5) == "approach"  # from home: no approach
+
+    second = session.reload()  # a save while the first reload was to be simulated
+    assert session.simulate(first.version) is None and session.plan.physics is None
+    assert session.simulate(second.version) == second
+    physics = session.plan.physics
+    assert physics is not None and session.plan.motion is not plan.motion
+    # the plan shown first is the path the simulated servos were given
+    times = np.linspace(plan.start_s, plan.end_s, 50)
+    given = physics.rollout.command_deg[physics.steps_at(times)]
+    assert np.allclose(given, [session.plan.planned_deg(t) for t in times], atol=0.5)
+    assert np.allclose(physics.simulated_deg(np.array([2.0]))[0][:3], [30, 30, 40], atol=2.0)
+    assert session.simulate(second.version) is None  # simulated already
+
+
+def test_the_watcher_notices_a_save(tmp_path):
+    path = tmp_path / "wave.yaml"
+    path.write_text(TEXT)
+    changed = threading.Event()
+    watcher = FileWatcher(lambda: [path], changed.set)
+    watcher.start()
+    try:
+        assert not changed.wait(0.3)
+        path.write_text(TEXT + "# saved again\n")
+        assert changed.wait(5.0)
+    finally:
+        watcher.stop()
+
+
+def test_the_live_robot_follows_the_page_within_the_approach_limits_and_stops(tmp_path):
+    robot = load_robot("arm6")
+    clock = VirtualClock()
+    emulator = BusEmulator(home_specs(robot), clock=clock)
+    bus = ServoBus(SimSerial.from_emulator(emulator))
+    said: list[str] = []
+    live = LiveRobot(bus, robot, clock, say=said.append)  # preflight: reads, loads torque
+    try:
+        target = np.array(robot.pose_vector("ready"))
+        live.follow(target)
+        wait_for(lambda: np.allclose(live.pose_deg, target), "the robot to reach 'ready'")
+        moves = [m for m in emulator.log.moves if m.command is not Command.MOVE_STOP]
+        assert moves, "nothing moved"
+        for move in moves:  # never a jump: every move at most the approach's share of vmax
+            joint = next(j for j in robot.joints if j.servo_id == move.servo_id)
+            speed = abs(joint.to_deg(move.to_units) - joint.to_deg(move.from_units))
+            if move.duration_s > 0:
+                speed /= move.duration_s
+            assert speed <= joint.limits.vel_deg_s * APPROACH_LIMIT_SCALE * ROUNDING
+        reached = [bus.read_position(j.servo_id) for j in robot.joints]
+        assert np.allclose(robot.to_deg(reached), target, atol=0.5)
+
+        live.stop()
+        wait_for(lambda: "stopped the servos" in said, "the stop")
+        stops = [p for p in emulator.log.packets if p.packet.command == Command.MOVE_STOP]
+        assert stops, "no MOVE_STOP sent"
+
+        # posed by hand: unloaded, turned, read, loaded again
+        live.unload(["shoulder"])
+        assert [emulator.servo(i).loaded for i in (1, 2)] == [True, False]
+        emulator.servo(2).move_by_hand(600)  # (600 - 500) * 0.24 = 24°
+        assert live.read_pose()[1] == pytest.approx(24.0)
+        live.follow(target)  # a robot in someone's hands is not driven
+        live.hold()
+        assert emulator.servo(2).loaded and live.limp == ()
+        assert bus.read_position(2) == 600
+    finally:
+        live.close()
+
+
+def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    said: list[str] = []
+    studio = Studio(path, Address("127.0.0.1", 0), say=said.append)
+    studio.start()
+    try:
+        kinematics = Kinematics(load_robot("arm6"))
+        target_mm = np.array([102.8, 122.6, 90.0])  # pick_and_place.yaml's block, reachable
+        origin = kinematics.world_to_base_mm([0, 0, 0])
+        axes = np.stack([kinematics.world_to_base_mm(e) - origin for e in np.eye(3) * 1000], 1)
+        world_m = np.linalg.solve(axes, target_mm - origin)
+        assert studio.page.findings.content.startswith("**physics**: reload 1 simulated in ")
+        studio.select_keyframe(2)  # the third: where it is written, when, and its values
+        assert studio.page.keyframe_info.content == (
+            f"`{path}:10:5` at 2.00 s: base_yaw 30°, shoulder 30°, elbow 40°, wrist_pitch 0°, "
+            "wrist_roll 0°, gripper 0°"
+        )
+        assert studio.time_s == 2.0
+        studio.scrub(3.4)  # past the last keyframe (t 3): the new one goes at the end
+        studio.drag_site("tool", world_m)
+        assert studio.posing is not None
+        reached = kinematics.site_pose("tool", studio.posing).position_mm
+        assert np.allclose(reached, target_mm, atol=1.0)
+        studio.add_keyframe()
+        assert not [line for line in said if "nothing written" in line]
+        assert (
+            # a dance: written on the song's beats, 1 + 3.4 s x 112 BPM / 60 s = beat 7.347
+            path.read_text()
+            == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    beat: 7.347\n"
+        )
+        studio.drive(True)  # a request its page does not offer: it was given no robot
+        studio.read_pose()
+        refused = "⛔ refused: no robot: this studio was started without one to drive"
+        assert said[-2:] == [refused, refused]
+        assert not studio.driving
+    finally:
+        studio.close()
+
+
+def test_scrubbing_drives_the_live_robot_once_asked_and_stop_stops_it(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    robot = load_robot("arm6")
+    clock = VirtualClock()
+    emulator = BusEmulator(home_specs(robot), clock=clock)
+    said: list[str] = []
+    live = LiveRobot(ServoBus(SimSerial.from_emulator(emulator)), robot, clock, said.append)
+    studio = Studio(path, Address("127.0.0.1", 0), say=said.append, live=live)
+    studio.start()
+    try:
+        studio.scrub(2.0)  # not driving yet: the robot stays at home
+        assert not [m for m in emulator.log.moves if m.command is not Command.MOVE_STOP]
+        studio.drive(True)
+        plan = studio.session.plan
+        assert plan is not None
+        wanted = plan.planned_deg(2.0)  # keyframe 3: base_yaw 30, shoulder 30, elbow 40
+        wait_for(lambda: np.allclose(live.pose_deg, wanted), "the robot at the scrubbed pose")
+        studio.stop_robot()
+        wait_for(lambda: "stopped the servos" in said, "the stop")
+        moves = len(emulator.log.moves)
+        studio.scrub(3.0)  # no longer driving
+        assert len(emulator.log.moves) == moves and not studio.driving
+        # requests a page should not make: refused with a note, nothing changes
+        studio.scrub(99.0)
+        studio.set_speed("1e9")
+        studio.move_joint("gripper", "lots")
+        assert said[-3:] == [
+            "⛔ refused: t 99 s is outside the timeline 0.00..3.50 s",
+            "⛔ refused: speed '1e9' is not one of 0.25, 0.5, 1, 2",
+            "⛔ refused: joint 'gripper' = 'lots' is not a joint and an angle",
+        ]
+        assert studio.time_s == 3.0 and studio.speed == 1.0
+    finally:
+        studio.close()
+
+
+def test_curves_show_the_plan_and_the_physics_of_every_joint_chosen(tmp_path):
+    path = tmp_path / "wave.yaml"
+    copy_motion(path)
+    studio = Studio(path, Address("127.0.0.1", 0), say=lambda line: None)
+    studio.start()
+    try:
+        page = studio.page
+        assert [n for n, pick in page.curve_picks.items() if pick.value] == ["base_yaw"]
+        page.curve_picks["elbow"].value = True
+        studio.redraw_curves()
+        labels = [series["label"] for series in page.curves.series]
+        assert labels == [
+            "t (s)",
+            "base_yaw plan (°)",
+            "base_yaw sim (°)",
+            "elbow plan (°)",
+            "elbow sim (°)",
+        ]
+        times, yaw_plan, yaw_sim, elbow_plan, elbow_sim = page.curves.data
+        at_2s = int(np.searchsorted(times, 2.0))  # the third keyframe: base_yaw 30, elbow 40
+        assert yaw_plan[at_2s] == pytest.approx(30, abs=0.5)
+        assert elbow_plan[at_2s] == pytest.approx(40, abs=0.5)
+        assert not np.isnan(elbow_sim).any()  # start() simulated it
+        assert elbow_sim[at_2s] == pytest.approx(40, abs=3.0)
+        page.curve_picks["base_yaw"].value = page.curve_picks["elbow"].value = False
+        studio.redraw_curves()
+        assert page.curves is None
+    finally:
+        studio.close()
+
+
+# hexapod18 stands at home, rises 20 mm on its planted feet (a body: keyframe), crouches.
+BODY_MOTION = """\
+robot: hexapod18
+keyframes:
+  - pose: home
+  - body: {z: 20}   # up
+    t: 1.0
+  - pose: crouch
+    t: 2.0
+"""
+
+
+def turned(wxyz: np.ndarray, roll_deg: float) -> np.ndarray:
+    """The quaternion ``wxyz`` followed by a roll about its own x axis."""
+    half = np.radians(roll_deg) / 2
+    w, x, y, z = wxyz
+    c, s = np.cos(half), np.sin(half)
+    return np.array([w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s])
+
+
+def test_the_body_handle_poses_a_walker_on_its_planted_feet_and_writes_body(tmp_path):
+    path = tmp_path / "rise.yaml"
+    path.write_text(BODY_MOTION)
+    said: list[str] = []
+    studio = Studio(path, Address("127.0.0.1", 0), say=said.append)
+    studio.start()
+    try:
+        assert studio.view is not None
+        kinematics = Kinematics(load_robot("hexapod18"))
+        feet = kinematics.feet()
+        studio.scrub(2.5)  # after the last keyframe: the feet stand where crouch plants them
+        crouch = studio.session.plan.motion.keyframes[2].targets_deg
+        position, wxyz = studio.view.root_pose()
+        up = position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.020])
+        studio.drag_body(up, turned(wxyz, 5.0))  # 20 mm up, rolled 5°
+        assert studio.posing is not None
+        # every foot stays where it stood: stance = R posed + t (body frame, mm), R a 5° roll
+        roll = np.radians(5.0)
+        rotation = np.array(
+            [[1, 0, 0], [0, np.cos(roll), -np.sin(roll)], [0, np.sin(roll), np.cos(roll)]]
+        )
+        for foot in feet:
+            stood = kinematics.site_pose(foot, crouch).position_mm
+            posed = kinematics.site_pose(foot, studio.posing).position_mm
+            assert np.allclose(rotation @ posed + [0, 0, 20], stood, atol=1.0)
+
+        posed = studio.posing.copy()
+        studio.drag_body(position + np.array([0.0, 0.0, 0.3]), wxyz)  # 30 cm up: out of reach
+        assert re.fullmatch(
+            r"⛔ refused: the body cannot go there: foot \w+ would end \d+ mm from where it "
+            r"stands \(out of the leg's reach\); the last pose that works stays",
+            said[-1],
+        )
+        assert np.array_equal(studio.posing, posed)
+
+        studio.add_keyframe()
+        assert path.read_text() == BODY_MOTION + "  - body: {z: 20, roll: 5}\n    t: 2.5\n"
+
+        studio.select_keyframe(1)  # the body: keyframe at t 1: 10 mm more, from home's feet
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert not [line for line in said if "nothing written" in line]
+        written = path.read_text()
+        assert written.startswith(
+            BODY_MOTION.replace("body: {z: 20}   # up", "body: {z: 30}   # up")
+        )
+
+        # crouch made a body: keyframe would rise from home's feet (the keyframe before it
+        # that planted them), not from crouch's, where the handle kept them: refused
+        studio.select_keyframe(2)
+        position, wxyz = studio.view.root_pose()
+        studio.drag_body(position + rotation_of(wxyz) @ np.array([0.0, 0.0, 0.010]), wxyz)
+        studio.update_keyframe()
+        assert said[-1].startswith("⛔ nothing written: a body: keyframe there would stand on ")
+        assert path.read_text() == written
+    finally:
+        studio.close()
+
+
+def test_drag_moves_that_come_while_one_is_solved_are_dropped_but_the_newest():
+    handled: list[int] = []
+    solving, release = threading.Event(), threading.Event()
+
+    def solve(move: int) -> None:
+        handled.append(move)
+        if move == 1:  # a slow solve: moves 2, 3 and 4 arrive meanwhile
+            solving.set()
+            assert release.wait(5.0)
+
+    latest = LatestOnly(solve)
+    first = threading.Thread(target=latest, args=(1,))
+    first.start()
+    assert solving.wait(5.0)
+    for move in (2, 3, 4):
+        latest(move)  # returns at once: the call under way takes the newest next
+    assert handled == [1]
+    release.set()
+    first.join(5.0)
+    assert handled == [1, 4]
+    latest(5)
+    assert handled == [1, 4, 5]

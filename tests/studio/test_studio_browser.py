@@ -1,0 +1,226 @@
+"""choreo studio driven in a real browser: Chromium through Playwright.
+
+The run finds or installs the browser first (tests/browser.py: Playwright's own, or Debian's
+chromium). Without one these tests fail (they do not skip): the studio is a page, and only a
+browser shows that the page works. One studio and one page serve the whole module (a
+page's first frames cost seconds of software rendering); each test starts from the motion file
+as tests/data/studio/wave.yaml has it.
+"""
+
+from __future__ import annotations
+
+import io
+import shutil
+import socket
+import time
+from pathlib import Path
+
+import browser as chromium
+import numpy as np
+import pytest
+from paths import DATA
+from PIL import Image
+from playwright.sync_api import expect, sync_playwright
+
+from choreo.studio.address import Address
+from choreo.studio.server import Studio
+
+MOTION = DATA / "studio" / "wave.yaml"
+VIEWPORT = {"width": 900, "height": 640}
+SCENE = {"x": 80, "y": 150, "width": 460, "height": 420}  # the 3D view, clear of the panels
+DARK = 300  # R+G+B of arm6's black links; the floor's grid lines are lighter than 400
+TICK_TOLERANCE_DEG = 0.5  # the ticks may be this far from the plan (choreo play's default)
+WAIT_MS = 30_000  # how long a page may take to show a change (software rendering, busy CI box)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    try:
+        choice = chromium.chosen()
+    except chromium.NoBrowser as error:
+        pytest.fail(str(error), pytrace=False)
+    with sync_playwright() as playwright:
+        browser = choice.launch(playwright)
+        yield browser
+        browser.close()
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """The studio on a copy of wave.yaml; ``studio.said`` is what it printed."""
+    motion = tmp_path_factory.mktemp("studio") / "wave.yaml"
+    shutil.copy(MOTION, motion)
+    shutil.copy(MOTION.with_name("groove.ogg"), motion.with_name("groove.ogg"))
+    said: list[str] = []
+    studio = Studio(motion, Address("127.0.0.1", free_port()), say=said.append)
+    studio.said = said  # type: ignore[attr-defined]
+    studio.start()
+    yield studio
+    studio.close()
+
+
+@pytest.fixture(scope="module")
+def first_tab(browser, served):
+    page = open_page(browser, served)
+    yield page
+    page.close()
+
+
+@pytest.fixture
+def studio(served, first_tab):
+    """The studio with the file as wave.yaml has it, the page showing it at t = 0."""
+    if served.session.motion_path.read_bytes() != MOTION.read_bytes():
+        version = served.session.version
+        shutil.copy(MOTION, served.session.motion_path)
+        wait_for(lambda: served.session.version > version, "the studio to reload")
+        expect(first_tab.get_by_text("4 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
+    type_number(first_tab, "t (s)", 0.0)
+    expect(number_input(first_tab, "t (s)")).to_have_value("0", timeout=WAIT_MS)
+    served.said.clear()
+    return served
+
+
+def open_page(browser, studio):
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(studio.address.url)
+    expect(page.get_by_text("studio wave")).to_be_visible(timeout=WAIT_MS)
+    return page
+
+
+def number_input(page, label: str):
+    """The number box beside the control labelled ``label``."""
+    row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
+    return page.locator(row).locator("input").last
+
+
+def type_number(page, label: str, value: float) -> None:
+    box = number_input(page, label)
+    box.fill(f"{value:g}")
+    box.press("Enter")
+
+
+def value_of(page, label: str) -> float:
+    return float(number_input(page, label).input_value())
+
+
+def scene_pixels(page) -> np.ndarray:
+    shot = page.screenshot(clip=SCENE, timeout=WAIT_MS)
+    return np.asarray(Image.open(io.BytesIO(shot)).convert("RGB")).astype(int)
+
+
+def changed_pixels(a: np.ndarray, b: np.ndarray) -> int:
+    return int(np.abs(a - b).sum(axis=2).astype(bool).sum())
+
+
+def wait_for(condition, what: str, timeout_s: float = WAIT_MS / 1000):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"gave up waiting for {what}"
+        time.sleep(0.05)
+
+
+def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, studio):
+    page = first_tab
+    for name in ("arm6", "base_yaw", "shoulder", "elbow", "wrist_pitch", "wrist_roll", "gripper"):
+        expect(page.get_by_text(name, exact=True).first).to_be_attached()
+    at_rest = scene_pixels(page)
+    robot = int((at_rest.sum(axis=2) < DARK).sum())
+    assert robot > 400, f"only {robot} dark pixels: no robot drawn"
+
+    type_number(page, "t (s)", 2.0)  # the third keyframe: base_yaw 30, shoulder 30, elbow 40
+    wait_for(lambda: abs(value_of(page, "base_yaw") - 30) <= TICK_TOLERANCE_DEG, "base_yaw 30")
+    for joint, angle in (("shoulder", 30), ("elbow", 40), ("gripper", 0)):
+        assert value_of(page, joint) == pytest.approx(angle, abs=TICK_TOLERANCE_DEG)
+    wait_for(lambda: changed_pixels(scene_pixels(page), at_rest) > 400, "the robot to move")
+    # the song, in the page, stands at the timeline's time plus its start (music: start: 0.5)
+    song_time = "() => document.getElementById('choreo-song').currentTime"
+    wait_for(lambda: page.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
+
+
+# The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:
+# these two lines and nothing else. The motion dances to a 112 BPM song with beat 1 at t 0, so
+# t 2.5 s is written as beat 1 + 2.5 x 112 / 60 = 5.667.
+ADDED = """\
+  - pose: {base_yaw: 0, shoulder: 45, elbow: 0, wrist_pitch: 0, wrist_roll: 0, gripper: 0}
+    beat: 5.667
+"""
+
+
+def test_a_slider_and_add_keyframe_write_one_keyframe_and_keep_the_rest(first_tab, studio):
+    page = first_tab
+    type_number(page, "t (s)", 2.5)
+    page.get_by_role("button", name="Take the named pose").click()  # home, the first pose
+    expect(number_input(page, "base_yaw")).to_have_value("0", timeout=WAIT_MS)
+    type_number(page, "shoulder", 45)
+    wait_for(lambda: studio.posing is not None and studio.posing[1] == 45, "the slider's pose")
+    page.get_by_role("button", name="Add keyframe").click()
+    wait_for(lambda: "5 keyframes" in page.inner_text("body"), "the page to show 5 keyframes")
+    lines = MOTION.read_text().splitlines(keepends=True)
+    at = lines.index("  # and back\n")
+    assert studio.session.motion_path.read_text() == "".join(lines[:at]) + ADDED + "".join(
+        lines[at:]
+    )
+    assert any("added a keyframe" in line for line in studio.said)
+
+
+def test_a_bad_save_shows_where_in_the_page_and_a_good_save_clears_it(first_tab, studio):
+    page = first_tab
+    path = studio.session.motion_path
+    path.write_text(
+        MOTION.read_text().replace("{shoulder: 30, elbow: 40}", "{shoulder: 30, elbw: 40}")
+    )
+    where = f"{path}:8:"
+    expect(page.get_by_text(where)).to_be_visible(timeout=WAIT_MS)
+    assert any(line.startswith(where) and "elbw" in line for line in studio.said)
+    assert studio.session.plan is not None  # the last good plan is still shown
+    expect(page.get_by_text("4 keyframes", exact=False)).to_be_visible()
+
+    shutil.copy(MOTION, path)
+    expect(page.get_by_text(where)).to_have_count(0, timeout=WAIT_MS)
+
+
+def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio):
+    second = open_page(browser, studio)
+    try:
+        type_number(second, "t (s)", 1.0)  # the second keyframe: shoulder 30, elbow 40
+        expect(number_input(first_tab, "t (s)")).to_have_value("1", timeout=WAIT_MS)
+        wait_for(lambda: abs(value_of(first_tab, "elbow") - 40) <= TICK_TOLERANCE_DEG, "elbow")
+        # a page asking for an angle outside the joint's limits is refused, in both places
+        type_number(second, "gripper", 90)
+        expect(first_tab.get_by_text("outside its limits")).to_be_visible(timeout=WAIT_MS)
+        assert any("refused: gripper 90° is outside its limits" in s for s in studio.said)
+    finally:
+        second.close()
+
+
+def screenshot(motion: Path, at_s: float, out: Path) -> None:
+    """The README's picture of the studio, from the repo's root:
+    ``PYTHONPATH=tests python tests/studio/test_studio_browser.py docs/studio.png``."""
+    studio = Studio(motion, Address("127.0.0.1", free_port()), say=print)
+    studio.start()
+    try:
+        with sync_playwright() as playwright:
+            browser = chromium.chosen().launch(playwright)
+            page = browser.new_page(viewport={"width": 1280, "height": 820})
+            page.goto(studio.address.url)
+            expect(page.get_by_text("Timeline")).to_be_visible(timeout=WAIT_MS)
+            page.locator(".mantine-Notification-root button").click()  # "software WebGL" note
+            type_number(page, "t (s)", at_s)
+            page.screenshot(path=out, timeout=WAIT_MS)  # the first frames take a while
+            time.sleep(1.0)
+            page.screenshot(path=out, timeout=WAIT_MS)
+            browser.close()
+    finally:
+        studio.close()
+
+
+if __name__ == "__main__":
+    import sys
+
+    screenshot(Path("motions/arm6/dance.yaml"), 8.4, Path(sys.argv[1]))
