@@ -19,7 +19,8 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec, SimSerial
 from choreo.emulator.pty import PtyBridge
-from choreo.play.recorder import Capture, Recorder, Recording
+from choreo.play.recorder import Recorder
+from choreo.play.recording import Capture, Recording
 from choreo.robot.robot_file import load_robot
 
 READS = 200

@@ -5,7 +5,8 @@ Prints, per port kind (the raw LX bus, the RRC board, the LOBOT controller), the
 signal to the first byte of the stop: the raw bus's broadcast MOVE_STOP, the RRC board's stop
 frame (MOVE_STOP to each servo), the LOBOT controller's position reads that precede its holds.
 Goal: under 50 ms on a quiet machine. The tests check only the order and content of what reaches
-the wire (tests/cli/test_play_commands.py, tests/cli/test_emulate_commands.py); this prints the time.
+the wire (tests/cli/test_play_commands.py, tests/cli/test_emulate_commands.py); this prints the
+time.
 
 Run: python benchmarks/bench_stop.py [--runs N]
 """

@@ -23,12 +23,11 @@ from choreo.play.recorder import (
     Event,
     NothingToUndo,
     Recorder,
-    Recording,
     Refused,
     Undone,
     UnknownInput,
-    journal_path,
 )
+from choreo.play.recording import Recording, journal_path
 from choreo.play.robot_bus import robot_bus
 from choreo.robot.robot_file import load_robot
 from choreo.robot.types import Robot

@@ -12,5 +12,6 @@
 - :mod:`~choreo.play.dry_run`: the packets a play would send; :mod:`~choreo.play.robot_bus`: the
   robot's bus, else the built-in emulator;
 - :mod:`~choreo.play.soundtrack`: the song beside the servos; :mod:`~choreo.play.path_errors`:
-  how far the emulated servos strayed; :mod:`~choreo.play.recorder`: teaching by hand.
+  how far the emulated servos strayed; :mod:`~choreo.play.recorder`: teaching by hand, live;
+  :mod:`~choreo.play.recording`: what was taught, journaled, reduced and written as a motion.
 """

@@ -7,9 +7,7 @@ import io
 
 from choreo.cli import main
 from choreo.motion.motion_file import load_motion
-from choreo.play.recorder import (
-    journal_path,
-)
+from choreo.play.recording import journal_path
 
 
 def test_cli_records_on_the_built_in_bus(tmp_path, monkeypatch, capsys):

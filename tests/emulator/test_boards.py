@@ -190,7 +190,8 @@ def test_a_lobot_stop_whose_read_times_out_holds_the_last_commanded_targets():
 
 
 def test_recording_by_hand_through_the_rrc_board(tmp_path):
-    from choreo.play.recorder import Ending, Recorder, Recording
+    from choreo.play.recorder import Ending, Recorder
+    from choreo.play.recording import Recording
     from choreo.robot.robot_file import load_robot
 
     robot = load_robot("arm6")
@@ -212,7 +213,8 @@ def test_recording_by_hand_through_the_rrc_board(tmp_path):
 
 
 def test_recording_through_the_lobot_controller_is_refused_naming_it(tmp_path):
-    from choreo.play.recorder import Recorder, Recording
+    from choreo.play.recorder import Recorder
+    from choreo.play.recording import Recording
     from choreo.robot.robot_file import load_robot
 
     robot = load_robot("arm6")

@@ -28,12 +28,13 @@ from choreo.play.recorder import (
     Ending,
     NothingToUndo,
     Recorder,
-    Recording,
     Refused,
-    SavedMotion,
     Undone,
     UnknownInput,
-    douglas_peucker,
+)
+from choreo.play.recording import (
+    Recording,
+    SavedMotion,
     journal_path,
     read_journal,
 )
@@ -332,11 +333,6 @@ def test_starting_over_an_unfinished_journal_or_a_motion_file_is_refused(tmp_pat
     Recording.start(out, rig.robot, overwrite=True).close()
 
 
-def test_nothing_to_resume(tmp_path):
-    with pytest.raises(ChoreoError, match="nothing to resume"):
-        Recording.resume(tmp_path / "t.yaml")
-
-
 def test_a_robot_found_by_no_name_is_written_as_a_relative_path(tmp_path, monkeypatch):
     monkeypatch.delenv("CHOREO_MODELS", raising=False)
     rig = Rig(TINY)
@@ -356,29 +352,6 @@ def test_a_robot_found_by_no_name_is_written_as_a_relative_path(tmp_path, monkey
 
 
 # --- streams -----------------------------------------------------------------------------------
-
-
-def test_douglas_peucker_keeps_the_corners():
-    times = [0, 1, 2, 3, 4]
-    assert douglas_peucker(times, [[0], [1], [2], [3], [4]], 0.1) == [0, 4]
-    assert douglas_peucker(times, [[0], [1], [2], [1], [0]], 0.5) == [0, 2, 4]
-    assert douglas_peucker(times, [[0], [1], [2], [1], [0]], 2.5) == [0, 4]
-    # a bump on the second joint alone is kept
-    assert douglas_peucker(times, [[0, 0], [1, 0], [2, 3], [3, 0], [4, 0]], 1.0) == [0, 1, 2, 3, 4]
-    # uneven times: a constant speed along time is a straight line
-    assert douglas_peucker([0, 0.1, 0.5, 2.0], [[0], [1], [5], [20]], 0.01) == [0, 3]
-
-
-def test_douglas_peucker_stays_within_tolerance_of_every_sample():
-    rng = np.random.default_rng(7)
-    times = np.cumsum(rng.uniform(0.02, 0.08, 300))
-    angles = np.cumsum(rng.normal(0, 1.5, (300, 3)), axis=0)
-    for tolerance in (0.5, 2.0, 8.0):
-        kept = douglas_peucker(times, angles, tolerance)
-        assert kept[0] == 0 and kept[-1] == 299 and kept == sorted(set(kept))
-        for joint in range(3):
-            line = np.interp(times, times[kept], angles[kept, joint])
-            assert np.abs(line - angles[:, joint]).max() <= tolerance + 1e-9
 
 
 def test_a_stream_is_reduced_to_keyframes_within_the_tolerance(tmp_path):
