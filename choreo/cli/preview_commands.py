@@ -30,6 +30,8 @@ from choreo.validate import heading_for
 OUTPUT_SUFFIXES = (".mp4", ".gif", ".png")
 
 
+# One statement per flag, in the order --help lists them: a long function, kept whole so that a
+# command's usage reads top to bottom in one place.
 def register(subparsers) -> None:
     preview = subparsers.add_parser(
         "preview",

@@ -26,6 +26,8 @@ from choreo.cli.arguments import add_port_arguments, finite_float, id_ranges, op
 from choreo.errors import ChoreoError, UsageError
 
 
+# One statement per flag, in the order --help lists them: a long function, kept whole so that a
+# command's usage reads top to bottom in one place.
 def register(subparsers) -> None:
     servo = subparsers.add_parser(
         "servo",

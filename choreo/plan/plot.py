@@ -14,6 +14,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from choreo.core.atomic import atomic_output
+from choreo.errors import OptionError
 from choreo.plan.planner import Trajectory
 from choreo.plan.ticks import TickPlan
 from choreo.robot.types import Robot
@@ -57,14 +58,7 @@ def plot_plan(
         hspace=0.12,
         wspace=0.16,
     )
-
-    start_s, end_s = window_s if window_s is not None else (0.0, trajectory.duration_s)
-    if not 0 <= start_s < end_s <= trajectory.duration_s + 1e-9 and window_s is not None:
-        raise ValueError(
-            f"window_s must lie within 0..{trajectory.duration_s:g} s with start < end, "
-            f"got {window_s}"
-        )
-    end_s = max(end_s, start_s + 1e-3)
+    start_s, end_s = _window(trajectory, window_s)
     times_s = np.linspace(start_s, end_s, int(np.clip((end_s - start_s) * 400, 2000, 40000)))
     pos, vel, _ = trajectory.sample(times_s)
     bounds_s, tick_deg, tick_vel = _servo_path(trajectory, plan, robot)
@@ -76,49 +70,76 @@ def plot_plan(
         tick_deg[first:last],
         tick_vel[first : max(last - 1, first)],
     )
-
     for j, joint in enumerate(robot.joints):
         ax_pos, ax_vel = axes[j]
         for ax in (ax_pos, ax_vel):
-            ax.vlines(
-                trajectory.keyframe_times_s,
-                0,
-                1,
-                transform=ax.get_xaxis_transform(),
-                color=KEYFRAME_COLOR,
-                linewidth=0.6,
-                alpha=0.6,
-                label="keyframe",
-            )
-            ax.tick_params(labelsize=8)
-            ax.grid(True, linewidth=0.3, alpha=0.5)
-        ax_pos.plot(
-            times_s, pos[:, j], color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45, label="smooth plan"
-        )
-        ax_pos.plot(
-            bounds_s,
-            tick_deg[:, j],
-            color=TICK_COLOR,
-            linewidth=0.9,
-            marker="o",
-            markersize=2.2,
-            label="servo ticks",
-        )
-        _pad_flat_axis(ax_pos, pos[:, j], MIN_SPAN_DEG)
-        ax_pos.set_ylabel(f"{joint.name}\n°", fontsize=9)
+            _keyframe_lines(ax, trajectory.keyframe_times_s)
+        _draw_position(ax_pos, joint.name, times_s, pos[:, j], bounds_s, tick_deg[:, j])
+        tick_vel_j = tick_vel[:, j] if len(tick_vel) else None
+        _draw_velocity(ax_vel, joint.limits.vel_deg_s, times_s, vel[:, j], bounds_s, tick_vel_j)
+    axes[0, 0].set_xlim(start_s, end_s)  # shared by every row
+    _label(figure, axes, height, title or _default_title(trajectory, plan))
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, format="png", dpi=DPI)
 
-        limit = joint.limits.vel_deg_s
-        ax_vel.plot(times_s, vel[:, j], color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45)
-        if len(tick_vel):
-            ax_vel.stairs(tick_vel[:, j], bounds_s, color=TICK_COLOR, linewidth=0.9, baseline=None)
-        for sign in (-1, 1):
-            ax_vel.axhline(sign * limit, color="black", linewidth=0.7, linestyle="--")
-        ax_vel.set_ylim(-1.08 * limit, 1.08 * limit)
-        ax_vel.set_ylabel("°/s", fontsize=9)
 
+def _window(trajectory: Trajectory, window_s: tuple[float, float] | None) -> tuple[float, float]:
+    """The stretch drawn: ``window_s``, checked to lie within the motion, or all of it."""
+    if window_s is None:
+        return 0.0, max(trajectory.duration_s, 1e-3)
+    start_s, end_s = window_s
+    if not 0 <= start_s < end_s <= trajectory.duration_s + 1e-9:
+        raise OptionError(
+            "window_s",
+            f"must lie within 0..{trajectory.duration_s:g} s with start < end, got {window_s}",
+        )
+    return start_s, max(end_s, start_s + 1e-3)
+
+
+def _keyframe_lines(ax, keyframe_times_s) -> None:
+    ax.vlines(
+        keyframe_times_s,
+        0,
+        1,
+        transform=ax.get_xaxis_transform(),
+        color=KEYFRAME_COLOR,
+        linewidth=0.6,
+        alpha=0.6,
+        label="keyframe",
+    )
+    ax.tick_params(labelsize=8)
+    ax.grid(True, linewidth=0.3, alpha=0.5)
+
+
+def _draw_position(ax, name: str, times_s, pos_deg, bounds_s, tick_deg) -> None:
+    ax.plot(times_s, pos_deg, color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45, label="smooth plan")
+    ax.plot(
+        bounds_s,
+        tick_deg,
+        color=TICK_COLOR,
+        linewidth=0.9,
+        marker="o",
+        markersize=2.2,
+        label="servo ticks",
+    )
+    _pad_flat_axis(ax, pos_deg, MIN_SPAN_DEG)
+    ax.set_ylabel(f"{name}\n°", fontsize=9)
+
+
+def _draw_velocity(ax, limit_deg_s: float, times_s, vel_deg_s, bounds_s, tick_vel) -> None:
+    ax.plot(times_s, vel_deg_s, color=SMOOTH_COLOR, linewidth=3.0, alpha=0.45)
+    if tick_vel is not None:
+        ax.stairs(tick_vel, bounds_s, color=TICK_COLOR, linewidth=0.9, baseline=None)
+    for sign in (-1, 1):
+        ax.axhline(sign * limit_deg_s, color="black", linewidth=0.7, linestyle="--")
+    ax.set_ylim(-1.08 * limit_deg_s, 1.08 * limit_deg_s)
+    ax.set_ylabel("°/s", fontsize=9)
+
+
+def _label(figure, axes, height_px: int, title: str) -> None:
+    """Column titles, the time axis, one legend for every row, and the title."""
     axes[0, 0].set_title("position", fontsize=10)
     axes[0, 1].set_title("velocity (dashed: ±limit)", fontsize=10)
-    axes[0, 0].set_xlim(start_s, end_s)  # shared by every row
     for ax in axes[-1]:
         ax.set_xlabel("time (s)", fontsize=9)
     handles, labels = axes[0, 0].get_legend_handles_labels()
@@ -126,21 +147,12 @@ def plot_plan(
         handles,
         labels,
         loc="upper right",
-        bbox_to_anchor=(0.985, 1 - 6 / height),
+        bbox_to_anchor=(0.985, 1 - 6 / height_px),
         ncol=3,
         fontsize=9,
         frameon=False,
     )
-    figure.suptitle(
-        title or _default_title(trajectory, plan),
-        x=0.09,
-        y=1 - 12 / height,
-        ha="left",
-        va="top",
-        fontsize=11,
-    )
-    with atomic_output(path) as temporary:
-        figure.savefig(temporary, format="png", dpi=DPI)
+    figure.suptitle(title, x=0.09, y=1 - 12 / height_px, ha="left", va="top", fontsize=11)
 
 
 def _pad_flat_axis(ax, values, min_span: float) -> None:

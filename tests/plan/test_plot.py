@@ -7,7 +7,10 @@ import pytest
 from cli_helpers import WAVE, error_line, png_size
 
 from choreo.cli import main
-from choreo.plan.plot import plot_size_px
+from choreo.errors import OptionError
+from choreo.motion.motion_file import load_motion
+from choreo.plan.pipeline import compile_motion
+from choreo.plan.plot import plot_plan, plot_size_px
 
 
 def test_plan_plot_draws_a_time_window(tmp_path, capsys):
@@ -50,3 +53,15 @@ def test_a_plot_window_needs_a_plot(capsys):
     assert error_line(capsys) == (
         "choreo: error: --plot-from and --plot-to choose what --plot draws: add --plot FILE.png"
     )
+
+
+@pytest.mark.parametrize("window_s", [(3.0, 2.0), (-1.0, 2.0), (0.0, 99.0)])
+def test_the_library_refuses_a_window_outside_the_motion_by_its_name(tmp_path, window_s):
+    motion = load_motion(WAVE)
+    compiled = compile_motion(motion)
+    with pytest.raises(OptionError) as refused:
+        plot_plan(
+            compiled.trajectory, compiled.ticks, motion.robot, tmp_path / "p.png", window_s=window_s
+        )
+    assert refused.value.option == "window_s" and "within 0..4.9 s" in str(refused.value)
+    assert not (tmp_path / "p.png").exists()
