@@ -356,7 +356,7 @@ def test_every_public_name_is_walked_or_is_a_result():
     "call, error, words",
     [
         (lambda: choreo.detect_beats("missing.wav"), ChoreoError, "missing.wav does not exist"),
-        (lambda: ServoBus(PORT, direction="bogus"), ChoreoError, "bad direction 'bogus'"),
+        (lambda: ServoBus(PORT, direction="bogus"), OptionError, "direction 'bogus' is not a"),
         (lambda: ServoBus(Path("/dev/no-such-tty")), PortError, "/dev/no-such-tty"),
         (lambda: load_motion(REPO / "no-such.yaml"), ChoreoError, "no-such.yaml"),
     ],

@@ -39,6 +39,7 @@ from typing import Protocol
 
 from choreo.bus.protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
 from choreo.bus.servo_models import servo_model
+from choreo.core.arguments import Range, check_number
 from choreo.core.atomic import write_text_atomically
 from choreo.core.clock import Clock, RealClock
 from choreo.core.file_kind import not_a_file, os_error_text
@@ -64,6 +65,8 @@ logger = logging.getLogger(__name__)
 
 DEFAULT_TURNAROUND_S = 0.0006  # one measurement of a real servo (protocol.md)
 MAX_TURNAROUND_MS = 1000.0  # a real servo answers in under a millisecond
+TURNAROUND_S = Range(at_least=0, at_most=MAX_TURNAROUND_MS / 1000, unit=" s")
+START_GAP_S = Range(at_least=0, unit=" s")  # a finite gap: inf would refuse every START
 DEFAULT_LOG_LIMIT = 100_000  # entries per log list; a long-running emulator must not grow forever
 STATE_FORMAT = "choreo-emulator-state"
 STATE_VERSION = 1
@@ -149,9 +152,8 @@ class BusEmulator:
         state_path: str | os.PathLike | None = None,
         log_limit: int = DEFAULT_LOG_LIMIT,
     ):
-        for name, value in (("turnaround_s", turnaround_s), ("start_gap_s", start_gap_s)):
-            if value < 0:
-                raise ValueError(f"{name} must be >= 0, got {value}")
+        check_number("turnaround_s", turnaround_s, TURNAROUND_S)
+        check_number("start_gap_s", start_gap_s, START_GAP_S)
         specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
         self.clock = clock if clock is not None else RealClock()
         self.turnaround_s = turnaround_s

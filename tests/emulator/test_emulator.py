@@ -21,7 +21,7 @@ from choreo.bus.protocol import (
 )
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFate, ReplyFaults, ServoSpec, SimSerial
-from choreo.errors import ChoreoError
+from choreo.errors import ChoreoError, OptionError
 
 BYTE_S = 10 / 115200
 TURNAROUND_S = 0.0006
@@ -670,3 +670,17 @@ def test_log_records_packets_with_arrival_times_and_moves(bus):
     assert stop.time_s - write.time_s == pytest.approx(0.02 + 6 * BYTE_S)
     (move,) = log.moves
     assert (move.servo_id, move.from_units, move.to_units, move.duration_s) == (1, 500, 600, 0.4)
+
+
+@pytest.mark.parametrize(
+    "option, value, words",
+    [
+        ("start_gap_s", float("nan"), "start_gap_s must be a number >= 0 s, got nan"),
+        ("start_gap_s", -1, "start_gap_s must be a number >= 0 s, got -1"),
+        ("turnaround_s", float("inf"), "turnaround_s must be a number >= 0 and <= 1 s, got inf"),
+    ],
+)
+def test_an_emulator_timing_that_is_no_time_is_refused_by_name(option, value, words):
+    with pytest.raises(OptionError) as refused:
+        BusEmulator((1,), **{option: value})
+    assert refused.value.option == option and str(refused.value) == words

@@ -59,16 +59,16 @@ def parse_direction(text: str) -> DirectionPins:
     """A preset name or ``rx=N,tx=N[,chip=PATH]``; ``ValueError`` saying what is valid."""
     if text in PRESETS:
         return PRESETS[text]
-    valid = f"a preset ({', '.join(PRESETS)}) or rx=N,tx=N[,chip=PATH], e.g. rx=4,tx=27"
+    valid = f"a preset ({', '.join(PRESETS)}) nor rx=N,tx=N[,chip=PATH], e.g. rx=4,tx=27"
     try:
         values = dict(item.split("=", 1) for item in text.split(","))
         if set(values) - {"rx", "tx", "chip"} or not {"rx", "tx"} <= set(values):
             raise ValueError
         pins = DirectionPins(int(values["rx"]), int(values["tx"]), values.get("chip", DEFAULT_CHIP))
     except ValueError:
-        raise ValueError(f"bad direction {text!r}: expected {valid}") from None
+        raise ValueError(f"{text!r} is not {valid}") from None
     if pins.rx == pins.tx or min(pins.rx, pins.tx) < 0:
-        raise ValueError(f"bad direction {text!r}: rx and tx are two different lines >= 0")
+        raise ValueError(f"{text!r}: rx and tx must be two different lines >= 0")
     return pins
 
 
@@ -165,7 +165,7 @@ def board_pins(text: str, compatibles: list[str] | None = None) -> DirectionPins
     try:
         pins = parse_direction(text)
     except ValueError as error:
-        raise ChoreoError(str(error)) from None
+        raise OptionError("direction", str(error)) from None
     if text not in PRESETS:
         return pins
     if compatibles is None:

@@ -115,9 +115,11 @@ def test_presets_and_explicit_pins():
     assert parse_direction("ainex") == DirectionPins(rx=19, tx=26)
     assert parse_direction("jethexa") == DirectionPins(rx=17, tx=27)
     assert parse_direction("rx=5,tx=6,chip=/dev/gpiochip4") == DirectionPins(5, 6, "/dev/gpiochip4")
-    for bad in ("rx=4", "rx=4,tx=4", "tonypie", "rx=a,tx=1", "rx=1,tx=2,pin=3"):
-        with pytest.raises(ValueError, match="bad direction"):
+    for bad in ("rx=4", "tonypie", "rx=a,tx=1", "rx=1,tx=2,pin=3"):
+        with pytest.raises(ValueError, match=f"'{bad}' is not a preset .* nor rx=N,tx=N"):
             parse_direction(bad)
+    with pytest.raises(ValueError, match="'rx=4,tx=4': rx and tx must be two different lines"):
+        parse_direction("rx=4,tx=4")
     assert set(PRESETS) >= {"tonypi", "spiderpi", "armpi-pro", "jethexa", "ainex"}
 
 
@@ -211,7 +213,7 @@ def test_robot_yaml_bus_direction(tmp_path):
     (folder / "robot.yaml").write_text(text + "bus:\n  port: /dev/ttyAMA0\n  direction: ainex\n")
     assert load_robot(folder / "robot.yaml").bus.direction == "ainex"
     (folder / "robot.yaml").write_text(text + "bus:\n  direction: rx=4\n")
-    with pytest.raises(SourceError, match=r"robot.yaml:\d+:\d+: bus: direction: bad direction"):
+    with pytest.raises(SourceError, match=r"robot.yaml:\d+:\d+: bus: direction: 'rx=4' is not a"):
         load_robot(folder / "robot.yaml")
 
 
