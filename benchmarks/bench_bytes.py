@@ -24,8 +24,9 @@ from rich.console import Console
 from rich.table import Table
 
 from choreo.motion.motion_file import load_motion
-from choreo.plan.planner import Trajectory, plan_motion
+from choreo.plan.planner import plan_motion
 from choreo.plan.ticks import MOVE_BYTES, QUANTIZATION_DEG, compile_ticks, staging_bytes
+from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot
 
 TOLERANCE_DEG = 0.5

@@ -38,7 +38,8 @@ PUBLIC = {
     "choreo.robot.types": ("Robot", "Joint"),
     "choreo.robot.robot_file": ("load_robot",),
     "choreo.motion.motion_file": ("Motion", "Keyframe", "load_motion"),
-    "choreo.plan.planner": ("Trajectory", "PlanResult", "plan_motion"),
+    "choreo.plan.planner": ("plan_motion",),
+    "choreo.plan.trajectory": ("Trajectory", "PlanResult"),
     "choreo.plan.pipeline": ("CompiledMotion", "PlanOptions", "compile_motion"),
     "choreo.plan.performance": ("Performance", "prepare"),
     "choreo.plan.report": ("plan_report",),
@@ -90,8 +91,9 @@ if TYPE_CHECKING:
     from choreo.music.report import beats_report
     from choreo.plan.performance import Performance, prepare
     from choreo.plan.pipeline import CompiledMotion, PlanOptions, compile_motion
-    from choreo.plan.planner import PlanResult, Trajectory, plan_motion
+    from choreo.plan.planner import plan_motion
     from choreo.plan.report import plan_report
+    from choreo.plan.trajectory import PlanResult, Trajectory
     from choreo.play.play_motion import play_motion
     from choreo.play.play_options import ExitMode, PlayOptions
     from choreo.play.player import Player

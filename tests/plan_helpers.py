@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import ruckig
 from hypothesis import strategies as st
 
 from choreo.core.yaml_source import SourceLocation
@@ -104,3 +105,21 @@ def motions(draw):
     speed = draw(st.sampled_from([1.0, 1.0, 0.5, 2.0]))
     repeat = draw(st.sampled_from([1, 1, 2]))
     return make_motion(robot, keyframes, speed=speed, repeat=repeat)
+
+
+POS_EPS = 1e-6
+
+
+def ruckig_rest_to_rest(robot, start, target, scale=1.0):
+    """Ruckig's own answer (the reference the planner's polynomials must reproduce)."""
+    n = len(robot.joints)
+    inp = ruckig.InputParameter(n)
+    inp.current_position, inp.target_position = list(start), list(target)
+    inp.current_velocity = inp.current_acceleration = [0.0] * n
+    inp.target_velocity = inp.target_acceleration = [0.0] * n
+    inp.max_velocity = [j.limits.vel_deg_s * scale for j in robot.joints]
+    inp.max_acceleration = [j.limits.acc_deg_s2 * scale for j in robot.joints]
+    inp.max_jerk = [j.limits.jerk_deg_s3 * scale for j in robot.joints]
+    out = ruckig.Trajectory(n)
+    assert ruckig.Ruckig(n).calculate(inp, out) == ruckig.Result.Working
+    return out

@@ -1,7 +1,8 @@
 """Planning: keyframes time-parameterized by Ruckig into smooth, jerk-limited, synchronized
 trajectories, compiled into the servos' own linear moves (ticks).
 
-- :mod:`~choreo.plan.planner`: :func:`plan_motion`, :class:`Trajectory`;
+- :mod:`~choreo.plan.planner`: :func:`plan_motion`, Ruckig's profiles between keyframes;
+- :mod:`~choreo.plan.trajectory`: :class:`Trajectory`, the plan as polynomials, sampled;
 - :mod:`~choreo.plan.ticks`: trajectories cut into ticks within a tolerance and the bus's bytes;
 - :mod:`~choreo.plan.pipeline`: :class:`PlanOptions` (speed, stretch, tolerance) and
   :func:`compile_motion`, the plan and its ticks;
@@ -17,8 +18,9 @@ import importlib
 from typing import TYPE_CHECKING
 
 from choreo.plan.pipeline import CompiledMotion, PlanOptions, compile_motion
-from choreo.plan.planner import PlanResult, Trajectory, plan_motion
+from choreo.plan.planner import plan_motion
 from choreo.plan.ticks import Tick, TickPlan
+from choreo.plan.trajectory import PlanResult, Trajectory
 
 # The performance (what play and preview start from) is imported on first use: `choreo plan`
 # does without it.

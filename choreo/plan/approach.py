@@ -10,8 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.plan.planner import APPROACH_LIMIT_SCALE, Trajectory, plan_approach
+from choreo.plan.planner import APPROACH_LIMIT_SCALE, plan_approach
 from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TickPlan, compile_ticks
+from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot
 
 

@@ -14,8 +14,9 @@ from choreo.core.arguments import check_type
 from choreo.errors import OptionError
 from choreo.plan.approach import slow_approach
 from choreo.plan.pipeline import CompiledMotion
-from choreo.plan.planner import Trajectory, pose_array
+from choreo.plan.planner import pose_array
 from choreo.plan.ticks import Tick, TickPlan
+from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot
 
 

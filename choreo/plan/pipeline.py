@@ -11,8 +11,9 @@ from choreo.core.arguments import check_flag, check_number, check_optional_numbe
 from choreo.errors import OptionError
 from choreo.motion.motion_file import Motion, motion_of
 from choreo.motion.timing import SPEED
-from choreo.plan.planner import Stretch, Trajectory, plan_motion
+from choreo.plan.planner import plan_motion
 from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG, TOLERANCE_DEG, TickPlan, compile_ticks
+from choreo.plan.trajectory import Stretch, Trajectory
 from choreo.robot.types import Robot
 
 

@@ -26,16 +26,13 @@ import math
 import os
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from itertools import chain
-from typing import NamedTuple
+from dataclasses import dataclass, replace
 
 import numpy as np
 from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
 from choreo.core.arguments import check_flag, check_number, shown
-from choreo.core.yaml_source import SourceLocation
 from choreo.errors import OptionError, PlanningError
 from choreo.motion.motion_file import Keyframe, Motion, motion_of, too_many_played
 from choreo.motion.music_block import repetition_clock
@@ -48,11 +45,11 @@ from choreo.motion.timing import (
     played_keyframes,
     wanted_arrival_s,
 )
+from choreo.plan.trajectory import PlanResult, Profile, Stretch, Trajectory, assemble
 from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 
-PHASES = 7  # constant-jerk phases of one ruckig profile
 DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
 # Longest time between leaving one keyframe and reaching the next. Ruckig 0.19.4 fails beyond
 # its numerical limits (RuckigError, or a result code its Python enum doesn't know) from a few
@@ -62,157 +59,6 @@ MAX_SEGMENT_S = 300.0
 POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
 APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
-_DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
-
-
-# --- the result --------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class Trajectory:
-    """Every joint's motion as piecewise constant-jerk polynomials (degrees, seconds), starting
-    at 0; after ``duration_s`` the robot rests at the last pose."""
-
-    joint_names: tuple[str, ...]
-    duration_s: float
-    keyframe_times_s: tuple[float, ...]  # arrival at each played keyframe
-    # Phase k of joint j starts at knots_s[j, k] with position, velocity, acceleration and jerk
-    # poly[:, j, k]. Each row of knots_s is sorted, starts at 0 and ends with a rest phase.
-    knots_s: np.ndarray = field(repr=False)
-    poly: np.ndarray = field(repr=False)
-    # Derived from knots_s and poly in __post_init__, for evaluating many times at once.
-    _taylor: np.ndarray = field(init=False, repr=False)
-    _offsets: np.ndarray = field(init=False, repr=False)
-    _flat_knots: np.ndarray = field(init=False, repr=False)
-    _taylor_rows: np.ndarray = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        self.knots_s.flags.writeable = False
-        self.poly.flags.writeable = False
-        n = self.knots_s.shape[0]
-        p, v, a, j = self.poly
-        taylor = np.stack([p, v, a / 2, j / 6])  # (4, n, phases): p + v·t + a/2·t² + j/6·t³
-        # For few times: every joint's knots in one sorted array (joint j shifted by j * span),
-        # the Taylor coefficients of every phase in one row of a table.
-        offsets = (self.duration_s + 1.0) * np.arange(n)[:, None]
-        object.__setattr__(self, "_taylor", taylor)
-        object.__setattr__(self, "_offsets", offsets)
-        object.__setattr__(self, "_flat_knots", (self.knots_s + offsets).ravel())
-        object.__setattr__(self, "_taylor_rows", taylor.reshape(4, -1).T.copy())
-
-    @property
-    def n_joints(self) -> int:
-        return len(self.joint_names)
-
-    def sample(self, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(position, velocity, acceleration) at ``times_s``, each ``(len(times_s), n_joints)``."""
-        pos, vel, acc = self._evaluate(self._checked_times(times_s), rates=True)
-        return pos.T, vel.T, acc.T
-
-    def positions(self, times_s: np.ndarray) -> np.ndarray:
-        """Positions only (cheaper than ``sample``), ``(len(times_s), n_joints)`` degrees."""
-        return self._evaluate(self._checked_times(times_s), rates=False)[0].T
-
-    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(position, velocity, acceleration) at one time, each ``(n_joints,)``."""
-        pos, vel, acc = self.sample(np.array([t_s], dtype=float))
-        return pos[0], vel[0], acc[0]
-
-    def peak_velocity_deg_s(self) -> np.ndarray:
-        """Largest |velocity| of each joint over the whole trajectory (exact), ``(n_joints,)``."""
-        v0, a0, jerk = self.poly[1], self.poly[2], self.poly[3]
-        tau = self._phase_lengths_s()
-        v_end = v0 + tau * (a0 + tau * jerk / 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            turn = np.where(jerk != 0, -a0 / jerk, -1.0)  # where the acceleration crosses zero
-        inside = (turn > 0) & (turn < tau)
-        v_turn = np.where(inside, v0 + turn * (a0 + turn * jerk / 2), 0.0)
-        return np.max(np.abs(np.concatenate([v0, v_end, v_turn], axis=1)), axis=1)
-
-    def peak_acceleration_deg_s2(self) -> np.ndarray:
-        """Largest |acceleration| of each joint (exact: it is linear within a phase)."""
-        a0, jerk = self.poly[2], self.poly[3]
-        a_end = a0 + self._phase_lengths_s() * jerk
-        return np.maximum(np.abs(a0), np.abs(a_end)).max(axis=1)
-
-    def _phase_lengths_s(self) -> np.ndarray:
-        return np.diff(self.knots_s, axis=1, append=self.knots_s[:, -1:])
-
-    @staticmethod
-    def _checked_times(times_s: np.ndarray) -> np.ndarray:
-        times_s = np.asarray(times_s, dtype=float)
-        if times_s.ndim != 1:
-            raise ValueError(f"times_s must be one-dimensional, got shape {times_s.shape}")
-        if times_s.size and not times_s.min() >= 0:
-            raise ValueError(
-                f"times_s must be >= 0 (the trajectory starts at 0), got {times_s.min()}"
-            )
-        return times_s
-
-    def _evaluate(self, times_s: np.ndarray, rates: bool) -> list[np.ndarray]:
-        """Position (and velocity, acceleration if ``rates``) at every time, ``(n, len)`` each."""
-        # After the end the last (rest) phase holds: locating by the clamped time finds it.
-        located = np.minimum(times_s, self.duration_s)
-        if len(located) <= _DENSE_QUERY or np.any(located[1:] < located[:-1]):
-            index = np.searchsorted(self._flat_knots, located + self._offsets, side="right")
-            index -= 1
-            dt = times_s - self.knots_s.ravel()[index]
-            c = self._taylor_rows[index]
-            return _taylor_values(c[..., 0], c[..., 1], c[..., 2], c[..., 3], dt, rates)
-        # Long sorted queries: count the times falling in each phase, joint by joint.
-        n = self.n_joints
-        out = [np.empty((n, len(located))) for _ in range(3 if rates else 1)]
-        for j in range(n):
-            counts = np.diff(
-                np.searchsorted(located, self.knots_s[j], side="left"), append=len(located)
-            )
-            dt = times_s - np.repeat(self.knots_s[j], counts)
-            p, v, a_half, j_sixth = (np.repeat(column[j], counts) for column in self._taylor)
-            _taylor_values(p, v, a_half, j_sixth, dt, rates, out=[array[j] for array in out])
-        return out
-
-
-def _taylor_values(
-    p: np.ndarray,
-    v: np.ndarray,
-    a_half: np.ndarray,
-    j_sixth: np.ndarray,
-    dt: np.ndarray,
-    rates: bool,
-    out: Sequence[np.ndarray | None] = (None, None, None),
-) -> list[np.ndarray]:
-    """Position (and velocity, acceleration if ``rates``), into the arrays ``out`` if given."""
-    pos = np.multiply(j_sixth, dt, out=out[0])
-    pos += a_half
-    pos *= dt
-    pos += v
-    pos *= dt
-    pos += p
-    if not rates:
-        return [pos]
-    vel = np.multiply(3 * j_sixth, dt, out=out[1])
-    vel += 2 * a_half
-    vel *= dt
-    vel += v
-    acc = np.multiply(6 * j_sixth, dt, out=out[2])
-    acc += 2 * a_half
-    return [pos, vel, acc]
-
-
-class Stretch(NamedTuple):
-    """A keyframe that could not be reached at its time and was moved later (``stretch=True``);
-    a ``(where, shift_s)`` pair."""
-
-    where: SourceLocation
-    shift_s: float  # played seconds (after speed scaling) this keyframe and the later ones moved
-
-    def describe(self) -> str:
-        """The warning play, its dry run and validate give for it."""
-        return f"{self.where}: stretched: reached {self.shift_s:.3f} s later than written"
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    trajectory: Trajectory
-    stretches: tuple[Stretch, ...] = ()
 
 
 # --- one segment -------------------------------------------------------------------------------
@@ -232,19 +78,6 @@ class _Limits:
             [x.acc_deg_s2 * scale for x in lim],
             [x.jerk_deg_s3 * scale for x in lim],
         )
-
-
-@dataclass(frozen=True)
-class _Segment:
-    """One ruckig result: every joint's seven phase durations and jerks, flat lists in joint
-    order (as ruckig gives them; turned into arrays for all segments at once)."""
-
-    p0: list[float]  # start position and velocity (acceleration is zero at keyframes)
-    v0: list[float]
-    duration_s: float
-    phase_s: list[float]  # [joint * 7 + phase]
-    jerk: list[float]
-    overshoot: list[int]  # joints that leave the range between their two keyframes
 
 
 class _NoTrajectory(Exception):
@@ -332,7 +165,7 @@ class _Solver:
         minimum_duration_s: float | None,
         low: list[float],
         high: list[float],
-    ) -> _Segment:
+    ) -> Profile:
         """The segment; ``overshoot`` lists the joints leaving ``low..high`` (the range between
         the two keyframes, widened by a numerical margin)."""
         duration = self.duration_s(p0, v0, p1, v1, limits, minimum_duration_s)
@@ -347,7 +180,7 @@ class _Solver:
         for profile in out.profiles[0]:
             phase_s += profile.t
             jerk += profile.j
-        return _Segment(p0, v0, duration, phase_s, jerk, overshoot)
+        return Profile(p0, v0, duration, phase_s, jerk, overshoot)
 
     def limiting_joint(self) -> int:
         """The joint whose own shortest duration is longest, in the last segment solved."""
@@ -450,7 +283,7 @@ class _Planner:
         scale_out = np.append(self.scales[1:], 1.0)
         return np.minimum(self.scales, scale_out)[:, None] * self.vel_limits[None, :]
 
-    def plan(self) -> tuple[list[_Segment], np.ndarray, list[Stretch]]:
+    def plan(self) -> tuple[list[Profile], np.ndarray, list[Stretch]]:
         m, n = self.positions.shape
         arrive_est, leave_est = self.estimated_times()
         rests = np.array([p.rests for p in self.played])
@@ -461,7 +294,7 @@ class _Planner:
         arrive = np.zeros(m)
         arrive[0] = wanted_arrival_s(self.played, 0, arrive) or 0.0
         shift = np.zeros(m)  # how much later than asked each keyframe was reached (stretch)
-        segments: dict[int, _Segment] = {}  # by index: damping may plan one again
+        segments: dict[int, Profile] = {}  # by index: damping may plan one again
         too_early: dict[int, str] = {}  # without stretch: planned on as if stretched, to say all
         i = 0
         while i < m - 1:
@@ -574,71 +407,6 @@ class _Planner:
             f"the velocity, acceleration and jerk limits of {joint} allow {earliest:.3f} s at the "
             f"earliest; use {fix}, a lower speed, or stretch"
         )
-
-
-# --- assembling the piecewise polynomial -------------------------------------------------------
-def _assemble(
-    joint_names: tuple[str, ...],
-    positions: np.ndarray,
-    segments: list[_Segment],
-    arrive: np.ndarray,
-    holds_s: np.ndarray,
-) -> Trajectory:
-    """Phases in time order: a wait before the first keyframe, then per keyframe its hold (one
-    constant phase) and the 7 phases to the next keyframe, then a rest at the last pose."""
-    m, n = positions.shape
-    seg_knots, seg_poly = _integrate(arrive[:-1] + holds_s[:-1], segments, n)
-    has_hold = holds_s > 0
-    rows_per_keyframe = has_hold.astype(int) + np.append(np.full(m - 1, PHASES), 0)
-    first_row = 1 + np.concatenate(([0], np.cumsum(rows_per_keyframe)[:-1]))  # row 0: the wait
-    total = 1 + rows_per_keyframe.sum() + 1
-    knots = np.empty((total, n))
-    poly = np.zeros((4, total, n))
-    constant_rows = np.concatenate(([0], first_row[has_hold], [total - 1]))
-    constant_pose = np.concatenate((positions[:1], positions[has_hold], positions[-1:]))
-    constant_start = np.concatenate(([0.0], arrive[has_hold], [arrive[-1] + holds_s[-1]]))
-    knots[constant_rows] = constant_start[:, None]
-    poly[0, constant_rows] = constant_pose
-    seg_rows = (first_row[:-1] + has_hold[:-1])[:, None] + np.arange(PHASES)  # (m-1, 7)
-    knots[seg_rows] = seg_knots
-    poly[:, seg_rows] = seg_poly
-    return Trajectory(
-        joint_names,
-        float(arrive[-1] + holds_s[-1]),
-        tuple(float(t) for t in arrive),
-        np.ascontiguousarray(knots.T),
-        np.ascontiguousarray(poly.transpose(0, 2, 1)),
-    )
-
-
-def _integrate(
-    leave_s: np.ndarray, segments: list[_Segment], n: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Knots (S, 7, n) and (p, v, a, j) at each phase start (4, S, 7, n) of all segments."""
-    if not segments:
-        return np.empty((0, PHASES, n)), np.empty((4, 0, PHASES, n))
-    shape = (len(segments), n, PHASES)
-    phase_s = np.fromiter(
-        chain.from_iterable(s.phase_s for s in segments), float, math.prod(shape)
-    ).reshape(shape)
-    jerk = np.fromiter(
-        chain.from_iterable(s.jerk for s in segments), float, math.prod(shape)
-    ).reshape(shape)
-    p = np.array([s.p0 for s in segments])  # (S, n)
-    v = np.array([s.v0 for s in segments])
-    a = np.zeros_like(p)
-    t = np.repeat(leave_s[:, None], n, axis=1)
-    knots = np.empty((len(segments), PHASES, n))
-    poly = np.empty((4,) + knots.shape)
-    for k in range(PHASES):
-        tau, j = phase_s[:, :, k], jerk[:, :, k]
-        knots[:, k] = t
-        poly[:, :, k] = p, v, a, j
-        p = p + tau * (v + tau * (a / 2 + tau * j / 6))
-        v = v + tau * (a + tau * j / 2)
-        a = a + tau * j
-        t = t + tau
-    return knots, poly
 
 
 class _TooEarly(PlanningError):
@@ -755,7 +523,7 @@ def plan_motion(
         segments, arrive, stretches = planner.plan()
     except _TooEarly as error:
         raise PlanningError(_too_early_text(motion, speed, error.messages)) from None
-    trajectory = _assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
+    trajectory = assemble(robot.joint_names, planner.positions, segments, arrive, planner.holds_s)
     for s in stretches:
         log.info("%s: stretched by %.3f s to fit the limits", s.where, s.shift_s)
     return PlanResult(trajectory, tuple(stretches))
@@ -805,7 +573,7 @@ def plan_approach(
             f"{', '.join(robot.joint_names[j] for j in segment.overshoot)}"
         )
     arrive = np.array([0.0, segment.duration_s])
-    trajectory = _assemble(
+    trajectory = assemble(
         robot.joint_names, np.stack([start, target]), [segment], arrive, np.zeros(2)
     )
     return Trajectory(

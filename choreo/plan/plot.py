@@ -15,8 +15,8 @@ from matplotlib.figure import Figure
 
 from choreo.core.atomic import atomic_output
 from choreo.errors import OptionError
-from choreo.plan.planner import Trajectory
 from choreo.plan.ticks import TickPlan
+from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot
 
 DPI = 100

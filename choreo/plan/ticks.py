@@ -31,7 +31,7 @@ from choreo.bus.protocol import BYTE_TIME_S, SPECS, Command
 from choreo.bus.servo_models import DEG_PER_UNIT, POSITION_RANGE_UNITS
 from choreo.core.arguments import Range, check_number
 from choreo.errors import PlanningError
-from choreo.plan.planner import Trajectory
+from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot, Values
 
 log = logging.getLogger(__name__)
