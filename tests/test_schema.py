@@ -15,6 +15,7 @@ from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
+from choreo.motion import keyframe_entry
 from choreo.motion import motion_file as motion
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
@@ -49,10 +50,10 @@ def test_the_loaders_take_their_keys_from_the_schemas():
         "keyframes",
     )  # fmt: skip
     assert motion.MOTION.required == ("robot", "keyframes")
-    assert motion.KEYFRAME == Shape(
+    assert keyframe_entry.KEYFRAME == Shape(
         ("pose", "sites", "body", "hold", "stop", "velocity", "t", "after", "beat", "bar"), ()
     )
-    assert motion.GAIT == Shape(("gait",), ("gait",))
+    assert keyframe_entry.GAIT == Shape(("gait",), ("gait",))
     assert motion.INCLUDE == Shape(("include", "mirror", "t", "after", "beat", "bar"), ("include",))
     assert robot.ROBOT.keys == (
         "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror", "gait",
@@ -101,7 +102,7 @@ def test_the_speed_range_the_motion_schema_repeats_is_the_codes():
 
 def test_the_velocity_minimum_the_motion_schema_repeats_is_the_codes():
     velocity = schema("motion")["$defs"]["poseKeyframe"]["properties"]["velocity"]
-    assert (velocity["minimum"], velocity["maximum"]) == (motion.MIN_VELOCITY_SCALE, 1)
+    assert (velocity["minimum"], velocity["maximum"]) == (keyframe_entry.MIN_VELOCITY_SCALE, 1)
 
 
 def test_the_prop_ranges_the_motion_schema_repeats_are_the_codes():

@@ -7,10 +7,8 @@ in the robot's joint order) and where it was written, so later stages can point 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal
 
 import yaml
 
@@ -23,38 +21,38 @@ from choreo.core.yaml_source import (
     Problems,
     Reader,
     SourceLocation,
-    describe,
-    did_you_mean,
     fmt,
     parse_yaml_file,
-    quoted,
     reading_a_file,
 )
 from choreo.errors import OptionError, SourceError, Worded
 from choreo.motion.gait import BodyPose, Gait
-from choreo.motion.music_block import BeatRef, Music, past_song, read_beat_time, read_music
+from choreo.motion.keyframe_entry import (
+    Include,
+    Step,
+    read_gait_block,
+    read_keyframe,
+    read_timing,
+    t_where,
+)
+from choreo.motion.music_block import BeatRef, Music, past_song, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
     GaitEnd,
     GaitSpec,
     SiteTarget,
-    Spatial,
     expand_spatial,
     has_key,
-    read_body,
-    read_gait,
-    read_sites,
 )
 from choreo.motion.timing import (
     MAX_SPEED,
-    MAX_TIME_S,
     MIN_SPEED,
     backward_times,
     known_arrivals_s,
     played_keyframes,
 )
 from choreo.robot.lookup import find_robot_file
-from choreo.robot.robot_file import load_robot, read_angles
+from choreo.robot.robot_file import load_robot
 from choreo.robot.types import Robot, mirror_pose
 
 
@@ -117,48 +115,10 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
     )
 
 
-# The slowest a keyframe's velocity may ask for: 1 % of the joints' velocity limits (3 deg/s for
-# an LX-16A: 240° in 80 s). Far below that, a move outlasts what can be planned between two
-# keyframes, and ruckig fails on its numbers (velocity: 1.0e-300).
-MIN_VELOCITY_SCALE = 0.01
-
 # The keys of each mapping, from the JSON Schema (the one description of the file's shape).
 MOTION = mapping_shape("motion")
-KEYFRAME = mapping_shape("motion", "#/$defs/poseKeyframe")
 INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
-GAIT = mapping_shape("motion", "#/$defs/gaitBlock")
-TIMING_KEYS = ("t", "after", "beat", "bar")  # bar and beat together are one time
 HOME_POSE = "home"
-
-
-@dataclass(frozen=True)
-class _Step:
-    """A keyframe as written, before partial poses are filled in: only the joints it names."""
-
-    angles_deg: Mapping[str, float]
-    where: SourceLocation
-    t_s: float | None
-    after_s: float | None
-    hold_s: float
-    stop: bool
-    velocity_scale: float
-    label: str
-    t_where: SourceLocation | None  # where its t was written, while it still has one
-    space: Spatial | None = None  # sites:, body: or gait:, until solved into joint angles
-    beat: BeatRef | None = None  # its t was written as a beat or bar
-    sites: tuple[SiteTarget, ...] = ()  # the sites: it was written with, once solved
-    body: BodyPose | None = None  # the body: it was written with, once solved
-    gait_end: GaitEnd | None = None  # it ends a gait: block
-
-
-@dataclass(frozen=True)
-class _Include:
-    """One link of an include chain: the file and the include entry that brought it in."""
-
-    path: Path
-    entry: SourceLocation | None  # None for the motion file itself
-    music: Music | None = None  # the including motion's music, inherited along the chain
-    music_refused: bool = False  # its music block had a problem (reported there)
 
 
 def load_motion(path: str | os.PathLike[str], allow_past_song: bool = False) -> Motion:
@@ -222,7 +182,7 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         )
     if robot is None or "keyframes" not in fields:
         return None
-    chain = (_Include(reader.path, None, music, "music" in fields and music is None),)
+    chain = (Include(reader.path, None, music, "music" in fields and music is None),)
     steps = _read_steps(reader, fields["keyframes"], robot, chain)
     if (
         name is None
@@ -304,106 +264,27 @@ def _find_robot_of(reader: Reader, entry: Entry) -> Path | None:
 
 
 def _read_steps(
-    reader: Reader, entry: Entry, robot: Robot, chain: tuple[_Include, ...]
-) -> list[_Step]:
+    reader: Reader, entry: Entry, robot: Robot, chain: tuple[Include, ...]
+) -> list[Step]:
     items = reader.sequence(entry.value, "keyframes")
     if items is None:
         return []
     if not items:
         reader.report(entry.key_node, "keyframes: the motion has no keyframes; give at least one")
-    steps: list[_Step] = []
+    steps: list[Step] = []
     for item in items:
         if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
             steps.extend(_read_include(reader, item, robot, chain))
         elif has_key(item, "gait"):
-            steps += _read_gait_block(reader, item)
+            steps += read_gait_block(reader, item)
         else:
-            step = _read_keyframe(reader, item, robot, chain[0])
+            step = read_keyframe(reader, item, robot, chain[0])
             if step is not None and len(chain) > 1:  # say through which includes it came
                 entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
                 step = replace(step, where=replace(step.where, included_at=entries))
             steps += [step] if step is not None else []
     _check_times(reader, steps)
     return steps
-
-
-def _read_keyframe(reader: Reader, item: Node, robot: Robot, top: _Include) -> _Step | None:
-    fields = reader.fields(item, "a keyframe", KEYFRAME.keys)
-    if fields is None:
-        return None
-    space = _read_space(reader, item, fields)
-    if space is False:
-        return None
-    pose = _read_pose(reader, fields["pose"].value, robot) if "pose" in fields else ({}, "")
-    timing = _read_timing(reader, fields, top)
-    hold_s = (
-        reader.number(fields["hold"].value, "hold", low=0, high=MAX_TIME_S, unit=" s")
-        if "hold" in fields
-        else 0.0
-    )
-    stop = reader.boolean(fields["stop"].value, "stop") if "stop" in fields else None
-    velocity = (
-        reader.number(fields["velocity"].value, "velocity", low=MIN_VELOCITY_SCALE, high=1)
-        if "velocity" in fields
-        else 1.0
-    )
-    if hold_s and stop is False:
-        reader.report(
-            fields["stop"].value,
-            f"stop: false contradicts hold {fmt(hold_s)}: a hold "
-            f"always comes to rest; remove stop: false",
-        )
-    if (
-        pose is None
-        or timing is None
-        or hold_s is None
-        or velocity is None
-        or "stop" in fields
-        and stop is None
-    ):
-        return None
-    angles, label = pose
-    t_s, after_s, beat = timing
-    return _Step(
-        angles,
-        reader.where(item),
-        t_s,
-        after_s,
-        hold_s=hold_s,
-        stop=bool(stop or hold_s),
-        velocity_scale=velocity,
-        label=label,
-        t_where=_t_where(reader, fields),
-        space=space,
-        beat=beat,
-    )
-
-
-def _read_space(
-    reader: Reader, item: Node, fields: dict[str, Entry]
-) -> Spatial | None | Literal[False]:
-    """The keyframe's sites: or body: (at most one), None if neither, False if refused."""
-    given = [key for key in ("sites", "body") if key in fields]
-    if not given and "pose" not in fields:
-        reader.report(item, "a keyframe needs pose, sites or body (or a mix of pose and one)")
-        return False
-    if len(given) > 1:
-        reader.report(fields["body"].key_node, "give sites or body in a keyframe, not both")
-        return False
-    if not given:
-        return None
-    value = fields[given[0]].value
-    space = read_sites(reader, value) if given[0] == "sites" else read_body(reader, value)
-    return False if space is None else space
-
-
-def _read_gait_block(reader: Reader, item: Node) -> list[_Step]:
-    fields = reader.fields(item, "a gait block (only gait: {...})", GAIT.keys)
-    node = fields["gait"].value if fields and "gait" in fields else None
-    spec = read_gait(reader, node) if node is not None else None
-    if node is None or spec is None:
-        return []
-    return [_Step({}, reader.where(item), None, None, 0.0, True, 1.0, "", None, space=spec)]
 
 
 def most_gait_steps(gait: Gait, other_keyframes: int) -> int:
@@ -415,7 +296,7 @@ def most_gait_steps(gait: Gait, other_keyframes: int) -> int:
 
 
 def _too_many_keyframes(
-    reader: Reader, fields: dict[str, Entry], steps: list[_Step], repeat: int
+    reader: Reader, fields: dict[str, Entry], steps: list[Step], repeat: int
 ) -> bool:
     """Whether the motion plays more keyframes than it may, reported: at a gait's steps where
     fewer of them would do (the longest gait's), else at repeat or keyframes."""
@@ -444,86 +325,20 @@ def _too_many_keyframes(
     return True
 
 
-def _t_where(reader: Reader, fields: dict[str, Entry]) -> SourceLocation | None:
-    """Where an absolute time (t, beat or bar) was written."""
-    key = next((k for k in ("t", "beat", "bar") if k in fields), None)
-    return reader.where(fields[key].value) if key else None
-
-
-def _read_timing(
-    reader: Reader, fields: dict[str, Entry], top: _Include
-) -> tuple[float | None, float | None, BeatRef | None] | None:
-    """(t_s, after_s, beat) of a keyframe or include entry; None if refused (reported).
-
-    A beat or bar becomes its t (seconds of the music's beat grid of ``top``, the motion file);
-    with a music block already refused, it is refused without a word more."""
-    given = [fields[k] for k in TIMING_KEYS if k in fields]
-    if len({"t" if e.key == "t" else "after" if e.key == "after" else "beat" for e in given}) > 1:
-        later = max(given, key=lambda e: e.key_node.start_mark.index)
-        beat = ", beat/bar (a beat of the music)" if "beat" in fields or "bar" in fields else ""
-        reader.report(
-            later.key_node,
-            "give at most one of t (arrival time from the motion "
-            f"start){beat} and after (delay after the previous keyframe); remove one",
-        )
-        return None
-    if "beat" in fields or "bar" in fields:
-        if top.music_refused:
-            return None
-        resolved = read_beat_time(reader, fields, top.music)
-        return None if resolved is None else (resolved[0], None, resolved[1])
-    seconds: dict[str, Any] = {"low": 0, "high": MAX_TIME_S, "unit": " s"}
-    t_s = reader.number(fields["t"].value, "t", **seconds) if "t" in fields else None
-    after_s = (
-        reader.number(fields["after"].value, "after", **seconds) if "after" in fields else None
-    )
-    if ("t" in fields and t_s is None) or ("after" in fields and after_s is None):
-        return None
-    return t_s, after_s, None
-
-
-def _read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float], str] | None:
-    """A pose name or a (partial) ``joint: degrees`` mapping, with its label."""
-    if isinstance(node, yaml.ScalarNode) and node.tag.endswith(":str"):
-        if node.value in robot.poses:
-            return dict(robot.poses[node.value]), node.value
-        reader.report(
-            node,
-            f"unknown pose {quoted(node.value)}{did_you_mean(node.value, robot.poses)}; "
-            f"robot {robot.name!r} has poses {', '.join(robot.poses)}; or give "
-            f"joint angles as {{joint: degrees}}",
-        )
-        return None
-    if not isinstance(node, yaml.MappingNode):
-        reader.report(
-            node,
-            f"pose must be a pose name ({', '.join(robot.poses)}) or a mapping "
-            f"joint: degrees, got {describe(node)}",
-        )
-        return None
-    angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
-    if angles is None:
-        return None
-    accepted = {name: angle for name, angle in angles.items() if angle is not None}
-    if len(accepted) < len(angles):  # a refused angle was reported
-        return None
-    return accepted, ""
-
-
 def _read_include(
-    reader: Reader, item: Node, robot: Robot, chain: tuple[_Include, ...]
-) -> list[_Step]:
+    reader: Reader, item: Node, robot: Robot, chain: tuple[Include, ...]
+) -> list[Step]:
     what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
     fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
     if fields is None:
         return []
     relative = reader.string(fields["include"].value, "include")
     mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
-    timing = _read_timing(reader, fields, chain[0])
+    timing = read_timing(reader, fields, chain[0])
     if relative is None or mirror is None or timing is None:
         return []
     path = reader.path.parent / relative
-    link = _Include(path, reader.where(fields["include"].value), chain[0].music)
+    link = Include(path, reader.where(fields["include"].value), chain[0].music)
     if any(_same_file(path, earlier.path) for earlier in chain):
         files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
         reader.report(
@@ -544,7 +359,7 @@ def _read_include(
         reader,
         _read_included(reader.problems, robot, (*chain, link)),
         timing,
-        _t_where(reader, fields),
+        t_where(reader, fields),
     )
     if mirror:
         steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
@@ -556,7 +371,7 @@ def _same_file(a: Path, b: Path) -> bool:
     return os.path.realpath(a) == os.path.realpath(b)
 
 
-def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]) -> list[_Step]:
+def _read_included(problems: Problems, robot: Robot, chain: tuple[Include, ...]) -> list[Step]:
     """The steps of an included file, whose robot must be ``robot``; no speed, repeat, start or
     props."""
     link = chain[-1]
@@ -594,10 +409,10 @@ def _read_included(problems: Problems, robot: Robot, chain: tuple[_Include, ...]
 
 def _block(
     reader: Reader,
-    steps: list[_Step],
+    steps: list[Step],
     timing: tuple[float | None, float | None, BeatRef | None],
     t_where: SourceLocation | None,
-) -> list[_Step]:
+) -> list[Step]:
     """Included steps as a block: its t values become after delays (keeping their spacing), and
     the include entry's timing, if any, replaces the first step's (``t_where``: its t's place).
 
@@ -628,16 +443,14 @@ def _block(
     return block
 
 
-def _mirror_block(
-    reader: Reader, mirror_node: Node, robot: Robot, steps: list[_Step]
-) -> list[_Step]:
+def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot, steps: list[Step]) -> list[Step]:
     """Steps mirrored with the robot's mirror pairs; mirrored angles must be inside the limits."""
     if not robot.mirror_pairs:
         reader.report(
             mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' to {robot.path}"
         )
         return steps
-    mirrored: list[_Step] = []
+    mirrored: list[Step] = []
     for step in steps:
         if step.space is not None:
             reader.report(
@@ -656,7 +469,7 @@ def _mirror_block(
     return mirrored
 
 
-def _check_times(reader: Reader, steps: list[_Step]) -> None:
+def _check_times(reader: Reader, steps: list[Step]) -> None:
     """t values increase along the file, counting the holds and after delays in between."""
     for backward in backward_times(played_keyframes(steps)):
         step = steps[backward.index]
@@ -676,7 +489,7 @@ def _time_text(t_s: float, beat: BeatRef | None) -> str:
     return f"{beat.describe(beat.grid.beat_at(t_s))} (t {t_s:.3f})"
 
 
-def _fill_poses(robot: Robot, steps: list[_Step]) -> tuple[Keyframe, ...]:
+def _fill_poses(robot: Robot, steps: list[Step]) -> tuple[Keyframe, ...]:
     """Full target vectors: a joint not named keeps its previous target (home at first)."""
     current = dict(robot.poses[HOME_POSE])
     keyframes = []
