@@ -98,3 +98,14 @@ def servo_model(name: str) -> ServoModel:
         raise ValueError(
             f"unknown servo model {name!r}; known models: {', '.join(SERVO_MODELS)}"
         ) from None
+
+
+def rated_supply_problem(name: str, supply_v: float) -> str | None:
+    """Why ``supply_v`` does not suit the servo model ``name`` (outside its rated supply), or
+    None: one rule for the robot file's declared supply and the supply a servo reads."""
+    model = servo_model(name)
+    low, high = model.vin_range_mv
+    if low <= 1000 * supply_v <= high:
+        return None
+    rated = f"{low / 1000:g}-{high / 1000:g} V"
+    return f"supply {supply_v:g} V is outside the {model.name}'s rated {rated}"

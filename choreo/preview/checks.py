@@ -11,6 +11,7 @@ from enum import Enum
 
 import numpy as np
 
+from choreo.bus.servo_models import rated_supply_problem
 from choreo.core.arguments import NON_NEGATIVE, Range, check_number, check_type
 from choreo.preview.props import PLACE_TOLERANCE_M
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
@@ -38,6 +39,7 @@ class CheckKind(str, Enum):
     GAIT = "gait"  # a gait: block travelling or turning short of what it asked, or feet dragging
     JOINT_JUMP = "joint_jump"  # a small move in space that IK meets with a large joint move
     PROP = "prop"  # a free prop dropped, knocked over, or not left where the motion meant to
+    SUPPLY = "supply"  # the servos' supply outside their rated range: play refuses it
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,7 @@ def run_checks(
     check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds")
     recorded = simulated.rollout
     results = [
+        *check_supply(recorded),
         *check_contacts(recorded, thresholds),
         *check_joint_limits(recorded, thresholds),
         *check_saturation(recorded, thresholds),
@@ -145,6 +148,29 @@ class _Timeline:
 
     def duration(self, run: tuple[int, int]) -> float:
         return (run[1] - run[0]) * self.dt
+
+
+def check_supply(rollout: Rollout) -> list[CheckResult]:
+    """The supply the servos were simulated at (the robot file's, or an override) outside
+    their model's rated range: an error, as ``choreo play`` refuses to play on it (and the
+    servos' torque and speed, scaled with the supply, are a guess out there)."""
+    joints_by_problem: dict[str, list[str]] = {}
+    for joint, params in zip(rollout.robot.joints, rollout.actuators):
+        problem = rated_supply_problem(joint.servo_model, params.supply_v)
+        if problem is not None:
+            joints_by_problem.setdefault(problem, []).append(joint.name)
+    return [
+        CheckResult(
+            CheckKind.SUPPLY,
+            Severity.ERROR,
+            f"{', '.join(joints)}: {problem}: `choreo play` refuses such a supply, and the "
+            f"servos' torque and speed here are scaled from their rated ones",
+            rollout.start_s,
+            joint=joints[0],
+            value=rollout.actuators[rollout.robot.joint_names.index(joints[0])].supply_v,
+        )
+        for problem, joints in joints_by_problem.items()
+    ]
 
 
 def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
