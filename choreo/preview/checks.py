@@ -539,7 +539,8 @@ def _ground_contacts(
 
 
 def check_props(simulated: SimulatedMotion) -> list[CheckResult]:
-    """Free props dropped (warning), knocked over (warning), or not ending at their
+    """Free props dropped after being lifted (error: whatever the motion meant to do with it,
+    it did not mean to let it fall), knocked over (warning), or not ending at their
     ``place_at_m`` (error: the motion does not do what it says)."""
     results = []
     end_s = simulated.rollout.duration_s
@@ -549,7 +550,7 @@ def check_props(simulated: SimulatedMotion) -> list[CheckResult]:
             results.append(
                 CheckResult(
                     CheckKind.PROP,
-                    Severity.WARNING,
+                    Severity.ERROR,
                     f"the {name} is dropped at t={outcome.dropped_at_s:.2f} s (lifted "
                     f"{1000 * outcome.lifted_m:.0f} mm, then falling faster than a controlled "
                     f"set-down): the grip does not hold it",
