@@ -166,6 +166,7 @@ def test_an_unknown_name_is_an_attribute_error():
 TESTED_IN = {
     "bus/transports/jetson.py": ("test_direction.py",),
     "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
+    "preview/impact.py": ("preview/test_impact.py",),
     "preview/props.py": ("test_preview_props.py",),
     "preview/reach.py": ("test_preview_reach.py",),
     "preview/stance.py": ("test_preview_judging.py",),

@@ -13,6 +13,7 @@ import numpy as np
 
 from choreo.bus.servo_models import rated_supply_problem
 from choreo.core.arguments import NON_NEGATIVE, Range, check_number, check_type
+from choreo.preview.impact import IMPACT_SPEED_M_S
 from choreo.preview.props import PLACE_TOLERANCE_M
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
 from choreo.preview.sim import Rollout
@@ -475,6 +476,7 @@ def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[
         if simulated.end.pitch_deg:  # on its front or back: turned over too
             tilted &= ~lying
         results = [r for r in results if r.time_s < lying_from]
+        results += _hard_landing(simulated, lying_from)
     for mask, why in (
         (
             low,
@@ -500,6 +502,34 @@ def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[
                 )
             )
     return results
+
+
+def _hard_landing(simulated: SimulatedMotion, lying_from: float) -> list[CheckResult]:
+    """A declared lie-down that comes down onto the ground faster than ``IMPACT_SPEED_M_S``:
+    it falls, however it ends (one error, at the first such impact, naming what hits first)."""
+    body = simulated.rollout.body
+    assert body is not None  # impacts are measured on a free-floating robot only
+    hard = [
+        i for i in simulated.impacts if i.time_s >= lying_from and i.speed_m_s > IMPACT_SPEED_M_S
+    ]
+    if not hard:
+        return []
+    first = hard[0]
+    others = sorted({i.link for i in hard} - {first.link})
+    also = f" (then {', '.join(others)})" if others else ""
+    return [
+        CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{body.name} falls while lying down at t={first.time_s:.2f} s: {first.link} hits the "
+            f"{first.ground} first{also}, at {first.speed_m_s:.2f} m/s (a free fall of "
+            f"{1000 * first.fall_height_m:.0f} mm; a controlled lie-down comes down slower than "
+            f"{IMPACT_SPEED_M_S:g} m/s): lower it onto the floor with a keyframe on the way",
+            first.time_s,
+            bodies=(first.link, first.ground),
+            value=first.speed_m_s,
+        )
+    ]
 
 
 def _ground_contacts(

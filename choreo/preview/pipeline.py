@@ -21,6 +21,7 @@ from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import PlanOptions, compile_motion, plan_options
 from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG
 from choreo.preview.actuator import CommandStream, commanded_path_units
+from choreo.preview.impact import Impact, impacts
 from choreo.preview.model import load_model
 from choreo.preview.reach import JointJump, SiteReach, SitesDue, joint_jumps, site_reach
 from choreo.preview.sim import Resume, Rollout, SimSettings, simulate
@@ -142,7 +143,16 @@ def simulate_rehearsal(
         walk=_walk(rollout, motion, played),
         site_reach=reach,
         joint_jumps=jumps,
+        impacts=_impacts(rollout, motion),
     )
+
+
+def _impacts(rollout: Rollout, motion: Motion) -> tuple[Impact, ...]:
+    """How a free-floating robot that means to end lying comes down (any other touch of the
+    ground is a fall already, and is not measured)."""
+    if rollout.body is None or not motion.end.lying:
+        return ()
+    return tuple(impacts(rollout, load_model(motion.robot, motion.props)))
 
 
 def _walk(

@@ -187,4 +187,6 @@ def preview_report(
         "props": [outcome.to_dict() for outcome in simulated.props],
         "site_reach": [reach.to_dict() for reach in simulated.site_reach],
         "gaits": [outcome.to_dict() for outcome in simulated.gaits],
+        # links coming down onto the ground during a declared lie-down (``end: lying``)
+        "impacts": [impact.to_dict() for impact in simulated.impacts],
     }
