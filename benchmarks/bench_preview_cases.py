@@ -94,6 +94,12 @@ CASES = [
     # four corner feet lifted 15 mm: two middle feet are a line, not a polygon; it pitches over
     # onto two lifted legs (a stumble: a few degrees, no torso on the floor)
     Case("hexapod four legs up 15 mm", "fail", file(DATA / "four_legs_up.yaml")),
+    # front and middle feet raised 15 mm by sites: the rear two are all it leaves down; it
+    # tips forward onto the raised legs (read before as a tilt over the corner feet)
+    Case("hexapod front and middle legs up", "fail", file(DATA / "front_legs_up.yaml")),
+    # end: lying_front declared, but bending at the hips with straight legs: it topples and
+    # its torso hits the floor at ~1.5 m/s
+    Case("tonypi topples onto its face", "fail", file(DATA / "topple_declared.yaml")),
     # stand_up backwards without end: lying: the torso goes down onto the floor
     Case("hexapod lies down, undeclared", "fail", file(DATA / "lie_down.yaml")),
     # a 1 kg payload held at 45°: the shoulder stalls and the tip sinks ~58 mm from its target

@@ -26,7 +26,7 @@ from choreo.preview.model import load_model
 from choreo.preview.reach import JointJump, SiteReach, SitesDue, joint_jumps, site_reach
 from choreo.preview.sim import Resume, Rollout, SimSettings, simulate
 from choreo.preview.simulated import SimulatedMotion
-from choreo.preview.stance import feet_and_centre, planned_stance
+from choreo.preview.stance import feet_and_centre, floors_kept, planned_stance
 from choreo.preview.walk import GaitDue, Walk
 from choreo.robot.kinematics import Kinematics
 
@@ -173,7 +173,15 @@ def _walk(
         if (end := p.keyframe.gait_end) is not None
     )
     feet, centre = feet_and_centre(kin, model, rollout.qpos)
-    stance = planned_stance(kin, model, rollout.command_deg, rollout.times_s)
+    # heading for each keyframe (holding it: for the next), the floor its targets keep
+    kept = floors_kept(
+        kin,
+        [p.keyframe.targets_deg for p in played],
+        [p.keyframe.body is not None for p in played],
+    )
+    heading = np.searchsorted(np.asarray(arrivals), rollout.times_s - 1e-9)
+    by_step = [kept[k] for k in np.clip(heading, 0, len(kept) - 1)] if kept else None
+    stance = planned_stance(kin, model, rollout.command_deg, rollout.times_s, by_step)
     return Walk(stance, feet, centre, gaits)
 
 
