@@ -114,7 +114,7 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
                 f"got {value!r}"
             )
         values[key] = float(value)
-    scale = values["supply_v"] / model.rated_supply_v
+    scale = model.supply_scale(values["supply_v"])
     for key in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
         values[key] *= scale
     return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)
