@@ -180,7 +180,7 @@ def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
     timeline = _Timeline(rollout, thresholds)
     results = []
     for pair_index, pair in enumerate(rollout.contacts.pairs):
-        if pair.kind in ("ground", "foot"):
+        if pair.kind in ("ground", "foot", "held"):
             continue
         mask, depth_by_step = rollout.contacts.mask(pair_index, len(rollout.times_s))
         for run in timeline.episodes(mask):
@@ -352,6 +352,24 @@ def _stall(rollout, timeline, thresholds, j, run, stalled) -> CheckResult | None
     stall_run = (run[0], run[0] + long_runs[-1][1])  # from reaching the limit to the end
     start, duration = timeline.start(stall_run), timeline.duration(stall_run)
     joint, torque = rollout.robot.joints[j], rollout.actuators[j].stall_torque_nm
+    gripped = _gripping(rollout, j, stall_run)
+    if gripped is not None:
+        prop, touch_deg = gripped
+        aims = rollout.setpoint_deg[stall_run[0] : stall_run[1], j]
+        aim_deg = float(aims[np.argmax(np.abs(aims - touch_deg))]) + 0.0  # farthest past; no -0
+        return CheckResult(
+            CheckKind.SATURATION,
+            Severity.WARNING,
+            f"{joint.name} squeezes the {prop} at its full {torque:.2f} N·m torque for "
+            f"{duration:.2f} s from t={start:.2f} s: it touches the {prop} at "
+            f"{touch_deg:.1f}° and is aimed at {aim_deg:.1f}°; aim a few degrees past "
+            f"{touch_deg:.1f}° to hold it with less (a servo at stall for long runs hot)",
+            start,
+            duration,
+            joint=joint.name,
+            bodies=(prop,),
+            value=touch_deg,
+        )
     moving_first = f", barely moving from t={still_from:.2f} s on" if still_from > start else ""
     return CheckResult(
         CheckKind.SATURATION,
@@ -426,7 +444,38 @@ def _touching(rollout: Rollout, j: int, run: tuple[int, int]) -> str:
     return ""
 
 
+def _gripping(rollout: Rollout, j: int, run: tuple[int, int]) -> tuple[str, float] | None:
+    """The free prop the joint's link grips through ``run`` (touching it, with another link
+    on it too: held between them, as in a gripper's fingers), and the joint's angle when the
+    link began to touch it; None if it grips none."""
+    if not rollout.joint_links:
+        return None
+    link, contacts, steps = rollout.joint_links[j], rollout.contacts, len(rollout.times_s)
+    free = {name for name, _ in rollout.prop_qpos_addresses}
+    on_prop: dict[str, dict[str, np.ndarray]] = {}  # prop -> robot link -> touching per step
+    for pair_index, pair in enumerate(contacts.pairs):
+        if pair.kind == "held":
+            touching, _ = contacts.mask(pair_index, steps)
+            prop, robot_link = (
+                (pair.body_a, pair.body_b) if pair.body_a in free else (pair.body_b, pair.body_a)
+            )
+            on_prop.setdefault(prop, {})[robot_link] = touching
+    for prop, links in on_prop.items():
+        mine = links.get(link)
+        if mine is None or mine[run[0] : run[1]].mean() < 0.9:
+            continue
+        if not any(
+            other[run[0] : run[1]].mean() >= 0.9 for name, other in links.items() if name != link
+        ):
+            continue  # pushed, not held between two links
+        began = 0 if mine[0] else run[0] - int(np.argmin(mine[run[0] :: -1])) + 1
+        return prop, float(rollout.position_deg[min(began, run[0]), j])
+    return None
+
+
 def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """A joint far off its commanded path: an error when it lasts, a warning when short or
+    when the joint holds a free prop that stops it (a gripper closed on what it carries)."""
     timeline = _Timeline(rollout, thresholds)
     error = np.abs(rollout.position_deg - rollout.command_deg)
     limit = thresholds.max_tracking_error_deg
@@ -435,13 +484,15 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
         for run in timeline.episodes(error[:, j] > limit):
             start, duration = timeline.start(run), timeline.duration(run)
             worst = float(error[run[0] : run[1], j].max())
-            lasting = duration >= thresholds.tracking_error_after_s
+            gripped = _gripping(rollout, j, run)
+            lasting = duration >= thresholds.tracking_error_after_s and gripped is None
+            held = f", held open by the {gripped[0]} it grips" if gripped else ""
             results.append(
                 CheckResult(
                     CheckKind.TRACKING_ERROR,
                     Severity.ERROR if lasting else Severity.WARNING,
                     f"{joint.name} is {worst:.1f}° off its commanded path (more than {limit:g}°) "
-                    f"from t={start:.2f} s for {duration:.2f} s",
+                    f"from t={start:.2f} s for {duration:.2f} s{held}",
                     start,
                     duration,
                     joint=joint.name,

@@ -26,6 +26,7 @@ HOME_KEY = "home"
 # unless the plan has that foot in the air)
 NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT, NEIGHBOUR_CONTACT, GROUND_CONTACT = 0, 1, 2, 3, 4
 FOOT_CONTACT = 5
+HELD_CONTACT = 6  # a robot link on a free prop: expected (pushed, gripped, carried), recorded
 PROP_RGBA = (0.72, 0.55, 0.35, 1.0)
 FREE_PROP_RGBA = (0.85, 0.3, 0.25, 1.0)
 PROP_JOINT_PREFIX = "choreo_prop:"  # a free prop's joint: its body is not the robot's
@@ -212,7 +213,8 @@ def contact_kinds(
 ) -> np.ndarray:
     """(ngeom, ngeom) matrix of what each geom pair's contact means (the ``*_CONTACT`` kinds);
     ``feet`` are a free-floating robot's foot links, whose touching the ground is walking. A free
-    prop touching anything is expected: it is there to be pushed, gripped and carried."""
+    prop touching anything is expected: it is there to be pushed, gripped and carried (the
+    robot's links on it are recorded as held, to tell a servo squeezing it from one stalled)."""
     links = link_of_body(model)
     parent_link = np.array([links[model.body_parentid[link]] for link in range(model.nbody)])
     geom_link = links[model.geom_bodyid]
@@ -236,6 +238,8 @@ def contact_kinds(
         floor = robot_on_world & ~(base[None, :] | base[:, None])
         kinds = np.where(floor, FLOOR_CONTACT, kinds)
     kinds = np.where(free_prop[:, None] | free_prop[None, :], NO_CONTACT, kinds)
+    held = (free_prop[:, None] & on_robot[None, :]) | (on_robot[:, None] & free_prop[None, :])
+    kinds = np.where(held, HELD_CONTACT, kinds)
     return kinds.astype(np.int8)
 
 
