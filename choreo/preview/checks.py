@@ -528,6 +528,7 @@ def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[
             tilted &= ~lying
         results = [r for r in results if r.time_s < lying_from]
         results += _hard_landing(simulated, lying_from)
+        results += _ends_turned_wrong(simulated)
     for mask, why in (
         (
             low,
@@ -579,6 +580,40 @@ def _hard_landing(simulated: SimulatedMotion, lying_from: float) -> list[CheckRe
             first.time_s,
             bodies=(first.link, first.ground),
             value=first.speed_m_s,
+        )
+    ]
+
+
+LYING_TURN_TOLERANCE_DEG = 45.0  # a body ending this far from the declared turn lies otherwise
+
+
+def _ends_turned_wrong(simulated: SimulatedMotion) -> list[CheckResult]:
+    """A motion declared to end face down (``lying_front``) or face up (``lying_back``) whose
+    body ends otherwise (on its back, its side, or upright): its forward axis more than
+    ``LYING_TURN_TOLERANCE_DEG`` from where the declared turn points it."""
+    pitch = simulated.end.pitch_deg
+    rollout, body = simulated.rollout, simulated.rollout.body
+    if not pitch or body is None:
+        return []
+    w, x, y, z = rollout.qpos[-1, body.qpos_address + 3 : body.qpos_address + 7]
+    forward = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
+    # turned about its side-to-side axis by the pitch (±90°), its forward axis points down / up
+    expected_z = -np.sin(np.radians(pitch))
+    off = float(np.degrees(np.arccos(np.clip(forward[2] * expected_z, -1.0, 1.0))))
+    if off <= LYING_TURN_TOLERANCE_DEG:
+        return []
+    how = "face down" if forward[2] < -0.5 else "face up" if forward[2] > 0.5 else "on its side"
+    meant = "face down" if pitch > 0 else "face up"
+    end_s = rollout.duration_s
+    return [
+        CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{body.name} ends lying {how}, not {meant} as its end: {simulated.end.value} says "
+            f"({off:.0f}° from it): it fell another way",
+            end_s,
+            bodies=(body.name,),
+            value=off,
         )
     ]
 

@@ -34,3 +34,21 @@ def test_a_hexapod_lowered_onto_its_belly_as_declared_comes_down_gently():
     assert run_checks(simulated) == []
     (touch,) = simulated.impacts
     assert touch.link == "torso" and touch.speed_m_s < IMPACT_SPEED_M_S / 5
+
+
+def test_a_robot_declared_to_end_face_up_that_falls_on_its_face_is_reported(tmp_path):
+    """The same topple declared ``end: lying_back``: where it ends is wrong as well."""
+    text = (MOTIONS / "topple_declared.yaml").read_text()
+    robot = (MOTIONS.parents[3] / "models" / "tonypi" / "robot.yaml").as_posix()
+    path = tmp_path / "topple_back.yaml"
+    path.write_text(
+        text.replace("end: lying_front", "end: lying_back").replace(
+            "robot: ../../../../models/tonypi/robot.yaml", f"robot: {robot}"
+        )
+    )
+    falls = [r for r in run_checks(simulate_motion(path)) if r.kind is CheckKind.FALL]
+    assert [r.bodies[0] for r in falls] == ["torso", "torso"]
+    assert "torso ends lying face down, not face up as its end: lying_back says" in (
+        falls[1].message
+    )
+    assert falls[1].value > 90
