@@ -94,6 +94,12 @@ CASES = [
     # four corner feet lifted 15 mm: two middle feet are a line, not a polygon; it pitches over
     # onto two lifted legs (a stumble: a few degrees, no torso on the floor)
     Case("hexapod four legs up 15 mm", "fail", file(DATA / "four_legs_up.yaml")),
+    # front and middle feet raised 15 mm by sites: the rear two are all it leaves down; it
+    # tips forward onto the raised legs (read before as a tilt over the corner feet)
+    Case("hexapod front and middle legs up", "fail", file(DATA / "front_legs_up.yaml")),
+    # end: lying_front declared, but bending at the hips with straight legs: it topples and
+    # its torso hits the floor at ~1.5 m/s
+    Case("tonypi topples onto its face", "fail", file(DATA / "topple_declared.yaml")),
     # stand_up backwards without end: lying: the torso goes down onto the floor
     Case("hexapod lies down, undeclared", "fail", file(DATA / "lie_down.yaml")),
     # a 1 kg payload held at 45°: the shoulder stalls and the tip sinks ~58 mm from its target
@@ -111,11 +117,18 @@ CASES = [
         "fail",
         variant(PICK, ("gripper: 16}", "gripper: 21}")),
     ),
-    # a 250 g block squeezed 1° past contact: lifted, it slips out on the way (dropped, misses)
+    # a 100 g block squeezed half a degree past contact: lifted 16 mm, it slips out (dropped)
     Case(
-        "pick_and_place, 250 g block, light grip",
+        "pick_and_place, 100 g block, lightest grip",
         "fail",
-        variant(PICK, ("gripper: 16}", "gripper: 19}"), ("mass_kg: 0.02", "mass_kg: 0.25")),
+        variant(PICK, ("gripper: 16}", "gripper: 19.5}"), ("mass_kg: 0.02", "mass_kg: 0.1")),
+    ),
+    # a 780 g block in the 19° grip: half the friction its weight needs, it never leaves the
+    # table
+    Case(
+        "pick_and_place, 780 g block, light grip",
+        "fail",
+        variant(PICK, ("gripper: 16}", "gripper: 19}"), ("mass_kg: 0.02", "mass_kg: 0.78")),
     ),
     # the tool taken down to 0 mm with a 30 mm block's place at the table: the fingertips are
     # driven into the table (a fixed robot's link on the floor)
@@ -149,6 +162,19 @@ CASES = [
     Case("arm6 9 mm move on another branch", "warn", file(SPATIAL / "branch_jump.yaml")),
     # the shoulder swung -80..80° at full speed with the arm's own weight: it lags at the limit
     Case("arm6 shoulder sweep", "warn", file(DATA / "arm6_shoulder_sweep.yaml")),
+    # the gripper closed to 0° on the block and held 2 s: its servo at stall torque for 5 s,
+    # stopped by the block it carries (at 20°): worth a look, not a failure
+    Case(
+        "pick_and_place, squeezed at stall",
+        "warn",
+        variant(
+            PICK,
+            (
+                "  - pose: {gripper: 16}\n    after: 0.5\n    hold: 0.3\n",
+                "  - pose: {gripper: 0}\n    after: 0.5\n    hold: 2.0\n",
+            ),
+        ),
+    ),
     # walk_forward with lift: 0: the swinging feet slide, friction holds them, it goes nowhere
     Case(
         "hexapod walk_forward with lift 0",
@@ -166,7 +192,7 @@ CASES = [
     ),
     # the block gripped, carried and set down 4 mm from its target
     Case("arm6 pick_and_place", "pass", file(PICK)),
-    # a 150 g block in the 19° grip: heavier, still held by friction
+    # a 150 g block in the 19° grip: 2.5 times the friction it needs, carried without creeping
     Case(
         "pick_and_place, 150 g block",
         "pass",

@@ -46,8 +46,7 @@ def check_file(
     """
     try:
         if path.name == ROBOT_FILE:
-            load_robot(path)
-            return FileCheck(path)
+            return FileCheck(path, [f"{path}: {p}" for p in load_robot(path).supply_problems()])
         if is_show_file(path):
             return _check_show(path, physics=physics, stretch=stretch)
         motion = load_motion(path, allow_past_song)
@@ -59,10 +58,12 @@ def check_file(
     stretched = [s.describe() for s in compiled.stretches]
     outlasts = past_song(motion.music, motion.keyframes, motion.repeat)
     stretched += [f"{path}: {outlasts}"] if outlasts else []
+    robot = motion.robot
+    supply = [f"{path}: robot {robot.name} ({robot.path}): {p}" for p in robot.supply_problems()]
     if not physics:
-        return FileCheck(path, warnings=stretched)
+        return FileCheck(path, supply, warnings=stretched)
     found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)
-    return FileCheck(path, found.problems, stretched + found.warnings)
+    return FileCheck(path, supply + found.problems, stretched + found.warnings)
 
 
 def is_show_file(path: Path) -> bool:
@@ -89,9 +90,15 @@ def _check_show(path: Path, *, physics: bool, stretch: bool) -> FileCheck:
 def _physics_check(
     path: Path, motion: Motion, arrivals_s: tuple[float, ...], stretch: bool
 ) -> FileCheck:
-    from choreo.preview import Severity, run_checks, simulate_motion  # mujoco: only when asked for
+    # mujoco: only when asked for
+    from choreo.preview import CheckKind, Severity, run_checks, simulate_motion
 
-    results = run_checks(simulate_motion(motion, stretch=stretch))
+    # the supply is told once, from the robot file (``check_file``), not as a preview finding
+    results = [
+        r
+        for r in run_checks(simulate_motion(motion, stretch=stretch))
+        if r.kind is not CheckKind.SUPPLY
+    ]
     lines = {
         r: f"{heading_for(motion, arrivals_s, r.time_s)}: preview: {r.message}" for r in results
     }

@@ -44,3 +44,32 @@ def test_stretch_turns_an_unreachable_time_into_a_warning(tmp_path, capsys):
     )
     assert main(["validate", "--stretch", "--no-physics", str(path)]) == 0
     assert f"warning: {path}:4:5: stretched" in capsys.readouterr().out
+
+
+def test_a_supply_below_the_servos_rated_range_is_told_by_validate_and_preview(tmp_path, capsys):
+    """arm3 is LX-16A (rated 6-8.4 V): a 5.5 V supply is refused by `choreo play`'s preflight,
+    so validate says so of the robot file and of a motion (with or without physics), and the
+    preview reports it as an error; a supply inside the range passes."""
+    import shutil
+
+    models = tmp_path / "models"
+    shutil.copytree(PREVIEW_MOTIONS.parent / "models" / "arm3", models / "arm3")
+    robot_file = models / "arm3" / "robot.yaml"
+    text = robot_file.read_text()
+    motion = tmp_path / "motions" / "fine.yaml"
+    motion.parent.mkdir()
+    shutil.copy(PREVIEW_MOTIONS / "fine.yaml", motion)
+    robot_file.write_text(text.replace("defaults:", "bus:\n  supply_v: 5.5\ndefaults:"))
+    told = "yaw, shoulder, elbow: supply 5.5 V is outside the LX-16A's rated 6-8.4 V"
+    assert main(["validate", str(robot_file)]) == 1
+    assert told in capsys.readouterr().out
+    for flags in (["--no-physics"], []):
+        assert main(["validate", *flags, str(motion)]) == 1
+        out = capsys.readouterr().out
+        assert out.count(told) == 1, out
+    assert main(["preview", "--check", str(motion)]) == 1
+    out = capsys.readouterr().out
+    assert f"{motion}:4:5: error: {told}: `choreo play` refuses" in out, out
+    robot_file.write_text(text.replace("defaults:", "bus:\n  supply_v: 6.0\ndefaults:"))
+    assert main(["validate", str(robot_file), str(motion)]) == 0
+    assert "rated" not in capsys.readouterr().out

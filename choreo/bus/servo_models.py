@@ -22,6 +22,7 @@ POSITION_RANGE_UNITS = (0, 1000)
 KGCM_TO_NM = 0.0981
 DEADBAND_DEG = DEG_PER_UNIT  # assumed: the servo cannot act on less than its resolution
 BACKLASH_DEG = 0.5  # assumed: typical of small metal-gear servos, not measured on these
+VELOCITY_LIMIT_SHARE = 0.8  # of the no-load speed: the default velocity limit for planning
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,20 @@ class ServoModel:
 
     @property
     def vel_limit_deg_s(self) -> float:
-        return 0.8 * self.no_load_speed_deg_s
+        return VELOCITY_LIMIT_SHARE * self.no_load_speed_deg_s
+
+    def supply_scale(self, supply_v: float | None) -> float:
+        """How much of its rated torque and speed the servo has at ``supply_v`` (None: the
+        rated supply): in proportion to the supply (assumed)."""
+        return 1.0 if supply_v is None else supply_v / self.rated_supply_v
+
+    def vel_limit_at(
+        self, supply_v: float | None, no_load_speed_deg_s: float | None = None
+    ) -> float:
+        """The default velocity limit for planning at ``supply_v``, of a servo whose no-load
+        speed at the rated supply is ``no_load_speed_deg_s`` (None: the datasheet's)."""
+        speed = self.no_load_speed_deg_s if no_load_speed_deg_s is None else no_load_speed_deg_s
+        return VELOCITY_LIMIT_SHARE * speed * self.supply_scale(supply_v)
 
     @property
     def damping_nm_s_rad(self) -> float:
@@ -98,3 +112,14 @@ def servo_model(name: str) -> ServoModel:
         raise ValueError(
             f"unknown servo model {name!r}; known models: {', '.join(SERVO_MODELS)}"
         ) from None
+
+
+def rated_supply_problem(name: str, supply_v: float) -> str | None:
+    """Why ``supply_v`` does not suit the servo model ``name`` (outside its rated supply), or
+    None: one rule for the robot file's declared supply and the supply a servo reads."""
+    model = servo_model(name)
+    low, high = model.vin_range_mv
+    if low <= 1000 * supply_v <= high:
+        return None
+    rated = f"{low / 1000:g}-{high / 1000:g} V"
+    return f"supply {supply_v:g} V is outside the {model.name}'s rated {rated}"

@@ -2,7 +2,9 @@
 
 Every keyframe (includes expanded, mirrored blocks already mirrored) keeps its timing, hold,
 stop and velocity; only its targets are mirrored (``choreo.robot.types.mirror_targets``). Mirroring
-twice gives back the original keyframes exactly.
+twice gives back the original keyframes exactly. The motion's name, start, end and props are
+kept, the props reflected as the robot is (``mirrored_prop``), so the preview judges the mirror
+image as it judges the original.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from choreo.core.yaml_source import fmt
 from choreo.errors import SourceError
 from choreo.motion.motion_file import Keyframe, Motion
 from choreo.motion.music_block import music_text
+from choreo.motion.scene import Prop
 from choreo.motion.writer import motion_text, robot_reference
 from choreo.robot.types import mirror_targets
 
@@ -44,6 +47,21 @@ def mirrored_keyframes(motion: Motion) -> tuple[Keyframe, ...]:
     return tuple(mirrored)
 
 
+def mirrored_prop(prop: Prop) -> Prop:
+    """``prop`` reflected in the world's x-z plane: the plane the robot's left and right mirror
+    in (a robot stands at the origin facing +x, as the robot files' models do)."""
+
+    def reflected(point):
+        return None if point is None else (point[0], -point[1] + 0.0, point[2])
+
+    return replace(
+        prop,
+        at_m=reflected(prop.at_m),
+        yaw_deg=-prop.yaw_deg + 0.0,
+        place_at_m=reflected(prop.place_at_m),
+    )
+
+
 def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
     """Write the mirror image of ``motion`` to ``out`` (atomically); the keyframes written."""
     keyframes = mirrored_keyframes(motion)
@@ -66,6 +84,10 @@ def write_mirrored(motion: Motion, out: str | Path) -> tuple[Keyframe, ...]:
             repeat=motion.repeat,
             header=header,
             music=music_text(motion.music, out) if motion.music else "",
+            name=motion.name,
+            start=motion.start,
+            end=motion.end,
+            props=tuple(mirrored_prop(prop) for prop in motion.props),
         ),
     )
     return keyframes

@@ -20,6 +20,7 @@ import numpy as np
 import yaml
 
 from choreo.motion.motion_file import HOME_POSE, Keyframe
+from choreo.motion.scene import Prop, StartPosture
 from choreo.robot.lookup import find_robot_file
 from choreo.robot.types import Robot
 
@@ -38,19 +39,31 @@ def motion_text(
     header: Sequence[str] = (),
     comments: Mapping[int, str] | None = None,
     music: str = "",
+    name: str = "",
+    start: StartPosture = StartPosture.STANDING,
+    end: StartPosture = StartPosture.STANDING,
+    props: Sequence[Prop] = (),
 ) -> str:
     """The YAML text of a motion of ``robot`` (named by ``robot_ref``) with these keyframes.
 
     ``header``: comment lines for the top of the file; ``comments``: keyframe index -> a comment
     for that keyframe, at the end of its last line if it is one short line, else on the lines
     before it; ``music``: the music block as one flow mapping
-    (``choreo.motion.music_block.music_text``).
-    The motion's name is left to default to the file name.
+    (``choreo.motion.music_block.music_text``); ``name``: "" leaves it to default to the file
+    name; ``start``, ``end`` and ``props``: what the preview reads (written when not the
+    default).
     """
     lines = [f"# {line}".rstrip() for line in header]
+    if name:
+        lines.append(f"name: {_text(name)}")
     if description:
         lines += _description_lines(description)
     lines.append(f"robot: {_text(robot_ref)}")
+    for key, posture in (("start", start), ("end", end)):
+        if posture is not StartPosture.STANDING:
+            lines.append(f"{key}: {posture.value}")
+    if props:
+        lines += ["props:", *(_prop_line(prop) for prop in props)]
     if speed != 1.0:
         lines.append(f"speed: {_number(speed)}")
     if repeat != 1:
@@ -121,6 +134,27 @@ def _pose_text(robot: Robot, keyframe: Keyframe, previous: Sequence[float], inde
         if angle != before
     ]
     return _flow_mapping(changed, indent)
+
+
+def _prop_line(prop: Prop) -> str:
+    """One prop as a flow mapping in a list, its fields in the file's order."""
+    items = [
+        f"name: {_text(prop.name)}",
+        f"size_m: {_vector(prop.size_m)}",
+        f"at_m: {_vector(prop.at_m)}",
+    ]
+    if prop.yaw_deg:
+        items.append(f"yaw_deg: {_number(prop.yaw_deg)}")
+    for key, value in (("mass_kg", prop.mass_kg), ("friction", prop.friction)):
+        if value is not None:
+            items.append(f"{key}: {_number(value)}")
+    if prop.place_at_m is not None:
+        items.append(f"place_at_m: {_vector(prop.place_at_m)}")
+    return "  - " + _flow_mapping(items, indent=len("  - "))
+
+
+def _vector(values: Sequence[float]) -> str:
+    return "[" + ", ".join(_number(v) for v in values) + "]"
 
 
 def _flow_mapping(items: list[str], indent: int) -> str:

@@ -15,7 +15,7 @@ from typing import TypeVar
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import AngleLimits, MotorMode, Presence, ServoBus, VinLimits
-from choreo.bus.servo_models import servo_model
+from choreo.bus.servo_models import rated_supply_problem
 from choreo.core.arguments import check_type
 from choreo.errors import ChoreoError
 from choreo.robot.types import Joint, Robot
@@ -177,12 +177,10 @@ def _problems(joint: Joint, fit: _Fitness) -> list[str]:
 def _model_supply_problems(joint: Joint, vin_mv: int) -> list[str]:
     """The supply against the rated range of the model the robot file names (the limits stored
     in the servo are often the protocol's 4.5-14 V, which lets an LX-16A run on 11 V)."""
-    model = servo_model(joint.servo_model)
-    low, high = model.vin_range_mv
-    if low <= vin_mv <= high:
+    problem = rated_supply_problem(joint.servo_model, round(vin_mv / 1000, 1))
+    if problem is None:
         return []
     return [
-        f"supply {vin_mv / 1000:.1f} V is outside the {model.name}'s rated "
-        f"{low / 1000:g}-{high / 1000:g} V (the robot file's servo model); check the power "
-        "supply, or the joint's servo model in the robot file"
+        f"{problem} (the robot file's servo model); check the power supply, or the joint's "
+        "servo model in the robot file"
     ]

@@ -13,7 +13,7 @@ checked for problems and rendered offscreen::
   start for it;
 - :mod:`~choreo.preview.simulated`: :class:`SimulatedMotion`, a rollout with what was measured on
   it: ``travel`` (the body), ``props``, ``walk`` (a walker's stance; ``stance``) and its gaits,
-  ``reach`` (``sites:`` targets);
+  ``reach`` (``sites:`` targets), ``impact`` (how a robot that ends lying comes down);
 - :mod:`~choreo.preview.checks`: :func:`run_checks`, what would go wrong on the robot;
 - :mod:`~choreo.preview.report`: the ``--report`` JSON and the lines the CLI prints;
 - :mod:`~choreo.preview.render`, ``gl``, ``viewer``: pictures, offscreen or in a window.

@@ -81,6 +81,61 @@ def actuator_params(
     )
 
 
+# Where each figure of a joint's servo model comes from when nothing else gives it.
+DEFAULT_SOURCES = {
+    "stall_torque_nm": "datasheet",
+    "no_load_speed_deg_s": "datasheet",
+    "kp_nm_rad": "modelling choice",
+    "damping_nm_s_rad": "modelling choice",
+    "armature_kg_m2": "modelling choice",
+    "supply_v": "rated",
+    "deadband_deg": "assumed",
+    "backlash_deg": "assumed",
+}
+ROBOT_FILE_SOURCE = "robot file"
+
+
+@dataclass(frozen=True)
+class FigureSource:
+    """Where one servo figure of some joints comes from: a ``DEFAULT_SOURCES`` value or the
+    robot file. None is measured on the robot yet (``measured_on``: when it was; the hook for
+    an identification file the robot file names)."""
+
+    figure: str  # an ActuatorParams field
+    source: str
+    joints: tuple[str, ...]
+    measured_on: str | None = None
+
+    @property
+    def measured(self) -> bool:
+        return self.measured_on is not None
+
+    def to_dict(self) -> dict:
+        return {
+            "figure": self.figure,
+            "source": self.source,
+            "joints": list(self.joints),
+            "measured": self.measured,
+            "measured_on": self.measured_on,
+        }
+
+
+def figure_sources(robot: Robot) -> tuple[FigureSource, ...]:
+    """Each figure of the servo model, grouped by where it comes from, joints in robot order:
+    the robot file's ``bus: supply_v`` and ``actuator:`` values, else the defaults. Nothing is
+    measured on the robot yet, so none is marked measured."""
+    joints_by: dict[tuple[str, str], list[str]] = {}
+    for joint in robot.joints:
+        for figure, default in DEFAULT_SOURCES.items():
+            given = figure in joint.actuator or (figure == "supply_v" and robot.bus.supply_v)
+            source = ROBOT_FILE_SOURCE if given else default
+            joints_by.setdefault((figure, source), []).append(joint.name)
+    return tuple(
+        FigureSource(figure, source, tuple(joints))
+        for (figure, source), joints in joints_by.items()
+    )
+
+
 def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
     """The servo model's figures with ``override`` applied; torque, gain and speed then scale
     with the supply (a PWM servo's drive voltage is the supply times its duty; back-EMF
@@ -114,7 +169,7 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
                 f"got {value!r}"
             )
         values[key] = float(value)
-    scale = values["supply_v"] / model.rated_supply_v
+    scale = model.supply_scale(values["supply_v"])
     for key in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
         values[key] *= scale
     return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)

@@ -11,7 +11,9 @@ from enum import Enum
 
 import numpy as np
 
+from choreo.bus.servo_models import rated_supply_problem
 from choreo.core.arguments import NON_NEGATIVE, Range, check_number, check_type
+from choreo.preview.impact import IMPACT_SPEED_M_S
 from choreo.preview.props import PLACE_TOLERANCE_M
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
 from choreo.preview.sim import Rollout
@@ -38,6 +40,7 @@ class CheckKind(str, Enum):
     GAIT = "gait"  # a gait: block travelling or turning short of what it asked, or feet dragging
     JOINT_JUMP = "joint_jump"  # a small move in space that IK meets with a large joint move
     PROP = "prop"  # a free prop dropped, knocked over, or not left where the motion meant to
+    SUPPLY = "supply"  # the servos' supply outside their rated range: play refuses it
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,7 @@ def run_checks(
     check_type("thresholds", thresholds, CheckThresholds, "a CheckThresholds")
     recorded = simulated.rollout
     results = [
+        *check_supply(recorded),
         *check_contacts(recorded, thresholds),
         *check_joint_limits(recorded, thresholds),
         *check_saturation(recorded, thresholds),
@@ -147,13 +151,36 @@ class _Timeline:
         return (run[1] - run[0]) * self.dt
 
 
+def check_supply(rollout: Rollout) -> list[CheckResult]:
+    """The supply the servos were simulated at (the robot file's, or an override) outside
+    their model's rated range: an error, as ``choreo play`` refuses to play on it (and the
+    servos' torque and speed, scaled with the supply, are a guess out there)."""
+    joints_by_problem: dict[str, list[str]] = {}
+    for joint, params in zip(rollout.robot.joints, rollout.actuators):
+        problem = rated_supply_problem(joint.servo_model, params.supply_v)
+        if problem is not None:
+            joints_by_problem.setdefault(problem, []).append(joint.name)
+    return [
+        CheckResult(
+            CheckKind.SUPPLY,
+            Severity.ERROR,
+            f"{', '.join(joints)}: {problem}: `choreo play` refuses such a supply, and the "
+            f"servos' torque and speed here are scaled from their rated ones",
+            rollout.start_s,
+            joint=joints[0],
+            value=rollout.actuators[rollout.robot.joint_names.index(joints[0])].supply_v,
+        )
+        for problem, joints in joints_by_problem.items()
+    ]
+
+
 def check_contacts(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
     """Self-collisions, a fixed robot's links on the floor or a prop, and parent/child links
     that MuJoCo lets collide (a free-floating robot on the ground: ``check_fall``)."""
     timeline = _Timeline(rollout, thresholds)
     results = []
     for pair_index, pair in enumerate(rollout.contacts.pairs):
-        if pair.kind in ("ground", "foot"):
+        if pair.kind in ("ground", "foot", "held"):
             continue
         mask, depth_by_step = rollout.contacts.mask(pair_index, len(rollout.times_s))
         for run in timeline.episodes(mask):
@@ -325,6 +352,24 @@ def _stall(rollout, timeline, thresholds, j, run, stalled) -> CheckResult | None
     stall_run = (run[0], run[0] + long_runs[-1][1])  # from reaching the limit to the end
     start, duration = timeline.start(stall_run), timeline.duration(stall_run)
     joint, torque = rollout.robot.joints[j], rollout.actuators[j].stall_torque_nm
+    gripped = _gripping(rollout, j, stall_run)
+    if gripped is not None:
+        prop, touch_deg = gripped
+        aims = rollout.setpoint_deg[stall_run[0] : stall_run[1], j]
+        aim_deg = float(aims[np.argmax(np.abs(aims - touch_deg))]) + 0.0  # farthest past; no -0
+        return CheckResult(
+            CheckKind.SATURATION,
+            Severity.WARNING,
+            f"{joint.name} squeezes the {prop} at its full {torque:.2f} N·m torque for "
+            f"{duration:.2f} s from t={start:.2f} s: it touches the {prop} at "
+            f"{touch_deg:.1f}° and is aimed at {aim_deg:.1f}°; aim a few degrees past "
+            f"{touch_deg:.1f}° to hold it with less (a servo at stall for long runs hot)",
+            start,
+            duration,
+            joint=joint.name,
+            bodies=(prop,),
+            value=touch_deg,
+        )
     moving_first = f", barely moving from t={still_from:.2f} s on" if still_from > start else ""
     return CheckResult(
         CheckKind.SATURATION,
@@ -399,7 +444,38 @@ def _touching(rollout: Rollout, j: int, run: tuple[int, int]) -> str:
     return ""
 
 
+def _gripping(rollout: Rollout, j: int, run: tuple[int, int]) -> tuple[str, float] | None:
+    """The free prop the joint's link grips through ``run`` (touching it, with another link
+    on it too: held between them, as in a gripper's fingers), and the joint's angle when the
+    link began to touch it; None if it grips none."""
+    if not rollout.joint_links:
+        return None
+    link, contacts, steps = rollout.joint_links[j], rollout.contacts, len(rollout.times_s)
+    free = {name for name, _ in rollout.prop_qpos_addresses}
+    on_prop: dict[str, dict[str, np.ndarray]] = {}  # prop -> robot link -> touching per step
+    for pair_index, pair in enumerate(contacts.pairs):
+        if pair.kind == "held":
+            touching, _ = contacts.mask(pair_index, steps)
+            prop, robot_link = (
+                (pair.body_a, pair.body_b) if pair.body_a in free else (pair.body_b, pair.body_a)
+            )
+            on_prop.setdefault(prop, {})[robot_link] = touching
+    for prop, links in on_prop.items():
+        mine = links.get(link)
+        if mine is None or mine[run[0] : run[1]].mean() < 0.9:
+            continue
+        if not any(
+            other[run[0] : run[1]].mean() >= 0.9 for name, other in links.items() if name != link
+        ):
+            continue  # pushed, not held between two links
+        began = 0 if mine[0] else run[0] - int(np.argmin(mine[run[0] :: -1])) + 1
+        return prop, float(rollout.position_deg[min(began, run[0]), j])
+    return None
+
+
 def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:
+    """A joint far off its commanded path: an error when it lasts, a warning when short or
+    when the joint holds a free prop that stops it (a gripper closed on what it carries)."""
     timeline = _Timeline(rollout, thresholds)
     error = np.abs(rollout.position_deg - rollout.command_deg)
     limit = thresholds.max_tracking_error_deg
@@ -408,13 +484,15 @@ def check_tracking(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckR
         for run in timeline.episodes(error[:, j] > limit):
             start, duration = timeline.start(run), timeline.duration(run)
             worst = float(error[run[0] : run[1], j].max())
-            lasting = duration >= thresholds.tracking_error_after_s
+            gripped = _gripping(rollout, j, run)
+            lasting = duration >= thresholds.tracking_error_after_s and gripped is None
+            held = f", held open by the {gripped[0]} it grips" if gripped else ""
             results.append(
                 CheckResult(
                     CheckKind.TRACKING_ERROR,
                     Severity.ERROR if lasting else Severity.WARNING,
                     f"{joint.name} is {worst:.1f}° off its commanded path (more than {limit:g}°) "
-                    f"from t={start:.2f} s for {duration:.2f} s",
+                    f"from t={start:.2f} s for {duration:.2f} s{held}",
                     start,
                     duration,
                     joint=joint.name,
@@ -449,6 +527,8 @@ def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[
         if simulated.end.pitch_deg:  # on its front or back: turned over too
             tilted &= ~lying
         results = [r for r in results if r.time_s < lying_from]
+        results += _hard_landing(simulated, lying_from)
+        results += _ends_turned_wrong(simulated)
     for mask, why in (
         (
             low,
@@ -474,6 +554,68 @@ def check_fall(simulated: SimulatedMotion, thresholds: CheckThresholds) -> list[
                 )
             )
     return results
+
+
+def _hard_landing(simulated: SimulatedMotion, lying_from: float) -> list[CheckResult]:
+    """A declared lie-down that comes down onto the ground faster than ``IMPACT_SPEED_M_S``:
+    it falls, however it ends (one error, at the first such impact, naming what hits first)."""
+    body = simulated.rollout.body
+    assert body is not None  # impacts are measured on a free-floating robot only
+    hard = [
+        i for i in simulated.impacts if i.time_s >= lying_from and i.speed_m_s > IMPACT_SPEED_M_S
+    ]
+    if not hard:
+        return []
+    first = hard[0]
+    others = sorted({i.link for i in hard} - {first.link})
+    also = f" (then {', '.join(others)})" if others else ""
+    return [
+        CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{body.name} falls while lying down at t={first.time_s:.2f} s: {first.link} hits the "
+            f"{first.ground} first{also}, at {first.speed_m_s:.2f} m/s (a free fall of "
+            f"{1000 * first.fall_height_m:.0f} mm; a controlled lie-down comes down slower than "
+            f"{IMPACT_SPEED_M_S:g} m/s): lower it onto the floor with a keyframe on the way",
+            first.time_s,
+            bodies=(first.link, first.ground),
+            value=first.speed_m_s,
+        )
+    ]
+
+
+LYING_TURN_TOLERANCE_DEG = 45.0  # a body ending this far from the declared turn lies otherwise
+
+
+def _ends_turned_wrong(simulated: SimulatedMotion) -> list[CheckResult]:
+    """A motion declared to end face down (``lying_front``) or face up (``lying_back``) whose
+    body ends otherwise (on its back, its side, or upright): its forward axis more than
+    ``LYING_TURN_TOLERANCE_DEG`` from where the declared turn points it."""
+    pitch = simulated.end.pitch_deg
+    rollout, body = simulated.rollout, simulated.rollout.body
+    if not pitch or body is None:
+        return []
+    w, x, y, z = rollout.qpos[-1, body.qpos_address + 3 : body.qpos_address + 7]
+    forward = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
+    # turned about its side-to-side axis by the pitch (±90°), its forward axis points down / up
+    expected_z = -np.sin(np.radians(pitch))
+    off = float(np.degrees(np.arccos(np.clip(forward[2] * expected_z, -1.0, 1.0))))
+    if off <= LYING_TURN_TOLERANCE_DEG:
+        return []
+    how = "face down" if forward[2] < -0.5 else "face up" if forward[2] > 0.5 else "on its side"
+    meant = "face down" if pitch > 0 else "face up"
+    end_s = rollout.duration_s
+    return [
+        CheckResult(
+            CheckKind.FALL,
+            Severity.ERROR,
+            f"{body.name} ends lying {how}, not {meant} as its end: {simulated.end.value} says "
+            f"({off:.0f}° from it): it fell another way",
+            end_s,
+            bodies=(body.name,),
+            value=off,
+        )
+    ]
 
 
 def _ground_contacts(
@@ -513,7 +655,8 @@ def _ground_contacts(
 
 
 def check_props(simulated: SimulatedMotion) -> list[CheckResult]:
-    """Free props dropped (warning), knocked over (warning), or not ending at their
+    """Free props dropped after being lifted (error: whatever the motion meant to do with it,
+    it did not mean to let it fall), knocked over (warning), or not ending at their
     ``place_at_m`` (error: the motion does not do what it says)."""
     results = []
     end_s = simulated.rollout.duration_s
@@ -523,7 +666,7 @@ def check_props(simulated: SimulatedMotion) -> list[CheckResult]:
             results.append(
                 CheckResult(
                     CheckKind.PROP,
-                    Severity.WARNING,
+                    Severity.ERROR,
                     f"the {name} is dropped at t={outcome.dropped_at_s:.2f} s (lifted "
                     f"{1000 * outcome.lifted_m:.0f} mm, then falling faster than a controlled "
                     f"set-down): the grip does not hold it",

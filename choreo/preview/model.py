@@ -26,6 +26,7 @@ HOME_KEY = "home"
 # unless the plan has that foot in the air)
 NO_CONTACT, SELF_CONTACT, FLOOR_CONTACT, NEIGHBOUR_CONTACT, GROUND_CONTACT = 0, 1, 2, 3, 4
 FOOT_CONTACT = 5
+HELD_CONTACT = 6  # a robot link on a free prop: expected (pushed, gripped, carried), recorded
 PROP_RGBA = (0.72, 0.55, 0.35, 1.0)
 FREE_PROP_RGBA = (0.85, 0.3, 0.25, 1.0)
 PROP_JOINT_PREFIX = "choreo_prop:"  # a free prop's joint: its body is not the robot's
@@ -64,7 +65,24 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
     except ValueError as error:
         raise PreviewError(f"{path}: MuJoCo cannot load it: {error}") from None
     _start_props_in_place(model)
+    if any(prop.free for prop in props):
+        _hold_what_friction_holds(model)
     return model
+
+
+GRASP_IMPRATIO = 10.0  # friction constraints this much stiffer than normal ones (MuJoCo's 1)
+
+
+def _hold_what_friction_holds(model: mujoco.MjModel) -> None:
+    """Contacts that keep a gripped prop where friction keeps it. With MuJoCo's defaults
+    (pyramidal cones, soft friction as stiff as the normal force), a block squeezed with twice
+    the friction its weight needs creeps 14 mm down through the fingers while it is carried;
+    with elliptic cones and friction ten times stiffer it moves 3.4 mm in the hand (a 20 g one
+    2.7 mm: the soft pads), and one with half the friction it needs still slips out
+    (``tests/preview/test_model.py``). Only scenes with a free prop: a walker's feet on the
+    floor keep the settings its gaits were tuned with."""
+    model.opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    model.opt.impratio = GRASP_IMPRATIO
 
 
 def _add_prop(spec: mujoco.MjSpec, prop: Prop) -> None:
@@ -195,7 +213,8 @@ def contact_kinds(
 ) -> np.ndarray:
     """(ngeom, ngeom) matrix of what each geom pair's contact means (the ``*_CONTACT`` kinds);
     ``feet`` are a free-floating robot's foot links, whose touching the ground is walking. A free
-    prop touching anything is expected: it is there to be pushed, gripped and carried."""
+    prop touching anything is expected: it is there to be pushed, gripped and carried (the
+    robot's links on it are recorded as held, to tell a servo squeezing it from one stalled)."""
     links = link_of_body(model)
     parent_link = np.array([links[model.body_parentid[link]] for link in range(model.nbody)])
     geom_link = links[model.geom_bodyid]
@@ -219,6 +238,8 @@ def contact_kinds(
         floor = robot_on_world & ~(base[None, :] | base[:, None])
         kinds = np.where(floor, FLOOR_CONTACT, kinds)
     kinds = np.where(free_prop[:, None] | free_prop[None, :], NO_CONTACT, kinds)
+    held = (free_prop[:, None] & on_robot[None, :]) | (on_robot[:, None] & free_prop[None, :])
+    kinds = np.where(held, HELD_CONTACT, kinds)
     return kinds.astype(np.int8)
 
 

@@ -21,11 +21,12 @@ from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import PlanOptions, compile_motion, plan_options
 from choreo.plan.ticks import DEFAULT_TOLERANCE_DEG
 from choreo.preview.actuator import CommandStream, commanded_path_units
+from choreo.preview.impact import Impact, impacts
 from choreo.preview.model import load_model
 from choreo.preview.reach import JointJump, SiteReach, SitesDue, joint_jumps, site_reach
 from choreo.preview.sim import Resume, Rollout, SimSettings, simulate
 from choreo.preview.simulated import SimulatedMotion
-from choreo.preview.stance import feet_and_centre, planned_stance
+from choreo.preview.stance import feet_and_centre, floors_kept, planned_stance
 from choreo.preview.walk import GaitDue, Walk
 from choreo.robot.kinematics import Kinematics
 
@@ -142,7 +143,16 @@ def simulate_rehearsal(
         walk=_walk(rollout, motion, played),
         site_reach=reach,
         joint_jumps=jumps,
+        impacts=_impacts(rollout, motion),
     )
+
+
+def _impacts(rollout: Rollout, motion: Motion) -> tuple[Impact, ...]:
+    """How a free-floating robot that means to end lying comes down (any other touch of the
+    ground is a fall already, and is not measured)."""
+    if rollout.body is None or not motion.end.lying:
+        return ()
+    return tuple(impacts(rollout, load_model(motion.robot, motion.props)))
 
 
 def _walk(
@@ -163,7 +173,15 @@ def _walk(
         if (end := p.keyframe.gait_end) is not None
     )
     feet, centre = feet_and_centre(kin, model, rollout.qpos)
-    stance = planned_stance(kin, model, rollout.command_deg, rollout.times_s)
+    # heading for each keyframe (holding it: for the next), the floor its targets keep
+    kept = floors_kept(
+        kin,
+        [p.keyframe.targets_deg for p in played],
+        [p.keyframe.body is not None for p in played],
+    )
+    heading = np.searchsorted(np.asarray(arrivals), rollout.times_s - 1e-9)
+    by_step = [kept[k] for k in np.clip(heading, 0, len(kept) - 1)] if kept else None
+    stance = planned_stance(kin, model, rollout.command_deg, rollout.times_s, by_step)
     return Walk(stance, feet, centre, gaits)
 
 

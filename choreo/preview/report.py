@@ -9,6 +9,7 @@ import numpy as np
 
 from choreo.core.arguments import check_text, check_type, shown
 from choreo.errors import OptionError, Worded, joined
+from choreo.preview.actuator import FigureSource, figure_sources
 from choreo.preview.checks import CheckResult, CheckThresholds, Severity
 from choreo.preview.sim import Rollout
 from choreo.preview.simulated import SimulatedMotion, simulated_of
@@ -78,8 +79,40 @@ def start_lines(rollout: Rollout) -> list[str]:
             f"approach: {-rollout.approach_start_s:.2f} s into the first keyframe "
             f"(from t={rollout.approach_start_s:.2f} s), as the player plays it"
         )
+    lines.append(f"servo figures: {figures_text(figure_sources(rollout.robot))}")
     lines.append(joined("", ("servo model: ", assumptions_text(rollout))))
     return lines
+
+
+FIGURE_WORDS = {
+    "stall_torque_nm": "stall torque",
+    "no_load_speed_deg_s": "no-load speed",
+    "kp_nm_rad": "gain",
+    "damping_nm_s_rad": "damping",
+    "armature_kg_m2": "armature",
+    "supply_v": "supply",
+    "deadband_deg": "dead band",
+    "backlash_deg": "backlash",
+}
+
+
+def figures_text(sources: tuple[FigureSource, ...]) -> str:
+    """Which servo figures are measured on the robot (and when) and which are assumed, by
+    source: the figures of a source together, the joints named where not all share it."""
+    everyone = {joint for source in sources for joint in source.joints}
+    by_source: dict[str, list[str]] = {}
+    for source in sources:
+        word = FIGURE_WORDS[source.figure]
+        if set(source.joints) != everyone:
+            word += f" ({', '.join(source.joints)})"
+        if source.measured:
+            by_source.setdefault(f"measured {source.measured_on}", []).append(word)
+        else:
+            by_source.setdefault(source.source, []).append(word)
+    parts = [f"{', '.join(words)}: {source}" for source, words in by_source.items()]
+    if not any(source.measured for source in sources):
+        parts.insert(0, "all assumed (not measured on this robot)")
+    return "; ".join(parts)
 
 
 def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:
@@ -173,6 +206,8 @@ def preview_report(
         "assumptions": {
             "move_start": recorded.move_start.value,
             "summary": assumptions_text(recorded),
+            # where each servo figure comes from; "measured": false until identified
+            "figures": [source.to_dict() for source in figure_sources(recorded.robot)],
         },
         "ok": errors == 0,
         "errors": errors,
@@ -187,4 +222,6 @@ def preview_report(
         "props": [outcome.to_dict() for outcome in simulated.props],
         "site_reach": [reach.to_dict() for reach in simulated.site_reach],
         "gaits": [outcome.to_dict() for outcome in simulated.gaits],
+        # links coming down onto the ground during a declared lie-down (``end: lying``)
+        "impacts": [impact.to_dict() for impact in simulated.impacts],
     }

@@ -35,6 +35,7 @@ from choreo.preview.model import (
     FLOOR_CONTACT,
     FOOT_CONTACT,
     GROUND_CONTACT,
+    HELD_CONTACT,
     NEIGHBOUR_CONTACT,
     NO_CONTACT,
     SELF_CONTACT,
@@ -102,6 +103,7 @@ CONTACT_NAMES = {
     NEIGHBOUR_CONTACT: "neighbour",
     GROUND_CONTACT: "ground",
     FOOT_CONTACT: "foot",
+    HELD_CONTACT: "held",
 }
 
 
@@ -109,8 +111,9 @@ CONTACT_NAMES = {
 class ContactPair:
     """Two things touching that may not: ``kind`` is "self" (two links that are not parent and
     child), "neighbour" (a parent and child link MuJoCo lets collide), "floor" (a fixed robot's
-    link on a world geom, named ``body_b``) or "ground" (a free-floating robot's link other than
-    a foot on the floor or a prop, named ``body_b``) or "foot" (a foot there)."""
+    link on a world geom, named ``body_b``), "ground" (a free-floating robot's link other than
+    a foot on the floor or a fixed prop, named ``body_b``), "foot" (a foot there), or "held" (a
+    link on a free prop: expected, recorded to say what a straining servo pushes on)."""
 
     kind: str
     body_a: str

@@ -10,6 +10,7 @@ from dataclasses import dataclass, replace
 
 from choreo.core.arguments import check_type
 from choreo.motion.scene import StartPosture
+from choreo.preview.impact import Impact
 from choreo.preview.props import PropOutcome, prop_outcomes
 from choreo.preview.reach import JointJump, SiteReach
 from choreo.preview.sim import Rollout
@@ -30,6 +31,7 @@ class SimulatedMotion:
     travel: BodyTravel | None  # where a free-floating robot's body went; None: fixed
     props: tuple[PropOutcome, ...]  # each free prop, from the start to the end
     gaits: tuple[GaitOutcome, ...]  # each gait: block, asked against done
+    impacts: tuple[Impact, ...] = ()  # links coming down onto the ground (a motion ending lying)
 
     @classmethod
     def of(
@@ -40,9 +42,10 @@ class SimulatedMotion:
         walk: Walk | None = None,
         site_reach: tuple[SiteReach, ...] = (),
         joint_jumps: tuple[JointJump, ...] = (),
+        impacts: tuple[Impact, ...] = (),
     ) -> SimulatedMotion:
-        """``rollout`` with ``walk`` and the ``sites:`` figures measured by whoever knew the
-        motion, and the travel, props and gaits measured here."""
+        """``rollout`` with ``walk``, the ``sites:`` figures and the ``impacts`` measured by
+        whoever knew the motion, and the travel, props and gaits measured here."""
         return cls(
             rollout,
             end,
@@ -52,6 +55,7 @@ class SimulatedMotion:
             body_travel(rollout),
             tuple(prop_outcomes(rollout)),
             tuple(gait_outcomes(rollout, walk)),
+            impacts,
         )
 
     @property

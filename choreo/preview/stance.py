@@ -7,10 +7,20 @@ The floor under the plan is the plane of its planted feet, found from the foot s
 than ``PLANTED_M`` above it, until it settles. With three or more planted feet that is the tilt
 the plan gives the body (``body: {roll: 6}``); with fewer, the plan is a level body over its
 lowest feet (and cannot stand: the body will come down, which the checks report).
+
+That fit reads any feet that can share a plane as planted, so four feet raised 15 mm would
+read as the body tilted over the four corner feet, and the robot tipping onto them as the
+plan. So a keyframe decides, from its targets (``floors_kept``): one written as ``body:`` may
+tilt the floor; any other (a raw ``pose:``, ``sites:``, a gait's step) keeps the floor's tilt
+unless every foot planted at the keyframe before still shares a plane (a body rocked by its
+legs, all six feet down). Moving towards a keyframe that keeps it, the floor is that plane under
+the lowest feet, and the feet the plan raises off it are lifted, as the motion says: the checks
+compare that with the feet really on the ground.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -38,11 +48,50 @@ class PlannedStance:
         return PlannedStance(self.foot_links, self.height_m[k:], self.up_base[k:], self.lift_m[k:])
 
 
+def floors_kept(
+    kin: Kinematics, targets_deg: Sequence[Sequence[float]], tilts: Sequence[bool]
+) -> list[np.ndarray | None]:
+    """Per played keyframe (its joint targets; ``tilts``: written as ``body:``): the floor's
+    upward normal (base frame) the plan keeps moving towards it, or None where the plan may
+    tilt the floor (the fit)."""
+    feet = kin.feet()
+    kept: list[np.ndarray | None] = []
+    planted, normal = None, np.array([0.0, 0.0, 1.0])
+    for targets, tilt in zip(targets_deg, tilts):
+        points = _feet_m(kin, feet, targets)
+        if planted is None or tilt or _one_plane(points[planted]):
+            kept.append(None)
+            _, normal, lift = _floor(points)
+        else:
+            kept.append(normal)
+            _, _, lift = _floor_along(points, normal)
+        planted = lift <= PLANTED_M
+    return kept
+
+
+def _one_plane(points: np.ndarray) -> bool:
+    """Three or more points within ``PLANTED_M`` of one plane."""
+    if len(points) < 3:
+        return False
+    normal, offset = _plane(points)
+    return bool(np.abs(points @ normal + offset).max() <= PLANTED_M)
+
+
+def _feet_m(kin: Kinematics, feet: Sequence[str], angles_deg) -> np.ndarray:
+    return np.array([kin.site_pose(foot, angles_deg).position_mm for foot in feet]) / 1000
+
+
 def planned_stance(
-    kin: Kinematics, model: mujoco.MjModel, command_deg: np.ndarray, times_s: np.ndarray
+    kin: Kinematics,
+    model: mujoco.MjModel,
+    command_deg: np.ndarray,
+    times_s: np.ndarray,
+    kept: Sequence[np.ndarray | None] | None = None,
 ) -> PlannedStance | None:
     """The plan's stance along ``command_deg`` (robot joint order, one row per step), or None
-    for a robot without foot sites."""
+    for a robot without foot sites. ``kept``: per step, the floor's normal the plan keeps
+    there (``floors_kept``, of the keyframe it heads for), or None where it may tilt it;
+    None: it may everywhere."""
     feet = kin.feet()
     if len(feet) < 3 or not len(times_s):
         return None
@@ -51,8 +100,9 @@ def planned_stance(
     samples = np.unique(np.r_[np.arange(0, len(times_s), every), len(times_s) - 1])
     heights, ups, lifts = [], [], []
     for step in samples:
-        points = np.array([kin.site_pose(foot, command_deg[step]).position_mm for foot in feet])
-        height, up, lift = _floor(points / 1000)
+        points = _feet_m(kin, feet, command_deg[step])
+        normal = None if kept is None else kept[step]
+        height, up, lift = _floor(points) if normal is None else _floor_along(points, normal)
         heights.append(height)
         ups.append(up)
         lifts.append(lift)
@@ -86,6 +136,15 @@ def _floor(points: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     above = points @ normal + offset
     lift = above - above[planted].mean()
     return float(offset + 0.0 - above[planted].mean()), normal, np.maximum(lift, 0.0)
+
+
+def _floor_along(points: np.ndarray, normal: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """As ``_floor``, with the floor's upward ``normal`` kept: the plane under the lowest
+    feet."""
+    above = points @ normal
+    lift = above - float(above.min())
+    planted = lift <= PLANTED_M
+    return float(-above[planted].mean()), normal, lift
 
 
 def _plane(points: np.ndarray) -> tuple[np.ndarray, float]:

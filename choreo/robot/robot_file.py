@@ -104,7 +104,9 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     defaults = {}
     if "defaults" in fields:
         defaults = reader.fields(fields["defaults"].value, "defaults", DEFAULTS.keys) or {}
-    sources = _read_joints(reader, fields["joints"], defaults) if "joints" in fields else []
+    sources = (
+        _read_joints(reader, fields["joints"], defaults, bus.supply_v) if "joints" in fields else []
+    )
     joints = {source.name: source.joint for source in sources}
     poses = _read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
     mirror = _read_mirror(reader, fields["mirror"], joints) if "mirror" in fields else ()
@@ -215,11 +217,15 @@ def _read_direction(reader: Reader, node: Node) -> str | None:
     return text
 
 
-def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> list[JointSource]:
+def _read_joints(
+    reader: Reader, entry: Entry, defaults: dict[str, Entry], supply_v: float | None
+) -> list[JointSource]:
+    """The joints; ``supply_v``: the bus's (its servos' default velocity limits scale with
+    it)."""
     sources: list[JointSource] = []
     used_ids: dict[int, JointSource] = {}
     for joint_entry in reader.entries(entry.value, "joints") or []:
-        source = _read_joint(reader, joint_entry, defaults)
+        source = _read_joint(reader, joint_entry, defaults, supply_v)
         sources.append(source)
         if source.joint is None:
             continue
@@ -237,7 +243,9 @@ def _read_joints(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> li
     return sources
 
 
-def _read_joint(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> JointSource:
+def _read_joint(
+    reader: Reader, entry: Entry, defaults: dict[str, Entry], supply_v: float | None
+) -> JointSource:
     own = reader.fields(entry.value, f"joint {entry.key!r}", JOINT.keys)
     fields = {**defaults, **(own or {})}
     labels = {key: f"defaults: {key}" for key in defaults}
@@ -249,12 +257,16 @@ def _read_joint(reader: Reader, entry: Entry, defaults: dict[str, Entry]) -> Joi
         )
     joint = None
     if own is not None and not missing:
-        joint = _joint_from_fields(reader, entry.key, fields, labels)
+        joint = _joint_from_fields(reader, entry.key, fields, labels, supply_v)
     return JointSource(entry.key, entry.key_node, fields, joint)
 
 
 def _joint_from_fields(
-    reader: Reader, name: str, fields: dict[str, Entry], labels: dict[str, str]
+    reader: Reader,
+    name: str,
+    fields: dict[str, Entry],
+    labels: dict[str, str],
+    supply_v: float | None,
 ) -> Joint | None:
     def number(
         key: str,
@@ -305,11 +317,15 @@ def _joint_from_fields(
         or any(rates[key] is None for key in RATE_KEYS if key in fields)
     ):
         return None
-    # rates are > 0 when given; the servo model's defaults otherwise
+    # rates are > 0 when given; the servo model's defaults otherwise, its speed at the supply
+    # the file declares and with the no-load speed it gives (the preview's servo is that fast)
+    default_velocity = model.vel_limit_at(
+        actuator.get("supply_v", supply_v), actuator.get("no_load_speed_deg_s")
+    )
     limits = JointLimits(
         low,
         high,
-        rates["velocity"] or model.vel_limit_deg_s,
+        rates["velocity"] or default_velocity,
         rates["acceleration"] or model.acc_limit_deg_s2,
         rates["jerk"] or model.jerk_limit_deg_s3,
     )

@@ -16,7 +16,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG
+from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG, rated_supply_problem
 from choreo.bus.settings import BusSettings
 from choreo.core.yaml_source import fmt
 
@@ -133,6 +133,27 @@ class Robot:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "poses", MappingProxyType(dict(self.poses)))
+
+    def declared_supply_v(self, joint: Joint) -> float | None:
+        """The supply the robot file declares for ``joint`` (its ``actuator: supply_v``, else
+        ``bus: supply_v``); None: not declared (each servo model's rated supply is assumed)."""
+        return joint.actuator.get("supply_v", self.bus.supply_v)
+
+    def supply_problems(self) -> list[str]:
+        """The declared supply against each joint's servo model's rated range: one line per
+        supply and model, naming its joints (``choreo play`` refuses a servo reading such a
+        supply, and the preview's servos are weaker or stronger than rated)."""
+        joints_by_problem: dict[str, list[str]] = {}
+        for joint in self.joints:
+            supply = self.declared_supply_v(joint)
+            problem = None if supply is None else rated_supply_problem(joint.servo_model, supply)
+            if problem is not None:
+                joints_by_problem.setdefault(problem, []).append(joint.name)
+        return [
+            f"{', '.join(joints)}: {problem} (the robot file's supply_v): `choreo play` refuses "
+            "such a supply; use a supply inside it, or name the servo model the robot has"
+            for problem, joints in joints_by_problem.items()
+        ]
 
     @cached_property
     def joint_names(self) -> tuple[str, ...]:

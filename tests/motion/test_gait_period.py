@@ -59,3 +59,42 @@ def test_other_keyframes_too_early_keep_their_own_advice(tmp_path):
     lines = str(caught.value).splitlines()
     assert "after >=" in lines[0] and ":4:5:" in lines[0]
     assert "shortest period" in lines[-1] and ":6:5:" in lines[-1]
+
+
+def test_the_shortest_period_is_for_the_servos_at_the_robots_supply(tmp_path):
+    """The LX-224HV's datasheet speed is at 11.1 V; at 6 V its speed (and its default velocity
+    limit for planning) is 6/11.1 of that, and a robot file's measured no-load speed counts
+    too. A tripod step of 1 s, fine at 11.1 V, is too fast at 6 V (where the simulated servos
+    could not follow it): the advice names the period that fits the slower servos."""
+    import shutil
+
+    from choreo.bus.servo_models import servo_model
+
+    models = tmp_path / "models"
+    shutil.copytree(ROBOT.parent, models / "hexapod18")
+    robot_file = models / "hexapod18" / "robot.yaml"
+    text = robot_file.read_text()
+    walk = "pattern: tripod, steps: 4, stride: 40, lift: 30, period: 1.0"
+
+    def shortest_with(robot_text: str) -> tuple[float, str | None]:
+        robot_file.write_text(robot_text)
+        path = tmp_path / "walk.yaml"
+        path.write_text(
+            f"robot: {robot_file.as_posix()}\nkeyframes:\n  - pose: home\n  - gait: {{{walk}}}\n"
+        )
+        motion = load_motion(path)
+        try:
+            plan_motion(motion)
+        except PlanningError as error:
+            return motion.robot.joints[0].limits.vel_deg_s, str(error)
+        return motion.robot.joints[0].limits.vel_deg_s, None
+
+    rated = servo_model("LX-224HV").vel_limit_deg_s
+    assert shortest_with(text) == (pytest.approx(rated), None)
+    velocity, advice = shortest_with(text.replace("defaults:", "bus:\n  supply_v: 6.0\ndefaults:"))
+    assert velocity == pytest.approx(rated * 6 / 11.1)
+    assert advice is not None and "shortest period that works is 1.5 s" in advice
+    slower = "defaults:\n  actuator: {no_load_speed_deg_s: 200}"
+    velocity, advice = shortest_with(text.replace("defaults:", slower, 1))
+    assert velocity == pytest.approx(0.8 * 200)
+    assert advice is not None and "shortest period that works is 1.3 s" in advice

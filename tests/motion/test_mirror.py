@@ -80,3 +80,29 @@ def test_mirrored_angles_outside_the_partners_limits_are_reported(tmp_path):
         f"{source}:4:5: mirrored, right would be at -115°, outside its limits -110..60°",
         f"{source}:8:5: mirrored, right would be at -112°, outside its limits -110..60°",
     ]
+
+
+def test_a_mirrored_pick_keeps_its_name_and_props_reflected_and_places_the_block(tmp_path):
+    """The block is picked on the left and placed on the right; mirrored, it is picked on the
+    right and placed on the left, and the preview finds it placed as it does the original."""
+    from choreo.preview import run_checks, simulate_motion
+
+    original = load_motion(ARM6 / "pick_and_place.yaml")
+    mirrored = load_motion(mirror(ARM6 / "pick_and_place.yaml", tmp_path / "pick_left.yaml"))
+    assert mirrored.name == original.name == "pick_and_place"
+    (block,), (before,) = mirrored.props, original.props
+    assert block.at_m == (before.at_m[0], -before.at_m[1], before.at_m[2])
+    assert block.place_at_m == (before.place_at_m[0], -before.place_at_m[1], 0.0)
+    assert (block.yaw_deg, block.size_m, block.mass_kg) == (-50, before.size_m, before.mass_kg)
+    simulated = simulate_motion(mirrored)
+    (outcome,) = simulated.props
+    assert outcome.lifted and outcome.placed, outcome.line()
+    assert [r for r in run_checks(simulated) if r.severity.value == "error"] == []
+
+
+def test_a_mirrored_lie_down_keeps_its_start_and_end(tmp_path):
+    source = DATA / "preview" / "motions" / "lie_down_declared.yaml"
+    original = load_motion(source)
+    mirrored = load_motion(mirror(source, tmp_path / "lie_down_mirrored.yaml"))
+    assert (mirrored.start, mirrored.end) == (original.start, original.end)
+    assert mirrored.end.lying

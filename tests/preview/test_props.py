@@ -89,14 +89,15 @@ def test_a_grip_that_does_not_squeeze_never_lifts_the_block(tmp_path):
     assert not outcome.lifted and outcome.displacement_m < 0.005
 
 
-def test_a_heavy_block_in_a_light_grip_is_dropped_on_the_way(tmp_path):
-    """A 250 g block squeezed only 1° past where the pads meet it: lifted, then it slips out
-    while the arm swings across, falling freely (a warning), and misses its target."""
-    motion = pick_and_place_variant(tmp_path, "gripper: 16}", "gripper: 19}")
-    block = dataclasses.replace(motion.props[0], mass_kg=0.25)
+def test_a_heavy_block_in_a_light_grip_is_dropped_on_the_way_an_error_of_its_own(tmp_path):
+    """A 100 g block squeezed only half a degree past where the pads meet it: lifted 16 mm,
+    then it slips out and falls. Without a ``place_at_m`` to miss, the drop alone is an error:
+    no motion means to let what it lifted fall."""
+    motion = pick_and_place_variant(tmp_path, "gripper: 16}", "gripper: 19.5}")
+    block = dataclasses.replace(motion.props[0], mass_kg=0.1, place_at_m=None)
     simulated = simulate_motion(dataclasses.replace(motion, props=(block,)))
     results = [r for r in run_checks(simulated) if r.kind is CheckKind.PROP]
-    assert [r.severity for r in results] == [Severity.WARNING, Severity.ERROR]
+    assert [r.severity for r in results] == [Severity.ERROR]
     assert "dropped" in results[0].message
     (outcome,) = simulated.props
     assert outcome.lifted and outcome.dropped_at_s == results[0].time_s
