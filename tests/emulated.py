@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.pty import PtyBridge
@@ -28,6 +29,20 @@ def home_specs(robot: Robot) -> list[ServoSpec]:
         ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
         for j, a in zip(robot.joints, robot.pose_vector("home"))
     ]
+
+
+def recorded_writes(bus: ServoBus) -> list[bytes]:
+    """Every write to ``bus``'s port from now on, as written (one entry per system call: the
+    wire shows packets, not how many writes carried them)."""
+    writes: list[bytes] = []
+    write = bus.port.write
+
+    def recording(data: bytes):
+        writes.append(bytes(data))
+        return write(data)
+
+    bus.port.write = recording  # type: ignore[method-assign]
+    return writes
 
 
 def wait_for(condition, what: str, timeout_s: float = WAIT_S) -> None:

@@ -442,6 +442,19 @@ class ServoBus:
         with self._lock, self._port_io():
             return self.backend.move_many(moves, time_ms)
 
+    def stage_many(self, moves: Iterable[tuple[int, int]], time_ms: int) -> int:
+        """MOVE_TIME_WAIT_WRITE to each (servo_id, pos_units) over one shared ``time_ms``, in
+        this order and in one write where the link carries that (the raw bus: one system call,
+        and behind GPIO direction lines one transmit window); the next MOVE_START runs them
+        together. The same packets as ``stage_move`` for each. Returns the bytes sent."""
+        writes = [(i, {"pos_units": p, "time_ms": time_ms}) for i, p in moves]
+        for servo_id, fields in writes:  # every range checked before anything is sent
+            check_request(Command.MOVE_TIME_WAIT_WRITE, **fields)
+            check_servo_id(servo_id)
+        self._require(Command.MOVE_TIME_WAIT_WRITE)
+        with self._lock, self._port_io():
+            return self.backend.send_many(Command.MOVE_TIME_WAIT_WRITE, writes)
+
     def stop_servos(self, servo_ids: Iterable[int]) -> None:
         """Stop these servos by the best means the transport has (``capabilities.stop``): a
         broadcast MOVE_STOP on the raw bus."""

@@ -1,11 +1,11 @@
 """One pass over a tick list on an absolute clock: the player's deadline loop.
 
 Each tick k: at its deadline it is started (``choreo.play.tick_sending``: a broadcast MOVE_START
-of the moves staged before it, or one move frame); right after, tick k+1 is staged. Deadlines are
-absolute from one start time, so nothing drifts. Spare bus time before the next START goes to
-health reads (``choreo.play.health``), each with a timeout that ends before that START. If the
-host falls a whole tick behind, the servos are re-targeted to where the plan is now instead of
-replaying stale ticks.
+of the moves staged before it, or one move frame); right after, tick k+1 is staged (in one
+write). Deadlines are absolute from one start time, so nothing drifts. Spare bus time before the
+next START goes to health reads (``choreo.play.health``), each with a timeout that ends before
+that START. If the host falls a whole tick behind, the servos are re-targeted to where the plan
+is now instead of replaying stale ticks.
 """
 
 from __future__ import annotations

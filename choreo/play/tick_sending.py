@@ -1,8 +1,8 @@
 """How a tick reaches the servos, chosen once per play from the transport's capabilities.
 
 - :class:`StagedStart` (the raw bus): each servo whose target changes is staged
-  (MOVE_TIME_WAIT_WRITE) while the tick before runs, then one broadcast MOVE_START at the tick's
-  deadline starts every servo at the same instant.
+  (MOVE_TIME_WAIT_WRITE, every servo of the tick in one write) while the tick before runs, then
+  one broadcast MOVE_START at the tick's deadline starts every servo at the same instant.
 - :class:`MoveFrames` (a controller board that cannot stage: the RRC and LOBOT boards): the tick
   goes out as one multi-servo move frame with the tick's duration (a tick's moves share one).
   The board forwards it one servo at a time, so the frame is sent early enough for those starts
@@ -100,12 +100,10 @@ class StagedStart(TickSending):
         return now_s  # a START never waits: the staging before it was timed to be over
 
     def stage(self, tick: Tick, *, all_servos: bool) -> int:
-        moves = staged_moves(tick, self.robot, all_servos=all_servos)
-        count = 0
-        for joint, pos, time_ms in moves:
-            self.bus.stage_move(joint.servo_id, pos, time_ms)
-            count += MOVE_BYTES
-        return count
+        """Every staged move of ``tick`` in one write: one system call instead of one per servo,
+        and behind GPIO direction lines one wait for the wire instead of one per servo."""
+        moves = self.moves(tick, all_servos=all_servos)
+        return self.bus.stage_many(moves, tick.duration_ms) if moves else 0
 
     def start(self, tick: Tick, moves: Moves) -> tuple[int, float | None]:
         self.bus.start(BROADCAST_ID)

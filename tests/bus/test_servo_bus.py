@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 import serial
+from emulated import recorded_writes
 
-from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask
+from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, encode_request
 from choreo.bus.servo_bus import (
     AngleLimits,
     EchoMode,
@@ -124,6 +125,32 @@ def test_staged_moves_start_together_on_broadcast():
     starts = [m for m in emulator.log.moves if m.command == Command.MOVE_START]
     assert {m.servo_id for m in starts} == {1, 2, 3}
     assert len({m.time_s for m in starts}) == 1
+    emulator.clock.advance(0.5)
+    assert [bus.read_position(i) for i in (1, 2, 3)] == [200, 400, 600]
+
+
+def test_stage_many_writes_the_staged_moves_in_order_at_once_after_checking_them_all():
+    bus, emulator = make_bus()
+    writes = recorded_writes(bus)
+    moves = [(3, 600), (1, 200), (2, 400)]
+    assert bus.stage_many(moves, 300) == 3 * 10
+    # one write (one system call; behind direction lines one transmit window), the same
+    # packets stage_move sends, in the order given
+    assert writes == [
+        b"".join(
+            encode_request(Command.MOVE_TIME_WAIT_WRITE, i, pos_units=p, time_ms=300)
+            for i, p in moves
+        )
+    ]
+    with pytest.raises(ValueError, match="pos_units must be in 0..1000, got 5000"):
+        bus.stage_many([(1, 100), (2, 5000)], 300)
+    with pytest.raises(ValueError, match="servo_id"):
+        bus.stage_many([(1, 100), (BROADCAST_ID + 1, 100)], 300)
+    assert len(writes) == 1  # not even the first, valid move of either was sent
+    assert bus.stage_many([], 300) == 0
+    bus.port.flush()
+    emulator.clock.advance(0.002)
+    bus.start()
     emulator.clock.advance(0.5)
     assert [bus.read_position(i) for i in (1, 2, 3)] == [200, 400, 600]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from emulated import home_specs
+from emulated import home_specs, recorded_writes
 
 from choreo.bus.protocol import BYTE_TIME_S, Command, decode_request
 from choreo.bus.servo_bus import Presence, ServoBus
@@ -54,11 +54,35 @@ def test_rrc_answers_status_ff_for_a_silent_servo_after_its_5_ms():
         assert emulator.clock.now() - sent_s >= SERVO_REPLY_TIMEOUT_S
 
 
+@pytest.mark.parametrize("board, writes", [("rrc", 1), ("lobot", 3)])
+def test_several_writes_go_out_in_order_in_as_few_port_writes_as_the_link_carries(board, writes):
+    # The RRC board parses frames back to back: one port write. The LOBOT controller's HID
+    # report holds one frame: one port write each. Either way the frames of one send each.
+    unload = {"loaded": 0}
+    with board_bus(board) as bus:
+        written = recorded_writes(bus)
+        for servo_id in (2, 5, 3):
+            bus.backend.send(Command.LOAD_OR_UNLOAD_WRITE, servo_id, unload)
+        one_by_one = list(written)
+        written.clear()
+        count = bus.backend.send_many(
+            Command.LOAD_OR_UNLOAD_WRITE, [(i, unload) for i in (2, 5, 3)]
+        )
+        assert count == len(b"".join(one_by_one)) and b"".join(written) == b"".join(one_by_one)
+        assert len(written) == writes
+        bus.drain()
+        bus.emulator.clock.advance(0.1)
+        unloads = moves_of(bus.emulator, Command.LOAD_OR_UNLOAD_WRITE)
+        assert [p.packet.servo_id for p in unloads] == [2, 5, 3, 2, 5, 3]
+
+
 @pytest.mark.parametrize(
     "board, action",
     [
         ("rrc", lambda bus: bus.set_led(1, True)),
         ("rrc", lambda bus: bus.stage_move(1, 300, 100)),
+        ("rrc", lambda bus: bus.stage_many([(1, 300), (2, 400)], 100)),
+        ("lobot", lambda bus: bus.stage_many([(1, 300), (2, 400)], 100)),
         ("rrc", lambda bus: bus.start()),
         ("rrc", lambda bus: bus.read_mode(1)),
         ("lobot", lambda bus: bus.read_vin(1)),

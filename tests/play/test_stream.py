@@ -4,10 +4,13 @@ deadlines, together, never missed; falling behind re-targets instead of replayin
 from __future__ import annotations
 
 import pytest
+from emulated import recorded_writes
 from play_helpers import MOTIONS, Rig
 
-from choreo.bus.protocol import BROADCAST_ID, Command
-from choreo.plan.ticks import QUANTIZATION_DEG, Tick
+from choreo.bus.protocol import BROADCAST_ID, Command, encode_request
+from choreo.plan.ticks import MOVE_BYTES, QUANTIZATION_DEG, Tick
+from choreo.play.dry_run import packet_schedule
+from choreo.play.play_options import PlayOptions
 from choreo.play.player import Player
 from choreo.play.preflight import preflight
 from choreo.play.report import Outcome
@@ -96,6 +99,28 @@ def test_a_retarget_onto_a_tick_that_changes_nothing_still_starts_it():
     assert rig.emulator.servo(1).position_units == pytest.approx(here[0])
 
 
+def test_each_tick_is_staged_in_one_write_and_the_wire_is_the_dry_runs():
+    """The staged moves of each tick leave in one write (one system call; behind direction lines
+    one transmit window), and what reaches the servos is the dry run's packets in its order."""
+    rig = Rig(f"{MOTIONS}/hexapod18/tripod_gait.yaml")
+    writes = recorded_writes(rig.bus)
+    rig.play(options=PlayOptions(health_timeout_s=5.0))  # no time for health reads
+    start = encode_request(Command.MOVE_START, BROADCAST_ID)
+    expected: list[bytes] = []  # the dry run, each run of staged moves as one write
+    for p in packet_schedule(rig.performance.ticks, rig.robot):
+        if expected and start not in (p.packet, expected[-1]):
+            expected[-1] += p.packet
+        else:
+            expected.append(p.packet)
+    played = writes[writes.index(expected[0]) :]  # from tick 0's staging (after preflight)
+    assert played == expected
+    assert len(played[0]) == 18 * MOVE_BYTES  # tick 0: every servo, at once
+    # and the servos received exactly those packets, whole and in that order
+    staging = (Command.MOVE_START, Command.MOVE_TIME_WAIT_WRITE)
+    received = [p.packet.encode() for p in rig.emulator.log.packets if p.packet.command in staging]
+    assert b"".join(received) == b"".join(expected)
+
+
 def test_the_next_tick_is_staged_before_progress_and_health_reads():
     """What the next START needs goes first, right after a START: its staged moves; then the
     progress callback and health reads, in the time left (they never delay the staging)."""
@@ -110,14 +135,14 @@ def test_the_next_tick_is_staged_before_progress_and_health_reads():
         return call
 
     bus = rig.bus
-    # one letter each: T a START, s a staged move, r a read, p a progress callback
+    # one letter each: T a START, s a tick's staged moves, r a read, p a progress callback
     bus.start = recorded("T", bus.start)  # type: ignore[method-assign]
-    bus.stage_move = recorded("s", bus.stage_move)  # type: ignore[method-assign]
+    bus.stage_many = recorded("s", bus.stage_many)  # type: ignore[method-assign]
     bus.request = recorded("r", bus.request)  # type: ignore[method-assign]
     rig.play(on_progress=lambda progress: events.append("p"))
     played = "".join(events[events.index("T") :])  # from the first START (after preflight)
     assert played.count("p") > 10 and "r" in played and "s" in played
     # after each progress, only reads until the next START: nothing staged late
     assert all("s" not in after.split("T")[0] for after in played.split("p")[1:])
-    # and the staging came between the START and the progress, not after
-    assert "Tsss" in played and "sp" in played
+    # and the staging came between the START and the progress, not after, in one call per tick
+    assert "Tsp" in played and "ss" not in played

@@ -4,8 +4,9 @@ and what each way costs the deadline loop."""
 from __future__ import annotations
 
 import pytest
+from emulated import recorded_writes
 
-from choreo.bus.protocol import BROADCAST_ID, BYTE_TIME_S, Command
+from choreo.bus.protocol import BROADCAST_ID, BYTE_TIME_S, Command, encode_request
 from choreo.bus.servo_bus import ServoBus
 from choreo.plan.ticks import MOVE_BYTES, START_BYTES, Tick
 from choreo.play.tick_sending import MoveFrames, StagedStart, staged_moves, tick_sending
@@ -57,6 +58,33 @@ def test_staged_start_stages_the_moves_then_starts_them_with_one_broadcast():
         assert sending.first_lead_s() == sending.restage_s() == 6 * MOVE_BYTES * BYTE_TIME_S
         assert sending.link_free_s(1.0, 2.0) == 1.0  # a START never waits for the wire
         assert sending.start_skew_ms() == 0.0
+
+
+@pytest.mark.parametrize("all_servos", [False, True])
+def test_a_staged_tick_goes_out_in_one_write_of_the_packets_stage_move_would_send(all_servos):
+    tick = moved(4, 1, 5)
+    wires = []
+    for stage in ("tick", "servo by servo"):
+        with ServoBus("sim://?ids=1-6&clock=virtual") as bus:
+            writes = recorded_writes(bus)
+            if stage == "tick":
+                count = tick_sending(bus, ARM).stage(tick, all_servos=all_servos)
+            else:
+                for joint, pos, time_ms in staged_moves(tick, ARM, all_servos=all_servos):
+                    bus.stage_move(joint.servo_id, pos, time_ms)
+            bus.drain()
+            wires.append((writes, [p.packet for p in bus.emulator.log.packets]))
+    (tick_writes, tick_wire), (servo_writes, servo_wire) = wires
+    assert len(tick_writes) == 1 and len(servo_writes) == (6 if all_servos else 3)
+    assert tick_writes == [b"".join(servo_writes)] and count == len(tick_writes[0])
+    # on the wire: the same packets, in joint order, every one a staged move of the tick
+    assert tick_wire == servo_wire
+    expected = [(j.servo_id, pos) for j, pos, _ in staged_moves(tick, ARM, all_servos=all_servos)]
+    assert [p.encode() for p in tick_wire] == [
+        encode_request(Command.MOVE_TIME_WAIT_WRITE, i, pos_units=pos, time_ms=100)
+        for i, pos in expected
+    ]
+    assert [i for i, _ in expected] == ([1, 2, 3, 4, 5, 6] if all_servos else [2, 5, 6])
 
 
 def test_move_frames_send_nothing_ahead_and_one_frame_at_the_start():

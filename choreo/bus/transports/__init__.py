@@ -140,6 +140,11 @@ class Backend(Protocol):
         """Send an LX write the transport can carry, its servo ID and fields checked already
         (``ServoBus`` checks, the backend encodes: once); returns the bytes sent."""
 
+    def send_many(self, command: Command, writes: Sequence[tuple[int, dict[str, int]]]) -> int:
+        """Send one LX write per (servo_id, fields), checked already, in this order and in one
+        write to the port where the link carries that (the raw bus: one system call, and behind
+        GPIO direction lines one transmit window); returns the bytes sent."""
+
     def request(self, command: Command, servo_id: int, timeout_s: float) -> Attempt:
         """One attempt at an LX read."""
 

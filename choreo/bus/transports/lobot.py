@@ -198,6 +198,10 @@ class LobotBoard:
             "To load without moving, connect the servos to the raw LX bus"
         )
 
+    def send_many(self, command: Command, writes: Sequence[tuple[int, dict[str, int]]]) -> int:
+        # One frame per write: over USB HID each write is one report, which holds one frame.
+        return sum(self.send(command, servo_id, fields) for servo_id, fields in writes)
+
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
         frame = move_frame(moves, time_ms)
         self.port.write(frame)

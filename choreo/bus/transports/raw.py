@@ -104,14 +104,20 @@ class RawBus:
         return self.decoder.bad_checksums
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        packet = encode_checked(command, servo_id, fields)
-        self.port.write(packet)  # its echo, if any, is skipped by the next request
-        return len(packet)
+        return self._write(encode_checked(command, servo_id, fields))
+
+    def send_many(self, command: Command, writes: Sequence[tuple[int, dict[str, int]]]) -> int:
+        return self._write(b"".join(encode_checked(command, i, fields) for i, fields in writes))
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
-        data = move_frame(moves, time_ms)
-        self.port.write(data)  # their echoes, if any, are skipped by the next request
-        return len(data)
+        return self._write(move_frame(moves, time_ms))
+
+    def _write(self, packets: bytes) -> int:
+        """Packets in one write: one system call, and behind GPIO direction lines one transmit
+        window (the line turns around once, after the last). Their echoes, if any, are skipped
+        by the next request."""
+        self.port.write(packets)
+        return len(packets)
 
     def stop_many(self, servo_ids: Sequence[int]) -> None:
         """One broadcast MOVE_STOP stops every servo at once, whichever are named."""

@@ -196,9 +196,12 @@ class RrcBoard:
         self.bad_checksums = 0  # the board checks the servos' replies itself
 
     def send(self, command: Command, servo_id: int, fields: dict[str, int]) -> int:
-        frame = write_frame(command, servo_id, fields)
-        self.port.write(frame)
-        return len(frame)
+        return self.send_many(command, [(servo_id, fields)])
+
+    def send_many(self, command: Command, writes: Sequence[tuple[int, dict[str, int]]]) -> int:
+        frames = b"".join(write_frame(command, servo_id, fields) for servo_id, fields in writes)
+        self.port.write(frames)  # the board parses its frames one after another
+        return len(frames)
 
     def move_many(self, moves: Sequence[tuple[int, int]], time_ms: int) -> int:
         frame = move_frame(moves, time_ms)

@@ -75,6 +75,28 @@ def test_staged_writes_cost_their_wire_time_not_a_jiffy_each():
     assert wire_s <= elapsed_s < wire_s + 4 * 0.0004  # a margin per write, no 4 ms drain
 
 
+def test_a_staged_tick_is_one_transmit_window_and_the_line_turns_around_after_it():
+    bus, emulator, lines = gated_bus(drain_late_s=0.004)
+    with bus:
+        before = len(lines.changes)
+        start_s = emulator.clock.now()
+        assert bus.stage_many([(3, 400), (1, 450), (2, 550)], 200) == 30
+        staged_s = emulator.clock.now() - start_s
+        window = [(tx, rx) for _, tx, rx in lines.changes[before:]]
+        bus.start()
+        assert bus.read_position(2) == 500  # the reply came through: receive was on in time
+        emulator.clock.advance(0.3)
+        assert [bus.read_position(i) for i in (1, 2, 3)] == [450, 550, 400]
+    # transmit on once, receive on once, after the last stop bit of the third move
+    assert window == [(True, False), (False, True)]
+    wire_s = 30 * 10 / 115200
+    assert wire_s <= staged_s < wire_s + 0.0004  # one margin, not one per servo
+    staged = [p for p in emulator.log.packets if p.packet.command == Command.MOVE_TIME_WAIT_WRITE]
+    assert [p.packet.servo_id for p in staged] == [3, 1, 2]  # whole, in the order written
+    receive_on = [t for t, tx, rx in lines.changes if rx and t >= staged[-1].time_s]
+    assert receive_on[0] - staged[-1].time_s < emulator.turnaround_s
+
+
 class NoStatusRegister:
     """A UART driver without TIOCSERGETLSR (many USB adapters): only the computed time."""
 
