@@ -12,8 +12,10 @@ import yaml
 from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_models import (
     DEG_PER_UNIT,
+    MAX_RESPONSE_DELAY_S,
     POSITION_RANGE_UNITS,
     SERVO_MODELS,
+    SIGNED_ACTUATOR_FIELDS,
     ZERO_OK_ACTUATOR_FIELDS,
     ServoModel,
 )
@@ -332,14 +334,18 @@ def _joint_from_fields(
 
 
 def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
-    """Preview actuator overrides: each a number > 0 (dead band and backlash >= 0; a problem
-    makes the whole block None)."""
+    """Preview actuator overrides: each a number > 0 (dead band, backlash, friction and delay
+    >= 0, the offset of any sign; a problem makes the whole block None)."""
     entries = reader.fields(node, what, ACTUATOR.keys)
     if entries is None:
         return None
     values = {
         key: reader.number(
-            entry.value, f"{what}: {key}", low=0, low_open=key not in ZERO_OK_ACTUATOR_FIELDS
+            entry.value,
+            f"{what}: {key}",
+            low=None if key in SIGNED_ACTUATOR_FIELDS else 0,
+            high=MAX_RESPONSE_DELAY_S if key == "response_delay_s" else None,
+            low_open=key not in ZERO_OK_ACTUATOR_FIELDS,
         )
         for key, entry in entries.items()
     }
