@@ -69,9 +69,9 @@ class Physics(Protocol):
     def servos(self) -> Sequence[PhysicalServo]: ...
 
 
-def load_physics(robot: str, truth: str | None, clock: Clock) -> Physics:
+def load_physics(robot: str, truth: str | None, clock: Clock, *, stand: bool = False) -> Physics:
     """The world of ``robot`` (a name or a robot file) with the servos of ``truth`` (a truth
-    file, None: the robot file's figures), on ``clock``. ``ChoreoError`` or ``ValueError``
-    naming what is wrong."""
+    file, None: the robot file's figures), on ``clock``; ``stand``: a free-floating robot held
+    in the air. ``ChoreoError`` or ``ValueError`` naming what is wrong."""
     provider = importlib.import_module(PROVIDER)
-    return provider.physics_for(robot, truth, clock)  # type: ignore[no-any-return]
+    return provider.physics_for(robot, truth, clock, stand=stand)  # type: ignore[no-any-return]

@@ -7,8 +7,9 @@ a MOVE_START less than that after the servo's staged move is missed; ``board`` p
 controller board in front of the servos, and the port then talks that board's protocol at the
 board's link speed: see ``choreo.emulator.boards``; ``physics`` puts the servos of a robot (its
 name or robot.yaml) in front of its MuJoCo model, standing in its home pose and holding it
-(``physics.py``; its clock is virtual unless ``clock=real``), and ``truth`` names a servo figures
-file saying how its servos really are). pyserial finds this module once
+(``physics.py``; its clock is virtual unless ``clock=real``), ``truth`` names a servo figures
+file saying how its servos really are, and ``stand=1`` holds a free-floating robot's body in the
+air, its legs free, as on a stand). pyserial finds this module once
 ``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator
 with :meth:`SimSerial.from_emulator`.
 
@@ -55,6 +56,7 @@ URL_OPTIONS = (
     "board",
     "physics",
     "truth",
+    "stand",
 )
 
 
@@ -88,11 +90,15 @@ def emulator_from_url(url: str) -> BusEmulator:
                 raise ValueError(
                     f"physics= puts the robot's own servos on the bus: leave out {taken}="
                 )
-        physics = load_physics(options["physics"], options.get("truth") or None, clock)
-    elif "truth" in options:
-        raise ValueError(
-            "truth= says how a robot's servos really are: name the robot with physics="
-        )
+        stand = options.get("stand", "0")
+        if stand not in ("0", "1"):
+            raise ValueError(f"stand must be 0 or 1, got {stand!r}")
+        truth = options.get("truth") or None
+        physics = load_physics(options["physics"], truth, clock, stand=stand == "1")
+    else:
+        for alone in ("truth", "stand"):
+            if alone in options:
+                raise ValueError(f"{alone}= goes with a robot's physics: name it with physics=")
     return (BOARDS[board] if board else BusEmulator)(
         parse_servo_specs(options.get("ids", "1-6")),
         model=options.get("model", "LX-16A"),

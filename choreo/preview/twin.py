@@ -36,7 +36,7 @@ from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.core.clock import Clock
 from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
-from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
 from choreo.preview.sim import check_stable, hold_until_still
 from choreo.preview.start import start_state
 from choreo.robot.robot_file import load_robot
@@ -53,6 +53,7 @@ THERMAL_TIME_S = 120.0
 IDLE_CURRENT_A = 0.05  # each servo's electronics
 STALL_CURRENT_A = 2.5  # at stall torque (HTD-35H: 3 A; the LX models are not given)
 SETTLE_S = 2.0  # the start pose is held until the robot is still, at most this long
+STAND_LIFT_M = 0.08  # a free-floating robot on a stand: its body this far above standing
 SAG_STEP = 0.002  # the servos' torque follows the supply in steps this fine (a fifth of 1 %)
 TRACE_LIMIT = 200_000  # physics steps kept in the trace (400 s at 2 ms)
 
@@ -70,7 +71,9 @@ class TraceStep:
 class PhysicsTwin:
     """The robot's world behind an emulated bus (``choreo.emulator.physics.Physics``)."""
 
-    def __init__(self, robot: Robot, figures: ServoFigures | None, clock: Clock):
+    def __init__(
+        self, robot: Robot, figures: ServoFigures | None, clock: Clock, *, stand: bool = False
+    ):
         self.robot = robot
         self.figures = figures
         overrides = {
@@ -93,6 +96,13 @@ class PhysicsTwin:
             robot.pose_vector("home") if "home" in robot.poses else [0.0] * len(robot.joints)
         )
         self._data = start_state(self._model, self._index, home)
+        self._held_root: tuple[slice, slice, np.ndarray] | None = None
+        root = free_joint(self._model)
+        if stand and root is not None:  # the body held off the floor, the legs free
+            address, dof = int(self._model.jnt_qposadr[root]), int(self._model.jnt_dofadr[root])
+            self._data.qpos[address + 2] += STAND_LIFT_M
+            qpos = slice(address, address + 7)
+            self._held_root = (qpos, slice(dof, dof + 6), self._data.qpos[qpos].copy())
         self._drive = ServoDrive(self.actuators, self.dt_s, np.radians(home))
         n = len(robot.joints)
         self._stall_nm = np.array([a.stall_torque_nm for a in self.actuators])
@@ -185,6 +195,9 @@ class PhysicsTwin:
         if abs(sag - self._sag) > SAG_STEP:
             self._set_sag(sag)
         mujoco.mj_step(model, data)
+        if self._held_root is not None:
+            qpos, qvel, where = self._held_root
+            data.qpos[qpos], data.qvel[qvel] = where, 0.0
         load = np.abs(data.actuator_force[index.actuator]) * self._per_stall
         current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded))
         self._supply_now_v = max(0.0, self.supply_v - self.resistance_ohm * current_a)
@@ -223,9 +236,12 @@ class _ServoInWorld:
         return self.twin.temp_at(self.joint, time_s)
 
 
-def physics_for(robot: str | Path, truth: str | Path | None, clock: Clock) -> PhysicsTwin:
-    """The world ``sim://?physics=ROBOT&truth=FILE`` names: the robot (a name or its
-    robot.yaml) with the servos of the truth file, else of the robot file."""
+def physics_for(
+    robot: str | Path, truth: str | Path | None, clock: Clock, *, stand: bool = False
+) -> PhysicsTwin:
+    """The world ``sim://?physics=ROBOT&truth=FILE&stand=1`` names: the robot (a name or its
+    robot.yaml) with the servos of the truth file, else of the robot file; ``stand``: a
+    free-floating robot's body held in the air, as on a stand."""
     loaded = load_robot(robot)
     figures = read_servo_figures(truth, loaded) if truth else None
-    return PhysicsTwin(loaded, figures, clock)
+    return PhysicsTwin(loaded, figures, clock, stand=stand)

@@ -171,7 +171,8 @@ def test_time_is_virtual_unless_asked_for():
     "query, message",
     [
         ("physics=arm6&ids=1-6", "leave out ids="),
-        ("truth=x.yaml", "name the robot with physics="),
+        ("truth=x.yaml", "truth= goes with a robot's physics"),
+        ("physics=hexapod18&stand=yes", "stand must be 0 or 1"),
     ],
 )
 def test_url_options_that_do_not_go_with_physics_are_refused(query, message):
@@ -184,3 +185,15 @@ def test_a_bad_truth_file_is_told_at_its_line(tmp_path):
     truth.write_text("joints:\n  elbow: {backlash_deg: -1}\n")
     with pytest.raises(SourceError, match=r"truth.yaml:2:\d+: joints: elbow: backlash_deg"):
         open_twin(f"&truth={truth}")
+
+
+def test_on_a_stand_a_walker_is_held_in_the_air_and_its_legs_move_freely():
+    bus = ServoBus.from_settings(BusSettings(port="sim://?physics=hexapod18&stand=1"))
+    twin: PhysicsTwin = bus.emulator.physics  # type: ignore[union-attr]
+    with bus:
+        body = twin._data.qpos[:7].copy()
+        joint = twin.robot.joints[1]  # a leg's second joint: it lifts the leg
+        bus.move(joint.servo_id, round(joint.to_units(30.0)), 300)
+        wait(bus, 1.0)
+        assert real_deg(bus, twin)[1] == pytest.approx(30.0, abs=1.5)
+        assert twin._data.qpos[:7] == pytest.approx(body)  # the body has not moved
