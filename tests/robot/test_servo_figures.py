@@ -60,3 +60,30 @@ def test_an_offset_may_have_either_sign(tmp_path):
     path.write_text("joints:\n  elbow: {offset_deg: -2.5}\n  shoulder: {offset_deg: 1}\n")
     figures = read_servo_figures(path, ARM6)
     assert figures.joints["elbow"]["offset_deg"] == -2.5
+
+
+def test_a_robot_file_naming_measured_figures_uses_them_for_the_preview_and_the_planner(tmp_path):
+    folder = tmp_path / "arm6"
+    folder.mkdir()
+    for source in (ARM6.path.parent).iterdir():
+        (folder / source.name).write_bytes(source.read_bytes())
+    (folder / "measured.yaml").write_text(
+        "measured: '2026-11-26T14:00:00Z'\n"
+        "joints:\n  elbow: {no_load_speed_deg_s: 250, backlash_deg: 0.9}\n"
+    )
+    text = (folder / "robot.yaml").read_text()
+    (folder / "robot.yaml").write_text(
+        text.replace("scene: scene.xml\n", "scene: scene.xml\nservo_figures: measured.yaml\n")
+    )
+    robot = load_robot(folder / "robot.yaml")
+    elbow, shoulder = robot.joint("elbow"), robot.joint("shoulder")
+    assert dict(elbow.actuator) == {"no_load_speed_deg_s": 250, "backlash_deg": 0.9}
+    assert elbow.limits.vel_deg_s == 200  # 80 % of the measured speed
+    assert shoulder.limits.vel_deg_s == ARM6.joint("shoulder").limits.vel_deg_s  # assumed
+    assert robot.servo_figures is not None
+    assert robot.servo_figures.extra["measured"] == "2026-11-26T14:00:00Z"
+    unmeasured = load_robot(folder / "robot.yaml", with_figures=False)
+    assert dict(unmeasured.joint("elbow").actuator) == {}
+    (folder / "measured.yaml").unlink()
+    with pytest.raises(SourceError, match="servo_figures: .*measured.yaml does not exist"):
+        load_robot(folder / "robot.yaml")
