@@ -24,6 +24,7 @@ MARGIN_DEG = 5.0  # test moves keep this far inside the joint's limits
 STEP_DEG = 20.0  # the largest step, where the range allows
 HOLD_S = 0.6  # time to settle after a move, read all along
 DROP_S = 0.4  # how long the torque stays off in a drop
+GENTLE_DEG_S = 30.0  # from the pose the robot stands in to where the tests start
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,11 @@ class _Plan:
         return MovePlan(tuple(self.commands), self.t)
 
 
+def _gently(from_deg: float, to_deg: float) -> float:
+    """The time to move to where the tests start: at most GENTLE_DEG_S."""
+    return max(0.3, abs(to_deg - from_deg) / GENTLE_DEG_S)
+
+
 def centre_and_reach(joint: Joint, pose_deg: float) -> tuple[float, float]:
     """Where the tests centre (the pose, moved inside the limits if it must) and how far they
     may go either way."""
@@ -70,7 +76,7 @@ def fit_moves(joint: Joint, pose_deg: float, drop: bool = False) -> MovePlan:
     """The moves the figures are fitted to."""
     centre, reach = centre_and_reach(joint, pose_deg)
     plan = _Plan(centre)
-    plan.move(centre, 0.3, hold_s=0.3)
+    plan.move(centre, _gently(pose_deg, centre), hold_s=0.3)
     small = min(6.0, reach)
     for speed in (10.0, 30.0):  # slow triangles
         plan.ramp(centre + small, speed)
@@ -104,7 +110,7 @@ def held_out_moves(joint: Joint, pose_deg: float) -> MovePlan:
     pose."""
     centre, reach = centre_and_reach(joint, pose_deg)
     plan = _Plan(centre)
-    plan.move(centre, 0.3, hold_s=0.3)
+    plan.move(centre, _gently(pose_deg, centre), hold_s=0.3)
     plan.ramp(centre + reach * 0.6, 20.0)
     plan.ramp(centre - reach * 0.6, 20.0)
     plan.ramp(centre, 20.0)
