@@ -117,3 +117,11 @@ def test_the_command_prints_a_line_per_joint_and_how_to_use_the_file(tmp_path, q
     assert "servo_figures:" in out
     assert main(["identify", "arm6", "--joints", "elbo", "-o", str(output), *port]) == 2
     assert "choreo: error: --joints names elbo" in error_line(capsys)
+
+
+def test_a_motion_names_the_joints_it_moves(tmp_path, quick, capsys):
+    output = tmp_path / "figures.yaml"
+    port = ["--port", "sim://?physics=arm6"]
+    assert main(["identify", "motions/arm6/wave.yaml", "-o", str(output), *port]) == 0
+    measured = yaml.safe_load(output.read_text())["joints"]
+    assert list(measured) == ["shoulder", "elbow", "wrist_pitch", "gripper"]  # what wave moves
