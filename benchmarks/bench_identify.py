@@ -103,7 +103,7 @@ def whole_robot(robot_name: str) -> None:
     )
 
 
-def recovery(truths: int) -> None:
+def recovery(truths: int, models: list[str] | None = None) -> None:
     print(
         f"== recovery: {truths} random truths per servo model (goal ±15 %, 0.1° for dead band "
         "and backlash)"
@@ -115,6 +115,8 @@ def recovery(truths: int) -> None:
     for robot_name, joint in CASES:
         robot = load_robot(robot_name, with_figures=False)
         model = robot.joint(joint).servo_model
+        if models and model not in models:
+            continue
         print(f"-- {model} ({robot_name} {joint})")
         print(header + "   held-out median/p95 assumed -> fitted")
         for _ in range(truths):
@@ -188,6 +190,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="arm6")
     parser.add_argument("--truths", type=int, default=5)
+    parser.add_argument("--models", nargs="+", help="only these servo models' cases")
     parser.add_argument("--skip-robot", action="store_true")
     parser.add_argument("--skip-truths", action="store_true")
     parser.add_argument("--walk", action="store_true")
@@ -197,7 +200,7 @@ def main() -> int:
     if not args.skip_robot:
         whole_robot(args.robot)
     if not args.skip_truths:
-        recovery(args.truths)
+        recovery(args.truths, args.models)
     return 0
 
 

@@ -36,7 +36,7 @@ from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.core.clock import Clock
 from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
-from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
+from choreo.preview.model import apply_servo_models, index_joints, load_model
 from choreo.preview.sim import check_stable, hold_until_still
 from choreo.preview.start import start_state
 from choreo.robot.robot_file import load_robot
@@ -88,7 +88,7 @@ class PhysicsTwin:
             figures.supply_resistance_ohm if figures else DEFAULT_SUPPLY_RESISTANCE_OHM
         )
         self._clock = clock
-        self._model = load_model(robot)
+        self._model = _on_a_stand(robot) if stand and robot.free_floating else load_model(robot)
         self._index = index_joints(self._model, robot)
         apply_servo_models(self._model, self._index, self.actuators, robot)
         self.dt_s = float(self._model.opt.timestep)
@@ -96,13 +96,6 @@ class PhysicsTwin:
             robot.pose_vector("home") if "home" in robot.poses else [0.0] * len(robot.joints)
         )
         self._data = start_state(self._model, self._index, home)
-        self._held_root: tuple[slice, slice, np.ndarray] | None = None
-        root = free_joint(self._model)
-        if stand and root is not None:  # the body held off the floor, the legs free
-            address, dof = int(self._model.jnt_qposadr[root]), int(self._model.jnt_dofadr[root])
-            self._data.qpos[address + 2] += STAND_LIFT_M
-            qpos = slice(address, address + 7)
-            self._held_root = (qpos, slice(dof, dof + 6), self._data.qpos[qpos].copy())
         self._drive = ServoDrive(self.actuators, self.dt_s, np.radians(home))
         n = len(robot.joints)
         self._stall_nm = np.array([a.stall_torque_nm for a in self.actuators])
@@ -195,9 +188,6 @@ class PhysicsTwin:
         if abs(sag - self._sag) > SAG_STEP:
             self._set_sag(sag)
         mujoco.mj_step(model, data)
-        if self._held_root is not None:
-            qpos, qvel, where = self._held_root
-            data.qpos[qpos], data.qvel[qvel] = where, 0.0
         load = np.abs(data.actuator_force[index.actuator]) * self._per_stall
         current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded))
         self._supply_now_v = max(0.0, self.supply_v - self.resistance_ohm * current_a)
@@ -234,6 +224,20 @@ class _ServoInWorld:
 
     def temp_c(self, time_s: float) -> float:
         return self.twin.temp_at(self.joint, time_s)
+
+
+def _on_a_stand(robot: Robot) -> mujoco.MjModel:
+    """A free-floating robot's model with its body fixed ``STAND_LIFT_M`` above where the MJCF
+    puts it (its free joint and keyframes removed), its legs free in the air."""
+    path = robot.scene_path or robot.mjcf_path
+    spec = mujoco.MjSpec.from_file(str(path))
+    for joint in [j for j in spec.joints if j.type == mujoco.mjtJoint.mjJNT_FREE]:
+        body = joint.parent
+        spec.delete(joint)
+        body.pos = np.asarray(body.pos) + np.array([0.0, 0.0, STAND_LIFT_M])
+    for key in list(spec.keys):  # their qpos still has the free joint's seven numbers
+        spec.delete(key)
+    return spec.compile()
 
 
 def physics_for(

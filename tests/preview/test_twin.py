@@ -10,6 +10,7 @@ import serial
 from choreo.bus.servo_bus import ServoBus
 from choreo.bus.settings import BusSettings
 from choreo.core.clock import RealClock, VirtualClock
+from choreo.emulator import register_url_handler
 from choreo.errors import SourceError
 from choreo.play.play_motion import play_motion
 from choreo.preview.pipeline import simulate_motion
@@ -176,6 +177,7 @@ def test_time_is_virtual_unless_asked_for():
     ],
 )
 def test_url_options_that_do_not_go_with_physics_are_refused(query, message):
+    register_url_handler()
     with pytest.raises(serial.SerialException, match=message):
         serial.serial_for_url(f"sim://?{query}")
 
@@ -191,9 +193,10 @@ def test_on_a_stand_a_walker_is_held_in_the_air_and_its_legs_move_freely():
     bus = ServoBus.from_settings(BusSettings(port="sim://?physics=hexapod18&stand=1"))
     twin: PhysicsTwin = bus.emulator.physics  # type: ignore[union-attr]
     with bus:
-        body = twin._data.qpos[:7].copy()
-        joint = twin.robot.joints[1]  # a leg's second joint: it lifts the leg
-        bus.move(joint.servo_id, round(joint.to_units(30.0)), 300)
+        body = twin._data.xpos[1].copy()  # the torso, the first body after the world
+        joint = twin.robot.joints[1]  # a leg's femur (30° at home): it lifts the leg
+        bus.move(joint.servo_id, round(joint.to_units(60.0)), 300)
         wait(bus, 1.0)
-        assert real_deg(bus, twin)[1] == pytest.approx(30.0, abs=1.5)
-        assert twin._data.qpos[:7] == pytest.approx(body)  # the body has not moved
+        assert real_deg(bus, twin)[1] == pytest.approx(60.0, abs=1.5)
+        assert twin._data.xpos[1] == pytest.approx(body)  # the body has not moved
+        assert body[2] > 0.1  # held up: the feet are off the floor
