@@ -56,7 +56,8 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     assert keyframe_entry.GAIT == Shape(("gait",), ("gait",))
     assert motion.INCLUDE == Shape(("include", "mirror", "t", "after", "beat", "bar"), ("include",))
     assert robot.ROBOT.keys == (
-        "name", "mjcf", "scene", "bus", "defaults", "joints", "poses", "mirror", "gait",
+        "name", "mjcf", "scene", "servo_figures", "bus", "defaults", "joints", "poses", "mirror",
+        "gait",
     )  # fmt: skip
     assert robot.ROBOT.required == ("name", "joints", "poses")
     assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)

@@ -77,8 +77,15 @@ ACTUATOR_FIELDS = (
     "supply_v",
     "deadband_deg",
     "backlash_deg",
+    "friction_nm",
+    "response_delay_s",
+    "offset_deg",
 )
-ZERO_OK_ACTUATOR_FIELDS = ("deadband_deg", "backlash_deg")  # may be 0: an ideal servo
+# may be 0: an ideal servo (no dead band, no play, no friction, no delay)
+ZERO_OK_ACTUATOR_FIELDS = ("deadband_deg", "backlash_deg", "friction_nm", "response_delay_s")
+# any sign: the horn mounted a little off the joint's zero, either way
+SIGNED_ACTUATOR_FIELDS = ("offset_deg",)
+MAX_RESPONSE_DELAY_S = 0.1  # a servo that answers a move this late is broken, not slow
 
 
 SERVO_MODELS: dict[str, ServoModel] = {

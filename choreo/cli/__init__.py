@@ -51,6 +51,7 @@ COMMAND_MODULES = {
     "perform": "show_commands",
     "show": "show_commands",
     "studio": "studio_commands",
+    "identify": "identify_commands",
 }
 
 

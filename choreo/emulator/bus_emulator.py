@@ -50,6 +50,7 @@ from choreo.emulator.emulated_servo import (
     ReplyFate,
     StartedMove,
 )
+from choreo.emulator.physics import Physics
 from choreo.errors import ChoreoError
 
 
@@ -134,6 +135,8 @@ class BusEmulator:
     transmit was on while it crossed, a byte for the host is lost unless receive was on.
     ``drain_late_s``: how long after the wire is free the port's ``flush()`` (tcdrain) returns;
     Linux's serial core sleeps at least a jiffy there (4-20 ms), the emulator 0 unless told.
+    ``physics``: a physical world behind the servos (``physics.py``); its servos replace
+    ``servos``, standing and holding where it puts them.
     """
 
     board_kind: str | None = None  # a controller board in front of the servos (boards.py)
@@ -151,10 +154,15 @@ class BusEmulator:
         seed: int = 0,
         state_path: str | os.PathLike | None = None,
         log_limit: int = DEFAULT_LOG_LIMIT,
+        physics: Physics | None = None,
     ):
         check_number("turnaround_s", turnaround_s, TURNAROUND_S)
         check_number("start_gap_s", start_gap_s, START_GAP_S)
         specs = [ServoSpec(s) if isinstance(s, int) else s for s in servos]
+        if physics is not None:  # the world's servos, standing as it puts them
+            specs = [ServoSpec(s.servo_id, s.model, s.position_units) for s in physics.servos]
+        worlds = [s.physics for s in physics.servos] if physics else [None] * len(specs)
+        self.physics = physics
         self.clock = clock if clock is not None else RealClock()
         self.turnaround_s = turnaround_s
         self._echo = echo
@@ -182,8 +190,12 @@ class BusEmulator:
                 lock=self._lock,
                 position_units=spec.position_units,
                 start_gap_s=start_gap_s,
+                physics=world,
+                loaded=world is not None,  # the robot stands in its world: its servos hold
             )
-            for spec, (_, model_name), eeprom in zip(specs, self._layout, self._eeproms)
+            for spec, (_, model_name), eeprom, world in zip(
+                specs, self._layout, self._eeproms, worlds
+            )
         )
 
     @property

@@ -30,6 +30,11 @@ servo's behaviour is undocumented:
   host leaves the gap (choreo's player does: ``start_gap_ms=1`` in ``sim://``).
 - DIS_READ (models that answer it) reports the distance the output has travelled since power-up,
   forwards and backwards alike, at 4096 pulses per turn.
+- **With a physical world** (``physics``, see ``physics.py``) the motion above is the servo's
+  set-point, not its horn: POS_READ, VIN_READ and TEMP_READ report what the world says, a hold
+  (MOVE_STOP, LOAD, unloading) holds where the horn really is, and a move after the servo was
+  unloaded starts from there. Its temperature and supply also raise its faults. Moving it by hand
+  is the world's business: ``move_by_hand`` is refused.
 """
 
 from __future__ import annotations
@@ -55,6 +60,7 @@ from choreo.bus.protocol import (
     field_range,
 )
 from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG, ServoModel
+from choreo.emulator.physics import ServoPhysics
 
 logger = logging.getLogger(__name__)
 
@@ -209,9 +215,12 @@ class EmulatedServo:
         lock: threading.RLock | None = None,
         position_units: float = 500.0,
         start_gap_s: float = DEFAULT_START_GAP_S,
+        physics: ServoPhysics | None = None,
+        loaded: bool = False,
     ):
         _check_readable(position_units)
         self.model = model
+        self._physics = physics
         self.start_gap_s = start_gap_s
         self._eeprom = eeprom
         self._now = now
@@ -221,7 +230,7 @@ class EmulatedServo:
         self._offset_units = eeprom.offset_units
         self._vin_mv = round(sum(model.vin_range_mv) / 2)
         self._temp_c = FACTORY_TEMP_C
-        self._loaded = False
+        self._loaded = loaded
         self._motor_mode = False
         self._motor_speed = 0
         self._preset: tuple[int, int] | None = None
@@ -256,7 +265,7 @@ class EmulatedServo:
     @_at_now
     def output_units(self, now) -> float:
         """Where the horn really is (no offset, not wrapped)."""
-        return self._motion.output_at(now)
+        return self._output_at(now)
 
     @property
     @_at_now
@@ -311,6 +320,7 @@ class EmulatedServo:
     @property
     @_at_now
     def temperature_c(self, now) -> float:
+        self._sense(now)
         return self._temp_c
 
     @temperature_c.setter
@@ -326,6 +336,7 @@ class EmulatedServo:
     @property
     @_at_now
     def vin_mv(self, now) -> int:
+        self._sense(now)
         return self._vin_mv
 
     @vin_mv.setter
@@ -340,6 +351,11 @@ class EmulatedServo:
     def move_by_hand(self, now, pos_units: float) -> None:
         """Turn the horn of an unloaded servo so that it reads ``pos_units`` (teach mode)."""
         _check_readable(pos_units)
+        if self._physics is not None:
+            raise ValueError(
+                f"servo {self._eeprom.servo_id} stands in a physical world: its horn goes where "
+                "the physics puts it"
+            )
         if self._loaded:
             raise ValueError(
                 f"servo {self._eeprom.servo_id} is loaded (holding torque): "
@@ -369,6 +385,7 @@ class EmulatedServo:
 
     def handle(self, packet: Packet, at_s: float) -> HandledPacket:
         """Execute ``packet`` (already known to be heard) whose last byte arrived at ``at_s``."""
+        self._sense(at_s)
         try:
             command = Command(packet.command)
             values = decode_request(packet)
@@ -411,17 +428,34 @@ class EmulatedServo:
     def _top_speed_units_s(self) -> float:
         return self.model.no_load_speed_deg_s * UNITS_PER_DEG
 
+    def _output_at(self, time_s: float) -> float:
+        """Where the horn is: the servo's own motion, or the world's answer."""
+        if self._physics is not None:
+            return self._physics.output_units(time_s)
+        return self._motion.output_at(time_s)
+
     def _reading_at(self, time_s: float) -> float:
-        return wrap_reading(self._motion.output_at(time_s) - self._offset_units)
+        return wrap_reading(self._output_at(time_s) - self._offset_units)
+
+    def _sense(self, now: float) -> None:
+        """Take the world's supply and temperature (their faults act at once)."""
+        if self._physics is None:
+            return
+        vin_mv, temp_c = self._physics.vin_mv(now), self._physics.temp_c(now)
+        if (vin_mv, temp_c) != (self._vin_mv, self._temp_c):
+            self._vin_mv, self._temp_c = vin_mv, temp_c
+            self._update_faults(now)
 
     def _set_motion(self, now: float, motion: _Motion) -> None:
         self._travelled_units += abs(self._motion.output_at(now) - self._motion.start_units)
         self._travelled_units += abs(motion.start_units - self._motion.output_at(now))
         self._motion = motion
+        if self._physics is not None:
+            self._physics.drive(now, motion, self._loaded)
 
     def _hold(self, now: float) -> None:
         """Stand still where the output is now (held if loaded, resting if not)."""
-        output = self._motion.output_at(now)
+        output = self._output_at(now)
         self._target_units = output - self._offset_units
         self._set_motion(now, _Motion(now, output))
 
@@ -466,6 +500,8 @@ class EmulatedServo:
         self._last_move = (target, time_ms)
         if self._faults():
             return
+        if self._physics is not None and not self._loaded:
+            self._hold(now)  # an unloaded horn has gone where the world put it: start there
         self._loaded = True
         self._drive_to(now, target, time_ms / 1000, command)
 
@@ -564,7 +600,7 @@ class EmulatedServo:
         return dict(temp_c=self._eeprom.temp_max_c)
 
     def _temp_read(self, at_s, packet):
-        return dict(temp_c=round(self._temp_c))
+        return dict(temp_c=min(255, max(0, round(self._temp_c))))
 
     def _vin_read(self, at_s, packet):
         return dict(vin_mv=self._vin_mv)

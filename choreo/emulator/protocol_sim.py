@@ -1,11 +1,15 @@
 """The ``sim://`` pyserial URL handler: a serial port wired to a :class:`BusEmulator`.
 
 ``sim://?ids=1-6&model=LX-16A&echo=1&state=FILE&turnaround_ms=0.6&clock=real|virtual&seed=0
-&start_gap_ms=0&board=rrc|lobot`` (all optional; ids like ``1-6,9,12-14``, a group may name
-its model: ``1-6,7:LX-224HV``; ``start_gap_ms`` > 0 is a fault: a MOVE_START less than that after
-the servo's staged move is missed; ``board`` puts an emulated controller board in front of the
-servos, and the port then talks that board's protocol at the board's link speed: see
-``choreo.emulator.boards``). pyserial finds this module once
+&start_gap_ms=0&board=rrc|lobot&physics=ROBOT&truth=FILE`` (all optional; ids like
+``1-6,9,12-14``, a group may name its model: ``1-6,7:LX-224HV``; ``start_gap_ms`` > 0 is a fault:
+a MOVE_START less than that after the servo's staged move is missed; ``board`` puts an emulated
+controller board in front of the servos, and the port then talks that board's protocol at the
+board's link speed: see ``choreo.emulator.boards``; ``physics`` puts the servos of a robot (its
+name or robot.yaml) in front of its MuJoCo model, standing in its home pose and holding it
+(``physics.py``; its clock is virtual unless ``clock=real``), ``truth`` names a servo figures
+file saying how its servos really are, and ``stand=1`` holds a free-floating robot's body in the
+air, its legs free, as on a stand). pyserial finds this module once
 ``choreo.emulator.register_url_handler()`` has run; tests can also wrap an existing emulator
 with :meth:`SimSerial.from_emulator`.
 
@@ -38,6 +42,7 @@ from choreo.emulator.bus_emulator import (
     BusEmulator,
     parse_servo_specs,
 )
+from choreo.emulator.physics import load_physics
 
 URL_OPTIONS = (
     "ids",
@@ -49,6 +54,9 @@ URL_OPTIONS = (
     "seed",
     "start_gap_ms",
     "board",
+    "physics",
+    "truth",
+    "stand",
 )
 
 
@@ -62,7 +70,8 @@ def emulator_from_url(url: str) -> BusEmulator:
         if name not in URL_OPTIONS:
             raise ValueError(f"unknown option {name!r}; valid options: {', '.join(URL_OPTIONS)}")
         options[name] = values[-1]
-    clock_name = options.get("clock", "real")
+    # a world of physics runs in virtual time unless asked: as fast as it can be computed
+    clock_name = options.get("clock", "virtual" if options.get("physics") else "real")
     if clock_name not in ("real", "virtual"):
         raise ValueError(f"clock must be real or virtual, got {clock_name!r}")
     echo = options.get("echo", "0")
@@ -73,10 +82,28 @@ def emulator_from_url(url: str) -> BusEmulator:
         raise ValueError(f"board must be one of {', '.join(BOARDS)}, got {board!r}")
     if board is not None and echo == "1":
         raise ValueError("a board's link does not echo: leave out echo=1")
+    clock = VirtualClock() if clock_name == "virtual" else RealClock()
+    physics = None
+    if options.get("physics"):
+        for taken in ("ids", "model"):
+            if taken in options:
+                raise ValueError(
+                    f"physics= puts the robot's own servos on the bus: leave out {taken}="
+                )
+        stand = options.get("stand", "0")
+        if stand not in ("0", "1"):
+            raise ValueError(f"stand must be 0 or 1, got {stand!r}")
+        truth = options.get("truth") or None
+        physics = load_physics(options["physics"], truth, clock, stand=stand == "1")
+    else:
+        for alone in ("truth", "stand"):
+            if alone in options:
+                raise ValueError(f"{alone}= goes with a robot's physics: name it with physics=")
     return (BOARDS[board] if board else BusEmulator)(
         parse_servo_specs(options.get("ids", "1-6")),
         model=options.get("model", "LX-16A"),
-        clock=VirtualClock() if clock_name == "virtual" else RealClock(),
+        clock=clock,
+        physics=physics,
         turnaround_s=_ms(options, "turnaround_ms", DEFAULT_TURNAROUND_S, MAX_TURNAROUND_MS),
         echo=echo == "1",
         start_gap_s=_ms(options, "start_gap_ms", DEFAULT_START_GAP_S),

@@ -8,6 +8,12 @@ physics step. Hardware behaviour modelled (see ``docs/protocol.md``), as the pla
   every servo; a tick that stages nothing sends no START);
 - a move is linear from where the servo is (``sim.MoveStart`` says which "where") to the target;
 - the servo caps its speed at the motor's no-load speed (a time too short just means full speed).
+
+``ServoDrive`` is the servo's law at every physics step, the same for the preview and for the
+emulated robot whose servos are the physics (``preview/twin.py``): the set-point, late by the
+servo's response delay, is aimed at through the horn's offset; gear play (backlash) lets the aim
+turn that far back before the output is pulled the other way; errors inside the dead band make
+no torque; past it, MuJoCo's position actuator pushes with the gain up to the stall torque.
 """
 
 from __future__ import annotations
@@ -21,7 +27,9 @@ import numpy as np
 from choreo.bus.servo_models import (
     ACTUATOR_FIELDS,
     DEG_PER_UNIT,
+    MAX_RESPONSE_DELAY_S,
     POSITION_RANGE_UNITS,
+    SIGNED_ACTUATOR_FIELDS,
     ZERO_OK_ACTUATOR_FIELDS,
     servo_model,
 )
@@ -45,12 +53,9 @@ class ActuatorParams:
     deadband_deg: float
     backlash_deg: float
     rated_supply_v: float = 0.0  # the supply the datasheet figures are for (0: not given)
-
-    @property
-    def dead_zone_deg(self) -> float:
-        """Half-width of the position error that makes no torque: half the dead band plus half
-        the backlash (the gears turn that far before the output feels the motor)."""
-        return (self.deadband_deg + self.backlash_deg) / 2
+    friction_nm: float = 0.0  # dry friction at the output
+    response_delay_s: float = 0.0  # from a command to the servo acting on it
+    offset_deg: float = 0.0  # where the joint really is when the servo aims at 0
 
 
 def actuator_params(
@@ -150,6 +155,9 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
         "supply_v": model.rated_supply_v,
         "deadband_deg": model.deadband_deg,
         "backlash_deg": model.backlash_deg,
+        "friction_nm": 0.0,
+        "response_delay_s": 0.0,
+        "offset_deg": 0.0,
     }
     for key, value in override.items():
         if key not in values:
@@ -157,22 +165,69 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
                 f"unknown actuator field {key!r} for joint {joint.name}; "
                 f"valid fields: {', '.join(ACTUATOR_FIELDS)}"
             )
-        zero_ok = key in ZERO_OK_ACTUATOR_FIELDS
-        if not (
-            isinstance(value, (int, float))
-            and math.isfinite(value)
-            and (value >= 0 if zero_ok else value > 0)
-        ):
-            bound = ">= 0" if zero_ok else "> 0"
-            raise ValueError(
-                f"actuator field {key} of joint {joint.name} must be a number {bound}, "
-                f"got {value!r}"
-            )
+        check_actuator_value(key, value, f"actuator field {key} of joint {joint.name}")
         values[key] = float(value)
+    if "damping_nm_s_rad" not in override:  # back-EMF: no-load speed = stall torque / damping
+        values["damping_nm_s_rad"] = values["stall_torque_nm"] / math.radians(
+            values["no_load_speed_deg_s"]
+        )
     scale = model.supply_scale(values["supply_v"])
     for key in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
         values[key] *= scale
     return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)
+
+
+def check_actuator_value(key: str, value: object, what: str) -> float:
+    """``value`` if it is valid for the actuator field ``key`` (``what`` names it in the
+    ``ValueError`` otherwise)."""
+    zero_ok = key in ZERO_OK_ACTUATOR_FIELDS
+    signed = key in SIGNED_ACTUATOR_FIELDS
+    high = MAX_RESPONSE_DELAY_S if key == "response_delay_s" else math.inf
+    if not (
+        isinstance(value, (int, float))
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and (signed or (value >= 0 if zero_ok else value > 0))
+        and value <= high
+    ):
+        bound = "" if signed else " >= 0" if zero_ok else " > 0"
+        if math.isfinite(high):
+            bound += f" and <= {high:g}"
+        raise ValueError(f"{what} must be a number{bound}, got {value!r}")
+    return float(value)
+
+
+class ServoDrive:
+    """Every servo's law at each physics step (radians, robot joint order): what it asks the
+    position actuator for, given its set-point and where the joint is. Keeps the state the law
+    needs: the set-points not yet acted on (the response delay) and the aim left by the gear
+    play."""
+
+    def __init__(self, params: Sequence[ActuatorParams], dt_s: float, initial_rad: np.ndarray):
+        self.offset_rad = np.radians([p.offset_deg for p in params])
+        self.half_play_rad = np.radians([p.backlash_deg for p in params]) / 2
+        self.half_band_rad = np.radians([p.deadband_deg for p in params]) / 2
+        self.delay_steps = np.array([round(p.response_delay_s / dt_s) for p in params], dtype=int)
+        depth = int(self.delay_steps.max(initial=0)) + 1
+        self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
+        self._newest = 0
+        self._columns = np.arange(len(params))
+        self.aim_rad = np.asarray(initial_rad, dtype=float) + self.offset_rad
+
+    def ctrl(self, setpoint_rad: np.ndarray, position_rad: np.ndarray) -> np.ndarray:
+        """One step: the actuator's control for the set-points of this step."""
+        depth = len(self._history)
+        self._newest = (self._newest + 1) % depth
+        self._history[self._newest] = setpoint_rad
+        late = self._history[(self._newest - self.delay_steps) % depth, self._columns]
+        wanted = late + self.offset_rad
+        # np.minimum/np.maximum rather than np.clip: this runs at every physics step
+        aim = np.minimum(
+            np.maximum(self.aim_rad, wanted - self.half_play_rad), wanted + self.half_play_rad
+        )
+        self.aim_rad = aim
+        error = np.minimum(np.maximum(aim - position_rad, -self.half_band_rad), self.half_band_rad)
+        return aim - error
 
 
 @dataclass(frozen=True)

@@ -146,8 +146,9 @@ def apply_servo_models(
     model: mujoco.MjModel, index: JointIndex, params: Sequence[ActuatorParams], robot: Robot
 ) -> None:
     """Make every actuator the servo it stands for: a position servo with the servo model's
-    kp, torque limit, damping and armature, able to aim anywhere in the servo's 0..1000 range
-    (so a target past a joint limit pushes against the stop, as it would on the robot)."""
+    kp, torque limit, damping, armature and dry friction, able to aim anywhere in the servo's
+    0..1000 range (so a target past a joint limit pushes against the stop, as it would on the
+    robot)."""
     servo_range_rad = np.radians(robot.to_deg(np.array(POSITION_RANGE_UNITS, dtype=float)[:, None]))
     for j, p in enumerate(params):
         a, d = index.actuator[j], index.dof[j]
@@ -163,6 +164,7 @@ def apply_servo_models(
         model.actuator_ctrlrange[a] = np.sort(servo_range_rad[:, j])
         model.dof_damping[d] = p.damping_nm_s_rad
         model.dof_armature[d] = p.armature_kg_m2
+        model.dof_frictionloss[d] = p.friction_nm
 
 
 def free_joint(model: mujoco.MjModel) -> int | None:

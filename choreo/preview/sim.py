@@ -12,7 +12,7 @@ from __future__ import annotations
 import copy
 import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 
@@ -27,6 +27,7 @@ from choreo.preview.actuator import (
     ActuatorParams,
     CommandStream,
     ServoBank,
+    ServoDrive,
     actuator_params,
     commanded_path_units,
     max_speed_units_s,
@@ -275,7 +276,7 @@ def simulate(
         feet = foot_links(model, index, robot.pose_vector("home"))
     data = start_state(model, index, start_deg, posture)
     dt = float(model.opt.timestep)
-    dead_zone = np.radians([p.dead_zone_deg for p in params])
+    drive = ServoDrive(params, dt, np.radians(start_deg))
 
     initial_units = robot.to_units(start_deg)
     servos = ServoBank(initial_units, max_speed_units_s(params))
@@ -283,7 +284,7 @@ def simulate(
     max_settle = round(settings.max_settle_s / dt)
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = _Log(max_settle + n_run, model.nq, n_joints)
-    loop = _Loop(model, data, index, dead_zone, contacts, record)
+    loop = _Loop(model, data, index, drive, contacts, record)
     inputs = (robot, tuple(start_deg), settings, posture, tuple(props))
     checkpoint = None if resume is None else resume.checkpoint_for(inputs, tuple(ticks), dt, n_run)
     if resume is not None and checkpoint is not None:
@@ -296,7 +297,7 @@ def simulate(
     checkpoints = loop.run(
         stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt)
     )
-    _check_stable(model, data)
+    check_stable(model, data)
     if checkpoint is not None:
         checkpoints = [c for c in resume.checkpoints if c.step < first] + checkpoints  # type: ignore[union-attr]
 
@@ -363,6 +364,7 @@ class _Checkpoint:
     step: int  # counted from the first step after the settling
     state: np.ndarray
     servos: ServoBank
+    drive: ServoDrive
     contacts: int  # entries of the contact log
     pairs: int  # contact pairs named
 
@@ -419,19 +421,16 @@ class _Log:
 class _Loop:
     """The step loop, kept lean (it runs ~500 times per simulated second)."""
 
-    def __init__(self, model, data, index, dead_zone_rad: np.ndarray, contacts, log: _Log):
+    def __init__(self, model, data, index, drive: ServoDrive, contacts, log: _Log):
         self.model, self.data, self.index = model, data, index
-        self.dead_zone = dead_zone_rad
+        self.drive = drive
         self.contacts, self.log = contacts, log
 
     def step(self, ctrl_rad: np.ndarray) -> None:
-        """One physics step with the servos aiming at ``ctrl_rad``: inside its dead zone (dead
-        band and backlash) a servo's position error makes no torque."""
+        """One physics step with the servos' set-points at ``ctrl_rad``, through their law
+        (``ServoDrive``: delay, offset, gear play, dead band)."""
         data, log, k = self.data, self.log, self.log.count
-        position = data.qpos[self.index.qpos]
-        data.ctrl[self.index.actuator] = ctrl_rad - np.clip(
-            ctrl_rad - position, -self.dead_zone, self.dead_zone
-        )
+        data.ctrl[self.index.actuator] = self.drive.ctrl(ctrl_rad, data.qpos[self.index.qpos])
         log.ctrl[k] = ctrl_rad
         log.qpos[k] = data.qpos
         mujoco.mj_step(self.model, data)  # its forces and contacts belong to the state at t
@@ -444,15 +443,7 @@ class _Loop:
         """Hold the start pose until every degree of freedom has been still for a while (True)
         or ``max_steps`` have passed (False)."""
         dt = float(self.model.opt.timestep)
-        min_steps, still_steps = round(MIN_SETTLE_S / dt), round(STILL_FOR_S / dt)
-        still_since = 0
-        for k in range(max_steps):
-            self.step(hold_rad)
-            if np.abs(self.data.qvel).max(initial=0.0) >= STILL_SPEED:
-                still_since = k + 1
-            elif k + 1 >= max(min_steps, still_since + still_steps):
-                return True
-        return max_steps == 0
+        return hold_until_still(self.data, dt, lambda: self.step(hold_rad), max_steps)
 
     def run(
         self,
@@ -493,13 +484,19 @@ class _Loop:
         state = np.empty(mujoco.mj_stateSize(self.model, INTEGRATION_STATE))
         mujoco.mj_getState(self.model, self.data, state, INTEGRATION_STATE)
         return _Checkpoint(
-            step, state, copy.deepcopy(servos), len(self.contacts.steps), self.contacts.named
+            step,
+            state,
+            copy.deepcopy(servos),
+            copy.deepcopy(self.drive),
+            len(self.contacts.steps),
+            self.contacts.named,
         )
 
     def restore(self, checkpoint: _Checkpoint, resume: Resume, n_settle: int) -> ServoBank:
         """The simulator as it was at ``checkpoint`` of ``resume``'s run, with everything
         recorded before it; the servos' moves then (a copy) are returned."""
         mujoco.mj_setState(self.model, self.data, checkpoint.state, INTEGRATION_STATE)
+        self.drive = copy.deepcopy(checkpoint.drive)
         count = n_settle + checkpoint.step
         old, log = resume.record, self.log
         log.qpos[:count], log.ctrl[:count] = old.qpos[:count], old.ctrl[:count]
@@ -509,7 +506,23 @@ class _Loop:
         return copy.deepcopy(checkpoint.servos)
 
 
-def _check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+def hold_until_still(
+    data: mujoco.MjData, dt_s: float, step: Callable[[], None], max_steps: int
+) -> bool:
+    """Call ``step`` (one physics step holding a pose) until every degree of freedom has been
+    still for a while (True) or ``max_steps`` have passed (False)."""
+    min_steps, still_steps = round(MIN_SETTLE_S / dt_s), round(STILL_FOR_S / dt_s)
+    still_since = 0
+    for k in range(max_steps):
+        step()
+        if np.abs(data.qvel).max(initial=0.0) >= STILL_SPEED:
+            still_since = k + 1
+        elif k + 1 >= max(min_steps, still_since + still_steps):
+            return True
+    return max_steps == 0
+
+
+def check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """MuJoCo resets the state when accelerations blow up; a rollout after that means nothing."""
     warning = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
     if warning.number:

@@ -3,6 +3,7 @@ it names (``choreo.robot.model_check``), reported at once with its line."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -12,8 +13,10 @@ import yaml
 from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_models import (
     DEG_PER_UNIT,
+    MAX_RESPONSE_DELAY_S,
     POSITION_RANGE_UNITS,
     SERVO_MODELS,
+    SIGNED_ACTUATOR_FIELDS,
     ZERO_OK_ACTUATOR_FIELDS,
     ServoModel,
 )
@@ -35,6 +38,7 @@ from choreo.core.yaml_source import (
 from choreo.errors import SourceError
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
+from choreo.robot.servo_figures import ServoFigures, read_servo_figures
 from choreo.robot.types import (
     GaitCompensation,
     Joint,
@@ -44,6 +48,8 @@ from choreo.robot.types import (
     deg_to_units,
     units_to_deg,
 )
+
+VELOCITY_SHARE = 0.8  # of the no-load speed: the planner's velocity limit (servo_models)
 
 # The keys of each mapping, from the JSON Schema (the one description of the file's shape).
 ROBOT = mapping_shape("robot")
@@ -68,10 +74,14 @@ GAIT_BOUNDS = {"lift_sag": (0, 100), "stride_scale": (0.5, 2), "turn_scale": (0.
 TRAVEL_SLACK_UNITS = 1e-6  # float noise when a limit lands exactly on 0 or 1000
 
 
-def load_robot(path_or_name: str | Path, *, relative_to: Path | None = None) -> Robot:
+def load_robot(
+    path_or_name: str | Path, *, relative_to: Path | None = None, with_figures: bool = True
+) -> Robot:
     """Read and check a robot: by name (see ``find_robot_file``) or by path to its robot.yaml.
 
     Every problem found in the file and its MJCF is reported at once in one ``SourceError``.
+    The servo figures file it names (``servo_figures:``) is applied to its joints unless not
+    ``with_figures`` (``choreo identify``, which measures them anew).
     """
     path = check_path("path_or_name", path_or_name, "a robot's name or its robot.yaml's path")
     ref = path_or_name if isinstance(path_or_name, str) else path  # a name is a str
@@ -83,10 +93,47 @@ def load_robot(path_or_name: str | Path, *, relative_to: Path | None = None) -> 
         raise SourceError(str(error)) from None
     problems = Problems()
     with reading_a_file():
-        robot = _read_robot(Reader(path, problems), parse_yaml_file(path))
+        root = parse_yaml_file(path)
+        robot = _read_robot(Reader(path, problems), root)
     if robot is None or problems:
         raise SourceError(problems.messages)
+    figures_path = _named_figures(path, root)
+    if figures_path is not None and with_figures:
+        if not figures_path.is_file():
+            raise SourceError(
+                f"{path}: servo_figures: {figures_path} does not exist; measure the servos "
+                f"(choreo identify {robot.name} -o {figures_path.name}) or remove the key"
+            )
+        robot = with_servo_figures(robot, read_servo_figures(figures_path, robot))
     return robot
+
+
+def _named_figures(robot_path: Path, root: Node | None) -> Path | None:
+    """The servo figures file the robot file names (its value checked as it was read)."""
+    for key, value in root.value if isinstance(root, yaml.MappingNode) else ():
+        if key.value == "servo_figures":
+            return robot_path.parent / str(value.value)
+    return None
+
+
+def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
+    """``robot`` with the measured figures over its joints' actuator figures, and a joint's
+    planning velocity, where its robot file does not set one, 80 % of its measured speed (as
+    the servo table's is of the datasheet's)."""
+    joints = []
+    for joint in robot.joints:
+        measured = figures.joints.get(joint.name, {})
+        limits = joint.limits
+        speed = measured.get("no_load_speed_deg_s")
+        if (
+            speed is not None
+            and limits.vel_deg_s == SERVO_MODELS[joint.servo_model].vel_limit_deg_s
+        ):
+            limits = dataclasses.replace(limits, vel_deg_s=VELOCITY_SHARE * speed)
+        joints.append(
+            dataclasses.replace(joint, actuator={**joint.actuator, **measured}, limits=limits)
+        )
+    return dataclasses.replace(robot, joints=tuple(joints), servo_figures=figures)
 
 
 def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
@@ -113,6 +160,8 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     gait = _read_gait(reader, fields["gait"]) if "gait" in fields else GaitCompensation()
     folder_name = reader.path.resolve().parent.name
     mjcf_path = _model_file(reader, fields.get("mjcf"), f"{folder_name}.xml", "the MuJoCo model")
+    if "servo_figures" in fields:
+        reader.string(fields["servo_figures"].value, "servo_figures")
     scene_path = _model_file(reader, fields.get("scene"), "scene.xml", "the scene")
     free_floating = False
     if mjcf_path is not None:
@@ -348,14 +397,18 @@ def _joint_from_fields(
 
 
 def _read_actuator(reader: Reader, node: Node, what: str) -> dict[str, float] | None:
-    """Preview actuator overrides: each a number > 0 (dead band and backlash >= 0; a problem
-    makes the whole block None)."""
+    """Preview actuator overrides: each a number > 0 (dead band, backlash, friction and delay
+    >= 0, the offset of any sign; a problem makes the whole block None)."""
     entries = reader.fields(node, what, ACTUATOR.keys)
     if entries is None:
         return None
     values = {
         key: reader.number(
-            entry.value, f"{what}: {key}", low=0, low_open=key not in ZERO_OK_ACTUATOR_FIELDS
+            entry.value,
+            f"{what}: {key}",
+            low=None if key in SIGNED_ACTUATOR_FIELDS else 0,
+            high=MAX_RESPONSE_DELAY_S if key == "response_delay_s" else None,
+            low_open=key not in ZERO_OK_ACTUATOR_FIELDS,
         )
         for key, entry in entries.items()
     }

@@ -12,13 +12,16 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from types import MappingProxyType
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG, rated_supply_problem
 from choreo.bus.settings import BusSettings
 from choreo.core.yaml_source import fmt
+
+if TYPE_CHECKING:  # (it reads a file against a Robot)
+    from choreo.robot.servo_figures import ServoFigures
 
 # A float, or a numpy array of them: the conversions and the limit check take either.
 Values = TypeVar("Values", float, np.ndarray)
@@ -130,6 +133,9 @@ class Robot:
     scene_path: Path | None = None  # models/<name>/scene.xml
     free_floating: bool = False  # the MJCF root body has a free joint
     gait: GaitCompensation = field(default_factory=GaitCompensation)
+    # the measured servo figures the robot file names (``servo_figures:``), already applied to
+    # the joints' actuator figures and velocity limits; None: every figure is assumed
+    servo_figures: ServoFigures | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "poses", MappingProxyType(dict(self.poses)))

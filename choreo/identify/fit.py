@@ -1,0 +1,137 @@
+"""Fitting one servo's figures to what it did, and judging them on moves the fit never saw.
+
+The cost of a candidate is the mean absolute difference between where the simulated servo
+(``joint_model``) would have read and where the real one did, over the fit trial (BAM's cost).
+The search (``search.minimise``, CMA-ES) starts from the robot file's figures and keeps every
+figure inside physical bounds around them. Validation simulates the held-out trial with the
+robot file's figures and with the fitted ones: the median and 95th percentile of the error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from choreo.identify.joint_model import FIGURES, Trial, simulate
+from choreo.identify.search import minimise
+from choreo.preview.actuator import ActuatorParams
+from choreo.preview.joint_load import JointLoad
+
+# each figure's bounds: (low, high, scale): "abs" in its own unit, "rel" times the assumed
+# figure (searched on a log scale), "stall" times the assumed stall torque
+BOUNDS: dict[str, tuple[float, float, str]] = {
+    "deadband_deg": (0.0, 2.0, "abs"),
+    "backlash_deg": (0.0, 3.0, "abs"),
+    "no_load_speed_deg_s": (0.4, 2.0, "rel"),
+    "kp_nm_rad": (0.25, 4.0, "rel"),
+    "stall_torque_nm": (0.3, 2.0, "rel"),
+    "friction_nm": (0.0, 0.15, "stall"),
+    "response_delay_s": (0.0, 0.05, "abs"),
+    "offset_deg": (-5.0, 5.0, "abs"),
+}
+GENERATIONS = 45
+POPULATION = 24
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Held-out error (degrees) of the assumed figures and of the fitted ones."""
+
+    default_median_deg: float
+    default_p95_deg: float
+    fitted_median_deg: float
+    fitted_p95_deg: float
+    reads: int
+
+    @property
+    def improvement(self) -> float:
+        """How much of the assumed figures' median error the fitted ones remove (0..1)."""
+        if self.default_median_deg <= 0:
+            return 0.0
+        return 1 - self.fitted_median_deg / self.default_median_deg
+
+
+@dataclass(frozen=True)
+class Fitted:
+    figures: dict[str, float]  # at the supply measured (as the servo really ran)
+    fit_error_deg: float  # mean absolute error on the fit trial
+    evaluations: int
+
+
+def assumed_figures(params: ActuatorParams) -> dict[str, float]:
+    """The figures the joint model takes, from the preview's actuator parameters."""
+    return {name: float(getattr(params, name)) for name in FIGURES}
+
+
+def at_supply(figures: dict[str, float], from_v: float, to_v: float) -> dict[str, float]:
+    """Figures that scale with the supply (stall torque, gain, speed) moved from one supply to
+    another, as the preview scales them."""
+    scaled = dict(figures)
+    for name in ("stall_torque_nm", "kp_nm_rad", "no_load_speed_deg_s"):
+        scaled[name] = figures[name] * to_v / from_v
+    return scaled
+
+
+def fit_servo(
+    trial: Trial,
+    load: JointLoad,
+    assumed: dict[str, float],
+    *,
+    with_offset: bool = False,
+    seed: int = 0,
+    generations: int = GENERATIONS,
+) -> Fitted:
+    """The figures that make the joint model read as ``trial`` did, searched around
+    ``assumed`` (at the supply the trial ran at); the offset only ``with_offset`` (a drop)."""
+    names = [name for name in FIGURES if with_offset or name != "offset_deg"]
+    low, high, logs = _box(names, assumed)
+
+    def decode(points: np.ndarray) -> dict[str, np.ndarray]:
+        values = low + points * (high - low)
+        values = np.where(logs, np.exp(values), values)
+        figures = {name: values[:, i] for i, name in enumerate(names)}
+        if not with_offset:
+            figures["offset_deg"] = np.zeros(len(points))
+        return figures
+
+    def cost(points: np.ndarray) -> np.ndarray:
+        predicted = simulate(trial, load, decode(points))
+        return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
+
+    start_values = np.array([assumed[name] for name in names])
+    start_values = np.where(logs, np.log(np.maximum(start_values, 1e-12)), start_values)
+    start = np.clip((start_values - low) / (high - low), 0, 1)
+    found = minimise(cost, start, generations=generations, population=POPULATION, seed=seed)
+    best = decode(found.best[None])
+    return Fitted({name: float(best[name][0]) for name in FIGURES}, found.cost, found.evaluations)
+
+
+def validate(
+    trial: Trial, load: JointLoad, assumed: dict[str, float], fitted: dict[str, float]
+) -> Validation:
+    """The held-out trial simulated with the assumed and the fitted figures."""
+    both = {name: np.array([assumed[name], fitted[name]]) for name in FIGURES}
+    errors = np.abs(simulate(trial, load, both) - trial.read_deg[:, None])
+    median, p95 = np.median(errors, axis=0), np.percentile(errors, 95, axis=0)
+    return Validation(
+        float(median[0]), float(p95[0]), float(median[1]), float(p95[1]), len(trial.read_deg)
+    )
+
+
+def _box(names: list[str], assumed: dict[str, float]) -> tuple[np.ndarray, ...]:
+    low, high, logs = [], [], []
+    for name in names:
+        a, b, scale = BOUNDS[name]
+        if scale == "rel":
+            low.append(math.log(a * assumed[name]))
+            high.append(math.log(b * assumed[name]))
+        elif scale == "stall":
+            low.append(a * assumed["stall_torque_nm"])
+            high.append(b * assumed["stall_torque_nm"])
+        else:
+            low.append(a)
+            high.append(b)
+        logs.append(scale == "rel")
+    return np.array(low), np.array(high), np.array(logs)

@@ -1,0 +1,276 @@
+"""``choreo identify`` as one library call: measure each servo of the assembled robot where it
+stands, fit its figures, judge them on held-out moves, and keep them in a servo figures file.
+
+One joint at a time, the others holding the pose the robot stands in: the joint's test moves
+(``moves``) run on the bus with reads as fast as it allows (``measure``), its figures are fitted
+on a model of that joint alone under the robot's own load (``fit``, ``joint_model``), and the
+file is written after every joint, so a run stopped half way goes on from the next joint. Ctrl-C
+(and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo where it is, holding.
+"""
+
+from __future__ import annotations
+
+import datetime
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.core.atomic import write_text_atomically
+from choreo.errors import OptionError, UnsupportedByTransport
+from choreo.identify import fit
+from choreo.identify.fit import (
+    Validation,
+    assumed_figures,
+    at_supply,
+    fit_servo,
+    validate,
+)
+from choreo.identify.joint_model import FIGURES
+from choreo.identify.measure import run_moves
+from choreo.identify.moves import fit_moves, held_out_moves
+from choreo.preview.actuator import ActuatorParams, actuator_params
+from choreo.preview.joint_load import joint_load
+from choreo.robot.servo_figures import read_servo_figures
+from choreo.robot.types import Robot
+
+log = logging.getLogger(__name__)
+
+READS_NEEDED = (
+    (Command.POS_READ, "position"),
+    (Command.VIN_READ, "supply voltage"),
+    (Command.TEMP_READ, "temperature"),
+)
+SETTLE_S = 0.5  # after the others are told to hold, before the first joint moves
+DECIMALS = {"response_delay_s": 4, "friction_nm": 4}  # figures kept to these decimals (else 3)
+
+
+@dataclass(frozen=True)
+class JointResult:
+    """One joint's identification: its figures (at the servo model's rated supply, as a robot
+    file's ``actuator:`` has them), how well they predict held-out moves, and the measurement."""
+
+    joint: str
+    figures: dict[str, float]
+    validation: Validation
+    reads_per_s: float
+    supply_v: float
+    temp_c: float
+    bus_s: float  # bus time the joint's tests took
+    fit_error_deg: float
+
+
+@dataclass(frozen=True)
+class Progress:
+    joint: str
+    index: int  # 0-based among the joints identified in this run
+    count: int
+    stage: str  # "test moves", "held-out moves", "fitting"
+    fraction: float  # of this stage
+
+
+@dataclass(frozen=True)
+class IdentifyReport:
+    path: Path
+    identified: tuple[JointResult, ...]
+    already: tuple[str, ...]  # in the file from an earlier run: not measured again
+
+
+def identify(
+    robot: Robot,
+    bus: ServoBus,
+    output: Path,
+    *,
+    joints: Sequence[str] | None = None,
+    drop: Sequence[str] = (),
+    again: bool = False,
+    generations: int | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
+    on_joint: Callable[[JointResult], None] | None = None,
+) -> IdentifyReport:
+    """Identify ``joints`` (default: all) of ``robot`` on ``bus`` and write ``output``; joints
+    already in ``output`` are kept unless ``again``. ``drop``: joints whose torque may be
+    switched off for a moment (they fall: only where that is safe). ``generations`` of the
+    search per joint (default ``fit.GENERATIONS``): fewer is quicker and rougher."""
+    generations = fit.GENERATIONS if generations is None else generations
+    missing = [what for command, what in READS_NEEDED if not bus.capabilities.supports(command)]
+    if missing:  # a board that drives PWM servos reads nothing; the LOBOT one no servo's supply
+        raise UnsupportedByTransport(
+            f"{bus.name}: the {bus.capabilities.transport} cannot read a servo's "
+            f"{' or '.join(missing)}, which identify measures; connect the servos to a raw LX "
+            "bus adapter (or an RRC board)"
+        )
+    names = _checked_joints(robot, joints, "joints")
+    unknown_drop = [name for name in drop if name not in names]
+    if unknown_drop:
+        raise OptionError(
+            "drop",
+            f"names {', '.join(unknown_drop)}, which {'is' if len(unknown_drop) == 1 else 'are'} "
+            f"not identified here; joints identified: {', '.join(names)}",
+        )
+    earlier = _earlier_results(output, robot)
+    already = tuple(name for name in names if name in earlier.get("joints", {}) and not again)
+    todo = [name for name in names if name not in already]
+    pose = _hold_where_standing(bus, robot)
+    params = actuator_params(robot)
+    results: list[JointResult] = []
+    try:
+        for index, name in enumerate(todo):
+            result = _identify_joint(
+                robot,
+                bus,
+                name,
+                pose,
+                params,
+                name in drop,
+                generations,
+                (index, len(todo)),
+                on_progress,
+            )
+            results.append(result)
+            _save(output, robot, bus, earlier, results)
+            if on_joint is not None:
+                on_joint(result)
+    except KeyboardInterrupt:
+        bus.stop_servos([joint.servo_id for joint in robot.joints])  # hold where they are
+        raise
+    return IdentifyReport(output, tuple(results), already)
+
+
+def _checked_joints(robot: Robot, joints: Sequence[str] | None, option: str) -> list[str]:
+    if joints is None:
+        return list(robot.joint_names)
+    unknown = [name for name in joints if name not in robot.joint_names]
+    if unknown:
+        raise OptionError(
+            option,
+            f"names {', '.join(unknown)}: {robot.name} has no such joint; its joints: "
+            f"{', '.join(robot.joint_names)}",
+        )
+    return list(dict.fromkeys(joints))
+
+
+def _hold_where_standing(bus: ServoBus, robot: Robot) -> list[float]:
+    """Every joint told to hold where it reads (which also switches its torque on); returns
+    that pose (degrees, robot order)."""
+    pose = []
+    for joint in robot.joints:
+        position = bus.read_position(joint.servo_id)
+        bus.move(joint.servo_id, position, 300)
+        pose.append(joint.to_deg(position))
+    bus.clock.sleep_until(bus.clock.now() + SETTLE_S)
+    return pose
+
+
+def _identify_joint(
+    robot: Robot,
+    bus: ServoBus,
+    name: str,
+    pose: list[float],
+    params: Sequence[ActuatorParams],
+    drop: bool,
+    generations: int,
+    place: tuple[int, int],
+    on_progress: Callable[[Progress], None] | None,
+) -> JointResult:
+    index, count = place
+    j = robot.joint_names.index(name)
+    joint = robot.joints[j]
+
+    def progress(stage: str) -> Callable[[float], None]:
+        def tell(fraction: float) -> None:
+            if on_progress is not None:
+                on_progress(Progress(name, index, count, stage, fraction))
+
+        return tell
+
+    start = bus.clock.now()
+    fit_trial = run_moves(
+        bus, joint, fit_moves(joint, pose[j], drop), pose[j], progress("test moves")
+    )
+    held_out = run_moves(
+        bus,
+        joint,
+        held_out_moves(joint, pose[j]),
+        fit_trial.trial.read_deg[-1],
+        progress("held-out moves"),
+    )
+    bus.move(joint.servo_id, round(joint.to_units(pose[j])), 500)  # back to the pose
+    bus_s = bus.clock.now() - start
+    progress("fitting")(0.0)
+    supply_v = float(np.median(fit_trial.supply_v + held_out.supply_v))
+    assumed_rated = assumed_figures(params[j])
+    assumed = at_supply(assumed_rated, params[j].supply_v, supply_v)
+    load = joint_load(robot, name, pose)
+    fitted = fit_servo(fit_trial.trial, load, assumed, with_offset=drop, generations=generations)
+    validation = validate(held_out.trial, load, assumed, fitted.figures)
+    rated = at_supply(fitted.figures, supply_v, params[j].rated_supply_v or supply_v)
+    figures = {
+        key: round(value, DECIMALS.get(key, 3))
+        for key, value in rated.items()
+        if key in FIGURES and (drop or key != "offset_deg")
+    }
+    progress("fitting")(1.0)
+    reads = len(fit_trial.trial.read_s) + len(held_out.trial.read_s)
+    temps = fit_trial.temp_c + held_out.temp_c
+    return JointResult(
+        name,
+        figures,
+        validation,
+        reads / bus_s if bus_s > 0 else 0.0,
+        supply_v,
+        max(temps) if temps else float("nan"),
+        bus_s,
+        fitted.fit_error_deg,
+    )
+
+
+def _earlier_results(output: Path, robot: Robot) -> dict:
+    """What an earlier run wrote (its joints and their validation), if the file exists."""
+    if not output.exists():
+        return {}
+    figures = read_servo_figures(output, robot)  # SourceError if it is not one
+    return {
+        "joints": {name: dict(values) for name, values in figures.joints.items()},
+        "validation": dict(figures.extra.get("validation") or {}),
+        "supply": figures.supply_v,
+    }
+
+
+def _save(
+    output: Path, robot: Robot, bus: ServoBus, earlier: dict, results: list[JointResult]
+) -> None:
+    joints = dict(earlier.get("joints", {}))
+    validation = dict(earlier.get("validation", {}))
+    for result in results:
+        joints[result.joint] = result.figures
+        v = result.validation
+        validation[result.joint] = {
+            "held_out_reads": v.reads,
+            "assumed_median_deg": round(v.default_median_deg, 3),
+            "assumed_p95_deg": round(v.default_p95_deg, 3),
+            "fitted_median_deg": round(v.fitted_median_deg, 3),
+            "fitted_p95_deg": round(v.fitted_p95_deg, 3),
+            "reads_per_s": round(result.reads_per_s, 1),
+            "supply_v": round(result.supply_v, 2),
+            "temperature_c": result.temp_c,
+        }
+    order = {name: i for i, name in enumerate(robot.joint_names)}
+    document = {
+        "robot": robot.name,
+        "measured": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "transport": bus.capabilities.transport,
+        "joints": dict(sorted(joints.items(), key=lambda item: order[item[0]])),
+        "validation": dict(sorted(validation.items(), key=lambda item: order[item[0]])),
+    }
+    header = (
+        f"# {robot.name}'s servos as `choreo identify` measured them (figures at each servo\n"
+        "# model's rated supply, as a robot file's actuator: block has them). Name this file\n"
+        "# in robot.yaml (servo_figures: FILE) for the preview, the planner and the gaits.\n"
+    )
+    write_text_atomically(output, header + yaml.safe_dump(document, sort_keys=False))

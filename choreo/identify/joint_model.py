@@ -1,0 +1,168 @@
+"""One servo on its joint, simulated for many candidate figures at once: what the fit compares
+with what was measured.
+
+The same law as the preview's (``preview/actuator.py``: the servo's own linear moves capped at
+its speed, its response delay, the horn's offset, gear play, dead band, a position gain up to the
+stall torque, back-EMF damping, dry friction), on the joint alone: its inertia and the gravity
+torque on it come from the robot's model with every other joint held (``JointLoad``). Each
+physics step works on arrays with one entry per candidate, so a whole generation of the search
+costs about what one candidate does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from choreo.preview.joint_load import JointLoad
+
+FIT_STEP_S = 0.006  # the joint model's step: 3 of the preview's (within 0.01° on the test moves)
+
+# the figures fitted, in this order (offset only where a torque-off drop was allowed)
+FIGURES = (
+    "deadband_deg",
+    "backlash_deg",
+    "no_load_speed_deg_s",
+    "kp_nm_rad",
+    "stall_torque_nm",
+    "friction_nm",
+    "response_delay_s",
+    "offset_deg",
+)
+
+
+@dataclass(frozen=True)
+class SentMove:
+    """A move sent to the servo: when (s, from the recording's start), where to (degrees, the
+    servo's frame: what it reads) and in what time (s)."""
+
+    at_s: float
+    target_deg: float
+    time_s: float
+
+
+@dataclass(frozen=True)
+class Unload:
+    """The servo's torque switched off at ``at_s`` (a drop), until the next move."""
+
+    at_s: float
+
+
+@dataclass(frozen=True)
+class Trial:
+    """What was sent and read over one stretch of test moves: the commands, the position reads
+    (midpoint times and degrees), and where the servo aimed and stood at the start."""
+
+    commands: tuple[SentMove | Unload, ...]
+    read_s: np.ndarray
+    read_deg: np.ndarray
+    start_setpoint_deg: float
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.read_s[-1]) if len(self.read_s) else 0.0
+
+
+def simulate(
+    trial: Trial, load: JointLoad, figures: dict[str, np.ndarray], dt_s: float = FIT_STEP_S
+) -> np.ndarray:
+    """Where the servo would read at ``trial.read_s``, for each candidate: ``figures`` maps every
+    name of :data:`FIGURES` to an array of candidates (shape (k,)); returns (reads, k) degrees.
+
+    The set-points (the servo's own moves, late by its delay) are worked out for every step at
+    once; only what depends on where the joint is (gear play, dead band, torque, motion) is
+    stepped."""
+    k = len(figures["kp_nm_rad"])
+    n_steps = int(np.ceil(trial.duration_s / dt_s)) + 2
+    wanted, loaded, reloads = _aims(trial, figures, n_steps, dt_s)
+    half_band = np.radians(figures["deadband_deg"]) / 2
+    half_play = np.radians(figures["backlash_deg"]) / 2
+    kp, stall = figures["kp_nm_rad"], figures["stall_torque_nm"]
+    damping = stall / np.radians(figures["no_load_speed_deg_s"])  # back-EMF, as the preview has it
+    offset = np.radians(figures["offset_deg"])
+    # the joint's own angle does not change the inertia about its axis (the others are held)
+    inertia = float(load.inertia_at(np.radians(np.array([trial.start_setpoint_deg])))[0])
+    per_implicit = dt_s / (inertia + dt_s * damping)  # MuJoCo's implicit damping, per step
+    keep_v = inertia / (inertia + dt_s * damping)
+    slip = figures["friction_nm"] * per_implicit
+    grid_rad, gravity_nm = np.radians(load.angles_deg), load.gravity_nm
+    first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
+    q = np.full(k, first_read) + offset
+    v = np.zeros(k)
+    aim = wanted[0].copy()
+    positions = np.empty((n_steps, k))
+    for step in range(n_steps):
+        target = wanted[step]
+        if step in reloads:
+            aim = q.copy()
+        aim = np.minimum(np.maximum(aim, target - half_play), target + half_play)
+        error = aim - q
+        pull = error - np.minimum(np.maximum(error, -half_band), half_band)
+        torque = np.minimum(np.maximum(kp * pull, -stall), stall) if loaded[step] else 0.0
+        free_v = keep_v * v + per_implicit * (torque + np.interp(q, grid_rad, gravity_nm))
+        v = np.maximum(np.abs(free_v) - slip, 0.0) * np.sign(free_v)
+        q = q + dt_s * v
+        positions[step] = q
+    times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
+    positions -= offset
+    return np.degrees(
+        np.column_stack([np.interp(trial.read_s, times, positions[:, c]) for c in range(k)])
+    )
+
+
+def _aims(
+    trial: Trial, figures: dict[str, np.ndarray], n_steps: int, dt_s: float
+) -> tuple[np.ndarray, np.ndarray, set[int]]:
+    """Each step's set-point, late by each candidate's delay, through its offset (n_steps, k)
+    radians; whether the servo is loaded at each step; the steps where it loads again after a
+    drop (from where it reads then: it starts from its potentiometer)."""
+    k = len(figures["kp_nm_rad"])
+    speed = np.radians(figures["no_load_speed_deg_s"])
+    times = np.arange(n_steps) * dt_s
+    setpoints = np.empty((n_steps, k))
+    loaded = np.ones(n_steps, dtype=bool)
+    reloads: set[int] = set()
+    here = np.full(k, np.radians(trial.start_setpoint_deg))
+    commands = sorted(trial.commands, key=lambda c: c.at_s)
+    bounds = [int(np.ceil(c.at_s / dt_s - 1e-9)) for c in commands] + [n_steps]
+    setpoints[: bounds[0]] = here
+    unloaded = False
+    next_at = [c.at_s for c in commands[1:]] + [times[-1]]
+    for command, begin, end, until_s in zip(commands, bounds[:-1], bounds[1:], next_at):
+        begin, end = min(begin, n_steps), min(end, n_steps)
+        if isinstance(command, Unload):
+            loaded[begin:end] = False
+            setpoints[begin:end] = here
+            unloaded = True
+            continue
+        if unloaded:  # a move after a drop starts where the servo reads
+            index = max(int(np.searchsorted(trial.read_s, command.at_s)) - 1, 0)
+            here = np.full(k, np.radians(trial.read_deg[index]))
+            reloads.add(begin)
+            unloaded = False
+        delta = np.radians(command.target_deg) - here
+        duration = np.maximum(command.time_s, np.abs(delta) / speed)
+        elapsed = np.maximum(times[begin:end, None] - command.at_s, 0.0)
+        setpoints[begin:end] = here + delta * np.minimum(elapsed / np.maximum(duration, 1e-9), 1.0)
+        moved = np.minimum(max(until_s - command.at_s, 0.0) / np.maximum(duration, 1e-9), 1.0)
+        here = here + delta * moved  # where the next command finds the set-point
+    late = np.arange(n_steps)[:, None] - figures["response_delay_s"][None, :] / dt_s
+    late = np.clip(late, 0, n_steps - 1)
+    below = np.floor(late).astype(int)
+    above = np.minimum(below + 1, n_steps - 1)
+    part = late - below
+    columns = np.arange(k)[None, :]
+    delayed = setpoints[below, columns] * (1 - part) + setpoints[above, columns] * part
+    return delayed + np.radians(figures["offset_deg"])[None, :], loaded, reloads
+
+
+def reading_error_deg(trial: Trial, predicted_deg: np.ndarray) -> np.ndarray:
+    """Each candidate's absolute errors against the reads, (reads, k) degrees."""
+    return np.abs(predicted_deg - trial.read_deg[:, None])
+
+
+def figures_of(rows: Sequence[dict[str, float]]) -> dict[str, np.ndarray]:
+    """Candidates given one dict each, as the arrays :func:`simulate` takes."""
+    return {name: np.array([row[name] for row in rows], dtype=float) for name in FIGURES}

@@ -1,0 +1,121 @@
+"""The test moves one joint makes while the others hold: gentle, inside its limits, and each
+chosen for what it shows.
+
+- slow triangles: the output trails its set-point by the dead band, the play and the friction;
+- small reversals (0.5° to 2.5°): the gear play swallows the small ones;
+- steps at several move times (as fast as it goes, 150 ms, 400 ms): its speed, gain, torque and
+  how late it starts;
+- holds in several poses: the sag under gravity (its gain against the known load);
+- a torque-off drop, only where the user said the joint can fall: the horn's offset (where
+  gravity lets it rest), and friction without the motor.
+
+A second, shorter set at other speeds, sizes and poses is held out: the fit never sees it, and
+it tells how well the figures predict moves they were not fitted to.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from choreo.identify.joint_model import SentMove, Unload
+from choreo.robot.types import Joint
+
+MARGIN_DEG = 5.0  # test moves keep this far inside the joint's limits
+STEP_DEG = 20.0  # the largest step, where the range allows
+HOLD_S = 0.6  # time to settle after a move, read all along
+DROP_S = 0.4  # how long the torque stays off in a drop
+GENTLE_DEG_S = 30.0  # from the pose the robot stands in to where the tests start
+
+
+@dataclass(frozen=True)
+class MovePlan:
+    """One joint's test: the commands (times from its start, angles in the servo's frame), how
+    long to read, and its parts' names for progress."""
+
+    commands: tuple[SentMove | Unload, ...]
+    duration_s: float
+
+
+class _Plan:
+    def __init__(self, centre: float):
+        self.t = 0.0
+        self.at = centre
+        self.commands: list[SentMove | Unload] = []
+
+    def move(self, target: float, time_s: float, hold_s: float = HOLD_S) -> None:
+        self.commands.append(SentMove(self.t, target, time_s))
+        self.t += time_s + hold_s
+        self.at = target
+
+    def ramp(self, target: float, speed_deg_s: float) -> None:
+        self.move(target, abs(target - self.at) / speed_deg_s, hold_s=0.0)
+
+    def drop(self) -> None:
+        self.commands.append(Unload(self.t))
+        self.t += DROP_S
+
+    def done(self) -> MovePlan:
+        return MovePlan(tuple(self.commands), self.t)
+
+
+def _gently(from_deg: float, to_deg: float) -> float:
+    """The time to move to where the tests start: at most GENTLE_DEG_S."""
+    return max(0.3, abs(to_deg - from_deg) / GENTLE_DEG_S)
+
+
+def centre_and_reach(joint: Joint, pose_deg: float) -> tuple[float, float]:
+    """Where the tests centre (the pose, moved inside the limits if it must) and how far they
+    may go either way."""
+    low, high = joint.limits.min_deg + MARGIN_DEG, joint.limits.max_deg - MARGIN_DEG
+    reach = min(STEP_DEG, max((high - low) / 2, 1.0))
+    centre = min(max(pose_deg, low + reach), high - reach)
+    return centre, reach
+
+
+def fit_moves(joint: Joint, pose_deg: float, drop: bool = False) -> MovePlan:
+    """The moves the figures are fitted to."""
+    centre, reach = centre_and_reach(joint, pose_deg)
+    plan = _Plan(centre)
+    plan.move(centre, _gently(pose_deg, centre), hold_s=0.3)
+    small = min(6.0, reach)
+    for speed in (10.0, 30.0):  # slow triangles
+        plan.ramp(centre + small, speed)
+        plan.ramp(centre - small, speed)
+        plan.ramp(centre, speed)
+    base = centre + min(2.0, reach / 2)
+    plan.move(base, 0.2, hold_s=0.3)
+    for size in (0.5, 1.0, 2.0):  # small reversals
+        size = min(size, reach / 2)
+        plan.move(base - size, 0.1, hold_s=0.3)
+        plan.move(base, 0.1, hold_s=0.3)
+    for time_s in (0.0, 0.15, 0.4):  # steps at several move times, both ways
+        plan.move(centre + reach, time_s, hold_s=0.45)
+        plan.move(centre - reach, time_s, hold_s=0.45)
+    side = min(3.0, reach / 4)  # holds, from either side
+    for pose in (centre - reach + side, centre, centre + reach - side):
+        plan.move(pose - side, 0.2, hold_s=0.1)
+        plan.move(pose, 0.1, hold_s=0.3)
+        plan.move(pose + side, 0.2, hold_s=0.1)
+        plan.move(pose, 0.1, hold_s=0.3)
+    if drop:
+        plan.move(centre, 0.3)
+        plan.drop()
+        plan.move(centre, 0.6)
+    plan.move(centre, 0.3, hold_s=0.2)
+    return plan.done()
+
+
+def held_out_moves(joint: Joint, pose_deg: float) -> MovePlan:
+    """Moves the fit never sees: another triangle speed, another step size and time, another
+    pose."""
+    centre, reach = centre_and_reach(joint, pose_deg)
+    plan = _Plan(centre)
+    plan.move(centre, _gently(pose_deg, centre), hold_s=0.3)
+    plan.ramp(centre + reach * 0.6, 20.0)
+    plan.ramp(centre - reach * 0.6, 20.0)
+    plan.ramp(centre, 20.0)
+    for target in (centre + reach * 0.75, centre - reach * 0.4, centre + reach * 0.3):
+        plan.move(target, 0.25, hold_s=0.4)
+    plan.move(centre + 1.2, 0.1, hold_s=0.3)
+    plan.move(centre, 0.1, hold_s=0.3)
+    return plan.done()

@@ -1,0 +1,38 @@
+"""choreo identify as a user runs it: a line per joint, the file and how to use it, the joints a
+motion moves, and a joint that is not there (short moves and search: the fit is judged in
+tests/identify/)."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+from cli_helpers import error_line
+from identify_helpers import make_identify_quick
+
+from choreo.cli import main
+
+
+@pytest.fixture
+def quick(monkeypatch):
+    """Short test moves and a short search (identify_helpers.py)."""
+    make_identify_quick(monkeypatch)
+
+
+def test_the_command_prints_a_line_per_joint_and_how_to_use_the_file(tmp_path, quick, capsys):
+    output = tmp_path / "figures.yaml"
+    port = ["--port", "sim://?physics=arm6"]
+    assert main(["identify", "arm6", "--joints", "wrist_roll", "-o", str(output), *port]) == 0
+    out = capsys.readouterr().out
+    assert "wrist_roll: dead band" in out and "held-out error median" in out
+    assert f"wrote {output}: 1 joint(s)" in out
+    assert "servo_figures:" in out
+    assert main(["identify", "arm6", "--joints", "elbo", "-o", str(output), *port]) == 2
+    assert "choreo: error: --joints names elbo" in error_line(capsys)
+
+
+def test_a_motion_names_the_joints_it_moves(tmp_path, quick, capsys):
+    output = tmp_path / "figures.yaml"
+    port = ["--port", "sim://?physics=arm6"]
+    assert main(["identify", "motions/arm6/wave.yaml", "-o", str(output), *port]) == 0
+    measured = yaml.safe_load(output.read_text())["joints"]
+    assert list(measured) == ["shoulder", "elbow", "wrist_pitch", "gripper"]  # what wave moves

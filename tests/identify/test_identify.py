@@ -1,0 +1,94 @@
+"""``choreo identify`` on the emulated robot whose servos are the physics, with hidden truths."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+from identify_helpers import make_identify_quick
+
+from choreo.bus.protocol import Command
+from choreo.bus.servo_bus import ServoBus
+from choreo.bus.settings import BusSettings
+from choreo.errors import UnsupportedByTransport
+from choreo.identify import identify
+from choreo.robot.robot_file import load_robot
+
+ARM6 = load_robot("arm6")
+TRUTH = {
+    "deadband_deg": 0.5,
+    "backlash_deg": 1.1,
+    "no_load_speed_deg_s": 300.0,
+    "kp_nm_rad": 12.0,
+    "stall_torque_nm": 1.3,
+    "friction_nm": 0.03,
+    "response_delay_s": 0.012,
+}
+
+
+@pytest.fixture
+def quick(monkeypatch):
+    """Short test moves and a short search (identify_helpers.py)."""
+    make_identify_quick(monkeypatch)
+
+
+def twin(tmp_path, truth: dict | None = None) -> ServoBus:
+    query = "physics=arm6"
+    if truth is not None:
+        path = tmp_path / "truth.yaml"
+        path.write_text(yaml.safe_dump({"joints": truth}))
+        query += f"&truth={path}"
+    return ServoBus.from_settings(BusSettings(port=f"sim://?{query}"))
+
+
+def test_the_fitted_figures_find_a_hidden_truth_and_predict_held_out_moves(tmp_path):
+    with twin(tmp_path, {"elbow": TRUTH}) as bus:
+        report = identify(ARM6, bus, tmp_path / "figures.yaml", joints=["elbow"])
+    (elbow,) = report.identified
+    v = elbow.validation
+    assert v.fitted_median_deg <= 0.5
+    assert v.fitted_median_deg <= 0.5 * v.default_median_deg
+    assert elbow.figures["backlash_deg"] == pytest.approx(TRUTH["backlash_deg"], abs=0.1)
+    for name in ("no_load_speed_deg_s", "stall_torque_nm"):  # (the rest: bench_identify.py)
+        assert elbow.figures[name] == pytest.approx(TRUTH[name], rel=0.15), name
+    assert 200 < elbow.reads_per_s < 1000  # one servo, back to back, on a 115200-baud wire
+    written = yaml.safe_load((tmp_path / "figures.yaml").read_text())
+    assert written["joints"]["elbow"] == elbow.figures
+    assert written["validation"]["elbow"]["fitted_median_deg"] == round(v.fitted_median_deg, 3)
+
+
+def test_a_run_keeps_every_joint_done_and_goes_on_from_the_next(tmp_path, quick):
+    output = tmp_path / "figures.yaml"
+
+    def interrupt(result):
+        raise KeyboardInterrupt
+
+    with twin(tmp_path) as bus:
+        with pytest.raises(KeyboardInterrupt):
+            identify(ARM6, bus, output, joints=["base_yaw", "wrist_roll"], on_joint=interrupt)
+        assert all(bus.read_loaded(joint.servo_id) for joint in ARM6.joints)
+        stops = [p for p in bus.emulator.log.packets if p.packet.command == Command.MOVE_STOP]
+        assert stops  # everything told to hold where it is
+    assert list(yaml.safe_load(output.read_text())["joints"]) == ["base_yaw"]
+    with twin(tmp_path) as bus:
+        again = identify(ARM6, bus, output, joints=["base_yaw", "wrist_roll"])
+    assert again.already == ("base_yaw",)
+    assert [r.joint for r in again.identified] == ["wrist_roll"]
+    assert list(yaml.safe_load(output.read_text())["joints"]) == ["base_yaw", "wrist_roll"]
+
+
+def test_a_board_that_cannot_read_positions_is_refused_before_anything_moves(tmp_path):
+    with ServoBus.from_settings(
+        BusSettings(port="sim://?board=lobot&ids=1-6&clock=virtual")
+    ) as bus:
+        with pytest.raises(UnsupportedByTransport, match="cannot read a servo's supply voltage"):
+            identify(ARM6, bus, tmp_path / "figures.yaml")
+        assert not bus.emulator.log.moves
+    assert not (tmp_path / "figures.yaml").exists()
+
+
+def test_unknown_joints_are_refused_naming_the_valid_ones(tmp_path):
+    with (
+        twin(tmp_path) as bus,
+        pytest.raises(ValueError, match="no such joint; its joints: base_yaw"),
+    ):
+        identify(ARM6, bus, tmp_path / "f.yaml", joints=["knee"])

@@ -1,0 +1,31 @@
+"""The small CMA-ES: it finds the bottom of a badly scaled bowl, inside the box."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from choreo.identify.search import minimise
+
+
+def test_it_finds_the_minimum_of_a_badly_scaled_bowl():
+    bottom = np.array([0.3, 0.7, 0.1, 0.9])
+    scales = np.array([1.0, 10.0, 100.0, 3.0])
+    found = minimise(
+        lambda p: np.sum((p - bottom) ** 2 * scales, axis=1), np.full(4, 0.5), generations=200
+    )
+    assert found.best == pytest.approx(bottom, abs=1e-3)
+    assert found.evaluations > found.generations
+
+
+def test_a_minimum_outside_the_box_is_found_on_its_edge():
+    found = minimise(lambda p: np.sum((p - 1.5) ** 2, axis=1), np.full(2, 0.5), generations=150)
+    assert found.best == pytest.approx([1.0, 1.0], abs=1e-3)
+    assert np.all(found.best <= 1.0)
+
+
+def test_the_same_seed_gives_the_same_answer():
+    cost = lambda p: np.sum(np.abs(p - 0.2), axis=1)  # noqa: E731
+    first = minimise(cost, np.full(3, 0.6), generations=20, seed=4)
+    again = minimise(cost, np.full(3, 0.6), generations=20, seed=4)
+    assert np.array_equal(first.best, again.best)

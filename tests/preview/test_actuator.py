@@ -1,0 +1,66 @@
+"""The servo's law at each physics step (``ServoDrive``): delay, offset, gear play, dead band."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
+from choreo.robot.robot_file import load_robot
+
+ARM6 = load_robot("arm6")
+DT_S = 0.002
+
+
+def one_servo(**figures: float) -> ActuatorParams:
+    return actuator_params(ARM6, {"base_yaw": figures})[0]
+
+
+def drive_of(params: ActuatorParams) -> ServoDrive:
+    return ServoDrive([params], DT_S, np.zeros(1))
+
+
+def test_a_position_inside_the_dead_band_makes_no_pull_and_outside_it_pulls_the_excess():
+    drive = drive_of(one_servo(deadband_deg=1.0, backlash_deg=0.0))
+    aim = np.radians([2.0])
+    inside = drive.ctrl(aim, np.radians([1.6]))  # 0.4° short: inside half of the 1° band
+    assert inside == pytest.approx(np.radians([1.6]))  # ctrl == position: no torque
+    outside = drive.ctrl(aim, np.radians([1.0]))  # 1° short: 0.5° past the band
+    assert np.degrees(outside - np.radians([1.0])) == pytest.approx([0.5])
+
+
+def test_gear_play_takes_up_a_reversal_before_the_aim_turns_back():
+    drive = drive_of(one_servo(deadband_deg=0.0, backlash_deg=2.0))
+    for angle in np.linspace(0, 10, 50):  # going up: the aim trails 1° behind
+        drive.ctrl(np.radians([angle]), np.radians([angle]))
+    assert np.degrees(drive.aim_rad) == pytest.approx([9.0])
+    drive.ctrl(np.radians([8.5]), np.radians([9.0]))  # 1.5° back: inside the 2° play
+    assert np.degrees(drive.aim_rad) == pytest.approx([9.0])
+    drive.ctrl(np.radians([7.0]), np.radians([9.0]))  # 3° back: turned back by 1°
+    assert np.degrees(drive.aim_rad) == pytest.approx([8.0])
+
+
+def test_a_response_delay_acts_on_set_points_that_many_steps_old_and_an_offset_shifts_them():
+    drive = drive_of(
+        one_servo(deadband_deg=0.0, backlash_deg=0.0, response_delay_s=0.01, offset_deg=2.0)
+    )
+    seen = [
+        float(np.degrees(drive.ctrl(np.radians([float(k)]), np.zeros(1))[0])) for k in range(1, 9)
+    ]
+    # five steps (10 ms) late, and 2° further: the set-points 1, 2, 3 come out from step 6 on
+    assert seen == pytest.approx([2.0] * 5 + [3.0, 4.0, 5.0])
+
+
+def test_damping_follows_the_stall_torque_and_speed_unless_given():
+    given = one_servo(stall_torque_nm=1.0, no_load_speed_deg_s=200.0)
+    assert given.damping_nm_s_rad == pytest.approx(1.0 / np.radians(200.0))  # back-EMF
+    fixed = one_servo(stall_torque_nm=1.0, damping_nm_s_rad=0.5)
+    assert fixed.damping_nm_s_rad == 0.5
+
+
+def test_figures_out_of_range_are_refused_naming_the_field():
+    with pytest.raises(ValueError, match="response_delay_s of joint base_yaw must be"):
+        one_servo(response_delay_s=0.5)
+    with pytest.raises(ValueError, match="friction_nm of joint base_yaw must be a number >= 0"):
+        one_servo(friction_nm=-1.0)
+    assert one_servo(offset_deg=-3.0).offset_deg == -3.0

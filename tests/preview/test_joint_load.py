@@ -1,0 +1,26 @@
+"""One joint's load with the rest of the robot held: inertia and gravity over its range."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from choreo.preview.joint_load import joint_load
+from choreo.robot.robot_file import load_robot
+
+ARM6 = load_robot("arm6")
+
+
+def test_gravity_on_the_shoulder_is_nothing_upright_and_most_leaning_out():
+    load = joint_load(ARM6, "shoulder", [0.0] * 6)
+    upright, forward, back = (float(load.gravity_at(np.radians([a]))[0]) for a in (0, 80, -80))
+    assert abs(upright) < 0.02
+    assert forward > 0.2 and back < -0.2  # pulls further the way it leans
+    assert forward == pytest.approx(-back, rel=0.1)
+
+
+def test_the_base_turning_carries_no_gravity_and_the_inertia_includes_the_armature():
+    load = joint_load(ARM6, "base_yaw", [0.0] * 6)
+    assert np.abs(load.gravity_nm).max() < 1e-6
+    assert np.all(load.inertia_kg_m2 > 0.005)  # the servo's armature and more
+    assert load.angles_deg[0] == ARM6.joint("base_yaw").limits.min_deg
