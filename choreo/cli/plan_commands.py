@@ -77,7 +77,7 @@ def run_plan(args: argparse.Namespace) -> int:
     compiled = compile_motion(motion, plan_options(args))
     window = plot_window(args, compiled.trajectory.duration_s) if window_asked else None
     speed = motion.speed if args.speed is None else args.speed
-    report = plan_report(motion, compiled, speed)
+    report = plan_report(motion, compiled, speed, keyframes=args.json)  # the table has none
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
     else:
