@@ -65,6 +65,15 @@ if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only wi
 BROWSER_TESTS = sorted(Path(__file__).parent.rglob("test_*_browser.py"))
 
 
+@pytest.fixture(autouse=True, scope="session")
+def own_cache(tmp_path_factory):
+    """The suite's own cache folder (passed model checks): none of the user's is read, nor
+    written, and every run starts empty. The commands tests start inherit it."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("CHOREO_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+        yield
+
+
 def pytest_sessionstart(session):
     """What the suite needs from the machine, found or installed before any test runs, once (not
     in each xdist worker): offscreen OpenGL, and the browser when the browser tests are among

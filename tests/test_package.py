@@ -2,6 +2,7 @@
 
 import ast
 import importlib
+import os
 import subprocess
 import sys
 import tomllib
@@ -116,12 +117,18 @@ def test_each_command_module_registers_the_commands_the_table_gives_it():
         assert sorted(subparsers.choices) == expected
 
 
-def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded():
-    """The probe above would notice: loading a robot checks its MuJoCo model."""
+def test_the_heavy_check_sees_mujoco_when_a_robot_is_loaded(tmp_path):
+    """The probe above would notice: loading a robot checks its MuJoCo model (the first time:
+    an empty cache remembers no check)."""
     probe = "import sys; from choreo.robot.robot_file import load_robot; load_robot('arm6'); "
     probe += "print('mujoco' in sys.modules)"
     result = subprocess.run(
-        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=120
+        [sys.executable, "-c", probe],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "CHOREO_CACHE_DIR": str(tmp_path)},
     )
     assert result.stdout == "True\n", result.stderr
 

@@ -6,9 +6,6 @@ import argparse
 import json
 from pathlib import Path
 
-from rich.console import Console
-from rich.table import Table
-
 from choreo.cli.arguments import (
     add_planning_arguments,
     load_dance,
@@ -80,7 +77,7 @@ def run_plan(args: argparse.Namespace) -> int:
     compiled = compile_motion(motion, plan_options(args))
     window = plot_window(args, compiled.trajectory.duration_s) if window_asked else None
     speed = motion.speed if args.speed is None else args.speed
-    report = plan_report(motion, compiled, speed)
+    report = plan_report(motion, compiled, speed, keyframes=args.json)  # the table has none
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
     else:
@@ -120,6 +117,9 @@ def plot_window(args: argparse.Namespace, duration_s: float) -> tuple[float, flo
 
 
 def print_report(report: dict) -> None:
+    from rich.console import Console  # rich (some 0.07 s to import): not for --json
+    from rich.table import Table
+
     console = Console(highlight=False, soft_wrap=True)  # long paths stay on one line
     speed = f" at speed {report['speed']:g}" if report["speed"] != 1 else ""
     console.print(

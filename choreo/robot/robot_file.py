@@ -36,6 +36,7 @@ from choreo.core.yaml_source import (
     reading_a_file,
 )
 from choreo.errors import SourceError
+from choreo.robot.check_cache import check_key, remember, remembered
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
 from choreo.robot.servo_figures import ServoFigures, read_servo_figures
@@ -165,11 +166,7 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     scene_path = _model_file(reader, fields.get("scene"), "scene.xml", "the scene")
     free_floating = False
     if mjcf_path is not None:
-        from choreo.robot.model_check import (
-            check_model,  # mujoco (slow to import): only with a model
-        )
-
-        free_floating = check_model(reader, mjcf_path, scene_path, sources, fields, poses)
+        free_floating = _check_model(reader, mjcf_path, scene_path, sources, fields, poses)
     read = tuple(s.joint for s in sources if s.joint is not None)
     # The name or a joint is None only when refused, which is reported: the two tests after
     # `reader.problems` only say so to the type checker.
@@ -187,6 +184,31 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
         free_floating=free_floating,
         gait=gait,
     )
+
+
+def _check_model(
+    reader: Reader,
+    mjcf_path: Path,
+    scene_path: Path | None,
+    sources: list[JointSource],
+    fields: dict[str, Entry],
+    poses: Mapping[str, Mapping[str, float]],
+) -> bool:
+    """``model_check.check_model``, unless the same check passed before for these very files
+    (``check_cache``): then what it found is taken without importing MuJoCo. A robot file
+    with problems is always checked, so that every problem is reported at once."""
+    models = [mjcf_path] if scene_path is None else [mjcf_path, scene_path]
+    key = None if reader.problems else check_key(reader.path, models)
+    if key is not None:
+        free_floating = remembered(key)
+        if free_floating is not None:
+            return free_floating
+    from choreo.robot.model_check import check_model  # mujoco (slow to import): only here
+
+    free_floating = check_model(reader, mjcf_path, scene_path, sources, fields, poses)
+    if key is not None and not reader.problems:
+        remember(key, free_floating)
+    return free_floating
 
 
 def _read_name(reader: Reader, entry: Entry) -> str | None:

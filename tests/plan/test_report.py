@@ -57,3 +57,12 @@ def test_a_stretched_keyframe_is_in_the_report_with_its_place(tmp_path):
 def test_the_report_is_plain_json():
     report = report_of(WAVE)
     assert json.loads(json.dumps(report)) == report
+
+
+def test_without_keyframes_the_report_is_the_same_but_for_them():
+    motion = load_motion(WAVE)
+    compiled = compile_motion(motion)
+    full = plan_report(motion, compiled, 1.0)
+    brief = plan_report(motion, compiled, 1.0, keyframes=False)
+    assert brief["expanded_keyframes"] is None and full["expanded_keyframes"]
+    assert {**brief, "expanded_keyframes": full["expanded_keyframes"]} == full
