@@ -7,7 +7,6 @@ without it.
 from __future__ import annotations
 
 import argparse
-import re
 import socket
 import sys
 import time
@@ -31,9 +30,11 @@ from choreo.play.report import write_report
 from choreo.play.robot_bus import open_robot_bus
 from choreo.play.soundtrack import OUTPUT_RATE_HZ, NoAudioOutput, SoundDeviceSink
 from choreo.robot.types import Robot
-from choreo.show.showfile import NAME, Show, load_show
+from choreo.show.names import NAME_RULE, is_name, name_from
+from choreo.show.showfile import Show, load_show
 
 MAX_WAIT_S = 3600.0
+DEFAULT_MAX_SILENCE_MS = 400.0  # choreo.show.performer.DEFAULT_MAX_SILENCE_S, without zenoh
 
 
 def register(subparsers) -> None:
@@ -48,6 +49,14 @@ def register(subparsers) -> None:
         "--name",
         type=performer_name,
         help="the name the show file gives this robot (default: the host name)",
+    )
+    perform.add_argument(
+        "--max-silence-ms",
+        type=float_in(0, 60_000, " ms"),
+        default=DEFAULT_MAX_SILENCE_MS,
+        metavar="MS",
+        help="stop the servos when the conductor's heartbeat (every 100 ms) has been silent this "
+        f"long (default {DEFAULT_MAX_SILENCE_MS:g} ms)",
     )
     add_port_arguments(perform)
     add_network_arguments(perform)
@@ -83,16 +92,29 @@ def register(subparsers) -> None:
 
 
 def performer_name(text: str) -> str:
-    if not NAME.fullmatch(text):
-        raise argparse.ArgumentTypeError(
-            f"a performer name has only letters, digits, _ and -, got {text!r}"
-        )
+    if not is_name(text):
+        raise argparse.ArgumentTypeError(f"a name has only {NAME_RULE}, got {text!r}")
     return text
 
 
 def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     network = parser.add_argument_group(
         "network (default: find each other by multicast scouting on the LAN)"
+    )
+    network.add_argument(
+        "--zenoh-config",
+        type=Path,
+        metavar="FILE",
+        help="Zenoh's configuration file (JSON5): mode, TLS, user/password, access control "
+        "(default: $ZENOH_CONFIG, else a peer with Zenoh's defaults); see docs/shows.md",
+    )
+    network.add_argument(
+        "--realm",
+        type=performer_name,
+        default="default",
+        metavar="NAME",
+        help="the show's realm: conductor and performers of one realm only hear each other, so "
+        "two shows on one network never mix (default: default)",
     )
     network.add_argument(
         "--listen",
@@ -118,22 +140,33 @@ def _say(text: str) -> None:
 
 # --- choreo perform --------------------------------------------------------------------------
 def run_perform(args: argparse.Namespace) -> int:
-    from choreo.show.network import Network  # zenoh: only when a show command runs
     from choreo.show.performer import Performer
 
-    name = args.name or re.sub(r"[^A-Za-z0-9_-]", "-", socket.gethostname().split(".")[0])
-    transport = bus_settings(args).port or "the robot file's port, else an emulated bus"
-    with stop_signals_as_ctrl_c(), Network(args.listen, args.connect) as network:
+    name = args.name or name_from(socket.gethostname().split(".")[0])
+    port = bus_settings(args).port
+    if port is not None:  # a port that does not open is found now, not at the show
+        ServoBus(port).close()
+    transport = port or "the robot file's port, else an emulated bus"
+    with stop_signals_as_ctrl_c(), _network(args) as network:
+        if network.exposure:
+            _say(f"choreo: warning: {network.exposure}")
         performer = Performer(
             network,
             name,
             lambda robot: _open_bus(args, robot),
             transport,
             lambda text: _say(f"{name}: {text}"),
+            args.max_silence_ms / 1000,
         )
         print(f"performing as {name} on {transport}: waiting for a show", flush=True)
         performer.serve_forever()
     return 0
+
+
+def _network(args: argparse.Namespace):
+    from choreo.show.network import Network
+
+    return Network(args.listen, args.connect, zenoh_config=args.zenoh_config, realm=args.realm)
 
 
 def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
@@ -146,7 +179,6 @@ def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
 # --- choreo show -----------------------------------------------------------------------------
 def run_show(args: argparse.Namespace) -> int:
     from choreo.show.conductor import Conductor, ConductorOptions
-    from choreo.show.network import Network
 
     show = load_show(args.show)
     if args.report is not None:
@@ -162,7 +194,8 @@ def run_show(args: argparse.Namespace) -> int:
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[at]}"))
     try:
         with (
-            Network(args.listen, args.connect) as network,
+            stop_signals_as_ctrl_c(),  # SIGTERM is Ctrl-C: every performer stops, a report
+            _network(args) as network,
             Progress(*columns, console=console) as progress,
         ):
             tasks = {

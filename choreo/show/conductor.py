@@ -1,17 +1,18 @@
 """``choreo show``: the conductor.
 
-In order: hold the show's liveliness token (performers stop if it vanishes), wait for every
-named performer, measure each one's clock against this one (refusing past the show's bound),
-stage every part and refuse unless every preflight passed, pick one start instant far enough
-ahead for every approach, tell each performer that instant on its own clock, cue the song on it,
-then follow the parts to their end. Ctrl-C, or a part that aborts or is lost when the show says
-``on_abort: stop``, sends one stop that every performer hears.
+In order: hold the show's liveliness token and beat its heartbeat (performers stop if either
+goes), wait for every named performer and refuse two of one name or one another show holds,
+measure each one's clock against this one (refusing past the show's bound), stage every part
+with this run's ticket and refuse unless every preflight passed, pick one start instant far
+enough ahead for every approach, tell each performer that instant on its own clock, cue the song
+on it, then follow the parts to their end. Ctrl-C, or a part that aborts or is lost when the show
+says ``on_abort: stop``, sends one signed stop that every performer hears.
 """
 
 from __future__ import annotations
 
 import queue
-import re
+import threading
 import time
 import uuid
 from collections.abc import Callable
@@ -22,6 +23,8 @@ from choreo.motion.motion_file import load_motion
 from choreo.show.clock_offset import ClockOffset, exceeds, measure
 from choreo.show.messages import (
     Announcement,
+    Answer,
+    Beat,
     ClockReading,
     Finished,
     Go,
@@ -32,11 +35,13 @@ from choreo.show.messages import (
     decode,
     encode,
 )
-from choreo.show.network import Network, name_of, performer_key, show_key
+from choreo.show.names import name_from
+from choreo.show.network import Network, name_of
 from choreo.show.showfile import OnAbort, Show
 from choreo.show.staging import pack
+from choreo.show.ticket import new_ticket, signature
 
-PERFORMERS = performer_key("*")
+BEAT_PERIOD_S = 0.1  # the heartbeat: a performer stops after DEFAULT_MAX_SILENCE_S without one
 FINISH_GRACE_S = 5.0  # past the planned end, a part that said nothing counts as lost
 STOP_REPLIES_S = 2.0  # after a stop, how long to wait for the parts to say they stopped
 
@@ -100,11 +105,16 @@ class Conductor:
         options: ConductorOptions = ConductorOptions(),
     ):
         self.network, self.show, self.say, self.options = network, show, say, options
-        slug = re.sub(r"[^A-Za-z0-9_-]", "-", show.name)
-        self.show_id = f"{slug}-{uuid.uuid4().hex[:8]}"
-        self.key = show_key(self.show_id)
+        self.show_id = f"{name_from(show.name)}-{uuid.uuid4().hex[:8]}"
+        self.ticket = new_ticket()
+        self.realm = network.realm
+        self.key = self.realm.show(self.show_id)
         self.events: queue.Queue[tuple[str, object]] = queue.Queue()
         self.names = [p.performer for p in show.parts]
+        self._beating = threading.Event()
+
+    def performer_key(self, name: str) -> str:
+        return self.realm.performer(name)
 
     def run(
         self,
@@ -115,6 +125,31 @@ class Conductor:
         every performer has it. Ctrl-C stops every part; the report then says so."""
         called_at = time.time()
         self.network.announce(self.key)
+        beat = threading.Thread(target=self._beat, daemon=True)
+        beat.start()
+        try:
+            return self._run(called_at, on_progress, cue_song)
+        finally:
+            self._beating.set()
+            beat.join()
+
+    def _beat(self) -> None:
+        """The heartbeat, every BEAT_PERIOD_S until the run ends (its own thread)."""
+        seq, key = 0, f"{self.key}/beat"
+        while not self._beating.is_set():
+            self.network.publish(
+                key,
+                encode(Beat(self.show_id, seq, signature(self.ticket, self.show_id, "beat", seq))),
+            )
+            seq += 1
+            self._beating.wait(BEAT_PERIOD_S)
+
+    def _run(
+        self,
+        called_at: float,
+        on_progress: OnProgress | None,
+        cue_song: Callable[[float], None] | None,
+    ) -> ShowReport:
         self.network.subscribe(f"{self.key}/events/*", self._on_finished)
         if on_progress is not None:
             self.network.subscribe(
@@ -122,7 +157,7 @@ class Conductor:
                 lambda _k, payload: on_progress(decode(PartProgress, payload)),
             )
         self.wait_for_performers()
-        self.network.watch(PERFORMERS, self._on_performer)
+        self.network.watch(self.performer_key("*"), self._on_performer)
         self.introduce()
         clocks = self.measure_clocks()
         readiness = self.stage()
@@ -148,7 +183,8 @@ class Conductor:
     def wait_for_performers(self) -> None:
         deadline = time.monotonic() + self.options.wait_s
         while True:
-            present = {name_of(k) for k in self.network.alive(PERFORMERS, timeout_s=0.5)}
+            alive = self.network.alive(self.performer_key("*"), timeout_s=0.5)
+            present = {name_of(k) for k in alive}
             missing = [n for n in self.names if n not in present]
             if not missing:
                 return
@@ -162,14 +198,25 @@ class Conductor:
             time.sleep(0.1)
 
     def introduce(self) -> None:
-        """One line per performer: where it dances and what it is doing."""
-        answers = self.network.ask_all(
-            {f"{performer_key(name)}/info": b"" for name in self.names}, timeout_s=2.0
-        )
-        for answer in answers.values():
-            if answer is not None:
-                who = decode(Announcement, answer)
-                self.say(f"{who.name}: found, on {who.transport}, {who.state}")
+        """One line per performer: where it dances and what it is doing. A ChoreoError listing
+        every name two performers answer to, and every performer another show holds."""
+        problems = []
+        for name in self.names:
+            found = self.network.ask_each(f"{self.performer_key(name)}/info", timeout_s=2.0)
+            answers = [decode(Announcement, answer) for answer in found]
+            if len(answers) > 1:
+                where = " and ".join(f"{a.host} (pid {a.pid}, on {a.transport})" for a in answers)
+                problems.append(f"{len(answers)} performers are named {name}, on {where}: "
+                                "give each its own --name")  # fmt: skip
+                continue
+            for who in answers:
+                if who.show_id and who.show_id != self.show_id:
+                    problems.append(f"{name} on {who.host} is busy with show {who.show_id} "
+                                    "(another conductor holds it)")  # fmt: skip
+                else:
+                    self.say(f"{who.name}: found on {who.host}, on {who.transport}, {who.state}")
+        if problems:
+            raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
 
     def measure_clocks(self) -> dict[str, ClockOffset]:
         clocks, problems = {}, []
@@ -177,7 +224,7 @@ class Conductor:
         for name in self.names:
 
             def ask_time(name: str = name) -> float | None:
-                reply = self.network.ask(f"{performer_key(name)}/clock", timeout_s=1.0)
+                reply = self.network.ask(f"{self.performer_key(name)}/clock", timeout_s=1.0)
                 return None if reply is None else decode(ClockReading, reply).time_s
 
             offset = measure(ask_time, within_s=self.show.max_clock_offset_s)
@@ -198,13 +245,15 @@ class Conductor:
     def stage(self) -> dict[str, Readiness]:
         """Every part staged; a ChoreoError listing every problem of every robot otherwise."""
         requests = {
-            f"{performer_key(p.performer)}/stage": encode(pack(self.show_id, load_motion(p.motion)))
+            f"{self.performer_key(p.performer)}/stage": encode(
+                pack(self.show_id, self.ticket, load_motion(p.motion))
+            )
             for p in self.show.parts
         }
         answers = self.network.ask_all(requests, self.options.stage_timeout_s)
         readiness, problems = {}, []
         for part in self.show.parts:
-            answer = answers[f"{performer_key(part.performer)}/stage"]
+            answer = answers[f"{self.performer_key(part.performer)}/stage"]
             if answer is None:
                 problems.append(f"{part.performer}: no answer to its part in "
                                 f"{self.options.stage_timeout_s:g} s")  # fmt: skip
@@ -231,16 +280,22 @@ class Conductor:
 
     def go(self, start_s: float, clocks: dict[str, ClockOffset]) -> None:
         requests = {
-            f"{performer_key(p.performer)}/go": encode(
-                Go(self.show_id, start_s + p.offset_s + clocks[p.performer].offset_s)
+            f"{self.performer_key(p.performer)}/go": encode(
+                Go(self.show_id, start_s + p.offset_s + clocks[p.performer].offset_s, self.ticket)
             )
             for p in self.show.parts
         }
         answers = self.network.ask_all(requests, self.options.lead_s)
-        silent = [name_of(k.removesuffix("/go")) for k, a in answers.items() if a is None]
-        if silent:
+        problems = []
+        for key, answer in answers.items():
+            name = name_of(key.removesuffix("/go"))
+            if answer is None:
+                problems.append(f"{name}: no answer to the start")
+            elif not (taken := decode(Answer, answer)).ok:
+                problems.append(f"{name}: refused the start: {taken.problem}")
+        if problems:
             self.send_stop("a performer did not take the start")
-            raise ChoreoError(f"no answer to the start from {', '.join(silent)}: show stopped")
+            raise ChoreoError("show stopped:\n  " + "\n  ".join(problems))
         self.say(
             f"every performer took the start: the show begins in {start_s - time.time():.1f} s"
         )
@@ -254,7 +309,8 @@ class Conductor:
             self.events.put(("lost", name_of(key)))
 
     def send_stop(self, reason: str) -> float:
-        self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason)))
+        signed = signature(self.ticket, self.show_id, "stop", reason)
+        self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason, signed)))
         return time.time()
 
     def follow(

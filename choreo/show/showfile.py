@@ -8,7 +8,6 @@ conductor stages them, ``choreo validate`` plans them). The keys come from
 from __future__ import annotations
 
 import enum
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,11 +15,11 @@ from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, parse_yaml_file
 from choreo.errors import SourceError
 from choreo.music.decode import check_song_path
+from choreo.show.names import NAME_RULE, is_name
 
 SHOW = mapping_shape("show")
 MUSIC = mapping_shape("show", "#/properties/music")
 PERFORMER = mapping_shape("show", "#/$defs/performer")
-NAME = re.compile(r"[A-Za-z0-9_-]+")  # a name is one chunk of a Zenoh key expression
 DEFAULT_MAX_CLOCK_OFFSET_MS = 2.0
 
 
@@ -152,11 +151,8 @@ def _read_part(reader: Reader, item: Node, music: ShowMusic | None) -> Part | No
     if fields is None or not {"name", "motion"} <= fields.keys():
         return None
     name = reader.string(fields["name"].value, "name")
-    if name is not None and not NAME.fullmatch(name):
-        reader.report(
-            fields["name"].value,
-            f"performer name {name!r} may only have letters, digits, _ and -",
-        )
+    if name is not None and not is_name(name):
+        reader.report(fields["name"].value, f"performer name {name!r} may only have {NAME_RULE}")
         name = None
     relative = reader.string(fields["motion"].value, "motion")
     motion = reader.path.parent / relative if relative else None
