@@ -5,6 +5,7 @@ scouting), killed and interrupted mid-show. Order and content only: no timing is
 from __future__ import annotations
 
 import json
+import re
 import os
 import signal
 import socket
@@ -243,3 +244,141 @@ def test_an_endpoint_that_is_not_one_is_refused_before_zenoh_sees_it(argv, capsy
         "(PROTOCOL one of tcp, udp, tls, quic, ws; PORT 0-65535) or unixsock-stream/PATH, "
         "e.g. tcp/192.168.1.5:7447\n"
     )
+
+
+def performer_process(name: str, *extra: str, port: str = ARM) -> tuple[Process, str]:
+    listen = f"tcp/127.0.0.1:{free_port()}"
+    process = Process("perform", "--name", name, "--port", port, "--listen", listen, *extra)
+    process.wait_for("waiting for a show", stream="stdout")
+    return process, listen
+
+
+def test_two_performers_of_one_name_are_refused_naming_both(tmp_path):
+    solo = tmp_path / "solo.yaml"
+    solo.write_text(f"performers:\n  - {{name: left, motion: {SHOWS / 'nod.yaml'}}}\n")
+    first, one = performer_process("left")
+    second, two = performer_process("left")
+    try:
+        code, err = conductor(str(solo), [one, two]).finish()
+        assert code == 1, err
+        host = socket.gethostname()
+        assert (
+            f"2 performers are named left, on {host} (pid {first.proc.pid}, on {ARM}) and "
+            f"{host} (pid {second.proc.pid}, on {ARM}): give each its own --name"
+        ) in err or (
+            f"2 performers are named left, on {host} (pid {second.proc.pid}, on {ARM}) and "
+            f"{host} (pid {first.proc.pid}, on {ARM}): give each its own --name"
+        ) in err
+        assert not any("staged" in line for line in first.lines + second.lines)
+        # on loopback only: no warning about the network
+        assert not any("warning" in line for line in first.lines + second.lines)
+    finally:
+        first.stop()
+        second.stop()
+
+
+def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    first = conductor("wave_duo.yaml", endpoints)
+    for process, _ in performers.started.values():
+        process.wait_for("playing")
+    code, err = conductor("duo.yaml", endpoints).finish()
+    assert code == 1, err
+    assert "refusing to start the show:" in err
+    assert re.search(r"left on \S+ is busy with show wave-duo-[0-9a-f]{8} \(another conductor", err)
+    code, err = first.finish()
+    assert code == 0, err  # the first show was not disturbed
+
+
+def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    show = conductor("wave_duo.yaml", endpoints)
+    for process, _ in performers.started.values():
+        process.wait_for("playing")
+    show.proc.send_signal(signal.SIGSTOP)  # its liveliness token stays: only its heartbeat stops
+    try:
+        for name, (process, _) in performers.started.items():
+            line = process.wait_for("part stopped: lost the conductor")
+            assert line.startswith(f"{name}: part stopped: lost the conductor (no heartbeat for ")
+            assert process.wait_for("emulated bus:").endswith("every servo stopped")
+    finally:
+        show.proc.send_signal(signal.SIGCONT)
+        show.proc.kill()
+        show.finish()
+
+
+def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    report_path = tmp_path / "show.json"
+    show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
+    for process, _ in performers.started.values():
+        process.wait_for("playing")
+    show.proc.send_signal(signal.SIGTERM)
+    code, err = show.finish()
+    assert code == 130, err
+    report = json.loads(report_path.read_text())
+    assert report["stop_reason"] == "Ctrl-C at the conductor"
+    assert [p["outcome"] for p in report["performers"]] == ["stopped", "stopped"]
+    for process, _ in performers.started.values():
+        process.wait_for("every servo stopped")
+
+
+def test_a_performer_in_another_realm_is_not_found():
+    process, endpoint = performer_process("left", "--realm", "lab")
+    try:
+        code, err = conductor("duo.yaml", [endpoint], "--wait", "1").finish()
+        assert code == 1
+        assert "2 performer(s) did not appear within 1 s: left, right" in err
+    finally:
+        process.stop()
+
+
+def test_a_performer_reachable_from_the_network_without_authentication_warns():
+    process, _ = performer_process("left", "--listen", f"tcp/0.0.0.0:{free_port()}")
+    try:
+        warnings = [line for line in process.lines if "warning" in line]
+        assert len(warnings) == 1
+        assert warnings[0].startswith("choreo: warning: this session is reachable beyond this")
+    finally:
+        process.stop()
+
+
+@pytest.mark.parametrize("port", ["sim://?ids=999", "/dev/null"])
+def test_a_port_that_does_not_open_is_refused_at_start_up(port, capsys):
+    from choreo.cli import main
+
+    assert main(["perform", "--port", port, "--listen", "tcp/127.0.0.1:0"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"choreo: error: cannot open {port}: ")
+    assert len(err.splitlines()) <= 2  # the error, and perhaps a hint
+
+
+@pytest.mark.parametrize(
+    "argv, flag",
+    [
+        (["perform", "--name", "ünï"], "--name"),
+        (["perform", "--realm", "a/b"], "--realm"),
+        (["show", str(SHOWS / "duo.yaml"), "--realm", "ünï"], "--realm"),
+    ],
+)
+def test_a_name_that_is_not_one_is_one_usage_line(argv, flag, capsys):
+    from choreo.cli import main
+
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1].endswith(f"argument {flag}: a name has only ASCII letters, digits, - and _, "
+                            f"got {argv[argv.index(flag) + 1]!r}")  # fmt: skip
+
+
+def test_a_zenoh_configuration_that_cannot_be_used_is_one_line(tmp_path, capsys):
+    from choreo.cli import main
+
+    bad = tmp_path / "zenoh.json5"
+    bad.write_text('{mode: "bogus"}')
+    argv = ["show", str(SHOWS / "duo.yaml"), "--no-audio", "--zenoh-config", str(bad)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"choreo: error: --zenoh-config {bad} is not a Zenoh configuration")
+    assert err.count("\n") == 1 and ".rs:" not in err
