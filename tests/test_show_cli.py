@@ -5,8 +5,8 @@ scouting), killed and interrupted mid-show. Order and content only: no timing is
 from __future__ import annotations
 
 import json
-import re
 import os
+import re
 import signal
 import socket
 import subprocess

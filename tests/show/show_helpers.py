@@ -40,10 +40,11 @@ def eventually(condition: Callable[[], object], what: str) -> None:
 class Stage:
     """A performer named ``tony`` serving in a thread, listening on a loopback port."""
 
-    def __init__(self, max_silence_s: float = 0.4, **network):
+    def __init__(self, max_silence_s: float = 0.4, protocol: str = "tcp", **network):
         self.port = free_port()
+        self.endpoint = f"{protocol}/127.0.0.1:{self.port}"
         self.said: list[str] = []
-        self.network = Network(listen=[f"tcp/127.0.0.1:{self.port}"], **network)
+        self.network = Network(listen=[self.endpoint], **network)
         self.performer = Performer(
             self.network,
             "tony",
@@ -54,10 +55,6 @@ class Stage:
         )
         self.thread = threading.Thread(target=self.performer.serve_forever, daemon=True)
         self.thread.start()
-
-    @property
-    def endpoint(self) -> str:
-        return f"tcp/127.0.0.1:{self.port}"
 
     def heard(self, text: str) -> bool:
         return any(text in line for line in self.said)
