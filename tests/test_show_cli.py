@@ -127,6 +127,7 @@ def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
         assert part["approach_start_s"] < part["first_start_s"]
         assert part["clock_offset_error_ms"] >= 0
         assert part["stop_s"] is None  # ran to its end: no MOVE_STOP
+        assert part["first_start_late_ms"] is not None  # read when its bytes were written
     three = report["performers"][2]
     assert three["offset_s"] == pytest.approx(60 / 112)  # one beat at 112 BPM
     assert report["first_start_spread_ms"] is not None
@@ -224,6 +225,7 @@ def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, t
     parts = {p["name"]: p for p in json.loads(report_path.read_text())["performers"]}
     assert (parts["right"]["outcome"], parts["left"]["outcome"]) == ("lost", "completed")
     assert parts["left"]["ticks_played"] == parts["left"]["ticks_total"]
+    assert parts["left"]["clock_drift_ms"] is not None  # its clock measured again during the 5 s
     assert json.loads(report_path.read_text())["stop_sent_s"] is None
 
 

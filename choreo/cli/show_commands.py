@@ -250,6 +250,7 @@ def report_document(report) -> dict:
                 "reason": p.reason,
                 "clock_offset_ms": p.clock.offset_s * 1000,
                 "clock_offset_error_ms": p.clock.error_s * 1000,
+                "clock_drift_ms": None if p.drift_s is None else p.drift_s * 1000,
                 "offset_s": p.offset_s,
                 "first_start_s": None if p.finished is None else p.finished.first_start_s,
                 "first_start_conductor_s": p.first_start_s,
@@ -258,6 +259,9 @@ def report_document(report) -> dict:
                 "ticks_played": None if p.finished is None else p.finished.ticks_played,
                 "ticks_total": None if p.finished is None else p.finished.ticks_total,
                 "lateness_p99_ms": None if p.finished is None else p.finished.lateness_p99_ms,
+                "first_start_late_ms": None
+                if p.finished is None
+                else p.finished.first_start_late_ms,
             }
             for p in report.parts
         ],
@@ -267,7 +271,8 @@ def report_document(report) -> dict:
 def _print_report(report) -> None:
     console = Console()
     table = Table(title=f"show {report.show}")
-    for column in ("performer", "robot", "outcome", "clock offset", "first START", "reason"):
+    columns = ("performer", "robot", "outcome", "clock offset", "drift", "first START", "reason")
+    for column in columns:
         table.add_column(column)
     for p in report.parts:
         first = (
@@ -275,8 +280,14 @@ def _print_report(report) -> None:
             if p.first_start_s is not None
             else "-"
         )
-        table.add_row(p.performer, p.robot, p.outcome.value, p.clock.describe(), first, p.reason)
+        drift = "-" if p.drift_s is None else f"{p.drift_s * 1000:+.2f} ms"
+        table.add_row(
+            p.performer, p.robot, p.outcome.value, p.clock.describe(), drift, first, p.reason
+        )
     console.print(table)
     spread = report.first_start_spread_s()
     if spread is not None:
-        console.print(f"first START spread across performers: {spread * 1000:.3f} ms")
+        console.print(
+            f"first START spread across performers: {spread * 1000:.3f} ms (each read from its "
+            "performer's clock when the START was written, less its measured offset)"
+        )

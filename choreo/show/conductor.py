@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from choreo.errors import ChoreoError
 from choreo.motion.motion_file import load_motion
-from choreo.show.clock_offset import ClockOffset, exceeds, measure
+from choreo.show.clock_offset import ROUND_TRIPS, ClockOffset, exceeds, measure
 from choreo.show.messages import (
     Announcement,
     Answer,
@@ -42,6 +42,8 @@ from choreo.show.staging import pack
 from choreo.show.ticket import new_ticket, signature
 
 BEAT_PERIOD_S = 0.1  # the heartbeat: a performer stops after DEFAULT_MAX_SILENCE_S without one
+REMEASURE_PERIOD_S = 1.0  # during the show, each clock is measured again this often
+REMEASURE_ROUND_TRIPS = 4  # a few: between them the conductor does not hear its events
 FINISH_GRACE_S = 5.0  # past the planned end, a part that said nothing counts as lost
 STOP_REPLIES_S = 2.0  # after a stop, how long to wait for the parts to say they stopped
 
@@ -64,6 +66,7 @@ class PartResult:
     outcome: PartOutcome
     reason: str
     finished: Finished | None  # its own word (None: lost, or a dry run)
+    drift_s: float | None = None  # its clock offset's change from the start to the last measure
 
     @property
     def first_start_s(self) -> float | None:
@@ -222,12 +225,7 @@ class Conductor:
         clocks, problems = {}, []
         bound_ms = self.show.max_clock_offset_s * 1000
         for name in self.names:
-
-            def ask_time(name: str = name) -> float | None:
-                reply = self.network.ask(f"{self.performer_key(name)}/clock", timeout_s=1.0)
-                return None if reply is None else decode(ClockReading, reply).time_s
-
-            offset = measure(ask_time, within_s=self.show.max_clock_offset_s)
+            offset = self.measure_clock(name, within_s=self.show.max_clock_offset_s)
             if offset is None:
                 problems.append(f"{name}: did not answer the clock round trips")
                 continue
@@ -241,6 +239,15 @@ class Conductor:
         if problems:
             raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
         return clocks
+
+    def measure_clock(
+        self, name: str, rounds: int = ROUND_TRIPS, within_s: float | None = None
+    ) -> ClockOffset | None:
+        def ask_time() -> float | None:
+            reply = self.network.ask(f"{self.performer_key(name)}/clock", timeout_s=1.0)
+            return None if reply is None else decode(ClockReading, reply).time_s
+
+        return measure(ask_time, rounds, within_s=within_s)
 
     def stage(self) -> dict[str, Readiness]:
         """Every part staged; a ChoreoError listing every problem of every robot otherwise."""
@@ -326,6 +333,8 @@ class Conductor:
             p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
         )
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
+        later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
+        next_measure = time.monotonic() + REMEASURE_PERIOD_S
         stop_sent: float | None = None
         stop_reason = ""
         deadline = end_s + FINISH_GRACE_S
@@ -333,6 +342,13 @@ class Conductor:
             try:
                 if interrupted:
                     raise KeyboardInterrupt
+                if stop_sent is None and time.monotonic() >= next_measure:
+                    for name in self.names:
+                        if name not in outcomes:
+                            offset = self.measure_clock(name, REMEASURE_ROUND_TRIPS)
+                            if offset is not None:  # unanswered: its part's end will tell
+                                later[name] = offset
+                    next_measure = time.monotonic() + REMEASURE_PERIOD_S
                 kind, what = self.events.get(timeout=0.1)
             except queue.Empty:
                 continue
@@ -363,8 +379,10 @@ class Conductor:
             outcome, reason, finished = outcomes.get(
                 part.performer, (PartOutcome.LOST, "no word from it after the show's end", None)
             )
+            clock, last = clocks[part.performer], later.get(part.performer)
             parts.append(
-                PartResult(part.performer, readiness[part.performer].robot, clocks[part.performer],
-                           part.offset_s, start_s + part.offset_s, outcome, reason, finished)
+                PartResult(part.performer, readiness[part.performer].robot, clock,
+                           part.offset_s, start_s + part.offset_s, outcome, reason, finished,
+                           None if last is None else last.offset_s - clock.offset_s)
             )  # fmt: skip
         return ShowReport(self.show.name, start_s, tuple(parts), stop_sent, stop_reason, called_at)

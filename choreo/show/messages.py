@@ -178,9 +178,9 @@ class Finished:
     reason: str
     ticks_played: int
     ticks_total: int
-    # on an emulated bus, read from the wire; else from the player's schedule: the approach's
-    # deadline plus the lateness it measured, the part's deadline
+    # read from the performer's clock when the START's bytes were written, on every transport
     approach_start_s: float | None  # the first START of the approach into the first pose
     first_start_s: float | None  # the first START of the part itself (its motion's t=0)
     stop_s: float | None  # its MOVE_STOP on the wire (emulated bus), if it stopped
     lateness_p99_ms: float
+    first_start_late_ms: float | None = None  # written after it was due (negative: before)

@@ -400,31 +400,26 @@ class Performer:
         wall_to_clock_s: float,
         wire: WireTrace | None,
     ) -> Finished:
-        """How the part ended; on an emulated bus (``wire``), its STARTs and STOP as the wire
-        saw them."""
+        """How the part ended: its STARTs as this computer's clock read them when their bytes
+        were written (any transport), and on an emulated bus (``wire``) its MOVE_STOP."""
         outcome, reason = PartOutcome(report.outcome.value), report.reason
         if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
             outcome, reason = PartOutcome.STOPPED, self.stop_reason
-        first_start = report.start_time_s + staged.performance.approach_s
-        approach_start = report.start_time_s + (
-            report.lateness_ms[0] / 1000 if report.lateness_ms else 0
-        )
-        stop = None
-        if wire is not None:
-            starts = wire.start_times_s(report.start_time_s)
-            approach_start = starts[0] if starts else approach_start
-            first_start = next((s for s in starts if s >= first_start - START_SLACK_S), first_start)
-            stop = wire.last_stop_s(began_s)
+        part_due_s = report.start_time_s + staged.performance.approach_s  # the motion's t=0
+        starts = report.start_times
+        first = next((s for s in starts if s.deadline_s >= part_due_s - START_SLACK_S), None)
+        stop = wire.last_stop_s(began_s) if wire is not None else None
         return Finished(
             self.name,
             outcome,
             reason,
             report.ticks_played,
             report.ticks_total,
-            approach_start - wall_to_clock_s if report.ticks_played else None,
-            first_start - wall_to_clock_s if report.ticks_played else None,
+            starts[0].written_s - wall_to_clock_s if starts else None,
+            first.written_s - wall_to_clock_s if first else None,
             None if stop is None else stop - wall_to_clock_s,
             report.lateness_percentile_ms(99),
+            first.late_ms if first else None,
         )
 
     def _release(self, staged: _Staged, *, stop: bool) -> None:
