@@ -179,7 +179,7 @@ TESTED_IN = {
     "show/names.py": ("show/test_names.py",),
     "show/network.py": ("show/test_network.py", "test_show.py", "test_show_cli.py"),
     "show/performer.py": ("show/test_performer.py", "test_show.py", "test_show_cli.py"),
-    "show/showfile.py": ("test_show.py", "test_show_cli.py"),
+    "show/showfile.py": ("show/test_showfile.py", "test_show.py", "test_show_cli.py"),
     "show/staging.py": ("test_show.py", "test_show_cli.py"),
     "show/ticket.py": ("show/test_ticket.py",),
     "studio/address.py": ("test_studio.py", "test_studio_browser.py"),

@@ -11,6 +11,8 @@ import enum
 from dataclasses import dataclass
 from pathlib import Path
 
+import yaml
+
 from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, parse_yaml_file
 from choreo.errors import SourceError
@@ -21,6 +23,7 @@ SHOW = mapping_shape("show")
 MUSIC = mapping_shape("show", "#/properties/music")
 PERFORMER = mapping_shape("show", "#/$defs/performer")
 DEFAULT_MAX_CLOCK_OFFSET_MS = 2.0
+MAX_OFFSET_S = 3600.0  # a part starting later than this after the show's instant is a typo
 
 
 class OnAbort(enum.Enum):
@@ -53,6 +56,17 @@ class Show:
     music: ShowMusic | None = None
     on_abort: OnAbort = OnAbort.STOP
     max_clock_offset_s: float = DEFAULT_MAX_CLOCK_OFFSET_MS / 1000
+
+
+def is_show_file(path: Path) -> bool:
+    """Whether ``path`` holds a show (a mapping with ``performers``) rather than a motion."""
+    try:
+        root = parse_yaml_file(path)
+    except SourceError:
+        return False  # reported when it is read as a motion
+    return isinstance(root, yaml.MappingNode) and any(
+        k.value == "performers" for k, _ in root.value
+    )
 
 
 def load_show(path: str | Path) -> Show:
@@ -162,6 +176,12 @@ def _read_part(reader: Reader, item: Node, music: ShowMusic | None) -> Part | No
             f"motion: {motion} does not exist (paths are relative to this file's folder)",
         )
         motion = None
+    elif motion is not None and is_show_file(motion):
+        reader.report(
+            fields["motion"].value,
+            f"motion: {motion} is a show file, not a motion; a performer dances a motion file",
+        )
+        motion = None
     offset_s = _read_offset(reader, item, fields, music)
     if name is None or motion is None or offset_s is None:
         return None
@@ -175,7 +195,7 @@ def _read_offset(
         reader.report(item, "give at most one of offset_s and offset_beats")
         return None
     if "offset_s" in fields:
-        return reader.number(fields["offset_s"].value, "offset_s", low=0)
+        return reader.number(fields["offset_s"].value, "offset_s", low=0, high=MAX_OFFSET_S)
     if "offset_beats" not in fields:
         return 0.0
     beats = reader.number(fields["offset_beats"].value, "offset_beats", low=0)
@@ -186,4 +206,14 @@ def _read_offset(
             "or write the offset in seconds (offset_s)",
         )
         return None
-    return None if beats is None or music is None or music.bpm is None else beats * 60 / music.bpm
+    if beats is None or music is None or music.bpm is None:
+        return None
+    offset_s = beats * 60 / music.bpm
+    if offset_s > MAX_OFFSET_S:  # inf too, from a huge number of beats
+        reader.report(
+            fields["offset_beats"].value,
+            f"offset_beats {beats:g} at {music.bpm:g} BPM starts the part {offset_s:g} s after "
+            f"the show's instant; the most is {MAX_OFFSET_S:g} s",
+        )
+        return None
+    return offset_s
