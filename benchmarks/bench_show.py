@@ -113,7 +113,7 @@ def show_file(folder: Path, n: int, motion: Path) -> Path:
 
 def conduct(show: Path, endpoints: list[str], report: Path) -> Choreo:
     connects = [a for e in endpoints for a in ("--connect", e)]
-    return Choreo("show", str(show), "--no-audio", "--report", str(report), *connects)
+    return Choreo("show", str(show), "--no-audio", "--go", "--report", str(report), *connects)
 
 
 def spread_runs(n: int, runs: int, folder: Path) -> None:

@@ -32,11 +32,12 @@ def free_port() -> int:
 class Process:
     """A choreo command in the background, its stderr collected line by line."""
 
-    def __init__(self, *args: str):
+    def __init__(self, *args: str, stdin: int | None = subprocess.DEVNULL):
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "choreo", *args],
             cwd=ROOT,
             env={**os.environ, "PYTHONPATH": str(ROOT)},
+            stdin=stdin,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -110,7 +111,7 @@ def performers():
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    return Process("show", str(SHOWS / show), "--no-audio", *connects, *extra)
+    return Process("show", str(SHOWS / show), "--no-audio", "--go", *connects, *extra)
 
 
 def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
@@ -384,3 +385,48 @@ def test_a_zenoh_configuration_that_cannot_be_used_is_one_line(tmp_path, capsys)
     err = capsys.readouterr().err
     assert err.startswith(f"choreo: error: --zenoh-config {bad} is not a Zenoh configuration")
     assert err.count("\n") == 1 and ".rs:" not in err
+
+
+def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(tmp_path):
+    for name, pose in (("a.yaml", "nowhere"), ("b.yaml", "elsewhere")):
+        (tmp_path / name).write_text(f"robot: arm6\nkeyframes:\n  - pose: {pose}\n")
+    show = tmp_path / "show.yaml"
+    show.write_text("performers:\n  - {name: a, motion: a.yaml}\n  - {name: b, motion: b.yaml}\n")
+    code, err = Process("show", str(show), "--no-audio", "--go", "--wait", "30").finish()
+    assert code == 1
+    lines = err.splitlines()
+    assert lines[0] == "choreo: error: refusing to start the show: 2 problem(s) in its files:"
+    assert lines[1].startswith(f"  {tmp_path / 'a.yaml'}:3:")
+    assert lines[2].startswith(f"  {tmp_path / 'b.yaml'}:3:")
+    assert "did not appear" not in err
+
+
+def test_the_show_is_armed_shown_and_started_on_enter(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    show = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
+    show.wait_for("press Enter for GO")
+    assert not any("playing" in line for p, _ in performers.started.values() for line in p.lines)
+    assert show.proc.stdin is not None
+    show.proc.stdin.write("\n")
+    show.proc.stdin.flush()
+    code, err = show.finish()
+    assert code == 0, err
+    table = err[: err.index("every performer took the start")]
+    for name in ("left", "right"):
+        assert re.search(rf"{name}\s.*arm6\s.*ok\s.*ms (ahead|behind)\s.*passed", table), table
+    assert "the show begins in 1 s" in err  # the countdown's last second
+
+
+def test_without_enter_nothing_plays_and_every_part_is_dropped(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    code, err = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects).finish()
+    assert code == 1
+    assert (
+        "choreo: error: no GO: the input ended before Enter; give --go to start without one" in err
+    )
+    for process, _ in performers.started.values():
+        # the stop, or the conductor's token vanishing just after it: whichever comes first
+        process.wait_for("part dropped, servos stopped")
+        assert not any("playing" in line for line in process.lines)

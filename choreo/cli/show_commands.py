@@ -25,6 +25,7 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.core.atomic import check_writable
+from choreo.errors import ChoreoError
 from choreo.music.decode import decode_song
 from choreo.play.report import write_report
 from choreo.play.robot_bus import open_robot_bus
@@ -84,6 +85,12 @@ def register(subparsers) -> None:
         default=10.0,
         metavar="S",
         help="how long to wait for every performer to appear (default 10 s)",
+    )
+    show.add_argument(
+        "--go",
+        action="store_true",
+        help="start as soon as every part is armed (for scripts); without it, the status table "
+        "is shown and the show starts on Enter",
     )
     show.add_argument("--no-audio", action="store_true", help="do not play the show's song")
     show.add_argument("--audio-device", metavar="NAME", help="audio output for the song")
@@ -179,7 +186,14 @@ def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
 # --- choreo show -----------------------------------------------------------------------------
 def run_show(args: argparse.Namespace) -> int:
     from choreo.show.conductor import Conductor, ConductorOptions
+    from choreo.validate import check_file  # plans every motion: only when a show runs
 
+    problems = check_file(args.show, physics=False).problems  # every motion, before any robot
+    if problems:
+        raise ChoreoError(
+            f"refusing to start the show: {len(problems)} problem(s) in its files:\n  "
+            + "\n  ".join(problems)
+        )
     show = load_show(args.show)
     if args.report is not None:
         check_writable(args.report)
@@ -209,8 +223,22 @@ def run_show(args: argparse.Namespace) -> int:
                     at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
                     progress.update(tasks[p.performer], completed=done, at=at)
 
+            def on_armed(armed) -> None:
+                progress.console.print(_status_table(armed))
+                if args.go:
+                    return
+                progress.stop()  # the live bars would write over the prompt
+                try:
+                    _say("armed: press Enter for GO (Ctrl-C calls the show off)")
+                    input()
+                except EOFError:
+                    raise ChoreoError(
+                        "no GO: the input ended before Enter; give --go to start without one"
+                    ) from None
+                progress.start()
+
             conductor = Conductor(network, show, progress.console.print, options)
-            report = conductor.run(on_progress, cue_song)
+            report = conductor.run(on_progress, cue_song, on_armed)
     finally:
         if sink is not None:
             sink.stop()
@@ -220,6 +248,17 @@ def run_show(args: argparse.Namespace) -> int:
     if report.stop_reason == "Ctrl-C at the conductor":
         return 130
     return 0 if report.completed else 1
+
+
+def _status_table(armed) -> Table:
+    table = Table(title="armed")
+    for column in ("performer", "robot", "health", "clock offset", "preflight", "part"):
+        table.add_column(column)
+    for a in armed:
+        health = f"unchecked: {', '.join(a.unchecked)}" if a.unchecked else "ok"
+        part = f"{a.approach_s:.1f} s approach, {a.duration_s:.1f} s part"
+        table.add_row(a.performer, a.robot, health, a.clock.describe(), "passed", part)
+    return table
 
 
 def _open_song(args: argparse.Namespace, show: Show):

@@ -11,6 +11,7 @@ says ``on_abort: stop``, sends one signed stop that every performer hears.
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -95,8 +96,22 @@ class ShowReport:
         return max(starts) - min(starts) if len(starts) == len(self.parts) else None
 
 
+@dataclass(frozen=True)
+class Armed:
+    """One performer's line in the status table shown before GO."""
+
+    performer: str
+    robot: str
+    clock: ClockOffset
+    approach_s: float
+    duration_s: float
+    unchecked: tuple[str, ...]  # what its transport cannot check (preflight passed otherwise)
+
+
 Say = Callable[[str], None]
 OnProgress = Callable[[PartProgress], None]
+# Shown every performer's status once all are staged; returns at GO (raises to call it off).
+OnArmed = Callable[[list[Armed]], None]
 
 
 class Conductor:
@@ -123,15 +138,17 @@ class Conductor:
         self,
         on_progress: OnProgress | None = None,
         cue_song: Callable[[float], None] | None = None,
+        on_armed: OnArmed | None = None,
     ) -> ShowReport:
-        """The whole show; ``cue_song(start_s)`` is called with the instant (wall clock) once
-        every performer has it. Ctrl-C stops every part; the report then says so."""
+        """The whole show; ``on_armed`` (if given) is shown every performer's status once all are
+        staged and returns at GO; ``cue_song(start_s)`` is called with the instant (wall clock)
+        once every performer has it. Ctrl-C stops every part; the report then says so."""
         called_at = time.time()
         self.network.announce(self.key)
         beat = threading.Thread(target=self._beat, daemon=True)
         beat.start()
         try:
-            return self._run(called_at, on_progress, cue_song)
+            return self._run(called_at, on_progress, cue_song, on_armed)
         finally:
             self._beating.set()
             beat.join()
@@ -152,6 +169,7 @@ class Conductor:
         called_at: float,
         on_progress: OnProgress | None,
         cue_song: Callable[[float], None] | None,
+        on_armed: OnArmed | None,
     ) -> ShowReport:
         self.network.subscribe(f"{self.key}/events/*", self._on_finished)
         if on_progress is not None:
@@ -172,6 +190,13 @@ class Conductor:
                 for p in self.show.parts
             )  # fmt: skip
             return ShowReport(self.show.name, 0.0, parts, None, "dry run", called_at)
+        if on_armed is not None:
+            try:
+                on_armed(self.armed(clocks, readiness))
+            except BaseException:  # Ctrl-C, or no GO: every staged part is dropped
+                self.send_stop("the show was called off before GO")
+                raise
+            clocks = self.measure_clocks()  # again: the wait for GO may have been long
         start_s = self.start_instant(readiness)
         interrupted = False
         try:
@@ -183,6 +208,14 @@ class Conductor:
         return self.follow(start_s, clocks, readiness, called_at, interrupted)
 
     # --- before the start ----------------------------------------------------------------------
+    def armed(self, clocks: dict[str, ClockOffset], readiness: dict[str, Readiness]) -> list[Armed]:
+        return [
+            Armed(p.performer, readiness[p.performer].robot, clocks[p.performer],
+                  readiness[p.performer].approach_s, readiness[p.performer].duration_s,
+                  readiness[p.performer].unchecked)
+            for p in self.show.parts
+        ]  # fmt: skip
+
     def wait_for_performers(self) -> None:
         deadline = time.monotonic() + self.options.wait_s
         while True:
@@ -335,6 +368,7 @@ class Conductor:
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
         next_measure = time.monotonic() + REMEASURE_PERIOD_S
+        counted = math.inf  # the countdown's last whole second said
         stop_sent: float | None = None
         stop_reason = ""
         deadline = end_s + FINISH_GRACE_S
@@ -342,6 +376,10 @@ class Conductor:
             try:
                 if interrupted:
                     raise KeyboardInterrupt
+                to_go = math.ceil(start_s - time.time())
+                if 0 < to_go < counted and stop_sent is None:
+                    self.say(f"the show begins in {to_go} s")
+                    counted = to_go
                 if stop_sent is None and time.monotonic() >= next_measure:
                     for name in self.names:
                         if name not in outcomes:
