@@ -169,7 +169,7 @@ def test_a_show_file_reports_every_problem_at_its_line(tmp_path):
         "or write the offset in seconds (offset_s)",
         f"{path}:6:11: on_abort 'maybe' is not one of stop, continue",
         f"{path}:7:1: unknown key 'tempo' in the show; valid keys: name, music, on_abort, "
-        "max_clock_offset_ms, performers",
+        "max_clock_offset_ms, performers, cues",
     ]
 
 
@@ -189,7 +189,7 @@ def test_shipped_shows_match_the_schema():
     validator = jsonschema.Draft202012Validator(schema)
     files = [
         *(REPO / "shows").glob("*.yaml"),
-        *(SHOWS / f for f in ("duo.yaml", "trio.yaml", "duo_continue.yaml")),
+        *(SHOWS / f for f in ("duo.yaml", "trio.yaml", "duo_continue.yaml", "cues.yaml")),
     ]
     for path in files:
         assert list(validator.iter_errors(yaml.safe_load(path.read_text()))) == [], path

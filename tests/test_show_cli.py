@@ -282,13 +282,18 @@ def test_two_performers_of_one_name_are_refused_naming_both(tmp_path):
 
 def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, tmp_path):
     endpoints = performers({"left": ARM, "right": ARM})
-    first = conductor("wave_duo.yaml", endpoints)
-    for process, _ in performers.started.values():
-        process.wait_for("playing")
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    # the first conductor holds both, armed and waiting for its GO
+    first = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
+    first.wait_for("press Enter for GO")
     code, err = conductor("duo.yaml", endpoints).finish()
     assert code == 1, err
     assert "refusing to start the show:" in err
-    assert re.search(r"left on \S+ is busy with show wave-duo-[0-9a-f]{8} \(another conductor", err)
+    for name in ("left", "right"):
+        assert re.search(rf"{name} on \S+ is busy with show duo-[0-9a-f]{{8}} \(another", err), err
+    assert first.proc.stdin is not None
+    first.proc.stdin.write("\n")
+    first.proc.stdin.flush()
     code, err = first.finish()
     assert code == 0, err  # the first show was not disturbed
 
@@ -430,3 +435,22 @@ def test_without_enter_nothing_plays_and_every_part_is_dropped(performers):
         # the stop, or the conductor's token vanishing just after it: whichever comes first
         process.wait_for("part dropped, servos stopped")
         assert not any("playing" in line for line in process.lines)
+
+
+def test_cues_play_one_after_another(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    report_path = tmp_path / "show.json"
+    code, err = conductor("cues.yaml", endpoints, "--report", str(report_path)).finish()
+    assert code == 0, err
+    report = json.loads(report_path.read_text())
+    assert [c["show"] for c in report["cues"]] == ["cues, cue 1 (opening)", "cues, cue 2 (cue 2)"]
+    assert [[p["name"] for p in c["performers"]] for c in report["cues"]] == [
+        ["left"],
+        ["left", "right"],
+    ]
+    assert all(p["outcome"] == "completed" for c in report["cues"] for p in c["performers"])
+    first, second = (c["performers"][0] for c in report["cues"])
+    assert first["first_start_s"] < second["approach_start_s"]  # cue 2 after cue 1 ended
+    left = performers.started["left"][0]
+    left.wait_for("part completed")
+    assert sum("part completed" in line for line in left.lines) == 2

@@ -200,9 +200,12 @@ def run_show(args: argparse.Namespace) -> int:
     options = ConductorOptions(wait_s=args.wait, dry_run=args.dry_run)
     sink, song = (None, None) if args.no_audio or args.dry_run else _open_song(args, show)
 
+    cued: list[float] = []  # with cues, the song starts with the first only
+
     def cue_song(start_s: float) -> None:
-        if sink is not None and song is not None and show.music is not None:
+        if sink is not None and song is not None and show.music is not None and not cued:
             sink.play(song, show.music.start_s, time.monotonic() + start_s - time.time())
+            cued.append(start_s)
 
     console = Console(stderr=True)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[at]}"))
@@ -212,46 +215,55 @@ def run_show(args: argparse.Namespace) -> int:
             _network(args) as network,
             Progress(*columns, console=console) as progress,
         ):
-            tasks = {
-                p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
-                for p in show.parts
-            }
+            reports = []
+            for cue in show.in_cues():  # one after another; a cue that did not complete ends it
+                tasks = {
+                    p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
+                    for p in cue.parts
+                }
 
-            def on_progress(p) -> None:
-                if p.performer in tasks:
-                    done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
-                    at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
-                    progress.update(tasks[p.performer], completed=done, at=at)
+                def on_progress(p, tasks=tasks) -> None:
+                    if p.performer in tasks:
+                        done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
+                        at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
+                        progress.update(tasks[p.performer], completed=done, at=at)
 
-            def on_armed(armed) -> None:
-                progress.console.print(_status_table(armed))
-                if args.go:
-                    return
-                progress.stop()  # the live bars would write over the prompt
-                try:
-                    _say("armed: press Enter for GO (Ctrl-C calls the show off)")
-                    input()
-                except EOFError:
-                    raise ChoreoError(
-                        "no GO: the input ended before Enter; give --go to start without one"
-                    ) from None
-                progress.start()
+                def on_armed(armed, cue=cue) -> None:
+                    progress.console.print(_status_table(cue.name, armed))
+                    if args.go:
+                        return
+                    progress.stop()  # the live bars would write over the prompt
+                    try:
+                        _say("armed: press Enter for GO (Ctrl-C calls the show off)")
+                        input()
+                    except EOFError:
+                        raise ChoreoError(
+                            "no GO: the input ended before Enter; give --go to start without one"
+                        ) from None
+                    progress.start()
 
-            conductor = Conductor(network, show, progress.console.print, options)
-            report = conductor.run(on_progress, cue_song, on_armed)
+                conductor = Conductor(network, cue, progress.console.print, options)
+                reports.append(conductor.run(on_progress, cue_song, on_armed))
+                if not reports[-1].completed:
+                    break
     finally:
         if sink is not None:
             sink.stop()
     if args.report is not None:
-        write_report(args.report, report_document(report))
-    _print_report(report)
-    if report.stop_reason == "Ctrl-C at the conductor":
+        documents = [report_document(report) for report in reports]
+        write_report(
+            args.report,
+            documents[0] if not show.cues else {"show": show.name, "cues": documents},
+        )
+    for report in reports:
+        _print_report(report)
+    if reports[-1].stop_reason == "Ctrl-C at the conductor":
         return 130
-    return 0 if report.completed else 1
+    return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
 
 
-def _status_table(armed) -> Table:
-    table = Table(title="armed")
+def _status_table(title: str, armed) -> Table:
+    table = Table(title=f"{title}: armed")
     for column in ("performer", "robot", "health", "clock offset", "preflight", "part"):
         table.add_column(column)
     for a in armed:

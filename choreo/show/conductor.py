@@ -368,7 +368,7 @@ class Conductor:
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
         next_measure = time.monotonic() + REMEASURE_PERIOD_S
-        counted = math.inf  # the countdown's last whole second said
+        counted = math.ceil(start_s - time.time())  # the countdown's last whole second said
         stop_sent: float | None = None
         stop_reason = ""
         deadline = end_s + FINISH_GRACE_S

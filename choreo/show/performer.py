@@ -114,6 +114,7 @@ class _Staged:
     limits: dict[str, ServoLimits]
     folder: tempfile.TemporaryDirectory
     cancels: list[Callable[[], None]]
+    released: bool = False
 
 
 class Performer:
@@ -383,6 +384,7 @@ class Performer:
         wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
         events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
+        self._release(staged, stop=False)  # free before the conductor hears: its next cue
         self.network.publish(events, encode(finished))
         self.say(
             f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
@@ -423,6 +425,9 @@ class Performer:
         )
 
     def _release(self, staged: _Staged, *, stop: bool) -> None:
+        if staged.released:
+            return
+        staged.released = True
         for cancel in staged.cancels:
             cancel()
         if stop:

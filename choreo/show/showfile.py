@@ -7,6 +7,7 @@ conductor stages them, ``choreo validate`` plans them). The keys come from
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,7 @@ from choreo.show.names import NAME_RULE, is_name
 SHOW = mapping_shape("show")
 MUSIC = mapping_shape("show", "#/properties/music")
 PERFORMER = mapping_shape("show", "#/$defs/performer")
+CUE = mapping_shape("show", "#/$defs/cue")
 DEFAULT_MAX_CLOCK_OFFSET_MS = 2.0
 MAX_OFFSET_S = 3600.0  # a part starting later than this after the show's instant is a typo
 
@@ -49,13 +51,39 @@ class Part:
 
 
 @dataclass(frozen=True)
+class Cue:
+    """Parts started together on one GO, after the cue before it has ended."""
+
+    number: int  # from 1
+    name: str
+    parts: tuple[Part, ...]
+
+
+@dataclass(frozen=True)
 class Show:
     name: str
     path: Path
-    parts: tuple[Part, ...]
+    parts: tuple[Part, ...]  # with cues: every cue's parts, in order
     music: ShowMusic | None = None
     on_abort: OnAbort = OnAbort.STOP
     max_clock_offset_s: float = DEFAULT_MAX_CLOCK_OFFSET_MS / 1000
+    cues: tuple[Cue, ...] = ()
+
+    def in_cues(self) -> list[Show]:
+        """The show as the conductor plays it: one show per cue, in order (the song with the
+        first); a show without cues is its one cue."""
+        if not self.cues:
+            return [self]
+        return [
+            dataclasses.replace(
+                self,
+                name=f"{self.name}, cue {cue.number} ({cue.name})",
+                parts=cue.parts,
+                music=self.music if cue.number == 1 else None,
+                cues=(),
+            )
+            for cue in self.cues
+        ]
 
 
 def is_show_file(path: Path) -> bool:
@@ -65,7 +93,7 @@ def is_show_file(path: Path) -> bool:
     except SourceError:
         return False  # reported when it is read as a motion
     return isinstance(root, yaml.MappingNode) and any(
-        k.value == "performers" for k, _ in root.value
+        k.value in ("performers", "cues") for k, _ in root.value
     )
 
 
@@ -85,7 +113,11 @@ def load_show(path: str | Path) -> Show:
 
 def _read_show(reader: Reader, root: Node) -> Show | None:
     fields = reader.fields(root, "the show", SHOW.keys, SHOW.required)
-    if fields is None or "performers" not in fields:
+    if fields is None:
+        return None
+    if ("performers" in fields) == ("cues" in fields):
+        reader.report(root, "give either performers (played together) or cues (played one "
+                      "after another, each with its performers)")  # fmt: skip
         return None
     music = _read_music(reader, fields["music"]) if "music" in fields else None
     on_abort = (
@@ -102,17 +134,42 @@ def _read_show(reader: Reader, root: Node) -> Show | None:
         else DEFAULT_MAX_CLOCK_OFFSET_MS
     )  # fmt: skip
     name = reader.string(fields["name"].value, "name") if "name" in fields else reader.path.stem
-    parts = _read_parts(reader, fields["performers"], music)
-    if parts is None or max_offset_ms is None or name is None:
+    cues = (
+        _read_cues(reader, fields["cues"], music)
+        if "cues" in fields
+        else (None if (p := _read_parts(reader, fields["performers"], music)) is None
+              else (Cue(1, "", p),))
+    )  # fmt: skip
+    if cues is None or max_offset_ms is None or name is None:
         return None
     return Show(
         name,
         reader.path,
-        parts,
+        tuple(part for cue in cues for part in cue.parts),
         music,
         OnAbort(on_abort) if on_abort else OnAbort.STOP,
         max_offset_ms / 1000,
+        cues if "cues" in fields else (),
     )
+
+
+def _read_cues(reader: Reader, entry: Entry, music: ShowMusic | None) -> tuple[Cue, ...] | None:
+    items = reader.sequence(entry.value, "cues")
+    if items is None:
+        return None
+    if not items:
+        reader.report(entry.value, "cues is empty; give at least one")
+        return None
+    cues = []
+    for number, item in enumerate(items, 1):
+        fields = reader.fields(item, f"cue {number}", CUE.keys, CUE.required)
+        if fields is None or "performers" not in fields:
+            continue
+        name = reader.string(fields["name"].value, "name") if "name" in fields else f"cue {number}"
+        parts = _read_parts(reader, fields["performers"], music)
+        if parts is not None and name is not None:
+            cues.append(Cue(number, name, parts))
+    return tuple(cues) if len(cues) == len(items) else None
 
 
 def _read_music(reader: Reader, entry: Entry) -> ShowMusic | None:

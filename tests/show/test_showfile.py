@@ -64,3 +64,38 @@ def test_offsets_up_to_an_hour_are_taken(tmp_path):
 def test_a_show_file_is_told_from_a_motion():
     assert is_show_file(SHOWS / "duo.yaml")
     assert not is_show_file(SHOWS / "nod.yaml")
+
+
+def test_cues_are_numbered_parts_played_one_after_another():
+    show = load_show(SHOWS / "cues.yaml")
+    assert [(c.number, c.name, [p.performer for p in c.parts]) for c in show.cues] == [
+        (1, "opening", ["left"]),
+        (2, "cue 2", ["left", "right"]),
+    ]
+    assert [p.performer for p in show.parts] == ["left", "left", "right"]  # all validated
+    played = show.in_cues()
+    assert [s.name for s in played] == ["cues, cue 1 (opening)", "cues, cue 2 (cue 2)"]
+    assert [[p.offset_s for p in s.parts] for s in played] == [[0.0], [0.0, 0.25]]
+    assert check_file(SHOWS / "cues.yaml", physics=False).ok
+
+
+def test_a_show_without_cues_is_its_own_one_cue():
+    show = load_show(SHOWS / "duo.yaml")
+    assert show.cues == () and show.in_cues() == [show]
+
+
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("name: x\n", "give either performers (played together) or cues"),
+        (f"performers: [{{name: a, motion: {SHOWS / 'nod.yaml'}}}]\ncues: []\n", "give either"),
+        ("cues: []\n", "cues is empty; give at least one"),
+        ("cues:\n  - {name: one}\n", "cue 1 is missing 'performers'"),
+    ],
+)
+def test_a_show_needs_performers_or_cues(tmp_path, text, problem):
+    path = tmp_path / "show.yaml"
+    path.write_text(text)
+    with pytest.raises(SourceError) as raised:
+        load_show(path)
+    assert any(problem in line for line in raised.value.problems), raised.value.problems
