@@ -5,86 +5,23 @@ scouting), killed and interrupted mid-show. Order and content only: no timing is
 from __future__ import annotations
 
 import json
-import os
 import re
 import signal
 import socket
 import subprocess
-import sys
-import threading
-import time
 from pathlib import Path
 
 import pytest
+from cli_helpers import ChoreoProcess as Process
 
-ROOT = Path(__file__).resolve().parents[1]
 SHOWS = Path(__file__).parent / "data" / "shows"
 ARM = "sim://?ids=1-6"
-WAIT_S = 30.0  # the most any step may take before the test fails (never reached when working)
 
 
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-class Process:
-    """A choreo command in the background, its stderr collected line by line."""
-
-    def __init__(self, *args: str, stdin: int | None = subprocess.DEVNULL):
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "choreo", *args],
-            cwd=ROOT,
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
-            stdin=stdin,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        self.lines: list[str] = []
-        self._out: list[str] = []
-        self._readers = [
-            threading.Thread(target=self._read, args=(self.proc.stderr, self.lines), daemon=True),
-            threading.Thread(target=self._read, args=(self.proc.stdout, self._out), daemon=True),
-        ]
-        for reader in self._readers:
-            reader.start()
-
-    @staticmethod
-    def _read(stream, into: list[str]) -> None:
-        for line in stream:
-            into.append(line.rstrip("\n"))
-
-    def wait_for(self, text: str, stream: str = "stderr") -> str:
-        lines = self.lines if stream == "stderr" else self._out
-        deadline = time.monotonic() + WAIT_S
-        while time.monotonic() < deadline:
-            found = [line for line in lines if text in line]
-            if found:
-                return found[0]
-            if self.proc.poll() is not None and not any(r.is_alive() for r in self._readers):
-                break
-            time.sleep(0.02)
-        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(lines + self._out))
-
-    def finish(self) -> tuple[int, str]:
-        code = self.proc.wait(timeout=WAIT_S)
-        for reader in self._readers:
-            reader.join(timeout=WAIT_S)
-        return code, "\n".join(self.lines)
-
-    @property
-    def stdout(self) -> str:
-        return "\n".join(self._out)
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=WAIT_S)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
 
 
 @pytest.fixture
