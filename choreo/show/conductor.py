@@ -367,7 +367,12 @@ class Conductor:
         )
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
-        next_measure = time.monotonic() + REMEASURE_PERIOD_S
+        # the first measure again once every part's first START is past: the round trips' work
+        # in the performers' Zenoh threads must not sit at the instant the show is measured by
+        last_first_start_s = start_s + max(p.offset_s for p in self.show.parts)
+        next_measure = time.monotonic() + max(
+            REMEASURE_PERIOD_S, last_first_start_s - time.time() + REMEASURE_PERIOD_S / 4
+        )
         counted = math.ceil(start_s - time.time())  # the countdown's last whole second said
         stop_sent: float | None = None
         stop_reason = ""
