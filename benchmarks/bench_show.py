@@ -14,7 +14,9 @@ Printed, for 3 and 8 performers (arm6 on sim://?ids=1-6 each), with the load ave
                         from the kill to the last performer saying it stopped;
   frozen conductor      (SIGSTOP mid-show: its token stays, its heartbeat stops) the same;
                         goal < 500 ms;
-  killed performer      (SIGKILL mid-show) what the conductor reported and the others did.
+  killed performer      (SIGKILL mid-show) what the conductor reported and the others did;
+  TLS against plain     from launching `choreo show` to the first START, mutual TLS (the TLS
+                        tests' certificates) and plain TCP.
 
 Needs the show extra (pip install 'choreo[show]'). Run: python benchmarks/bench_show.py [RUNS]
 """
@@ -89,17 +91,19 @@ class Choreo:
         raise RuntimeError(f"{text!r} never came: {self.err}")
 
 
-def start_performers(n: int) -> tuple[list[Choreo], list[str]]:
+def start_performers(
+    n: int, protocol: str = "tcp", config: tuple[str, ...] = ()
+) -> tuple[list[Choreo], list[str]]:
     performers, endpoints = [], []
     for i in range(n):
         port = free_port()
         performers.append(
             Choreo(
                 "perform", "--name", f"p{i}", "--port", "sim://?ids=1-6",
-                "--listen", f"tcp/127.0.0.1:{port}",
+                "--listen", f"{protocol}/127.0.0.1:{port}", *config,
             )
         )  # fmt: skip
-        endpoints.append(f"tcp/127.0.0.1:{port}")
+        endpoints.append(f"{protocol}/127.0.0.1:{port}")
     for p in performers:
         p.wait_for("waiting for a show", p.out)
     return performers, endpoints
@@ -124,9 +128,44 @@ def show_file(folder: Path, n: int, motion: Path) -> Path:
     return path
 
 
-def conduct(show: Path, endpoints: list[str], report: Path) -> Choreo:
+def conduct(show: Path, endpoints: list[str], report: Path, config: tuple[str, ...] = ()) -> Choreo:
     connects = [a for e in endpoints for a in ("--connect", e)]
-    return Choreo("show", str(show), "--no-audio", "--go", "--report", str(report), *connects)
+    return Choreo(
+        "show", str(show), "--no-audio", "--go", "--report", str(report), *connects, *config
+    )
+
+
+def tls_against_plain(n: int, runs: int, folder: Path) -> None:
+    """Time from launching `choreo show` to the first START, plain TCP and mutual TLS."""
+    sys.path.insert(0, str(ROOT / "tests" / "show"))
+    from show_helpers import make_certificates, tls_config  # the TLS tests' certificates
+
+    certificates = folder / "tls"
+    certificates.mkdir()
+    make_certificates(certificates)
+    performer_config = ("--zenoh-config", str(tls_config(certificates, "performer")))
+    conductor_config = ("--zenoh-config", str(tls_config(certificates, "conductor")))
+    show, report_path = show_file(folder, n, NOD), folder / "tls.json"
+    for protocol, mine, theirs in (
+        ("tcp", (), ()),
+        ("tls", performer_config, conductor_config),
+    ):
+        performers, endpoints = start_performers(n, protocol, mine)
+        to_first = []
+        try:
+            for _ in range(runs):
+                launched = time.time()
+                conductor = conduct(show, endpoints, report_path, theirs)
+                if conductor.proc.wait(timeout=120) != 0:
+                    raise RuntimeError("\n".join(conductor.err))
+                report = json.loads(report_path.read_text())
+                to_first.append(min(p["approach_start_s"] for p in report["performers"]) - launched)
+        finally:
+            stop_all(performers)
+        print(
+            f"{protocol} ({n} performers, {runs} runs): launching `choreo show` to the first "
+            f"START, median {np.median(to_first):.2f} s"
+        )
 
 
 def spread_runs(n: int, runs: int, folder: Path) -> None:
@@ -174,10 +213,12 @@ def stop_fan_out(n: int, folder: Path) -> None:
         report = json.loads(report_path.read_text())
         stops = [p["stop_s"] for p in report["performers"]]
         stopped = sum(s is not None for s in stops)
-        latest = max(s for s in stops if s is not None)
+        latest = max((s for s in stops if s is not None), default=None)
+        outcomes = ", ".join(sorted({p["outcome"] for p in report["performers"]}))
+        took = "none" if latest is None else f"{(latest - sent) * 1000:.1f} ms"
         print(
             f"{n:3d} performers: Ctrl-C at the conductor to the last MOVE_STOP on the wire "
-            f"{(latest - sent) * 1000:.1f} ms (goal < 100 ms); {stopped}/{n} buses stopped"
+            f"{took} (goal < 100 ms); {stopped}/{n} buses stopped ({outcomes})"
         )
     finally:
         stop_all(performers)
@@ -241,6 +282,7 @@ def main() -> None:
         lose_conductor(3, Path(folder), "killed")
         lose_conductor(3, Path(folder), "frozen")
         killed(3, Path(folder))
+        tls_against_plain(3, runs, Path(folder))
     print(f"load average after: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
 
 

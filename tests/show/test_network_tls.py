@@ -4,53 +4,16 @@ stages, starts and stops; sessions without one can do none of it."""
 
 from __future__ import annotations
 
-import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
-from show_helpers import Caller, Stage, eventually
+from show_helpers import Caller, Stage, eventually, make_certificates, tls_config
 
 from choreo.show.network import Network
 
 pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
 NO_ANSWER_S = 2.0  # how long a stranger's question waits before it counts as unanswered
-
-
-def openssl(*args: str, cwd: Path) -> None:
-    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)
-
-
-def make_certificates(folder: Path) -> None:
-    """A CA, and a certificate it signed for the performer (localhost) and for the conductor."""
-    openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=show CA",
-            "-keyout", "ca.key", "-out", "ca.pem", cwd=folder)  # fmt: skip
-    for who in ("performer", "conductor"):
-        openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={who}",
-                "-keyout", f"{who}.key", "-out", f"{who}.csr", cwd=folder)  # fmt: skip
-        (folder / f"{who}.ext").write_text("subjectAltName=DNS:localhost,IP:127.0.0.1\n")
-        openssl("x509", "-req", "-in", f"{who}.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
-                "-CAcreateserial", "-days", "1", "-extfile", f"{who}.ext",
-                "-out", f"{who}.pem", cwd=folder)  # fmt: skip
-
-
-def tls_config(
-    folder: Path, who: str | None, *, mutual: bool = True, trusting: Path | None = None
-) -> Path:
-    """A Zenoh configuration trusting the CA in ``trusting`` (default ``folder``), presenting
-    ``who``'s certificate from ``folder`` (None: none), asking for the other side's with
-    ``mutual``."""
-    tls: dict[str, object] = {"root_ca_certificate": str((trusting or folder) / "ca.pem")}
-    if mutual:
-        tls["enable_mtls"] = True
-    if who is not None:
-        for side in ("listen", "connect"):
-            tls[f"{side}_private_key"] = str(folder / f"{who}.key")
-            tls[f"{side}_certificate"] = str(folder / f"{who}.pem")
-    path = folder / f"{who or 'stranger'}-{mutual}.json5"
-    path.write_text(json.dumps({"transport": {"link": {"tls": tls}}}))
-    return path
 
 
 @pytest.fixture(scope="module")
