@@ -123,14 +123,16 @@ def openssl(*args: str, cwd: Path) -> None:
     subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)
 
 
-def make_certificates(folder: Path) -> None:
-    """A CA, and a certificate it signed for the performer (localhost) and for the conductor."""
+def make_certificates(folder: Path, addresses: tuple[str, ...] = ()) -> None:
+    """A CA, and a certificate it signed for the performer and for the conductor, each valid
+    for localhost, 127.0.0.1 and ``addresses``."""
     openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=show CA",
             "-keyout", "ca.key", "-out", "ca.pem", cwd=folder)  # fmt: skip
     for who in ("performer", "conductor"):
         openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={who}",
                 "-keyout", f"{who}.key", "-out", f"{who}.csr", cwd=folder)  # fmt: skip
-        (folder / f"{who}.ext").write_text("subjectAltName=DNS:localhost,IP:127.0.0.1\n")
+        names = ",".join(["DNS:localhost", "IP:127.0.0.1", *(f"IP:{a}" for a in addresses)])
+        (folder / f"{who}.ext").write_text(f"subjectAltName={names}\n")
         openssl("x509", "-req", "-in", f"{who}.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
                 "-CAcreateserial", "-days", "1", "-extfile", f"{who}.ext",
                 "-out", f"{who}.pem", cwd=folder)  # fmt: skip

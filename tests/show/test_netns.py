@@ -1,8 +1,8 @@
 """A show as several computers: the conductor and a performer each in their own network
 namespace, joined by a veth pair with private test addresses (10.203.x.0/24), made and removed
-here (needs root: `ip netns`). Covered: scouting, explicit endpoints, and a partition (the link
-taken down mid-show), which must stop the robot within the heartbeat's bound. Order and content
-only."""
+here (needs root: `ip netns`). Covered: scouting, explicit endpoints, mutual TLS, and a partition
+(the link taken down mid-show), which must stop the robot within the heartbeat's bound. Order and
+content only."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from cli_helpers import ChoreoProcess
+from show_helpers import make_certificates, tls_config
 
 SHOWS = Path(__file__).resolve().parents[1] / "data" / "shows"
 ARM = "sim://?ids=1-6"
@@ -148,5 +149,39 @@ def test_a_partition_mid_show_stops_the_robot(lan, tmp_path):
         assert left.wait_for("emulated bus:").endswith("every servo stopped")
         show.proc.kill()
         show.finish()
+    finally:
+        stop(left)
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
+def test_over_mutual_tls_only_the_conductor_with_its_certificate_finds_the_performer(lan, tmp_path):
+    conductor, performer = lan
+    certificates = tmp_path / "tls"
+    certificates.mkdir()
+    make_certificates(certificates, (performer.address, conductor.address))
+    endpoint = f"tls/{performer.address}:7447"
+    left = performer.run(
+        "perform", "--name", "left", "--port", ARM, "--listen", endpoint,
+        "--zenoh-config", str(tls_config(certificates, "performer")),
+    )  # fmt: skip
+    try:
+        left.wait_for("waiting for a show", stream="stdout")
+        # mutual TLS on its only link: no warning about the network
+        assert not any("warning" in line for line in left.lines)
+        show = solo_show(tmp_path, SHOWS / "nod.yaml")
+        stranger = conductor.run(
+            "show", str(show), "--no-audio", "--go", "--wait", "2", "--connect", endpoint,
+            "--zenoh-config", str(tls_config(certificates, None, mutual=False)),
+        )  # fmt: skip
+        code, err = stranger.finish()
+        assert code == 1 and "1 performer(s) did not appear within 2 s: left" in err, err
+        ok = conductor.run(
+            "show", str(show), "--no-audio", "--go", "--connect", endpoint,
+            "--zenoh-config", str(tls_config(certificates, "conductor")),
+        )  # fmt: skip
+        code, err = ok.finish()
+        assert code == 0, err
+        left.wait_for("left: part completed")
+        assert sum("staged" in line for line in left.lines) == 1  # the stranger staged nothing
     finally:
         stop(left)
