@@ -69,7 +69,7 @@ WAIT_STEP_S = 0.1  # how often the idle loop looks at the stop flag
 # (choreo.show.conductor): 0.4 s is four beats lost in a row, and the watchdog looks every
 # WATCHDOG_PERIOD_S, so the servos stop within half a second of the last beat.
 DEFAULT_MAX_SILENCE_S = 0.4
-WATCHDOG_PERIOD_S = 0.02
+WATCHDOG_PERIOD_S = 0.05  # few wake-ups beside the player: 400 + 50 ms stays under 500
 
 OpenBus = Callable[[Robot], ServoBus]
 
