@@ -341,6 +341,27 @@ class Conductor:
         )
 
     # --- during the show -----------------------------------------------------------------------
+    def _measure_again(
+        self,
+        start_s: float,
+        outcomes: dict[str, object],
+        later: dict[str, ClockOffset],
+        done: threading.Event,
+    ) -> None:
+        """Each playing performer's clock measured again every REMEASURE_PERIOD_S, into
+        ``later``, until ``done`` (its own thread: the main one stays where Ctrl-C reaches it).
+        The first time once every part's first START is past, so the round trips' work in the
+        performers' Zenoh threads never sits at the instant the spread is measured by."""
+        last_first_start_s = start_s + max(p.offset_s for p in self.show.parts)
+        wait_s = max(REMEASURE_PERIOD_S, last_first_start_s - time.time() + REMEASURE_PERIOD_S / 4)
+        while not done.wait(wait_s):
+            for name in self.names:
+                if name not in outcomes and not done.is_set():
+                    offset = self.measure_clock(name, REMEASURE_ROUND_TRIPS)
+                    if offset is not None:  # unanswered: its part's end will tell
+                        later[name] = offset
+            wait_s = REMEASURE_PERIOD_S
+
     def _on_finished(self, _key: str, payload: bytes) -> None:
         self.events.put(("finished", decode(Finished, payload)))
 
@@ -367,12 +388,11 @@ class Conductor:
         )
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
-        # the first measure again once every part's first START is past: the round trips' work
-        # in the performers' Zenoh threads must not sit at the instant the show is measured by
-        last_first_start_s = start_s + max(p.offset_s for p in self.show.parts)
-        next_measure = time.monotonic() + max(
-            REMEASURE_PERIOD_S, last_first_start_s - time.time() + REMEASURE_PERIOD_S / 4
+        done = threading.Event()
+        watcher = threading.Thread(
+            target=self._measure_again, args=(start_s, outcomes, later, done), daemon=True
         )
+        watcher.start()
         counted = math.ceil(start_s - time.time())  # the countdown's last whole second said
         stop_sent: float | None = None
         stop_reason = ""
@@ -385,18 +405,12 @@ class Conductor:
                 if 0 < to_go < counted and stop_sent is None:
                     self.say(f"the show begins in {to_go} s")
                     counted = to_go
-                if stop_sent is None and time.monotonic() >= next_measure:
-                    for name in self.names:
-                        if name not in outcomes:
-                            offset = self.measure_clock(name, REMEASURE_ROUND_TRIPS)
-                            if offset is not None:  # unanswered: its part's end will tell
-                                later[name] = offset
-                    next_measure = time.monotonic() + REMEASURE_PERIOD_S
                 kind, what = self.events.get(timeout=0.1)
             except queue.Empty:
                 continue
             except KeyboardInterrupt:
                 interrupted = False
+                done.set()  # no more round trips: the stop goes first
                 stop_reason = "Ctrl-C at the conductor"
                 stop_sent = self.send_stop(stop_reason)
                 self.say(f"{stop_reason}: stopping every performer")
@@ -415,8 +429,11 @@ class Conductor:
                 continue
             if failed and stop_sent is None and self.show.on_abort is OnAbort.STOP:
                 stop_reason = f"{failed} aborted or was lost (on_abort: stop)"
+                done.set()
                 stop_sent = self.send_stop(stop_reason)
                 deadline = min(deadline, time.time() + STOP_REPLIES_S)
+        done.set()
+        watcher.join()
         parts = []
         for part in self.show.parts:
             outcome, reason, finished = outcomes.get(
