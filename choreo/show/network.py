@@ -17,9 +17,11 @@ import json
 import logging
 import os
 import re
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 from choreo.errors import ChoreoError, OptionError
 from choreo.show.names import check_name
@@ -30,6 +32,7 @@ except ImportError:  # pragma: no cover - depends on the installed extras
     zenoh = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 ROOT = "choreo"
 DEFAULT_REALM = "default"
@@ -164,16 +167,23 @@ class Network:
     def ask_each(self, key: str, timeout_s: float) -> list[bytes]:
         """Every reply to one query on ``key``, from every queryable there (two performers that
         took one name both answer)."""
-        replies = self._session.get(
-            key,
-            timeout=timeout_s,
-            target=zenoh.QueryTarget.ALL,
-            consolidation=zenoh.ConsolidationMode.NONE,
-        )
-        return [reply.ok.payload.to_bytes() for reply in replies if reply.ok is not None]
+
+        def replies() -> list[bytes]:
+            got = self._session.get(
+                key,
+                timeout=timeout_s,
+                target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.ConsolidationMode.NONE,
+            )
+            return [reply.ok.payload.to_bytes() for reply in got if reply.ok is not None]
+
+        return _interruptible(replies)
 
     def ask_all(self, requests: dict[str, bytes], timeout_s: float) -> dict[str, bytes | None]:
         """One query per key at once; each key's first reply (None: none in time)."""
+        return _interruptible(lambda: self._ask_all(requests, timeout_s))
+
+    def _ask_all(self, requests: dict[str, bytes], timeout_s: float) -> dict[str, bytes | None]:
         pending = {
             key: self._session.get(key, payload=payload, timeout=timeout_s)
             for key, payload in requests.items()
@@ -220,8 +230,35 @@ class Network:
 
     def alive(self, key: str, timeout_s: float = 1.0) -> list[str]:
         """The keys of the liveliness tokens matching ``key`` now."""
-        replies = self._session.liveliness().get(key, timeout=timeout_s)
-        return [str(reply.ok.key_expr) for reply in replies if reply.ok is not None]
+
+        def keys() -> list[str]:
+            replies = self._session.liveliness().get(key, timeout=timeout_s)
+            return [str(reply.ok.key_expr) for reply in replies if reply.ok is not None]
+
+        return _interruptible(keys)
+
+
+def _interruptible(call: Callable[[], T]) -> T:
+    """``call()`` in a thread of its own while this one waits in Python. A Ctrl-C that arrives
+    while Zenoh waits for replies is lost inside it (the benchmark's Ctrl-C was, mid-show);
+    here it reaches the caller. (Clock round trips call Zenoh directly: a thread would lengthen
+    one leg only.)"""
+    result: list[T] = []
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            result.append(call())
+        except BaseException as error:  # handed to the caller, whatever it is
+            failure.append(error)
+
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+    if failure:
+        raise failure[0]
+    return result[0]
 
 
 def _reason(error: Exception) -> str:

@@ -131,3 +131,20 @@ def test_a_session_reachable_from_outside_without_authentication_is_warned(setti
     assert (warning is not None) is warned
     if warning:
         assert "\n" not in warning and "docs/shows.md" in warning
+
+
+def test_a_wait_on_zenoh_still_hears_ctrl_c_and_passes_results_and_errors_through():
+    import os
+    import signal
+    import threading
+
+    from choreo.show.network import _interruptible
+
+    assert _interruptible(lambda: 42) == 42
+    with pytest.raises(ValueError, match="inside"):
+        _interruptible(lambda: (_ for _ in ()).throw(ValueError("inside")))
+    released = threading.Event()
+    threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        _interruptible(lambda: released.wait(30))  # a call that would not return for 30 s
+    released.set()
