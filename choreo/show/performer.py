@@ -383,12 +383,12 @@ class Performer:
         )
         wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
-        events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
-        self._release(staged, stop=False)  # free before the conductor hears: its next cue
-        self.network.publish(events, encode(finished))
         self.say(
             f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
         )
+        events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
+        self._release(staged, stop=False)  # free before the conductor hears: its next cue
+        self.network.publish(events, encode(finished))
         if wire is not None:
             self.say(wire_summary(wire, began_s))
         if report.outcome is Outcome.INTERRUPTED:
