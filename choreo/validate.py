@@ -12,16 +12,13 @@ import bisect
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
-from choreo.core.yaml_source import parse_yaml_file
 from choreo.errors import PlanningError, SourceError
 from choreo.motion.motion_file import Motion, load_motion
 from choreo.motion.music_block import past_song
 from choreo.plan.pipeline import compile_motion
 from choreo.robot.lookup import ROBOT_FILE
 from choreo.robot.robot_file import load_robot
-from choreo.show.showfile import load_show
+from choreo.show.showfile import is_show_file, load_show
 
 
 @dataclass(frozen=True)
@@ -64,16 +61,6 @@ def check_file(
         return FileCheck(path, supply, warnings=stretched)
     found = _physics_check(path, motion, compiled.trajectory.keyframe_times_s, stretch)
     return FileCheck(path, supply + found.problems, stretched + found.warnings)
-
-
-def is_show_file(path: Path) -> bool:
-    try:
-        root = parse_yaml_file(path)
-    except SourceError:
-        return False  # reported when it is read as a motion
-    return isinstance(root, yaml.MappingNode) and any(
-        k.value == "performers" for k, _ in root.value
-    )
 
 
 def _check_show(path: Path, *, physics: bool, stretch: bool) -> FileCheck:

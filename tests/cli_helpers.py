@@ -3,9 +3,13 @@ argparse's refusal, a small motion file, a `choreo` subprocess."""
 
 from __future__ import annotations
 
+import os
+import signal
 import struct
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -14,6 +18,7 @@ from paths import REPO
 from choreo.cli import main
 
 WAVE = REPO / "motions" / "arm6" / "wave.yaml"
+PROCESS_WAIT_S = 60.0  # the most a ChoreoProcess step may take (never reached when working)
 
 
 def motion_file(tmp_path: Path, keyframes: str, *, name: str = "m.yaml", head: str = "") -> Path:
@@ -85,3 +90,64 @@ def mirror(source: Path, out: Path) -> Path:
 
 
 PREVIEW_MOTIONS = Path("tests/data/preview/motions")
+
+
+class ChoreoProcess:
+    """A choreo command in the background, its stdout and stderr collected line by line;
+    ``prefix`` runs it through another command (``ip netns exec NS``)."""
+
+    def __init__(
+        self, *args: str, stdin: int | None = subprocess.DEVNULL, prefix: tuple[str, ...] = ()
+    ):
+        self.proc = subprocess.Popen(
+            [*prefix, sys.executable, "-m", "choreo", *args],
+            cwd=REPO,
+            env={**os.environ, "PYTHONPATH": str(REPO)},
+            stdin=stdin,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.lines: list[str] = []
+        self._out: list[str] = []
+        self._readers = [
+            threading.Thread(target=self._read, args=(self.proc.stderr, self.lines), daemon=True),
+            threading.Thread(target=self._read, args=(self.proc.stdout, self._out), daemon=True),
+        ]
+        for reader in self._readers:
+            reader.start()
+
+    @staticmethod
+    def _read(stream, into: list[str]) -> None:
+        for line in stream:
+            into.append(line.rstrip("\n"))
+
+    def wait_for(self, text: str, stream: str = "stderr") -> str:
+        lines = self.lines if stream == "stderr" else self._out
+        deadline = time.monotonic() + PROCESS_WAIT_S
+        while time.monotonic() < deadline:
+            found = [line for line in lines if text in line]
+            if found:
+                return found[0]
+            if self.proc.poll() is not None and not any(r.is_alive() for r in self._readers):
+                break
+            time.sleep(0.02)
+        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(lines + self._out))
+
+    def finish(self) -> tuple[int, str]:
+        code = self.proc.wait(timeout=PROCESS_WAIT_S)
+        for reader in self._readers:
+            reader.join(timeout=PROCESS_WAIT_S)
+        return code, "\n".join(self.lines)
+
+    @property
+    def stdout(self) -> str:
+        return "\n".join(self._out)
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=PROCESS_WAIT_S)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()

@@ -7,7 +7,6 @@ without it.
 from __future__ import annotations
 
 import argparse
-import re
 import socket
 import sys
 import time
@@ -26,14 +25,17 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.core.atomic import check_writable
+from choreo.errors import ChoreoError
 from choreo.music.decode import decode_song
 from choreo.play.report import write_report
 from choreo.play.robot_bus import open_robot_bus
 from choreo.play.soundtrack import OUTPUT_RATE_HZ, NoAudioOutput, SoundDeviceSink
 from choreo.robot.types import Robot
-from choreo.show.showfile import NAME, Show, load_show
+from choreo.show.names import NAME_RULE, is_name, name_from
+from choreo.show.showfile import Show, load_show
 
 MAX_WAIT_S = 3600.0
+DEFAULT_MAX_SILENCE_MS = 400.0  # choreo.show.performer.DEFAULT_MAX_SILENCE_S, without zenoh
 
 
 def register(subparsers) -> None:
@@ -48,6 +50,14 @@ def register(subparsers) -> None:
         "--name",
         type=performer_name,
         help="the name the show file gives this robot (default: the host name)",
+    )
+    perform.add_argument(
+        "--max-silence-ms",
+        type=float_in(0, 60_000, " ms"),
+        default=DEFAULT_MAX_SILENCE_MS,
+        metavar="MS",
+        help="stop the servos when the conductor's heartbeat (every 100 ms) has been silent this "
+        f"long (default {DEFAULT_MAX_SILENCE_MS:g} ms)",
     )
     add_port_arguments(perform)
     add_network_arguments(perform)
@@ -76,6 +86,12 @@ def register(subparsers) -> None:
         metavar="S",
         help="how long to wait for every performer to appear (default 10 s)",
     )
+    show.add_argument(
+        "--go",
+        action="store_true",
+        help="start as soon as every part is armed (for scripts); without it, the status table "
+        "is shown and the show starts on Enter",
+    )
     show.add_argument("--no-audio", action="store_true", help="do not play the show's song")
     show.add_argument("--audio-device", metavar="NAME", help="audio output for the song")
     add_network_arguments(show)
@@ -83,16 +99,29 @@ def register(subparsers) -> None:
 
 
 def performer_name(text: str) -> str:
-    if not NAME.fullmatch(text):
-        raise argparse.ArgumentTypeError(
-            f"a performer name has only letters, digits, _ and -, got {text!r}"
-        )
+    if not is_name(text):
+        raise argparse.ArgumentTypeError(f"a name has only {NAME_RULE}, got {text!r}")
     return text
 
 
 def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     network = parser.add_argument_group(
         "network (default: find each other by multicast scouting on the LAN)"
+    )
+    network.add_argument(
+        "--zenoh-config",
+        type=Path,
+        metavar="FILE",
+        help="Zenoh's configuration file (JSON5): mode, TLS, user/password, access control "
+        "(default: $ZENOH_CONFIG, else a peer with Zenoh's defaults); see docs/shows.md",
+    )
+    network.add_argument(
+        "--realm",
+        type=performer_name,
+        default="default",
+        metavar="NAME",
+        help="the show's realm: conductor and performers of one realm only hear each other, so "
+        "two shows on one network never mix (default: default)",
     )
     network.add_argument(
         "--listen",
@@ -118,22 +147,33 @@ def _say(text: str) -> None:
 
 # --- choreo perform --------------------------------------------------------------------------
 def run_perform(args: argparse.Namespace) -> int:
-    from choreo.show.network import Network  # zenoh: only when a show command runs
     from choreo.show.performer import Performer
 
-    name = args.name or re.sub(r"[^A-Za-z0-9_-]", "-", socket.gethostname().split(".")[0])
-    transport = bus_settings(args).port or "the robot file's port, else an emulated bus"
-    with stop_signals_as_ctrl_c(), Network(args.listen, args.connect) as network:
+    name = args.name or name_from(socket.gethostname().split(".")[0])
+    port = bus_settings(args).port
+    if port is not None:  # a port that does not open is found now, not at the show
+        ServoBus(port).close()
+    transport = port or "the robot file's port, else an emulated bus"
+    with stop_signals_as_ctrl_c(), _network(args) as network:
+        if network.exposure:
+            _say(f"choreo: warning: {network.exposure}")
         performer = Performer(
             network,
             name,
             lambda robot: _open_bus(args, robot),
             transport,
             lambda text: _say(f"{name}: {text}"),
+            args.max_silence_ms / 1000,
         )
         print(f"performing as {name} on {transport}: waiting for a show", flush=True)
         performer.serve_forever()
     return 0
+
+
+def _network(args: argparse.Namespace):
+    from choreo.show.network import Network
+
+    return Network(args.listen, args.connect, zenoh_config=args.zenoh_config, realm=args.realm)
 
 
 def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
@@ -146,47 +186,91 @@ def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
 # --- choreo show -----------------------------------------------------------------------------
 def run_show(args: argparse.Namespace) -> int:
     from choreo.show.conductor import Conductor, ConductorOptions
-    from choreo.show.network import Network
+    from choreo.validate import check_file  # plans every motion: only when a show runs
 
+    problems = check_file(args.show, physics=False).problems  # every motion, before any robot
+    if problems:
+        raise ChoreoError(
+            f"refusing to start the show: {len(problems)} problem(s) in its files:\n  "
+            + "\n  ".join(problems)
+        )
     show = load_show(args.show)
     if args.report is not None:
         check_writable(args.report)
     options = ConductorOptions(wait_s=args.wait, dry_run=args.dry_run)
     sink, song = (None, None) if args.no_audio or args.dry_run else _open_song(args, show)
 
+    cued: list[float] = []  # with cues, the song starts with the first only
+
     def cue_song(start_s: float) -> None:
-        if sink is not None and song is not None and show.music is not None:
+        if sink is not None and song is not None and show.music is not None and not cued:
             sink.play(song, show.music.start_s, time.monotonic() + start_s - time.time())
+            cued.append(start_s)
 
     console = Console(stderr=True)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[at]}"))
     try:
         with (
-            Network(args.listen, args.connect) as network,
+            stop_signals_as_ctrl_c(),  # SIGTERM is Ctrl-C: every performer stops, a report
+            _network(args) as network,
             Progress(*columns, console=console) as progress,
         ):
-            tasks = {
-                p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
-                for p in show.parts
-            }
+            reports = []
+            for cue in show.in_cues():  # one after another; a cue that did not complete ends it
+                tasks = {
+                    p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
+                    for p in cue.parts
+                }
 
-            def on_progress(p) -> None:
-                if p.performer in tasks:
-                    done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
-                    at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
-                    progress.update(tasks[p.performer], completed=done, at=at)
+                def on_progress(p, tasks=tasks) -> None:
+                    if p.performer in tasks:
+                        done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
+                        at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
+                        progress.update(tasks[p.performer], completed=done, at=at)
 
-            conductor = Conductor(network, show, progress.console.print, options)
-            report = conductor.run(on_progress, cue_song)
+                def on_armed(armed, cue=cue) -> None:
+                    progress.console.print(_status_table(cue.name, armed))
+                    if args.go:
+                        return
+                    progress.stop()  # the live bars would write over the prompt
+                    try:
+                        _say("armed: press Enter for GO (Ctrl-C calls the show off)")
+                        input()
+                    except EOFError:
+                        raise ChoreoError(
+                            "no GO: the input ended before Enter; give --go to start without one"
+                        ) from None
+                    progress.start()
+
+                conductor = Conductor(network, cue, progress.console.print, options)
+                reports.append(conductor.run(on_progress, cue_song, on_armed))
+                if not reports[-1].completed:
+                    break
     finally:
         if sink is not None:
             sink.stop()
     if args.report is not None:
-        write_report(args.report, report_document(report))
-    _print_report(report)
-    if report.stop_reason == "Ctrl-C at the conductor":
+        documents = [report_document(report) for report in reports]
+        write_report(
+            args.report,
+            documents[0] if not show.cues else {"show": show.name, "cues": documents},
+        )
+    for report in reports:
+        _print_report(report)
+    if reports[-1].stop_reason == "Ctrl-C at the conductor":
         return 130
-    return 0 if report.completed else 1
+    return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
+
+
+def _status_table(title: str, armed) -> Table:
+    table = Table(title=f"{title}: armed")
+    for column in ("performer", "robot", "health", "clock offset", "preflight", "part"):
+        table.add_column(column)
+    for a in armed:
+        health = f"unchecked: {', '.join(a.unchecked)}" if a.unchecked else "ok"
+        part = f"{a.approach_s:.1f} s approach, {a.duration_s:.1f} s part"
+        table.add_row(a.performer, a.robot, health, a.clock.describe(), "passed", part)
+    return table
 
 
 def _open_song(args: argparse.Namespace, show: Show):
@@ -217,6 +301,7 @@ def report_document(report) -> dict:
                 "reason": p.reason,
                 "clock_offset_ms": p.clock.offset_s * 1000,
                 "clock_offset_error_ms": p.clock.error_s * 1000,
+                "clock_drift_ms": None if p.drift_s is None else p.drift_s * 1000,
                 "offset_s": p.offset_s,
                 "first_start_s": None if p.finished is None else p.finished.first_start_s,
                 "first_start_conductor_s": p.first_start_s,
@@ -225,6 +310,9 @@ def report_document(report) -> dict:
                 "ticks_played": None if p.finished is None else p.finished.ticks_played,
                 "ticks_total": None if p.finished is None else p.finished.ticks_total,
                 "lateness_p99_ms": None if p.finished is None else p.finished.lateness_p99_ms,
+                "first_start_late_ms": None
+                if p.finished is None
+                else p.finished.first_start_late_ms,
             }
             for p in report.parts
         ],
@@ -234,7 +322,8 @@ def report_document(report) -> dict:
 def _print_report(report) -> None:
     console = Console()
     table = Table(title=f"show {report.show}")
-    for column in ("performer", "robot", "outcome", "clock offset", "first START", "reason"):
+    columns = ("performer", "robot", "outcome", "clock offset", "drift", "first START", "reason")
+    for column in columns:
         table.add_column(column)
     for p in report.parts:
         first = (
@@ -242,8 +331,14 @@ def _print_report(report) -> None:
             if p.first_start_s is not None
             else "-"
         )
-        table.add_row(p.performer, p.robot, p.outcome.value, p.clock.describe(), first, p.reason)
+        drift = "-" if p.drift_s is None else f"{p.drift_s * 1000:+.2f} ms"
+        table.add_row(
+            p.performer, p.robot, p.outcome.value, p.clock.describe(), drift, first, p.reason
+        )
     console.print(table)
     spread = report.first_start_spread_s()
     if spread is not None:
-        console.print(f"first START spread across performers: {spread * 1000:.3f} ms")
+        console.print(
+            f"first START spread across performers: {spread * 1000:.3f} ms (each read from its "
+            "performer's clock when the START was written, less its measured offset)"
+        )

@@ -46,6 +46,21 @@ class PlayProgress:
 
 
 @dataclass(frozen=True)
+class StartTime:
+    """One START on the player's clock: when its moves were to begin, when its bytes were due to
+    be written (the deadline less their time on the wire), and when writing them returned
+    (measured, whatever the transport)."""
+
+    deadline_s: float
+    write_at_s: float
+    written_s: float
+
+    @property
+    def late_ms(self) -> float:
+        return (self.written_s - self.write_at_s) * 1000
+
+
+@dataclass(frozen=True)
 class StreamReport:
     """What the player measured playing a list of ticks (``Player.play``)."""
 
@@ -63,6 +78,7 @@ class StreamReport:
     transport: str = "raw LX bus"
     start_skew_ms: float = 0.0  # first-to-last start of a tick's moves (a board forwarding them)
     scheduling: Scheduling = NOT_ASKED  # the priority the play ran with
+    start_times: tuple[StartTime, ...] = ()  # per START
 
     @property
     def bus_use(self) -> float:

@@ -22,7 +22,7 @@ from choreo.core.clock import Clock
 from choreo.plan.ticks import Tick
 from choreo.play.health import HealthReads
 from choreo.play.realtime import NOT_ASKED, Scheduling
-from choreo.play.report import Outcome, PlayProgress, StreamReport
+from choreo.play.report import Outcome, PlayProgress, StartTime, StreamReport
 from choreo.play.tick_sending import TickSending
 
 log = logging.getLogger(__name__)
@@ -53,6 +53,7 @@ class Stream:
         self.previous_units = start_units
         self.current_units = start_units.copy()
         self.lateness_ms: list[float] = []
+        self.start_times: list[StartTime] = []
         self.retargeted = 0
         self.bytes_sent = 0
         self.wire_free_s = -np.inf  # when the bytes sent so far will have left the host
@@ -139,8 +140,10 @@ class Stream:
         if moves:
             now = clock.now()
             sent = sending.start(tick, moves)  # first: the bookkeeping can wait, the START not
+            written_s = clock.now()
             leaves_s = sending.link_free_s(now, self.wire_free_s)
             self.lateness_ms.append((leaves_s - send_at) * 1000)
+            self.start_times.append(StartTime(self.deadline(k), send_at, written_s))
             self.sent(*sent)
         self.previous_units = self.current_units
         self.current_units = np.asarray(tick.targets_units, dtype=float)
@@ -190,6 +193,7 @@ class Stream:
             ticks_total=len(self.ticks),
             retargeted=self.retargeted,
             lateness_ms=tuple(self.lateness_ms),
+            start_times=tuple(self.start_times),
             bytes_sent=self.bytes_sent,
             planned_s=self.planned_s,
             elapsed_s=self.end_s - self.t0,

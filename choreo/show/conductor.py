@@ -1,17 +1,19 @@
 """``choreo show``: the conductor.
 
-In order: hold the show's liveliness token (performers stop if it vanishes), wait for every
-named performer, measure each one's clock against this one (refusing past the show's bound),
-stage every part and refuse unless every preflight passed, pick one start instant far enough
-ahead for every approach, tell each performer that instant on its own clock, cue the song on it,
-then follow the parts to their end. Ctrl-C, or a part that aborts or is lost when the show says
-``on_abort: stop``, sends one stop that every performer hears.
+In order: hold the show's liveliness token and beat its heartbeat (performers stop if either
+goes), wait for every named performer and refuse two of one name or one another show holds,
+measure each one's clock against this one (refusing past the show's bound), stage every part
+with this run's ticket and refuse unless every preflight passed, pick one start instant far
+enough ahead for every approach, tell each performer that instant on its own clock, cue the song
+on it, then follow the parts to their end. Ctrl-C, or a part that aborts or is lost when the show
+says ``on_abort: stop``, sends one signed stop that every performer hears.
 """
 
 from __future__ import annotations
 
+import math
 import queue
-import re
+import threading
 import time
 import uuid
 from collections.abc import Callable
@@ -19,9 +21,11 @@ from dataclasses import dataclass
 
 from choreo.errors import ChoreoError
 from choreo.motion.motion_file import load_motion
-from choreo.show.clock_offset import ClockOffset, exceeds, measure
+from choreo.show.clock_offset import ROUND_TRIPS, ClockOffset, exceeds, measure
 from choreo.show.messages import (
     Announcement,
+    Answer,
+    Beat,
     ClockReading,
     Finished,
     Go,
@@ -32,11 +36,15 @@ from choreo.show.messages import (
     decode,
     encode,
 )
-from choreo.show.network import Network, name_of, performer_key, show_key
+from choreo.show.names import name_from
+from choreo.show.network import Network, name_of
 from choreo.show.showfile import OnAbort, Show
 from choreo.show.staging import pack
+from choreo.show.ticket import new_ticket, signature
 
-PERFORMERS = performer_key("*")
+BEAT_PERIOD_S = 0.1  # the heartbeat: a performer stops after DEFAULT_MAX_SILENCE_S without one
+REMEASURE_PERIOD_S = 1.0  # during the show, each clock is measured again this often
+REMEASURE_ROUND_TRIPS = 4  # a few: between them the conductor does not hear its events
 FINISH_GRACE_S = 5.0  # past the planned end, a part that said nothing counts as lost
 STOP_REPLIES_S = 2.0  # after a stop, how long to wait for the parts to say they stopped
 
@@ -59,6 +67,7 @@ class PartResult:
     outcome: PartOutcome
     reason: str
     finished: Finished | None  # its own word (None: lost, or a dry run)
+    drift_s: float | None = None  # its clock offset's change from the start to the last measure
 
     @property
     def first_start_s(self) -> float | None:
@@ -87,8 +96,22 @@ class ShowReport:
         return max(starts) - min(starts) if len(starts) == len(self.parts) else None
 
 
+@dataclass(frozen=True)
+class Armed:
+    """One performer's line in the status table shown before GO."""
+
+    performer: str
+    robot: str
+    clock: ClockOffset
+    approach_s: float
+    duration_s: float
+    unchecked: tuple[str, ...]  # what its transport cannot check (preflight passed otherwise)
+
+
 Say = Callable[[str], None]
 OnProgress = Callable[[PartProgress], None]
+# Shown every performer's status once all are staged; returns at GO (raises to call it off).
+OnArmed = Callable[[list[Armed]], None]
 
 
 class Conductor:
@@ -100,21 +123,54 @@ class Conductor:
         options: ConductorOptions = ConductorOptions(),
     ):
         self.network, self.show, self.say, self.options = network, show, say, options
-        slug = re.sub(r"[^A-Za-z0-9_-]", "-", show.name)
-        self.show_id = f"{slug}-{uuid.uuid4().hex[:8]}"
-        self.key = show_key(self.show_id)
+        self.show_id = f"{name_from(show.name)}-{uuid.uuid4().hex[:8]}"
+        self.ticket = new_ticket()
+        self.realm = network.realm
+        self.key = self.realm.show(self.show_id)
         self.events: queue.Queue[tuple[str, object]] = queue.Queue()
         self.names = [p.performer for p in show.parts]
+        self._beating = threading.Event()
+
+    def performer_key(self, name: str) -> str:
+        return self.realm.performer(name)
 
     def run(
         self,
         on_progress: OnProgress | None = None,
         cue_song: Callable[[float], None] | None = None,
+        on_armed: OnArmed | None = None,
     ) -> ShowReport:
-        """The whole show; ``cue_song(start_s)`` is called with the instant (wall clock) once
-        every performer has it. Ctrl-C stops every part; the report then says so."""
+        """The whole show; ``on_armed`` (if given) is shown every performer's status once all are
+        staged and returns at GO; ``cue_song(start_s)`` is called with the instant (wall clock)
+        once every performer has it. Ctrl-C stops every part; the report then says so."""
         called_at = time.time()
         self.network.announce(self.key)
+        beat = threading.Thread(target=self._beat, daemon=True)
+        beat.start()
+        try:
+            return self._run(called_at, on_progress, cue_song, on_armed)
+        finally:
+            self._beating.set()
+            beat.join()
+
+    def _beat(self) -> None:
+        """The heartbeat, every BEAT_PERIOD_S until the run ends (its own thread)."""
+        seq, key = 0, f"{self.key}/beat"
+        while not self._beating.is_set():
+            self.network.publish(
+                key,
+                encode(Beat(self.show_id, seq, signature(self.ticket, self.show_id, "beat", seq))),
+            )
+            seq += 1
+            self._beating.wait(BEAT_PERIOD_S)
+
+    def _run(
+        self,
+        called_at: float,
+        on_progress: OnProgress | None,
+        cue_song: Callable[[float], None] | None,
+        on_armed: OnArmed | None,
+    ) -> ShowReport:
         self.network.subscribe(f"{self.key}/events/*", self._on_finished)
         if on_progress is not None:
             self.network.subscribe(
@@ -122,7 +178,7 @@ class Conductor:
                 lambda _k, payload: on_progress(decode(PartProgress, payload)),
             )
         self.wait_for_performers()
-        self.network.watch(PERFORMERS, self._on_performer)
+        self.network.watch(self.performer_key("*"), self._on_performer)
         self.introduce()
         clocks = self.measure_clocks()
         readiness = self.stage()
@@ -134,6 +190,13 @@ class Conductor:
                 for p in self.show.parts
             )  # fmt: skip
             return ShowReport(self.show.name, 0.0, parts, None, "dry run", called_at)
+        if on_armed is not None:
+            try:
+                on_armed(self.armed(clocks, readiness))
+            except BaseException:  # Ctrl-C, or no GO: every staged part is dropped
+                self.send_stop("the show was called off before GO")
+                raise
+            clocks = self.measure_clocks()  # again: the wait for GO may have been long
         start_s = self.start_instant(readiness)
         interrupted = False
         try:
@@ -145,10 +208,19 @@ class Conductor:
         return self.follow(start_s, clocks, readiness, called_at, interrupted)
 
     # --- before the start ----------------------------------------------------------------------
+    def armed(self, clocks: dict[str, ClockOffset], readiness: dict[str, Readiness]) -> list[Armed]:
+        return [
+            Armed(p.performer, readiness[p.performer].robot, clocks[p.performer],
+                  readiness[p.performer].approach_s, readiness[p.performer].duration_s,
+                  readiness[p.performer].unchecked)
+            for p in self.show.parts
+        ]  # fmt: skip
+
     def wait_for_performers(self) -> None:
         deadline = time.monotonic() + self.options.wait_s
         while True:
-            present = {name_of(k) for k in self.network.alive(PERFORMERS, timeout_s=0.5)}
+            alive = self.network.alive(self.performer_key("*"), timeout_s=0.5)
+            present = {name_of(k) for k in alive}
             missing = [n for n in self.names if n not in present]
             if not missing:
                 return
@@ -162,25 +234,31 @@ class Conductor:
             time.sleep(0.1)
 
     def introduce(self) -> None:
-        """One line per performer: where it dances and what it is doing."""
-        answers = self.network.ask_all(
-            {f"{performer_key(name)}/info": b"" for name in self.names}, timeout_s=2.0
-        )
-        for answer in answers.values():
-            if answer is not None:
-                who = decode(Announcement, answer)
-                self.say(f"{who.name}: found, on {who.transport}, {who.state}")
+        """One line per performer: where it dances and what it is doing. A ChoreoError listing
+        every name two performers answer to, and every performer another show holds."""
+        problems = []
+        for name in self.names:
+            found = self.network.ask_each(f"{self.performer_key(name)}/info", timeout_s=2.0)
+            answers = [decode(Announcement, answer) for answer in found]
+            if len(answers) > 1:
+                where = " and ".join(f"{a.host} (pid {a.pid}, on {a.transport})" for a in answers)
+                problems.append(f"{len(answers)} performers are named {name}, on {where}: "
+                                "give each its own --name")  # fmt: skip
+                continue
+            for who in answers:
+                if who.show_id and who.show_id != self.show_id:
+                    problems.append(f"{name} on {who.host} is busy with show {who.show_id} "
+                                    "(another conductor holds it)")  # fmt: skip
+                else:
+                    self.say(f"{who.name}: found on {who.host}, on {who.transport}, {who.state}")
+        if problems:
+            raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
 
     def measure_clocks(self) -> dict[str, ClockOffset]:
         clocks, problems = {}, []
         bound_ms = self.show.max_clock_offset_s * 1000
         for name in self.names:
-
-            def ask_time(name: str = name) -> float | None:
-                reply = self.network.ask(f"{performer_key(name)}/clock", timeout_s=1.0)
-                return None if reply is None else decode(ClockReading, reply).time_s
-
-            offset = measure(ask_time, within_s=self.show.max_clock_offset_s)
+            offset = self.measure_clock(name, within_s=self.show.max_clock_offset_s)
             if offset is None:
                 problems.append(f"{name}: did not answer the clock round trips")
                 continue
@@ -195,16 +273,27 @@ class Conductor:
             raise ChoreoError("refusing to start the show:\n  " + "\n  ".join(problems))
         return clocks
 
+    def measure_clock(
+        self, name: str, rounds: int = ROUND_TRIPS, within_s: float | None = None
+    ) -> ClockOffset | None:
+        def ask_time() -> float | None:
+            reply = self.network.ask(f"{self.performer_key(name)}/clock", timeout_s=1.0)
+            return None if reply is None else decode(ClockReading, reply).time_s
+
+        return measure(ask_time, rounds, within_s=within_s)
+
     def stage(self) -> dict[str, Readiness]:
         """Every part staged; a ChoreoError listing every problem of every robot otherwise."""
         requests = {
-            f"{performer_key(p.performer)}/stage": encode(pack(self.show_id, load_motion(p.motion)))
+            f"{self.performer_key(p.performer)}/stage": encode(
+                pack(self.show_id, self.ticket, load_motion(p.motion))
+            )
             for p in self.show.parts
         }
         answers = self.network.ask_all(requests, self.options.stage_timeout_s)
         readiness, problems = {}, []
         for part in self.show.parts:
-            answer = answers[f"{performer_key(part.performer)}/stage"]
+            answer = answers[f"{self.performer_key(part.performer)}/stage"]
             if answer is None:
                 problems.append(f"{part.performer}: no answer to its part in "
                                 f"{self.options.stage_timeout_s:g} s")  # fmt: skip
@@ -231,21 +320,48 @@ class Conductor:
 
     def go(self, start_s: float, clocks: dict[str, ClockOffset]) -> None:
         requests = {
-            f"{performer_key(p.performer)}/go": encode(
-                Go(self.show_id, start_s + p.offset_s + clocks[p.performer].offset_s)
+            f"{self.performer_key(p.performer)}/go": encode(
+                Go(self.show_id, start_s + p.offset_s + clocks[p.performer].offset_s, self.ticket)
             )
             for p in self.show.parts
         }
         answers = self.network.ask_all(requests, self.options.lead_s)
-        silent = [name_of(k.removesuffix("/go")) for k, a in answers.items() if a is None]
-        if silent:
+        problems = []
+        for key, answer in answers.items():
+            name = name_of(key.removesuffix("/go"))
+            if answer is None:
+                problems.append(f"{name}: no answer to the start")
+            elif not (taken := decode(Answer, answer)).ok:
+                problems.append(f"{name}: refused the start: {taken.problem}")
+        if problems:
             self.send_stop("a performer did not take the start")
-            raise ChoreoError(f"no answer to the start from {', '.join(silent)}: show stopped")
+            raise ChoreoError("show stopped:\n  " + "\n  ".join(problems))
         self.say(
             f"every performer took the start: the show begins in {start_s - time.time():.1f} s"
         )
 
     # --- during the show -----------------------------------------------------------------------
+    def _measure_again(
+        self,
+        start_s: float,
+        outcomes: dict[str, object],
+        later: dict[str, ClockOffset],
+        done: threading.Event,
+    ) -> None:
+        """Each playing performer's clock measured again every REMEASURE_PERIOD_S, into
+        ``later``, until ``done`` (its own thread: the main one stays where Ctrl-C reaches it).
+        The first time once every part's first START is past, so the round trips' work in the
+        performers' Zenoh threads never sits at the instant the spread is measured by."""
+        last_first_start_s = start_s + max(p.offset_s for p in self.show.parts)
+        wait_s = max(REMEASURE_PERIOD_S, last_first_start_s - time.time() + REMEASURE_PERIOD_S / 4)
+        while not done.wait(wait_s):
+            for name in self.names:
+                if name not in outcomes and not done.is_set():
+                    offset = self.measure_clock(name, REMEASURE_ROUND_TRIPS)
+                    if offset is not None:  # unanswered: its part's end will tell
+                        later[name] = offset
+            wait_s = REMEASURE_PERIOD_S
+
     def _on_finished(self, _key: str, payload: bytes) -> None:
         self.events.put(("finished", decode(Finished, payload)))
 
@@ -254,7 +370,8 @@ class Conductor:
             self.events.put(("lost", name_of(key)))
 
     def send_stop(self, reason: str) -> float:
-        self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason)))
+        signed = signature(self.ticket, self.show_id, "stop", reason)
+        self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason, signed)))
         return time.time()
 
     def follow(
@@ -270,6 +387,13 @@ class Conductor:
             p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
         )
         outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
+        later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
+        done = threading.Event()
+        watcher = threading.Thread(
+            target=self._measure_again, args=(start_s, outcomes, later, done), daemon=True
+        )
+        watcher.start()
+        counted = math.ceil(start_s - time.time())  # the countdown's last whole second said
         stop_sent: float | None = None
         stop_reason = ""
         deadline = end_s + FINISH_GRACE_S
@@ -277,11 +401,16 @@ class Conductor:
             try:
                 if interrupted:
                     raise KeyboardInterrupt
+                to_go = math.ceil(start_s - time.time())
+                if 0 < to_go < counted and stop_sent is None:
+                    self.say(f"the show begins in {to_go} s")
+                    counted = to_go
                 kind, what = self.events.get(timeout=0.1)
             except queue.Empty:
                 continue
             except KeyboardInterrupt:
                 interrupted = False
+                done.set()  # no more round trips: the stop goes first
                 stop_reason = "Ctrl-C at the conductor"
                 stop_sent = self.send_stop(stop_reason)
                 self.say(f"{stop_reason}: stopping every performer")
@@ -300,15 +429,20 @@ class Conductor:
                 continue
             if failed and stop_sent is None and self.show.on_abort is OnAbort.STOP:
                 stop_reason = f"{failed} aborted or was lost (on_abort: stop)"
+                done.set()
                 stop_sent = self.send_stop(stop_reason)
                 deadline = min(deadline, time.time() + STOP_REPLIES_S)
+        done.set()
+        watcher.join()
         parts = []
         for part in self.show.parts:
             outcome, reason, finished = outcomes.get(
                 part.performer, (PartOutcome.LOST, "no word from it after the show's end", None)
             )
+            clock, last = clocks[part.performer], later.get(part.performer)
             parts.append(
-                PartResult(part.performer, readiness[part.performer].robot, clocks[part.performer],
-                           part.offset_s, start_s + part.offset_s, outcome, reason, finished)
+                PartResult(part.performer, readiness[part.performer].robot, clock,
+                           part.offset_s, start_s + part.offset_s, outcome, reason, finished,
+                           None if last is None else last.offset_s - clock.offset_s)
             )  # fmt: skip
         return ShowReport(self.show.name, start_s, tuple(parts), stop_sent, stop_reason, called_at)

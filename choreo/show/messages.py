@@ -69,6 +69,9 @@ class Announcement:
     transport: str  # its bus: a port, or "emulated"
     robot: str  # "" until a part is staged
     state: str  # idle, staged, playing
+    host: str = ""  # its computer's name, and its process there: two of one name are told apart
+    pid: int = 0
+    show_id: str = ""  # the show holding it ("" when free)
 
 
 @dataclass(frozen=True)
@@ -83,14 +86,17 @@ class StagedPart:
     """A part sent to a performer: the motion file and every file it uses, by relative path."""
 
     show_id: str
+    ticket: str  # the conductor's secret for this show (choreo.show.ticket)
     motion: str  # relative path of the motion among ``files``
     robot_file: str  # relative path of its robot.yaml among ``files``
     files: tuple[tuple[str, str], ...]  # (relative path, base64 of the content)
 
     @staticmethod
-    def of(show_id: str, motion: str, robot_file: str, contents: dict[str, bytes]) -> StagedPart:
+    def of(
+        show_id: str, ticket: str, motion: str, robot_file: str, contents: dict[str, bytes]
+    ) -> StagedPart:
         files = tuple((path, base64.b64encode(data).decode()) for path, data in contents.items())
-        return StagedPart(show_id, motion, robot_file, files)
+        return StagedPart(show_id, ticket, motion, robot_file, files)
 
     def contents(self) -> dict[str, bytes]:
         return {path: base64.b64decode(data) for path, data in self.files}
@@ -118,14 +124,39 @@ class Go:
 
     show_id: str
     start_s: float
+    ticket: str  # the one its part was staged with
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A performer's answer to a start: taken, or the problem that keeps it from playing."""
+
+    performer: str
+    problem: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.problem
 
 
 @dataclass(frozen=True)
 class Stop:
-    """Stop the servos now (Ctrl-C at the conductor, or another performer aborted)."""
+    """Stop the servos now (Ctrl-C at the conductor, or another performer aborted); signed with
+    the show's ticket over (show_id, "stop", reason)."""
 
     show_id: str
     reason: str
+    signature: str
+
+
+@dataclass(frozen=True)
+class Beat:
+    """The conductor is alive and in charge: sent every ``BEAT_PERIOD_S``; signed with the
+    show's ticket over (show_id, "beat", seq), each ``seq`` higher than the last."""
+
+    show_id: str
+    seq: int
+    signature: str
 
 
 @dataclass(frozen=True)
@@ -147,9 +178,9 @@ class Finished:
     reason: str
     ticks_played: int
     ticks_total: int
-    # on an emulated bus, read from the wire; else from the player's schedule: the approach's
-    # deadline plus the lateness it measured, the part's deadline
+    # read from the performer's clock when the START's bytes were written, on every transport
     approach_start_s: float | None  # the first START of the approach into the first pose
     first_start_s: float | None  # the first START of the part itself (its motion's t=0)
     stop_s: float | None  # its MOVE_STOP on the wire (emulated bus), if it stopped
     lateness_p99_ms: float
+    first_start_late_ms: float | None = None  # written after it was due (negative: before)

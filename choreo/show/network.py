@@ -1,18 +1,30 @@
 """The Zenoh session under a show: the only module that imports ``zenoh`` (``choreo[show]``).
 
-Peer to peer: with no endpoints, peers find each other by multicast scouting on the LAN; with
-``listen``/``connect`` endpoints (``tcp/192.168.1.10:7447``, or a router's), only those are used
-and nothing is scouted, which is also how tests keep every byte on loopback.
+The session's configuration is Zenoh's own: a file (``zenoh_config``, else the ``ZENOH_CONFIG``
+environment variable) says the mode (peer, client, router), TLS, user/password authentication,
+access control and leases; with none, the session is a peer. With no endpoints, peers find each
+other by multicast scouting on the LAN; with ``listen``/``connect`` endpoints
+(``tcp/192.168.1.10:7447``, or a router's), only those are used and nothing is scouted, which is
+also how tests keep every byte on loopback.
+
+Every key lives under ``choreo/<realm>/``: shows in two realms never hear each other.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import logging
+import os
 import re
+import threading
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TypeVar
 
 from choreo.errors import ChoreoError, OptionError
+from choreo.show.names import check_name
 
 try:
     import zenoh
@@ -20,8 +32,11 @@ except ImportError:  # pragma: no cover - depends on the installed extras
     zenoh = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 ROOT = "choreo"
+DEFAULT_REALM = "default"
+CONFIG_ENV = "ZENOH_CONFIG"  # Zenoh's own variable for its configuration file
 
 # The Zenoh locators a peer can listen on or connect to: PROTOCOL/HOST:PORT ([v6 address]:PORT)
 # for the IP ones, PROTOCOL/PATH for a Unix socket; metadata (?...) and config (#...) may follow.
@@ -33,14 +48,21 @@ _HOST_PORT = re.compile(r"(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]?#]+):(\d{1,5})")
 _RUST_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
 
 
-def performer_key(name: str) -> str:
-    """The performer's liveliness token; its queryables are below it (``/clock``, ``/stage``)."""
-    return f"{ROOT}/performers/{name}"
+@dataclass(frozen=True)
+class Realm:
+    """The keys of one realm."""
 
+    name: str = DEFAULT_REALM
 
-def show_key(show_id: str) -> str:
-    """The conductor's liveliness token for one run of a show; stop and events are below it."""
-    return f"{ROOT}/shows/{show_id}"
+    def performer(self, name: str) -> str:
+        """A performer's liveliness token; its queryables are below it (``/clock``,
+        ``/stage``)."""
+        return f"{ROOT}/{self.name}/performers/{name}"
+
+    def show(self, show_id: str) -> str:
+        """The conductor's liveliness token for one run of a show; its heartbeat, stop, progress
+        and events are below it."""
+        return f"{ROOT}/{self.name}/shows/{show_id}"
 
 
 def name_of(key: str) -> str:
@@ -83,26 +105,35 @@ class Request:
 class Network:
     """One Zenoh session; closing it withdraws every token, queryable and subscriber."""
 
-    def __init__(self, listen: Sequence[str] = (), connect: Sequence[str] = ()):
+    def __init__(
+        self,
+        listen: Sequence[str] = (),
+        connect: Sequence[str] = (),
+        *,
+        zenoh_config: str | Path | None = None,
+        realm: str = DEFAULT_REALM,
+    ):
         for option, endpoints in (("listen", listen), ("connect", connect)):
             for endpoint in endpoints:
                 check_endpoint(option, endpoint)
+        self.realm = Realm(check_name("realm", realm))
         if zenoh is None:
             raise ChoreoError(
                 "shows need Zenoh: install the show extra, pip install 'choreo[show]'"
             )
+        config = _config(zenoh_config)
         try:
-            config = zenoh.Config()
-            config.insert_json5("mode", '"peer"')
+            if json.loads(config.get_json("mode")) is None:
+                config.insert_json5("mode", '"peer"')
             if listen or connect:  # only the endpoints named: no scouting, no other interface
                 config.insert_json5("scouting/multicast/enabled", "false")
                 config.insert_json5("scouting/gossip/enabled", "false")
                 config.insert_json5("listen/endpoints", json.dumps(list(listen)))
                 config.insert_json5("connect/endpoints", json.dumps(list(connect)))
+            self.exposure = exposure(config)
             self._session = zenoh.open(config)
         except zenoh.ZError as error:
-            reason = _RUST_LOCATION.sub("", str(error))
-            raise ChoreoError(f"cannot open the Zenoh session: {reason}") from None
+            raise ChoreoError(f"cannot open the Zenoh session: {_reason(error)}") from None
         self._keep: list = []  # declared entities live as long as they are referenced
 
     def close(self) -> None:
@@ -133,8 +164,26 @@ class Network:
             log.info("error reply on %s: %s", key, reply.err)
         return None
 
+    def ask_each(self, key: str, timeout_s: float) -> list[bytes]:
+        """Every reply to one query on ``key``, from every queryable there (two performers that
+        took one name both answer)."""
+
+        def replies() -> list[bytes]:
+            got = self._session.get(
+                key,
+                timeout=timeout_s,
+                target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.ConsolidationMode.NONE,
+            )
+            return [reply.ok.payload.to_bytes() for reply in got if reply.ok is not None]
+
+        return _interruptible(replies)
+
     def ask_all(self, requests: dict[str, bytes], timeout_s: float) -> dict[str, bytes | None]:
         """One query per key at once; each key's first reply (None: none in time)."""
+        return _interruptible(lambda: self._ask_all(requests, timeout_s))
+
+    def _ask_all(self, requests: dict[str, bytes], timeout_s: float) -> dict[str, bytes | None]:
         pending = {
             key: self._session.get(key, payload=payload, timeout=timeout_s)
             for key, payload in requests.items()
@@ -181,5 +230,103 @@ class Network:
 
     def alive(self, key: str, timeout_s: float = 1.0) -> list[str]:
         """The keys of the liveliness tokens matching ``key`` now."""
-        replies = self._session.liveliness().get(key, timeout=timeout_s)
-        return [str(reply.ok.key_expr) for reply in replies if reply.ok is not None]
+
+        def keys() -> list[str]:
+            replies = self._session.liveliness().get(key, timeout=timeout_s)
+            return [str(reply.ok.key_expr) for reply in replies if reply.ok is not None]
+
+        return _interruptible(keys)
+
+
+def _interruptible(call: Callable[[], T]) -> T:
+    """``call()`` in a thread of its own while this one waits in Python. A Ctrl-C that arrives
+    while Zenoh waits for replies is lost inside it (the benchmark's Ctrl-C was, mid-show);
+    here it reaches the caller. (Clock round trips call Zenoh directly: a thread would lengthen
+    one leg only.)"""
+    result: list[T] = []
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            result.append(call())
+        except BaseException as error:  # handed to the caller, whatever it is
+            failure.append(error)
+
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+    if failure:
+        raise failure[0]
+    return result[0]
+
+
+def _reason(error: Exception) -> str:
+    """Zenoh's message without the Rust source line it ends with."""
+    text = _RUST_LOCATION.sub("", str(error))
+    found = re.search(r'msg: "([^"]*)"', text)  # a JSON5 error: the message inside
+    if found:
+        return found[1]
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    # a parser's picture of the line (" --> 1:1", " | ...") is dropped; its "= why" is kept
+    notes = [line.removeprefix("= ") for line in lines[1:] if line.startswith("= ")]
+    return " ".join(lines[:1] + notes)
+
+
+def _config(path: str | Path | None):
+    """The configuration from ``path``, else from ``$ZENOH_CONFIG``, else Zenoh's defaults."""
+    source = str(path) if path is not None else os.environ.get(CONFIG_ENV)
+    if not source:
+        return zenoh.Config()
+    try:
+        return zenoh.Config.from_file(source)
+    except zenoh.ZError as error:
+        where = "" if path is not None else f" (from {CONFIG_ENV})"
+        raise OptionError(
+            "zenoh_config",
+            f"{source}{where} is not a Zenoh configuration file that can be used: {_reason(error)}",
+        ) from None
+
+
+def exposure(config) -> str | None:
+    """A warning when this session can be reached from beyond this computer with no
+    authentication; None otherwise. Authenticated: user/password checked against a dictionary
+    file, mutual TLS on every link, or a client whose router checks its user/password."""
+
+    def setting(key: str):
+        return json.loads(config.get_json(key))
+
+    mode = setting("mode") or "peer"
+    listen = setting("listen/endpoints")
+    if isinstance(listen, dict):  # per mode
+        listen = listen.get(mode, [])
+    endpoints = [*(listen if mode != "client" else []), *setting("connect/endpoints")]
+    scouting = setting("scouting/multicast/enabled")
+    if not endpoints and mode != "client":
+        endpoints = ["tcp/[::]:0"]  # Zenoh's default: every interface
+    if scouting is not False or not all(_loopback(e) for e in endpoints):
+        usrpwd = setting("transport/auth/usrpwd")
+        if usrpwd["dictionary_file"] or (mode == "client" and usrpwd["user"]):
+            return None
+        mutual = setting("transport/link/tls/enable_mtls")
+        if mutual and all(e.split("/", 1)[0] in ("tls", "quic") for e in endpoints):
+            return None
+        return (
+            "this session is reachable beyond this computer with no Zenoh authentication: "
+            "anyone on the network can join the show; see docs/shows.md (TLS, user/password, "
+            "access control)"
+        )
+    return None
+
+
+def _loopback(endpoint: str) -> bool:
+    protocol, _, rest = endpoint.partition("/")
+    if protocol in PATH_PROTOCOLS:
+        return True
+    host = re.split(r"[?#]", rest, maxsplit=1)[0].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False

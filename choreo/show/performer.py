@@ -3,14 +3,22 @@
 It announces itself (a liveliness token, and ``info``), answers clock round trips at once (in
 Zenoh's thread), and takes the rest in its main thread, one at a time: a staged part is unpacked,
 compiled and preflighted on its own bus (the answer lists every problem); ``go`` plays it with
-its first START at the instant the conductor picked. A stop from the conductor, or the
-conductor's liveliness token vanishing, stops the servos at once: the player's clock wakes from
-its wait and the player sends MOVE_STOP.
+its first START at the instant the conductor picked.
+
+Only the conductor that staged the part moves it: the part came with that conductor's ticket
+(:mod:`choreo.show.ticket`); a start must carry it, a stop and a heartbeat must be signed with it,
+and while a part is held any other show's stage is answered "busy with show X". The servos stop
+at once on the conductor's stop, when its liveliness token vanishes, or when its heartbeat has
+been silent for ``max_silence_s`` (a frozen conductor, a cut network): the player's clock wakes
+from its wait and the player sends MOVE_STOP.
 """
 
 from __future__ import annotations
 
+import logging
+import os
 import queue
+import socket
 import tempfile
 import threading
 import time
@@ -36,6 +44,8 @@ from choreo.robot import model_check  # noqa: F401
 from choreo.robot.types import Robot
 from choreo.show.messages import (
     Announcement,
+    Answer,
+    Beat,
     ClockReading,
     Finished,
     Go,
@@ -47,11 +57,19 @@ from choreo.show.messages import (
     decode,
     encode,
 )
-from choreo.show.network import Network, Request, performer_key, show_key
+from choreo.show.network import Network, Request
 from choreo.show.staging import unpack
+from choreo.show.ticket import signed
+
+log = logging.getLogger(__name__)
 
 PROGRESS_PERIOD_S = 0.25
 WAIT_STEP_S = 0.1  # how often the idle loop looks at the stop flag
+# A heartbeat silent this long stops the servos. The conductor beats every BEAT_PERIOD_S
+# (choreo.show.conductor): 0.4 s is four beats lost in a row, and the watchdog looks every
+# WATCHDOG_PERIOD_S, so the servos stop within half a second of the last beat.
+DEFAULT_MAX_SILENCE_S = 0.4
+WATCHDOG_PERIOD_S = 0.05  # few wake-ups beside the player: 400 + 50 ms stays under 500
 
 OpenBus = Callable[[Robot], ServoBus]
 
@@ -75,6 +93,14 @@ class StoppableClock:
         raise PlaybackAborted(self.reason())
 
 
+@dataclass(frozen=True)
+class Holder:
+    """The conductor that holds this performer: its show and the ticket it staged with."""
+
+    show_id: str
+    ticket: str
+
+
 @dataclass
 class _Staged:
     """A part ready to play: its bus is open, its servos loaded and holding."""
@@ -88,6 +114,7 @@ class _Staged:
     limits: dict[str, ServoLimits]
     folder: tempfile.TemporaryDirectory
     cancels: list[Callable[[], None]]
+    released: bool = False
 
 
 class Performer:
@@ -98,22 +125,39 @@ class Performer:
         open_bus: OpenBus,
         transport: str,
         say: Callable[[str], None],
+        max_silence_s: float = DEFAULT_MAX_SILENCE_S,
     ):
         self.network, self.name, self.open_bus = network, name, open_bus
-        self.transport, self.say = transport, say
+        self.transport, self.say, self.max_silence_s = transport, say, max_silence_s
         self.state, self.robot = "idle", ""
         self.requests: queue.Queue[tuple[str, Request]] = queue.Queue()
         self.stopped = threading.Event()
         self.stop_reason = ""
-        key = performer_key(name)
+        self.holder: Holder | None = None
+        self.conductor_alive = False
+        self.last_beat_s = 0.0  # monotonic clock
+        self.last_seq = -1
+        self._closing = threading.Event()
+        key = network.realm.performer(name)
         network.serve(f"{key}/info", lambda r: r.reply(encode(self.announcement())))
         network.serve(f"{key}/clock", lambda r: r.reply(encode(ClockReading(time.time()))))
-        network.serve(f"{key}/stage", lambda r: self.requests.put(("stage", r)))
-        network.serve(f"{key}/go", lambda r: self.requests.put(("go", r)))
+        network.serve(f"{key}/stage", self._on_stage)
+        network.serve(f"{key}/go", self._on_go)
         network.announce(key)
+        self._watchdog = threading.Thread(target=self._watch_heartbeat, daemon=True)
+        self._watchdog.start()
 
     def announcement(self) -> Announcement:
-        return Announcement(self.name, self.transport, self.robot, self.state)
+        holder = self.holder
+        return Announcement(
+            self.name,
+            self.transport,
+            self.robot,
+            self.state,
+            socket.gethostname(),
+            os.getpid(),
+            holder.show_id if holder else "",
+        )
 
     def stop(self, reason: str) -> None:
         """From any thread: stop the servos of the part staged or playing now."""
@@ -121,19 +165,110 @@ class Performer:
             self.stop_reason = reason
             self.stopped.set()
 
+    # --- what arrives in Zenoh's threads -------------------------------------------------------
+    def _on_stage(self, request: Request) -> None:
+        """A part: queued for the main loop, unless another show holds this performer."""
+        busy = self._busy_for(request.payload)
+        if busy:
+            request.reply(encode(Readiness(self.name, self.robot, (busy,))))
+        else:
+            self.requests.put(("stage", request))
+
+    def _busy_for(self, payload: bytes) -> str:
+        """Why a part cannot be staged now ("" if it can)."""
+        try:
+            part = decode(StagedPart, payload)
+        except ChoreoError as error:
+            return str(error)
+        holder = self.holder
+        if holder is not None and (part.show_id, part.ticket) != (holder.show_id, holder.ticket):
+            return f"busy with show {holder.show_id}"
+        if self.state == "playing":
+            return f"busy with show {part.show_id}: still playing its part"
+        return ""
+
+    def _on_go(self, request: Request) -> None:
+        problem = self._refusal_of(request.payload)
+        if problem:
+            request.reply(encode(Answer(self.name, problem)))
+            self.say(f"refused a start: {problem}")
+        else:
+            self.requests.put(("go", request))
+
+    def _refusal_of(self, payload: bytes) -> str:
+        """Why a start cannot be taken ("" if it can)."""
+        try:
+            go = decode(Go, payload)
+        except ChoreoError as error:
+            return str(error)
+        holder = self.holder
+        if holder is None:
+            return "no part is staged"
+        if self.state == "playing":
+            return f"busy with show {holder.show_id}: already playing"
+        if go.show_id != holder.show_id:
+            return f"the staged part is show {holder.show_id}'s, not {go.show_id}'s"
+        if go.ticket != holder.ticket:
+            return f"the start did not come from the conductor that staged show {go.show_id}"
+        if not self.conductor_alive or self._silence_s() > self.max_silence_s:
+            return f"no live conductor holds show {go.show_id}"
+        return ""
+
     def _on_conductor(self, _key: str, alive: bool) -> None:
+        self.conductor_alive = alive
         if not alive:
             self.stop("lost the conductor (its liveliness token vanished)")
 
     def _on_stop(self, _key: str, payload: bytes) -> None:
-        self.stop(f"stopped by the conductor: {decode(Stop, payload).reason}")
+        holder = self.holder
+        try:
+            stop = decode(Stop, payload)
+        except ChoreoError as error:
+            log.info("an unreadable stop: %s", error)
+            return
+        if holder is None or stop.show_id != holder.show_id:
+            return
+        if not signed(holder.ticket, stop.signature, stop.show_id, "stop", stop.reason):
+            self.say(f"ignored a stop for show {stop.show_id} not signed by its conductor")
+            return
+        self.stop(f"stopped by the conductor: {stop.reason}")
+
+    def _on_beat(self, _key: str, payload: bytes) -> None:
+        holder = self.holder
+        try:
+            beat = decode(Beat, payload)
+        except ChoreoError:
+            return
+        if holder is None or beat.show_id != holder.show_id or beat.seq <= self.last_seq:
+            return  # another show's, or a replay
+        if signed(holder.ticket, beat.signature, beat.show_id, "beat", beat.seq):
+            self.last_seq, self.last_beat_s = beat.seq, time.monotonic()
+
+    def _silence_s(self) -> float:
+        return time.monotonic() - self.last_beat_s
+
+    def _watch_heartbeat(self) -> None:
+        """Stop the part of a conductor silent past ``max_silence_s`` (its own thread)."""
+        while not self._closing.wait(WATCHDOG_PERIOD_S):
+            silence_s = self._silence_s()
+            if self.holder is not None and silence_s > self.max_silence_s:
+                self.stop(
+                    f"lost the conductor (no heartbeat for {silence_s * 1000:.0f} ms, over "
+                    f"{self.max_silence_s * 1000:.0f} ms)"
+                )
+
+    def close(self) -> None:
+        """Ends ``serve_forever`` (within WAIT_STEP_S, after a part being played) and the
+        watchdog."""
+        self._closing.set()
 
     # --- the main loop -------------------------------------------------------------------------
     def serve_forever(self) -> None:
-        """Take parts and play them until Ctrl-C (KeyboardInterrupt, servos stopped first)."""
+        """Take parts and play them until Ctrl-C (KeyboardInterrupt, servos stopped first) or
+        ``close`` from another thread."""
         staged: _Staged | None = None
         try:
-            while True:
+            while not self._closing.is_set():
                 try:
                     kind, request = self.requests.get(timeout=WAIT_STEP_S)
                 except queue.Empty:
@@ -143,11 +278,16 @@ class Performer:
                         staged = None
                     continue
                 if kind == "stage":
-                    if staged is not None:
+                    busy = self._busy_for(request.payload)
+                    if busy:  # another show took it since the part was queued
+                        request.reply(encode(Readiness(self.name, self.robot, (busy,))))
+                        continue
+                    if staged is not None:  # its own conductor staged it again
                         self._release(staged, stop=False)
                     staged = self._stage(request)
-                elif staged is None:
-                    request.reply(encode(Readiness(self.name, "", ("no part is staged",))))
+                elif staged is None or self._refusal_of(request.payload):
+                    problem = self._refusal_of(request.payload) or "no part is staged"
+                    request.reply(encode(Answer(self.name, problem)))
                 else:
                     try:
                         self._play(staged, request)
@@ -155,14 +295,20 @@ class Performer:
                         self._release(staged, stop=False)
                         staged = None
         finally:
+            self.close()
             if staged is not None:
                 self._release(staged, stop=True)
 
     def _stage(self, request: Request) -> _Staged | None:
         self.stopped.clear()
+        part = decode(StagedPart, request.payload)  # read once already: _busy_for
+        conductor = self.network.realm.show(part.show_id)
+        if not self.network.alive(conductor, timeout_s=1.0):
+            self._refuse(request, "", f"no conductor holds show {part.show_id} (no liveliness "
+                         "token): a part is taken only from a running `choreo show`")  # fmt: skip
+            return None
         folder = tempfile.TemporaryDirectory(prefix="choreo-part-")
         try:
-            part = decode(StagedPart, request.payload)
             motion = unpack(part, Path(folder.name))
             compiled = compile_motion(motion)
         except SourceError as error:
@@ -195,9 +341,11 @@ class Performer:
         staged = _Staged(
             part.show_id, robot, bus, emulator, performance, start_pose, limits, folder, []
         )
-        conductor = show_key(part.show_id)
+        self.last_seq, self.last_beat_s = -1, time.monotonic()  # the silence counts from here
+        self.holder = Holder(part.show_id, part.ticket)
         staged.cancels.append(self.network.watch(conductor, self._on_conductor))
         staged.cancels.append(self.network.subscribe(f"{conductor}/stop", self._on_stop))
+        staged.cancels.append(self.network.subscribe(f"{conductor}/beat", self._on_beat))
         self.state, self.robot = "staged", robot.name
         request.reply(
             encode(
@@ -222,7 +370,7 @@ class Performer:
 
     def _play(self, staged: _Staged, request: Request) -> None:
         go = decode(Go, request.payload)
-        request.reply(encode(self.announcement()))
+        request.reply(encode(Answer(self.name)))
         self.state = "playing"
         self.say(f"playing: the part starts in {go.start_s - time.time():.2f} s")
         clock = _real_clock(staged.bus)
@@ -235,10 +383,12 @@ class Performer:
         )
         wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
-        self.network.publish(f"{show_key(staged.show_id)}/events/{self.name}", encode(finished))
         self.say(
             f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
         )
+        events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
+        self._release(staged, stop=False)  # free before the conductor hears: its next cue
+        self.network.publish(events, encode(finished))
         if wire is not None:
             self.say(wire_summary(wire, began_s))
         if report.outcome is Outcome.INTERRUPTED:
@@ -252,41 +402,39 @@ class Performer:
         wall_to_clock_s: float,
         wire: WireTrace | None,
     ) -> Finished:
-        """How the part ended; on an emulated bus (``wire``), its STARTs and STOP as the wire
-        saw them."""
+        """How the part ended: its STARTs as this computer's clock read them when their bytes
+        were written (any transport), and on an emulated bus (``wire``) its MOVE_STOP."""
         outcome, reason = PartOutcome(report.outcome.value), report.reason
         if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
             outcome, reason = PartOutcome.STOPPED, self.stop_reason
-        first_start = report.start_time_s + staged.performance.approach_s
-        approach_start = report.start_time_s + (
-            report.lateness_ms[0] / 1000 if report.lateness_ms else 0
-        )
-        stop = None
-        if wire is not None:
-            starts = wire.start_times_s(report.start_time_s)
-            approach_start = starts[0] if starts else approach_start
-            first_start = next((s for s in starts if s >= first_start - START_SLACK_S), first_start)
-            stop = wire.last_stop_s(began_s)
+        part_due_s = report.start_time_s + staged.performance.approach_s  # the motion's t=0
+        starts = report.start_times
+        first = next((s for s in starts if s.deadline_s >= part_due_s - START_SLACK_S), None)
+        stop = wire.last_stop_s(began_s) if wire is not None else None
         return Finished(
             self.name,
             outcome,
             reason,
             report.ticks_played,
             report.ticks_total,
-            approach_start - wall_to_clock_s if report.ticks_played else None,
-            first_start - wall_to_clock_s if report.ticks_played else None,
+            starts[0].written_s - wall_to_clock_s if starts else None,
+            first.written_s - wall_to_clock_s if first else None,
             None if stop is None else stop - wall_to_clock_s,
             report.lateness_percentile_ms(99),
+            first.late_ms if first else None,
         )
 
     def _release(self, staged: _Staged, *, stop: bool) -> None:
+        if staged.released:
+            return
+        staged.released = True
         for cancel in staged.cancels:
             cancel()
         if stop:
             Player(staged.bus, staged.robot, RealClock(), staged.limits).stop()
         staged.bus.close()
         staged.folder.cleanup()
-        self.state = "idle"
+        self.state, self.holder, self.conductor_alive = "idle", None, False
         self.stopped.clear()
 
 
@@ -296,7 +444,7 @@ def play_part(
     """The one place a performer uses the player: its part from the staged pose, first START at
     ``first_start_s`` on ``clock``; servos left holding."""
     last = [-PROGRESS_PERIOD_S]
-    events = f"{show_key(staged.show_id)}/progress/{performer.name}"
+    events = f"{performer.network.realm.show(staged.show_id)}/progress/{performer.name}"
     approach_s = staged.performance.approach_s
 
     def progress(p: PlayProgress) -> None:

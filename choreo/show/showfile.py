@@ -7,21 +7,25 @@ conductor stages them, ``choreo validate`` plans them). The keys come from
 
 from __future__ import annotations
 
+import dataclasses
 import enum
-import re
 from dataclasses import dataclass
 from pathlib import Path
+
+import yaml
 
 from choreo.core.file_shape import choices, mapping_shape
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, parse_yaml_file
 from choreo.errors import SourceError
 from choreo.music.decode import check_song_path
+from choreo.show.names import NAME_RULE, is_name
 
 SHOW = mapping_shape("show")
 MUSIC = mapping_shape("show", "#/properties/music")
 PERFORMER = mapping_shape("show", "#/$defs/performer")
-NAME = re.compile(r"[A-Za-z0-9_-]+")  # a name is one chunk of a Zenoh key expression
+CUE = mapping_shape("show", "#/$defs/cue")
 DEFAULT_MAX_CLOCK_OFFSET_MS = 2.0
+MAX_OFFSET_S = 3600.0  # a part starting later than this after the show's instant is a typo
 
 
 class OnAbort(enum.Enum):
@@ -47,13 +51,50 @@ class Part:
 
 
 @dataclass(frozen=True)
+class Cue:
+    """Parts started together on one GO, after the cue before it has ended."""
+
+    number: int  # from 1
+    name: str
+    parts: tuple[Part, ...]
+
+
+@dataclass(frozen=True)
 class Show:
     name: str
     path: Path
-    parts: tuple[Part, ...]
+    parts: tuple[Part, ...]  # with cues: every cue's parts, in order
     music: ShowMusic | None = None
     on_abort: OnAbort = OnAbort.STOP
     max_clock_offset_s: float = DEFAULT_MAX_CLOCK_OFFSET_MS / 1000
+    cues: tuple[Cue, ...] = ()
+
+    def in_cues(self) -> list[Show]:
+        """The show as the conductor plays it: one show per cue, in order (the song with the
+        first); a show without cues is its one cue."""
+        if not self.cues:
+            return [self]
+        return [
+            dataclasses.replace(
+                self,
+                name=f"{self.name}, cue {cue.number} ({cue.name})",
+                parts=cue.parts,
+                music=self.music if cue.number == 1 else None,
+                cues=(),
+            )
+            for cue in self.cues
+        ]
+
+
+def is_show_file(path: Path) -> bool:
+    """Whether ``path`` holds a show (a mapping with ``performers``) rather than a motion."""
+    try:
+        root = parse_yaml_file(path)
+    except SourceError:
+        return False  # reported when it is read as a motion
+    return isinstance(root, yaml.MappingNode) and any(
+        k.value in ("performers", "cues") for k, _ in root.value
+    )
 
 
 def load_show(path: str | Path) -> Show:
@@ -72,7 +113,11 @@ def load_show(path: str | Path) -> Show:
 
 def _read_show(reader: Reader, root: Node) -> Show | None:
     fields = reader.fields(root, "the show", SHOW.keys, SHOW.required)
-    if fields is None or "performers" not in fields:
+    if fields is None:
+        return None
+    if ("performers" in fields) == ("cues" in fields):
+        reader.report(root, "give either performers (played together) or cues (played one "
+                      "after another, each with its performers)")  # fmt: skip
         return None
     music = _read_music(reader, fields["music"]) if "music" in fields else None
     on_abort = (
@@ -89,17 +134,42 @@ def _read_show(reader: Reader, root: Node) -> Show | None:
         else DEFAULT_MAX_CLOCK_OFFSET_MS
     )  # fmt: skip
     name = reader.string(fields["name"].value, "name") if "name" in fields else reader.path.stem
-    parts = _read_parts(reader, fields["performers"], music)
-    if parts is None or max_offset_ms is None or name is None:
+    cues = (
+        _read_cues(reader, fields["cues"], music)
+        if "cues" in fields
+        else (None if (p := _read_parts(reader, fields["performers"], music)) is None
+              else (Cue(1, "", p),))
+    )  # fmt: skip
+    if cues is None or max_offset_ms is None or name is None:
         return None
     return Show(
         name,
         reader.path,
-        parts,
+        tuple(part for cue in cues for part in cue.parts),
         music,
         OnAbort(on_abort) if on_abort else OnAbort.STOP,
         max_offset_ms / 1000,
+        cues if "cues" in fields else (),
     )
+
+
+def _read_cues(reader: Reader, entry: Entry, music: ShowMusic | None) -> tuple[Cue, ...] | None:
+    items = reader.sequence(entry.value, "cues")
+    if items is None:
+        return None
+    if not items:
+        reader.report(entry.value, "cues is empty; give at least one")
+        return None
+    cues = []
+    for number, item in enumerate(items, 1):
+        fields = reader.fields(item, f"cue {number}", CUE.keys, CUE.required)
+        if fields is None or "performers" not in fields:
+            continue
+        name = reader.string(fields["name"].value, "name") if "name" in fields else f"cue {number}"
+        parts = _read_parts(reader, fields["performers"], music)
+        if parts is not None and name is not None:
+            cues.append(Cue(number, name, parts))
+    return tuple(cues) if len(cues) == len(items) else None
 
 
 def _read_music(reader: Reader, entry: Entry) -> ShowMusic | None:
@@ -152,11 +222,8 @@ def _read_part(reader: Reader, item: Node, music: ShowMusic | None) -> Part | No
     if fields is None or not {"name", "motion"} <= fields.keys():
         return None
     name = reader.string(fields["name"].value, "name")
-    if name is not None and not NAME.fullmatch(name):
-        reader.report(
-            fields["name"].value,
-            f"performer name {name!r} may only have letters, digits, _ and -",
-        )
+    if name is not None and not is_name(name):
+        reader.report(fields["name"].value, f"performer name {name!r} may only have {NAME_RULE}")
         name = None
     relative = reader.string(fields["motion"].value, "motion")
     motion = reader.path.parent / relative if relative else None
@@ -164,6 +231,12 @@ def _read_part(reader: Reader, item: Node, music: ShowMusic | None) -> Part | No
         reader.report(
             fields["motion"].value,
             f"motion: {motion} does not exist (paths are relative to this file's folder)",
+        )
+        motion = None
+    elif motion is not None and is_show_file(motion):
+        reader.report(
+            fields["motion"].value,
+            f"motion: {motion} is a show file, not a motion; a performer dances a motion file",
         )
         motion = None
     offset_s = _read_offset(reader, item, fields, music)
@@ -179,7 +252,7 @@ def _read_offset(
         reader.report(item, "give at most one of offset_s and offset_beats")
         return None
     if "offset_s" in fields:
-        return reader.number(fields["offset_s"].value, "offset_s", low=0)
+        return reader.number(fields["offset_s"].value, "offset_s", low=0, high=MAX_OFFSET_S)
     if "offset_beats" not in fields:
         return 0.0
     beats = reader.number(fields["offset_beats"].value, "offset_beats", low=0)
@@ -190,4 +263,14 @@ def _read_offset(
             "or write the offset in seconds (offset_s)",
         )
         return None
-    return None if beats is None or music is None or music.bpm is None else beats * 60 / music.bpm
+    if beats is None or music is None or music.bpm is None:
+        return None
+    offset_s = beats * 60 / music.bpm
+    if offset_s > MAX_OFFSET_S:  # inf too, from a huge number of beats
+        reader.report(
+            fields["offset_beats"].value,
+            f"offset_beats {beats:g} at {music.bpm:g} BPM starts the part {offset_s:g} s after "
+            f"the show's instant; the most is {MAX_OFFSET_S:g} s",
+        )
+        return None
+    return offset_s

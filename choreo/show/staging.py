@@ -27,7 +27,7 @@ def used_files(motion: Motion) -> list[Path]:
     return list(unique)
 
 
-def pack(show_id: str, motion: Motion) -> StagedPart:
+def pack(show_id: str, ticket: str, motion: Motion) -> StagedPart:
     files = used_files(motion)
     root = Path(os.path.commonpath([p.parent for p in files]))
 
@@ -35,7 +35,9 @@ def pack(show_id: str, motion: Motion) -> StagedPart:
         return path.resolve().relative_to(root).as_posix()
 
     contents = {relative(p): p.read_bytes() for p in files}
-    return StagedPart.of(show_id, relative(motion.path), relative(motion.robot.path), contents)
+    return StagedPart.of(
+        show_id, ticket, relative(motion.path), relative(motion.robot.path), contents
+    )
 
 
 def unpack(part: StagedPart, folder: Path) -> Motion:

@@ -5,84 +5,24 @@ scouting), killed and interrupted mid-show. Order and content only: no timing is
 from __future__ import annotations
 
 import json
-import os
+import re
 import signal
 import socket
 import subprocess
-import sys
-import threading
-import time
 
 import pytest
+from cli_helpers import ChoreoProcess as Process
 from paths import DATA, REPO
 
 ROOT = REPO
 SHOWS = DATA / "shows"
 ARM = "sim://?ids=1-6"
-WAIT_S = 30.0  # the most any step may take before the test fails (never reached when working)
 
 
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-class Process:
-    """A choreo command in the background, its stderr collected line by line."""
-
-    def __init__(self, *args: str):
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "choreo", *args],
-            cwd=ROOT,
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        self.lines: list[str] = []
-        self._out: list[str] = []
-        self._readers = [
-            threading.Thread(target=self._read, args=(self.proc.stderr, self.lines), daemon=True),
-            threading.Thread(target=self._read, args=(self.proc.stdout, self._out), daemon=True),
-        ]
-        for reader in self._readers:
-            reader.start()
-
-    @staticmethod
-    def _read(stream, into: list[str]) -> None:
-        for line in stream:
-            into.append(line.rstrip("\n"))
-
-    def wait_for(self, text: str, stream: str = "stderr") -> str:
-        lines = self.lines if stream == "stderr" else self._out
-        deadline = time.monotonic() + WAIT_S
-        while time.monotonic() < deadline:
-            found = [line for line in lines if text in line]
-            if found:
-                return found[0]
-            if self.proc.poll() is not None and not any(r.is_alive() for r in self._readers):
-                break
-            time.sleep(0.02)
-        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(lines + self._out))
-
-    def finish(self) -> tuple[int, str]:
-        code = self.proc.wait(timeout=WAIT_S)
-        for reader in self._readers:
-            reader.join(timeout=WAIT_S)
-        return code, "\n".join(self.lines)
-
-    @property
-    def stdout(self) -> str:
-        return "\n".join(self._out)
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=WAIT_S)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
 
 
 @pytest.fixture
@@ -109,7 +49,7 @@ def performers():
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    return Process("show", str(SHOWS / show), "--no-audio", *connects, *extra)
+    return Process("show", str(SHOWS / show), "--no-audio", "--go", *connects, *extra)
 
 
 def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
@@ -126,6 +66,7 @@ def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
         assert part["approach_start_s"] < part["first_start_s"]
         assert part["clock_offset_error_ms"] >= 0
         assert part["stop_s"] is None  # ran to its end: no MOVE_STOP
+        assert part["first_start_late_ms"] is not None  # read when its bytes were written
     three = report["performers"][2]
     assert three["offset_s"] == pytest.approx(60 / 112)  # one beat at 112 BPM
     assert report["first_start_spread_ms"] is not None
@@ -223,6 +164,7 @@ def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, t
     parts = {p["name"]: p for p in json.loads(report_path.read_text())["performers"]}
     assert (parts["right"]["outcome"], parts["left"]["outcome"]) == ("lost", "completed")
     assert parts["left"]["ticks_played"] == parts["left"]["ticks_total"]
+    assert parts["left"]["clock_drift_ms"] is not None  # its clock measured again during the 5 s
     assert json.loads(report_path.read_text())["stop_sent_s"] is None
 
 
@@ -243,3 +185,210 @@ def test_an_endpoint_that_is_not_one_is_refused_before_zenoh_sees_it(argv, capsy
         "(PROTOCOL one of tcp, udp, tls, quic, ws; PORT 0-65535) or unixsock-stream/PATH, "
         "e.g. tcp/192.168.1.5:7447\n"
     )
+
+
+def performer_process(name: str, *extra: str, port: str = ARM) -> tuple[Process, str]:
+    listen = f"tcp/127.0.0.1:{free_port()}"
+    process = Process("perform", "--name", name, "--port", port, "--listen", listen, *extra)
+    process.wait_for("waiting for a show", stream="stdout")
+    return process, listen
+
+
+def test_two_performers_of_one_name_are_refused_naming_both(tmp_path):
+    solo = tmp_path / "solo.yaml"
+    solo.write_text(f"performers:\n  - {{name: left, motion: {SHOWS / 'nod.yaml'}}}\n")
+    first, one = performer_process("left")
+    second, two = performer_process("left")
+    try:
+        code, err = conductor(str(solo), [one, two]).finish()
+        assert code == 1, err
+        host = socket.gethostname()
+        assert (
+            f"2 performers are named left, on {host} (pid {first.proc.pid}, on {ARM}) and "
+            f"{host} (pid {second.proc.pid}, on {ARM}): give each its own --name"
+        ) in err or (
+            f"2 performers are named left, on {host} (pid {second.proc.pid}, on {ARM}) and "
+            f"{host} (pid {first.proc.pid}, on {ARM}): give each its own --name"
+        ) in err
+        assert not any("staged" in line for line in first.lines + second.lines)
+        # on loopback only: no warning about the network
+        assert not any("warning" in line for line in first.lines + second.lines)
+    finally:
+        first.stop()
+        second.stop()
+
+
+def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    # the first conductor holds both, armed and waiting for its GO
+    first = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
+    first.wait_for("press Enter for GO")
+    code, err = conductor("duo.yaml", endpoints).finish()
+    assert code == 1, err
+    assert "refusing to start the show:" in err
+    for name in ("left", "right"):
+        assert re.search(rf"{name} on \S+ is busy with show duo-[0-9a-f]{{8}} \(another", err), err
+    assert first.proc.stdin is not None
+    first.proc.stdin.write("\n")
+    first.proc.stdin.flush()
+    code, err = first.finish()
+    assert code == 0, err  # the first show was not disturbed
+
+
+def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    show = conductor("wave_duo.yaml", endpoints)
+    for process, _ in performers.started.values():
+        process.wait_for("playing")
+    show.proc.send_signal(signal.SIGSTOP)  # its liveliness token stays: only its heartbeat stops
+    try:
+        for name, (process, _) in performers.started.items():
+            line = process.wait_for("part stopped: lost the conductor")
+            assert line.startswith(f"{name}: part stopped: lost the conductor (no heartbeat for ")
+            assert process.wait_for("emulated bus:").endswith("every servo stopped")
+    finally:
+        show.proc.send_signal(signal.SIGCONT)
+        show.proc.kill()
+        show.finish()
+
+
+def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    report_path = tmp_path / "show.json"
+    show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
+    for process, _ in performers.started.values():
+        process.wait_for("playing")
+    show.proc.send_signal(signal.SIGTERM)
+    code, err = show.finish()
+    assert code == 130, err
+    report = json.loads(report_path.read_text())
+    assert report["stop_reason"] == "Ctrl-C at the conductor"
+    assert [p["outcome"] for p in report["performers"]] == ["stopped", "stopped"]
+    for process, _ in performers.started.values():
+        process.wait_for("every servo stopped")
+
+
+def test_a_performer_in_another_realm_is_not_found():
+    process, endpoint = performer_process("left", "--realm", "lab")
+    try:
+        code, err = conductor("duo.yaml", [endpoint], "--wait", "1").finish()
+        assert code == 1
+        assert "2 performer(s) did not appear within 1 s: left, right" in err
+    finally:
+        process.stop()
+
+
+def test_a_performer_reachable_from_the_network_without_authentication_warns():
+    process, _ = performer_process("left", "--listen", f"tcp/0.0.0.0:{free_port()}")
+    try:
+        warnings = [line for line in process.lines if "warning" in line]
+        assert len(warnings) == 1
+        assert warnings[0].startswith("choreo: warning: this session is reachable beyond this")
+    finally:
+        process.stop()
+
+
+@pytest.mark.parametrize("port", ["sim://?ids=999", "/dev/null"])
+def test_a_port_that_does_not_open_is_refused_at_start_up(port, capsys):
+    from choreo.cli import main
+
+    assert main(["perform", "--port", port, "--listen", "tcp/127.0.0.1:0"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"choreo: error: cannot open {port}: ")
+    assert len(err.splitlines()) <= 2  # the error, and perhaps a hint
+
+
+@pytest.mark.parametrize(
+    "argv, flag",
+    [
+        (["perform", "--name", "ünï"], "--name"),
+        (["perform", "--realm", "a/b"], "--realm"),
+        (["show", str(SHOWS / "duo.yaml"), "--realm", "ünï"], "--realm"),
+    ],
+)
+def test_a_name_that_is_not_one_is_one_usage_line(argv, flag, capsys):
+    from choreo.cli import main
+
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1].endswith(f"argument {flag}: a name has only ASCII letters, digits, - and _, "
+                            f"got {argv[argv.index(flag) + 1]!r}")  # fmt: skip
+
+
+def test_a_zenoh_configuration_that_cannot_be_used_is_one_line(tmp_path, capsys):
+    from choreo.cli import main
+
+    bad = tmp_path / "zenoh.json5"
+    bad.write_text('{mode: "bogus"}')
+    argv = ["show", str(SHOWS / "duo.yaml"), "--no-audio", "--zenoh-config", str(bad)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"choreo: error: --zenoh-config {bad} is not a Zenoh configuration")
+    assert err.count("\n") == 1 and ".rs:" not in err
+
+
+def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(tmp_path):
+    for name, pose in (("a.yaml", "nowhere"), ("b.yaml", "elsewhere")):
+        (tmp_path / name).write_text(f"robot: arm6\nkeyframes:\n  - pose: {pose}\n")
+    show = tmp_path / "show.yaml"
+    show.write_text("performers:\n  - {name: a, motion: a.yaml}\n  - {name: b, motion: b.yaml}\n")
+    code, err = Process("show", str(show), "--no-audio", "--go", "--wait", "30").finish()
+    assert code == 1
+    lines = err.splitlines()
+    assert lines[0] == "choreo: error: refusing to start the show: 2 problem(s) in its files:"
+    assert lines[1].startswith(f"  {tmp_path / 'a.yaml'}:3:")
+    assert lines[2].startswith(f"  {tmp_path / 'b.yaml'}:3:")
+    assert "did not appear" not in err
+
+
+def test_the_show_is_armed_shown_and_started_on_enter(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    show = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
+    show.wait_for("press Enter for GO")
+    assert not any("playing" in line for p, _ in performers.started.values() for line in p.lines)
+    assert show.proc.stdin is not None
+    show.proc.stdin.write("\n")
+    show.proc.stdin.flush()
+    code, err = show.finish()
+    assert code == 0, err
+    table = err[: err.index("every performer took the start")]
+    for name in ("left", "right"):
+        assert re.search(rf"{name}\s.*arm6\s.*ok\s.*ms (ahead|behind)\s.*passed", table), table
+    assert "the show begins in 1 s" in err  # the countdown's last second
+
+
+def test_without_enter_nothing_plays_and_every_part_is_dropped(performers):
+    endpoints = performers({"left": ARM, "right": ARM})
+    connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+    code, err = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects).finish()
+    assert code == 1
+    assert (
+        "choreo: error: no GO: the input ended before Enter; give --go to start without one" in err
+    )
+    for process, _ in performers.started.values():
+        # the stop, or the conductor's token vanishing just after it: whichever comes first
+        process.wait_for("part dropped, servos stopped")
+        assert not any("playing" in line for line in process.lines)
+
+
+def test_cues_play_one_after_another(performers, tmp_path):
+    endpoints = performers({"left": ARM, "right": ARM})
+    report_path = tmp_path / "show.json"
+    code, err = conductor("cues.yaml", endpoints, "--report", str(report_path)).finish()
+    assert code == 0, err
+    report = json.loads(report_path.read_text())
+    assert [c["show"] for c in report["cues"]] == ["cues, cue 1 (opening)", "cues, cue 2 (cue 2)"]
+    assert [[p["name"] for p in c["performers"]] for c in report["cues"]] == [
+        ["left"],
+        ["left", "right"],
+    ]
+    assert all(p["outcome"] == "completed" for c in report["cues"] for p in c["performers"])
+    first, second = (c["performers"][0] for c in report["cues"])
+    assert first["first_start_s"] < second["approach_start_s"]  # cue 2 after cue 1 ended
+    left = performers.started["left"][0]
+    left.wait_for("part completed")
+    assert sum("part completed" in line for line in left.lines) == 2

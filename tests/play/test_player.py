@@ -82,3 +82,19 @@ def test_approach_from_anywhere_never_jumps():
     top_speed = max(abs(m.to_units - m.from_units) / m.duration_s for m in moves if m.duration_s)
     limit_units_s = max(j.limits.vel_deg_s for j in rig.robot.joints) * 1000 / 240
     assert top_speed <= limit_units_s * 1.05
+
+
+def test_every_start_is_timed_when_its_bytes_were_written():
+    """The times a show reports (choreo.show.performer): per START, when it was due, when its
+    bytes were due to be written and when writing them returned, on the player's clock."""
+    rig = Rig(f"{MOTIONS}/arm6/wave.yaml")
+    report = rig.play()
+    starts = rig.packets(Command.MOVE_START)
+    assert len(report.start_times) == len(starts) == len(report.lateness_ms) > 0
+    for timing, packet in zip(report.start_times, starts):
+        # in virtual time the write takes no time and its last byte arrives at the deadline
+        assert timing.write_at_s == timing.written_s < timing.deadline_s
+        assert packet.time_s == pytest.approx(timing.deadline_s)
+        assert timing.late_ms == 0.0
+    deadlines = [t.deadline_s for t in report.start_times]
+    assert deadlines == sorted(deadlines) and deadlines[0] == report.start_time_s

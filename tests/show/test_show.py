@@ -160,7 +160,7 @@ def test_a_show_file_reports_every_problem_at_its_line(tmp_path):
     with pytest.raises(SourceError) as caught:
         load_show(path)
     assert caught.value.problems == [
-        f"{path}:2:12: performer name 'tony 1' may only have letters, digits, _ and -",
+        f"{path}:2:12: performer name 'tony 1' may only have ASCII letters, digits, - and _",
         f"{path}:2:28: motion: {tmp_path / 'nope.yaml'} does not exist (paths are relative "
         "to this file's folder)",
         f"{path}:4:5: performer 'a' is named twice (first at line 3); each performer dances "
@@ -169,7 +169,7 @@ def test_a_show_file_reports_every_problem_at_its_line(tmp_path):
         "or write the offset in seconds (offset_s)",
         f"{path}:6:11: on_abort 'maybe' is not one of stop, continue",
         f"{path}:7:1: unknown key 'tempo' in the show; valid keys: name, music, on_abort, "
-        "max_clock_offset_ms, performers",
+        "max_clock_offset_ms, performers, cues",
     ]
 
 
@@ -189,7 +189,7 @@ def test_shipped_shows_match_the_schema():
     validator = jsonschema.Draft202012Validator(schema)
     files = [
         *(REPO / "shows").glob("*.yaml"),
-        *(SHOWS / f for f in ("duo.yaml", "trio.yaml", "duo_continue.yaml")),
+        *(SHOWS / f for f in ("duo.yaml", "trio.yaml", "duo_continue.yaml", "cues.yaml")),
     ]
     for path in files:
         assert list(validator.iter_errors(yaml.safe_load(path.read_text()))) == [], path
@@ -197,7 +197,7 @@ def test_shipped_shows_match_the_schema():
 
 # --- staging and messages -----------------------------------------------------------------------
 def test_a_part_travels_with_every_file_it_uses(tmp_path):
-    part = pack("show-1", load_motion(REPO / "motions" / "tonypi" / "dance.yaml"))
+    part = pack("show-1", "ticket", load_motion(REPO / "motions" / "tonypi" / "dance.yaml"))
     assert part.motion == "motions/tonypi/dance.yaml"
     assert part.robot_file == "models/tonypi/robot.yaml"
     assert {name for name, _ in part.files} == {
@@ -219,7 +219,7 @@ def test_a_part_travels_with_every_file_it_uses(tmp_path):
 
 @pytest.mark.parametrize("name", ["../evil.yaml", "/etc/passwd", "a/../../b"])
 def test_a_staged_file_outside_the_folder_is_refused(tmp_path, name):
-    part = StagedPart.of("s", "m.yaml", "robot.yaml", {name: b"x"})
+    part = StagedPart.of("s", "t", "m.yaml", "robot.yaml", {name: b"x"})
     with pytest.raises(ChoreoError, match="outside the staging folder"):
         unpack(part, tmp_path / "stage")
     assert not (tmp_path / "evil.yaml").exists()
@@ -256,6 +256,8 @@ def test_without_zenoh_a_show_says_which_extra_to_install(monkeypatch):
 
 class SkewedPerformers:
     """Answers the conductor's clock round trips with clocks ``skews_s`` ahead of this one."""
+
+    realm = zenoh_network.Realm()
 
     def __init__(self, skews_s: dict[str, float]):
         self.skews_s = skews_s
