@@ -106,7 +106,7 @@ def _sim_settings(_w: World):
 
 
 def _check_thresholds(_w: World):
-    from choreo.preview.checks import CheckThresholds
+    from choreo.preview.findings import CheckThresholds
 
     return CheckThresholds
 

@@ -14,7 +14,9 @@ checked for problems and rendered offscreen::
 - :mod:`~choreo.preview.simulated`: :class:`SimulatedMotion`, a rollout with what was measured on
   it: ``travel`` (the body), ``props``, ``walk`` (a walker's stance; ``stance``) and its gaits,
   ``reach`` (``sites:`` targets), ``impact`` (how a robot that ends lying comes down);
-- :mod:`~choreo.preview.checks`: :func:`run_checks`, what would go wrong on the robot;
+- :mod:`~choreo.preview.checks`: :func:`run_checks`, what would go wrong on the robot (the servos'
+  checks in :mod:`~choreo.preview.servo_checks`, the body's in :mod:`~choreo.preview.body_checks`;
+  a finding and the thresholds, :mod:`~choreo.preview.findings`);
 - :mod:`~choreo.preview.report`: the ``--report`` JSON and the lines the CLI prints;
 - :mod:`~choreo.preview.render`, ``gl``, ``viewer``: pictures, offscreen or in a window.
 
@@ -25,13 +27,8 @@ that imports ``mujoco``.
 from __future__ import annotations
 
 from choreo.preview.actuator import ActuatorParams, actuator_params
-from choreo.preview.checks import (
-    CheckKind,
-    CheckResult,
-    CheckThresholds,
-    Severity,
-    run_checks,
-)
+from choreo.preview.checks import run_checks
+from choreo.preview.findings import CheckKind, CheckResult, CheckThresholds, Severity
 from choreo.preview.pipeline import (
     FIRST_KEYFRAME,
     Rehearsal,

@@ -22,7 +22,7 @@ import numpy as np
 from choreo.errors import PreviewError
 from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
-from choreo.preview.checks import CheckKind, CheckResult
+from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.gl import context_class, offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.sim import Rollout

@@ -71,18 +71,18 @@ def creep_mm(simulated, motion) -> float:
 
 
 def test_a_grip_with_twice_the_friction_needed_carries_the_block_without_creeping(tmp_path):
-    motion = light_pick(tmp_path, 0.19)
+    motion = light_pick(tmp_path, 0.15)
     simulated = simulate_motion(motion)
     assert friction_margin(simulated, motion) == pytest.approx(2.0, abs=0.3)
     (block,) = simulated.props
     assert block.lifted_m > 0.06 and block.dropped_at_s is None
-    # a 20 g block in the firm grip moves 2.7 mm in the hand as the arm swings (the soft pads);
-    # with MuJoCo's default contacts this one crept 14 mm down through the fingers
+    # the block moves a few mm in the hand as the arm swings (the soft pads); with MuJoCo's
+    # default contacts a block at this margin crept 14 mm down through the fingers
     assert creep_mm(simulated, motion) < 5
 
 
 def test_a_grip_with_half_the_friction_needed_lets_the_block_slip(tmp_path):
-    motion = light_pick(tmp_path, 0.78)
+    motion = light_pick(tmp_path, 0.61)
     simulated = simulate_motion(motion)
     assert friction_margin(simulated, motion) == pytest.approx(0.5, abs=0.15)
     (block,) = simulated.props

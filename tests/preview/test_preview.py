@@ -40,7 +40,7 @@ from choreo.preview.actuator import (
     ServoBank,
     commanded_path_units,
 )
-from choreo.preview.checks import episodes
+from choreo.preview.findings import episodes
 from choreo.preview.model import apply_servo_models, index_joints, load_model
 from choreo.robot.robot_file import load_robot
 
