@@ -92,6 +92,17 @@ def open_page(browser, studio):
     return page
 
 
+def timeline_frame(page, studio):
+    """The timeline's page, framed into viser's."""
+    wait_for(lambda: timeline_or_none(page, studio) is not None, "the timeline's frame")
+    return timeline_or_none(page, studio)
+
+
+def timeline_or_none(page, studio):
+    port = f":{studio.timeline.port}/"
+    return next((f for f in page.frames if port in f.url), None)
+
+
 def number_input(page, label: str):
     """The number box beside the control labelled ``label``."""
     row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
@@ -138,8 +149,9 @@ def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, st
         assert value_of(page, joint) == pytest.approx(angle, abs=TICK_TOLERANCE_DEG)
     wait_for(lambda: changed_pixels(scene_pixels(page), at_rest) > 400, "the robot to move")
     # the song, in the page, stands at the timeline's time plus its start (music: start: 0.5)
-    song_time = "() => document.getElementById('choreo-song').currentTime"
-    wait_for(lambda: page.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
+    song_time = "() => document.getElementById('song').currentTime"
+    timeline = timeline_frame(page, studio)
+    wait_for(lambda: timeline.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
 
 
 # The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:

@@ -65,6 +65,43 @@ class RobotView:
         server.initial_camera.look_at = center
         server.initial_camera.position = center + extent * np.array([1.2, -1.6, 0.9])
 
+    def limbs(self) -> tuple[tuple[str, tuple[int, ...]], ...]:
+        """The robot's joints grouped by limb, in joint order: (the limb's first body, the
+        indices of its joints). A limb is a chain of bodies below the last body where the tree
+        branches (an arm on its own is one limb; a hexapod has six)."""
+        model = self.model
+        children: dict[int, list[int]] = {}
+        for body in range(1, model.nbody):
+            children.setdefault(int(model.body_parentid[body]), []).append(body)
+        with_joints = self._bodies_with_joints()
+
+        def branches(body: int) -> int:
+            return sum(1 for child in children.get(body, ()) if child in with_joints)
+
+        limbs: dict[str, list[int]] = {}
+        for index, joint in enumerate(self.robot.joints):
+            joint_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.mjcf_joint)
+            body = int(model.jnt_bodyid[joint_id])
+            while True:
+                parent = int(model.body_parentid[body])
+                if parent <= 0 or parent == self._root_body or branches(parent) > 1:
+                    break
+                body = parent
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+            limbs.setdefault(name, []).append(index)
+        return tuple((name, tuple(joints)) for name, joints in limbs.items())
+
+    def _bodies_with_joints(self) -> set[int]:
+        """Bodies with a robot joint in or below them."""
+        model, found = self.model, set()
+        for joint in self.robot.joints:
+            joint_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.mjcf_joint)
+            body = int(model.jnt_bodyid[joint_id])
+            while body > 0 and body not in found:
+                found.add(body)
+                body = int(model.body_parentid[body])
+        return found
+
     def matches(self, robot: Robot, props: Sequence[Prop]) -> bool:
         """This view still draws ``robot`` with ``props`` (else the scene is rebuilt)."""
         return robot == self.robot and tuple(props) == self.props

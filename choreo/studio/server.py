@@ -11,7 +11,7 @@ import contextlib
 import io
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +30,7 @@ from choreo.studio.page import SPEEDS, Page
 from choreo.studio.posing import BodyDrag, farthest_foot, pose_after, rotation_of, solve_body
 from choreo.studio.scene import RobotView
 from choreo.studio.session import Plan, Reload, Session
+from choreo.studio.timeline_page import Timeline, keyframe_of
 from choreo.studio.watch import FileWatcher
 
 FRAME_S = 1 / 30  # the player redraws the page at 30 frames a second
@@ -91,7 +92,10 @@ class Studio:
         self.address = Address(listen.host, self.server.get_port())
         self.live = live
         self.driving = False  # the live robot follows the page
-        self.page = Page(self.server, self, live=live is not None)
+        self.timeline = Timeline(listen.host, self)
+        self._status: tuple[str, str] = ("loading…", "")  # the files' state, and its kind
+        self._last_note: tuple[str, str] = ("", "")  # what the last action did, and its kind
+        self.page = Page(self.server, self, live=live is not None, timeline_port=self.timeline.port)
         self.server.on_client_disconnect(self._tab_closed)
         self.view: RobotView | None = None
         self.time_s = 0.0
@@ -114,6 +118,7 @@ class Studio:
     # --- life ----------------------------------------------------------------------------------
 
     def start(self) -> None:
+        self.timeline.start()
         self.reload()
         self._watcher.start()
         self._player.start()
@@ -123,6 +128,7 @@ class Studio:
             self.live.close()
         self._stop.set()
         self._watcher.stop()
+        self.timeline.close()
         if self._player.is_alive():
             self._player.join(timeout=2.0)
         with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped"
@@ -152,6 +158,7 @@ class Studio:
             self._say(problem)
         self.page.show_problems(result.problems)
         plan = self.session.plan
+        self._show_status(reload_status(result, plan))
         if plan is None:
             return
         motion = plan.motion
@@ -163,7 +170,8 @@ class Studio:
             self.view = RobotView(self.server, motion.robot, motion.props)
             self._kinematics = None
             self._add_site_handles(plan)
-        self.page.show_plan(plan, result.version)
+        self.page.show_plan(plan)
+        self.timeline.show_plan(plan, result.version, self.view.limbs())
         if self.selected is not None and self.selected >= len(motion.keyframes):
             self.selected = None
         self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
@@ -191,6 +199,8 @@ class Studio:
             self._back_to_the_plan()
             self._redraw(plan)
             self.page.show_joints(plan.planned_deg(self.time_s))
+            if self.playing:  # the pages' clocks go on from here
+                self.timeline.show_play(True, self.time_s, self.speed)
 
     def _snapped(self, plan: Plan, t_s: float) -> float:
         """``t_s``, or with "snap to beats" the nearest beat of the music."""
@@ -206,18 +216,18 @@ class Studio:
             self.page.play.label = "Pause" if self.playing else "Play"
             if self.playing:
                 self._back_to_the_plan()
+            self.timeline.show_play(self.playing, self.time_s, self.speed)
+            if not self.playing:
+                self._redraw_current()
 
     def set_speed(self, text: str) -> None:
         if text not in SPEEDS:
             self.refuse(f"refused: speed {text!r} is not one of {', '.join(SPEEDS)}")
             return
-        self.speed = float(text)
-
-    def redraw_curves(self) -> None:
         with self._lock:
-            plan = self._plan()
-            if plan is not None:
-                self.page.show_curves(plan)
+            self.speed = float(text)
+            if self.playing:
+                self.timeline.show_play(True, self.time_s, self.speed)
 
     def show_ghost(self, visible: bool) -> None:
         with self._lock:
@@ -237,6 +247,7 @@ class Studio:
                 self.time_s += elapsed * self.speed
                 if self.time_s > plan.end_s:
                     self.time_s = plan.start_s
+                    self.timeline.show_play(True, self.time_s, self.speed)
                 self._redraw(plan)
 
     def _redraw_current(self) -> None:
@@ -258,6 +269,8 @@ class Studio:
         else:
             self.view.show(qpos, planned)
         self.page.show_time(t, self._time_text(plan, t))
+        if not self.playing:  # while playing, each page keeps time with its own clock
+            self.timeline.show_time(t)
         if self.driving and self.live is not None:
             self.live.follow(self.posing if self.posing is not None else planned)
 
@@ -289,6 +302,97 @@ class Studio:
             label = f" ({keyframe.label})" if keyframe.label else ""
             self.page.show_keyframe(index, f"`{keyframe.where}`{label} at {t:.2f} s: {values}")
             self.scrub(t)
+
+    def select_keyframes(self, indices: Sequence[int]) -> None:
+        """The timeline's selection: one keyframe is the panel's too (Update, Move, Delete act
+        on it); several, or none, leave the panel none."""
+        with self._lock:
+            plan = self._plan()
+            count = len(plan.motion.keyframes) if plan is not None else 0
+            if any(i >= count for i in indices):
+                self.refuse(f"refused: the motion has {count} keyframes, not {max(indices) + 1}")
+                return
+            if len(indices) == 1:
+                self.select_keyframe(indices[0])
+            else:
+                self.selected = None
+                several = f"{len(indices)} keyframes selected" if indices else ""
+                self.page.show_keyframe(None, several)
+
+    def name_finding(self, index: int) -> None:
+        """A finding clicked in the timeline: the playhead goes there and the status line says
+        it with the keyframe it belongs to."""
+        with self._lock:
+            plan = self._plan()
+            if plan is None or index >= len(plan.findings):
+                self.refuse(f"refused: there is no finding {index + 1}")
+                return
+            finding = plan.findings[index]
+            keyframe = plan.motion.keyframes[keyframe_of(plan.keyframe_times_s, finding.time_s)]
+            self.scrub(finding.time_s)
+            self.note(
+                f"{finding.time_s:.2f} s {finding.severity.value}: {finding.message} "
+                f"(keyframe at {keyframe.where})"
+            )
+
+    def move_keyframes(self, moves: Sequence[tuple[int, float]]) -> None:
+        """Move keyframes (index, to time s) as Move keyframe here does, one after the other:
+        the ones moving later from the last, those moving earlier from the first, so none
+        passes another on the way; the first refusal stops the rest."""
+        later = bool(moves) and moves[0][1] > self._keyframe_time(moves[0][0])
+        for index, t_s in sorted(moves, reverse=later):
+            version = self.session.version
+            self.select_keyframe(index)
+            self.scrub(t_s)
+            self.retime_keyframe()
+            if self.session.version == version:
+                return
+
+    def _keyframe_time(self, index: int) -> float:
+        plan = self._plan()
+        if plan is None or index >= len(plan.keyframe_times_s):
+            return float("inf")
+        return plan.keyframe_times_s[index]
+
+    def delete_keyframes(self, indices: Sequence[int]) -> None:
+        """Delete keyframes as Delete keyframe does, the last first (so the numbers of the
+        others stay)."""
+        for index in sorted(set(indices), reverse=True):
+            version = self.session.version
+            self.select_keyframe(index)
+            self.delete_keyframe()
+            if self.session.version == version:
+                return
+
+    def paste_keyframes(self, keyframes: Sequence[tuple[float, Mapping[str, float]]]) -> None:
+        """Add copied poses (time s, joint -> degrees) as Add keyframe does, earliest first."""
+        for t_s, pose in sorted(keyframes, key=lambda k: k[0]):
+            version = self.session.version
+            with self._lock:
+                plan = self._plan()
+                if plan is None:
+                    return
+                robot = plan.motion.robot
+                unknown = sorted(set(pose) - set(robot.joint_names))
+                if unknown:
+                    self.refuse(f"refused: {robot.name} has no joint {', '.join(unknown)}")
+                    return
+                self.scrub(t_s)
+                angles = [pose.get(name, a) for name, a in zip(robot.joint_names, self._pose())]
+                problems = limit_problems(robot, angles)
+                if problems:
+                    self.refuse("refused: " + "; ".join(problems))
+                    return
+                self._set_pose(np.array(angles, dtype=float), plan)
+            self.add_keyframe()
+            if self.session.version == version:
+                return
+
+    def undo(self) -> None:
+        self.refuse("refused: undo is not here yet")
+
+    def redo(self) -> None:
+        self.refuse("refused: redo is not here yet")
 
     def move_joint(self, name: str, value: object) -> None:
         with self._lock:
@@ -654,12 +758,52 @@ class Studio:
 
     # --- notes ---------------------------------------------------------------------------------
 
-    def note(self, text: str) -> None:
+    def note(self, text: str, kind: str = "") -> None:
         self._say(text)
-        self.page.show_note(text)
+        self._last_note = (text, kind)
+        self._show_status()
 
     def refuse(self, text: str) -> None:
-        self.note(f"⛔ {text}")
+        self._say(f"⛔ {text}")  # a terminal has the glyph; the page's fonts may not
+        self._last_note = (text, "refused")
+        self._show_status()
+
+    def _show_status(self, status: tuple[str, str] | None = None) -> None:
+        """One line for the page: the files' state (loading, planned, simulated, or failed and
+        why), then what the last action did."""
+        if status is not None:
+            self._status = status
+        text, kind = self._status
+        note, note_kind = self._last_note
+        if note:
+            text, kind = f"{text} · {note}", kind or note_kind
+        self.page.show_status(text, kind)
+        self.timeline.show_status(text, kind)
+
+
+def reload_status(result: Reload, plan: Plan | None) -> tuple[str, str]:
+    """The status line's first part after a reload, and its kind ("failed" or "")."""
+    if result.problems:
+        kept = " (the last good plan stays on screen)" if plan is not None else ""
+        more = len(result.problems) - 1
+        first = result.problems[0] + (f" (and {more} more)" if more else "")
+        return f"reload {result.version} failed: {first}{kept}", "failed"
+    assert plan is not None
+    physics = plan.physics
+    if physics is None:
+        return f"reload {result.version} planned: {plan.end_s:.2f} s; simulating…", ""
+    findings = physics.findings
+    errors = sum(f.severity.value == "error" for f in findings)
+    found = (
+        f"{len(findings)} finding{'s' * (len(findings) != 1)}"
+        + (f" ({errors} error{'s' * (errors != 1)})" if errors else "")
+        if findings
+        else "no findings: the simulated robot follows the plan"
+    )
+    return (
+        f"reload {result.version} simulated in {physics.took_s:.2f} s: {plan.end_s:.2f} s, {found}",
+        "",
+    )
 
 
 def check_loads(path: Path, text: str) -> Motion:
