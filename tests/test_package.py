@@ -187,7 +187,7 @@ TESTED_IN = {
     "studio/scene.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/server.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/session.py": ("test_studio.py", "test_studio_browser.py"),
-    "studio/song.py": ("test_studio.py", "test_studio_browser.py"),
+    "studio/timeline_page.py": ("studio/test_timeline_page.py",),
     "studio/watch.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/yaml_edit.py": ("test_studio.py", "test_studio_browser.py"),
     "bus/transports/lobot.py": ("test_transport_codecs.py", "test_boards.py"),

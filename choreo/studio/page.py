@@ -185,7 +185,9 @@ class Page:
         return lambda event: self._studio.move_joint(name, event.target.value)
 
     def show_problems(self, problems: tuple[str, ...]) -> None:
-        """Every problem of a file that does not load, each wrapped to the panel's width."""
+        """The problems of a file that does not load after the first (the status line says
+        that one), each wrapped to the panel's width."""
+        problems = problems[1:]
         self.problems.visible = bool(problems)
         if problems:
             self.problems.content = (

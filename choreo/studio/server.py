@@ -786,7 +786,7 @@ def reload_status(result: Reload, plan: Plan | None) -> tuple[str, str]:
     if result.problems:
         kept = " (the last good plan stays on screen)" if plan is not None else ""
         more = len(result.problems) - 1
-        first = result.problems[0] + (f" (and {more} more)" if more else "")
+        first = result.problems[0] + (f" (and {more} more, listed below)" if more else "")
         return f"reload {result.version} failed: {first}{kept}", "failed"
     assert plan is not None
     physics = plan.physics

@@ -9,7 +9,7 @@
 (function () {
   const LABEL_W = 150, RULER_H = 22, WAVE_H = 40, FIND_H = 16, KEYS_H = 18, ROW_H = 16;
   const MIN_SPAN_S = 5, MAX_SPAN_S = 600, FRAME_S = 1 / 30, SNAP_S = 0.05, NO_BEAT_STEP_S = 0.5;
-  const DIAMOND = 5, DRAG_PX = 3;
+  const DIAMOND = 5, DRAG_PX = 3, DIAMOND_GAP_PX = 2, CURVE_PX = 3;
   const SEVERITY = { error: "#d62728", warning: "#f0a020" };
   const COLOURS = ["#2878ff", "#e0561b", "#2ca02c", "#9467bd", "#d62728", "#17becf", "#8c564b"];
   const SEEK_S = 0.25, NUDGE = 0.05; // the song: seek when this far off, else nudge its rate
@@ -33,6 +33,7 @@
   let dirty = true;
   let songUrl = null;
   const drift = [];
+  const partMs = {}; // how long each part of the last redraw took
 
   // --- talking to the studio -------------------------------------------------------------
   // Requests go one after another, in order (a scrub then K adds at the scrubbed time); a
@@ -239,15 +240,12 @@
       ctx.fillText("loading…", 8, 12);
       return performance.now() - began;
     }
-    drawGrid(L);
-    drawRuler(L);
-    if (L.wave) drawWave(L);
-    drawFindings(L);
-    drawLanes(L);
-    drawCurves(L);
-    drawLabels(L);
-    drawBox(L);
-    drawPlayhead(L);
+    const parts = [drawGrid, drawRuler, drawWave, drawFindings, drawLanes, drawCurves, drawLabels, drawBox, drawPlayhead];
+    for (const part of parts) {
+      const t = performance.now();
+      if (part !== drawWave || L.wave) part(L);
+      partMs[part.name] = performance.now() - t;
+    }
     clock.textContent = clockText();
     return performance.now() - began;
   }
@@ -403,17 +401,28 @@
   }
 
   function drawDiamonds(y, indices) {
-    // indices: keyframes in time order drawn on the row centred at y
+    // indices: keyframes in time order drawn on the row centred at y; one path per colour,
+    // and one diamond per pixel column (a thousand keyframes in a few hundred pixels)
+    const paths = { "#ff8a00": [], "#3b4a6b": [], "#9aa0ad": [] };
     for (const i of indices) {
-      const x = xOf(draggedTime(i));
-      const selected = selection.has(i);
-      ctx.fillStyle = selected ? "#ff8a00" : state.keyframes[i].editable ? "#3b4a6b" : "#9aa0ad";
+      const colour = selection.has(i) ? "#ff8a00" : state.keyframes[i].editable ? "#3b4a6b" : "#9aa0ad";
+      paths[colour].push(Math.round(xOf(draggedTime(i))));
+    }
+    for (const colour in paths) {
+      const xs = paths[colour];
+      if (!xs.length) continue;
+      ctx.fillStyle = colour;
       ctx.beginPath();
-      ctx.moveTo(x, y - DIAMOND);
-      ctx.lineTo(x + DIAMOND, y);
-      ctx.lineTo(x, y + DIAMOND);
-      ctx.lineTo(x - DIAMOND, y);
-      ctx.closePath();
+      let last = -Infinity;
+      for (const x of xs) {
+        if (x - last < DIAMOND_GAP_PX) continue;
+        last = x;
+        ctx.moveTo(x, y - DIAMOND);
+        ctx.lineTo(x + DIAMOND, y);
+        ctx.lineTo(x, y + DIAMOND);
+        ctx.lineTo(x - DIAMOND, y);
+        ctx.closePath();
+      }
       ctx.fill();
     }
   }
@@ -510,14 +519,27 @@
     ctx.lineWidth = width;
     ctx.setLineDash(dash);
     ctx.beginPath();
-    let open = false;
+    // one point per CURVE_PX pixels: the lowest and highest value in them, in their order
+    let open = false, column = NaN, lo = null, hi = null;
+    const flush = () => {
+      if (lo === null) return;
+      const [first, second] = lo[0] <= hi[0] ? [lo, hi] : [hi, lo];
+      for (const [, x, y] of first === second ? [first] : [first, second]) {
+        if (open) ctx.lineTo(x, y);
+        else ctx.moveTo(x, y);
+        open = true;
+      }
+      lo = hi = null;
+    };
     for (let i = from; i < to; i++) {
-      if (values[i] === null) { open = false; continue; }
+      if (values[i] === null) { flush(); open = false; continue; }
       const x = xOf(times[i]), y = yOf(values[i]);
-      if (open) ctx.lineTo(x, y);
-      else ctx.moveTo(x, y);
-      open = true;
+      const here = Math.floor(x / CURVE_PX);
+      if (here !== column) { flush(); column = here; }
+      if (lo === null || y > lo[2]) lo = [i, x, y];
+      if (hi === null || y < hi[2]) hi = [i, x, y];
     }
+    flush();
     ctx.stroke();
     ctx.setLineDash([]);
   }
@@ -938,6 +960,7 @@
     get selection() { return [...selection].sort((a, b) => a - b); },
     get view() { return { t0: view.t0, span: view.span }; },
     drift: () => drift.slice(),
+    partMs: () => ({ ...partMs }),
     clearDrift: () => { drift.length = 0; },
     redraw,
     xOf, tOf, layout,
