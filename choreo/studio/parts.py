@@ -18,6 +18,7 @@ from choreo.studio.session import Plan, Session
 
 if TYPE_CHECKING:
     from choreo.motion.gait import BodyPose
+    from choreo.robot.kinematics import SiteGoal
     from choreo.studio.live import LiveRobot
     from choreo.studio.page import Page
     from choreo.studio.scene import RobotView
@@ -42,7 +43,7 @@ class StudioParts:
     playing: bool
     # posing's: the sliders' pose once a slider or a handle moved, and what made it
     posing: np.ndarray | None
-    site_goal: tuple[str, np.ndarray] | None
+    site_goal: SiteGoal | None
     body_goal: BodyPose | None
     _posed_root: tuple[np.ndarray, np.ndarray] | None
     # driving's

@@ -89,6 +89,18 @@ def farthest_foot(feet: Sequence[str], solution: Solution) -> tuple[str, float]:
     return feet[worst], float(solution.position_error_mm[worst])
 
 
+def site_pitch(plan: Plan, site: str, t_s: float) -> float | None:
+    """The pitch the last keyframe reached by ``t_s`` that places ``site`` gives it (None:
+    none does, or it leaves the pitch free)."""
+    keyframes = plan.motion.keyframes
+    reached = [i for i, t in enumerate(plan.keyframe_times_s) if t <= t_s + 1e-9]
+    for i in reversed(reached):
+        for target in keyframes[i].sites:
+            if target.site == site:
+                return target.pitch_deg
+    return None
+
+
 class LatestOnly:
     """Calls ``handle`` with the newest arguments, dropping those that came while it ran: a drag
     sends dozens of moves a second from viser's threads, and a slow solve (a pose out of reach
@@ -191,15 +203,17 @@ class Posing(StudioParts):
 
     def drag_site(self, site: str, world_m: np.ndarray) -> None:
         """Solve the pose putting ``site`` at ``world_m`` with the project's IK (as a ``sites:``
-        keyframe is solved), the joints not on its way staying as they are."""
+        keyframe is solved), the joints not on its way staying as they are, and the site
+        pitched as the last keyframe that placed it wrote (a ``sites:`` keyframe keeps it)."""
         with self._lock:
             plan, kinematics = self._plan(), self._kinematics
             if plan is None or kinematics is None or not np.all(np.isfinite(world_m)):
                 self.refuse(f"refused: no site {site!r} to move to {world_m}")
                 return
-            at_mm = kinematics.world_to_base_mm(world_m * 1000)
-            solution = kinematics.solve([SiteGoal(site, tuple(at_mm))], self._pose())
-            self._set_pose(np.array(solution.angles_deg), plan, (site, at_mm))
+            x, y, z = (float(v) for v in kinematics.world_to_base_mm(world_m * 1000))
+            goal = SiteGoal(site, (x, y, z), site_pitch(plan, site, self.time_s))
+            solution = kinematics.solve([goal], self._pose())
+            self._set_pose(np.array(solution.angles_deg), plan, goal)
             if not solution.ok:
                 self.note(
                     f"{site} cannot reach there: the nearest pose is "
@@ -272,7 +286,7 @@ class Posing(StudioParts):
         self,
         pose: np.ndarray | None,
         plan: Plan | None = None,
-        site_goal: tuple[str, np.ndarray] | None = None,
+        site_goal: SiteGoal | None = None,
         body: tuple[BodyDrag, BodyPose, tuple[np.ndarray, np.ndarray]] | None = None,
     ) -> None:
         """The sliders' pose (None: the plan's) and what made it: a site's handle

@@ -112,8 +112,8 @@ class Studio(Timeline, Posing, Editing, Driving):
             self.view = RobotView(self.server, motion.robot, motion.props)
             self._add_site_handles(plan)
         self.page.show_plan(plan, result.version)
-        if self.selected is not None and self.selected >= len(motion.keyframes):
-            self.selected = None
+        if not result.problems:
+            self._follow_selection(plan)
         self.time_s = float(np.clip(self.time_s, plan.start_s, plan.end_s))
         self._redraw(plan)
         if self.posing is None:
