@@ -310,8 +310,7 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
         assert not [line for line in said[-3:] if "nothing written" in line]
         assert (
             # timed as the keyframe before it is, with t
-            path.read_text()
-            == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    t: 3.5\n"
+            path.read_text() == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    t: 3.5\n"
         )
         studio.drive(True)  # a request its page does not offer: it was given no robot
         studio.read_pose()

@@ -64,6 +64,7 @@ class Selection:
 
     item: int
     text: str
+    t_s: float  # when it was reached (the timeline stood there: it follows the keyframe)
 
 
 class Editing(StudioParts):
@@ -104,11 +105,12 @@ class Editing(StudioParts):
         if text is not None:
             placed = self._placed(text, plan)[index]
             if placed.item is not None:
-                self._selection = Selection(placed.item, item_text(text, placed.item))
+                self._selection = Selection(placed.item, item_text(text, placed.item), t)
 
     def _follow_selection(self, plan: Plan) -> None:
         """After a reload: the selected keyframe is the item with the text it had (the nearest
-        such), wherever it is now; none if it is gone."""
+        such), wherever it is now; none if it is gone. A timeline that stood at it stays at it,
+        unless the robot is being posed."""
         selection = self._selection
         if selection is None:
             if self.selected is not None and self.selected >= len(plan.motion.keyframes):
@@ -124,8 +126,10 @@ class Editing(StudioParts):
             self._select(None)
             return
         item = min(same, key=lambda i: abs(i - selection.item))
-        found = [p.index for p in self._placed(text, plan) if p.item == item and p.alone]
-        self._select(found[0] if found else None)
+        found = [p for p in self._placed(text, plan) if p.item == item and p.alone]
+        if found and self.posing is None and abs(self.time_s - selection.t_s) < STANDS_S:
+            self.time_s = found[0].t_s
+        self._select(found[0].index if found else None)
 
     def _read_text(self) -> str | None:
         try:
@@ -414,7 +418,7 @@ class Editing(StudioParts):
             return None
         items = yaml_edit.keyframe_items(change.text)
         item = next(i for i, it in enumerate(items) if it.content_line + 1 == change.line)
-        return Selection(item, item_text(change.text, item))
+        return Selection(item, item_text(change.text, item), self.time_s)
 
     def _checked(self, plan: Plan, change: Change) -> Plan:
         """The plan of the file as ``change`` writes it; ``EditRefused`` saying why it would not

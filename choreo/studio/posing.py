@@ -277,7 +277,7 @@ class Posing(StudioParts):
         plan = self._plan()
         if self.posing is not None:
             return self.posing.copy()
-        return np.array(plan.planned_deg(self.time_s)) if plan else np.zeros(0)
+        return plan.posed_deg(self.time_s) if plan else np.zeros(0)
 
     def _back_to_the_plan(self) -> None:
         self._set_pose(None)

@@ -82,6 +82,14 @@ class Plan:
         k = int(np.clip(np.searchsorted(self.times_s, t_s - 1e-9), 0, len(self.times_s) - 1))
         return self.command_deg[k]
 
+    def posed_deg(self, t_s: float) -> np.ndarray:
+        """The plan's pose at ``t_s`` to pose from: the planned trajectory itself (at a
+        keyframe's time, the angles its file writes, not the ticks' rounding to the servos'
+        steps); in the approach, the ticks'."""
+        if t_s < 0:
+            return np.array(self.planned_deg(t_s))
+        return self.rehearsal.performance.trajectory.at(t_s)[0].copy()
+
     def keyframe_at(self, index: int) -> tuple[Keyframe, float]:
         return self.motion.keyframes[index], self.keyframe_times_s[index]
 
