@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from choreo.errors import ChoreoError
 from choreo.studio import require
 from choreo.studio.address import Address
 from choreo.studio.driving import NO_ROBOT, Driving
@@ -26,6 +27,7 @@ from choreo.studio.live import LiveRobot
 from choreo.studio.page import Page
 from choreo.studio.posing import LatestOnly, Posing
 from choreo.studio.scene import RobotView
+from choreo.studio.serving import UnreadableMessages, port_to_serve
 from choreo.studio.session import Reload, Session
 from choreo.studio.timeline import Timeline
 from choreo.studio.watch import FileWatcher
@@ -51,8 +53,17 @@ class Studio(Timeline, Posing, Editing, Driving):
         self._init_posing()
         self._init_editing()
         self._init_driving()
+        port = port_to_serve(listen)  # viser would move to another port, or hang
+        self._unreadable = UnreadableMessages(say)
+        self._unreadable.install()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: the CLI says the URL
-            self.server = viser.ViserServer(host=listen.host, port=listen.port, verbose=False)
+            self.server = viser.ViserServer(host=listen.host, port=port, verbose=False)
+        if port and self.server.get_port() != port:  # taken in the moment since it was checked
+            self.server.stop()
+            self._unreadable.remove()
+            raise ChoreoError.naming(
+                "listen", f"{{option}} {listen.host}:{port}: the port was just taken; try again"
+            )
         # The page's "share" asks viser's relay for a public URL: never, this page writes files.
         self.server.request_share_url = lambda *args, **kwargs: None
         self.address = Address(listen.host, self.server.get_port())
@@ -78,6 +89,7 @@ class Studio(Timeline, Posing, Editing, Driving):
             self._player.join(timeout=2.0)
         with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped"
             self.server.stop()
+        self._unreadable.remove()
 
     def wait(self) -> None:
         """Until ``close`` (another thread) or Ctrl-C."""
@@ -120,5 +132,12 @@ class Studio(Timeline, Posing, Editing, Driving):
             self.page.show_joints(plan.planned_deg(self.time_s))
 
     def _tab_closed(self, _client) -> None:
-        if not self.server.get_clients() and self.driving:
+        """With the last tab gone, nothing plays and nothing is driven: a tab opened later finds
+        the timeline where it stopped."""
+        if self.server.get_clients():
+            return
+        if self.driving:
             self.stop_robot()
+        with self._lock:
+            if self.playing:
+                self.toggle_play()
