@@ -191,6 +191,7 @@ TESTED_IN = {
     "studio/posing.py": ("test_studio.py",),
     "studio/scene.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/server.py": ("test_studio.py", "test_studio_browser.py"),
+    "studio/serving.py": ("studio/test_serving.py", "test_studio_browser.py"),
     "studio/session.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/song.py": ("test_studio.py", "test_studio_browser.py"),
     "studio/watch.py": ("test_studio.py", "test_studio_browser.py"),

@@ -17,7 +17,6 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.errors import UsageError
-from choreo.play.robot_bus import open_robot_bus
 from choreo.studio.address import Address
 from choreo.studio.serving import port_to_serve
 
@@ -33,7 +32,7 @@ def listen_address(text: str) -> Address:
     8080, or the next free one."""
     if ":" not in text or (text.startswith("[") and text.endswith("]")):
         host = text.removeprefix("[").removesuffix("]")
-        if host:
+        if host and not host.isdigit():  # "8080" is a port without its host
             return Address(host, DEFAULT_PORT, next_free=True)
     host, _, port = text.rpartition(":")
     host = host.removeprefix("[").removesuffix("]")
@@ -94,6 +93,7 @@ def run_studio(args: argparse.Namespace) -> int:
 def _live_robot(args: argparse.Namespace) -> Iterator[LiveRobot]:
     """The motion's robot on --port, through play's preflight; stopped on every way out."""
     from choreo.motion.motion_file import load_motion
+    from choreo.play.robot_bus import open_robot_bus
     from choreo.studio.live import LiveRobot
 
     robot = load_motion(args.motion).robot

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from choreo.errors import ChoreoError
 from choreo.studio.address import Address
 
-RESOLVE_TIMEOUT_S = 1.5  # a host the resolver cannot answer for in this long is refused
+RESOLVE_TIMEOUT_S = 1.0  # a host the resolver cannot answer for in this long is refused
 NEXT_FREE_TRIES = 100  # the default port moves on at most this far
 
 
