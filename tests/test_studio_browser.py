@@ -22,6 +22,7 @@ from PIL import Image
 from playwright.sync_api import expect, sync_playwright
 
 from choreo.studio.address import Address
+from choreo.studio.journal import Journal
 from choreo.studio.server import Studio
 
 MOTION = Path(__file__).parent / "data" / "studio" / "wave.yaml"
@@ -155,11 +156,11 @@ def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, st
 
 
 # The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:
-# these two lines and nothing else. The motion dances to a 112 BPM song with beat 1 at t 0, so
-# t 2.5 s is written as beat 1 + 2.5 x 112 / 60 = 5.667.
+# these two lines and nothing else: the joints that differ from the keyframe before it, timed as
+# its neighbours are (t:).
 ADDED = """\
-  - pose: {base_yaw: 0, shoulder: 45, elbow: 0, wrist_pitch: 0, wrist_roll: 0, gripper: 0}
-    beat: 5.667
+  - pose: {base_yaw: 0, shoulder: 45, elbow: 0}
+    t: 2.5
 """
 
 
@@ -208,6 +209,151 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
         assert any("refused: gripper 90° is outside its limits" in s for s in studio.said)
     finally:
         second.close()
+
+
+# --- edits an animator can trust: motions/arm6/wave.yaml, timed with after: ----------------------
+
+ARM_WAVE = Path(__file__).parent.parent / "motions" / "arm6" / "wave.yaml"
+
+
+@pytest.fixture(scope="module")
+def arm_served(tmp_path_factory):
+    """A second studio, on a copy of motions/arm6/wave.yaml; ``studio.said`` as ``served``."""
+    motion = tmp_path_factory.mktemp("arm") / "wave.yaml"
+    shutil.copy(ARM_WAVE, motion)
+    said: list[str] = []
+    studio = Studio(motion, Address("127.0.0.1", 0), say=said.append)
+    studio.said = said  # type: ignore[attr-defined]
+    studio.start()
+    yield studio
+    studio.close()
+
+
+@pytest.fixture(scope="module")
+def arm_tab(browser, arm_served):
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(arm_served.address.url)
+    expect(page.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=4 * WAIT_MS)
+    yield page
+    page.close()
+
+
+@pytest.fixture
+def arm(arm_served, arm_tab):
+    """The arm's studio with wave.yaml as motions/ has it, nothing to undo, at t = 0."""
+    path = arm_served.session.motion_path
+    if path.read_bytes() != ARM_WAVE.read_bytes():
+        version = arm_served.session.version
+        shutil.copy(ARM_WAVE, path)
+        wait_for(lambda: arm_served.session.version > version, "the studio to reload")
+        expect(arm_tab.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
+    arm_served.journal = Journal(path)
+    type_number(arm_tab, "t (s)", 0.0)
+    expect(number_input(arm_tab, "t (s)")).to_have_value("0", timeout=WAIT_MS)
+    arm_served.said.clear()
+    return arm_served
+
+
+def choose(page, label: str, option: str) -> None:
+    """Pick ``option`` of the dropdown labelled ``label``."""
+    row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
+    page.locator(row).get_by_role("combobox").click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def click(page, button: str) -> None:
+    page.get_by_role("button", name=button, exact=True).click()
+
+
+def test_an_edit_waits_while_the_page_shows_a_plan_older_than_the_file(arm_tab, arm):
+    page, path = arm_tab, arm.session.motion_path
+    broken = ARM_WAVE.read_text().replace(
+        "  # each flap", "  - pose: {elbow: -10}\n    t: 1.2\n  # each flap", 1
+    )
+    path.write_text(broken)  # saved in an editor: loads, but the elbow cannot be there in time
+    expect(page.get_by_text("cannot be reached at 1.200 s").first).to_be_visible(timeout=WAIT_MS)
+    choose(page, "keyframe", "4 · t 1.80 s · wave.yaml:14")  # of the plan still shown
+    click(page, "Update keyframe")
+    expect(page.get_by_text("the page shows the last plan that worked")).to_be_visible(
+        timeout=WAIT_MS
+    )
+    click(page, "Delete keyframe")
+
+    def refusals() -> list[str]:
+        return [line for line in arm.said if line.startswith("⛔")]
+
+    wait_for(lambda: len(refusals()) == 2, "the second refusal")
+    assert all(line.startswith("⛔ nothing written: the page shows") for line in refusals())
+    assert path.read_text() == broken
+
+
+def test_a_move_that_would_not_plan_is_refused_with_the_time_that_works(arm_tab, arm):
+    page, path = arm_tab, arm.session.motion_path
+    choose(page, "keyframe", "5 · t 2.20 s · wave.yaml:16")
+    expect(number_input(page, "t (s)")).to_have_value("2.2", timeout=WAIT_MS)
+    type_number(page, "t (s)", 2.1)
+    click(page, "Move keyframe here")
+    expect(page.get_by_text("the nearest time that works is 2.20 s")).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == ARM_WAVE.read_bytes()
+
+
+def test_an_added_keyframe_keeps_the_others_in_time_and_undo_redo_restore_the_bytes(arm_tab, arm):
+    page, path = arm_tab, arm.session.motion_path
+    original = path.read_bytes()
+    type_number(page, "t (s)", 4.4)  # between 3.4 s (held 0.3 s) and 4.9 s (after: 1.2)
+    click(page, "Take the named pose")
+    type_number(page, "shoulder", 10)
+    wait_for(lambda: arm.posing is not None and arm.posing[1] == 10, "the slider's pose")
+    click(page, "Add keyframe")
+    expect(page.get_by_text("10 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    added = path.read_bytes()
+    assert added == original.replace(
+        b"    hold: 0.3\n  - pose: home\n    after: 1.2\n",
+        b"    hold: 0.3\n  - pose: {shoulder: 10, elbow: 0, wrist_pitch: 0, gripper: 0}\n"
+        b"    after: 0.7\n  - pose: home\n    after: 0.5\n",
+    )
+    click(page, "Undo")
+    expect(page.get_by_text("9 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == original
+    click(page, "Redo")
+    expect(page.get_by_text("10 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == added
+
+
+def test_update_writes_only_the_joint_moved_and_add_on_a_keyframe_offers_update(arm_tab, arm):
+    page, path = arm_tab, arm.session.motion_path
+    choose(page, "keyframe", "3 · t 1.40 s · wave.yaml:12")
+    expect(number_input(page, "t (s)")).to_have_value("1.4", timeout=WAIT_MS)
+    type_number(page, "elbow", -24)
+    wait_for(lambda: arm.posing is not None and arm.posing[2] == -24, "the slider's pose")
+    click(page, "Add keyframe")  # a keyframe stands here: it is the one to update
+    expect(page.get_by_text("Update writes the pose into it")).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == ARM_WAVE.read_bytes()
+    click(page, "Update keyframe")
+    wait_for(lambda: path.read_bytes() != ARM_WAVE.read_bytes(), "the update")
+    assert path.read_text() == ARM_WAVE.read_text().replace(
+        "{elbow: -22, wrist_pitch: 20}", "{elbow: -24, wrist_pitch: 20}", 1
+    )
+
+
+def test_playback_stops_when_the_last_tab_closes(browser, tmp_path):
+    motion = tmp_path / "wave.yaml"
+    shutil.copy(ARM_WAVE, motion)
+    studio = Studio(motion, Address("127.0.0.1", 0), say=lambda line: None)
+    studio.start()
+    try:
+        page = browser.new_page(viewport=VIEWPORT)
+        page.goto(studio.address.url)
+        expect(page.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=4 * WAIT_MS)
+        page.get_by_role("button", name="Play", exact=True).click(timeout=4 * WAIT_MS)
+        wait_for(lambda: studio.playing and studio.time_s > 0.2, "the timeline to play")
+        page.close()
+        wait_for(lambda: not studio.playing, "playback to stop")
+        stopped_at = studio.time_s
+        time.sleep(0.2)  # the player's frames: the timeline stays
+        assert studio.time_s == stopped_at
+    finally:
+        studio.close()
 
 
 def screenshot(motion: Path, at_s: float, out: Path) -> None:

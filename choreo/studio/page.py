@@ -73,6 +73,8 @@ class Page:
             self.update = gui.add_button("Update keyframe")
             self.retime = gui.add_button("Move keyframe here")
             self.delete = gui.add_button("Delete keyframe")
+            self.undo = gui.add_button("Undo")
+            self.redo = gui.add_button("Redo")
         self.pose_folder = gui.add_folder("Pose")
         self.joints: dict[str, Any] = {}
         self.pose_names: Any = None
@@ -97,6 +99,8 @@ class Page:
         self.update.on_click(lambda _: studio.update_keyframe())
         self.retime.on_click(lambda _: studio.retime_keyframe())
         self.delete.on_click(lambda _: studio.delete_keyframe())
+        self.undo.on_click(lambda _: studio.undo())
+        self.redo.on_click(lambda _: studio.redo())
 
     # --- what the studio shows -------------------------------------------------------------
 

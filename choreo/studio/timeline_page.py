@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from choreo.motion.music_block import Music
-from choreo.studio.session import Plan
+from choreo.studio.session import Plan, Reload
 from choreo.studio.watch import stamp
 
 if TYPE_CHECKING:
@@ -482,16 +482,16 @@ def frame_html(port: int, title: str) -> str:
 # --- the studio's side ---------------------------------------------------------------------------
 
 
-class Timeline:
-    """The studio's timeline: what it shows (``show_*``, from the studio's threads) and what its
-    page asks, done through the studio's own operations so an edit from the timeline is the
-    same edit as from the panel's buttons."""
+class TimelinePage:
+    """The studio's timeline page: what it shows (``show_*``, from the studio's threads) and
+    what it asks, done with the studio's own operations (select, scrub, move here, delete,
+    add, undo), so an edit from the timeline is the edit the panel's buttons make, checked
+    and journalled the same way."""
 
     def __init__(self, host: str, studio: Studio):
         self._studio = studio
         self.server = TimelineServer(host, self.handle, self._song)
         self._peaks: tuple[tuple | None, tuple[int, ...]] = (None, ())
-        self.version = 0  # the reload the page's keyframe numbers refer to
 
     @property
     def port(self) -> int:
@@ -508,7 +508,6 @@ class Timeline:
         return plan.motion.music.song if plan is not None and plan.motion.music else None
 
     def show_plan(self, plan: Plan, version: int, limbs: Sequence[tuple[str, Sequence[int]]]):
-        self.version = version
         state = timeline_state(plan, version, limbs, self._song_peaks(plan.motion.music))
         self.server.publish("state", state)
 
@@ -542,18 +541,112 @@ class Timeline:
         elif request.op == "play":
             studio.toggle_play()
         elif request.op == "select":
-            studio.select_keyframes(request.indices)
+            self._select(request.indices)
         elif request.op == "finding":
-            studio.name_finding(request.indices[0])
+            self._name_finding(request.indices[0])
         elif request.op == "move":
-            studio.move_keyframes([(p.index, p.t_s) for p in request.placed if p.index is not None])
+            self._move([(p.index, p.t_s) for p in request.placed if p.index is not None])
         elif request.op == "delete":
-            studio.delete_keyframes(request.indices)
+            self._delete(request.indices)
         elif request.op == "add":
             studio.add_keyframe()
         elif request.op == "paste":
-            studio.paste_keyframes([(p.t_s, p.pose) for p in request.placed if p.pose is not None])
+            self._paste([(p.t_s, p.pose) for p in request.placed if p.pose is not None])
         elif request.op == "undo":
             studio.undo()
         elif request.op == "redo":
             studio.redo()
+
+    def _keyframes(self) -> int:
+        plan = self._studio.session.plan
+        return len(plan.motion.keyframes) if plan is not None else 0
+
+    def _select(self, indices: Sequence[int]) -> None:
+        """One keyframe selected is the panel's selection too (Update acts on it); several,
+        or none, leave the panel none."""
+        studio, count = self._studio, self._keyframes()
+        if any(i >= count for i in indices):
+            studio.refuse(f"refused: the motion has {count} keyframes, not {max(indices) + 1}")
+            return
+        studio.select_keyframe(indices[0] if len(indices) == 1 else None)
+
+    def _name_finding(self, index: int) -> None:
+        """A finding clicked: the playhead goes there; the status line says it and the
+        keyframe it belongs to."""
+        studio = self._studio
+        plan = studio.session.plan
+        if plan is None or index >= len(plan.findings):
+            studio.refuse(f"refused: there is no finding {index + 1}")
+            return
+        finding = plan.findings[index]
+        keyframe = plan.motion.keyframes[keyframe_of(plan.keyframe_times_s, finding.time_s)]
+        studio.scrub(finding.time_s)
+        studio.note(
+            f"{finding.time_s:.2f} s {finding.severity.value}: {finding.message} "
+            f"(keyframe at {keyframe.where})"
+        )
+
+    def _done(self, edit: Callable[[], None]) -> bool:
+        """Make one edit; whether it was written (the file reloaded)."""
+        version = self._studio.session.version
+        edit()
+        return self._studio.session.version != version
+
+    def _move(self, moves: Sequence[tuple[int, float]]) -> None:
+        """Keyframes dragged (index, to time s), each moved as Move keyframe here does: those
+        moving later from the last, those moving earlier from the first, so none passes
+        another on the way; the first refusal stops the rest."""
+        studio = self._studio
+        plan = studio.session.plan
+        if plan is None or any(i >= len(plan.keyframe_times_s) for i, _ in moves):
+            studio.refuse(f"refused: the motion has {self._keyframes()} keyframes")
+            return
+        later = bool(moves) and moves[0][1] > plan.keyframe_times_s[moves[0][0]]
+        for index, t_s in sorted(moves, reverse=later):
+            studio.select_keyframe(index)
+            studio.scrub(t_s)
+            if not self._done(studio.retime_keyframe):
+                return
+
+    def _delete(self, indices: Sequence[int]) -> None:
+        """Keyframes deleted as Delete keyframe does, the last first (the numbers of the
+        others stay)."""
+        studio = self._studio
+        if any(i >= self._keyframes() for i in indices):
+            studio.refuse(f"refused: the motion has {self._keyframes()} keyframes")
+            return
+        for index in sorted(set(indices), reverse=True):
+            studio.select_keyframe(index)
+            if not self._done(studio.delete_keyframe):
+                return
+
+    def _paste(self, keyframes: Sequence[tuple[float, Mapping[str, float]]]) -> None:
+        """Copied poses (time s, joint -> degrees) added as Add keyframe does, earliest first."""
+        studio = self._studio
+        for t_s, pose in sorted(keyframes, key=lambda k: k[0]):
+            studio.scrub(t_s)
+            if not studio.take_angles(pose) or not self._done(studio.add_keyframe):
+                return
+
+
+def reload_status(result: Reload, plan: Plan | None) -> tuple[str, str]:
+    """The status line's first part after a reload, and its kind ("failed" or "")."""
+    if result.problems:
+        kept = " (the last good plan stays on screen)" if plan is not None else ""
+        more = len(result.problems) - 1
+        first = result.problems[0] + (f" (and {more} more, listed below)" if more else "")
+        return f"reload {result.version} failed: {first}{kept}", "failed"
+    assert plan is not None
+    physics = plan.physics
+    if physics is None:
+        return f"reload {result.version} planned: {plan.end_s:.2f} s; simulating…", ""
+    findings = physics.findings
+    errors = sum(f.severity.value == "error" for f in findings)
+    found = (
+        f"{len(findings)} finding{'s' * (len(findings) != 1)}"
+        + (f" ({errors} error{'s' * (errors != 1)})" if errors else "")
+        if findings
+        else "no findings: the simulated robot follows the plan"
+    )
+    took = f"simulated in {physics.took_s:.2f} s"
+    return f"reload {result.version} {took}: {plan.end_s:.2f} s, {found}", ""

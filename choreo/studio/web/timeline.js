@@ -754,12 +754,13 @@
       announceSelection();
     } else if (done.kind === "keys") {
       if (done.moved && Math.abs(done.dt) > 1e-6) moveSelected(done.dt);
-      else if (!done.shift) {
-        selection.clear();
-        selection.add(done.index);
-        scrubTo(state.keyframes[done.index].t, false);
+      else {
+        if (!done.shift) {
+          selection.clear();
+          selection.add(done.index);
+        }
+        announceSelection(); // one keyframe selected: the studio scrubs to it
       }
-      announceSelection();
     }
     dirty = true;
   });
