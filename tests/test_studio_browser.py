@@ -100,7 +100,7 @@ def timeline_frame(page, studio):
 
 
 def timeline_or_none(page, studio):
-    port = f":{studio.timeline.port}/"
+    port = f":{studio.timeline_page.port}/"
     return next((f for f in page.frames if port in f.url), None)
 
 
