@@ -184,6 +184,7 @@ class Page:
             mirror = gui.add_button("Mirror left/right", disabled=not robot.mirror_pairs)
             mirror.on_click(lambda _: studio.mirror())
             gui.add_button("Back to the plan").on_click(lambda _: studio.follow_plan())
+            gui.add_button("Frame the robot").on_click(lambda _: studio.frame_robot())
 
     def _joint_moved(self, name: str) -> Callable[[Any], None]:
         return lambda event: self._studio.move_joint(name, event.target.value)

@@ -139,6 +139,12 @@ class Studio(Timeline, Posing, Editing, Driving):
         if self.posing is None:
             self.page.show_joints(plan.planned_deg(self.time_s))
 
+    def frame_robot(self) -> None:
+        """Every tab's camera on the robot as it stands now."""
+        with self._lock:
+            if self.view is not None:
+                self.view.frame_camera(tuple(self.server.get_clients().values()))
+
     def _tab_closed(self, _client) -> None:
         """With the last tab gone, nothing plays and nothing is driven: a tab opened later finds
         the timeline where it stopped."""

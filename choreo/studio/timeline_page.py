@@ -444,7 +444,7 @@ _FRAME_SCRIPT = """
   frame.title = "timeline";
   frame.src = location.protocol + "//" + location.hostname + ":%(port)d/";
   frame.style.cssText = "position:fixed;left:0;right:0;bottom:0;width:100%%;height:%(height)s;" +
-    "border:0;z-index:1000;background:#fbfbfc";
+    "border:0;z-index:150;background:#fbfbfc";
   document.body.appendChild(frame);
   const root = document.getElementById("root") || document.body.firstElementChild;
   root.style.height = "calc(100%% - %(height)s)";
