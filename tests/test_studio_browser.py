@@ -95,13 +95,11 @@ def open_page(browser, studio):
 
 def timeline_frame(page, studio):
     """The timeline's page, framed into viser's."""
-    wait_for(lambda: timeline_or_none(page, studio) is not None, "the timeline's frame")
-    return timeline_or_none(page, studio)
-
-
-def timeline_or_none(page, studio):
-    port = f":{studio.timeline_page.port}/"
-    return next((f for f in page.frames if port in f.url), None)
+    element = page.wait_for_selector("#choreo-timeline", timeout=WAIT_MS)
+    frame = element.content_frame() if element is not None else None
+    assert frame is not None and f":{studio.timeline_page.port}/" in frame.url
+    frame.wait_for_function("() => window.choreoTimeline !== undefined", timeout=WAIT_MS)
+    return frame
 
 
 def number_input(page, label: str):
@@ -359,15 +357,26 @@ def test_playback_stops_when_the_last_tab_closes(browser, tmp_path):
 def screenshot(motion: Path, at_s: float, out: Path) -> None:
     """The README's picture of the studio: ``python tests/test_studio_browser.py docs/studio.png``
     (from the repo's root)."""
+    choice = chromium.chosen()  # before Playwright starts: finding it may start one
     studio = Studio(motion, Address("127.0.0.1", free_port()), say=print)
     studio.start()
     try:
         with sync_playwright() as playwright:
-            browser = chromium.chosen().launch(playwright)
+            browser = choice.launch(playwright)
             page = browser.new_page(viewport={"width": 1280, "height": 820})
             page.goto(studio.address.url)
             expect(page.get_by_text("Timeline")).to_be_visible(timeout=WAIT_MS)
             page.locator(".mantine-Notification-root button").click()  # "software WebGL" note
+            timeline = timeline_frame(page, studio)
+            timeline.wait_for_function("() => window.choreoTimeline.state !== null")
+            for joint in ("shoulder", "elbow"):  # their curves too
+                studio_label = timeline.locator("#canvas")
+                y = timeline.evaluate(
+                    f"() => {{ const L = window.choreoTimeline.layout(); const r = L.rows"
+                    f".findIndex(r => r.kind === 'joint' && window.choreoTimeline.state"
+                    f".joints[r.j].name === '{joint}'); return L.lanesTop + r * 16 + 8; }}"
+                )
+                studio_label.click(position={"x": 60, "y": y})
             type_number(page, "t (s)", at_s)
             page.screenshot(path=out, timeout=WAIT_MS)  # the first frames take a while
             time.sleep(1.0)
