@@ -153,13 +153,18 @@ def _item_text(item: Any, dash_col: int) -> list[str]:
     return [(" " * dash_col + line).rstrip() if line else line for line in lines]
 
 
-def _lines(text: str) -> tuple[list[str], str]:
-    ending = "\n" if text.endswith("\n") or not text else ""
-    return text.splitlines(), ending
+Ending = tuple[str, str]  # the file's line ending, and what ends its last line ("" or that)
 
 
-def _joined(lines: list[str], ending: str) -> str:
-    return "\n".join(lines) + ending
+def _lines(text: str) -> tuple[list[str], Ending]:
+    """``text``'s lines, and how they end (a file written on Windows keeps its CRLF)."""
+    newline = "\r\n" if "\r\n" in text else "\n"
+    return text.splitlines(), (newline, newline if text.endswith("\n") or not text else "")
+
+
+def _joined(lines: list[str], ending: Ending) -> str:
+    newline, last = ending
+    return newline.join(lines) + last
 
 
 def add_keyframe(

@@ -70,3 +70,10 @@ def test_a_new_keyframe_has_no_trailing_spaces_where_its_pose_wraps():
     added = new.splitlines()[4:-5]
     assert len(added) > 2 and all(line == line.rstrip() for line in added)
     assert new.startswith(MUSIC.splitlines(keepends=True)[0])
+
+
+def test_a_file_with_windows_line_endings_keeps_them():
+    windows = MUSIC.replace("\n", "\r\n")
+    assert retime_keyframe(windows, 1, "here", {"bar": 6, "beat": 3}) == MUSIC.replace(
+        "bar: 5   # the chorus", "bar: 6   # the chorus"
+    ).replace("\n", "\r\n")
