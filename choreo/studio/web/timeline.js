@@ -15,7 +15,15 @@
   const SEEK_S = 0.25, NUDGE = 0.05; // the song: seek when this far off, else nudge its rate
 
   const canvas = document.getElementById("canvas");
-  const ctx = canvas.getContext("2d");
+  // CPU-backed canvases: without a GPU, Chromium's GPU canvas is emulated and far slower
+  const screen = canvas.getContext("2d", { willReadFrequently: true });
+  // everything but the playhead is drawn on a layer, again only when it changes: while playing
+  // a frame is the layer copied and the playhead drawn over it
+  const layer = document.createElement("canvas");
+  const layerCtx = layer.getContext("2d", { willReadFrequently: true });
+  let ctx = layerCtx; // where the draw* functions draw
+  let layerKey = "";
+  let stateCount = 0;
   const tip = document.getElementById("tip");
   const song = document.getElementById("song");
   const statusLine = document.getElementById("status");
@@ -79,6 +87,7 @@
   function setState(next) {
     const first = state === null;
     state = next;
+    stateCount += 1;
     for (const index of [...selection]) if (index >= state.keyframes.length) selection.delete(index);
     if (first || !view.fitted) fit();
     if (view.picked.size === 0 && state.joints.length) view.picked.add(0);
@@ -220,34 +229,65 @@
   function resize() {
     const ratio = window.devicePixelRatio || 1;
     const w = Math.round(canvas.clientWidth * ratio), h = Math.round(canvas.clientHeight * ratio);
-    if (canvas.width !== w || canvas.height !== h) {
-      canvas.width = w;
-      canvas.height = h;
+    for (const c of [canvas, layer]) {
+      if (c.width !== w || c.height !== h) {
+        c.width = w;
+        c.height = h;
+      }
     }
-    ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
+    for (const c of [screen, layerCtx]) c.setTransform(ratio, 0, 0, ratio, 0, 0);
+    return ratio;
   }
 
-  function redraw() {
+  // what the layer shows: it is drawn again when this changes
+  function layerState() {
+    return [
+      stateCount, view.t0, view.span, view.scrollY, [...view.folded].join(","),
+      [...view.picked].join(","), [...selection].join(","), drag ? JSON.stringify(drag) : "",
+      canvas.clientWidth, canvas.clientHeight, snapBox.checked,
+    ].join("|");
+  }
+
+  // Draw the timeline: the layer if it changed (or ``full``), then the playhead over it.
+  // Returns the milliseconds it took.
+  function redraw(full) {
     const began = performance.now();
-    resize();
-    const W = canvas.clientWidth;
+    const ratio = resize();
     const L = layout();
+    const key = layerState();
+    if (full || key !== layerKey) {
+      layerKey = key;
+      drawLayer(L);
+    }
+    screen.setTransform(1, 0, 0, 1, 0, 0);
+    screen.clearRect(0, 0, canvas.width, canvas.height);
+    screen.drawImage(layer, 0, 0);
+    screen.setTransform(ratio, 0, 0, ratio, 0, 0);
+    ctx = screen;
+    if (state) drawPlayhead(L);
+    ctx = layerCtx;
+    clock.textContent = state ? clockText() : "";
+    screen.getImageData(0, 0, 1, 1); // the drawing done, not only asked for
+    return performance.now() - began;
+  }
+
+  function drawLayer(L) {
+    const W = canvas.clientWidth;
+    ctx = layerCtx;
     ctx.clearRect(0, 0, W, L.height);
     ctx.font = "11px system-ui, sans-serif";
     ctx.textBaseline = "middle";
     if (!state) {
       ctx.fillStyle = "#666";
       ctx.fillText("loading…", 8, 12);
-      return performance.now() - began;
+      return;
     }
-    const parts = [drawGrid, drawRuler, drawWave, drawFindings, drawLanes, drawCurves, drawLabels, drawBox, drawPlayhead];
+    const parts = [drawGrid, drawRuler, drawWave, drawFindings, drawLanes, drawCurves, drawLabels, drawBox];
     for (const part of parts) {
       const t = performance.now();
       if (part !== drawWave || L.wave) part(L);
       partMs[part.name] = performance.now() - t;
     }
-    clock.textContent = clockText();
-    return performance.now() - began;
   }
 
   function visibleRange(times) {
@@ -946,7 +986,7 @@
     }
     if (dirty) {
       dirty = false;
-      redraw();
+      redraw(false);
     }
     requestAnimationFrame(frame);
   }
