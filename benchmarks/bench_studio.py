@@ -260,12 +260,15 @@ def main() -> None:
             f"playing: {statistics.median(frames):.1f} ms ({max(frames):.1f})"
         )
         drift = np.abs(audio_drift(browser, folder))
-        print(
-            f"audio drift: song against the timeline over {PLAY_S:g} s of playing, {len(drift)} "
-            f"frames: median {np.median(drift):.1f} ms, 95th percentile "
-            f"{np.percentile(drift, 95):.1f} ms, max {drift.max():.1f} ms "
-            f"(goal within {DRIFT_GOAL_MS} ms)"
-        )
+        if not len(drift):
+            print(f"audio drift: no frame sampled in {PLAY_S:g} s: the song did not play")
+        else:
+            print(
+                f"audio drift: song against the timeline over {PLAY_S:g} s of playing, "
+                f"{len(drift)} frames: median {np.median(drift):.1f} ms, 95th percentile "
+                f"{np.percentile(drift, 95):.1f} ms, max {drift.max():.1f} ms "
+                f"(goal within {DRIFT_GOAL_MS} ms)"
+            )
         if sys.argv[1:] == ["timeline"]:  # only the timeline's figures
             browser.close()
             return

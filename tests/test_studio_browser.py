@@ -378,6 +378,7 @@ def screenshot(motion: Path, at_s: float, out: Path) -> None:
                 )
                 studio_label.click(position={"x": 60, "y": y})
             type_number(page, "t (s)", at_s)
+            page.mouse.move(600, 300)  # no tooltip in the picture
             page.screenshot(path=out, timeout=WAIT_MS)  # the first frames take a while
             time.sleep(1.0)
             page.screenshot(path=out, timeout=WAIT_MS)
