@@ -93,8 +93,8 @@ class Studio(Timeline, Posing, Editing, Driving):
         self.timeline_page.close()
         if self._player.is_alive():
             self._player.join(timeout=2.0)
-        with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped"
-            self.server.stop()
+        with self._lock, contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped"
+            self.server.stop()  # (a reload under way shows nothing more: ``_show_reload``)
         self._unreadable.remove()
 
     def wait(self) -> None:
@@ -115,6 +115,8 @@ class Studio(Timeline, Posing, Editing, Driving):
                     self._show_reload(simulated)
 
     def _show_reload(self, result: Reload) -> None:
+        if self._stop.is_set():
+            return  # closed while simulating: no page to show it on
         for problem in result.problems:
             self._say(problem)
         self.page.show_problems(result.problems)
