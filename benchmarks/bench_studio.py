@@ -14,18 +14,27 @@ page, and what memory a long session of edits leaves.
   scrub          scrub requests the server handles per second (pose the robot, send the scene).
   memory         the process's resident memory after a 10-minute session of edits (a save every
                  6 s: 100 saves), and before it.
+  timeline       the timeline's redraw in Chromium (software rendering) of a motion of 1,000
+                 keyframes, all in view, timed by the page around its own drawing: all of it
+                 (a zoom, a pan, an edit), and a frame while playing (the layer under the
+                 playhead copied); goal <= 16 ms.
+  audio drift    the song against the timeline while playing 60 s: the page's song position
+                 minus where its timeline's clock says the song should be, every frame; goal
+                 within 20 ms.
 
 Needs the studio extra, Playwright and Debian's chromium (as tests/studio/test_studio_browser.py).
-Run: python benchmarks/bench_studio.py
+Run: python benchmarks/bench_studio.py [timeline]   (timeline: only the timeline's figures)
 """
 
 from __future__ import annotations
 
+import io
 import os
 import statistics
 import sys
 import tempfile
 import time
+import wave
 from pathlib import Path
 
 import numpy as np
@@ -35,13 +44,19 @@ from choreo.studio.address import Address
 from choreo.studio.server import Studio
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "studio"))
 from browser import chosen  # noqa: E402
 from test_studio_browser import free_port  # noqa: E402
+from test_timeline_page import Timeline, many_keyframes  # noqa: E402  (tests/studio on the path)
 
 SAVES = 5
 SESSION_SAVES = 100  # 10 minutes, a save every 6 s
 SCRUB_S = 3.0
 GOAL_S = 1.0
+REDRAWS = 60
+REDRAW_GOAL_MS = 16
+PLAY_S = 60.0
+DRIFT_GOAL_MS = 20
 
 
 def motion_text(duration_s: int, changed_s: int | None = None) -> str:
@@ -158,10 +173,105 @@ def session_memory(folder: Path) -> tuple[float, float]:
         studio.close()
 
 
+def timeline_redraw(browser, folder: Path) -> tuple[list[float], list[float], dict[str, float]]:
+    """Milliseconds per redraw of the timeline with 1,000 keyframes in view: all of it (as a
+    zoom, a pan or an edit makes it), and a frame while playing (the playhead moved); and the
+    parts of the last full one."""
+    path = folder / "thousand.yaml"
+    path.write_text(many_keyframes(1000, 0.3))
+    studio = Studio(path, Address("127.0.0.1", free_port()), say=lambda line: None)
+    studio.start()
+    page = browser.new_page(viewport={"width": 1280, "height": 820})
+    try:
+        page.goto(studio.address.url)
+        timeline = Timeline(page, studio)
+        timeline.frame.wait_for_function(
+            "() => window.choreoTimeline.state && window.choreoTimeline.state.keyframes.length"
+            " === 1000",
+            timeout=120_000,
+        )
+        timeline.press("0")  # all of it in view
+        full = [timeline.js("tl.redraw(true)") for _ in range(REDRAWS)]
+        parts = timeline.js("tl.partMs()")
+        playing = [timeline.js("tl.redraw(false)") for _ in range(REDRAWS)]
+        return full, playing, parts
+    finally:
+        page.close()
+        studio.close()
+
+
+def click_track(path: Path, duration_s: float, bpm: float, rate_hz: int = 22050) -> None:
+    """A WAV of a click on every beat, ``duration_s`` long."""
+    samples = np.zeros(int(duration_s * rate_hz), dtype=np.int16)
+    click = (np.sin(np.arange(400) * 2 * np.pi * 1000 / rate_hz) * 20000).astype(np.int16)
+    for beat in np.arange(0, duration_s, 60 / bpm):
+        start = int(beat * rate_hz)
+        samples[start : start + len(click)] = click[: len(samples) - start]
+    buffer = io.BytesIO()
+    with wave.open(buffer, "wb") as out:
+        out.setnchannels(1)
+        out.setsampwidth(2)
+        out.setframerate(rate_hz)
+        out.writeframes(samples.tobytes())
+    path.write_bytes(buffer.getvalue())
+
+
+def audio_drift(browser, folder: Path) -> list[float]:
+    """The song's position minus the timeline's, in ms, every frame of PLAY_S s of playing."""
+    click_track(folder / "clicks.wav", PLAY_S + 20, 120)
+    lines = ["robot: arm6", "music: {song: clicks.wav, bpm: 120}", "keyframes:", "  - pose: home"]
+    for bar in range(2, int(PLAY_S / 2) + 6):
+        lines += [f"  - pose: {{base_yaw: {15 if bar % 2 else -15}}}", f"    bar: {bar}"]
+    path = folder / "song.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    studio = Studio(path, Address("127.0.0.1", free_port()), say=lambda line: None)
+    studio.start()
+    page = browser.new_page(viewport={"width": 1280, "height": 820})
+    try:
+        page.goto(studio.address.url)
+        timeline = Timeline(page, studio)
+        timeline.frame.wait_for_function(
+            "() => document.getElementById('song').readyState >= 3", timeout=60_000
+        )
+        timeline.press(" ")
+        timeline.frame.wait_for_function("() => window.choreoTimeline.playing")
+        timeline.js("tl.clearDrift()")
+        page.wait_for_timeout(PLAY_S * 1000)
+        drift = timeline.js("tl.drift()")
+        timeline.press(" ")
+        return [d * 1000 for d in drift]
+    finally:
+        page.close()
+        studio.close()
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as playwright:
         folder = Path(tmp)
         browser = chosen().launch(playwright)
+        redraws, frames, parts = timeline_redraw(browser, folder)
+        slowest = ", ".join(
+            f"{k} {v:.1f}" for k, v in sorted(parts.items(), key=lambda kv: -kv[1])[:3]
+        )
+        print(
+            f"timeline: redraw with 1,000 keyframes in view, median (max) of {REDRAWS}: "
+            f"{statistics.median(redraws):.1f} ms ({max(redraws):.1f}) "
+            f"(goal <= {REDRAW_GOAL_MS} ms; slowest parts, ms: {slowest}); a frame while "
+            f"playing: {statistics.median(frames):.1f} ms ({max(frames):.1f})"
+        )
+        drift = np.abs(audio_drift(browser, folder))
+        if not len(drift):
+            print(f"audio drift: no frame sampled in {PLAY_S:g} s: the song did not play")
+        else:
+            print(
+                f"audio drift: song against the timeline over {PLAY_S:g} s of playing, "
+                f"{len(drift)} frames: median {np.median(drift):.1f} ms, 95th percentile "
+                f"{np.percentile(drift, 95):.1f} ms, max {drift.max():.1f} ms "
+                f"(goal within {DRIFT_GOAL_MS} ms)"
+            )
+        if sys.argv[1:] == ["timeline"]:  # only the timeline's figures
+            browser.close()
+            return
         for duration_s in (30, 300):
             for changed_s, which in ((duration_s // 2, "halfway"), (1, "first")):
                 times = save_to_page(browser, folder, duration_s, changed_s)

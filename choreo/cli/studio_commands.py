@@ -17,22 +17,29 @@ from choreo.cli.arguments import (
     stop_signals_as_ctrl_c,
 )
 from choreo.errors import UsageError
-from choreo.play.robot_bus import open_robot_bus
 from choreo.studio.address import Address
+from choreo.studio.serving import port_to_serve
 
 if TYPE_CHECKING:
     from choreo.studio.live import LiveRobot
 
-DEFAULT_LISTEN = "127.0.0.1:8080"
+DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8080
+DEFAULT_LISTEN = f"{DEFAULT_HOST}:{DEFAULT_PORT}"
 
 
 def listen_address(text: str) -> Address:
-    """``HOST:PORT`` (``[::1]:8080`` for IPv6)."""
+    """``HOST:PORT`` (``[::1]:8080`` for IPv6; port 0: any free port), or ``HOST`` alone: port
+    8080, or the next free one."""
+    if ":" not in text or (text.startswith("[") and text.endswith("]")):
+        host = text.removeprefix("[").removesuffix("]")
+        if host and not host.isdigit():  # "8080" is a port without its host
+            return Address(host, DEFAULT_PORT, next_free=True)
     host, _, port = text.rpartition(":")
     host = host.removeprefix("[").removesuffix("]")
-    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+    if not host or not port.isdigit() or not 0 <= int(port) < 65536:
         raise argparse.ArgumentTypeError(
-            f"expected HOST:PORT such as {DEFAULT_LISTEN}, got {text!r}"
+            f"expected HOST:PORT such as {DEFAULT_LISTEN} (port 0: any free port), or HOST, "
+            f"got {text!r}"
         )
     return Address(host, int(port))
 
@@ -54,10 +61,11 @@ def register(subparsers) -> None:
     studio.add_argument(
         "--listen",
         type=listen_address,
-        default=listen_address(DEFAULT_LISTEN),
+        default=Address(DEFAULT_HOST, DEFAULT_PORT, next_free=True),
         metavar="HOST:PORT",
-        help=f"where the page is served (default {DEFAULT_LISTEN}, the next free port if "
-        "taken); only this computer can open it unless you name another address",
+        help=f"where the page is served (default {DEFAULT_LISTEN}, or the next free port if "
+        "that is taken; a port named must be free, port 0 takes any free one); only this "
+        "computer can open it unless you name another address",
     )
     add_port_arguments(studio)
     port = next(action for action in studio._actions if action.dest == "port")
@@ -71,6 +79,9 @@ def register(subparsers) -> None:
 def run_studio(args: argparse.Namespace) -> int:
     if not args.motion.is_file():
         raise UsageError(f"{args.motion}: no such motion file")
+    # the address first, before the robot is driven or the studio loaded: a wrong one is one
+    # line at once
+    args.listen = Address(args.listen.host, port_to_serve(args.listen))
     with contextlib.ExitStack() as stack:
         live = None
         if args.port is not None:  # opt-in: only a port named on the command line is driven
@@ -82,6 +93,7 @@ def run_studio(args: argparse.Namespace) -> int:
 def _live_robot(args: argparse.Namespace) -> Iterator[LiveRobot]:
     """The motion's robot on --port, through play's preflight; stopped on every way out."""
     from choreo.motion.motion_file import load_motion
+    from choreo.play.robot_bus import open_robot_bus
     from choreo.studio.live import LiveRobot
 
     robot = load_motion(args.motion).robot

@@ -4,7 +4,8 @@ The motion file stays the one source of truth: the page shows what the file says
 simulated (``session``), follows every save of the file and the files it uses (``watch``),
 writes the page's edits back into the file changing only what it must (``yaml_edit``), and draws
 it all with viser (``scene``, ``page``, ``server``); ``live`` drives a robot through the same
-safety path as ``choreo play``.
+safety path as ``choreo play``. ``server.Studio`` is made of one part per concern: ``timeline``,
+``posing``, ``editing`` and ``driving`` (the live robot), sharing the state ``parts`` names.
 
 viser, mjviser and ruamel.yaml are the ``choreo[studio]`` extra, imported only in this package.
 """

@@ -8,8 +8,12 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Address:
+    """``host`` and ``port`` (0: any free port); with ``next_free`` (the default address, no
+    port named) the next free port when ``port`` is taken."""
+
     host: str
     port: int
+    next_free: bool = False
 
     @property
     def url(self) -> str:

@@ -1,5 +1,6 @@
-"""The page's controls (viser GUI, shared by every tab): what the motion is, its problems, the
-timeline, a slider per joint, and the buttons that write keyframes into the file.
+"""The page's controls (viser GUI, shared by every tab): what the motion is, one status line,
+the time, a slider per joint, and the buttons that write keyframes into the file; the timeline
+(``timeline_page``) is framed in at the bottom.
 
 The page only shows and asks; ``server.Studio`` decides. A control moved from a page calls one of
 the studio's methods; a control the studio sets itself (``event.client is None``) calls nothing.
@@ -7,17 +8,16 @@ the studio's methods; a control the studio sets itself (``event.client is None``
 
 from __future__ import annotations
 
+import html
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from choreo.motion.music_block import Music
 from choreo.robot.types import Robot
 from choreo.studio.session import Plan
-from choreo.studio.song import song_html
-from choreo.studio.watch import stamp
+from choreo.studio.timeline_page import frame_html
 
 if TYPE_CHECKING:
     from choreo.studio.server import Studio
@@ -25,9 +25,8 @@ if TYPE_CHECKING:
 SPEEDS = ("0.25", "0.5", "1", "2")
 TIME_STEP_S = 0.01
 ANGLE_STEP_DEG = 0.1
-CURVE_POINTS = 600  # per curve: a few per pixel of the panel
-CURVE_COLOURS = ("#2878ff", "#e0561b", "#2ca02c", "#9467bd", "#d62728", "#17becf", "#8c564b")
-MAX_MARKS = 60  # beyond this the slider's marks are a smear: the list below names them all
+TITLE = "choreo studio"
+STATUS_COLOURS = {"failed": "#b00020", "refused": "#b00020"}
 
 
 def from_page(action: Callable[[Any], None]) -> Callable[[Any], None]:
@@ -41,12 +40,15 @@ def from_page(action: Callable[[Any], None]) -> Callable[[Any], None]:
 
 
 class Page:
-    def __init__(self, server: Any, studio: Studio, live: bool = False):
+    def __init__(self, server: Any, studio: Studio, timeline_port: int, live: bool = False):
         self._server, self._studio = server, studio
         gui = server.gui
-        self.title = gui.add_markdown("**choreo studio**: loading…")
-        self.problems = gui.add_markdown("", visible=False)
-        self.note = gui.add_markdown("", visible=False)
+        gui.configure_theme(show_logo=False, show_share_button=False)
+        gui.set_panel_label(TITLE)
+        gui.add_html(frame_html(timeline_port, TITLE))
+        self.title = gui.add_markdown(f"**{TITLE}**")
+        self.status = gui.add_html(status_html("loading…", ""))
+        self.problems = gui.add_html("", visible=False)
         self.driving: Any = None
         if live:
             with gui.add_folder("Robot"):
@@ -63,26 +65,21 @@ class Page:
             self.speed = gui.add_dropdown("speed", SPEEDS, initial_value="1")
             self.ghost = gui.add_checkbox("plan as a ghost", initial_value=True)
             self.snap = gui.add_checkbox("snap to beats", initial_value=False, visible=False)
-            self.song = gui.add_html("", visible=False)
             self.where = gui.add_markdown("")
             self.keyframe = gui.add_dropdown("keyframe", ("-",), initial_value="-")
             self.keyframe_info = gui.add_markdown("")
-            self.findings = gui.add_markdown("")
         with gui.add_folder("Edit"):
             self.add = gui.add_button("Add keyframe")
             self.update = gui.add_button("Update keyframe")
             self.retime = gui.add_button("Move keyframe here")
             self.delete = gui.add_button("Delete keyframe")
-        self.curve_folder = gui.add_folder("Curves", expand_by_default=False)
-        self.curve_picks: dict[str, Any] = {}  # joint name -> its "curve" checkbox
-        self.curves: Any = None
-        self._curve_series: tuple = ()
+            self.undo = gui.add_button("Undo")
+            self.redo = gui.add_button("Redo")
         self.pose_folder = gui.add_folder("Pose")
         self.joints: dict[str, Any] = {}
         self.pose_names: Any = None
         self._robot: Robot | None = None
         self._keyframe_labels: tuple[str, ...] = ()
-        self._song_key: tuple | None = None
         self._timeline_key: tuple = ()
         self._connect()
 
@@ -102,10 +99,12 @@ class Page:
         self.update.on_click(lambda _: studio.update_keyframe())
         self.retime.on_click(lambda _: studio.retime_keyframe())
         self.delete.on_click(lambda _: studio.delete_keyframe())
+        self.undo.on_click(lambda _: studio.undo())
+        self.redo.on_click(lambda _: studio.redo())
 
     # --- what the studio shows -------------------------------------------------------------
 
-    def show_plan(self, plan: Plan, version: int) -> None:
+    def show_plan(self, plan: Plan) -> None:
         """The plan, and once simulated what the physics did (the page is told twice)."""
         motion, robot = plan.motion, plan.motion.robot
         self.title.content = (
@@ -120,84 +119,9 @@ class Page:
         )
         self._keyframe_labels = labels
         self.snap.visible = motion.music is not None
-        self._show_song(motion.music)
         self.keyframe.options = ("-", *labels)
-        self.findings.content = self._findings_text(plan, version)
         if robot != self._robot:
             self._build_joints(robot)
-            self._build_curve_picks(robot)
-        self.show_curves(plan)
-
-    @staticmethod
-    def _findings_text(plan: Plan, version: int) -> str:
-        physics = plan.physics
-        if physics is None:
-            return f"**physics**: reload {version} simulating… (the robot shows the plan)"
-        status = f"**physics**: reload {version} simulated in {physics.took_s:.2f} s\n\n"
-        return status + (
-            "\n".join(
-                f"- ⚠ {f.time_s:.2f} s {f.severity.value}: {f.message}" for f in physics.findings
-            )
-            or "no findings: the simulated robot follows the plan"
-        )
-
-    def show_curves(self, plan: Plan) -> None:
-        """The chosen joints' plan (what the ticks ask, solid) and simulated angle (dashed, once
-        the physics is done) over time, one colour per joint."""
-        names = plan.motion.robot.joint_names
-        chosen = [j for j, name in enumerate(names) if self._picked(name)]
-        if not chosen:
-            self._remove_curves()
-            return
-        every = max(1, len(plan.times_s) // CURVE_POINTS)
-        times = plan.times_s[::every]
-        simulated = (
-            plan.physics.simulated_deg(times)
-            if plan.physics is not None
-            else np.full((len(times), len(names)), np.nan)
-        )
-        data = [times]
-        series: list[dict] = [{"label": "t (s)"}]
-        for j in chosen:
-            colour = CURVE_COLOURS[j % len(CURVE_COLOURS)]
-            data += [plan.command_deg[::every, j], simulated[:, j]]
-            series += [
-                {"label": f"{names[j]} plan (°)", "stroke": colour, "width": 2},
-                {"label": f"{names[j]} sim (°)", "stroke": colour, "width": 1, "dash": (5, 4)},
-            ]
-        if self.curves is not None and tuple(series) == self._curve_series:
-            self.curves.data = tuple(data)  # the same joints: new numbers, the same chart
-            return
-        self._remove_curves()
-        self._curve_series = tuple(series)
-        with self.curve_folder:
-            self.curves = self._server.gui.add_uplot(
-                data=tuple(data),
-                series=tuple(series),
-                aspect=1.6,
-            )
-
-    def _picked(self, name: str) -> bool:
-        pick = self.curve_picks.get(name)
-        return pick is not None and bool(pick.value)
-
-    def _remove_curves(self) -> None:
-        if self.curves is not None:
-            self.curves.remove()
-        self.curves, self._curve_series = None, ()
-
-    def _build_curve_picks(self, robot: Robot) -> None:
-        """A checkbox per joint choosing its curves (the first joint's to begin with)."""
-        for pick in self.curve_picks.values():
-            pick.remove()
-        self._remove_curves()
-        with self.curve_folder:
-            self.curve_picks = {
-                name: self._server.gui.add_checkbox(f"{name} curve", initial_value=i == 0)
-                for i, name in enumerate(robot.joint_names)
-            }
-        for pick in self.curve_picks.values():
-            pick.on_update(from_page(lambda _: self._studio.redraw_curves()))
 
     def _show_timeline(self, plan: Plan) -> None:
         """viser sets a slider's marks once: a plan whose ends or marks changed gets a new
@@ -227,25 +151,13 @@ class Page:
         slider.on_update(from_page(lambda e: self._studio.scrub(float(e.target.value))))
         return slider
 
-    def _show_song(self, music: Music | None) -> None:
-        """The song's player, made again only when the song or its start changed."""
-        key = None if music is None else (music.song, music.start_s, stamp(music.song))
-        if key != self._song_key:
-            self._song_key = key
-            self.song.content = "" if music is None else song_html(music)
-            self.song.visible = music is not None
-
     def _marks(self, plan: Plan) -> tuple:
-        marks: list[tuple[float, str]] = [(round(t, 2), "◆") for t in plan.keyframe_times_s]
-        music = plan.motion.music
-        if music is not None:  # the bar lines: every bar's first beat
-            grid = music.grid
-            bars = grid.beat_times_s[:: grid.beats_per_bar]
-            marks += [(round(t, 2), f"{i + 1}") for i, t in enumerate(bars) if t <= plan.end_s]
-        marks += [(round(f.time_s, 2), "⚠") for f in plan.findings]
+        """The slider's marks: where the motion starts, and the approach before it (the
+        keyframes, bars and findings are the timeline's)."""
+        marks = [(0.0, "0")]
         if plan.start_s < 0:
             marks.append((round(plan.start_s, 2), "approach"))
-        return tuple(marks[:MAX_MARKS])
+        return tuple(marks)
 
     def _build_joints(self, robot: Robot) -> None:
         self._robot = robot
@@ -272,25 +184,29 @@ class Page:
             mirror = gui.add_button("Mirror left/right", disabled=not robot.mirror_pairs)
             mirror.on_click(lambda _: studio.mirror())
             gui.add_button("Back to the plan").on_click(lambda _: studio.follow_plan())
+            gui.add_button("Frame the robot").on_click(lambda _: studio.frame_robot())
 
     def _joint_moved(self, name: str) -> Callable[[Any], None]:
         return lambda event: self._studio.move_joint(name, event.target.value)
 
     def show_problems(self, problems: tuple[str, ...]) -> None:
+        """The problems of a file that does not load after the first (the status line says
+        that one), each wrapped to the panel's width."""
+        problems = problems[1:]
         self.problems.visible = bool(problems)
         if problems:
             self.problems.content = (
-                "**The file does not load** (the last good plan stays on screen):\n\n"
-                "```\n" + "\n".join(problems) + "\n```"
+                '<ul style="margin: 0; padding-left: 1.2em; overflow-wrap: anywhere">'
+                + "".join(f"<li><code>{html.escape(p)}</code></li>" for p in problems)
+                + "</ul>"
             )
+
+    def show_status(self, text: str, kind: str) -> None:
+        self.status.content = status_html(text, kind)
 
     def show_driving(self, on: bool) -> None:
         if self.driving is not None:
             self.driving.value = on
-
-    def show_note(self, text: str) -> None:
-        self.note.visible = bool(text)
-        self.note.content = text
 
     def show_time(self, t_s: float, text: str) -> None:
         self.time.value = round(t_s, 2)
@@ -312,3 +228,13 @@ class Page:
 
     def pose_deg(self) -> np.ndarray:
         return np.array([float(s.value) for s in self.joints.values()])
+
+
+def status_html(text: str, kind: str) -> str:
+    """The status line: wrapped, never clipped; red when the files failed or a request was
+    refused."""
+    colour = STATUS_COLOURS.get(kind, "inherit")
+    return (
+        f'<div role="status" style="color: {colour}; white-space: normal; '
+        f'overflow-wrap: anywhere; font-size: 0.85em">{html.escape(text)}</div>'
+    )

@@ -22,6 +22,8 @@ GHOST_WIDTH = 4.0
 AMBIENT, KEY_LIGHT = 1.2, 2.0  # without the environment map: soft fill, one light from above
 HANDLE_SCALE = 0.25  # a site's drag handle, as a share of the model's size
 BODY = "/body"  # the body's handle among the sites' (no site is named so)
+FRAME_FROM = np.array([1.2, -1.6, 0.9])  # the camera looks at the robot from here (front left)
+FRAME_FILL = 0.6  # the robot's sphere fills this share of the view's half-height
 
 
 class RobotView:
@@ -56,14 +58,81 @@ class RobotView:
         root = free_joint(self.model)
         self._root_body = None if root is None else int(self.model.jnt_bodyid[root])
         self._root_qpos = None if root is None else int(self.model.jnt_qposadr[root])
-        self._frame_camera(server)
-
-    def _frame_camera(self, server) -> None:
-        """Look at the robot from the front left, far enough to see all of it."""
         server.scene.set_up_direction("+z")
-        center, extent = np.array(self.model.stat.center), float(self.model.stat.extent)
-        server.initial_camera.look_at = center
-        server.initial_camera.position = center + extent * np.array([1.2, -1.6, 0.9])
+        mujoco.mj_kinematics(self.model, self._data)
+        self.frame_camera()
+
+    def frame_camera(self, clients: Sequence[Any] = ()) -> None:
+        """Look at the robot as it stands from the front left, near enough that it fills about
+        two thirds of the view's height: for tabs opened from now on, and ``clients`` now."""
+        center, radius = self._robot_sphere()
+        camera = self._server.initial_camera
+        distance = radius / (FRAME_FILL * np.tan(camera.fov / 2))
+        position = center + distance * FRAME_FROM / np.linalg.norm(FRAME_FROM)
+        camera.look_at, camera.position = center, position
+        for client in clients:
+            client.camera.look_at, client.camera.position = center, position
+
+    def _robot_sphere(self) -> tuple[np.ndarray, float]:
+        """The centre and radius (m) of a sphere around the robot's geoms as last posed (not
+        the floor's or the props')."""
+        model, data = self.model, self._data
+        bodies = self._robot_bodies()
+        geoms = [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) in bodies]
+        if not geoms:
+            return np.array(model.stat.center), float(model.stat.extent)
+        centres = data.geom_xpos[geoms]
+        reach = model.geom_rbound[geoms]
+        low = (centres - reach[:, None]).min(axis=0)
+        high = (centres + reach[:, None]).max(axis=0)
+        return (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 0.01)
+
+    def _robot_bodies(self) -> set[int]:
+        """The robot's bodies: the tree hanging from the top body of its joints."""
+        model = self.model
+        tops = set()
+        for body in self._bodies_with_joints():
+            while int(model.body_parentid[body]) > 0:
+                body = int(model.body_parentid[body])
+            tops.add(body)
+        return {b for b in range(1, model.nbody) if int(model.body_rootid[b]) in tops}
+
+    def limbs(self) -> tuple[tuple[str, tuple[int, ...]], ...]:
+        """The robot's joints grouped by limb, in joint order: (the limb's first body, the
+        indices of its joints). A limb is a chain of bodies below the last body where the tree
+        branches (an arm on its own is one limb; a hexapod has six)."""
+        model = self.model
+        children: dict[int, list[int]] = {}
+        for body in range(1, model.nbody):
+            children.setdefault(int(model.body_parentid[body]), []).append(body)
+        with_joints = self._bodies_with_joints()
+
+        def branches(body: int) -> int:
+            return sum(1 for child in children.get(body, ()) if child in with_joints)
+
+        limbs: dict[str, list[int]] = {}
+        for index, joint in enumerate(self.robot.joints):
+            joint_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.mjcf_joint)
+            body = int(model.jnt_bodyid[joint_id])
+            while True:
+                parent = int(model.body_parentid[body])
+                if parent <= 0 or parent == self._root_body or branches(parent) > 1:
+                    break
+                body = parent
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+            limbs.setdefault(name, []).append(index)
+        return tuple((name, tuple(joints)) for name, joints in limbs.items())
+
+    def _bodies_with_joints(self) -> set[int]:
+        """Bodies with a robot joint in or below them."""
+        model, found = self.model, set()
+        for joint in self.robot.joints:
+            joint_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.mjcf_joint)
+            body = int(model.jnt_bodyid[joint_id])
+            while body > 0 and body not in found:
+                found.add(body)
+                body = int(model.body_parentid[body])
+        return found
 
     def matches(self, robot: Robot, props: Sequence[Prop]) -> bool:
         """This view still draws ``robot`` with ``props`` (else the scene is rebuilt)."""

@@ -82,6 +82,14 @@ class Plan:
         k = int(np.clip(np.searchsorted(self.times_s, t_s - 1e-9), 0, len(self.times_s) - 1))
         return self.command_deg[k]
 
+    def posed_deg(self, t_s: float) -> np.ndarray:
+        """The plan's pose at ``t_s`` to pose from: the planned trajectory itself (at a
+        keyframe's time, the angles its file writes, not the ticks' rounding to the servos'
+        steps); in the approach, the ticks'."""
+        if t_s < 0:
+            return np.array(self.planned_deg(t_s))
+        return self.rehearsal.performance.trajectory.at(t_s)[0].copy()
+
     def keyframe_at(self, index: int) -> tuple[Keyframe, float]:
         return self.motion.keyframes[index], self.keyframe_times_s[index]
 
@@ -113,7 +121,8 @@ class Session:
         self.plan: Plan | None = None  # the last good one: kept while the files have problems
         self.problems: tuple[str, ...] = ()
         self.version = 0  # counts reloads, good or bad
-        self.loaded_digest: str | None = None  # the motion file's bytes the page was built from
+        self.loaded_digest: str | None = None  # the motion file's bytes last reloaded
+        self.plan_digest: str | None = None  # the motion file's bytes ``plan`` was made from
         self._watched: tuple[Path, ...] = (self.motion_path,)
         self._resume: Resume | None = None  # the last simulation's: the next one starts there
         self._lock = threading.Lock()
@@ -135,6 +144,7 @@ class Session:
                 self.problems = (f"{self.motion_path}: {error.strerror or error}",)
             else:
                 self.plan, self.problems = plan, ()
+                self.plan_digest = digest
                 self._watched = files_of(plan.motion)
             self.loaded_digest = digest
             self.version += 1
@@ -165,6 +175,11 @@ class Session:
     def changed_on_disk(self) -> bool:
         """The motion file is no longer the bytes last loaded (an edit the page has not seen)."""
         return file_digest(self.motion_path) != self.loaded_digest
+
+    def plan_is_current(self) -> bool:
+        """The plan shown was made from the motion file as it is on disk: its keyframes' lines
+        are the file's (not so after a save that does not load or plan)."""
+        return self.plan is not None and file_digest(self.motion_path) == self.plan_digest
 
 
 def make_plan(motion: Motion) -> Plan:

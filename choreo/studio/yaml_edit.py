@@ -22,7 +22,6 @@ from choreo.studio import require
 
 TIMING_KEYS = ("t", "after", "beat", "bar")
 BEAT_DECIMALS = 3  # a thousandth of a beat: well under a millisecond at any tempo
-Timing = tuple[str, float]  # ("t", seconds) or ("beat", the song's beat number)
 SPACE_KEYS = ("sites", "body", "gait")  # a joint pose written over a keyframe replaces these
 DECIMALS = 1  # degrees and times written with one decimal (0.1° is below a servo's step)
 TIME_DECIMALS = 3  # seconds: to the millisecond
@@ -108,12 +107,20 @@ def pose_mapping(pose_deg: Mapping[str, float]):
     return pose
 
 
-def sites_mapping(site: str, at_mm: Sequence[float] | np.ndarray):
-    """``{site: {at: [x, y, z]}}`` in flow style, millimetres to the tenth."""
+def _flow_numbers(values: Sequence[float] | np.ndarray):
     comments = require("ruamel.yaml.comments")
-    at = comments.CommentedSeq(number(v) for v in at_mm)
-    at.fa.set_flow_style()
-    target = comments.CommentedMap(at=at)
+    seq = comments.CommentedSeq(number(v) for v in values)
+    seq.fa.set_flow_style()
+    return seq
+
+
+def sites_mapping(site: str, at_mm: Sequence[float] | np.ndarray, pitch_deg: float | None = None):
+    """``{site: {at: [x, y, z]}}`` (with ``pitch`` where given) in flow style, millimetres and
+    degrees to the tenth."""
+    comments = require("ruamel.yaml.comments")
+    target = comments.CommentedMap(at=_flow_numbers(at_mm))
+    if pitch_deg is not None:
+        target["pitch"] = number(pitch_deg)
     target.fa.set_flow_style()
     sites = comments.CommentedMap([(site, target)])
     sites.fa.set_flow_style()
@@ -142,21 +149,30 @@ def body_mapping(pose: BodyPose):
 def _item_text(item: Any, dash_col: int) -> list[str]:
     out = io.StringIO()
     _yaml().dump([item], out)
-    return [" " * dash_col + line if line else line for line in out.getvalue().splitlines()]
+    lines = out.getvalue().splitlines()
+    return [(" " * dash_col + line).rstrip() if line else line for line in lines]
 
 
-def _lines(text: str) -> tuple[list[str], str]:
-    ending = "\n" if text.endswith("\n") or not text else ""
-    return text.splitlines(), ending
+Ending = tuple[str, str]  # the file's line ending, and what ends its last line ("" or that)
 
 
-def _joined(lines: list[str], ending: str) -> str:
-    return "\n".join(lines) + ending
+def _lines(text: str) -> tuple[list[str], Ending]:
+    """``text``'s lines, and how they end (a file written on Windows keeps its CRLF)."""
+    newline = "\r\n" if "\r\n" in text else "\n"
+    return text.splitlines(), (newline, newline if text.endswith("\n") or not text else "")
 
 
-def add_keyframe(text: str, after: int | None, key: str, value: Any, timing: Timing) -> str:
-    """Insert ``key: value`` (``pose:``, ``sites:`` or ``body:``) at ``timing`` (``("t", 1.5)`` or
-    ``("beat", 9)``) after the ``after``-th keyframe item (``None``: first in the list)."""
+def _joined(lines: list[str], ending: Ending) -> str:
+    newline, last = ending
+    return newline.join(lines) + last
+
+
+def add_keyframe(
+    text: str, after: int | None, key: str, value: Any, timing: Mapping[str, float]
+) -> str:
+    """Insert ``key: value`` (``pose:``, ``sites:`` or ``body:``) timed by ``timing`` (``{"t":
+    1.5}``, ``{"after": 0.4}``, ``{"bar": 5, "beat": 3}``) after the ``after``-th keyframe item
+    (``None``: first in the list)."""
     comments = require("ruamel.yaml.comments")
     items = keyframe_items(text)
     lines, ending = _lines(text)
@@ -164,7 +180,7 @@ def add_keyframe(text: str, after: int | None, key: str, value: Any, timing: Tim
         raise EditRefused("the keyframes: list is empty or written in flow style: add one by hand")
     item = comments.CommentedMap()
     item[key] = value
-    item[timing[0]] = timing[1]
+    item.update(timing)
     if after is None:
         at, dash_col = items[0].first_line, items[0].dash_col
     else:
@@ -172,11 +188,13 @@ def add_keyframe(text: str, after: int | None, key: str, value: Any, timing: Tim
     return _joined(lines[:at] + _item_text(item, dash_col) + lines[at:], ending)
 
 
-def _edit_item(
-    text: str, index: int, where: str, key: str, value: Any, replaces: tuple[str, ...]
+def _rewrite_item(
+    text: str, index: int, where: str, values: Mapping[str, Any], replaces: tuple[str, ...]
 ) -> str:
-    """Write ``key: value`` in the ``index``-th keyframe item where the first of ``replaces``
-    (or ``key``) was, and drop the others; every other line of the item stays as written."""
+    """The ``index``-th keyframe item with each ``key: value`` of ``values`` written, and the
+    keys of ``replaces`` not among them dropped. A key whose value is already the one written
+    keeps its text; a changed one keeps its place and its line's comment; a new one takes the
+    place of the first key dropped, or goes under the others. Every other line stays."""
     document = _yaml().load(text)
     item_lines = keyframe_items(text)[index]
     entry = document["keyframes"][index]
@@ -187,23 +205,45 @@ def _edit_item(
         raise EditRefused(f"{where}: an include or gait block: edit it in the text")
     keys = list(entry)
     spans = _key_spans(entry, keys, lines, item_lines.last_line)
-    targets = [k for k in keys if k in replaces or k == key]
-    for k in targets:
+    dropped = [k for k in keys if k in replaces and k not in values]
+    changed = [k for k in values if k in entry and not _same(entry[k], values[k])]
+    added = [k for k in values if k not in entry]
+    for k in dropped + changed:
         _check_no_anchor(entry, k, lines, where)
-    first, last = spans[targets[0]] if targets else (item_lines.last_line + 1,) * 2
-    if targets:
-        line, col = entry.lc.key(targets[0])
-        prefix, comment = lines[line][:col], _trailing_comment(lines[last])
-    else:  # a new key under the others
-        line, col = entry.lc.key(keys[-1])
-        prefix, comment = " " * col, ""
-    new = _value_lines(key, value, prefix)
-    new[-1] += comment
+    edits: list[tuple[int, int, list[str]]] = []  # (first, last, lines): replace first..last
+    for k in changed:
+        first, last = spans[k]
+        line, col = entry.lc.key(k)
+        new = _value_lines(k, values[k], lines[line][:col])
+        new[-1] += _trailing_comment(lines[last])
+        edits.append((first, last, new))
+    new_lines = []
+    for k in added:
+        prefix = " " * entry.lc.key(keys[-1])[1]
+        new_lines += _value_lines(k, values[k], prefix)
+    for k in dropped:
+        first, last = spans[k]
+        if new_lines:  # the new keys take the first dropped key's place (and its "- ")
+            line, col = entry.lc.key(k)
+            new_lines[0] = lines[line][:col] + new_lines[0][col:]
+            new_lines[-1] += _trailing_comment(lines[last])
+        edits.append((first, last, new_lines))
+        new_lines = []
+    if new_lines:
+        under = max(last for _, last in spans.values())
+        edits.append((under + 1, under, new_lines))
     out = list(lines)
-    for k in sorted(targets[1:], key=lambda k: spans[k][0], reverse=True):
-        del out[spans[k][0] : spans[k][1] + 1]
-    out[first : last + 1 if targets else first] = new
+    for first, last, new in sorted(edits, key=lambda e: e[0], reverse=True):
+        out[first : last + 1] = new
     return _joined(out, ending)
+
+
+def _same(written: Any, value: Any) -> bool:
+    """Whether ``value`` is what the file already says (then its text is kept as written)."""
+    try:
+        return bool(written == value)
+    except (TypeError, ValueError):  # numpy arrays and the like: not what a file holds
+        return False
 
 
 def _key_spans(entry: Any, keys: list, lines: list[str], item_last: int) -> dict:
@@ -241,8 +281,8 @@ def _value_lines(key: str, value: Any, prefix: str) -> list[str]:
     yaml.width = max(40, yaml.width - len(prefix))
     out = io.StringIO()
     yaml.dump({key: value}, out)
-    first, *rest = out.getvalue().splitlines()
-    return [prefix + first] + [" " * len(prefix) + line for line in rest]
+    first, *rest = out.getvalue().splitlines()  # a wrapped flow line ends in a space: not kept
+    return [(prefix + first).rstrip()] + [(" " * len(prefix) + line).rstrip() for line in rest]
 
 
 def update_keyframe(text: str, index: int, where: str, key: str, value: Any) -> str:
@@ -250,21 +290,87 @@ def update_keyframe(text: str, index: int, where: str, key: str, value: Any) -> 
     timing stays. A joint pose or a body pose (whose legs are solved whole) replaces sites, body
     and any pose; sites replace only sites."""
     replaces = ("sites",) if key == "sites" else SPACE_KEYS + ("pose",)
-    return _edit_item(text, index, where, key, value, replaces)
+    return _rewrite_item(text, index, where, {key: value}, replaces)
 
 
-def retime_keyframe(text: str, index: int, where: str, timing: Timing) -> str:
-    """The ``index``-th keyframe item arrives at ``timing`` (``("t", 1.5)`` or ``("beat", 9)``),
-    replacing whatever timed it (t, after, beat, bar)."""
-    return _edit_item(text, index, where, timing[0], timing[1], TIMING_KEYS)
+def update_pose(
+    text: str, index: int, where: str, changed_deg: Mapping[str, float], whole: Mapping[str, float]
+) -> str:
+    """The ``index``-th keyframe item's joints of ``changed_deg`` take their new angles. In a
+    pose written as a mapping only those change (every other joint stays as written); a
+    named pose, sites or a body pose become the joint pose ``whole`` (with the changes)."""
+    entry = _entry(text, index)
+    written = entry.get("pose") if entry is not None else None
+    comments = require("ruamel.yaml.comments")
+    if isinstance(written, comments.CommentedMap):
+        pose = comments.CommentedMap(written)
+        for name, angle in changed_deg.items():
+            pose[name] = number(angle)
+        if written.fa.flow_style():
+            pose.fa.set_flow_style()
+        return update_keyframe(text, index, where, "pose", pose)
+    return update_keyframe(text, index, where, "pose", pose_mapping({**whole, **changed_deg}))
 
 
-def timing(t_s: float, grid: BeatGrid | None) -> Timing:
-    """How a keyframe at file time ``t_s`` is written: on the song's beats (``beat: 9.5``) in a
-    motion with a music block, where the time is inside the song's beats; else ``t:``."""
-    if grid is not None and grid.beats and grid.beat_times_s[0] <= t_s <= grid.beat_times_s[-1]:
-        return "beat", number(grid.beat_at(t_s), BEAT_DECIMALS)
-    return "t", number(t_s, TIME_DECIMALS)
+def update_site(
+    text: str, index: int, where: str, site: str, at_mm: Sequence[float] | np.ndarray
+) -> str:
+    """The ``index``-th keyframe item's ``site`` goes ``at_mm``; its orientation (``pitch``,
+    ``frame``) and the other sites stay as written. Sites written where there were none (a
+    pose, a body) are added beside it."""
+    entry = _entry(text, index)
+    comments = require("ruamel.yaml.comments")
+    written = entry.get("sites") if entry is not None else None
+    if not isinstance(written, comments.CommentedMap):
+        return update_keyframe(text, index, where, "sites", sites_mapping(site, at_mm))
+    sites = comments.CommentedMap(written)
+    if written.fa.flow_style():
+        sites.fa.set_flow_style()
+    target = written.get(site)
+    if isinstance(target, comments.CommentedMap):
+        moved = comments.CommentedMap(target)
+        if target.fa.flow_style():
+            moved.fa.set_flow_style()
+        moved["at"] = _flow_numbers(at_mm)
+        sites[site] = moved
+    else:
+        sites[site] = sites_mapping(site, at_mm)[site]
+    return update_keyframe(text, index, where, "sites", sites)
+
+
+def _entry(text: str, index: int) -> Any:
+    document = _yaml().load(text)
+    entry = document["keyframes"][index]
+    return entry if isinstance(entry, Mapping) else None
+
+
+def retime_keyframe(text: str, index: int, where: str, timing: Mapping[str, float]) -> str:
+    """The ``index``-th keyframe item arrives as ``timing`` says (``{"t": 1.5}``, ``{"after":
+    0.4}``, ``{"beat": 9}``, ``{"bar": 3, "beat": 2}``), replacing whatever timed it (t, after,
+    beat, bar); a value already written keeps its text."""
+    return _rewrite_item(text, index, where, timing, TIMING_KEYS)
+
+
+def written_time(
+    notation: str, t_s: float, leave_s: float | None, grid: BeatGrid | None
+) -> dict[str, int | float]:
+    """How a keyframe at file time ``t_s`` is timed in ``notation``: ``t``; ``after`` (the
+    keyframe before it left at ``leave_s``); ``beat`` or ``bar`` (and beat in the bar) on the
+    song's beats, where ``t_s`` is inside them. Where the notation cannot say it (no keyframe
+    before, outside the song), ``t``."""
+    if notation == "after" and leave_s is not None and t_s >= leave_s:
+        return {"after": number(t_s - leave_s, TIME_DECIMALS)}
+    beats = grid is not None and grid.beats and grid.beat_times_s[0] <= t_s <= grid.beat_times_s[-1]
+    if notation in ("beat", "bar") and beats:
+        assert grid is not None
+        beat = number(grid.beat_at(t_s), BEAT_DECIMALS)
+        if notation == "beat":
+            return {"beat": beat}
+        bar, within = grid.bar_and_beat(beat)
+        if abs(within - round(within)) < 10**-BEAT_DECIMALS:
+            within = round(within)
+        return {"bar": bar} if within == 1 else {"bar": bar, "beat": number(within, BEAT_DECIMALS)}
+    return {"t": number(t_s, TIME_DECIMALS)}
 
 
 def delete_keyframe(text: str, index: int) -> str:

@@ -36,8 +36,9 @@ from choreo.studio.yaml_edit import (
     pose_mapping,
     retime_keyframe,
     sites_mapping,
-    timing,
     update_keyframe,
+    update_site,
+    written_time,
 )
 
 MOTION = DATA / "studio" / "wave.yaml"
@@ -85,45 +86,51 @@ def test_update_rewrites_the_pose_and_keeps_the_timing_and_its_comment():
 
 
 def test_retime_replaces_after_beat_or_bar_by_t_keeping_the_line_comment():
-    new = retime_keyframe(HAND_WRITTEN, 1, "here", ("t", 1.25))
+    new = retime_keyframe(HAND_WRITTEN, 1, "here", {"t": 1.25})
     assert new == HAND_WRITTEN.replace("    after: 1.0  # slow\n", "    t: 1.25  # slow\n")
     music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
-    assert retime_keyframe(music, 0, "here", ("t", 2)) == (
+    assert retime_keyframe(music, 0, "here", {"t": 2}) == (
         "robot: arm6\nkeyframes:\n  - pose: home\n    t: 2\n    stop: true\n"
     )
 
 
 def test_a_dance_is_edited_in_beats_and_times_outside_the_song_in_seconds():
     grid = BeatGrid((0.0, 0.5, 1.0, 1.5), beats_per_bar=4)  # 120 BPM, beat 1 at t 0
-    assert timing(0.75, grid) == ("beat", 2.5)
-    assert timing(1.0, grid) == ("beat", 3)  # on a beat: a whole number
-    assert timing(2.0, grid) == ("t", 2)  # past the song's last beat
-    assert timing(0.75, None) == ("t", 0.75)  # no music block
+    assert written_time("beat", 0.75, None, grid) == {"beat": 2.5}
+    assert written_time("beat", 1.0, None, grid) == {"beat": 3}  # on a beat: a whole number
+    assert written_time("bar", 1.0, None, grid) == {"bar": 1, "beat": 3}
+    assert written_time("bar", 0.0, None, grid) == {"bar": 1}  # a bar's first beat
+    assert written_time("beat", 2.0, None, grid) == {"t": 2}  # past the song's last beat
+    assert written_time("beat", 0.75, None, None) == {"t": 0.75}  # no music block
+    assert written_time("after", 0.75, 0.5, None) == {"after": 0.25}
     music = "robot: arm6\nkeyframes:\n  - pose: home\n    bar: 2\n    beat: 3\n    stop: true\n"
-    assert retime_keyframe(music, 0, "here", timing(1.0, grid)) == (
+    assert retime_keyframe(music, 0, "here", written_time("beat", 1.0, None, grid)) == (
         "robot: arm6\nkeyframes:\n  - pose: home\n    beat: 3\n    stop: true\n"
     )
 
 
 def test_add_inserts_a_full_pose_after_the_keyframe_before_it():
     pose = pose_mapping({"base_yaw": 5, "shoulder": 7.5})
-    new = add_keyframe(HAND_WRITTEN, 0, "pose", pose, ("t", 0.5))
+    new = add_keyframe(HAND_WRITTEN, 0, "pose", pose, {"t": 0.5})
     assert new == HAND_WRITTEN.replace(
         "  - pose: home\n", "  - pose: home\n  - pose: {base_yaw: 5, shoulder: 7.5}\n    t: 0.5\n"
     )
-    first = add_keyframe(HAND_WRITTEN, None, "pose", pose_mapping({"gripper": 10}), ("t", 0))
+    first = add_keyframe(HAND_WRITTEN, None, "pose", pose_mapping({"gripper": 10}), {"t": 0})
     assert first.startswith("robot: arm6   # the desk arm\nkeyframes:\n  - pose: {gripper: 10}\n")
 
 
-def test_a_site_handle_writes_sites_over_the_sites_it_had_and_keeps_its_pose():
+def test_a_site_handle_moves_the_site_it_had_keeping_its_pitch_and_its_pose():
     text = (
         "robot: arm6\nkeyframes:\n  - pose: home\n"
         "  - sites: {tool: {at: [100, 0, 50], pitch: -70}}  # reach\n"
         "    pose: {gripper: 40}\n    after: 1.5\n"
     )
-    new = update_keyframe(text, 1, "here", "sites", sites_mapping("tool", [120.04, -3.25, 60]))
-    assert new == text.replace(
-        "{tool: {at: [100, 0, 50], pitch: -70}}", "{tool: {at: [120, -3.2, 60]}}"
+    new = update_site(text, 1, "here", "tool", [120.04, -3.25, 60])
+    assert new == text.replace("[100, 0, 50]", "[120, -3.2, 60]")
+    # a site written over a joint pose: the pose stays beside it
+    replaced = update_keyframe(text, 1, "here", "sites", sites_mapping("tool", [1, 2, 3], -60))
+    assert replaced == text.replace(
+        "{tool: {at: [100, 0, 50], pitch: -70}}", "{tool: {at: [1, 2, 3], pitch: -60}}"
     )
 
 
@@ -147,7 +154,7 @@ def test_a_bad_edit_is_refused_before_anything_is_written(tmp_path):
     copy_motion(path)
     # the second keyframe moved after the third: the third's t now goes backwards
     with pytest.raises(SourceError, match=rf"^{re.escape(str(path))}:11:8: t 2 goes backwards"):
-        check_loads(path, retime_keyframe(TEXT, 1, "here", ("t", 2.5)))
+        check_loads(path, retime_keyframe(TEXT, 1, "here", {"t": 2.5}))
     assert path.read_text() == TEXT
     assert sorted(p.name for p in tmp_path.iterdir()) == ["groove.ogg", "wave.yaml"]
 
@@ -265,7 +272,7 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
         origin = kinematics.world_to_base_mm([0, 0, 0])
         axes = np.stack([kinematics.world_to_base_mm(e) - origin for e in np.eye(3) * 1000], 1)
         world_m = np.linalg.solve(axes, target_mm - origin)
-        assert studio.page.findings.content.startswith("**physics**: reload 1 simulated in ")
+        assert "reload 1 simulated in " in studio.page.status.content
         studio.select_keyframe(2)  # the third: where it is written, when, and its values
         assert studio.page.keyframe_info.content == (
             f"`{path}:10:5` at 2.00 s: base_yaw 30°, shoulder 30°, elbow 40°, wrist_pitch 0°, "
@@ -277,12 +284,17 @@ def test_a_site_handle_poses_the_arm_by_ik_and_add_keyframe_writes_sites(tmp_pat
         assert studio.posing is not None
         reached = kinematics.site_pose("tool", studio.posing).position_mm
         assert np.allclose(reached, target_mm, atol=1.0)
+        studio.add_keyframe()  # too soon after the last keyframe for the limits: refused
+        assert said[-1].startswith("⛔ nothing written: at 3.40 s it would not plan: ")
+        assert said[-1].endswith("; the nearest time that works is 3.50 s")
+        assert path.read_text() == TEXT
+        studio.scrub(3.5)
+        studio.drag_site("tool", world_m)
         studio.add_keyframe()
-        assert not [line for line in said if "nothing written" in line]
+        assert not [line for line in said[-3:] if "nothing written" in line]
         assert (
-            # a dance: written on the song's beats, 1 + 3.4 s x 112 BPM / 60 s = beat 7.347
-            path.read_text()
-            == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    beat: 7.347\n"
+            # timed as the keyframe before it is, with t
+            path.read_text() == TEXT + "  - sites: {tool: {at: [102.8, 122.6, 90]}}\n    t: 3.5\n"
         )
         studio.drive(True)  # a request its page does not offer: it was given no robot
         studio.read_pose()
@@ -326,37 +338,6 @@ def test_scrubbing_drives_the_live_robot_once_asked_and_stop_stops_it(tmp_path):
             "⛔ refused: joint 'gripper' = 'lots' is not a joint and an angle",
         ]
         assert studio.time_s == 3.0 and studio.speed == 1.0
-    finally:
-        studio.close()
-
-
-def test_curves_show_the_plan_and_the_physics_of_every_joint_chosen(tmp_path):
-    path = tmp_path / "wave.yaml"
-    copy_motion(path)
-    studio = Studio(path, Address("127.0.0.1", 0), say=lambda line: None)
-    studio.start()
-    try:
-        page = studio.page
-        assert [n for n, pick in page.curve_picks.items() if pick.value] == ["base_yaw"]
-        page.curve_picks["elbow"].value = True
-        studio.redraw_curves()
-        labels = [series["label"] for series in page.curves.series]
-        assert labels == [
-            "t (s)",
-            "base_yaw plan (°)",
-            "base_yaw sim (°)",
-            "elbow plan (°)",
-            "elbow sim (°)",
-        ]
-        times, yaw_plan, yaw_sim, elbow_plan, elbow_sim = page.curves.data
-        at_2s = int(np.searchsorted(times, 2.0))  # the third keyframe: base_yaw 30, elbow 40
-        assert yaw_plan[at_2s] == pytest.approx(30, abs=0.5)
-        assert elbow_plan[at_2s] == pytest.approx(40, abs=0.5)
-        assert not np.isnan(elbow_sim).any()  # start() simulated it
-        assert elbow_sim[at_2s] == pytest.approx(40, abs=3.0)
-        page.curve_picks["base_yaw"].value = page.curve_picks["elbow"].value = False
-        studio.redraw_curves()
-        assert page.curves is None
     finally:
         studio.close()
 

@@ -23,6 +23,7 @@ from PIL import Image
 from playwright.sync_api import expect, sync_playwright
 
 from choreo.studio.address import Address
+from choreo.studio.journal import Journal
 from choreo.studio.server import Studio
 
 MOTION = DATA / "studio" / "wave.yaml"
@@ -89,8 +90,18 @@ def studio(served, first_tab):
 def open_page(browser, studio):
     page = browser.new_page(viewport=VIEWPORT)
     page.goto(studio.address.url)
-    expect(page.get_by_text("studio wave")).to_be_visible(timeout=WAIT_MS)
+    # a new page's first frames take a busy machine's software rendering a minute
+    expect(page.get_by_text("studio wave")).to_be_visible(timeout=4 * WAIT_MS)
     return page
+
+
+def timeline_frame(page, studio):
+    """The timeline's page, framed into viser's."""
+    element = page.wait_for_selector("#choreo-timeline", timeout=WAIT_MS)
+    frame = element.content_frame() if element is not None else None
+    assert frame is not None and f":{studio.timeline_page.port}/" in frame.url
+    frame.wait_for_function("() => window.choreoTimeline !== undefined", timeout=WAIT_MS)
+    return frame
 
 
 def number_input(page, label: str):
@@ -139,16 +150,17 @@ def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, st
         assert value_of(page, joint) == pytest.approx(angle, abs=TICK_TOLERANCE_DEG)
     wait_for(lambda: changed_pixels(scene_pixels(page), at_rest) > 400, "the robot to move")
     # the song, in the page, stands at the timeline's time plus its start (music: start: 0.5)
-    song_time = "() => document.getElementById('choreo-song').currentTime"
-    wait_for(lambda: page.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
+    song_time = "() => document.getElementById('song').currentTime"
+    timeline = timeline_frame(page, studio)
+    wait_for(lambda: timeline.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
 
 
 # The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:
-# these two lines and nothing else. The motion dances to a 112 BPM song with beat 1 at t 0, so
-# t 2.5 s is written as beat 1 + 2.5 x 112 / 60 = 5.667.
+# these two lines and nothing else: the joints that differ from the keyframe before it, timed as
+# its neighbours are (t:).
 ADDED = """\
-  - pose: {base_yaw: 0, shoulder: 45, elbow: 0, wrist_pitch: 0, wrist_roll: 0, gripper: 0}
-    beat: 5.667
+  - pose: {base_yaw: 0, shoulder: 45, elbow: 0}
+    t: 2.5
 """
 
 
@@ -199,19 +211,159 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
         second.close()
 
 
+# --- edits an animator can trust: motions/arm6/wave.yaml, timed with after: ----------------------
+
+ARM_WAVE = Path(__file__).parent.parent / "motions" / "arm6" / "wave.yaml"
+
+
+@pytest.fixture
+def arm(served, first_tab):
+    """The module's studio and tab on motions/arm6/wave.yaml instead (saved over its file:
+    one page for all, as a second page costs a software-rendering browser seconds), nothing
+    to undo, at t = 0."""
+    path = served.session.motion_path
+    if path.read_bytes() != ARM_WAVE.read_bytes():
+        version = served.session.version
+        shutil.copy(ARM_WAVE, path)
+        wait_for(lambda: served.session.version > version, "the studio to reload")
+        expect(first_tab.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
+    served.journal = Journal(path)
+    type_number(first_tab, "t (s)", 0.0)
+    expect(number_input(first_tab, "t (s)")).to_have_value("0", timeout=WAIT_MS)
+    served.said.clear()
+    return served
+
+
+def choose(page, label: str, option: str) -> None:
+    """Pick ``option`` of the dropdown labelled ``label``."""
+    row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
+    page.locator(row).get_by_role("combobox").click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def click(page, button: str) -> None:
+    page.get_by_role("button", name=button, exact=True).click()
+
+
+def test_an_edit_waits_while_the_page_shows_a_plan_older_than_the_file(first_tab, arm):
+    page, path = first_tab, arm.session.motion_path
+    broken = ARM_WAVE.read_text().replace(
+        "  # each flap", "  - pose: {elbow: -10}\n    t: 1.2\n  # each flap", 1
+    )
+    path.write_text(broken)  # saved in an editor: loads, but the elbow cannot be there in time
+    expect(page.get_by_text("cannot be reached at 1.200 s").first).to_be_visible(timeout=WAIT_MS)
+    choose(page, "keyframe", "4 · t 1.80 s · wave.yaml:14")  # of the plan still shown
+    click(page, "Update keyframe")
+    expect(page.get_by_text("the page shows the last plan that worked")).to_be_visible(
+        timeout=WAIT_MS
+    )
+    click(page, "Delete keyframe")
+
+    def refusals() -> list[str]:
+        return [line for line in arm.said if line.startswith("⛔")]
+
+    wait_for(lambda: len(refusals()) == 2, "the second refusal")
+    assert all(line.startswith("⛔ nothing written: the page shows") for line in refusals())
+    assert path.read_text() == broken
+
+
+def test_a_move_that_would_not_plan_is_refused_with_the_time_that_works(first_tab, arm):
+    page, path = first_tab, arm.session.motion_path
+    choose(page, "keyframe", "5 · t 2.20 s · wave.yaml:16")
+    expect(number_input(page, "t (s)")).to_have_value("2.2", timeout=WAIT_MS)
+    type_number(page, "t (s)", 2.1)
+    wait_for(lambda: arm.time_s == 2.1, "the timeline at 2.1 s")
+    click(page, "Move keyframe here")
+    expect(page.get_by_text("the nearest time that works is 2.20 s")).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == ARM_WAVE.read_bytes()
+
+
+def test_an_added_keyframe_keeps_the_others_in_time_and_undo_redo_restore_the_bytes(first_tab, arm):
+    page, path = first_tab, arm.session.motion_path
+    original = path.read_bytes()
+    type_number(page, "t (s)", 4.4)  # between 3.4 s (held 0.3 s) and 4.9 s (after: 1.2)
+    wait_for(lambda: arm.time_s == 4.4, "the timeline at 4.4 s")  # the page's calls may cross
+    click(page, "Take the named pose")
+    wait_for(lambda: arm.posing is not None and not arm.posing.any(), "home")
+    type_number(page, "shoulder", 10)
+    wait_for(lambda: arm.posing is not None and arm.posing[1] == 10, "the slider's pose")
+    click(page, "Add keyframe")
+    expect(page.get_by_text("10 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    added = path.read_bytes()
+    assert added == original.replace(
+        b"    hold: 0.3\n  - pose: home\n    after: 1.2\n",
+        b"    hold: 0.3\n  - pose: {shoulder: 10, elbow: 0, wrist_pitch: 0, gripper: 0}\n"
+        b"    after: 0.7\n  - pose: home\n    after: 0.5\n",
+    )
+    click(page, "Undo")
+    expect(page.get_by_text("9 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == original
+    click(page, "Redo")
+    expect(page.get_by_text("10 keyframes · 5.40 s", exact=False)).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == added
+
+
+def test_update_writes_only_the_joint_moved_and_add_on_a_keyframe_offers_update(first_tab, arm):
+    page, path = first_tab, arm.session.motion_path
+    choose(page, "keyframe", "3 · t 1.40 s · wave.yaml:12")
+    expect(number_input(page, "t (s)")).to_have_value("1.4", timeout=WAIT_MS)
+    type_number(page, "elbow", -24)
+    wait_for(lambda: arm.posing is not None and arm.posing[2] == -24, "the slider's pose")
+    click(page, "Add keyframe")  # a keyframe stands here: it is the one to update
+    expect(page.get_by_text("Update writes the pose into it")).to_be_visible(timeout=WAIT_MS)
+    assert path.read_bytes() == ARM_WAVE.read_bytes()
+    click(page, "Update keyframe")
+    wait_for(lambda: path.read_bytes() != ARM_WAVE.read_bytes(), "the update")
+    assert path.read_text() == ARM_WAVE.read_text().replace(
+        "{elbow: -22, wrist_pitch: 20}", "{elbow: -24, wrist_pitch: 20}", 1
+    )
+
+
+def test_playback_stops_when_the_last_tab_closes(browser, tmp_path):
+    motion = tmp_path / "wave.yaml"
+    shutil.copy(ARM_WAVE, motion)
+    studio = Studio(motion, Address("127.0.0.1", 0), say=lambda line: None)
+    studio.start()
+    try:
+        page = browser.new_page(viewport=VIEWPORT)
+        page.goto(studio.address.url)
+        wait_for(lambda: len(studio.server.get_clients()) == 1, "the tab", 4 * WAIT_MS / 1000)
+        studio.toggle_play()  # as its Play button does
+        wait_for(lambda: studio.playing and studio.time_s > 0.2, "the timeline to play")
+        page.close()
+        wait_for(lambda: not studio.playing, "playback to stop")
+        stopped_at = studio.time_s
+        time.sleep(0.2)  # the player's frames: the timeline stays
+        assert studio.time_s == stopped_at
+    finally:
+        studio.close()
+
+
 def screenshot(motion: Path, at_s: float, out: Path) -> None:
     """The README's picture of the studio, from the repo's root:
     ``PYTHONPATH=tests python tests/studio/test_studio_browser.py docs/studio.png``."""
+    choice = chromium.chosen()  # before Playwright starts: finding it may start one
     studio = Studio(motion, Address("127.0.0.1", free_port()), say=print)
     studio.start()
     try:
         with sync_playwright() as playwright:
-            browser = chromium.chosen().launch(playwright)
+            browser = choice.launch(playwright)
             page = browser.new_page(viewport={"width": 1280, "height": 820})
             page.goto(studio.address.url)
             expect(page.get_by_text("Timeline")).to_be_visible(timeout=WAIT_MS)
             page.locator(".mantine-Notification-root button").click()  # "software WebGL" note
+            timeline = timeline_frame(page, studio)
+            timeline.wait_for_function("() => window.choreoTimeline.state !== null")
+            for joint in ("shoulder", "elbow"):  # their curves too
+                studio_label = timeline.locator("#canvas")
+                y = timeline.evaluate(
+                    f"() => {{ const L = window.choreoTimeline.layout(); const r = L.rows"
+                    f".findIndex(r => r.kind === 'joint' && window.choreoTimeline.state"
+                    f".joints[r.j].name === '{joint}'); return L.lanesTop + r * 16 + 8; }}"
+                )
+                studio_label.click(position={"x": 60, "y": y})
             type_number(page, "t (s)", at_s)
+            page.mouse.move(600, 300)  # no tooltip in the picture
             page.screenshot(path=out, timeout=WAIT_MS)  # the first frames take a while
             time.sleep(1.0)
             page.screenshot(path=out, timeout=WAIT_MS)
