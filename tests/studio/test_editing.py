@@ -6,51 +6,11 @@ Each test edits a copy of a motion of motions/ in tmp_path, as an animator would
 
 from __future__ import annotations
 
-import contextlib
-import shutil
-from collections.abc import Iterator
-from pathlib import Path
-
 import numpy as np
 import pytest
+from studio_helpers import WAVE, refused, studio_on, times
 
 from choreo.robot.kinematics import Kinematics
-from choreo.studio.address import Address
-from choreo.studio.server import Studio
-
-MOTIONS = Path(__file__).parents[2] / "motions"
-WAVE = (MOTIONS / "arm6" / "wave.yaml").read_text()
-
-
-@contextlib.contextmanager
-def studio_on(tmp_path: Path, motion: str) -> Iterator[Studio]:
-    """A studio on a copy of ``motions/<motion>`` (its song beside it as in motions/);
-    ``studio.said`` is what it printed."""
-    path = tmp_path / motion
-    path.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copy(MOTIONS / motion, path)
-    shutil.copytree(MOTIONS / "songs", tmp_path / "songs", dirs_exist_ok=True)
-    said: list[str] = []
-    studio = Studio(path, Address("127.0.0.1", 0), say=said.append)
-    studio.said = said  # type: ignore[attr-defined]
-    studio.start()
-    try:
-        yield studio
-    finally:
-        studio.close()
-
-
-def times(studio: Studio) -> list[float]:
-    plan = studio.session.plan
-    assert plan is not None
-    return [round(t, 3) for t in plan.keyframe_times_s]
-
-
-def refused(studio: Studio) -> str:
-    """The studio's last line, which must be a refusal."""
-    last = studio.said[-1]  # type: ignore[attr-defined]
-    assert last.startswith("⛔ "), last
-    return last
 
 
 def test_an_edit_is_refused_while_the_page_shows_a_plan_older_than_the_file(tmp_path):
