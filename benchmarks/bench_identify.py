@@ -161,9 +161,8 @@ def walk_travel() -> None:
     """walk_forward on the emulated hexapod with hidden servos, against the preview's prediction
     with the assumed, the fitted and the true figures.
 
-    The fitted figures come from identifying one leg (lm_coxa, lm_femur, lm_tibia, on the stand)
-    and applying each to the same joint of every leg (the middle leg: on the stand lf_coxa reads
-    -44.9° and does not follow its moves, a fault of the stand model left to fix): 18 joints take
+    The fitted figures come from identifying one leg (lf_coxa, lf_femur, lf_tibia, on the stand)
+    and applying each to the same joint of every leg: identifying all 18 joints takes
     too long on a loaded machine. So the hidden truth is one random servo per joint type (every
     coxa alike, every femur alike, every tibia alike: one batch of the same LX-224HV per role),
     which that leg can find; a robot whose 18 servos all differ needs all 18 identified."""
@@ -187,7 +186,7 @@ def walk_travel() -> None:
         start_s, start_cpu = time.monotonic(), time.process_time()
         with ServoBus.from_settings(BusSettings(port=port("hexapod18", truth_file))) as bus:
             report = identify(
-                robot, bus, Path(folder) / "fit.yaml", joints=[f"lm_{r}" for r in roles]
+                robot, bus, Path(folder) / "fit.yaml", joints=[f"lf_{r}" for r in roles]
             )
         print(
             f"  one leg identified in {time.monotonic() - start_s:.0f} s wall "
