@@ -96,15 +96,19 @@ DEFAULT_SOURCES = {
     "supply_v": "rated",
     "deadband_deg": "assumed",
     "backlash_deg": "assumed",
+    # none unless measured or given: the model leaves them out rather than guess them
+    "friction_nm": "assumed none",
+    "response_delay_s": "assumed none",
+    "offset_deg": "assumed none",
 }
 ROBOT_FILE_SOURCE = "robot file"
 
 
 @dataclass(frozen=True)
 class FigureSource:
-    """Where one servo figure of some joints comes from: a ``DEFAULT_SOURCES`` value or the
-    robot file. None is measured on the robot yet (``measured_on``: when it was; the hook for
-    an identification file the robot file names)."""
+    """Where one servo figure of some joints comes from: a ``DEFAULT_SOURCES`` value, the robot
+    file, or the servo figures file it names (``source``: that file's name; ``measured_on``:
+    when ``choreo identify`` measured it, as the file's ``measured:`` says)."""
 
     figure: str  # an ActuatorParams field
     source: str
@@ -127,17 +131,26 @@ class FigureSource:
 
 def figure_sources(robot: Robot) -> tuple[FigureSource, ...]:
     """Each figure of the servo model, grouped by where it comes from, joints in robot order:
-    the robot file's ``bus: supply_v`` and ``actuator:`` values, else the defaults. Nothing is
-    measured on the robot yet, so none is marked measured."""
-    joints_by: dict[tuple[str, str], list[str]] = {}
+    the servo figures file the robot file names (measured when the file says when), else the
+    robot file's ``bus: supply_v`` and ``actuator:`` values, else the defaults."""
+    figures = robot.servo_figures
+    measured_on = None
+    if figures is not None and figures.extra.get("measured") is not None:
+        measured_on = str(figures.extra["measured"])
+    joints_by: dict[tuple[str, str, str | None], list[str]] = {}
     for joint in robot.joints:
+        in_file = figures.joints.get(joint.name, {}) if figures is not None else {}
         for figure, default in DEFAULT_SOURCES.items():
-            given = figure in joint.actuator or (figure == "supply_v" and robot.bus.supply_v)
-            source = ROBOT_FILE_SOURCE if given else default
-            joints_by.setdefault((figure, source), []).append(joint.name)
+            if figure in in_file:
+                key = (figure, figures.path.name, measured_on)  # type: ignore[union-attr]
+            elif figure in joint.actuator or (figure == "supply_v" and robot.bus.supply_v):
+                key = (figure, ROBOT_FILE_SOURCE, None)
+            else:
+                key = (figure, default, None)
+            joints_by.setdefault(key, []).append(joint.name)
     return tuple(
-        FigureSource(figure, source, tuple(joints))
-        for (figure, source), joints in joints_by.items()
+        FigureSource(figure, source, tuple(joints), when)
+        for (figure, source, when), joints in joints_by.items()
     )
 
 

@@ -93,26 +93,33 @@ FIGURE_WORDS = {
     "supply_v": "supply",
     "deadband_deg": "dead band",
     "backlash_deg": "backlash",
+    "friction_nm": "friction",
+    "response_delay_s": "response delay",
+    "offset_deg": "offset",
 }
 
 
 def figures_text(sources: tuple[FigureSource, ...]) -> str:
-    """Which servo figures are measured on the robot (and when) and which are assumed, by
-    source: the figures of a source together, the joints named where not all share it."""
+    """Which servo figures are measured on the robot (and when) and which are still assumed,
+    by source: the figures of a source together, the joints named where not all share it."""
     everyone = {joint for source in sources for joint in source.joints}
-    by_source: dict[str, list[str]] = {}
+    measured: dict[str, list[str]] = {}
+    assumed: dict[str, list[str]] = {}
     for source in sources:
         word = FIGURE_WORDS[source.figure]
         if set(source.joints) != everyone:
             word += f" ({', '.join(source.joints)})"
         if source.measured:
-            by_source.setdefault(f"measured {source.measured_on}", []).append(word)
+            measured.setdefault(f"measured {source.measured_on} ({source.source})", []).append(word)
         else:
-            by_source.setdefault(source.source, []).append(word)
-    parts = [f"{', '.join(words)}: {source}" for source, words in by_source.items()]
-    if not any(source.measured for source in sources):
-        parts.insert(0, "all assumed (not measured on this robot)")
-    return "; ".join(parts)
+            assumed.setdefault(source.source, []).append(word)
+    measured_text, assumed_text = (
+        "; ".join(f"{', '.join(words)}: {where}" for where, words in by.items())
+        for by in (measured, assumed)
+    )
+    if not measured:
+        return f"all assumed (not measured on this robot); {assumed_text}"
+    return measured_text + (f"; still assumed: {assumed_text}" if assumed else "")
 
 
 def busiest_line(rollout: Rollout, near_miss_fraction: float) -> str:

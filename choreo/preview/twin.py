@@ -235,6 +235,10 @@ def _on_a_stand(robot: Robot) -> mujoco.MjModel:
         body = joint.parent
         spec.delete(joint)
         body.pos = np.asarray(body.pos) + np.array([0.0, 0.0, STAND_LIFT_M])
+        # fixed, the body is part of the world, and MuJoCo filters no contact between the world
+        # and its children: without this a coxa touching the body is pushed to its limit
+        for child in body.bodies:
+            spec.add_exclude(bodyname1=body.name, bodyname2=child.name)
     for key in list(spec.keys):  # their qpos still has the free joint's seven numbers
         spec.delete(key)
     return spec.compile()

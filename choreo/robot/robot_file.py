@@ -120,7 +120,16 @@ def _named_figures(robot_path: Path, root: Node | None) -> Path | None:
 def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
     """``robot`` with the measured figures over its joints' actuator figures, and a joint's
     planning velocity, where its robot file does not set one, 80 % of its measured speed (as
-    the servo table's is of the datasheet's)."""
+    the servo table's is of the datasheet's).
+
+    The robot file's ``gait:`` compensation is kept as written, not derived from the measured
+    figures: hexapod18's numbers (commit 3c843b2) were tuned by simulating its shipped gaits in
+    the preview with the assumed figures and inverting the shortfall, and only part of it comes
+    from servo figures (the femur's give under load explains ~5 of the 7 mm of lift sag; the
+    coxa's dead zone ~1 of the ~2.4 mm a 40 mm stride loses; the rest is the feet slipping,
+    which no servo figure describes). Re-deriving it means the same calibration again in the
+    preview with the measured figures (a few gait simulations per robot), not a formula; until
+    that is done, re-tune ``gait:`` by hand after identifying (docs/motion-format.md)."""
     joints = []
     for joint in robot.joints:
         measured = figures.joints.get(joint.name, {})

@@ -200,3 +200,18 @@ def test_on_a_stand_a_walker_is_held_in_the_air_and_its_legs_move_freely():
         assert real_deg(bus, twin)[1] == pytest.approx(60.0, abs=1.5)
         assert twin._data.xpos[1] == pytest.approx(body)  # the body has not moved
         assert body[2] > 0.1  # held up: the feet are off the floor
+
+
+def test_on_a_stand_every_joint_stands_at_home_and_a_coxa_beside_the_body_turns():
+    """Fixed in the air, the body is part of the world, whose contacts with its children MuJoCo
+    does not filter: the stand excludes them, or lf_coxa, touching the body, is pushed to -45°."""
+    bus = ServoBus.from_settings(BusSettings(port="sim://?physics=hexapod18&stand=1"))
+    twin: PhysicsTwin = bus.emulator.physics  # type: ignore[union-attr]
+    home = np.array(twin.robot.pose_vector("home"))
+    with bus:
+        wait(bus, 0.5)
+        assert real_deg(bus, twin) == pytest.approx(home, abs=1.0)
+        coxa = twin.robot.joint("lf_coxa")
+        bus.move(coxa.servo_id, round(coxa.to_units(15.0)), 300)
+        wait(bus, 1.0)
+        assert real_deg(bus, twin)[0] == pytest.approx(15.0, abs=1.0)
