@@ -43,7 +43,7 @@ def register(subparsers) -> None:
     )
     beats.add_argument(
         "--offset-beats",
-        type=finite_float,
+        type=finite_float,  # its range is detect_beats' to say (OFFSET_BEATS)
         default=0.0,
         metavar="N",
         help="move the grid by N beats (0.5: onto the off-beats)",
@@ -71,10 +71,11 @@ def run_beats(args: argparse.Namespace) -> int:
 
 
 def _headline(song: Path, analysis: BeatAnalysis) -> str:
-    if analysis.beats_s and not analysis.steady:
+    if not analysis.beats_s:
+        return f"{song.name}: {analysis.duration_s:.2f} s, no beats found"
+    if not analysis.steady:
         return (
-            f"{song.name}: {analysis.duration_s:.2f} s, no steady beat (confidence "
-            f"{analysis.confidence:.2f}): {len(analysis.beats_s)} beats guessed"
+            f"{song.name}: {analysis.duration_s:.2f} s, no steady beat: {analysis.unsteady_because}"
         )
     return (
         f"{song.name}: {analysis.duration_s:.2f} s, {analysis.bpm:.2f} BPM, "
@@ -113,7 +114,7 @@ def print_beats(song: Path, analysis: BeatAnalysis, level: str = "", offset_beat
     suggestion = suggested_music(song, analysis, level, offset_beats)
     if suggestion is None:
         print(
-            f"no steady beat (confidence {analysis.confidence:.2f}): these beats are not worth "
+            f"no steady beat ({analysis.unsteady_because}): these beats are not worth "
             "dancing to; time the motion in seconds, or give bpm and start by ear"
         )
     else:

@@ -32,6 +32,7 @@ import numpy as np
 
 from choreo.core.arguments import (
     COUNT,
+    Range,
     check_choice,
     check_number,
     check_optional_number,
@@ -56,6 +57,8 @@ LEVELS = ("half", "double")  # the alternative grids: every other beat, a beat b
 GRID_OPTIONS = ("level", "offset_beats")  # detect_beats' arguments a warning offers
 CHORD_CHANGE_WEIGHT = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
 UNSURE_METER = 0.2  # a runner-up meter within this fraction of the winner: say so
+MIN_BEATS = 8  # fewer beats than this are no steady beat, however regular
+OFFSET_BEATS = Range(at_least=-16, at_most=16, unit=" beats")  # up to four bars of 4/4 either way
 
 
 @dataclass(frozen=True)
@@ -96,7 +99,21 @@ class BeatAnalysis:
     @property
     def steady(self) -> bool:
         """Whether the song has a beat to dance to."""
-        return len(self.beats_s) >= 8 and self.confidence >= STEADY_CONFIDENCE
+        return self.unsteady_because is None
+
+    @property
+    def unsteady_because(self) -> str | None:
+        """Why the song has no beat to dance to (one phrase), or None if it has one."""
+        if not self.beats_s:
+            return "no beats were found"
+        if len(self.beats_s) < MIN_BEATS:
+            return f"only {len(self.beats_s)} beats were found (a steady beat needs {MIN_BEATS})"
+        if self.confidence < STEADY_CONFIDENCE:
+            return (
+                f"the beats found are not steady (confidence {self.confidence:.2f}, "
+                f"below {STEADY_CONFIDENCE})"
+            )
+        return None
 
     @property
     def change_points_s(self) -> tuple[float, ...]:
@@ -148,13 +165,14 @@ def detect_beats(
         audio = decode_song(check_path("audio", audio, "an Audio (decode_song) or a song's path"))
     librosa = require_librosa()
     y, sr = audio.mono, audio.rate_hz
+    _check_samples(y, sr)
     if len(y) < sr // 2 or not np.any(y):
-        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
+        return _no_beats(audio, beats_per_bar)
     features = _features(librosa, np.asarray(y, dtype=np.float32), sr)
     beats = _track(librosa, features)
     beats = _regrid(features, beats, level, offset_beats)
     if len(beats) == 0:
-        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
+        return _no_beats(audio, beats_per_bar)
     per_bar, phase, meter_confidence = _bars(features, beats, beats_per_bar)
     return BeatAnalysis(
         audio.duration_s,
@@ -169,10 +187,33 @@ def detect_beats(
 
 
 def check_grid(level: object, offset_beats: object) -> None:
-    """Refuse an alternative grid that is none: ``level`` "", "half" or "double", and a finite
-    ``offset_beats``."""
+    """Refuse an alternative grid that is none: ``level`` "", "half" or "double", and an
+    ``offset_beats`` within OFFSET_BEATS."""
     check_choice("level", level, ("", *LEVELS))
-    check_number("offset_beats", offset_beats)
+    check_number("offset_beats", offset_beats, OFFSET_BEATS)
+
+
+def _check_samples(y: np.ndarray, rate_hz: int) -> None:
+    """Refuse samples that are not numbers (a float WAV can hold NaN or infinity)."""
+    bad = np.flatnonzero(~np.isfinite(y))
+    if len(bad):
+        raise ChoreoError(
+            f"the song holds {len(bad)} samples that are not numbers (NaN or infinite), the "
+            f"first at {bad[0] / rate_hz:.3f} s: repair or re-export it"
+        )
+
+
+def _no_beats(audio: Audio, beats_per_bar: int | None) -> BeatAnalysis:
+    """Silence (or too short a song): no beats, and no meter unless one was given."""
+    return BeatAnalysis(
+        audio.duration_s,
+        (),
+        (),
+        beats_per_bar or 4,
+        (),
+        meter_detected=beats_per_bar is None,
+        meter_confidence=0.0 if beats_per_bar is None else 1.0,
+    )
 
 
 # --- features ----------------------------------------------------------------------------------
