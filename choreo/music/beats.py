@@ -11,16 +11,13 @@ trackers on PyPI need torch or no longer build, see the docs):
   Each beat is then moved onto the sharpest onset within ``SNAP_S`` (3 ms frames), so beats are
   as precise as the attacks in the song. Tempi come from the beat times (a line through each
   steady stretch).
-- **Downbeats and meter**: each beat gets three accents, each normalised over the song: the
-  low-band onset on it (kick, bass), the harmonic change into it (chroma of the beat against the
-  one before) and its loudness. For each meter (2, 3, 4) and phase the downbeats' mean accent
-  over the song's mean is the bar's contrast; the meter with the largest one wins (a 4/4 bar's
-  contrast is also seen, smaller, at 2).
+- **Downbeats and meter**: :mod:`~choreo.music.bars` (meters 2 to 7, compound and additive ones
+  told as such, downbeats decoded as a path that may restart).
 - **Confidence**: the autocorrelation, at the beat period, of the onset envelope with its slow
   swells removed (0 for noise, near 1 for a metronome), per stretch. Below ``STEADY_CONFIDENCE``
   the song has no steady beat.
 
-Features are computed on ``CHUNK_S`` blocks, so memory stays near the decoded samples' own size.
+The envelopes come from :mod:`~choreo.music.features`, a block at a time.
 """
 
 from __future__ import annotations
@@ -39,24 +36,21 @@ from choreo.core.arguments import (
     check_path,
 )
 from choreo.errors import ChoreoError, Worded
+from choreo.music.bars import find_bars
 from choreo.music.decode import Audio, decode_song
+from choreo.music.features import COARSE_HOP, Features, normalised, song_features
 
-COARSE_HOP = 512  # ~23 ms frames at 22050 Hz: what the tracker is tuned for
-FINE_HOP = 64  # ~3 ms frames: where beats are snapped to
-CHUNK_S = 10.0  # features are computed this much at a time
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
-LOW_HZ = 200.0  # the kick and bass band
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
 TEMPO_SMOOTH_S = 6.0  # the local tempo's median filter
 STEADY_SPREAD = 0.03  # local tempo within this of its median nearly everywhere: one tempo
 STEADY_CONFIDENCE = 0.2  # below this there is no steady beat
 OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: maybe off-beat
 FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
-METERS = (2, 3, 4)
-LEVELS = ("half", "double")  # the alternative grids: every other beat, a beat between each two
+# the alternative grids: every other beat, a beat between each two, three beats in each (the
+# eighths of a compound meter), every third beat
+LEVELS = ("half", "double", "triple", "third")
 GRID_OPTIONS = ("level", "offset_beats")  # detect_beats' arguments a warning offers
-CHORD_CHANGE_WEIGHT = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
-UNSURE_METER = 0.2  # a runner-up meter within this fraction of the winner: say so
 MIN_BEATS = 8  # fewer beats than this are no steady beat, however regular
 OFFSET_BEATS = Range(at_least=-16, at_most=16, unit=" beats")  # up to four bars of 4/4 either way
 
@@ -78,8 +72,18 @@ class BeatAnalysis:
     tempi: tuple[TempoSpan, ...]  # steady stretches, in order
     meter_detected: bool = False  # beats_per_bar was estimated (no meter was given)
     meter_confidence: float = 1.0  # 0..1: how far the chosen meter's bars stand out
+    subdivision: int = 2  # 3: each beat is three eighths (a compound meter: 6/8 has two beats)
+    grouping: tuple[int, ...] = ()  # an additive meter's groups of beats: (2, 2, 3)
     # the grid may be off-beat, at half or double tempo (Worded: naming detect_beats' arguments)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def meter(self) -> str:
+        """The time signature: 4/4, 3/4, 6/8 (two beats of three eighths), 7/8 (2+2+3)..."""
+        if self.subdivision == 3:
+            return f"{3 * self.beats_per_bar}/8"
+        fast = self.bpm >= (150 if self.beats_per_bar == 7 else 200)  # the beats are eighths
+        return f"{self.beats_per_bar}/{8 if fast and self.grouping else 4}"
 
     @property
     def bpm(self) -> float:
@@ -131,24 +135,6 @@ def require_librosa():
     return librosa
 
 
-@dataclass(frozen=True)
-class _Features:
-    onset: np.ndarray  # coarse onset envelope, all bands
-    low: np.ndarray  # coarse onset envelope below LOW_HZ
-    chroma: np.ndarray  # (12, coarse frames)
-    fine: np.ndarray  # fine onset envelope, for snapping
-    rms: np.ndarray  # coarse loudness
-    rate_hz: int
-
-    @property
-    def coarse_fps(self) -> float:
-        return self.rate_hz / COARSE_HOP
-
-    @property
-    def fine_fps(self) -> float:
-        return self.rate_hz / FINE_HOP
-
-
 def detect_beats(
     audio: Audio | str | os.PathLike[str],
     beats_per_bar: int | None = None,
@@ -156,7 +142,7 @@ def detect_beats(
     offset_beats: float = 0.0,
 ) -> BeatAnalysis:
     """The beats of a song: ``audio`` decoded (``decode_song``) or its file's path (wav, flac,
-    ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` "half" or "double" and
+    ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` (one of LEVELS) and
     ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid a warning
     offers."""
     check_optional_number("beats_per_bar", beats_per_bar, COUNT)
@@ -168,20 +154,22 @@ def detect_beats(
     _check_samples(y, sr)
     if len(y) < sr // 2 or not np.any(y):
         return _no_beats(audio, beats_per_bar)
-    features = _features(librosa, np.asarray(y, dtype=np.float32), sr)
+    features = song_features(librosa, np.asarray(y, dtype=np.float32), sr)
     beats = _track(librosa, features)
     beats = _regrid(features, beats, level, offset_beats)
     if len(beats) == 0:
         return _no_beats(audio, beats_per_bar)
-    per_bar, phase, meter_confidence = _bars(features, beats, beats_per_bar)
+    bars = find_bars(features, beats, beats_per_bar)
     return BeatAnalysis(
         audio.duration_s,
         tuple(float(b) for b in beats),
-        tuple(float(b) for b in beats[phase::per_bar]),
-        per_bar,
+        tuple(float(b) for b in beats[bars.downbeats]),
+        bars.beats_per_bar,
         _tempo_spans(beats, features),
         meter_detected=beats_per_bar is None,
-        meter_confidence=meter_confidence,
+        meter_confidence=bars.confidence,
+        subdivision=bars.subdivision,
+        grouping=bars.grouping,
         warnings=_warnings(features, beats),
     )
 
@@ -216,65 +204,9 @@ def _no_beats(audio: Audio, beats_per_bar: int | None) -> BeatAnalysis:
     )
 
 
-# --- features ----------------------------------------------------------------------------------
-def _features(librosa, y: np.ndarray, sr: int) -> _Features:
-    """Every envelope of the song, computed ``CHUNK_S`` at a time (with margins, so the blocks
-    join seamlessly): a whole-song spectrogram would need many times the samples' memory."""
-    margin = 16  # coarse frames each side of a block
-    block = max(int(CHUNK_S * sr / COARSE_HOP), 1)
-    frames = len(y) // COARSE_HOP + 1
-    parts: list[tuple[np.ndarray, ...]] = []
-    for first in range(0, frames, block):
-        low = max(first - margin, 0)
-        high = min(first + block + margin, frames)
-        chunk = y[low * COARSE_HOP : high * COARSE_HOP]
-        keep = slice(first - low, first - low + min(block, frames - first))
-        parts.append(_chunk_features(librosa, chunk, sr, keep))
-    onset, low_onset, chroma, fine, rms = (np.concatenate(p, axis=-1) for p in zip(*parts))
-    return _Features(onset, low_onset, chroma, fine, rms, sr)
-
-
-def _chunk_features(librosa, y: np.ndarray, sr: int, keep: slice) -> tuple[np.ndarray, ...]:
-    spectrum = np.abs(librosa.stft(y, n_fft=2048, hop_length=COARSE_HOP))
-    mel_db = librosa.power_to_db(librosa.feature.melspectrogram(S=spectrum**2, sr=sr))
-    low_rows = librosa.mel_frequencies(n_mels=mel_db.shape[0], fmax=sr / 2) < LOW_HZ
-    onset = librosa.onset.onset_strength(S=mel_db, sr=sr)
-    low = librosa.onset.onset_strength(S=mel_db[low_rows], sr=sr)
-    chroma = librosa.feature.chroma_stft(S=spectrum**2, sr=sr, tuning=0.0)
-    rms = librosa.feature.rms(S=spectrum)[0]
-    # A click right at the start has no frame before it to rise from: pad so it has one.
-    pad = FINE_HOP * 4
-    fine = librosa.onset.onset_strength(
-        y=np.concatenate([np.zeros(pad, np.float32), y]), sr=sr, hop_length=FINE_HOP, n_fft=512
-    )[4:]
-    ratio = COARSE_HOP // FINE_HOP
-    fine_keep = slice(keep.start * ratio, keep.stop * ratio)
-    n = keep.stop - keep.start
-    return (
-        _fit(onset[keep], n),
-        _fit(low[keep], n),
-        _fit(chroma[:, keep], n),
-        _fit(fine[fine_keep], n * ratio),
-        _fit(rms[keep], n),
-    )
-
-
-def _fit(values: np.ndarray, n: int) -> np.ndarray:
-    """Exactly ``n`` frames (the last block may come out a frame short)."""
-    if values.shape[-1] >= n:
-        return values[..., :n]
-    pad = [(0, 0)] * (values.ndim - 1) + [(0, n - values.shape[-1])]
-    return np.pad(values, pad)
-
-
-def _normalised(values: np.ndarray) -> np.ndarray:
-    spread = np.std(values)
-    return values / spread if spread > 0 else np.zeros_like(values)
-
-
 # --- beats -------------------------------------------------------------------------------------
-def _track(librosa, features: _Features) -> np.ndarray:
-    envelope = _normalised(features.onset) + _normalised(features.low)
+def _track(librosa, features: Features) -> np.ndarray:
+    envelope = normalised(features.onset) + normalised(features.low)
     local = _local_tempo(librosa, envelope, features.rate_hz)
     width = int(TEMPO_SMOOTH_S * features.coarse_fps) // 2 * 2 + 1
     import scipy.ndimage
@@ -328,7 +260,7 @@ def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndar
     return np.unique(np.round(kept, 6))
 
 
-def _extend(beats: np.ndarray, features: _Features) -> np.ndarray:
+def _extend(beats: np.ndarray, features: Features) -> np.ndarray:
     """Beats the tracker left out at either end: one period further, while an onset is there
     (at least half a period further, so the search always moves on)."""
     envelope, frame_rate = features.fine, features.fine_fps
@@ -359,16 +291,19 @@ def _onset_near(t_s: float, envelope: np.ndarray, frame_rate: float, threshold: 
     return frame / frame_rate if envelope[frame] >= threshold else None
 
 
-def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: float) -> np.ndarray:
-    """The alternative grid: every other beat (half: those the downbeats are among), a beat
-    between each two (double), moved by ``offset_beats`` beats (fractions fall between)."""
+def _regrid(features: Features, beats: np.ndarray, level: str, offset_beats: float) -> np.ndarray:
+    """The alternative grid: every other or third beat (half, third: those the first downbeat is
+    among), two or three beats in each (double, triple), moved by ``offset_beats`` beats
+    (fractions fall between)."""
     if len(beats) < 2:
         return beats
-    if level == "double":
-        beats = np.interp(np.arange(2 * len(beats) - 1) / 2, np.arange(len(beats)), beats)
-    elif level == "half":
-        _, downbeat, _ = _bars(features, beats, None)
-        beats = beats[downbeat % 2 :: 2]
+    if level in ("double", "triple"):
+        k = 2 if level == "double" else 3
+        beats = np.interp(np.arange(k * len(beats) - k + 1) / k, np.arange(len(beats)), beats)
+    elif level in ("half", "third"):
+        k = 2 if level == "half" else 3
+        downbeats = find_bars(features, beats).downbeats
+        beats = beats[(downbeats[0] if len(downbeats) else 0) % k :: k]
     if offset_beats:
         index = np.arange(len(beats)) + offset_beats
         inside = (index >= 0) & (index <= len(beats) - 1)
@@ -376,70 +311,8 @@ def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: fl
     return beats
 
 
-# --- bars --------------------------------------------------------------------------------------
-def _bars(features: _Features, beats: np.ndarray, given: int | None) -> tuple[int, int, float]:
-    """(beats to the bar, phase of the first downbeat, confidence in the meter)."""
-    accent = _beat_accents(features, beats)
-    meters = (given,) if given is not None else METERS
-    best: dict[int, tuple[float, int]] = {}
-    for per_bar in meters:
-        if len(beats) < 2 * per_bar:
-            best[per_bar] = (0.0, 0)
-            continue
-        contrasts = [accent[p::per_bar].mean() - accent.mean() for p in range(per_bar)]
-        phase = int(np.argmax(contrasts))
-        best[per_bar] = (float(contrasts[phase]), phase)
-    per_bar = max(best, key=lambda m: best[m][0])
-    if given is not None:
-        return per_bar, best[per_bar][1], 1.0
-    winner = best[per_bar][0]
-    # 4/4 bars show, fainter, at 2: only a rival that isn't a divisor competes.
-    rivals = [c for m, (c, _) in best.items() if m != per_bar and per_bar % m]
-    confidence = 0.0 if winner <= 0 else 1.0 - max([0.0, *rivals]) / winner
-    return per_bar, best[per_bar][1], float(np.clip(confidence, 0.0, 1.0))
-
-
-def _beat_accents(features: _Features, beats: np.ndarray) -> np.ndarray:
-    """Per beat: low-band onset + harmonic change into it + half its loudness (the onset and the
-    loudness in standard deviations over the song, the change as 1 - cosine of the chroma)."""
-    fps = features.coarse_fps
-    frames = np.clip(np.round(beats * fps).astype(int), 0, len(features.onset) - 1)
-
-    bounds = np.append(frames, len(features.onset))
-    chroma = np.array(
-        [
-            features.chroma[:, a:b].mean(axis=1) if b > a else np.zeros(12)
-            for a, b in zip(bounds[:-1], bounds[1:])
-        ]
-    )
-    norms = np.linalg.norm(chroma, axis=1) + 1e-9
-    similarity = np.sum(chroma[1:] * chroma[:-1], axis=1) / (norms[1:] * norms[:-1])
-    change = np.concatenate([[0.0], 1 - similarity])
-    return (
-        _standardised(_around(features.low, beats, fps))
-        + CHORD_CHANGE_WEIGHT * change  # not standardised: tiny changes are no chord change
-        + 0.5 * _standardised(_around(features.rms, beats, fps))
-    )
-
-
-def _around(envelope: np.ndarray, beats: np.ndarray, fps: float) -> np.ndarray:
-    """Per beat: the envelope's peak within SNAP_S of it."""
-    frames = np.clip(np.round(beats * fps).astype(int), 0, len(envelope) - 1)
-    reach = max(int(round(SNAP_S * fps)), 1)
-    return np.array([envelope[max(f - reach, 0) : f + reach + 1].max() for f in frames])
-
-
-def _standardised(values: np.ndarray) -> np.ndarray:
-    spread = np.std(values)
-    return (
-        (values - values.mean()) / spread
-        if spread > 1e-6 * (abs(values.mean()) + 1e-9)
-        else (np.zeros_like(values))
-    )
-
-
 # --- tempo, confidence, warnings ---------------------------------------------------------------
-def _tempo_spans(beats: np.ndarray, features: _Features) -> tuple[TempoSpan, ...]:
+def _tempo_spans(beats: np.ndarray, features: Features) -> tuple[TempoSpan, ...]:
     """Split the beats where the interval changes for good; a line through each stretch."""
     if len(beats) < 2:
         return ()
@@ -461,7 +334,7 @@ def _tempo_spans(beats: np.ndarray, features: _Features) -> tuple[TempoSpan, ...
     return tuple(spans)
 
 
-def _pulse_clarity(features: _Features, start_s: float, end_s: float, period_s: float) -> float:
+def _pulse_clarity(features: Features, start_s: float, end_s: float, period_s: float) -> float:
     """The onset envelope's autocorrelation at the beat period (best within 5 %), slow swells
     taken out first: a pulse that repeats scores near 1, noise and drones near 0."""
     fps = features.coarse_fps
@@ -480,11 +353,11 @@ def _pulse_clarity(features: _Features, start_s: float, end_s: float, period_s: 
     return float(np.clip(best / energy, 0.0, 1.0))
 
 
-def _warnings(features: _Features, beats: np.ndarray) -> tuple[str, ...]:
+def _warnings(features: Features, beats: np.ndarray) -> tuple[str, ...]:
     """Where the grid may sit on the off-beats or at half the tempo."""
     if len(beats) < 8:
         return ()
-    envelope = _normalised(features.onset) + _normalised(features.low)
+    envelope = normalised(features.onset) + normalised(features.low)
     fps = features.coarse_fps
 
     def strength(times: np.ndarray) -> float:
