@@ -146,8 +146,7 @@ def _simplest(cues: _Cues, evidence: dict[int, float], best: int) -> int:
     for divisor in sorted(m for m in evidence if m < best and best % m == 0):
         change = harmonic_change(cues.chroma, best)
         log_p = sum(
-            _nested_log_p(values, divisor, best)
-            for values in (change, cues.new_notes, cues.drums)
+            _nested_log_p(values, divisor, best) for values in (change, cues.new_notes, cues.drums)
         )
         if -log_p < NESTED:
             return divisor
@@ -202,9 +201,7 @@ def _decode(cues: _Cues, per_bar: int) -> tuple[np.ndarray, np.ndarray]:
     phase = int(np.argmax([cue[p::per_bar].mean() for p in range(per_bar)]))
     position = (np.arange(n) - phase) % per_bar
     templates = np.array([x[position == p].mean(axis=0) for p in range(per_bar)])
-    spread = np.array(
-        [np.mean((x[:, f] - templates[position, f]) ** 2) for f in range(x.shape[1])]
-    )
+    spread = np.array([np.mean((x[:, f] - templates[position, f]) ** 2) for f in range(x.shape[1])])
     spread = np.maximum(spread, 0.1)
     emission = -0.5 * np.sum((x[:, None, :] - templates[None, :, :]) ** 2 / spread, axis=2)
     # Viterbi: advancing one position a beat is free; anything else costs RESTART_COST

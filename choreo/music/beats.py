@@ -36,9 +36,9 @@ from choreo.core.arguments import (
     check_path,
 )
 from choreo.errors import ChoreoError, Worded
-from choreo.music.bars import find_bars
+from choreo.music.bars import GAP, find_bars
 from choreo.music.decode import Audio, decode_song
-from choreo.music.features import COARSE_HOP, Features, normalised, song_features
+from choreo.music.features import COARSE_HOP, Features, around, normalised, song_features
 
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
@@ -46,6 +46,9 @@ TEMPO_SMOOTH_S = 6.0  # the local tempo's median filter
 STEADY_SPREAD = 0.03  # local tempo within this of its median nearly everywhere: one tempo
 STEADY_CONFIDENCE = 0.2  # below this there is no steady beat
 OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: maybe off-beat
+SILENT = 0.02  # a beat this much quieter than the song's typical one is in a silence
+BACKBEAT = 0.25  # snares on even and odd beats within this of each other: on every beat
+ODD_METER_BPM = 200.0  # 5 or 7 beats to the bar tracked at half tempo are doubled up to this
 FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
 # the alternative grids: every other beat, a beat between each two, three beats in each (the
 # eighths of a compound meter), every third beat
@@ -160,17 +163,21 @@ def detect_beats(
     if len(beats) == 0:
         return _no_beats(audio, beats_per_bar)
     bars = find_bars(features, beats, beats_per_bar)
+    if _odd_bars_of_two_beats(features, beats, bars.beats_per_bar, beats_per_bar or level):
+        beats = _track(librosa, features, scale=2.0)
+        bars = find_bars(features, beats, beats_per_bar)
+    spans = _tempo_spans(beats, features)
     return BeatAnalysis(
         audio.duration_s,
         tuple(float(b) for b in beats),
         tuple(float(b) for b in beats[bars.downbeats]),
         bars.beats_per_bar,
-        _tempo_spans(beats, features),
+        spans,
         meter_detected=beats_per_bar is None,
         meter_confidence=bars.confidence,
         subdivision=bars.subdivision,
         grouping=bars.grouping,
-        warnings=_warnings(features, beats),
+        warnings=_warnings(features, beats, spans, bars.subdivision),
     )
 
 
@@ -205,7 +212,8 @@ def _no_beats(audio: Audio, beats_per_bar: int | None) -> BeatAnalysis:
 
 
 # --- beats -------------------------------------------------------------------------------------
-def _track(librosa, features: Features) -> np.ndarray:
+def _track(librosa, features: Features, scale: float = 1.0) -> np.ndarray:
+    """The beats, at ``scale`` times the tempo the song's tempogram says."""
     envelope = normalised(features.onset) + normalised(features.low)
     local = _local_tempo(librosa, envelope, features.rate_hz)
     width = int(TEMPO_SMOOTH_S * features.coarse_fps) // 2 * 2 + 1
@@ -219,10 +227,20 @@ def _track(librosa, features: Features) -> np.ndarray:
         sr=features.rate_hz,
         hop_length=COARSE_HOP,
         trim=False,
-        bpm=median if steady else local,
+        bpm=scale * median if steady else scale * local,
     )
     tracked = np.asarray(frames, dtype=float) / features.coarse_fps
-    return _extend(_snap(tracked, features.fine, features.fine_fps), features)
+    return _drop_silent(
+        _extend(_snap(tracked, features.fine, features.fine_fps), features), features
+    )
+
+
+def _drop_silent(beats: np.ndarray, features: Features) -> np.ndarray:
+    """The beats less those the tracker carried on through a silence (nothing sounds there)."""
+    if len(beats) == 0:
+        return beats
+    loudness = around(features.rms, beats, features.coarse_fps, SNAP_S)
+    return beats[loudness > SILENT * np.median(loudness)]
 
 
 def _local_tempo(librosa, envelope: np.ndarray, rate_hz: int) -> np.ndarray:
@@ -313,9 +331,18 @@ def _regrid(features: Features, beats: np.ndarray, level: str, offset_beats: flo
 
 # --- tempo, confidence, warnings ---------------------------------------------------------------
 def _tempo_spans(beats: np.ndarray, features: Features) -> tuple[TempoSpan, ...]:
-    """Split the beats where the interval changes for good; a line through each stretch."""
+    """Split the beats at gaps (silence) and where the interval changes for good; a line
+    through each stretch."""
     if len(beats) < 2:
         return ()
+    intervals = np.diff(beats)
+    gaps = np.flatnonzero(intervals > GAP * np.median(intervals)) + 1
+    parts = [part for part in np.split(beats, gaps) if len(part) >= 2]
+    return tuple(span for part in parts for span in _steady_spans(part, features, len(parts) > 1))
+
+
+def _steady_spans(beats: np.ndarray, features: Features, among_others: bool) -> list[TempoSpan]:
+    """Split the beats where the interval changes for good; a line through each stretch."""
     intervals = np.diff(beats)
     starts = [0]
     for i in range(1, len(intervals)):
@@ -326,12 +353,12 @@ def _tempo_spans(beats: np.ndarray, features: Features) -> tuple[TempoSpan, ...]
     spans = []
     for first, stop in zip(starts, starts[1:] + [len(intervals)]):
         stretch = beats[first : stop + 1]
-        if len(stretch) < 3 and len(starts) > 1:
+        if len(stretch) < 3 and (len(starts) > 1 or among_others):
             continue  # one interval between two tempi: the change itself
         slope = float(np.polyfit(np.arange(len(stretch)), stretch, 1)[0])
         confidence = _pulse_clarity(features, stretch[0], stretch[-1], slope)
         spans.append(TempoSpan(float(stretch[0]), float(stretch[-1]), 60.0 / slope, confidence))
-    return tuple(spans)
+    return spans
 
 
 def _pulse_clarity(features: Features, start_s: float, end_s: float, period_s: float) -> float:
@@ -353,10 +380,20 @@ def _pulse_clarity(features: Features, start_s: float, end_s: float, period_s: f
     return float(np.clip(best / energy, 0.0, 1.0))
 
 
-def _warnings(features: Features, beats: np.ndarray) -> tuple[str, ...]:
-    """Where the grid may sit on the off-beats or at half the tempo."""
-    if len(beats) < 8:
-        return ()
+def _odd_bars_of_two_beats(
+    features: Features, beats: np.ndarray, per_bar: int, given: object
+) -> bool:
+    """Whether bars of 5 or 7 beats with onsets as strong between the beats are really 5 or 7
+    beats twice as fast (the tracker's prior pulls toward 120 BPM: a 7/8 at 180 is tracked at
+    90, every two eighths, which cannot fit 7)."""
+    if given or per_bar not in (5, 7) or len(beats) < 8:
+        return False
+    bpm = 60 / float(np.median(np.diff(beats)))
+    return 2 * bpm <= ODD_METER_BPM and _between_ratio(features, beats) >= OFFBEAT_RATIO
+
+
+def _between_ratio(features: Features, beats: np.ndarray) -> float:
+    """The onsets half way between the beats against those on them."""
     envelope = normalised(features.onset) + normalised(features.low)
     fps = features.coarse_fps
 
@@ -364,19 +401,63 @@ def _warnings(features: Features, beats: np.ndarray) -> tuple[str, ...]:
         frames = np.clip(np.round(times * fps).astype(int), 0, len(envelope) - 1)
         return float(np.mean([envelope[max(f - 1, 0) : f + 2].max() for f in frames]))
 
-    between = strength((beats[:-1] + beats[1:]) / 2)
     on = strength(beats)
-    bpm = 60 / float(np.median(np.diff(beats)))
+    return strength((beats[:-1] + beats[1:]) / 2) / on if on > 0 else float("inf")
+
+
+def _snare_on_every_beat(features: Features, beats: np.ndarray) -> bool:
+    """A backbeat tracked as the beat: the snare alike on every beat (in a backbeat it is on
+    every other one) and the kicks between the beats rather than on them."""
+    fps = features.coarse_fps
+    snare = around(features.snare, beats, fps, SNAP_S)
+    even, odd = snare[0::2].mean(), snare[1::2].mean()
+    alike = abs(even - odd) <= BACKBEAT * max(even, odd)
+    middles = (beats[:-1] + beats[1:]) / 2
+    kicks_between = (
+        around(features.low, middles, fps, SNAP_S).mean()
+        > around(features.low, beats, fps, SNAP_S).mean()
+    )
+    return bool(alike and kicks_between)
+
+
+def _warnings(
+    features: Features, beats: np.ndarray, spans: tuple[TempoSpan, ...], subdivision: int
+) -> tuple[str, ...]:
+    """Per steady stretch: where the grid may sit on the off-beats, at half or twice the tempo
+    a dancer counts; and a compound meter's eighths."""
     warnings = []
-    if between >= OFFBEAT_RATIO * on:
-        how_strong = f"{between / on:.2f} times as strong as" if on > 0 else "there, not"
+    for span in spans:
+        inside = beats[(beats >= span.start_s - 1e-6) & (beats <= span.end_s + 1e-6)]
+        if len(inside) < 8:
+            continue
+        where = f"from {span.start_s:.1f} s to {span.end_s:.1f} s: " if len(spans) > 1 else ""
+        warning = _stretch_warning(features, inside, span.bpm)
+        if warning:
+            warnings.append(where + warning)
+    if subdivision == 3:
         warnings.append(
+            "each beat is three eighths (a compound meter, counted in its long beats): for the "
+            "eighths try {level} triple"
+        )
+    return tuple(Worded(warning, GRID_OPTIONS) for warning in warnings)
+
+
+def _stretch_warning(features: Features, beats: np.ndarray, bpm: float) -> str | None:
+    ratio = _between_ratio(features, beats)
+    if _snare_on_every_beat(features, beats):
+        return (
+            f"a snare on every beat at {bpm:.1f} BPM: that is likely the backbeat, the beat "
+            "twice as fast (try {level} double)"
+        )
+    if ratio >= OFFBEAT_RATIO:
+        how_strong = f"{ratio:.2f} times as strong as" if np.isfinite(ratio) else "there, not"
+        return (
             f"the onsets between the beats are {how_strong} on them: the beats may sit on the "
             "off-beat (try {offset_beats} 0.5) or the tempo be twice "
             f"{bpm:.1f} (try {{level}} double)"
         )
-    elif bpm > FAST_BPM:
-        warnings.append(f"{bpm:.1f} BPM is fast: the beat may be half that (try {{level}} half)")
-    elif bpm < SLOW_BPM:
-        warnings.append(f"{bpm:.1f} BPM is slow: the beat may be twice that (try {{level}} double)")
-    return tuple(Worded(warning, GRID_OPTIONS) for warning in warnings)
+    if bpm > FAST_BPM:
+        return f"{bpm:.1f} BPM is fast: the beat may be half that (try {{level}} half)"
+    if bpm < SLOW_BPM:
+        return f"{bpm:.1f} BPM is slow: the beat may be twice that (try {{level}} double)"
+    return None

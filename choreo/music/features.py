@@ -50,10 +50,10 @@ def song_features(librosa, y: np.ndarray, sr: int) -> Features:
     frames = len(y) // COARSE_HOP + 1
     parts: list[tuple[np.ndarray, ...]] = []
     for first in range(0, frames, block):
-        low = max(first - margin, 0)
-        high = min(first + block + margin, frames)
-        chunk = y[low * COARSE_HOP : high * COARSE_HOP]
-        keep = slice(first - low, first - low + min(block, frames - first))
+        begin = max(first - margin, 0)
+        end = min(first + block + margin, frames)
+        chunk = y[begin * COARSE_HOP : end * COARSE_HOP]
+        keep = slice(first - begin, first - begin + min(block, frames - first))
         parts.append(_chunk_features(librosa, chunk, sr, keep))
     onset, low, snare, bass_chroma, chroma, fine, rms = (
         np.concatenate(p, axis=-1) for p in zip(*parts)
