@@ -32,6 +32,8 @@ RESTART_COST = 12.0  # log-likelihood: a bar restarting off its count must be th
 GAP = 1.6  # a beat this many median intervals after the one before follows a gap (silence)
 COMPOUND = 1.4  # a beat's thirds this much stronger than its half: it is three eighths...
 THIRDS = 0.3  # ...if they are at least this strong against the beat itself
+LOW_SHARE = 0.1  # low-band onsets on the beats this strong against all onsets: a kick or bass
+NO_CHANGE = 0.02  # harmonic change (1 - cosine) varying less than this is no change at all
 NESTED = 10.0  # -log p: a meter must explain this much more than its divisor to be chosen over it
 GROUPINGS = {5: ((3, 2), (2, 3)), 7: ((2, 2, 3), (3, 2, 2), (2, 3, 2))}
 
@@ -55,6 +57,7 @@ class _Cues:
     snare: np.ndarray
     loud: np.ndarray
     after_gap: np.ndarray  # per beat: it follows a gap (a restart costs nothing there)
+    has_low: bool  # anything sounds in the low band on the beats (kick, bass): not clicks alone
 
 
 def find_bars(features: Features, beats: np.ndarray, given: int | None = None) -> Bars:
@@ -91,14 +94,19 @@ def _cues(features: Features, beats: np.ndarray) -> _Cues:
             for a, b in zip(bounds[:-1], bounds[1:])
         ]
     )
-    kick = standardised(around(features.low, beats, fps, SNAP_S))
+    low = around(features.low, beats, fps, SNAP_S)
+    has_low = bool(
+        np.median(low) > LOW_SHARE * np.median(around(features.onset, beats, fps, SNAP_S))
+    )
+    kick = standardised(low)
     snare = standardised(around(features.snare, beats, fps, SNAP_S))
     loud = standardised(around(features.rms, beats, fps, SNAP_S))
     intervals = np.diff(beats)
     typical = np.median(intervals) if len(intervals) else 1.0
     after_gap = np.concatenate([[False], intervals > GAP * typical])
     new_notes = standardised(_new_notes(features.chroma, frames))
-    return _Cues(chroma, standardised(kick - snare), new_notes, kick, snare, loud, after_gap)
+    drums = standardised(kick - snare)
+    return _Cues(chroma, drums, new_notes, kick, snare, loud, after_gap, has_low)
 
 
 def _new_notes(chroma: np.ndarray, frames: np.ndarray, width: int = 5) -> np.ndarray:
@@ -124,20 +132,26 @@ def harmonic_change(chroma: np.ndarray, per_bar: int) -> np.ndarray:
     return np.where(norms > 0, 1 - similarity, 0.0)
 
 
+def _change(cues: _Cues, per_bar: int) -> np.ndarray:
+    """The harmonic change over ``per_bar`` beats, standardised; zeros where the harmony never
+    changes enough to tell (a click track, drums alone)."""
+    change = harmonic_change(cues.chroma, per_bar)
+    return standardised(change) if np.std(change) >= NO_CHANGE else np.zeros_like(change)
+
+
 def _downbeat_cue(cues: _Cues, per_bar: int) -> np.ndarray:
-    """Per beat: how much like a downbeat (a new chord, new notes struck, a kick, no snare)."""
-    change = standardised(harmonic_change(cues.chroma, per_bar))
-    return 0.5 * change + cues.new_notes + cues.drums
+    """Per beat: how much like a downbeat (a new chord, new notes struck, a kick, louder, no
+    snare)."""
+    accent = cues.drums if cues.has_low else cues.loud  # a click track's accent is its loudness
+    return 0.5 * _change(cues, per_bar) + cues.new_notes + accent
 
 
 # --- the meter ---------------------------------------------------------------------------------
 def _meter_evidence(cues: _Cues, per_bar: int) -> float:
     """-log p that the position in a ``per_bar`` bar explains the harmonic change and the drums
     (each an F test; Fisher's combination, so 0 for no evidence)."""
-    harmony = _anova_log_p(harmonic_change(cues.chroma, per_bar), per_bar)
-    notes = _anova_log_p(cues.new_notes, per_bar)
-    drums = _anova_log_p(cues.drums, per_bar)
-    return -(harmony + notes + drums)
+    cues_now = (_change(cues, per_bar), cues.new_notes, cues.drums, cues.loud)
+    return -sum(_anova_log_p(values, per_bar) for values in cues_now)
 
 
 def _simplest(cues: _Cues, evidence: dict[int, float], best: int) -> int:
@@ -178,7 +192,7 @@ def _anova_log_p(values: np.ndarray, groups: int) -> float:
     import scipy.stats
 
     n = len(values)
-    if n <= groups or np.std(values) == 0:
+    if n <= groups or not np.any(values):
         return 0.0
     position = np.arange(n) % groups
     means = np.array([values[position == g].mean() for g in range(groups)])
@@ -194,8 +208,7 @@ def _anova_log_p(values: np.ndarray, groups: int) -> float:
 # --- the downbeats: a path through the positions in the bar ------------------------------------
 def _decode(cues: _Cues, per_bar: int) -> tuple[np.ndarray, np.ndarray]:
     """(each beat's position in its bar, 0 the downbeat; the cues' mean at each position)."""
-    change = standardised(harmonic_change(cues.chroma, per_bar))
-    x = np.column_stack([change, cues.new_notes, cues.kick, cues.snare, cues.loud])
+    x = np.column_stack([_change(cues, per_bar), cues.new_notes, cues.kick, cues.snare, cues.loud])
     n = len(x)
     cue = _downbeat_cue(cues, per_bar)
     phase = int(np.argmax([cue[p::per_bar].mean() for p in range(per_bar)]))
