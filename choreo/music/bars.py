@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.music.features import Features, around, standardised
+from choreo.music.features import BASS_FFT, Features, around, standardised
 
 METERS = (2, 3, 4, 5, 6, 7)
 SNAP_S = 0.05  # a beat's cues are the envelopes' peaks within this of it
@@ -32,7 +32,8 @@ RESTART_COST = 12.0  # log-likelihood: a bar restarting off its count must be th
 GAP = 1.6  # a beat this many median intervals after the one before follows a gap (silence)
 COMPOUND = 1.4  # a beat's thirds this much stronger than its half: it is three eighths...
 THIRDS = 0.3  # ...if they are at least this strong against the beat itself
-LOW_SHARE = 0.1  # low-band onsets on the beats this strong against all onsets: a kick or bass
+BASS_SHARE = 0.01  # the bass band's share of the power below which nothing sounds there
+CHORD = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
 NO_CHANGE = 0.02  # harmonic change (1 - cosine) varying less than this is no change at all
 NESTED = 10.0  # -log p: a meter must explain this much more than its divisor to be chosen over it
 GROUPINGS = {5: ((3, 2), (2, 3)), 7: ((2, 2, 3), (3, 2, 2), (2, 3, 2))}
@@ -53,11 +54,12 @@ class _Cues:
     chroma: np.ndarray  # (beats, 12): the bass band's pitch classes from each beat to the next
     drums: np.ndarray  # per beat: kick less snare, standardised
     new_notes: np.ndarray  # per beat: pitch classes sounding after it and not before, standardised
+    chord: np.ndarray  # per beat: 1 - cosine of its chroma against the beat before's
     kick: np.ndarray
     snare: np.ndarray
     loud: np.ndarray
     after_gap: np.ndarray  # per beat: it follows a gap (a restart costs nothing there)
-    has_low: bool  # anything sounds in the low band on the beats (kick, bass): not clicks alone
+    has_bass: bool  # the bass band sounds (not a click track)
 
 
 def find_bars(features: Features, beats: np.ndarray, given: int | None = None) -> Bars:
@@ -94,11 +96,7 @@ def _cues(features: Features, beats: np.ndarray) -> _Cues:
             for a, b in zip(bounds[:-1], bounds[1:])
         ]
     )
-    low = around(features.low, beats, fps, SNAP_S)
-    has_low = bool(
-        np.median(low) > LOW_SHARE * np.median(around(features.onset, beats, fps, SNAP_S))
-    )
-    kick = standardised(low)
+    kick = standardised(around(features.low, beats, fps, SNAP_S))
     snare = standardised(around(features.snare, beats, fps, SNAP_S))
     loud = standardised(around(features.rms, beats, fps, SNAP_S))
     intervals = np.diff(beats)
@@ -106,7 +104,25 @@ def _cues(features: Features, beats: np.ndarray) -> _Cues:
     after_gap = np.concatenate([[False], intervals > GAP * typical])
     new_notes = standardised(_new_notes(features.chroma, frames))
     drums = standardised(kick - snare)
-    return _Cues(chroma, drums, new_notes, kick, snare, loud, after_gap, has_low)
+    chord = _beat_change(features.chroma, bounds)
+    # the bass band's power against the whole song's, both as a 1024-point spectrum would see it
+    rms = np.median(around(features.rms, beats, fps, SNAP_S))
+    bass_share = np.median(chroma.sum(axis=1)) / max((rms * BASS_FFT / 2) ** 2, 1e-12)
+    has_bass = bool(bass_share > BASS_SHARE)
+    return _Cues(chroma, drums, new_notes, chord, kick, snare, loud, after_gap, has_bass)
+
+
+def _beat_change(chroma: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """Per beat: 1 - cosine of the chroma from it to the next beat against the beat before's."""
+    means = np.array(
+        [
+            chroma[:, a:b].mean(axis=1) if b > a else np.zeros(12)
+            for a, b in zip(bounds[:-1], bounds[1:])
+        ]
+    )
+    norms = np.linalg.norm(means, axis=1) + 1e-9
+    similarity = np.sum(means[1:] * means[:-1], axis=1) / (norms[1:] * norms[:-1])
+    return np.concatenate([[0.0], 1 - similarity])
 
 
 def _new_notes(chroma: np.ndarray, frames: np.ndarray, width: int = 5) -> np.ndarray:
@@ -140,10 +156,12 @@ def _change(cues: _Cues, per_bar: int) -> np.ndarray:
 
 
 def _downbeat_cue(cues: _Cues, per_bar: int) -> np.ndarray:
-    """Per beat: how much like a downbeat (a new chord, new notes struck, a kick, louder, no
-    snare)."""
-    accent = cues.drums if cues.has_low else cues.loud  # a click track's accent is its loudness
-    return 0.5 * _change(cues, per_bar) + cues.new_notes + accent
+    """Per beat: how much like a downbeat: a new chord (the harmonic change over bars counts
+    half: it is flat under a bass that moves every half bar), new notes struck, a kick and no
+    snare; with nothing in the bass band (a click track), the louder beat."""
+    if not cues.has_bass:
+        return cues.loud + CHORD * cues.chord
+    return 0.5 * _change(cues, per_bar) + cues.new_notes + cues.drums
 
 
 # --- the meter ---------------------------------------------------------------------------------
@@ -158,10 +176,8 @@ def _simplest(cues: _Cues, evidence: dict[int, float], best: int) -> int:
     """``best``, or its smallest divisor among the meters tried that it doesn't explain the cues
     significantly better than (a 6 whose halves look alike is a 3)."""
     for divisor in sorted(m for m in evidence if m < best and best % m == 0):
-        change = harmonic_change(cues.chroma, best)
-        log_p = sum(
-            _nested_log_p(values, divisor, best) for values in (change, cues.new_notes, cues.drums)
-        )
+        cues_now = (_change(cues, best), cues.new_notes, cues.drums, cues.loud)
+        log_p = sum(_nested_log_p(values, divisor, best) for values in cues_now)
         if -log_p < NESTED:
             return divisor
     return best
@@ -173,7 +189,7 @@ def _nested_log_p(values: np.ndarray, fewer: int, more: int) -> float:
     import scipy.stats
 
     n = len(values)
-    if n <= more:
+    if n <= more or not np.any(values):
         return 0.0
     within = {}
     for groups in (fewer, more):
