@@ -413,11 +413,9 @@ def _snare_on_every_beat(features: Features, beats: np.ndarray) -> bool:
     even, odd = snare[0::2].mean(), snare[1::2].mean()
     alike = abs(even - odd) <= BACKBEAT * max(even, odd)
     middles = (beats[:-1] + beats[1:]) / 2
-    kicks_between = (
-        around(features.low, middles, fps, SNAP_S).mean()
-        > around(features.low, beats, fps, SNAP_S).mean()
-    )
-    return bool(alike and kicks_between)
+    snare_on = snare.mean() > around(features.snare, middles, fps, SNAP_S).mean()
+    kick_on, kick_between = (around(features.low, t, fps, SNAP_S).mean() for t in (beats, middles))
+    return bool(alike and snare_on and kick_between > kick_on)
 
 
 def _warnings(
