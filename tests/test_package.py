@@ -164,6 +164,8 @@ def test_an_unknown_name_is_an_attribute_error():
 # Modules whose tests live in a test file not named after them: the one place that says where.
 # Every other module under choreo/ has its own tests/test_<module>.py.
 TESTED_IN = {
+    "music/bars.py": ("music/test_bars.py",),
+    "music/features.py": ("music/test_bars.py", "test_beats.py"),
     "bus/transports/jetson.py": ("test_direction.py",),
     "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
     "preview/props.py": ("test_preview_props.py",),
