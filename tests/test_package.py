@@ -166,6 +166,7 @@ def test_an_unknown_name_is_an_attribute_error():
 TESTED_IN = {
     "music/bars.py": ("music/test_bars.py",),
     "music/features.py": ("music/test_bars.py", "test_beats.py"),
+    "music/neural.py": ("music/test_neural.py",),
     "bus/transports/jetson.py": ("test_direction.py",),
     "bus/settings.py": ("test_robot.py", "test_play_cli.py"),
     "preview/props.py": ("test_preview_props.py",),

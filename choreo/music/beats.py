@@ -54,6 +54,9 @@ FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / t
 # eighths of a compound meter), every third beat
 LEVELS = ("half", "double", "triple", "third")
 GRID_OPTIONS = ("level", "offset_beats")  # detect_beats' arguments a warning offers
+# librosa's features with the bars decoded here (the default: no torch), or Beat This! (the
+# extra choreo[beats-neural]; not the default: its weights could not be fetched to measure it)
+TRACKERS = ("librosa", "beat-this")
 MIN_BEATS = 8  # fewer beats than this are no steady beat, however regular
 OFFSET_BEATS = Range(at_least=-16, at_most=16, unit=" beats")  # up to four bars of 4/4 either way
 
@@ -143,13 +146,15 @@ def detect_beats(
     beats_per_bar: int | None = None,
     level: str = "",
     offset_beats: float = 0.0,
+    tracker: str = "librosa",
 ) -> BeatAnalysis:
     """The beats of a song: ``audio`` decoded (``decode_song``) or its file's path (wav, flac,
     ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` (one of LEVELS) and
     ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid a warning
-    offers."""
+    offers. ``tracker``: one of TRACKERS."""
     check_optional_number("beats_per_bar", beats_per_bar, COUNT)
     check_grid(level, offset_beats)
+    check_choice("tracker", tracker, TRACKERS)
     if not isinstance(audio, Audio):
         audio = decode_song(check_path("audio", audio, "an Audio (decode_song) or a song's path"))
     librosa = require_librosa()
@@ -158,6 +163,8 @@ def detect_beats(
     if len(y) < sr // 2 or not np.any(y):
         return _no_beats(audio, beats_per_bar)
     features = song_features(librosa, np.asarray(y, dtype=np.float32), sr)
+    if tracker == "beat-this":
+        return _neural_analysis(audio, features, beats_per_bar, level, offset_beats)
     beats = _track(librosa, features)
     beats = _regrid(features, beats, level, offset_beats)
     if len(beats) == 0:
@@ -178,6 +185,37 @@ def detect_beats(
         subdivision=bars.subdivision,
         grouping=bars.grouping,
         warnings=_warnings(features, beats, spans, bars.subdivision),
+    )
+
+
+def _neural_analysis(
+    audio: Audio, features: Features, beats_per_bar: int | None, level: str, offset_beats: float
+) -> BeatAnalysis:
+    """The beats and downbeats Beat This! finds; its bars kept unless a meter is given (or the
+    grid moved), the tempo, confidence and warnings as for the default tracker."""
+    from choreo.music.neural import neural_beats
+
+    beats, downbeats = neural_beats(audio)
+    beats = _regrid(features, beats, level, offset_beats)
+    if len(beats) == 0:
+        return _no_beats(audio, beats_per_bar)
+    if beats_per_bar is None and not level and not offset_beats and len(downbeats) >= 2:
+        index = np.searchsorted(beats, downbeats - 1e-6)
+        per_bar = int(np.median(np.diff(index)))
+        confidence = float(np.mean(np.diff(index) == per_bar))
+    else:
+        bars = find_bars(features, beats, beats_per_bar)
+        downbeats, per_bar, confidence = beats[bars.downbeats], bars.beats_per_bar, bars.confidence
+    spans = _tempo_spans(beats, features)
+    return BeatAnalysis(
+        audio.duration_s,
+        tuple(float(b) for b in beats),
+        tuple(float(b) for b in downbeats),
+        per_bar,
+        spans,
+        meter_detected=beats_per_bar is None,
+        meter_confidence=confidence,
+        warnings=_warnings(features, beats, spans, 2),
     )
 
 
