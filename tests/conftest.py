@@ -43,7 +43,7 @@ signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # The files whose tests call librosa run on one worker of a parallel run (`-n auto`), which then
 # pays librosa's import and numba's compiling (5 s, 9 s on a loaded machine) once, not on each.
-LIBROSA_FILES = ("test_beats.py", "test_music_block.py", "test_docs.py")
+LIBROSA_FILES = ("test_beats.py", "test_music_block.py", "test_docs.py", "test_neural.py")
 
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 

@@ -10,7 +10,7 @@ from choreo.cli import in_flags, report_in_flags
 from choreo.cli.arguments import finite_float, positive_int
 from choreo.cli.plan_commands import png_path
 from choreo.core.atomic import check_writable
-from choreo.music.beats import LEVELS, BeatAnalysis, detect_beats
+from choreo.music.beats import LEVELS, TRACKERS, BeatAnalysis, detect_beats
 from choreo.music.decode import decode_song
 from choreo.music.report import beats_report, suggested_music
 
@@ -33,20 +33,28 @@ def register(subparsers) -> None:
         "--meter",
         type=positive_int,
         metavar="N",
-        help="beats to the bar, for the downbeats (default: estimated, 2, 3 or 4)",
+        help="beats to the bar, for the downbeats (default: estimated, 2 to 7)",
     )
     beats.add_argument(
         "--level",
         choices=LEVELS,
-        help="the alternative grid a warning offers: every other beat (half) or a beat "
-        "between each two (double)",
+        help="the alternative grid a warning offers: every other beat (half), a beat between "
+        "each two (double), three beats in each (triple: a compound meter's eighths) or every "
+        "third beat (third)",
     )
     beats.add_argument(
         "--offset-beats",
-        type=finite_float,
+        type=finite_float,  # its range is detect_beats' to say (OFFSET_BEATS)
         default=0.0,
         metavar="N",
         help="move the grid by N beats (0.5: onto the off-beats)",
+    )
+    beats.add_argument(
+        "--tracker",
+        choices=TRACKERS,
+        default=TRACKERS[0],
+        help="what finds the beats: librosa (the default) or the neural Beat This! (needs "
+        "choreo[beats-neural] and torch)",
     )
     beats.set_defaults(handler=run_beats)
 
@@ -55,7 +63,7 @@ def run_beats(args: argparse.Namespace) -> int:
     if args.plot is not None:
         check_writable(args.plot)
     audio = decode_song(args.song)
-    analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats)
+    analysis = detect_beats(audio, args.meter, args.level or "", args.offset_beats, args.tracker)
     if args.json:
         report = beats_report(args.song, analysis, args.level or "", args.offset_beats)
         print(json.dumps(report_in_flags(report), indent=2))
@@ -71,10 +79,11 @@ def run_beats(args: argparse.Namespace) -> int:
 
 
 def _headline(song: Path, analysis: BeatAnalysis) -> str:
-    if analysis.beats_s and not analysis.steady:
+    if not analysis.beats_s:
+        return f"{song.name}: {analysis.duration_s:.2f} s, no beats found"
+    if not analysis.steady:
         return (
-            f"{song.name}: {analysis.duration_s:.2f} s, no steady beat (confidence "
-            f"{analysis.confidence:.2f}): {len(analysis.beats_s)} beats guessed"
+            f"{song.name}: {analysis.duration_s:.2f} s, no steady beat: {analysis.unsteady_because}"
         )
     return (
         f"{song.name}: {analysis.duration_s:.2f} s, {analysis.bpm:.2f} BPM, "
@@ -113,7 +122,7 @@ def print_beats(song: Path, analysis: BeatAnalysis, level: str = "", offset_beat
     suggestion = suggested_music(song, analysis, level, offset_beats)
     if suggestion is None:
         print(
-            f"no steady beat (confidence {analysis.confidence:.2f}): these beats are not worth "
+            f"no steady beat ({analysis.unsteady_because}): these beats are not worth "
             "dancing to; time the motion in seconds, or give bpm and start by ear"
         )
     else:

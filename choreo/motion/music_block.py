@@ -26,7 +26,7 @@ import numpy as np
 from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, fmt
 from choreo.errors import ChoreoError, OptionError
 from choreo.motion.timing import TimedKeyframe
-from choreo.music.beats import LEVELS
+from choreo.music.beats import LEVELS, OFFSET_BEATS
 from choreo.music.decode import check_song_path, decode_song
 
 MUSIC_KEYS = ("song", "start", "bpm", "meter", "beats", "level", "offset_beats")
@@ -165,8 +165,15 @@ def _read_grid_choice(
         reader.report(given[0].key_node, f"{given[0].key} goes with beats: auto, not bpm")
         return None
     level = reader.choice(fields["level"].value, "level", LEVELS) if "level" in fields else ""
+    bounds = OFFSET_BEATS
     offset = (
-        reader.number(fields["offset_beats"].value, "offset_beats")
+        reader.number(
+            fields["offset_beats"].value,
+            "offset_beats",
+            low=bounds.at_least,
+            high=bounds.at_most,
+            unit=bounds.unit,
+        )
         if "offset_beats" in fields
         else 0.0
     )
@@ -228,7 +235,7 @@ def _detected_grid(
     analysis = detect_beats(audio, per_bar, level, offset_beats)
     if not analysis.steady:
         raise ChoreoError(
-            f"the song has no steady beat to count (confidence {analysis.confidence:.2f}; "
+            f"the song has no steady beat to count ({analysis.unsteady_because}; "
             "choreo beats SONG shows what was found): give bpm and start by ear instead"
         )
     beats = np.asarray(analysis.beats_s)
@@ -243,9 +250,10 @@ def _detected_grid(
             raise ChoreoError(f"no beats were detected after start {fmt(start_s)} s of the song")
         first = int(later[0])
         how = f"the first beat detected after start, at {beats[first]:.3f} s"
+    # bar 1: the downbeat nearest beat 1, or the next one if that comes before beat 1
     downbeats = np.asarray(analysis.downbeats_s)
-    down = int(np.argmin(np.abs(downbeats - beats[first]))) if len(downbeats) else None
-    bar_one = 1 if down is None else int(np.argmin(np.abs(beats - downbeats[down]))) - first + 1
+    down = downbeats[downbeats >= beats[first] - 0.001] if len(downbeats) else downbeats
+    bar_one = 1 if len(down) == 0 else int(np.argmin(np.abs(beats - down[0]))) - first + 1
     meter = (
         f"{analysis.beats_per_bar} beats to the bar (estimated, confidence "
         f"{analysis.meter_confidence:.2f}; give meter: to fix it)"

@@ -11,16 +11,13 @@ trackers on PyPI need torch or no longer build, see the docs):
   Each beat is then moved onto the sharpest onset within ``SNAP_S`` (3 ms frames), so beats are
   as precise as the attacks in the song. Tempi come from the beat times (a line through each
   steady stretch).
-- **Downbeats and meter**: each beat gets three accents, each normalised over the song: the
-  low-band onset on it (kick, bass), the harmonic change into it (chroma of the beat against the
-  one before) and its loudness. For each meter (2, 3, 4) and phase the downbeats' mean accent
-  over the song's mean is the bar's contrast; the meter with the largest one wins (a 4/4 bar's
-  contrast is also seen, smaller, at 2).
+- **Downbeats and meter**: :mod:`~choreo.music.bars` (meters 2 to 7, compound and additive ones
+  told as such, downbeats decoded as a path that may restart).
 - **Confidence**: the autocorrelation, at the beat period, of the onset envelope with its slow
   swells removed (0 for noise, near 1 for a metronome), per stretch. Below ``STEADY_CONFIDENCE``
   the song has no steady beat.
 
-Features are computed on ``CHUNK_S`` blocks, so memory stays near the decoded samples' own size.
+The envelopes come from :mod:`~choreo.music.features`, a block at a time.
 """
 
 from __future__ import annotations
@@ -32,30 +29,36 @@ import numpy as np
 
 from choreo.core.arguments import (
     COUNT,
+    Range,
     check_choice,
     check_number,
     check_optional_number,
     check_path,
 )
 from choreo.errors import ChoreoError, Worded
+from choreo.music.bars import GAP, find_bars
 from choreo.music.decode import Audio, decode_song
+from choreo.music.features import COARSE_HOP, Features, around, normalised, song_features
 
-COARSE_HOP = 512  # ~23 ms frames at 22050 Hz: what the tracker is tuned for
-FINE_HOP = 64  # ~3 ms frames: where beats are snapped to
-CHUNK_S = 10.0  # features are computed this much at a time
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
-LOW_HZ = 200.0  # the kick and bass band
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
 TEMPO_SMOOTH_S = 6.0  # the local tempo's median filter
 STEADY_SPREAD = 0.03  # local tempo within this of its median nearly everywhere: one tempo
 STEADY_CONFIDENCE = 0.2  # below this there is no steady beat
 OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: maybe off-beat
+SILENT = 0.02  # a beat this much quieter than the song's typical one is in a silence
+BACKBEAT = 0.25  # snares on even and odd beats within this of each other: on every beat
+ODD_METER_BPM = 200.0  # 5 or 7 beats to the bar tracked at half tempo are doubled up to this
 FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
-METERS = (2, 3, 4)
-LEVELS = ("half", "double")  # the alternative grids: every other beat, a beat between each two
+# the alternative grids: every other beat, a beat between each two, three beats in each (the
+# eighths of a compound meter), every third beat
+LEVELS = ("half", "double", "triple", "third")
 GRID_OPTIONS = ("level", "offset_beats")  # detect_beats' arguments a warning offers
-CHORD_CHANGE_WEIGHT = 5.0  # a new chord (1 - cosine ~0.5) counts like a kick 2.5 deviations up
-UNSURE_METER = 0.2  # a runner-up meter within this fraction of the winner: say so
+# librosa's features with the bars decoded here (the default: no torch), or Beat This! (the
+# extra choreo[beats-neural]; not the default: its weights could not be fetched to measure it)
+TRACKERS = ("librosa", "beat-this")
+MIN_BEATS = 8  # fewer beats than this are no steady beat, however regular
+OFFSET_BEATS = Range(at_least=-16, at_most=16, unit=" beats")  # up to four bars of 4/4 either way
 
 
 @dataclass(frozen=True)
@@ -75,8 +78,18 @@ class BeatAnalysis:
     tempi: tuple[TempoSpan, ...]  # steady stretches, in order
     meter_detected: bool = False  # beats_per_bar was estimated (no meter was given)
     meter_confidence: float = 1.0  # 0..1: how far the chosen meter's bars stand out
+    subdivision: int = 2  # 3: each beat is three eighths (a compound meter: 6/8 has two beats)
+    grouping: tuple[int, ...] = ()  # an additive meter's groups of beats: (2, 2, 3)
     # the grid may be off-beat, at half or double tempo (Worded: naming detect_beats' arguments)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def meter(self) -> str:
+        """The time signature: 4/4, 3/4, 6/8 (two beats of three eighths), 7/8 (2+2+3)..."""
+        if self.subdivision == 3:
+            return f"{3 * self.beats_per_bar}/8"
+        fast = self.bpm >= (150 if self.beats_per_bar == 7 else 200)  # the beats are eighths
+        return f"{self.beats_per_bar}/{8 if fast and self.grouping else 4}"
 
     @property
     def bpm(self) -> float:
@@ -96,7 +109,21 @@ class BeatAnalysis:
     @property
     def steady(self) -> bool:
         """Whether the song has a beat to dance to."""
-        return len(self.beats_s) >= 8 and self.confidence >= STEADY_CONFIDENCE
+        return self.unsteady_because is None
+
+    @property
+    def unsteady_because(self) -> str | None:
+        """Why the song has no beat to dance to (one phrase), or None if it has one."""
+        if not self.beats_s:
+            return "no beats were found"
+        if len(self.beats_s) < MIN_BEATS:
+            return f"only {len(self.beats_s)} beats were found (a steady beat needs {MIN_BEATS})"
+        if self.confidence < STEADY_CONFIDENCE:
+            return (
+                f"the beats found are not steady (confidence {self.confidence:.2f}, "
+                f"below {STEADY_CONFIDENCE})"
+            )
+        return None
 
     @property
     def change_points_s(self) -> tuple[float, ...]:
@@ -114,126 +141,118 @@ def require_librosa():
     return librosa
 
 
-@dataclass(frozen=True)
-class _Features:
-    onset: np.ndarray  # coarse onset envelope, all bands
-    low: np.ndarray  # coarse onset envelope below LOW_HZ
-    chroma: np.ndarray  # (12, coarse frames)
-    fine: np.ndarray  # fine onset envelope, for snapping
-    rms: np.ndarray  # coarse loudness
-    rate_hz: int
-
-    @property
-    def coarse_fps(self) -> float:
-        return self.rate_hz / COARSE_HOP
-
-    @property
-    def fine_fps(self) -> float:
-        return self.rate_hz / FINE_HOP
-
-
 def detect_beats(
     audio: Audio | str | os.PathLike[str],
     beats_per_bar: int | None = None,
     level: str = "",
     offset_beats: float = 0.0,
+    tracker: str = "librosa",
 ) -> BeatAnalysis:
     """The beats of a song: ``audio`` decoded (``decode_song``) or its file's path (wav, flac,
-    ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` "half" or "double" and
+    ogg, mp3). ``beats_per_bar`` None: the meter is estimated. ``level`` (one of LEVELS) and
     ``offset_beats`` (in beats, e.g. 0.5: the off-beats) give the alternative grid a warning
-    offers."""
+    offers. ``tracker``: one of TRACKERS."""
     check_optional_number("beats_per_bar", beats_per_bar, COUNT)
     check_grid(level, offset_beats)
+    check_choice("tracker", tracker, TRACKERS)
     if not isinstance(audio, Audio):
         audio = decode_song(check_path("audio", audio, "an Audio (decode_song) or a song's path"))
     librosa = require_librosa()
     y, sr = audio.mono, audio.rate_hz
+    _check_samples(y, sr)
     if len(y) < sr // 2 or not np.any(y):
-        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
-    features = _features(librosa, np.asarray(y, dtype=np.float32), sr)
+        return _no_beats(audio, beats_per_bar)
+    features = song_features(librosa, np.asarray(y, dtype=np.float32), sr)
+    if tracker == "beat-this":
+        return _neural_analysis(audio, features, beats_per_bar, level, offset_beats)
     beats = _track(librosa, features)
     beats = _regrid(features, beats, level, offset_beats)
     if len(beats) == 0:
-        return BeatAnalysis(audio.duration_s, (), (), beats_per_bar or 4, ())
-    per_bar, phase, meter_confidence = _bars(features, beats, beats_per_bar)
+        return _no_beats(audio, beats_per_bar)
+    bars = find_bars(features, beats, beats_per_bar)
+    if _odd_bars_of_two_beats(features, beats, bars.beats_per_bar, beats_per_bar or level):
+        beats = _track(librosa, features, scale=2.0)
+        bars = find_bars(features, beats, beats_per_bar)
+    spans = _tempo_spans(beats, features)
     return BeatAnalysis(
         audio.duration_s,
         tuple(float(b) for b in beats),
-        tuple(float(b) for b in beats[phase::per_bar]),
-        per_bar,
-        _tempo_spans(beats, features),
+        tuple(float(b) for b in beats[bars.downbeats]),
+        bars.beats_per_bar,
+        spans,
         meter_detected=beats_per_bar is None,
-        meter_confidence=meter_confidence,
-        warnings=_warnings(features, beats),
+        meter_confidence=bars.confidence,
+        subdivision=bars.subdivision,
+        grouping=bars.grouping,
+        warnings=_warnings(features, beats, spans, bars.subdivision),
+    )
+
+
+def _neural_analysis(
+    audio: Audio, features: Features, beats_per_bar: int | None, level: str, offset_beats: float
+) -> BeatAnalysis:
+    """The beats and downbeats Beat This! finds; its bars kept unless a meter is given (or the
+    grid moved), the tempo, confidence and warnings as for the default tracker."""
+    from choreo.music.neural import neural_beats
+
+    beats, downbeats = neural_beats(audio)
+    beats = _regrid(features, beats, level, offset_beats)
+    if len(beats) == 0:
+        return _no_beats(audio, beats_per_bar)
+    if beats_per_bar is None and not level and not offset_beats and len(downbeats) >= 2:
+        index = np.searchsorted(beats, downbeats - 1e-6)
+        per_bar = int(np.median(np.diff(index)))
+        confidence = float(np.mean(np.diff(index) == per_bar))
+    else:
+        bars = find_bars(features, beats, beats_per_bar)
+        downbeats, per_bar, confidence = beats[bars.downbeats], bars.beats_per_bar, bars.confidence
+    spans = _tempo_spans(beats, features)
+    return BeatAnalysis(
+        audio.duration_s,
+        tuple(float(b) for b in beats),
+        tuple(float(b) for b in downbeats),
+        per_bar,
+        spans,
+        meter_detected=beats_per_bar is None,
+        meter_confidence=confidence,
+        warnings=_warnings(features, beats, spans, 2),
     )
 
 
 def check_grid(level: object, offset_beats: object) -> None:
-    """Refuse an alternative grid that is none: ``level`` "", "half" or "double", and a finite
-    ``offset_beats``."""
+    """Refuse an alternative grid that is none: ``level`` "", "half" or "double", and an
+    ``offset_beats`` within OFFSET_BEATS."""
     check_choice("level", level, ("", *LEVELS))
-    check_number("offset_beats", offset_beats)
+    check_number("offset_beats", offset_beats, OFFSET_BEATS)
 
 
-# --- features ----------------------------------------------------------------------------------
-def _features(librosa, y: np.ndarray, sr: int) -> _Features:
-    """Every envelope of the song, computed ``CHUNK_S`` at a time (with margins, so the blocks
-    join seamlessly): a whole-song spectrogram would need many times the samples' memory."""
-    margin = 16  # coarse frames each side of a block
-    block = max(int(CHUNK_S * sr / COARSE_HOP), 1)
-    frames = len(y) // COARSE_HOP + 1
-    parts: list[tuple[np.ndarray, ...]] = []
-    for first in range(0, frames, block):
-        low = max(first - margin, 0)
-        high = min(first + block + margin, frames)
-        chunk = y[low * COARSE_HOP : high * COARSE_HOP]
-        keep = slice(first - low, first - low + min(block, frames - first))
-        parts.append(_chunk_features(librosa, chunk, sr, keep))
-    onset, low_onset, chroma, fine, rms = (np.concatenate(p, axis=-1) for p in zip(*parts))
-    return _Features(onset, low_onset, chroma, fine, rms, sr)
+def _check_samples(y: np.ndarray, rate_hz: int) -> None:
+    """Refuse samples that are not numbers (a float WAV can hold NaN or infinity)."""
+    bad = np.flatnonzero(~np.isfinite(y))
+    if len(bad):
+        raise ChoreoError(
+            f"the song holds {len(bad)} samples that are not numbers (NaN or infinite), the "
+            f"first at {bad[0] / rate_hz:.3f} s: repair or re-export it"
+        )
 
 
-def _chunk_features(librosa, y: np.ndarray, sr: int, keep: slice) -> tuple[np.ndarray, ...]:
-    spectrum = np.abs(librosa.stft(y, n_fft=2048, hop_length=COARSE_HOP))
-    mel_db = librosa.power_to_db(librosa.feature.melspectrogram(S=spectrum**2, sr=sr))
-    low_rows = librosa.mel_frequencies(n_mels=mel_db.shape[0], fmax=sr / 2) < LOW_HZ
-    onset = librosa.onset.onset_strength(S=mel_db, sr=sr)
-    low = librosa.onset.onset_strength(S=mel_db[low_rows], sr=sr)
-    chroma = librosa.feature.chroma_stft(S=spectrum**2, sr=sr, tuning=0.0)
-    rms = librosa.feature.rms(S=spectrum)[0]
-    # A click right at the start has no frame before it to rise from: pad so it has one.
-    pad = FINE_HOP * 4
-    fine = librosa.onset.onset_strength(
-        y=np.concatenate([np.zeros(pad, np.float32), y]), sr=sr, hop_length=FINE_HOP, n_fft=512
-    )[4:]
-    ratio = COARSE_HOP // FINE_HOP
-    fine_keep = slice(keep.start * ratio, keep.stop * ratio)
-    n = keep.stop - keep.start
-    return (
-        _fit(onset[keep], n),
-        _fit(low[keep], n),
-        _fit(chroma[:, keep], n),
-        _fit(fine[fine_keep], n * ratio),
-        _fit(rms[keep], n),
+def _no_beats(audio: Audio, beats_per_bar: int | None) -> BeatAnalysis:
+    """Silence (or too short a song): no beats, and no meter unless one was given."""
+    return BeatAnalysis(
+        audio.duration_s,
+        (),
+        (),
+        beats_per_bar or 4,
+        (),
+        meter_detected=beats_per_bar is None,
+        meter_confidence=0.0 if beats_per_bar is None else 1.0,
     )
 
 
-def _fit(values: np.ndarray, n: int) -> np.ndarray:
-    """Exactly ``n`` frames (the last block may come out a frame short)."""
-    if values.shape[-1] >= n:
-        return values[..., :n]
-    pad = [(0, 0)] * (values.ndim - 1) + [(0, n - values.shape[-1])]
-    return np.pad(values, pad)
-
-
-def _normalised(values: np.ndarray) -> np.ndarray:
-    spread = np.std(values)
-    return values / spread if spread > 0 else np.zeros_like(values)
-
-
 # --- beats -------------------------------------------------------------------------------------
-def _track(librosa, features: _Features) -> np.ndarray:
-    envelope = _normalised(features.onset) + _normalised(features.low)
+def _track(librosa, features: Features, scale: float = 1.0) -> np.ndarray:
+    """The beats, at ``scale`` times the tempo the song's tempogram says."""
+    envelope = normalised(features.onset) + normalised(features.low)
     local = _local_tempo(librosa, envelope, features.rate_hz)
     width = int(TEMPO_SMOOTH_S * features.coarse_fps) // 2 * 2 + 1
     import scipy.ndimage
@@ -246,10 +265,20 @@ def _track(librosa, features: _Features) -> np.ndarray:
         sr=features.rate_hz,
         hop_length=COARSE_HOP,
         trim=False,
-        bpm=median if steady else local,
+        bpm=scale * median if steady else scale * local,
     )
     tracked = np.asarray(frames, dtype=float) / features.coarse_fps
-    return _extend(_snap(tracked, features.fine, features.fine_fps), features)
+    return _drop_silent(
+        _extend(_snap(tracked, features.fine, features.fine_fps), features), features
+    )
+
+
+def _drop_silent(beats: np.ndarray, features: Features) -> np.ndarray:
+    """The beats less those the tracker carried on through a silence (nothing sounds there)."""
+    if len(beats) == 0:
+        return beats
+    loudness = around(features.rms, beats, features.coarse_fps, SNAP_S)
+    return beats[loudness > SILENT * np.median(loudness)]
 
 
 def _local_tempo(librosa, envelope: np.ndarray, rate_hz: int) -> np.ndarray:
@@ -287,7 +316,7 @@ def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndar
     return np.unique(np.round(kept, 6))
 
 
-def _extend(beats: np.ndarray, features: _Features) -> np.ndarray:
+def _extend(beats: np.ndarray, features: Features) -> np.ndarray:
     """Beats the tracker left out at either end: one period further, while an onset is there
     (at least half a period further, so the search always moves on)."""
     envelope, frame_rate = features.fine, features.fine_fps
@@ -318,16 +347,19 @@ def _onset_near(t_s: float, envelope: np.ndarray, frame_rate: float, threshold: 
     return frame / frame_rate if envelope[frame] >= threshold else None
 
 
-def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: float) -> np.ndarray:
-    """The alternative grid: every other beat (half: those the downbeats are among), a beat
-    between each two (double), moved by ``offset_beats`` beats (fractions fall between)."""
+def _regrid(features: Features, beats: np.ndarray, level: str, offset_beats: float) -> np.ndarray:
+    """The alternative grid: every other or third beat (half, third: those the first downbeat is
+    among), two or three beats in each (double, triple), moved by ``offset_beats`` beats
+    (fractions fall between)."""
     if len(beats) < 2:
         return beats
-    if level == "double":
-        beats = np.interp(np.arange(2 * len(beats) - 1) / 2, np.arange(len(beats)), beats)
-    elif level == "half":
-        _, downbeat, _ = _bars(features, beats, None)
-        beats = beats[downbeat % 2 :: 2]
+    if level in ("double", "triple"):
+        k = 2 if level == "double" else 3
+        beats = np.interp(np.arange(k * len(beats) - k + 1) / k, np.arange(len(beats)), beats)
+    elif level in ("half", "third"):
+        k = 2 if level == "half" else 3
+        downbeats = find_bars(features, beats).downbeats
+        beats = beats[(downbeats[0] if len(downbeats) else 0) % k :: k]
     if offset_beats:
         index = np.arange(len(beats)) + offset_beats
         inside = (index >= 0) & (index <= len(beats) - 1)
@@ -335,73 +367,20 @@ def _regrid(features: _Features, beats: np.ndarray, level: str, offset_beats: fl
     return beats
 
 
-# --- bars --------------------------------------------------------------------------------------
-def _bars(features: _Features, beats: np.ndarray, given: int | None) -> tuple[int, int, float]:
-    """(beats to the bar, phase of the first downbeat, confidence in the meter)."""
-    accent = _beat_accents(features, beats)
-    meters = (given,) if given is not None else METERS
-    best: dict[int, tuple[float, int]] = {}
-    for per_bar in meters:
-        if len(beats) < 2 * per_bar:
-            best[per_bar] = (0.0, 0)
-            continue
-        contrasts = [accent[p::per_bar].mean() - accent.mean() for p in range(per_bar)]
-        phase = int(np.argmax(contrasts))
-        best[per_bar] = (float(contrasts[phase]), phase)
-    per_bar = max(best, key=lambda m: best[m][0])
-    if given is not None:
-        return per_bar, best[per_bar][1], 1.0
-    winner = best[per_bar][0]
-    # 4/4 bars show, fainter, at 2: only a rival that isn't a divisor competes.
-    rivals = [c for m, (c, _) in best.items() if m != per_bar and per_bar % m]
-    confidence = 0.0 if winner <= 0 else 1.0 - max([0.0, *rivals]) / winner
-    return per_bar, best[per_bar][1], float(np.clip(confidence, 0.0, 1.0))
-
-
-def _beat_accents(features: _Features, beats: np.ndarray) -> np.ndarray:
-    """Per beat: low-band onset + harmonic change into it + half its loudness (the onset and the
-    loudness in standard deviations over the song, the change as 1 - cosine of the chroma)."""
-    fps = features.coarse_fps
-    frames = np.clip(np.round(beats * fps).astype(int), 0, len(features.onset) - 1)
-
-    bounds = np.append(frames, len(features.onset))
-    chroma = np.array(
-        [
-            features.chroma[:, a:b].mean(axis=1) if b > a else np.zeros(12)
-            for a, b in zip(bounds[:-1], bounds[1:])
-        ]
-    )
-    norms = np.linalg.norm(chroma, axis=1) + 1e-9
-    similarity = np.sum(chroma[1:] * chroma[:-1], axis=1) / (norms[1:] * norms[:-1])
-    change = np.concatenate([[0.0], 1 - similarity])
-    return (
-        _standardised(_around(features.low, beats, fps))
-        + CHORD_CHANGE_WEIGHT * change  # not standardised: tiny changes are no chord change
-        + 0.5 * _standardised(_around(features.rms, beats, fps))
-    )
-
-
-def _around(envelope: np.ndarray, beats: np.ndarray, fps: float) -> np.ndarray:
-    """Per beat: the envelope's peak within SNAP_S of it."""
-    frames = np.clip(np.round(beats * fps).astype(int), 0, len(envelope) - 1)
-    reach = max(int(round(SNAP_S * fps)), 1)
-    return np.array([envelope[max(f - reach, 0) : f + reach + 1].max() for f in frames])
-
-
-def _standardised(values: np.ndarray) -> np.ndarray:
-    spread = np.std(values)
-    return (
-        (values - values.mean()) / spread
-        if spread > 1e-6 * (abs(values.mean()) + 1e-9)
-        else (np.zeros_like(values))
-    )
-
-
 # --- tempo, confidence, warnings ---------------------------------------------------------------
-def _tempo_spans(beats: np.ndarray, features: _Features) -> tuple[TempoSpan, ...]:
-    """Split the beats where the interval changes for good; a line through each stretch."""
+def _tempo_spans(beats: np.ndarray, features: Features) -> tuple[TempoSpan, ...]:
+    """Split the beats at gaps (silence) and where the interval changes for good; a line
+    through each stretch."""
     if len(beats) < 2:
         return ()
+    intervals = np.diff(beats)
+    gaps = np.flatnonzero(intervals > GAP * np.median(intervals)) + 1
+    parts = [part for part in np.split(beats, gaps) if len(part) >= 2]
+    return tuple(span for part in parts for span in _steady_spans(part, features, len(parts) > 1))
+
+
+def _steady_spans(beats: np.ndarray, features: Features, among_others: bool) -> list[TempoSpan]:
+    """Split the beats where the interval changes for good; a line through each stretch."""
     intervals = np.diff(beats)
     starts = [0]
     for i in range(1, len(intervals)):
@@ -412,15 +391,15 @@ def _tempo_spans(beats: np.ndarray, features: _Features) -> tuple[TempoSpan, ...
     spans = []
     for first, stop in zip(starts, starts[1:] + [len(intervals)]):
         stretch = beats[first : stop + 1]
-        if len(stretch) < 3 and len(starts) > 1:
+        if len(stretch) < 3 and (len(starts) > 1 or among_others):
             continue  # one interval between two tempi: the change itself
         slope = float(np.polyfit(np.arange(len(stretch)), stretch, 1)[0])
         confidence = _pulse_clarity(features, stretch[0], stretch[-1], slope)
         spans.append(TempoSpan(float(stretch[0]), float(stretch[-1]), 60.0 / slope, confidence))
-    return tuple(spans)
+    return spans
 
 
-def _pulse_clarity(features: _Features, start_s: float, end_s: float, period_s: float) -> float:
+def _pulse_clarity(features: Features, start_s: float, end_s: float, period_s: float) -> float:
     """The onset envelope's autocorrelation at the beat period (best within 5 %), slow swells
     taken out first: a pulse that repeats scores near 1, noise and drones near 0."""
     fps = features.coarse_fps
@@ -439,30 +418,82 @@ def _pulse_clarity(features: _Features, start_s: float, end_s: float, period_s: 
     return float(np.clip(best / energy, 0.0, 1.0))
 
 
-def _warnings(features: _Features, beats: np.ndarray) -> tuple[str, ...]:
-    """Where the grid may sit on the off-beats or at half the tempo."""
-    if len(beats) < 8:
-        return ()
-    envelope = _normalised(features.onset) + _normalised(features.low)
+def _odd_bars_of_two_beats(
+    features: Features, beats: np.ndarray, per_bar: int, given: object
+) -> bool:
+    """Whether bars of 5 or 7 beats with onsets as strong between the beats are really 5 or 7
+    beats twice as fast (the tracker's prior pulls toward 120 BPM: a 7/8 at 180 is tracked at
+    90, every two eighths, which cannot fit 7)."""
+    if given or per_bar not in (5, 7) or len(beats) < 8:
+        return False
+    bpm = 60 / float(np.median(np.diff(beats)))
+    return 2 * bpm <= ODD_METER_BPM and _between_ratio(features, beats) >= OFFBEAT_RATIO
+
+
+def _between_ratio(features: Features, beats: np.ndarray) -> float:
+    """The onsets half way between the beats against those on them."""
+    envelope = normalised(features.onset) + normalised(features.low)
     fps = features.coarse_fps
 
     def strength(times: np.ndarray) -> float:
         frames = np.clip(np.round(times * fps).astype(int), 0, len(envelope) - 1)
         return float(np.mean([envelope[max(f - 1, 0) : f + 2].max() for f in frames]))
 
-    between = strength((beats[:-1] + beats[1:]) / 2)
     on = strength(beats)
-    bpm = 60 / float(np.median(np.diff(beats)))
+    return strength((beats[:-1] + beats[1:]) / 2) / on if on > 0 else float("inf")
+
+
+def _snare_on_every_beat(features: Features, beats: np.ndarray) -> bool:
+    """A backbeat tracked as the beat: the snare alike on every beat (in a backbeat it is on
+    every other one) and the kicks between the beats rather than on them."""
+    fps = features.coarse_fps
+    snare = around(features.snare, beats, fps, SNAP_S)
+    even, odd = snare[0::2].mean(), snare[1::2].mean()
+    alike = abs(even - odd) <= BACKBEAT * max(even, odd)
+    middles = (beats[:-1] + beats[1:]) / 2
+    snare_on = snare.mean() > around(features.snare, middles, fps, SNAP_S).mean()
+    kick_on, kick_between = (around(features.low, t, fps, SNAP_S).mean() for t in (beats, middles))
+    return bool(alike and snare_on and kick_between > kick_on)
+
+
+def _warnings(
+    features: Features, beats: np.ndarray, spans: tuple[TempoSpan, ...], subdivision: int
+) -> tuple[str, ...]:
+    """Per steady stretch: where the grid may sit on the off-beats, at half or twice the tempo
+    a dancer counts; and a compound meter's eighths."""
     warnings = []
-    if between >= OFFBEAT_RATIO * on:
-        how_strong = f"{between / on:.2f} times as strong as" if on > 0 else "there, not"
+    for span in spans:
+        inside = beats[(beats >= span.start_s - 1e-6) & (beats <= span.end_s + 1e-6)]
+        if len(inside) < 8:
+            continue
+        where = f"from {span.start_s:.1f} s to {span.end_s:.1f} s: " if len(spans) > 1 else ""
+        warning = _stretch_warning(features, inside, span.bpm)
+        if warning:
+            warnings.append(where + warning)
+    if subdivision == 3:
         warnings.append(
+            "each beat is three eighths (a compound meter, counted in its long beats): for the "
+            "eighths try {level} triple"
+        )
+    return tuple(Worded(warning, GRID_OPTIONS) for warning in warnings)
+
+
+def _stretch_warning(features: Features, beats: np.ndarray, bpm: float) -> str | None:
+    ratio = _between_ratio(features, beats)
+    if _snare_on_every_beat(features, beats):
+        return (
+            f"a snare on every beat at {bpm:.1f} BPM: that is likely the backbeat, the beat "
+            "twice as fast (try {level} double)"
+        )
+    if ratio >= OFFBEAT_RATIO:
+        how_strong = f"{ratio:.2f} times as strong as" if np.isfinite(ratio) else "there, not"
+        return (
             f"the onsets between the beats are {how_strong} on them: the beats may sit on the "
             "off-beat (try {offset_beats} 0.5) or the tempo be twice "
             f"{bpm:.1f} (try {{level}} double)"
         )
-    elif bpm > FAST_BPM:
-        warnings.append(f"{bpm:.1f} BPM is fast: the beat may be half that (try {{level}} half)")
-    elif bpm < SLOW_BPM:
-        warnings.append(f"{bpm:.1f} BPM is slow: the beat may be twice that (try {{level}} double)")
-    return tuple(Worded(warning, GRID_OPTIONS) for warning in warnings)
+    if bpm > FAST_BPM:
+        return f"{bpm:.1f} BPM is fast: the beat may be half that (try {{level}} half)"
+    if bpm < SLOW_BPM:
+        return f"{bpm:.1f} BPM is slow: the beat may be twice that (try {{level}} double)"
+    return None

@@ -20,15 +20,18 @@ def beats_report(
     song = check_path("song", song, "the song's path")
     check_type("analysis", analysis, BeatAnalysis, "a BeatAnalysis (from detect_beats)")
     check_grid(level, offset_beats)
+    found = bool(analysis.beats_s)  # silence has no tempo, and no meter unless one was given
+    meter_known = found or not analysis.meter_detected
     return {
         "song": str(song),
         "duration_s": analysis.duration_s,
         "steady": analysis.steady,
+        "unsteady_because": analysis.unsteady_because,
         "confidence": analysis.confidence,
-        "bpm": analysis.bpm,
-        "beats_per_bar": analysis.beats_per_bar,
+        "bpm": analysis.bpm if found else None,
+        "beats_per_bar": analysis.beats_per_bar if meter_known else None,
         "meter_detected": analysis.meter_detected,
-        "meter_confidence": analysis.meter_confidence,
+        "meter_confidence": analysis.meter_confidence if meter_known else None,
         "tempi": [
             {
                 "start_s": span.start_s,

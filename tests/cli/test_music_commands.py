@@ -17,11 +17,13 @@ from music_helpers import (
     BPM_TOLERANCE,
     assert_beats_match,
     band_track,
+    click_track,
     steady_times,
     write_clicks,
 )
 
 from choreo.cli import flag_of, main
+from choreo.errors import ChoreoError
 from choreo.music.beat_plot import HEIGHT_PX, WIDTH_PX
 from choreo.music.beats import detect_beats
 from choreo.music.decode import Audio, encode, ffmpeg_exe
@@ -148,3 +150,53 @@ def test_a_plot_that_cannot_be_written_is_refused_before_the_song_is_analysed(tm
     assert capsys.readouterr().err == (
         f"choreo: error: cannot write {plot}: it is a FIFO (named pipe), not a file\n"
     )
+
+
+# --- bad input: each one line -------------------------------------------------------------------
+def test_nan_samples_are_one_line_from_beats(tmp_path, capsys):
+    import scipy.io.wavfile
+
+    samples = click_track(steady_times(120, 0.5, 9.6), 10.0).samples.copy()
+    samples[22050 * 2 : 22050 * 2 + 5] = np.nan
+    song = tmp_path / "broken.wav"
+    scipy.io.wavfile.write(song, 22050, samples)  # a float WAV, as an editor may export one
+    assert main(["beats", str(song)]) == 1
+    assert capsys.readouterr().err == (
+        "choreo: error: the song holds 5 samples that are not numbers (NaN or infinite), the "
+        "first at 2.000 s: repair or re-export it\n"
+    )
+    with pytest.raises(ChoreoError, match="not numbers"):
+        detect_beats(Audio(samples, 22050))
+
+
+def test_a_clip_too_short_for_a_steady_beat_says_how_many_beats(tmp_path, capsys):
+    song = write_clicks(tmp_path / "short.wav", steady_times(120, 0.2, 3.3), 3.3)
+    assert main(["beats", str(song)]) == 0
+    out = capsys.readouterr().out
+    assert "no steady beat: only 7 beats were found (a steady beat needs 8)" in out
+    assert "for a motion" not in out
+
+
+def test_silence_has_no_tempo_and_no_meter(tmp_path, capsys):
+    song = encode(click_track([], 5.0), tmp_path / "silence.wav")
+    assert main(["beats", str(song)]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0] == "silence.wav: 5.00 s, no beats found"
+    assert "BPM" not in out and "beats to the bar" not in out
+    assert main(["beats", str(song), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["bpm"] is None and report["beats_per_bar"] is None
+    assert report["meter_confidence"] is None and report["meter_detected"] is True
+    assert report["unsteady_because"] == "no beats were found" and report["music"] is None
+    assert main(["beats", str(song), "--json", "--meter", "3"]) == 0  # a given meter is kept
+    assert json.loads(capsys.readouterr().out)["beats_per_bar"] == 3
+
+
+def test_an_offset_of_more_than_four_bars_is_refused(tmp_path, capsys):
+    song = write_clicks(tmp_path / "clicks.wav", steady_times(120, 0.5, 9.5), 10.0)
+    assert main(["beats", str(song), "--offset-beats", "1e308"]) == 2  # a usage error
+    assert capsys.readouterr().err == (
+        "choreo: error: --offset-beats must be a number >= -16 and <= 16 beats, got 1e+308\n"
+    )
+    with pytest.raises(ChoreoError, match="offset_beats must be"):
+        detect_beats(song, offset_beats=-17)

@@ -565,3 +565,66 @@ def test_the_music_block_takes_the_alternative_grid_with_beats_auto_only(tmp_pat
         "robot: arm6\nmusic: {song: song.wav, bpm: 120, level: half}\nkeyframes:\n  - pose: home\n",
     )
     assert problems_of(fixed) == [f"{fixed}:2:35: level goes with beats: auto, not bpm"]
+
+
+def test_beats_auto_takes_the_next_downbeat_when_the_nearest_is_before_beat_1(tmp_path, capsys):
+    times = steady_times(120, 0.5, 9.6)
+    encode(click_track(times, 10.0), tmp_path / "bars.wav")  # accents on clicks 0, 4, 8...
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        f"""
+        robot: arm6
+        music: {{song: bars.wav, start: {times[1]:.3f}, beats: auto}}
+        keyframes:
+          - pose: home
+            beat: 1
+          - pose: {{shoulder: 20}}
+            bar: 1
+          - pose: {{shoulder: -20}}
+            bar: 2
+        """,
+    )
+    report = plan_json(capsys, path)  # the downbeat nearest beat 1 (click 1) is click 0, before it
+    assert report["music"]["bar_one_beat"] == 4
+    played = np.array(report["keyframe_times_s"]) + times[1]
+    assert played == pytest.approx(times[[1, 4, 8]], abs=0.015)
+
+
+def test_a_song_of_nan_samples_is_one_line_at_its_beats(tmp_path):
+    import scipy.io.wavfile
+
+    samples = click_track(steady_times(120, 0.5, 9.6), 10.0).samples.copy()
+    samples[22050 * 3] = np.nan
+    scipy.io.wavfile.write(tmp_path / "broken.wav", 22050, samples)
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        """
+        robot: arm6
+        music: {song: broken.wav, beats: auto}
+        keyframes:
+          - pose: home
+            beat: 1
+        """,
+    )
+    (problem,) = problems_of(path)
+    assert problem.startswith(f"{path}:2:")
+    assert "samples that are not numbers (NaN or infinite), the first at 3.000 s" in problem
+
+
+def test_an_offset_beyond_four_bars_is_refused_at_its_place(tmp_path, song):
+    path = write(
+        tmp_path,
+        "dance.yaml",
+        """
+        robot: arm6
+        music: {song: song.wav, beats: auto, offset_beats: 1.0e+308}
+        keyframes:
+          - pose: home
+            beat: 1
+        """,
+    )
+    (problem,) = problems_of(path)
+    assert problem.startswith(f"{path}:2:")
+    assert problem.endswith("offset_beats must be in -16..16 beats, got 1e+308")
