@@ -45,5 +45,5 @@ def test_no_steady_beat_suggests_no_block(tmp_path):
 
 def test_an_unknown_level_is_refused_by_name(tmp_path):
     with pytest.raises(OptionError) as refused:
-        beats_report(tmp_path / "song.wav", waltz(), level="triple")
+        beats_report(tmp_path / "song.wav", waltz(), level="quadruple")
     assert refused.value.option == "level"

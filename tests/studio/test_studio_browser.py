@@ -18,7 +18,7 @@ from pathlib import Path
 import browser as chromium
 import numpy as np
 import pytest
-from paths import DATA
+from paths import DATA, REPO
 from PIL import Image
 from playwright.sync_api import expect, sync_playwright
 
@@ -213,7 +213,7 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
 
 # --- edits an animator can trust: motions/arm6/wave.yaml, timed with after: ----------------------
 
-ARM_WAVE = Path(__file__).parent.parent / "motions" / "arm6" / "wave.yaml"
+ARM_WAVE = REPO / "motions" / "arm6" / "wave.yaml"
 
 
 @pytest.fixture
