@@ -52,10 +52,15 @@ LIBROSA_FILES = (
     "tests/test_docs.py",
 )
 
+# The files that check the shipped motions' simulations (seconds each) run on one worker too, which
+# then simulates each motion once for both (shipped_helpers.simulated_shipped).
+SHIPPED_SIMULATION_FILES = ("tests/preview/test_preview_shipped.py", "tests/preview/test_travel.py")
+
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 
     def pytest_xdist_make_scheduler(config, log):
-        """``--dist loadfile`` (the default here), with the librosa files as one unit."""
+        """``--dist loadfile`` (the default here), with the librosa files as one unit and the
+        shipped simulations' files as another."""
         if config.getoption("dist") != "loadfile":
             return None
         from xdist.scheduler import LoadFileScheduling
@@ -63,7 +68,9 @@ if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only wi
         class ByFileLibrosaTogether(LoadFileScheduling):
             def _split_scope(self, nodeid: str) -> str:
                 file = super()._split_scope(nodeid)
-                return "librosa" if file in LIBROSA_FILES else file
+                if file in LIBROSA_FILES:
+                    return "librosa"
+                return "shipped simulations" if file in SHIPPED_SIMULATION_FILES else file
 
         return ByFileLibrosaTogether(config, log)
 

@@ -5,17 +5,15 @@ parallel run's wall time, as ``--dist loadfile`` keeps a file on one worker.
 
 This is the one place the shipped motions are simulated: the validate tests elsewhere
 (tests/motion/test_motion_file.py, tests/motion/test_music_block.py) pass --no-physics and lean on
-this stricter check (no warning either) for the physics."""
+this stricter check (no warning either) for the physics. tests/preview/test_travel.py measures
+some of the same simulations: shipped_helpers keeps each result for both."""
 
 from __future__ import annotations
 
 import pytest
-from paths import REPO
+from shipped_helpers import SHIPPED_MOTIONS, simulated_shipped
 
-from choreo.motion.motion_file import load_motion
-from choreo.preview import run_checks, simulate_motion
-
-SHIPPED_MOTIONS = sorted((REPO / "motions").glob("*/*.yaml"))
+from choreo.preview import run_checks
 
 
 def test_every_robot_has_shipped_motions():
@@ -24,4 +22,4 @@ def test_every_robot_has_shipped_motions():
 
 @pytest.mark.parametrize("path", SHIPPED_MOTIONS, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_the_shipped_motions_pass(path):
-    assert run_checks(simulate_motion(load_motion(path))) == []
+    assert run_checks(simulated_shipped(path)) == []
