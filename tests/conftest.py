@@ -53,8 +53,12 @@ LIBROSA_FILES = (
 )
 
 # The files that check the shipped motions' simulations (seconds each) run on one worker too, which
-# then simulates each motion once for both (shipped_helpers.simulated_shipped).
-SHIPPED_SIMULATION_FILES = ("tests/preview/test_preview_shipped.py", "tests/preview/test_travel.py")
+# then simulates each motion once for all of them (shipped_helpers.simulated_shipped).
+SHIPPED_SIMULATION_FILES = (
+    "tests/preview/test_preview_shipped.py",
+    "tests/preview/test_travel.py",
+    "tests/preview/test_walk.py",
+)
 
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 
