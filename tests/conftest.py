@@ -43,12 +43,29 @@ signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # The files whose tests call librosa run on one worker of a parallel run (`-n auto`), which then
 # pays librosa's import and numba's compiling (5 s, 9 s on a loaded machine) once, not on each.
-LIBROSA_FILES = ("test_beats.py", "test_music_block.py", "test_docs.py", "test_neural.py")
+# Named by their path from the repository (as in the tests' ids): two folders hold a test_report.py.
+LIBROSA_FILES = (
+    "tests/music/test_beats.py",
+    "tests/music/test_report.py",
+    "tests/motion/test_music_block.py",
+    "tests/cli/test_music_commands.py",
+    "tests/music/test_neural.py",
+    "tests/test_docs.py",
+)
+
+# The files that check the shipped motions' simulations (seconds each) run on one worker too, which
+# then simulates each motion once for all of them (shipped_helpers.simulated_shipped).
+SHIPPED_SIMULATION_FILES = (
+    "tests/preview/test_preview_shipped.py",
+    "tests/preview/test_travel.py",
+    "tests/preview/test_walk.py",
+)
 
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 
     def pytest_xdist_make_scheduler(config, log):
-        """``--dist loadfile`` (the default here), with the librosa files as one unit."""
+        """``--dist loadfile`` (the default here), with the librosa files as one unit and the
+        shipped simulations' files as another."""
         if config.getoption("dist") != "loadfile":
             return None
         from xdist.scheduler import LoadFileScheduling
@@ -56,7 +73,9 @@ if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only wi
         class ByFileLibrosaTogether(LoadFileScheduling):
             def _split_scope(self, nodeid: str) -> str:
                 file = super()._split_scope(nodeid)
-                return "librosa" if file.rsplit("/", 1)[-1] in LIBROSA_FILES else file
+                if file in LIBROSA_FILES:
+                    return "librosa"
+                return "shipped simulations" if file in SHIPPED_SIMULATION_FILES else file
 
         return ByFileLibrosaTogether(config, log)
 

@@ -299,9 +299,9 @@ def test_shipped_files_exist():
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: str(p.relative_to(REPO)))
 def test_every_shipped_robot_and_motion_validates(path, capsys):
-    # without its physics preview: test_the_shipped_motions_pass (tests/preview/test_preview.py)
-    # simulates every shipped motion (the same simulate_motion and run_checks), stricter: no
-    # warning either
+    # without its physics preview: test_the_shipped_motions_pass
+    # (tests/preview/test_preview_shipped.py) simulates every shipped motion (the same
+    # simulate_motion and run_checks), stricter: no warning either
     assert main(["validate", "--no-physics", str(path)]) == 0, capsys.readouterr().out
 
 

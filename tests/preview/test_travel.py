@@ -4,6 +4,7 @@ planted, and pick_and_place's tool goes down onto the block and lifts straight u
 
 from __future__ import annotations
 
+import functools
 import json
 
 import mujoco
@@ -11,12 +12,14 @@ import numpy as np
 import paths
 import pytest
 from paths import REPO
+from shipped_helpers import SHIPPED_MOTIONS, simulated_shipped
 
 from choreo.cli import main
 from choreo.motion.motion_file import load_motion
 from choreo.preview import (
     Severity,
     SimSettings,
+    SimulatedMotion,
     body_travel,
     run_checks,
     simulate_motion,
@@ -41,11 +44,20 @@ def site_path_mm(rollout, motion, site: str, every: int = 5) -> np.ndarray:
     return np.array(points)
 
 
-def walked(name: str, settings: SimSettings | None = None):
-    motion = load_motion(HEXAPOD / f"{name}.yaml")
-    simulated = simulate_motion(motion, settings)
+def walked(name: str, *, ideal: bool = False):
+    """Where the shipped hexapod motion ``name`` took the body, and its errors; ``ideal``: with
+    ideal servos. Each simulated once in the process (two tests ask for the ideal turn; with the
+    default servos, shipped_helpers shares the simulations test_preview_shipped.py checks)."""
+    simulated = (
+        _ideal_servos_simulated(name) if ideal else simulated_shipped(HEXAPOD / f"{name}.yaml")
+    )
     errors = [r for r in run_checks(simulated) if r.severity is Severity.ERROR]
     return simulated.travel, errors
+
+
+@functools.cache
+def _ideal_servos_simulated(name: str) -> SimulatedMotion:
+    return simulate_motion(load_motion(HEXAPOD / f"{name}.yaml"), ideal_servos(name))
 
 
 def ideal_servos(name: str) -> SimSettings:
@@ -65,7 +77,7 @@ def test_six_tripod_steps_of_40_mm_travel_240_mm():
 
 
 def test_turning_in_place_turns_the_asked_angle():
-    travel, errors = walked("turn_in_place", ideal_servos("turn_in_place"))
+    travel, errors = walked("turn_in_place", ideal=True)
     assert errors == []
     assert 60 * 0.85 <= travel.turned_deg <= 60 * 1.15
     assert travel.displacement_mm < 20
@@ -74,7 +86,7 @@ def test_turning_in_place_turns_the_asked_angle():
 def test_the_servos_assumed_play_costs_part_of_the_turn():
     """With the default dead band and backlash each stance stroke loses a little: the preview
     shows a shorter turn than ideal servos make, but still most of it."""
-    ideal, _ = walked("turn_in_place", ideal_servos("turn_in_place"))
+    ideal, _ = walked("turn_in_place", ideal=True)
     real, errors = walked("turn_in_place")
     assert errors == []
     assert 60 * 0.75 <= real.turned_deg < ideal.turned_deg
@@ -91,7 +103,7 @@ def test_side_step_goes_left_then_back_right():
 @pytest.mark.parametrize("path", [DATA / "body_pose.yaml", HEXAPOD / "body_sway.yaml"])
 def test_body_poses_keep_every_foot_where_it_was_planted(path):
     motion = load_motion(path)
-    simulated = simulate_motion(motion)
+    simulated = simulated_shipped(path) if path in SHIPPED_MOTIONS else simulate_motion(motion)
     rollout = simulated.rollout
     assert [r for r in run_checks(simulated) if r.severity is Severity.ERROR] == []
     travel = body_travel(rollout)
@@ -103,8 +115,8 @@ def test_body_poses_keep_every_foot_where_it_was_planted(path):
 
 
 def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_target():
-    motion = load_motion(REPO / "motions" / "arm6" / "pick_and_place.yaml")
-    simulated = simulate_motion(motion)
+    path = REPO / "motions" / "arm6" / "pick_and_place.yaml"
+    motion, simulated = load_motion(path), simulated_shipped(path)
     rollout = simulated.rollout
     assert run_checks(simulated) == []  # no collision, the block neither dropped nor misplaced
     tool = site_path_mm(rollout, motion, "tool", every=1)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from paths import REPO
+from shipped_helpers import simulated_shipped
 
 from choreo.motion.motion_file import load_motion
 from choreo.preview import CheckKind, Severity, gait_outcomes, run_checks, simulate_motion
@@ -33,7 +34,7 @@ def test_a_gait_that_never_lifts_its_feet_goes_nowhere_and_is_warned(tmp_path):
 def test_walk_forward_reports_its_travel_and_feet_within_the_thresholds():
     """Six 40 mm tripod steps: the body does ~232 mm, the swinging feet rise ~102 % of the
     30 mm lift (hexapod18's robot file makes up for its sag and slip): no warning."""
-    simulated = simulate_motion(load_motion(HEXAPOD / "walk_forward.yaml"))
+    simulated = simulated_shipped(HEXAPOD / "walk_forward.yaml")
     (gait,) = simulated.gaits
     assert gait.travel_fraction == pytest.approx(1, abs=TOLERANCE)
     assert gait.lift_fraction == pytest.approx(1, abs=TOLERANCE)
@@ -52,7 +53,7 @@ TOLERANCE = 0.1  # the docs' promise: lift, stride and turn achieved within +-10
 def test_the_shipped_gaits_achieve_what_they_ask_within_the_tolerance(name):
     """Without hexapod18's gait: compensation its walks fell 3-16 % short and its swinging feet
     rose 71-79 % of the lift (the servos give way under the body, the feet slip)."""
-    outcomes = simulate_motion(load_motion(HEXAPOD / f"{name}.yaml")).gaits
+    outcomes = simulated_shipped(HEXAPOD / f"{name}.yaml").gaits
     assert outcomes
     for gait in outcomes:
         travel = gait.travel_fraction if gait.turn_fraction is None else gait.turn_fraction
