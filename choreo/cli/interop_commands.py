@@ -64,7 +64,8 @@ def register(subparsers) -> None:
         "mirror",
         help="write a motion mirrored left <-> right",
         description="Swap left and right with the robot's mirror pairs; every keyframe keeps its "
-        "timing, hold, stop and velocity (includes are written out in place).",
+        "timing, hold, stop and velocity (includes are written out in place), and the motion "
+        "its name, start, end and props (reflected in the x-z plane, as the robot is).",
     )
     mirror.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
     add_output_arguments(mirror, "OUT.yaml", "the motion file to write")

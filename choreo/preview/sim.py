@@ -556,7 +556,8 @@ class _ContactLog:
         self._on_world = model.geom_bodyid == 0
         self._min_depth_m = min_depth_m
         self._last_pairs = b""
-        self._watched = np.empty(0, dtype=int)  # indices into the current contact list
+        # indices into the current contact list, with the pair each touch belongs to
+        self._watched: list[tuple[int, tuple[int, str, str]]] = []
         self._pair_ids: dict[tuple[int, str, str], int] = {}
         self.steps: list[int] = []
         self.pair_index: list[int] = []
@@ -568,24 +569,27 @@ class _ContactLog:
         pairs = geoms.tobytes()
         if pairs != self._last_pairs:
             self._last_pairs = pairs
-            self._watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
-        if not len(self._watched):
+            watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
+            self._watched = [(int(i), self._pair_key(*geoms[i])) for i in watched]
+        if not self._watched:
             return
         depths = -contact.dist[: data.ncon]
-        for i in self._watched:
+        for i, key in self._watched:
             if depths[i] > self._min_depth_m:
                 self.steps.append(step)
-                self.pair_index.append(self._pair_id(int(geoms[i, 0]), int(geoms[i, 1])))
+                self.pair_index.append(self._pair_ids.setdefault(key, len(self._pair_ids)))
                 self.depths_m.append(float(depths[i]))
 
-    def _pair_id(self, g1: int, g2: int) -> int:
+    def _pair_key(self, g1: int, g2: int) -> tuple[int, str, str]:
+        """The pair's kind and names (the world's or a prop's second, else sorted), which are
+        numbered as they are first recorded."""
         kind = int(self._kinds[g1, g2])
         a, b = self._labels[g1], self._labels[g2]
         if kind in (FLOOR_CONTACT, GROUND_CONTACT, FOOT_CONTACT):
             names = (b, a) if self._on_world[g1] else (a, b)
         else:
             names = (a, b) if a <= b else (b, a)  # sorted
-        return self._pair_ids.setdefault((kind, *names), len(self._pair_ids))
+        return (kind, *names)
 
     @property
     def named(self) -> int:
