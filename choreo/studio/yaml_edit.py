@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 
 from choreo.motion.gait import BodyPose
+from choreo.motion.keyframe_entry import TIMING_KEYS  # the loader's: one list of timing keys
 from choreo.motion.music_block import BeatGrid
 from choreo.studio import require
 
-TIMING_KEYS = ("t", "after", "beat", "bar")
 BEAT_DECIMALS = 3  # a thousandth of a beat: well under a millisecond at any tempo
 SPACE_KEYS = ("sites", "body", "gait")  # a joint pose written over a keyframe replaces these
 DECIMALS = 1  # degrees and times written with one decimal (0.1° is below a servo's step)
