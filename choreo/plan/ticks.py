@@ -112,14 +112,7 @@ def compile_ticks(
     ``PlanningError`` if a servo would leave its range (0..1000 units; never clamped) or if the
     bus floor makes the tolerance unreachable.
     """
-    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)
-    if bus_margin_ms < 0:
-        raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
-    if trajectory.joint_names != robot.joint_names:
-        raise ValueError(
-            f"the trajectory's joints {trajectory.joint_names} are not the robot's "
-            f"{robot.joint_names}"
-        )
+    _check_arguments(trajectory, robot, tolerance_deg, bus_margin_ms)
     end_ms = math.ceil(round(trajectory.duration_s * 1000, 6))
     if end_ms == 0:
         return TickPlan((), tolerance_deg, 0.0, 0, 0.0)
@@ -130,10 +123,36 @@ def compile_ticks(
     bounds, forced = search.ticks(floor_ms)
     if forced:
         _check_forced(robot, search, bounds, forced, floor_ms)
-
     targets = servo.to_units(search.samples_deg[:, bounds].T)
+    servo.check_targets(targets, bounds * search.step_ms)
+    plan = _tick_plan(search, bounds, targets, robot)
+    log.debug(
+        "%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)",
+        len(plan.ticks),
+        plan.total_bytes,
+        plan.max_deviation_deg,
+        search.step_ms,
+    )
+    return plan
+
+
+def _check_arguments(
+    trajectory: Trajectory, robot: Robot, tolerance_deg: float, bus_margin_ms: float
+) -> None:
+    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)
+    if bus_margin_ms < 0:
+        raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
+    if trajectory.joint_names != robot.joint_names:
+        raise ValueError(
+            f"the trajectory's joints {trajectory.joint_names} are not the robot's "
+            f"{robot.joint_names}"
+        )
+
+
+def _tick_plan(search: _Search, bounds: np.ndarray, targets: np.ndarray, robot: Robot) -> TickPlan:
+    """The ticks between the lattice points ``bounds`` (targets in units at each), with what
+    they send and how far they stray."""
     bounds_ms = bounds * search.step_ms
-    servo.check_targets(targets, bounds_ms)
     staged = targets[1:] != targets[:-1]
     ticks = tuple(
         Tick(a, d, tuple(t), tuple(s))
@@ -148,17 +167,8 @@ def compile_ticks(
     n_staged = staged.sum(axis=1)
     sent = np.where(n_staged > 0, n_staged * MOVE_BYTES + START_BYTES, 0)
     use = wire_time_ms(sent[1:]) / np.diff(bounds_ms)[:-1]
-    plan = TickPlan(
-        ticks, tolerance_deg, deviation, int(sent.sum()), float(use.max()) if use.size else 0.0
-    )
-    log.debug(
-        "%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)",
-        len(ticks),
-        plan.total_bytes,
-        deviation,
-        search.step_ms,
-    )
-    return plan
+    peak_use = float(use.max()) if use.size else 0.0
+    return TickPlan(ticks, search.tolerance_deg, deviation, int(sent.sum()), peak_use)
 
 
 class _ServoPositions:
