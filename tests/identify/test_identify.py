@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import pytest
 import yaml
 from identify_helpers import make_identify_quick
@@ -12,6 +14,8 @@ from choreo.bus.settings import BusSettings
 from choreo.errors import UnsupportedByTransport
 from choreo.identify import identify
 from choreo.robot.robot_file import load_robot
+from choreo.robot.servo_figures import read_servo_figures
+from choreo.robot.types import GaitCompensation
 
 ARM6 = load_robot("arm6")
 TRUTH = {
@@ -96,3 +100,29 @@ def test_unknown_joints_are_refused_naming_the_valid_ones(tmp_path):
         pytest.raises(ValueError, match="no such joint; its joints: base_yaw"),
     ):
         identify(ARM6, bus, tmp_path / "f.yaml", joints=["knee"])
+
+
+def test_a_walkers_gait_is_recalibrated_with_the_measured_figures_and_kept_in_the_file(
+    tmp_path, quick, monkeypatch
+):
+    """The calibration itself is tested in tests/preview/test_gait_calibration.py."""
+    seen = []
+
+    def calibrated(robot):
+        seen.append(robot)
+        return GaitCompensation(8.0, 1.09, 1.15)
+
+    monkeypatch.setattr(sys.modules["choreo.identify.identify"], "calibrated_gait", calibrated)
+    hexapod = load_robot("hexapod18", with_figures=False)
+    output = tmp_path / "figures.yaml"
+    port = "sim://?physics=hexapod18&stand=1"
+    with ServoBus.from_settings(BusSettings(port=port)) as bus:
+        report = identify(hexapod, bus, output, joints=["lf_femur"])
+    (femur,) = report.identified
+    (measured,) = seen
+    assert dict(measured.joint("lf_femur").actuator) == femur.figures
+    assert report.gait == GaitCompensation(8.0, 1.09, 1.15)
+    assert read_servo_figures(output, hexapod).gait == report.gait
+    assert output.read_text().startswith("# hexapod18's servos as `choreo identify` measured")
+    with twin(tmp_path) as bus:  # an arm does not walk: no gait
+        assert identify(ARM6, bus, tmp_path / "arm.yaml", joints=["elbow"]).gait is None
