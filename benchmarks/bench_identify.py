@@ -208,11 +208,10 @@ def walk_travel() -> None:
         walking = port("hexapod18", truth_file, on_stand=False)
         with ServoBus.from_settings(BusSettings(port=walking)) as bus:
             twin = bus.emulator.physics  # type: ignore[union-attr]
-            start = twin._data.qpos[:2].copy()
+            start = twin.body_position_m(bus.clock.now())
             play_motion(motion, bus, on_note=lambda note: None)
-            bus.clock.sleep_until(bus.clock.now() + 0.5)
-            bus.read_position(robot.joints[0].servo_id)
-            real_mm = float(np.linalg.norm(twin._data.qpos[:2] - start)) * 1000
+            end = twin.body_position_m(bus.clock.now() + 0.5)  # settled
+            real_mm = float(np.linalg.norm(end[:2] - start[:2])) * 1000
     for name, overrides in (
         ("assumed figures", None),
         ("fitted figures", fitted),
