@@ -25,7 +25,7 @@ import yaml
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.atomic import write_text_atomically
-from choreo.errors import OptionError, UnsupportedByTransport
+from choreo.errors import OptionError, SourceError, UnsupportedByTransport
 from choreo.identify import fit
 from choreo.identify.fit import (
     Validation,
@@ -87,6 +87,9 @@ class IdentifyReport:
     # a walker's gait compensation, recalibrated in the preview with the file's figures (and
     # written to it); None for a robot that does not walk
     gait: GaitCompensation | None = None
+    # why a walker's gait compensation could not be recalibrated (its gaits refused with
+    # these figures: a stance too heavy for its servos), the file then has none
+    gait_problem: str | None = None
 
 
 def identify(
@@ -147,8 +150,12 @@ def identify(
     except KeyboardInterrupt:
         bus.stop_servos([joint.servo_id for joint in robot.joints])  # hold where they are
         raise
-    gait = _recalibrate_gait(output, robot) if output.exists() else None
-    return IdentifyReport(output, tuple(results), already, gait)
+    gait, problem = None, None
+    try:
+        gait = _recalibrate_gait(output, robot) if output.exists() else None
+    except SourceError as error:  # the calibration gaits cannot be walked with these servos
+        problem = "; ".join(error.problems)
+    return IdentifyReport(output, tuple(results), already, gait, problem)
 
 
 def _checked_joints(robot: Robot, joints: Sequence[str] | None, option: str) -> list[str]:
@@ -266,20 +273,31 @@ def _kept_figures(rated: dict[str, float], drop: bool) -> dict[str, float]:
 
 def _recalibrate_gait(output: Path, robot: Robot) -> GaitCompensation | None:
     """A walker's gait compensation found again in the preview with the figures in
-    ``output`` (remembered: a few seconds of CPU the first time), and written to it."""
+    ``output`` (remembered: a few seconds of CPU the first time), and written to it;
+    ``SourceError`` if the robot cannot walk the calibration gaits with them (the file then
+    keeps no gait: one an earlier run wrote was for other figures)."""
     if not walks(robot):
         return None
-    gait = calibrated_gait(with_servo_figures(robot, read_servo_figures(output, robot)))
+    try:
+        gait = calibrated_gait(with_servo_figures(robot, read_servo_figures(output, robot)))
+    except SourceError:
+        _write_gait(output, None)
+        raise
+    _write_gait(output, gait)
+    return gait
+
+
+def _write_gait(output: Path, gait: GaitCompensation | None) -> None:
     text = output.read_text(encoding="utf-8")
     header = "".join(line for line in text.splitlines(keepends=True) if line.startswith("#"))
     document = {key: value for key, value in yaml.safe_load(text).items() if key != "gait"}
-    document["gait"] = {
-        "lift_sag": gait.lift_sag_mm,
-        "stride_scale": gait.stride_scale,
-        "turn_scale": gait.turn_scale,
-    }
+    if gait is not None:
+        document["gait"] = {
+            "lift_sag": gait.lift_sag_mm,
+            "stride_scale": gait.stride_scale,
+            "turn_scale": gait.turn_scale,
+        }
     write_text_atomically(output, header + yaml.safe_dump(document, sort_keys=False))
-    return gait
 
 
 def _earlier_results(output: Path, robot: Robot) -> dict:

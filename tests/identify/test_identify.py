@@ -11,7 +11,7 @@ from identify_helpers import make_identify_quick
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
 from choreo.bus.settings import BusSettings
-from choreo.errors import UnsupportedByTransport
+from choreo.errors import SourceError, UnsupportedByTransport
 from choreo.identify import identify
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import read_servo_figures
@@ -128,3 +128,22 @@ def test_a_walkers_gait_is_recalibrated_with_the_measured_figures_and_kept_in_th
     assert output.read_text().startswith("# hexapod18's servos as `choreo identify` measured")
     with twin(tmp_path) as bus:  # an arm does not walk: no gait
         assert identify(ARM6, bus, tmp_path / "arm.yaml", joints=["elbow"]).gait is None
+
+
+def test_a_walker_too_heavy_for_its_measured_servos_keeps_no_gait_and_says_why(
+    tmp_path, quick, monkeypatch
+):
+    def too_heavy(robot):
+        raise SourceError("walk: gait: lm_femur needs 1.07 N·m, more than its 0.9 N·m")
+
+    monkeypatch.setattr(sys.modules["choreo.identify.identify"], "calibrated_gait", too_heavy)
+    hexapod = load_robot("hexapod18", with_figures=False)
+    output = tmp_path / "figures.yaml"
+    output.write_text("joints: {}\ngait: {lift_sag: 7, stride_scale: 1.06, turn_scale: 1.16}\n")
+    with ServoBus.from_settings(BusSettings(port="sim://?physics=hexapod18&stand=1")) as bus:
+        report = identify(hexapod, bus, output, joints=["lf_tibia"])
+    assert report.gait is None
+    assert report.gait_problem == "walk: gait: lm_femur needs 1.07 N·m, more than its 0.9 N·m"
+    written = read_servo_figures(output, hexapod)
+    assert written.gait is None  # the earlier one was for other figures
+    assert list(written.joints) == ["lf_tibia"]
