@@ -150,11 +150,7 @@ def identify(
     except KeyboardInterrupt:
         bus.stop_servos([joint.servo_id for joint in robot.joints])  # hold where they are
         raise
-    gait, problem = None, None
-    try:
-        gait = _recalibrate_gait(output, robot) if output.exists() else None
-    except SourceError as error:  # the calibration gaits cannot be walked with these servos
-        problem = "; ".join(error.problems)
+    gait, problem = _recalibrated_gait(output, robot)
     return IdentifyReport(output, tuple(results), already, gait, problem)
 
 
@@ -269,6 +265,17 @@ def _kept_figures(rated: dict[str, float], drop: bool) -> dict[str, float]:
         for key, value in rated.items()
         if key in FIGURES and (drop or key != "offset_deg")
     }
+
+
+def _recalibrated_gait(output: Path, robot: Robot) -> tuple[GaitCompensation | None, str | None]:
+    """The walker's gait compensation recalibrated and written (``_recalibrate_gait``), or
+    why it could not be; (None, None) for a robot that does not walk or no file."""
+    if not output.exists():
+        return None, None
+    try:
+        return _recalibrate_gait(output, robot), None
+    except SourceError as error:  # the calibration gaits cannot be walked with these servos
+        return None, "; ".join(error.problems)
 
 
 def _recalibrate_gait(output: Path, robot: Robot) -> GaitCompensation | None:
