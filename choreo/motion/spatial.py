@@ -392,17 +392,23 @@ class _Expander:
         where: SourceLocation,
         steps: list[int],
     ) -> bool:
-        """Told at the gait: line if the legs down cannot hold the robot up at some step."""
+        """Told at the gait: line if the legs down cannot hold the robot up at some step.
+        From the third step to the one before the last the feet stand under the body as in
+        the third (the body moves on, the pattern repeats; the ripple's overlapping swings
+        settle by then), so the first three and the last are judged: a long walk costs what a
+        short one does."""
         from choreo.motion.stance_load import worst_overload
 
-        overload = worst_overload(self.kin, feet, stances)
+        judged = [i for i, number in enumerate(steps) if number <= 3 or number == steps[-1]]
+        overload = worst_overload(self.kin, feet, [stances[i] for i in judged])
         if overload is None:
             return False
         o = overload
+        at_step = steps[judged[o.keyframe]]
         supply = "its rated supply" if o.supply_v is None else f"{o.supply_v:g} V"
         self._fail(
             where,
-            f"gait: at step {steps[o.keyframe]}, on {o.feet_down} feet, {o.joint} needs "
+            f"gait: at step {at_step}, on {o.feet_down} feet, {o.joint} needs "
             f"{o.needed_nm:.2f} N·m to hold the {o.mass_kg:.2f} kg robot up, more than its "
             f"servo's {o.stall_nm:.2f} N·m stall torque at {supply}: the legs would give way "
             "at any period; keep more feet down (pattern: ripple or wave), stand lower, or "

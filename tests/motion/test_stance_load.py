@@ -112,3 +112,22 @@ def test_a_gait_too_heavy_for_the_servos_is_told_at_its_line_with_what_would_hel
     # five feet down share the weight: the same servos carry it
     wave = walk(tmp_path, robot_file, "pattern: wave, steps: 1, stride: 40, period: 8")
     assert load_motion(wave).keyframes
+
+
+@pytest.mark.parametrize(
+    "gait",
+    [
+        Gait(Pattern.TRIPOD, 6, stride_mm=40),
+        Gait(Pattern.WAVE, 6, stride_mm=30, turn_deg=5),
+        Gait(Pattern.RIPPLE, 6, stride_mm=0, sideways_mm=30, turn_deg=8),
+    ],
+    ids=lambda gait: gait.pattern.value,
+)
+def test_from_the_third_step_the_feet_stand_under_the_body_as_in_the_third(gait):
+    """Why a gait's stances are judged at its first three steps and its last only."""
+    home_feet = np.array([KIN.site_pose(foot, HOME).position_mm for foot in FEET])
+    by_step: dict[int, list[np.ndarray]] = {}
+    for frame in gait_keyframes(home_feet, gait):
+        by_step.setdefault(frame.step, []).append(frame.feet_mm)
+    for step in range(4, gait.steps):
+        assert np.array(by_step[step]) == pytest.approx(np.array(by_step[3]), abs=1e-6)
