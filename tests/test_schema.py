@@ -20,6 +20,7 @@ from choreo.motion import motion_file as motion
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
 from choreo.robot import robot_file as robot
+from choreo.robot import servo_figures
 
 
 def schema(name: str) -> dict:
@@ -67,7 +68,7 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     )
     assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
-    assert robot.GAIT == Shape(tuple(robot.GAIT_BOUNDS), ())
+    assert servo_figures.GAIT == Shape(tuple(servo_figures.GAIT_BOUNDS), ())  # robot's gait:
     assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)
 
 
@@ -85,7 +86,8 @@ def test_the_ranges_the_robot_schema_repeats_are_the_codes():
 
 def test_the_gait_ranges_the_robot_schema_repeats_are_the_codes():
     gait = schema("robot")["properties"]["gait"]["properties"]
-    assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == robot.GAIT_BOUNDS
+    bounds = servo_figures.GAIT_BOUNDS  # a robot file's gait: and a servo figures file's
+    assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == bounds
 
 
 def test_the_time_bound_the_motion_schema_repeats_is_the_codes():

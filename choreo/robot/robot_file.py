@@ -39,7 +39,11 @@ from choreo.errors import SourceError
 from choreo.robot.check_cache import check_key, remember, remembered
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
-from choreo.robot.servo_figures import ServoFigures, read_servo_figures
+from choreo.robot.servo_figures import (
+    ServoFigures,
+    read_gait_compensation,
+    read_servo_figures,
+)
 from choreo.robot.types import (
     GaitCompensation,
     Joint,
@@ -59,7 +63,6 @@ DEFAULTS = mapping_shape("robot", "#/$defs/jointSettings")  # a joint's keys but
 BUS = mapping_shape("robot", "#/properties/bus")  # the baud rate is always 115200
 ECHO_MODES = choices("robot", "#/properties/bus/properties/echo")
 MIRROR_PAIR = mapping_shape("robot", "#/properties/mirror/items")
-GAIT = mapping_shape("robot", "#/properties/gait")
 ACTUATOR = mapping_shape("robot", "#/$defs/jointSettings/properties/actuator")
 # Required once the defaults are merged in (a shape the schema cannot say: they may come from
 # either), with what each is for.
@@ -70,8 +73,6 @@ REQUIRED_JOINT_KEYS = {
     "max": "the upper joint limit in degrees",
 }
 RATE_KEYS = ("velocity", "acceleration", "jerk")
-# A gait's lift sag (mm) and its stride and turn scales: beyond these it is not a correction.
-GAIT_BOUNDS = {"lift_sag": (0, 100), "stride_scale": (0.5, 2), "turn_scale": (0.5, 2)}
 TRAVEL_SLACK_UNITS = 1e-6  # float noise when a limit lands exactly on 0 or 1000
 
 
@@ -122,14 +123,10 @@ def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
     planning velocity, where its robot file does not set one, 80 % of its measured speed (as
     the servo table's is of the datasheet's).
 
-    The robot file's ``gait:`` compensation is kept as written, not derived from the measured
-    figures: hexapod18's numbers (commit 3c843b2) were tuned by simulating its shipped gaits in
-    the preview with the assumed figures and inverting the shortfall, and only part of it comes
-    from servo figures (the femur's give under load explains ~5 of the 7 mm of lift sag; the
-    coxa's dead zone ~1 of the ~2.4 mm a 40 mm stride loses; the rest is the feet slipping,
-    which no servo figure describes). Re-deriving it means the same calibration again in the
-    preview with the measured figures (a few gait simulations per robot), not a formula; until
-    that is done, re-tune ``gait:`` by hand after identifying (docs/motion-format.md)."""
+    The file's ``gait:`` compensation, if it has one, replaces the robot file's: ``choreo
+    identify`` writes it, recalibrated in the preview with the measured figures
+    (``preview/gait_calibration.py``), where the robot file's was tuned to the assumed ones.
+    Without one the robot file's is kept as written."""
     joints = []
     for joint in robot.joints:
         measured = figures.joints.get(joint.name, {})
@@ -143,7 +140,8 @@ def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
         joints.append(
             dataclasses.replace(joint, actuator={**joint.actuator, **measured}, limits=limits)
         )
-    return dataclasses.replace(robot, joints=tuple(joints), servo_figures=figures)
+    gait = robot.gait if figures.gait is None else figures.gait
+    return dataclasses.replace(robot, joints=tuple(joints), servo_figures=figures, gait=gait)
 
 
 def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
@@ -167,7 +165,11 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     joints = {source.name: source.joint for source in sources}
     poses = _read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
     mirror = _read_mirror(reader, fields["mirror"], joints) if "mirror" in fields else ()
-    gait = _read_gait(reader, fields["gait"]) if "gait" in fields else GaitCompensation()
+    gait = (
+        read_gait_compensation(reader, fields["gait"].value)
+        if "gait" in fields
+        else GaitCompensation()
+    )
     folder_name = reader.path.resolve().parent.name
     mjcf_path = _model_file(reader, fields.get("mjcf"), f"{folder_name}.xml", "the MuJoCo model")
     if "servo_figures" in fields:
@@ -268,18 +270,6 @@ def _read_bus(reader: Reader, entry: Entry) -> BusSettings:
         supply_v=supply_v,
         direction=direction,
     )
-
-
-def _read_gait(reader: Reader, entry: Entry) -> GaitCompensation:
-    fields = reader.fields(entry.value, "gait", GAIT.keys) or {}
-    # A refused value is reported (so the robot is refused too); its default stands in for it.
-    values = {
-        key: reader.number(fields[key].value, f"gait: {key}", low=low, high=high)
-        for key, (low, high) in GAIT_BOUNDS.items()
-        if key in fields
-    }
-    names = {"lift_sag": "lift_sag_mm"}
-    return GaitCompensation(**{names.get(k, k): v for k, v in values.items() if v is not None})
 
 
 def _read_direction(reader: Reader, node: Node) -> str | None:
