@@ -23,6 +23,7 @@ import numpy as np
 from choreo.music.features import COARSE_HOP
 
 WINDOW = 384  # tempogram frames (~8.9 s at 22050 Hz): librosa's default
+BLOCK = 1024  # frames of tempogram computed at a time
 START_BPM = 120.0  # librosa's prior: a log-normal around 120 BPM, one octave wide...
 MAX_BPM = 320.0  # ...and nothing faster than this
 FOLDS = (2.0, 0.5, 4 / 3, 3 / 4, 3 / 2, 2 / 3)  # the levels a frame may stray to from the dominant
@@ -56,9 +57,14 @@ def local_tempo(librosa, envelope: np.ndarray, rate_hz: int) -> LocalTempo:
 
     tempogram = _tempogram(librosa, envelope, rate_hz)
     bpms = librosa.tempo_frequencies(WINDOW, hop_length=COARSE_HOP, sr=rate_hz)
-    weight = _log_prior(bpms)[:, None]
-    own = np.argmax(np.log1p(1e6 * tempogram) + weight, axis=0)
-    dominant = int(np.argmax(np.log1p(1e6 * tempogram.mean(axis=1)) + weight[:, 0]))
+    weight = _log_prior(bpms)
+    own = np.concatenate(  # a block at a time: the weighted tempogram is float64
+        [
+            np.argmax(np.log1p(1e6 * tempogram[:, first : first + BLOCK]) + weight[:, None], axis=0)
+            for first in range(0, tempogram.shape[1], BLOCK)
+        ]
+    )
+    dominant = int(np.argmax(np.log1p(1e6 * tempogram.mean(axis=1)) + weight))
     folded = fold(tempogram, bpms, own, float(bpms[dominant]))
     fps = rate_hz / COARSE_HOP
     width = int(SMOOTH_S * fps) // 2 * 2 + 1
@@ -85,16 +91,17 @@ def fold(tempogram: np.ndarray, bpms: np.ndarray, own: np.ndarray, dominant_bpm:
 def _tempogram(librosa, envelope: np.ndarray, rate_hz: int) -> np.ndarray:
     """(WINDOW lags, frames): librosa's tempogram a block at a time, with margins so the blocks
     join seamlessly."""
-    block, margin = 1024, WINDOW // 2 + 64
-    parts = []
-    for first in range(0, len(envelope), block):
+    margin = WINDOW // 2 + 64
+    tempogram = np.empty((WINDOW, len(envelope)), dtype=np.float32)
+    for first in range(0, len(envelope), BLOCK):
         low = max(first - margin, 0)
-        part = envelope[low : first + block + margin]
-        tempogram = librosa.feature.tempogram(
+        part = envelope[low : first + BLOCK + margin]
+        block = librosa.feature.tempogram(
             onset_envelope=part, sr=rate_hz, hop_length=COARSE_HOP, win_length=WINDOW
         )
-        parts.append(tempogram[:, first - low : first - low + block].astype(np.float32))
-    return np.concatenate(parts, axis=1)[:, : len(envelope)]
+        kept = block[:, first - low : first - low + BLOCK]
+        tempogram[:, first : first + kept.shape[1]] = kept
+    return tempogram
 
 
 def _log_prior(bpms: np.ndarray) -> np.ndarray:
