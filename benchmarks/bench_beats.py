@@ -294,6 +294,7 @@ class Band:
     def __init__(self, duration_s: float, seed: int):
         self.rng = np.random.default_rng(seed)
         self.track = np.zeros(int(duration_s * RATE_HZ))
+        self.last_s = 0.0  # the last sound's start: no beat after it is heard
         self.kick, self.snare, self.hats = (
             kick(),
             snare(self.rng),
@@ -304,6 +305,7 @@ class Band:
     def play(self, at_s: float, sound: np.ndarray, gain: float, loose: float = 1.0) -> None:
         at_s += self.rng.uniform(-1, 1) * HUMAN_S * loose
         add(self.track, max(at_s, 0.0), sound, gain * self.rng.uniform(0.8, 1.0))
+        self.last_s = max(self.last_s, at_s)
 
     def drum(self, what: str, at_s: float, gain: float) -> None:
         sound = {
@@ -326,8 +328,14 @@ class Band:
     def pad(self, at_s, chord, duration_s, gain=0.15) -> None:
         root, *intervals = chord
         add(self.track, at_s, pad([pitch_hz(root, s, 3) for s in intervals], duration_s), gain)
+        self.last_s = max(self.last_s, at_s)
 
     def song(self, name, beats, downbeats, meter, tempo_bpm=None) -> Song:
+        """The song, its truth the beats up to the last sound (a song's last partial bar is not
+        played: beats in the silence after it are not heard, so not to be found)."""
+        heard = self.last_s + TOLERANCE_S
+        beats, downbeats = np.asarray(beats), np.asarray(downbeats)
+        beats, downbeats = beats[beats <= heard], downbeats[downbeats <= heard]
         peak = np.max(np.abs(self.track))
         samples = (0.9 * self.track / peak).astype(np.float32)
         if tempo_bpm is None:
