@@ -18,13 +18,21 @@ the analysis took; beside plain librosa (``beat_track`` on its default onset env
 it is installed with its weights, Beat This! (``pip install beat-this``). librosa gives no
 downbeats.
 
-Run: python benchmarks/bench_beats.py [--only NAME] [--set issue|earlier|all]
+Last, the budget: a 5-minute song (the rock band with fills, 300 s at 120 BPM) analysed in a
+fresh process after a warm-up: the time detect_beats takes and the process's peak resident memory
+(librosa and numpy included; goals: within 10 s and 400 MB).
+
+Run: python benchmarks/bench_beats.py [--only NAME] [--set issue|earlier|all] [--no-budget]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import resource
+import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -286,6 +294,7 @@ class Band:
     def __init__(self, duration_s: float, seed: int):
         self.rng = np.random.default_rng(seed)
         self.track = np.zeros(int(duration_s * RATE_HZ))
+        self.last_s = 0.0  # the last sound's start: no beat after it is heard
         self.kick, self.snare, self.hats = (
             kick(),
             snare(self.rng),
@@ -296,6 +305,7 @@ class Band:
     def play(self, at_s: float, sound: np.ndarray, gain: float, loose: float = 1.0) -> None:
         at_s += self.rng.uniform(-1, 1) * HUMAN_S * loose
         add(self.track, max(at_s, 0.0), sound, gain * self.rng.uniform(0.8, 1.0))
+        self.last_s = max(self.last_s, at_s)
 
     def drum(self, what: str, at_s: float, gain: float) -> None:
         sound = {
@@ -318,8 +328,14 @@ class Band:
     def pad(self, at_s, chord, duration_s, gain=0.15) -> None:
         root, *intervals = chord
         add(self.track, at_s, pad([pitch_hz(root, s, 3) for s in intervals], duration_s), gain)
+        self.last_s = max(self.last_s, at_s)
 
     def song(self, name, beats, downbeats, meter, tempo_bpm=None) -> Song:
+        """The song, its truth the beats up to the last sound (a song's last partial bar is not
+        played: beats in the silence after it are not heard, so not to be found)."""
+        heard = self.last_s + TOLERANCE_S
+        beats, downbeats = np.asarray(beats), np.asarray(downbeats)
+        beats, downbeats = beats[beats <= heard], downbeats[downbeats <= heard]
         peak = np.max(np.abs(self.track))
         samples = (0.9 * self.track / peak).astype(np.float32)
         if tempo_bpm is None:
@@ -606,7 +622,11 @@ def main() -> int:
     parser.add_argument(
         "--set", choices=("issue", "earlier", "all"), default="all", help="which songs to run"
     )
+    parser.add_argument("--no-budget", action="store_true", help="skip the 5-minute song")
+    parser.add_argument("--budget-child", help=argparse.SUPPRESS)  # samples (.npy) to analyse
     args = parser.parse_args()
+    if args.budget_child:
+        return budget_child(Path(args.budget_child))
     librosa = require_librosa()
     warm_up = songs()[0].samples[: 5 * RATE_HZ]  # numba compiles on first use: not timed
     detect_beats(Audio(warm_up, RATE_HZ))
@@ -687,6 +707,56 @@ def main() -> int:
         for key, values in totals.items():
             how = f"{sum(values):.0f} of {len(values)}" if "within" in key or "right" in key else ""
             print(f"  {key:26} {how or f'{np.mean(values):.3f} on average'}")
+    if not args.no_budget:
+        five_minute_budget()
+    return 0
+
+
+BUDGET_SONG_S, BUDGET_S, BUDGET_MB = 300.0, 10.0, 400.0
+
+
+def five_minute_budget() -> None:
+    """The 5-minute song analysed in a fresh process (so the peak memory is the analysis's, not
+    the synthesis's or the other songs'), its beats scored here."""
+    beats = beat_times(lambda t: 120.0, 0.3, BUDGET_SONG_S)
+    song = rock("5 minutes", beats, 15, fills=True)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "song.npy"
+        np.save(path, song.samples)
+        child = [sys.executable, __file__, "--budget-child", str(path)]
+        result = json.loads(
+            subprocess.run(child, capture_output=True, text=True, check=True).stdout
+        )
+    took, cpu, peak = result["took_s"], result["cpu_s"], result["peak_mb"]
+    met = "met" if took <= BUDGET_S and peak <= BUDGET_MB else "MISSED"
+    print(
+        f"\n{BUDGET_SONG_S / 60:.0f}-minute song: detect_beats {took:.1f} s (CPU {cpu:.1f} s), "
+        f"peak memory {peak:.0f} MB (goals: {BUDGET_S:.0f} s, {BUDGET_MB:.0f} MB: {met}); "
+        f"beat F {f_measure(result['beats_s'], song.beats_s):.2f}, "
+        f"downbeat F {f_measure(result['downbeats_s'], song.downbeats_s):.2f}"
+    )
+
+
+def budget_child(path: Path) -> int:
+    """Analyse the samples at ``path`` after a warm-up (numba's compiling is not the song's);
+    print the time, CPU time, peak resident memory and the beats as JSON."""
+    samples = np.load(path)
+    detect_beats(Audio(samples[: 5 * RATE_HZ], RATE_HZ))
+    began, cpu = time.perf_counter(), time.process_time()
+    analysis = detect_beats(Audio(samples, RATE_HZ))
+    took, cpu = time.perf_counter() - began, time.process_time() - cpu
+    peak_mb = _peak_resident_mb()
+    print(
+        json.dumps(
+            {
+                "took_s": took,
+                "cpu_s": cpu,
+                "peak_mb": peak_mb,
+                "beats_s": analysis.beats_s,
+                "downbeats_s": analysis.downbeats_s,
+            }
+        )
+    )
     return 0
 
 
@@ -714,6 +784,18 @@ def beat_this_tracker():
         return bpm, np.asarray(beats), np.asarray(downbeats)
 
     return track
+
+
+def _peak_resident_mb() -> float:
+    """This process's peak resident memory: VmHWM on Linux (getrusage's ru_maxrss keeps the
+    parent's peak across fork and exec: the child of a 500 MB bench would say 500 MB)."""
+    status = Path("/proc/self/status")
+    if status.exists():
+        for line in status.read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024  # kB
+    scale = 1024 * 1024 if sys.platform == "darwin" else 1024  # bytes on macOS, else kB
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / scale
 
 
 def _tempo_error(bpm: float, truth: float) -> str:

@@ -50,6 +50,7 @@ LIBROSA_FILES = (
     "tests/motion/test_music_block.py",
     "tests/cli/test_music_commands.py",
     "tests/music/test_neural.py",
+    "tests/music/test_tempo.py",
     "tests/test_docs.py",
 )
 

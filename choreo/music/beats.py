@@ -3,9 +3,9 @@
 Built on librosa's features (the ``choreo[music]`` extra, imported only here; the downbeat
 trackers on PyPI need torch or no longer build, see the docs):
 
-- **Beats** follow the local tempo: librosa's tempogram gives a tempo per frame (8 s windows),
-  smoothed over ``TEMPO_SMOOTH_S``; a song whose local tempo stays within ``STEADY_SPREAD`` of
-  its median is tracked at one tempo, any other with the tempo changing along the song (its
+- **Beats** follow the local tempo (:mod:`~choreo.music.tempo`: librosa's tempogram, each
+  frame folded onto the song's dominant level, smoothed); a song whose local tempo is steady is
+  tracked at one tempo, any other with the tempo changing along the song (its
   dynamic-programming tracker takes a tempo per frame). The tracker runs on the onset envelope
   with its low band (kick, bass) counted twice, so loud off-beat stabs don't pull the grid off.
   Each beat is then moved onto the sharpest onset within ``SNAP_S`` (3 ms frames), so beats are
@@ -39,15 +39,17 @@ from choreo.errors import ChoreoError, Worded
 from choreo.music.bars import GAP, find_bars
 from choreo.music.decode import Audio, decode_song
 from choreo.music.features import COARSE_HOP, Features, around, normalised, song_features
+from choreo.music.tempo import local_tempo
 
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
-TEMPO_SMOOTH_S = 6.0  # the local tempo's median filter
-STEADY_SPREAD = 0.03  # local tempo within this of its median nearly everywhere: one tempo
 STEADY_CONFIDENCE = 0.2  # below this there is no steady beat
 OFFBEAT_RATIO = 0.5  # onsets between the beats this strong against on them: maybe off-beat
 SILENT = 0.02  # a beat this much quieter than the song's typical one is in a silence
 BACKBEAT = 0.25  # snares on even and odd beats within this of each other: on every beat
+# the snare on every other midpoint this much stronger than on either half of the beats: the beats
+# are on the off-beats (funk tracked off the beat: 1.7; songs on the beat: at most 0.93)
+BACKBEAT_BETWEEN = 1.3
 ODD_METER_BPM = 200.0  # 5 or 7 beats to the bar tracked at half tempo are doubled up to this
 FAST_BPM, SLOW_BPM = 140.0, 70.0  # beyond these the felt beat is often half / twice the tracked
 # the alternative grids: every other beat, a beat between each two, three beats in each (the
@@ -251,26 +253,41 @@ def _no_beats(audio: Audio, beats_per_bar: int | None) -> BeatAnalysis:
 
 # --- beats -------------------------------------------------------------------------------------
 def _track(librosa, features: Features, scale: float = 1.0) -> np.ndarray:
-    """The beats, at ``scale`` times the tempo the song's tempogram says."""
+    """The beats, at ``scale`` times the tempo the song's tempogram says (at its dominant level)."""
     envelope = normalised(features.onset) + normalised(features.low)
-    local = _local_tempo(librosa, envelope, features.rate_hz)
-    width = int(TEMPO_SMOOTH_S * features.coarse_fps) // 2 * 2 + 1
-    import scipy.ndimage
-
-    local = scipy.ndimage.median_filter(local, size=width, mode="nearest")
-    median = float(np.median(local))
-    steady = np.mean(np.abs(local / median - 1) <= STEADY_SPREAD) >= 0.9
+    tempo = local_tempo(librosa, envelope, features.rate_hz)
     _, frames = librosa.beat.beat_track(
         onset_envelope=envelope,
         sr=features.rate_hz,
         hop_length=COARSE_HOP,
         trim=False,
-        bpm=scale * median if steady else scale * local,
+        bpm=scale * (tempo.median_bpm if tempo.steady else tempo.bpm),
     )
     tracked = np.asarray(frames, dtype=float) / features.coarse_fps
-    return _drop_silent(
-        _extend(_snap(tracked, features.fine, features.fine_fps), features), features
-    )
+    return _onto_the_backbeat(features, _placed(tracked, features))
+
+
+def _placed(beats: np.ndarray, features: Features) -> np.ndarray:
+    """The beats snapped onto onsets, extended to either end, less those in silence."""
+    return _drop_silent(_extend(_snap(beats, features.fine, features.fine_fps), features), features)
+
+
+def _onto_the_backbeat(features: Features, beats: np.ndarray) -> np.ndarray:
+    """The beats moved half a beat where the snare's backbeat falls between them. A backbeat is
+    a snare on every other beat: a grid whose every other midpoint carries the snare more
+    strongly than either half of its beats is on the off-beats (funk's syncopated kick and bass,
+    counted twice by the tracker, pull it there)."""
+    if len(beats) < MIN_BEATS:
+        return beats
+    middles = (beats[:-1] + beats[1:]) / 2
+
+    def backbeat(times: np.ndarray) -> float:
+        snare = around(features.snare, times, features.coarse_fps, SNAP_S)
+        return max(float(snare[0::2].mean()), float(snare[1::2].mean()))
+
+    if backbeat(middles) < BACKBEAT_BETWEEN * backbeat(beats):
+        return beats
+    return _placed(middles, features)
 
 
 def _drop_silent(beats: np.ndarray, features: Features) -> np.ndarray:
@@ -279,21 +296,6 @@ def _drop_silent(beats: np.ndarray, features: Features) -> np.ndarray:
         return beats
     loudness = around(features.rms, beats, features.coarse_fps, SNAP_S)
     return beats[loudness > SILENT * np.median(loudness)]
-
-
-def _local_tempo(librosa, envelope: np.ndarray, rate_hz: int) -> np.ndarray:
-    """librosa's tempo per frame, a block at a time: its tempogram (384 lags per frame) of a
-    whole song would take several times the samples' memory."""
-    block, margin = 1024, 256  # frames; the tempogram window is 384 frames, centred
-    parts = []
-    for first in range(0, len(envelope), block):
-        low = max(first - margin, 0)
-        part = envelope[low : first + block + margin]
-        tempo = librosa.feature.tempo(
-            onset_envelope=part, sr=rate_hz, hop_length=COARSE_HOP, aggregate=None
-        )
-        parts.append(tempo[first - low : first - low + block])
-    return np.concatenate(parts)[: len(envelope)]
 
 
 def _snap(beats: np.ndarray, envelope: np.ndarray, frame_rate: float) -> np.ndarray:

@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from choreo.music.bars import METERS, find_bars, harmonic_change
+from choreo.music.bars import (
+    LOCAL_BEATS,
+    METERS,
+    find_bars,
+    harmonic_change,
+    locally_standardised,
+)
 from choreo.music.features import COARSE_HOP, Features
 
 RATE_HZ = 22050
@@ -73,3 +79,14 @@ def test_harmonic_change_is_over_bars_not_beat_to_beat():
     change = harmonic_change(chroma, 4)
     assert np.argmax(change[4:]) + 4 == 8  # where the bars change, not where the notes do
     assert change[4] == pytest.approx(0.0)  # bar 2 repeats bar 1: no change at its downbeat
+
+
+def test_a_quiet_section_s_downbeats_stand_out_like_a_loud_one_s():
+    # a quiet intro whose downbeats are 0.2 above its other beats, then a loud band whose are 1.0
+    # above: against the whole song, every beat of the intro would be below every beat of the band
+    quiet, loud = np.tile([0.3, 0.1, 0.1, 0.1], 32), np.tile([6.0, 5.0, 5.0, 5.0], 32)
+    cue = locally_standardised(np.concatenate([quiet, loud]))
+    beat = np.arange(len(cue))
+    away = np.abs(beat - 127.5) > 2.5 * LOCAL_BEATS  # near the change the sections blend
+    downbeat = beat % 4 == 0
+    assert cue[away & downbeat].min() > cue[away & ~downbeat].max()

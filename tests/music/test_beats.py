@@ -134,3 +134,46 @@ def test_detection_needs_little_more_memory_than_the_samples():
     finally:
         tracemalloc.stop()
     assert peak < 4 * audio.samples.nbytes  # whole-song spectrograms took 13 times as much
+
+
+def sixteenths_band(bpm: float, bars: int, parts: dict[str, tuple[int, ...]]) -> Audio:
+    """A band in 4/4 at ``bpm`` from 0.5 s: each of ``parts`` (kick, snare, hat, bass, keys)
+    struck on the sixteenths of every bar it lists (0 to 15); bass and keys on a root that
+    changes every bar."""
+    rng = np.random.default_rng(0)
+    sixteenth_s = 15 / bpm
+    samples = np.zeros(int((0.5 + bars * 16 * sixteenth_s + 1.0) * 22050), np.float32)
+    t = np.arange(int(0.3 * 22050)) / 22050
+    fade = np.minimum((0.3 - t) / 0.02, 1)  # no click where a sound is cut
+    sounds = {
+        "kick": np.sin(2 * np.pi * np.cumsum(45 + 110 * np.exp(-t / 0.03)) / 22050)
+        * np.exp(-t / 0.1),
+        "snare": 0.6 * np.diff(rng.standard_normal(len(t) + 1)) * np.exp(-t / 0.05),
+        "hat": 0.05 * np.diff(rng.standard_normal(len(t) + 2), 2) * np.exp(-t / 0.01),
+    }
+    for bar in range(bars):
+        root_hz = (65.4, 55.0, 43.7, 49.0)[bar % 4]
+        sounds["bass"] = 0.5 * np.sin(2 * np.pi * root_hz * t) * np.exp(-t / 0.2)
+        sounds["keys"] = 0.5 * np.sin(2 * np.pi * 5 * root_hz * t) * np.exp(-t / 0.2)
+        for part, sixteenths in parts.items():
+            for s in sixteenths:
+                i = int(round((0.5 + (16 * bar + s) * sixteenth_s) * 22050))
+                n = min(len(t), len(samples) - i)
+                samples[i : i + n] += (sounds[part] * fade)[:n]
+    return Audio(samples / np.max(np.abs(samples)), 22050)
+
+
+def test_funk_s_syncopated_kick_and_bass_do_not_pull_the_beats_off_the_backbeat():
+    # kick on 1, the a of 1 and the and of 3, the bass mostly off the beat, sixteenth hats, the
+    # snare on 2 and 4: counting the low band twice, the tracker alone sat on the off-beats
+    funk = {
+        "kick": (0, 3, 10),
+        "snare": (4, 12),
+        "hat": tuple(range(16)),
+        "bass": (0, 3, 6, 8, 11, 14),
+        "keys": (5, 14),
+    }
+    analysis = detect_beats(sixteenths_band(100, 8, funk))
+    times = 0.5 + np.arange(32) * 0.6
+    assert_beats_match(analysis.beats_s, times)
+    assert_beats_match(analysis.downbeats_s, times[::4])
