@@ -19,6 +19,7 @@ from choreo.motion import keyframe_entry
 from choreo.motion import motion_file as motion
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
+from choreo.robot import bus_entry, joint_entry
 from choreo.robot import robot_file as robot
 
 
@@ -60,19 +61,19 @@ def test_the_loaders_take_their_keys_from_the_schemas():
         "gait",
     )  # fmt: skip
     assert robot.ROBOT.required == ("name", "joints", "poses")
-    assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
-    assert robot.JOINT.required == ("id",)
-    assert robot.BUS == Shape(
+    assert joint_entry.JOINT.keys == ("id", *robot.DEFAULTS.keys)
+    assert joint_entry.JOINT.required == ("id",)
+    assert bus_entry.BUS == Shape(
         ("port", "timeout_ms", "retries", "echo", "supply_v", "direction"), ()
     )
-    assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
+    assert bus_entry.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
     assert robot.GAIT == Shape(tuple(robot.GAIT_BOUNDS), ())
-    assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)
+    assert set(joint_entry.REQUIRED_JOINT_KEYS) <= set(joint_entry.JOINT.keys)
 
 
 def test_the_preview_knows_every_actuator_key_of_the_schema():
-    assert robot.ACTUATOR.keys == ACTUATOR_FIELDS
+    assert joint_entry.ACTUATOR.keys == ACTUATOR_FIELDS
 
 
 def test_the_ranges_the_robot_schema_repeats_are_the_codes():
