@@ -7,7 +7,8 @@ checked against its MuJoCo model, and its named sites solved by inverse kinemati
   its joints, poses and bus block;
 - :mod:`~choreo.robot.lookup`: robots found by name (``models/<name>/robot.yaml``);
 - :mod:`~choreo.robot.model_check`: robot.yaml against its MJCF model;
-- :mod:`~choreo.robot.kinematics`: IK of named sites.
+- :mod:`~choreo.robot.kinematics`: IK of named sites (:mod:`~choreo.robot.ik_descent`: its damped
+  least squares, on arrays).
 """
 
 from __future__ import annotations
