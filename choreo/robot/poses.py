@@ -10,6 +10,8 @@ from choreo.core.yaml_source import Entry, Node, Reader, did_you_mean, fmt
 from choreo.robot.joint_entry import all_given
 from choreo.robot.types import Joint
 
+HOME_POSE = "home"  # the pose every robot has: motions start from it and fill partial poses
+
 
 def read_angles(
     reader: Reader, node: Node, what: str, joints: Mapping[str, Joint | None]
@@ -65,7 +67,7 @@ def read_poses(
         elif (given := all_given(angles)) is not None:
             poses[pose.key] = MappingProxyType({name: given[name] for name in joints})
     names = [pose.key for pose in pose_entries or []]
-    if pose_entries is not None and "home" not in names:
+    if pose_entries is not None and HOME_POSE not in names:
         reader.report(
             entry.key_node,
             f"poses: the 'home' pose is missing"
