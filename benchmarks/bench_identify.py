@@ -14,7 +14,7 @@ Prints:
    true figures (the goal: the fitted within 3 %).
 
     python benchmarks/bench_identify.py [--robot arm6] [--truths 5] [--skip-robot] [--skip-truths]
-        [--walk]
+        [--walk] [--cases hexapod18:lf_coxa]
 """
 
 from __future__ import annotations
@@ -104,7 +104,11 @@ def whole_robot(robot_name: str) -> None:
     )
 
 
-def recovery(truths: int, models: list[str] | None = None) -> None:
+def recovery(
+    truths: int,
+    models: list[str] | None = None,
+    cases: tuple[tuple[str, str], ...] = CASES,
+) -> None:
     print(
         f"== recovery: {truths} random truths per servo model (goal ±15 %, 0.1° for dead band "
         "and backlash)"
@@ -113,7 +117,7 @@ def recovery(truths: int, models: list[str] | None = None) -> None:
     header = "  model     " + "".join(f"{label:>22s}" for _, label, _ in SHOWN)
     hits: dict[str, list[bool]] = {name: [] for name, _, _ in SHOWN}
     before, after = [], []
-    for robot_name, joint in CASES:
+    for robot_name, joint in cases:
         robot = load_robot(robot_name, with_figures=False)
         model = robot.joint(joint).servo_model
         if models and model not in models:
@@ -204,11 +208,10 @@ def walk_travel() -> None:
         walking = port("hexapod18", truth_file, on_stand=False)
         with ServoBus.from_settings(BusSettings(port=walking)) as bus:
             twin = bus.emulator.physics  # type: ignore[union-attr]
-            start = twin._data.qpos[:2].copy()
+            start = twin.body_position_m(bus.clock.now())
             play_motion(motion, bus, on_note=lambda note: None)
-            bus.clock.sleep_until(bus.clock.now() + 0.5)
-            bus.read_position(robot.joints[0].servo_id)
-            real_mm = float(np.linalg.norm(twin._data.qpos[:2] - start)) * 1000
+            end = twin.body_position_m(bus.clock.now() + 0.5)  # settled
+            real_mm = float(np.linalg.norm(end[:2] - start[:2])) * 1000
     for name, overrides in (
         ("assumed figures", None),
         ("fitted figures", fitted),
@@ -228,6 +231,12 @@ def main() -> int:
     parser.add_argument("--robot", default="arm6")
     parser.add_argument("--truths", type=int, default=5)
     parser.add_argument("--models", nargs="+", help="only these servo models' cases")
+    parser.add_argument(
+        "--cases",
+        nargs="+",
+        metavar="ROBOT:JOINT",
+        help="the recovery table's joints instead of the three above (e.g. hexapod18:lf_coxa)",
+    )
     parser.add_argument("--skip-robot", action="store_true")
     parser.add_argument("--skip-truths", action="store_true")
     parser.add_argument("--walk", action="store_true")
@@ -237,7 +246,8 @@ def main() -> int:
     if not args.skip_robot:
         whole_robot(args.robot)
     if not args.skip_truths:
-        recovery(args.truths, args.models)
+        cases = tuple(tuple(c.split(":", 1)) for c in args.cases) if args.cases else CASES
+        recovery(args.truths, args.models, cases)  # type: ignore[arg-type]
     return 0
 
 

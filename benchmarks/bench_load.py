@@ -7,8 +7,7 @@ subprocess several times (best and median wall time, and its CPU time), and its 
 in-process (CPU time, after a warm-up run) to show where the time goes: YAML loading, reading the
 motion (and its robot), planning, ticks, report; start-up is what the command takes beyond them
 (the interpreter, imports). The robot's model check is remembered from the warm-up on, as from a
-user's second run (choreo.robot.check_cache), so MuJoCo is not loaded. Where two cores are free,
-the ticks' stage takes less wall time than its CPU time (a second thread).
+user's second run (choreo.robot.check_cache), so MuJoCo is not loaded.
 choreo's modules are byte-compiled first, as pip does when it installs them: where
 PYTHONDONTWRITEBYTECODE is set (it is in this project's development environment) each run would
 otherwise compile them again, some 0.1-0.2 s that no installed choreo spends.

@@ -18,7 +18,7 @@ from choreo.core.file_shape import Shape, mapping_shape
 from choreo.motion import keyframe_entry, keyframe_list
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
-from choreo.robot import bus_entry, joint_entry
+from choreo.robot import bus_entry, joint_entry, servo_figures
 from choreo.robot import robot_file as robot
 
 
@@ -69,7 +69,7 @@ def test_the_loaders_take_their_keys_from_the_schemas():
     )
     assert bus_entry.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
-    assert robot.GAIT == Shape(tuple(robot.GAIT_BOUNDS), ())
+    assert servo_figures.GAIT == Shape(tuple(servo_figures.GAIT_BOUNDS), ())  # robot's gait:
     assert set(joint_entry.REQUIRED_JOINT_KEYS) <= set(joint_entry.JOINT.keys)
 
 
@@ -87,7 +87,8 @@ def test_the_ranges_the_robot_schema_repeats_are_the_codes():
 
 def test_the_gait_ranges_the_robot_schema_repeats_are_the_codes():
     gait = schema("robot")["properties"]["gait"]["properties"]
-    assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == robot.GAIT_BOUNDS
+    bounds = servo_figures.GAIT_BOUNDS  # a robot file's gait: and a servo figures file's
+    assert {key: (v["minimum"], v["maximum"]) for key, v in gait.items()} == bounds
 
 
 def test_the_time_bound_the_motion_schema_repeats_is_the_codes():

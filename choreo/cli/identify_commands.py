@@ -116,6 +116,15 @@ def run_identify(args: argparse.Namespace) -> int:
             f"wrote {output}: {len(report.identified)} joint(s), "
             f"{sum(rates) / len(rates):.0f} position reads/s"
         )
+    if report.gait is not None:
+        gait = report.gait
+        print(
+            f"gait compensation recalibrated in the preview with these figures (in {output}): "
+            f"lift +{gait.lift_sag_mm:g} mm, stride x{gait.stride_scale:g}, "
+            f"turn x{gait.turn_scale:g}"
+        )
+    if report.gait_problem is not None:
+        print(f"gait compensation not recalibrated: {report.gait_problem}")
     if robot.servo_figures is None or Path(robot.servo_figures.path).resolve() != output.resolve():
         print(f"to use it, add to {robot.path}:  servo_figures: {_relative(output, robot.path)}")
     return 0

@@ -5,7 +5,10 @@ One joint at a time, the others holding the pose the robot stands in: the joint'
 (``moves``) run on the bus with reads as fast as it allows (``measure``), its figures are fitted
 on a model of that joint alone under the robot's own load (``fit``, ``joint_model``), and the
 file is written after every joint, so a run stopped half way goes on from the next joint. Ctrl-C
-(and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo where it is, holding.
+(and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo where it is, holding. A
+walker's gait compensation is then recalibrated in the preview with the file's figures and
+written to it too (``preview.gait_calibration``): the gaits make up for these servos' sag and
+slip, not the assumed ones'.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import yaml
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.atomic import write_text_atomically
-from choreo.errors import OptionError, UnsupportedByTransport
+from choreo.errors import OptionError, SourceError, UnsupportedByTransport
 from choreo.identify import fit
 from choreo.identify.fit import (
     Validation,
@@ -32,12 +35,14 @@ from choreo.identify.fit import (
     validate,
 )
 from choreo.identify.joint_model import FIGURES
-from choreo.identify.measure import run_moves
+from choreo.identify.measure import Measured, run_moves
 from choreo.identify.moves import fit_moves, held_out_moves
 from choreo.preview.actuator import ActuatorParams, actuator_params
+from choreo.preview.gait_calibration import calibrated_gait, walks
 from choreo.preview.joint_load import joint_load
+from choreo.robot.robot_file import with_servo_figures
 from choreo.robot.servo_figures import read_servo_figures
-from choreo.robot.types import Robot
+from choreo.robot.types import GaitCompensation, Joint, Robot
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +84,12 @@ class IdentifyReport:
     path: Path
     identified: tuple[JointResult, ...]
     already: tuple[str, ...]  # in the file from an earlier run: not measured again
+    # a walker's gait compensation, recalibrated in the preview with the file's figures (and
+    # written to it); None for a robot that does not walk
+    gait: GaitCompensation | None = None
+    # why a walker's gait compensation could not be recalibrated (its gaits refused with
+    # these figures: a stance too heavy for its servos), the file then has none
+    gait_problem: str | None = None
 
 
 def identify(
@@ -139,7 +150,8 @@ def identify(
     except KeyboardInterrupt:
         bus.stop_servos([joint.servo_id for joint in robot.joints])  # hold where they are
         raise
-    return IdentifyReport(output, tuple(results), already)
+    gait, problem = _recalibrated_gait(output, robot)
+    return IdentifyReport(output, tuple(results), already, gait, problem)
 
 
 def _checked_joints(robot: Robot, joints: Sequence[str] | None, option: str) -> list[str]:
@@ -178,9 +190,9 @@ def _identify_joint(
     place: tuple[int, int],
     on_progress: Callable[[Progress], None] | None,
 ) -> JointResult:
+    """Measure joint ``name`` on the bus (its test moves, then the held-out ones), then fit
+    its figures and judge them."""
     index, count = place
-    j = robot.joint_names.index(name)
-    joint = robot.joints[j]
 
     def progress(stage: str) -> Callable[[float], None]:
         def tell(fraction: float) -> None:
@@ -189,45 +201,110 @@ def _identify_joint(
 
         return tell
 
+    j = robot.joint_names.index(name)
+    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, progress)
+    progress("fitting")(0.0)
+    supply_v = float(np.median(measured.fit.supply_v + measured.held_out.supply_v))
+    assumed = at_supply(assumed_figures(params[j]), params[j].supply_v, supply_v)
+    load = joint_load(robot, name, pose)
+    fitted = fit_servo(measured.fit.trial, load, assumed, with_offset=drop, generations=generations)
+    validation = validate(measured.held_out.trial, load, assumed, fitted.figures)
+    rated = at_supply(fitted.figures, supply_v, params[j].rated_supply_v or supply_v)
+    progress("fitting")(1.0)
+    temps = measured.fit.temp_c + measured.held_out.temp_c
+    return JointResult(
+        name,
+        _kept_figures(rated, drop),
+        validation,
+        measured.reads / measured.bus_s if measured.bus_s > 0 else 0.0,
+        supply_v,
+        max(temps) if temps else float("nan"),
+        measured.bus_s,
+        fitted.fit_error_deg,
+    )
+
+
+@dataclass(frozen=True)
+class _JointMeasured:
+    fit: Measured  # the test moves the figures are fitted to
+    held_out: Measured  # the moves that judge them
+    bus_s: float  # bus time both took, with the move back to the pose
+
+    @property
+    def reads(self) -> int:
+        return len(self.fit.trial.read_s) + len(self.held_out.trial.read_s)
+
+
+def _measure_joint(
+    bus: ServoBus,
+    joint: Joint,
+    pose_deg: float,
+    drop: bool,
+    progress: Callable[[str], Callable[[float], None]],
+) -> _JointMeasured:
+    """``joint``'s test moves and held-out moves on the bus, then back to where it stood."""
     start = bus.clock.now()
     fit_trial = run_moves(
-        bus, joint, fit_moves(joint, pose[j], drop), pose[j], progress("test moves")
+        bus, joint, fit_moves(joint, pose_deg, drop), pose_deg, progress("test moves")
     )
     held_out = run_moves(
         bus,
         joint,
-        held_out_moves(joint, pose[j]),
+        held_out_moves(joint, pose_deg),
         fit_trial.trial.read_deg[-1],
         progress("held-out moves"),
     )
-    bus.move(joint.servo_id, round(joint.to_units(pose[j])), 500)  # back to the pose
-    bus_s = bus.clock.now() - start
-    progress("fitting")(0.0)
-    supply_v = float(np.median(fit_trial.supply_v + held_out.supply_v))
-    assumed_rated = assumed_figures(params[j])
-    assumed = at_supply(assumed_rated, params[j].supply_v, supply_v)
-    load = joint_load(robot, name, pose)
-    fitted = fit_servo(fit_trial.trial, load, assumed, with_offset=drop, generations=generations)
-    validation = validate(held_out.trial, load, assumed, fitted.figures)
-    rated = at_supply(fitted.figures, supply_v, params[j].rated_supply_v or supply_v)
-    figures = {
+    bus.move(joint.servo_id, round(joint.to_units(pose_deg)), 500)  # back to the pose
+    return _JointMeasured(fit_trial, held_out, bus.clock.now() - start)
+
+
+def _kept_figures(rated: dict[str, float], drop: bool) -> dict[str, float]:
+    """The figures as the file keeps them: rounded, the offset only if a drop measured it."""
+    return {
         key: round(value, DECIMALS.get(key, 3))
         for key, value in rated.items()
         if key in FIGURES and (drop or key != "offset_deg")
     }
-    progress("fitting")(1.0)
-    reads = len(fit_trial.trial.read_s) + len(held_out.trial.read_s)
-    temps = fit_trial.temp_c + held_out.temp_c
-    return JointResult(
-        name,
-        figures,
-        validation,
-        reads / bus_s if bus_s > 0 else 0.0,
-        supply_v,
-        max(temps) if temps else float("nan"),
-        bus_s,
-        fitted.fit_error_deg,
-    )
+
+
+def _recalibrated_gait(output: Path, robot: Robot) -> tuple[GaitCompensation | None, str | None]:
+    """The walker's gait compensation recalibrated and written (``_recalibrate_gait``), or
+    why it could not be; (None, None) for a robot that does not walk or no file."""
+    if not output.exists():
+        return None, None
+    try:
+        return _recalibrate_gait(output, robot), None
+    except SourceError as error:  # the calibration gaits cannot be walked with these servos
+        return None, "; ".join(error.problems)
+
+
+def _recalibrate_gait(output: Path, robot: Robot) -> GaitCompensation | None:
+    """A walker's gait compensation found again in the preview with the figures in
+    ``output`` (remembered: a few seconds of CPU the first time), and written to it;
+    ``SourceError`` if the robot cannot walk the calibration gaits with them (the file then
+    keeps no gait: one an earlier run wrote was for other figures)."""
+    if not walks(robot):
+        return None
+    try:
+        gait = calibrated_gait(with_servo_figures(robot, read_servo_figures(output, robot)))
+    except SourceError:
+        _write_gait(output, None)
+        raise
+    _write_gait(output, gait)
+    return gait
+
+
+def _write_gait(output: Path, gait: GaitCompensation | None) -> None:
+    text = output.read_text(encoding="utf-8")
+    header = "".join(line for line in text.splitlines(keepends=True) if line.startswith("#"))
+    document = {key: value for key, value in yaml.safe_load(text).items() if key != "gait"}
+    if gait is not None:
+        document["gait"] = {
+            "lift_sag": gait.lift_sag_mm,
+            "stride_scale": gait.stride_scale,
+            "turn_scale": gait.turn_scale,
+        }
+    write_text_atomically(output, header + yaml.safe_dump(document, sort_keys=False))
 
 
 def _earlier_results(output: Path, robot: Robot) -> dict:
@@ -271,6 +348,7 @@ def _save(
     header = (
         f"# {robot.name}'s servos as `choreo identify` measured them (figures at each servo\n"
         "# model's rated supply, as a robot file's actuator: block has them). Name this file\n"
-        "# in robot.yaml (servo_figures: FILE) for the preview, the planner and the gaits.\n"
+        "# in robot.yaml (servo_figures: FILE) for the preview, the planner and the gaits\n"
+        "# (a walker's gait: is recalibrated in the preview with these figures).\n"
     )
     write_text_atomically(output, header + yaml.safe_dump(document, sort_keys=False))

@@ -5,6 +5,10 @@ chosen for what it shows.
 - small reversals (0.5° to 2.5°): the gear play swallows the small ones;
 - steps at several move times (as fast as it goes, 150 ms, 400 ms): its speed, gain, torque and
   how late it starts;
+- quick steps of 3° and 5°, as fast as it goes: the position loop rings on the joint's inertia
+  without stalling, which tells its gain and its damping (so its torque) apart where gravity
+  does not load the joint (a coxa, whose axis is upright: on its own the rest shows only their
+  ratios);
 - holds in several poses: the sag under gravity (its gain against the known load);
 - a torque-off drop, only where the user said the joint can fall: the horn's offset (where
   gravity lets it rest), and friction without the motor.
@@ -91,6 +95,11 @@ def fit_moves(joint: Joint, pose_deg: float, drop: bool = False) -> MovePlan:
     for time_s in (0.0, 0.15, 0.4):  # steps at several move times, both ways
         plan.move(centre + reach, time_s, hold_s=0.45)
         plan.move(centre - reach, time_s, hold_s=0.45)
+    plan.move(centre, 0.2, hold_s=0.3)
+    for size in (3.0, 5.0):  # quick steps the gain can follow without stalling: its ringing
+        size = min(size, reach / 2)
+        for target in (centre + size, centre, centre - size, centre):
+            plan.move(target, 0.0, hold_s=0.3)
     side = min(3.0, reach / 4)  # holds, from either side
     for pose in (centre - reach + side, centre, centre + reach - side):
         plan.move(pose - side, 0.2, hold_s=0.1)

@@ -38,55 +38,125 @@ def minimise(
 ) -> Found:
     """The point of [0, 1]^n where ``cost`` is lowest, searched from ``start``."""
     rng = np.random.default_rng(seed)
-    n = len(start)
-    lam = population or 4 + int(3 * np.log(n))
-    mu = lam // 2
-    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
-    weights /= weights.sum()
-    mu_eff = 1 / np.sum(weights**2)
-    c_sigma = (mu_eff + 2) / (n + mu_eff + 5)
-    d_sigma = 1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + c_sigma
-    c_c = (4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n)
-    c_1 = 2 / ((n + 1.3) ** 2 + mu_eff)
-    c_mu = min(1 - c_1, 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff))
-    chi_n = np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n))
-
-    mean = np.clip(np.asarray(start, dtype=float), 0, 1)
-    p_sigma, p_c = np.zeros(n), np.zeros(n)
-    cov = np.eye(n)
-    best, best_cost, evaluations = mean.copy(), float(_penalised(cost, mean[None])[0]), 1
+    settings = _Settings.of(len(start), population)
+    state = _State.at(np.clip(np.asarray(start, dtype=float), 0, 1), sigma)
+    best, best_cost, evaluations = (
+        state.mean.copy(),
+        float(_penalised(cost, state.mean[None])[0]),
+        1,
+    )
     generation = 0
     for generation in range(1, generations + 1):  # noqa: B007 (reported)
-        values, vectors = np.linalg.eigh(cov)
-        scale = np.sqrt(np.maximum(values, 1e-20))
-        z = rng.standard_normal((lam, n))
-        steps = (z * scale) @ vectors.T
-        points = mean + sigma * steps
+        steps = state.sample(rng, settings.lam)
+        points = state.mean + state.sigma * steps
         costs = _penalised(cost, points)
-        evaluations += lam
+        evaluations += settings.lam
         order = np.argsort(costs)
         if costs[order[0]] < best_cost:
             best, best_cost = np.clip(points[order[0]], 0, 1), float(costs[order[0]])
-        chosen = steps[order[:mu]]
-        step_mean = weights @ chosen
-        mean = mean + sigma * step_mean
-        inverse_sqrt = vectors @ np.diag(1 / scale) @ vectors.T
-        p_sigma = (1 - c_sigma) * p_sigma + np.sqrt(c_sigma * (2 - c_sigma) * mu_eff) * (
-            inverse_sqrt @ step_mean
-        )
-        stalled = np.linalg.norm(p_sigma) / np.sqrt(1 - (1 - c_sigma) ** (2 * generation))
-        h_sigma = float(stalled < (1.4 + 2 / (n + 1)) * chi_n)
-        p_c = (1 - c_c) * p_c + h_sigma * np.sqrt(c_c * (2 - c_c) * mu_eff) * step_mean
-        rank_mu = (chosen.T * weights) @ chosen
-        cov = (
-            (1 - c_1 - c_mu) * cov
-            + c_1 * (np.outer(p_c, p_c) + (1 - h_sigma) * c_c * (2 - c_c) * cov)
-            + c_mu * rank_mu
-        )
-        sigma *= np.exp((c_sigma / d_sigma) * (np.linalg.norm(p_sigma) / chi_n - 1))
-        if sigma * np.sqrt(values.max()) < tolerance:
+        state.adapt(settings, steps[order[: settings.mu]], generation)
+        if state.spread < tolerance:
             break
     return Found(best, best_cost, evaluations, generation)
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The tutorial's default learning rates for ``n`` dimensions and ``lam`` candidates per
+    generation (Hansen 2016, table 1), of which the best ``mu`` move the mean."""
+
+    n: int
+    lam: int
+    mu: int
+    weights: np.ndarray
+    mu_eff: float
+    c_sigma: float
+    d_sigma: float
+    c_c: float
+    c_1: float
+    c_mu: float
+    chi_n: float  # the expected length of an n-dimensional standard normal vector
+
+    @classmethod
+    def of(cls, n: int, population: int | None) -> _Settings:
+        lam = population or 4 + int(3 * np.log(n))
+        mu = lam // 2
+        weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
+        weights /= weights.sum()
+        mu_eff = float(1 / np.sum(weights**2))
+        c_sigma = (mu_eff + 2) / (n + mu_eff + 5)
+        c_1 = 2 / ((n + 1.3) ** 2 + mu_eff)
+        return cls(
+            n=n,
+            lam=lam,
+            mu=mu,
+            weights=weights,
+            mu_eff=mu_eff,
+            c_sigma=c_sigma,
+            d_sigma=1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + c_sigma,
+            c_c=(4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n),
+            c_1=c_1,
+            c_mu=min(1 - c_1, 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),
+            chi_n=float(np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n))),
+        )
+
+
+@dataclass
+class _State:
+    """The search distribution: its mean, step size, covariance (as its eigen decomposition,
+    refreshed after each update) and the two evolution paths."""
+
+    mean: np.ndarray
+    sigma: float
+    cov: np.ndarray
+    p_sigma: np.ndarray
+    p_c: np.ndarray
+    values: np.ndarray
+    vectors: np.ndarray
+
+    @classmethod
+    def at(cls, mean: np.ndarray, sigma: float) -> _State:
+        n = len(mean)
+        return cls(mean, sigma, np.eye(n), np.zeros(n), np.zeros(n), np.ones(n), np.eye(n))
+
+    @property
+    def scale(self) -> np.ndarray:
+        return np.sqrt(np.maximum(self.values, 1e-20))
+
+    @property
+    def spread(self) -> float:
+        """The largest standard deviation of the next candidates: the search has converged
+        when it is below the tolerance."""
+        return float(self.sigma * np.sqrt(self.values.max()))
+
+    def sample(self, rng: np.random.Generator, lam: int) -> np.ndarray:
+        """``lam`` steps from the mean (before ``sigma``), drawn from the covariance."""
+        z = rng.standard_normal((lam, len(self.mean)))
+        return (z * self.scale) @ self.vectors.T
+
+    def adapt(self, s: _Settings, chosen: np.ndarray, generation: int) -> None:
+        """Move the mean to the weighted best ``chosen`` steps, then adapt the paths, the
+        covariance (rank one and rank mu) and the step size."""
+        step_mean = s.weights @ chosen
+        self.mean = self.mean + self.sigma * step_mean
+        inverse_sqrt = self.vectors @ np.diag(1 / self.scale) @ self.vectors.T
+        self.p_sigma = (1 - s.c_sigma) * self.p_sigma + np.sqrt(
+            s.c_sigma * (2 - s.c_sigma) * s.mu_eff
+        ) * (inverse_sqrt @ step_mean)
+        stalled = np.linalg.norm(self.p_sigma) / np.sqrt(1 - (1 - s.c_sigma) ** (2 * generation))
+        h_sigma = float(stalled < (1.4 + 2 / (s.n + 1)) * s.chi_n)
+        self.p_c = (1 - s.c_c) * self.p_c + h_sigma * np.sqrt(
+            s.c_c * (2 - s.c_c) * s.mu_eff
+        ) * step_mean
+        rank_mu = (chosen.T * s.weights) @ chosen
+        self.cov = (
+            (1 - s.c_1 - s.c_mu) * self.cov
+            + s.c_1
+            * (np.outer(self.p_c, self.p_c) + (1 - h_sigma) * s.c_c * (2 - s.c_c) * self.cov)
+            + s.c_mu * rank_mu
+        )
+        self.sigma *= np.exp((s.c_sigma / s.d_sigma) * (np.linalg.norm(self.p_sigma) / s.chi_n - 1))
+        self.values, self.vectors = np.linalg.eigh(self.cov)
 
 
 def _penalised(cost: Cost, points: np.ndarray) -> np.ndarray:

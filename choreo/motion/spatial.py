@@ -366,11 +366,13 @@ class _Expander:
         # the walk against what was asked)
         commanded = compensated(gait, self.robot.gait)
         frames = gait_keyframes(self._feet_mm(feet, self.current), commanded)
+        stances = []
         for index, frame in enumerate(frames):
             what = f"gait step {frame.step} of {gait.steps}"
             angles = self._solve_feet(feet, frame.feet_mm, fixed, step.where, what)
             if angles is None:
                 return [step]
+            stances.append(angles)
             last = index == len(frames) - 1
             end = GaitEnd(gait, len(frames), step.where) if last else None
             out.append(
@@ -378,8 +380,41 @@ class _Expander:
                     step, angles, after_s=gait.keyframe_s, t_s=None, stop=last, gait_end=end
                 )
             )
+        if self._too_heavy(feet, stances, step.where, [frame.step for frame in frames]):
+            return [step]
         self.stance = self.current.copy()  # the feet are planted anew
         return out
+
+    def _too_heavy(
+        self,
+        feet: Sequence[str],
+        stances: list[np.ndarray],
+        where: SourceLocation,
+        steps: list[int],
+    ) -> bool:
+        """Told at the gait: line if the legs down cannot hold the robot up at some step.
+        From the third step to the one before the last the feet stand under the body as in
+        the third (the body moves on, the pattern repeats; the ripple's overlapping swings
+        settle by then), so the first three and the last are judged: a long walk costs what a
+        short one does."""
+        from choreo.motion.stance_load import worst_overload
+
+        judged = [i for i, number in enumerate(steps) if number <= 3 or number == steps[-1]]
+        overload = worst_overload(self.kin, feet, [stances[i] for i in judged])
+        if overload is None:
+            return False
+        o = overload
+        at_step = steps[judged[o.keyframe]]
+        supply = "its rated supply" if o.supply_v is None else f"{o.supply_v:g} V"
+        self._fail(
+            where,
+            f"gait: at step {at_step}, on {o.feet_down} feet, {o.joint} needs "
+            f"{o.needed_nm:.2f} N·m to hold the {o.mass_kg:.2f} kg robot up, more than its "
+            f"servo's {o.stall_nm:.2f} N·m stall torque at {supply}: the legs would give way "
+            "at any period; keep more feet down (pattern: ripple or wave), stand lower, or "
+            "give the servos a higher supply",
+        )
+        return True
 
 
 def compensated(gait: Gait, by: GaitCompensation) -> Gait:

@@ -1,5 +1,4 @@
-"""Keyframes -> one smooth, jerk-limited, time-synchronized trajectory (the only module that
-imports ruckig).
+"""Keyframes -> one smooth, jerk-limited, time-synchronized trajectory.
 
 Each interval between two played keyframes is one ruckig trajectory with
 ``Synchronization.Time``, so every joint leaves and arrives together. A keyframe is passed with
@@ -9,10 +8,7 @@ keyframes it stays between their values. That keeps it inside its position limit
 itself ignores; where a segment would overshoot, the pass-through velocities that cause it are
 lowered and the affected segments planned again.
 
-Facts about ruckig 0.19.4 this module relies on: ``minimum_duration`` silently lengthens a
-segment that cannot be done in the time asked (we compare durations ourselves); intermediate
-waypoints call a cloud service (never used: one calculation per interval); the result is read
-back as seven constant-jerk phases per joint, which ``Trajectory`` evaluates with numpy.
+Each segment is solved by ``choreo.plan.segment`` (the one module that imports ruckig).
 
 Times: the keyframe timing rules (``t``, ``after``, ``hold``, ``repeat``, speed) are
 ``choreo.motion.timing``'s; the motion start is the first keyframe's pose, where the approach leaves
@@ -24,13 +20,10 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization
-from ruckig import Trajectory as RuckigTrajectory
 
 from choreo.core.arguments import check_flag, check_number, shown
 from choreo.errors import OptionError, PlanningError
@@ -45,153 +38,25 @@ from choreo.motion.timing import (
     played_keyframes,
     wanted_arrival_s,
 )
+from choreo.plan.segment import (
+    DURATION_EPS_S,
+    Limits,
+    NoTrajectory,
+    SegmentSolver,
+    segment_ranges,
+)
 from choreo.plan.trajectory import PlanResult, Profile, Stretch, Trajectory, assemble
 from choreo.robot.types import Robot
 
 log = logging.getLogger(__name__)
 
-DURATION_EPS_S = 1e-6  # ruckig's durations match a requested one to ~1e-12 s
 # Longest time between leaving one keyframe and reaching the next. Ruckig 0.19.4 fails beyond
 # its numerical limits (RuckigError, or a result code its Python enum doesn't know) from a few
 # hundred seconds up when the joints pass through with some velocity; 300 s never failed in
 # randomized trials. Longer pauses are a `hold`, which ruckig never sees.
 MAX_SEGMENT_S = 300.0
-POSITION_EPS_DEG = 1e-6  # numerical slack when checking for overshoot
 APPROACH_LIMIT_SCALE = 0.3  # approach and exit moves run at this share of every joint limit
 VELOCITY_DAMPING = (1.0, 0.5, 0.25, 0.0)  # pass-through velocity factors tried in turn
-
-
-# --- one segment -------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class _Limits:
-    """Per-joint limits as plain lists (what ruckig takes)."""
-
-    vel: list[float]
-    acc: list[float]
-    jerk: list[float]
-
-    @staticmethod
-    def of(robot: Robot, scale: float = 1.0, velocity_scale: float = 1.0) -> _Limits:
-        lim = [j.limits for j in robot.joints]
-        return _Limits(
-            [x.vel_deg_s * scale * velocity_scale for x in lim],
-            [x.acc_deg_s2 * scale for x in lim],
-            [x.jerk_deg_s3 * scale for x in lim],
-        )
-
-
-class _NoTrajectory(Exception):
-    """ruckig found no trajectory for a segment (limits or times too extreme for its numerics):
-    ``reason`` in its words, ``joint`` the index of the joint it names, if any. The planner
-    says which keyframe's move it was."""
-
-    def __init__(self, reason: str, joint: int | None):
-        super().__init__(reason)
-        self.reason = reason
-        self.joint = joint
-
-    @classmethod
-    def of(cls, error: Exception) -> _NoTrajectory:
-        # ruckig 0.19.4: "\n[ruckig] error in step 1, dof: 1 input: \n" and then its whole input
-        text = " ".join(str(error).split())
-        found = re.search(r"error in step (\d+), dof: (\d+)", text)
-        if found is None:
-            return cls(text[:80] or type(error).__name__, None)
-        return cls(f"error in step {found[1]}", int(found[2]))
-
-    def message(
-        self, robot: Robot, p0: Sequence[float], p1: Sequence[float], also_check: str = ""
-    ) -> str:
-        """What failed, from ``p0`` to ``p1`` (degrees, every joint), and what to check (the
-        limits, and ``also_check``)."""
-        if self.joint is None:
-            return (
-                f"ruckig found no trajectory ({self.reason}); check the velocity, acceleration "
-                f"and jerk limits in {robot.path}{also_check}"
-            )
-        name = robot.joint_names[self.joint]
-        return (
-            f"ruckig found no trajectory for {name} from {p0[self.joint]:g}° to "
-            f"{p1[self.joint]:g}° ({self.reason}); check {name}'s velocity, acceleration and "
-            f"jerk limits in {robot.path}{also_check}"
-        )
-
-
-class _Solver:
-    """Reuses one ruckig instance for every segment of a plan."""
-
-    def __init__(self, n_joints: int):
-        self._ruckig = Ruckig(n_joints)
-        self._input = InputParameter(n_joints)
-        self._input.synchronization = Synchronization.Time
-        self._output = RuckigTrajectory(n_joints)
-        self._zero = [0.0] * n_joints
-
-    def duration_s(
-        self,
-        p0: list[float],
-        v0: list[float],
-        p1: list[float],
-        v1: list[float],
-        limits: _Limits,
-        minimum_duration_s: float | None,
-    ) -> float:
-        inp = self._input
-        inp.current_position = p0
-        inp.current_velocity = v0
-        inp.current_acceleration = self._zero
-        inp.target_position = p1
-        inp.target_velocity = v1
-        inp.target_acceleration = self._zero
-        inp.max_velocity = limits.vel
-        inp.max_acceleration = limits.acc
-        inp.max_jerk = limits.jerk
-        inp.minimum_duration = minimum_duration_s
-        try:
-            result = self._ruckig.calculate(inp, self._output)
-        except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
-            raise _NoTrajectory.of(error) from error
-        if result != Result.Working:
-            raise _NoTrajectory(result.name, None)
-        return self._output.duration
-
-    def solve(
-        self,
-        p0: list[float],
-        v0: list[float],
-        p1: list[float],
-        v1: list[float],
-        limits: _Limits,
-        minimum_duration_s: float | None,
-        low: list[float],
-        high: list[float],
-    ) -> Profile:
-        """The segment; ``overshoot`` lists the joints leaving ``low..high`` (the range between
-        the two keyframes, widened by a numerical margin)."""
-        duration = self.duration_s(p0, v0, p1, v1, limits, minimum_duration_s)
-        out = self._output
-        overshoot = [
-            j
-            for j, (e, lo, hi) in enumerate(zip(out.position_extrema, low, high))
-            if e.min < lo or e.max > hi
-        ]
-        phase_s: list[float] = []
-        jerk: list[float] = []
-        for profile in out.profiles[0]:
-            phase_s += profile.t
-            jerk += profile.j
-        return Profile(p0, v0, duration, phase_s, jerk, overshoot)
-
-    def limiting_joint(self) -> int:
-        """The joint whose own shortest duration is longest, in the last segment solved."""
-        return int(np.argmax(self._output.independent_min_durations))
-
-
-def _ranges(positions: np.ndarray) -> tuple[list[list[float]], list[list[float]]]:
-    """Per segment, the range each joint must stay in: between its two keyframes."""
-    low = np.minimum(positions[:-1], positions[1:]) - POSITION_EPS_DEG
-    high = np.maximum(positions[:-1], positions[1:]) + POSITION_EPS_DEG
-    return low.tolist(), high.tolist()
 
 
 # --- pass-through velocities -------------------------------------------------------------------
@@ -229,20 +94,20 @@ class _Planner:
         self.robot = robot
         self.played = played
         self.stretch = stretch
-        self.solver = _Solver(len(robot.joints))
+        self.solver = SegmentSolver(len(robot.joints))
         self.positions = np.array([p.keyframe.targets_deg for p in played], dtype=float)
         self.pose_lists = self.positions.tolist()
-        self.low, self.high = _ranges(self.positions)
+        self.low, self.high = segment_ranges(self.positions)
         self.holds_s = np.array([p.hold_s for p in played])
         self.scales = np.array([p.keyframe.velocity_scale for p in played])
         self.vel_limits = np.array([j.limits.vel_deg_s for j in robot.joints])
-        self._limits_by_scale: dict[float, _Limits] = {}
+        self._limits_by_scale: dict[float, Limits] = {}
 
-    def segment_limits(self, arrival_index: int) -> _Limits:
+    def segment_limits(self, arrival_index: int) -> Limits:
         """A segment's limits: the velocity scaled by the keyframe it arrives at."""
         scale = float(self.scales[arrival_index])
         if scale not in self._limits_by_scale:
-            self._limits_by_scale[scale] = _Limits.of(self.robot, velocity_scale=scale)
+            self._limits_by_scale[scale] = Limits.of(self.robot, velocity_scale=scale)
         return self._limits_by_scale[scale]
 
     def rest_to_rest_s(self, i: int) -> float:
@@ -256,10 +121,10 @@ class _Planner:
                 self.segment_limits(i + 1),
                 None,
             )
-        except _NoTrajectory as error:
+        except NoTrajectory as error:
             raise self.no_trajectory(i, error) from None
 
-    def no_trajectory(self, i: int, error: _NoTrajectory) -> PlanningError:
+    def no_trajectory(self, i: int, error: NoTrajectory) -> PlanningError:
         """The move from keyframe i to i + 1 could not be planned, said at keyframe i + 1."""
         kf = self.played[i + 1].keyframe
         return PlanningError(
@@ -314,7 +179,7 @@ class _Planner:
                     self.low[i],
                     self.high[i],
                 )
-            except _NoTrajectory as error:
+            except NoTrajectory as error:
                 raise self.no_trajectory(i, error) from None
             if seg.overshoot:
                 i = self.damp(i, seg.overshoot, velocities, damping)
@@ -550,19 +415,19 @@ def plan_approach(
             f"target_deg: {joint.name} = {angle:g}° is outside its limits {joint.limits.range_text}"
         )
     zero = [0.0] * n
-    low, high = _ranges(np.stack([start, target]))
+    low, high = segment_ranges(np.stack([start, target]))
     try:
-        segment = _Solver(n).solve(
+        segment = SegmentSolver(n).solve(
             start.tolist(),
             zero,
             target.tolist(),
             zero,
-            _Limits.of(robot, limit_scale),
+            Limits.of(robot, limit_scale),
             None,
             low[0],
             high[0],
         )
-    except _NoTrajectory as error:
+    except NoTrajectory as error:
         raise PlanningError(
             "the approach to the first keyframe could not be planned: "
             + error.message(robot, start.tolist(), target.tolist())

@@ -18,22 +18,16 @@ at 2 ms), so a chord that stays within ``tolerance - margin`` of the samples sta
 ``step - 1`` ms after the trajectory, which rests there. On trial motions a 2 ms lattice needed
 about 1 % more ticks than a 1 ms one, for half the work.
 
-A long motion on a machine with two cores is shared with a second thread, which takes the second
-half of the lattice (numpy releases Python's lock while it computes): its samples and deviations
-are the same computed in two parts, and the greedy ticks from its first point meet those from 0
-within a few ticks; from a point both reach on they are the same, so the ticks are exactly one
-thread's.
+The search runs on one thread. Sharing a long motion's lattice with a second thread (numpy
+releases Python's lock) was tried: on an idle 2-core machine it took 1.3-1.4 s of wall time where
+one thread takes 1.1 s, for a third more CPU, since each step is too small to pay for the handover.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import os
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
 
 import numpy as np
 
@@ -45,7 +39,6 @@ from choreo.plan.trajectory import Trajectory
 from choreo.robot.types import Robot, Values
 
 log = logging.getLogger(__name__)
-_Part = TypeVar("_Part")
 
 # Beyond a few degrees the ticks no longer follow the planned motion: its shape is lost (and an
 # unbounded tolerance would overflow the tick search).
@@ -60,7 +53,6 @@ QUANTIZATION_DEG = DEG_PER_UNIT / 2  # rounding a target to whole units
 MAX_STEP_MS = 2  # the sample lattice (1 ms when the tolerance is too tight for 2)
 MARGIN_SHARE = 0.02  # of the tolerance the lattice margin may take
 GUESS_MARGIN = 12  # lattice steps past the last tick's reach where the next is first sought
-SPLIT_POINTS = 10_000  # lattice points (20 s at 2 ms) from which two threads share the work
 
 
 @dataclass(frozen=True)
@@ -120,14 +112,7 @@ def compile_ticks(
     ``PlanningError`` if a servo would leave its range (0..1000 units; never clamped) or if the
     bus floor makes the tolerance unreachable.
     """
-    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)
-    if bus_margin_ms < 0:
-        raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
-    if trajectory.joint_names != robot.joint_names:
-        raise ValueError(
-            f"the trajectory's joints {trajectory.joint_names} are not the robot's "
-            f"{robot.joint_names}"
-        )
+    _check_arguments(trajectory, robot, tolerance_deg, bus_margin_ms)
     end_ms = math.ceil(round(trajectory.duration_s * 1000, 6))
     if end_ms == 0:
         return TickPlan((), tolerance_deg, 0.0, 0, 0.0)
@@ -138,10 +123,36 @@ def compile_ticks(
     bounds, forced = search.ticks(floor_ms)
     if forced:
         _check_forced(robot, search, bounds, forced, floor_ms)
-
     targets = servo.to_units(search.samples_deg[:, bounds].T)
+    servo.check_targets(targets, bounds * search.step_ms)
+    plan = _tick_plan(search, bounds, targets, robot)
+    log.debug(
+        "%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)",
+        len(plan.ticks),
+        plan.total_bytes,
+        plan.max_deviation_deg,
+        search.step_ms,
+    )
+    return plan
+
+
+def _check_arguments(
+    trajectory: Trajectory, robot: Robot, tolerance_deg: float, bus_margin_ms: float
+) -> None:
+    check_number("tolerance_deg", tolerance_deg, TOLERANCE_DEG)
+    if bus_margin_ms < 0:
+        raise ValueError(f"bus_margin_ms must be >= 0, got {bus_margin_ms}")
+    if trajectory.joint_names != robot.joint_names:
+        raise ValueError(
+            f"the trajectory's joints {trajectory.joint_names} are not the robot's "
+            f"{robot.joint_names}"
+        )
+
+
+def _tick_plan(search: _Search, bounds: np.ndarray, targets: np.ndarray, robot: Robot) -> TickPlan:
+    """The ticks between the lattice points ``bounds`` (targets in units at each), with what
+    they send and how far they stray."""
     bounds_ms = bounds * search.step_ms
-    servo.check_targets(targets, bounds_ms)
     staged = targets[1:] != targets[:-1]
     ticks = tuple(
         Tick(a, d, tuple(t), tuple(s))
@@ -156,17 +167,8 @@ def compile_ticks(
     n_staged = staged.sum(axis=1)
     sent = np.where(n_staged > 0, n_staged * MOVE_BYTES + START_BYTES, 0)
     use = wire_time_ms(sent[1:]) / np.diff(bounds_ms)[:-1]
-    plan = TickPlan(
-        ticks, tolerance_deg, deviation, int(sent.sum()), float(use.max()) if use.size else 0.0
-    )
-    log.debug(
-        "%d ticks, %d bytes, max deviation %.3f° (lattice %d ms)",
-        len(ticks),
-        plan.total_bytes,
-        deviation,
-        search.step_ms,
-    )
-    return plan
+    peak_use = float(use.max()) if use.size else 0.0
+    return TickPlan(ticks, search.tolerance_deg, deviation, int(sent.sum()), peak_use)
 
 
 class _ServoPositions:
@@ -225,10 +227,7 @@ class _Search:
         self.end = math.ceil(end_ms / self.step_ms)  # last lattice point: at or after the end
         self.max_steps = MAX_TICK_MS // self.step_ms
         times_s = np.arange(self.end + 1) * self.step_ms / 1000
-        # where a second thread takes over: on a long motion, with two cores to run on
-        self.split = self.end // 2 if self.end >= SPLIT_POINTS and _cores() > 1 else None
-        parts = self._halves(lambda part: trajectory.positions(times_s[part]).T)
-        self.samples_deg = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
+        self.samples_deg = trajectory.positions(times_s).T
         # 1/d and tolerance/d for chords d = 1..max steps long
         steps = np.arange(1, min(self.end, self.max_steps) + 1)
         self.inv_d = 1.0 / steps
@@ -237,31 +236,21 @@ class _Search:
 
     def ticks(self, floor_ms: int) -> tuple[np.ndarray, list[int]]:
         """Tick boundaries (lattice indices, from 0 to the end) and the ticks the bus floor
-        forced past their reach.
-
-        A long motion's second half is searched on a second thread meanwhile (see
-        ``_Chain.meet``): the result is the one greedy chain from 0 either way."""
+        forced past their reach: each next boundary is the farthest reach from the last, or
+        the bus floor past it."""
         floor = math.ceil(floor_ms / self.step_ms)
-        chain = _Chain(self, 0, floor)
-        if self.split is None:
-            chain.run_to(self.end)
-        else:
-            with ThreadPoolExecutor(1) as pool:
-                later = pool.submit(_Chain(self, self.split, floor).run_to, self.end)
-                chain.run_to(self.split)
-                chain.meet(later.result())
-        bounds = np.array(chain.points)
-        forced = [k for k, point in enumerate(chain.points[:-1]) if point in chain.forced]
-        return bounds, forced
-
-    def _halves(self, work: Callable[[slice], _Part]) -> list[_Part]:
-        """``work`` on all lattice points; split, on the first half here and the second on
-        another thread meanwhile."""
-        if self.split is None:
-            return [work(slice(None))]
-        with ThreadPoolExecutor(1) as pool:
-            later = pool.submit(work, slice(self.split, None))
-            return [work(slice(0, self.split)), later.result()]
+        points, forced = [0], []
+        guess = 16  # lattice steps of the first window the next reach is sought in
+        while points[-1] < self.end:
+            start = points[-1]
+            limit = min(self.end - start, self.max_steps)
+            reach = self.reach(start, limit, guess)
+            guess = reach + GUESS_MARGIN  # the next tick is likely about as long
+            if reach < min(floor, limit):
+                forced.append(len(points) - 1)
+                reach = min(floor, limit)
+            points.append(start + reach)
+        return np.array(points), forced
 
     def reach(self, start: int, limit: int, guess: int) -> int:
         """The longest chord from lattice point ``start`` (at most ``limit`` steps) that fits.
@@ -300,62 +289,13 @@ class _Search:
         piecewise-linear path through the rounded targets strays from the smooth trajectory."""
         points = np.arange(self.samples_deg.shape[1], dtype=float)
         bounds = bounds.astype(float)
-
-        def largest_off(part: slice) -> np.ndarray:
-            """Per joint, over the points of ``part`` (each interpolated on its own)."""
-            return np.array(
-                [
-                    np.abs(np.interp(points[part], bounds, path_deg[:, j]) - samples[part]).max()
-                    for j, samples in enumerate(self.samples_deg)
-                ]
-            )
-
-        return float((np.maximum.reduce(self._halves(largest_off)) + self.margin_deg).max())
-
-
-class _Chain:
-    """Greedy tick boundaries from one lattice point: each next is the farthest reach from the
-    last (or the bus floor, past it). Each step depends on its start only, so two chains that
-    share a point are the same from there on."""
-
-    def __init__(self, search: _Search, start: int, floor: int):
-        self.search = search
-        self.floor = floor
-        self.points = [start]
-        self.forced: set[int] = set()  # points whose tick the floor stretched past its reach
-        self.guess = 16  # lattice steps of the first window the next reach is sought in
-
-    def run_to(self, stop: int) -> _Chain:
-        while self.points[-1] < stop:
-            self.step()
-        return self
-
-    def step(self) -> None:
-        start = self.points[-1]
-        limit = min(self.search.end - start, self.search.max_steps)
-        reach = self.search.reach(start, limit, self.guess)
-        self.guess = reach + GUESS_MARGIN  # the next tick is likely about as long
-        if reach < min(self.floor, limit):
-            self.forced.add(start)
-            reach = min(self.floor, limit)
-        self.points.append(start + reach)
-
-    def meet(self, later: _Chain) -> None:
-        """Go on until a point of ``later`` (a chain from a later start, run to the end) and
-        take the rest from it. Chains from different starts meet within a few ticks (on the
-        shipped and benchmark motions); at worst this one runs on to the end, which ``later``
-        also reaches."""
-        index = {point: k for k, point in enumerate(later.points)}
-        while self.points[-1] not in index:
-            self.step()
-        met = self.points[-1]
-        self.points += later.points[index[met] + 1 :]
-        self.forced |= {point for point in later.forced if point >= met}
-
-
-def _cores() -> int:
-    """The CPUs this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        largest_off = np.array(
+            [
+                np.abs(np.interp(points, bounds, path_deg[:, j]) - samples).max()
+                for j, samples in enumerate(self.samples_deg)
+            ]
+        )
+        return float((largest_off + self.margin_deg).max())
 
 
 def _lattice_step_ms(margin_deg: float, peak_acc_deg_s2: float) -> int:

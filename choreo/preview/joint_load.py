@@ -59,12 +59,15 @@ def joint_load(
     data = start_state(model, index, np.asarray(pose_deg, dtype=float))
     dof, address = int(index.dof[j]), int(index.qpos[j])
     inertia, gravity = np.empty(len(angles)), np.empty(len(angles))
-    full = np.zeros((model.nv, model.nv))
+    # M·e_dof, read at dof: the joint's own inertia. mj_mulM takes the same arguments in every
+    # MuJoCo choreo allows, where mj_fullM's changed in 4.0 (data in place of its qM).
+    unit, column = np.zeros(model.nv), np.zeros(model.nv)
+    unit[dof] = 1.0
     for k, angle in enumerate(angles):
         data.qpos[address] = np.radians(angle)
         data.qvel[:] = 0.0
         mujoco.mj_forward(model, data)
-        mujoco.mj_fullM(model, data, full)
-        inertia[k] = full[dof, dof]
+        mujoco.mj_mulM(model, data, column, unit)
+        inertia[k] = column[dof]
         gravity[k] = -data.qfrc_bias[dof]  # at rest the bias is gravity alone
     return JointLoad(joint, angles, inertia, gravity, float(model.opt.timestep))

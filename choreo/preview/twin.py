@@ -36,7 +36,7 @@ from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.core.clock import Clock
 from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
-from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
 from choreo.preview.start import start_state
 from choreo.preview.step_loop import check_stable, hold_until_still
 from choreo.robot.robot_file import load_robot
@@ -134,6 +134,17 @@ class PhysicsTwin:
         """Where the joints really are at bus time ``time_s`` (robot order)."""
         self.advance_to(time_s)
         return np.degrees(self._data.qpos[self._index.qpos])
+
+    def body_position_m(self, time_s: float) -> np.ndarray | None:
+        """Where a free-floating robot's body is at bus time ``time_s`` (world frame, m): how
+        far the emulated robot really walked (None on a stand, or for a robot fixed to the
+        world)."""
+        joint = free_joint(self._model)
+        if joint is None:
+            return None
+        self.advance_to(time_s)
+        address = int(self._model.jnt_qposadr[joint])
+        return self._data.qpos[address : address + 3].copy()
 
     def output_units(self, joint: int, time_s: float) -> float:
         """Joint ``joint``'s servo's horn as its potentiometer has it: the real angle less the

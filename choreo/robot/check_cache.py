@@ -23,6 +23,7 @@ from pathlib import Path
 log = logging.getLogger(__name__)
 
 CACHE_VERSION = b"1"
+MODEL_CHECKS = "model-checks"  # the cache's folder of passed model checks
 MAX_FOLDER_FILES = 1000  # beyond this a folder is not a robot's model folder: not remembered
 _CONTENT_SUFFIXES = (".xml", ".yaml", ".yml")  # small, edited by hand: keyed by content
 # A file a model names: an <include file=...>, an asset, or an asset folder.
@@ -52,34 +53,44 @@ def check_key(robot_path: Path, model_paths: list[Path]) -> str | None:
 def remembered(key: str) -> bool | None:
     """Whether the robot is free-floating, as the passed check under ``key`` found; None if
     no check passed under it."""
-    try:
-        text = (_folder() / key).read_text(encoding="ascii")
-    except (OSError, ValueError):
-        return None
-    return {"free": True, "fixed": False}.get(text)
+    return {"free": True, "fixed": False}.get(recall(MODEL_CHECKS, key) or "")
 
 
 def remember(key: str, free_floating: bool) -> None:
     """Remember that the check under ``key`` passed (best effort: a cache that cannot be
     written is skipped)."""
-    folder = _folder()
+    keep(MODEL_CHECKS, key, "free" if free_floating else "fixed")
+
+
+def recall(kind: str, key: str) -> str | None:
+    """What was kept under ``key`` among the ``kind`` (a folder of the cache), or None."""
+    try:
+        return (_folder(kind) / key).read_text(encoding="ascii")
+    except (OSError, ValueError):
+        return None
+
+
+def keep(kind: str, key: str, text: str) -> None:
+    """Keep ``text`` (ASCII) under ``key`` among the ``kind``; best effort: a cache that cannot
+    be written is skipped. Also what the preview's gait calibration remembers its figures by."""
+    folder = _folder(kind)
     temporary = folder / f".{key}.{os.getpid()}"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        temporary.write_text("free" if free_floating else "fixed", encoding="ascii")
+        temporary.write_text(text, encoding="ascii")
         os.replace(temporary, folder / key)  # whole or absent for a reader at the same time
     except OSError as error:
-        log.debug("model check not remembered in %s: %s", folder, error)
+        log.debug("%s not remembered in %s: %s", kind, folder, error)
         with contextlib.suppress(OSError):
             temporary.unlink(missing_ok=True)
 
 
-def _folder() -> Path:
+def _folder(kind: str) -> Path:
     explicit = os.environ.get("CHOREO_CACHE_DIR")
     if explicit:
-        return Path(explicit) / "model-checks"
+        return Path(explicit) / kind
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "choreo" / "model-checks"
+    return Path(base) / "choreo" / kind
 
 
 def _add_mujoco(digest: hashlib._Hash) -> None:

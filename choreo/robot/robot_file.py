@@ -31,7 +31,7 @@ from choreo.robot.joint_entry import read_joints, read_sign
 from choreo.robot.joint_source import JointSource
 from choreo.robot.lookup import ROBOT_FILE, find_robot_file
 from choreo.robot.poses import read_poses
-from choreo.robot.servo_figures import ServoFigures, read_servo_figures
+from choreo.robot.servo_figures import ServoFigures, read_gait_compensation, read_servo_figures
 from choreo.robot.types import GaitCompensation, Joint, MirrorPair, Robot
 
 VELOCITY_SHARE = 0.8  # of the no-load speed: the planner's velocity limit (servo_models)
@@ -40,9 +40,6 @@ VELOCITY_SHARE = 0.8  # of the no-load speed: the planner's velocity limit (serv
 ROBOT = mapping_shape("robot")
 DEFAULTS = mapping_shape("robot", "#/$defs/jointSettings")  # a joint's keys but its own id
 MIRROR_PAIR = mapping_shape("robot", "#/properties/mirror/items")
-GAIT = mapping_shape("robot", "#/properties/gait")
-# A gait's lift sag (mm) and its stride and turn scales: beyond these it is not a correction.
-GAIT_BOUNDS = {"lift_sag": (0, 100), "stride_scale": (0.5, 2), "turn_scale": (0.5, 2)}
 
 
 def load_robot(
@@ -92,14 +89,10 @@ def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
     planning velocity, where its robot file does not set one, 80 % of its measured speed (as
     the servo table's is of the datasheet's).
 
-    The robot file's ``gait:`` compensation is kept as written, not derived from the measured
-    figures: hexapod18's numbers (commit 3c843b2) were tuned by simulating its shipped gaits in
-    the preview with the assumed figures and inverting the shortfall, and only part of it comes
-    from servo figures (the femur's give under load explains ~5 of the 7 mm of lift sag; the
-    coxa's dead zone ~1 of the ~2.4 mm a 40 mm stride loses; the rest is the feet slipping,
-    which no servo figure describes). Re-deriving it means the same calibration again in the
-    preview with the measured figures (a few gait simulations per robot), not a formula; until
-    that is done, re-tune ``gait:`` by hand after identifying (docs/motion-format.md)."""
+    The file's ``gait:`` compensation, if it has one, replaces the robot file's: ``choreo
+    identify`` writes it, recalibrated in the preview with the measured figures
+    (``preview/gait_calibration.py``), where the robot file's was tuned to the assumed ones.
+    Without one the robot file's is kept as written."""
     joints = []
     for joint in robot.joints:
         measured = figures.joints.get(joint.name, {})
@@ -113,7 +106,8 @@ def with_servo_figures(robot: Robot, figures: ServoFigures) -> Robot:
         joints.append(
             dataclasses.replace(joint, actuator={**joint.actuator, **measured}, limits=limits)
         )
-    return dataclasses.replace(robot, joints=tuple(joints), servo_figures=figures)
+    gait = robot.gait if figures.gait is None else figures.gait
+    return dataclasses.replace(robot, joints=tuple(joints), servo_figures=figures, gait=gait)
 
 
 def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
@@ -137,7 +131,11 @@ def _read_robot(reader: Reader, root: Node | None) -> Robot | None:
     joints = {source.name: source.joint for source in sources}
     poses = read_poses(reader, fields["poses"], joints) if "poses" in fields else {}
     mirror = _read_mirror(reader, fields["mirror"], joints) if "mirror" in fields else ()
-    gait = _read_gait(reader, fields["gait"]) if "gait" in fields else GaitCompensation()
+    gait = (
+        read_gait_compensation(reader, fields["gait"].value)
+        if "gait" in fields
+        else GaitCompensation()
+    )
     folder_name = reader.path.resolve().parent.name
     mjcf_path = _model_file(reader, fields.get("mjcf"), f"{folder_name}.xml", "the MuJoCo model")
     if "servo_figures" in fields:
@@ -200,18 +198,6 @@ def _read_name(reader: Reader, entry: Entry) -> str | None:
             f"(robots are found by folder: models/<name>/{ROBOT_FILE})",
         )
     return name
-
-
-def _read_gait(reader: Reader, entry: Entry) -> GaitCompensation:
-    fields = reader.fields(entry.value, "gait", GAIT.keys) or {}
-    # A refused value is reported (so the robot is refused too); its default stands in for it.
-    values = {
-        key: reader.number(fields[key].value, f"gait: {key}", low=low, high=high)
-        for key, (low, high) in GAIT_BOUNDS.items()
-        if key in fields
-    }
-    names = {"lift_sag": "lift_sag_mm"}
-    return GaitCompensation(**{names.get(k, k): v for k, v in values.items() if v is not None})
 
 
 def _read_mirror(

@@ -10,8 +10,11 @@ identification must find). Its keys::
       shoulder: {backlash_deg: 0.8, friction_nm: 0.02}
     servos:                                          # or by servo ID
       3: {deadband_deg: 0.5}
+    gait: {lift_sag: 6, stride_scale: 1.1, turn_scale: 1.2}   # optional: a walker's gaits'
+                                                     # compensation with these servos
 
-Each joint's keys are the robot file's ``actuator:`` keys (``servo_models.ACTUATOR_FIELDS``).
+Each joint's keys are the robot file's ``actuator:`` keys (``servo_models.ACTUATOR_FIELDS``),
+``gait:``'s those of the robot file's ``gait:`` (read here for both), which it replaces.
 ``choreo identify`` adds what it measured and how well the figures predict it (``measured:``,
 ``validation:``), which the reader keeps as written.
 """
@@ -33,6 +36,7 @@ from choreo.bus.servo_models import (
     SIGNED_ACTUATOR_FIELDS,
     ZERO_OK_ACTUATOR_FIELDS,
 )
+from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
     Problems,
     Reader,
@@ -42,9 +46,21 @@ from choreo.core.yaml_source import (
     reading_a_file,
 )
 from choreo.errors import SourceError
-from choreo.robot.types import Robot
+from choreo.robot.types import GaitCompensation, Robot
 
-TOP_KEYS = ("supply", "joints", "servos", "robot", "measured", "validation", "transport")
+TOP_KEYS = (
+    "supply",
+    "joints",
+    "servos",
+    "gait",
+    "robot",
+    "measured",
+    "validation",
+    "transport",
+)
+GAIT = mapping_shape("robot", "#/properties/gait")
+# A gait's lift sag (mm) and its stride and turn scales: beyond these it is not a correction.
+GAIT_BOUNDS = {"lift_sag": (0, 100), "stride_scale": (0.5, 2), "turn_scale": (0.5, 2)}
 SUPPLY_KEYS = ("voltage_v", "resistance_ohm")
 DEFAULT_SUPPLY_RESISTANCE_OHM = 0.1  # a bench supply and its leads: a few tenths of a volt at 2 A
 
@@ -59,6 +75,7 @@ class ServoFigures:
     supply_v: float | None = None
     supply_resistance_ohm: float = DEFAULT_SUPPLY_RESISTANCE_OHM
     extra: Mapping[str, Any] = field(default_factory=dict)
+    gait: GaitCompensation | None = None  # the gaits' compensation with these servos
 
     def __post_init__(self) -> None:
         frozen = {name: MappingProxyType(dict(v)) for name, v in self.joints.items()}
@@ -137,7 +154,22 @@ def _read(reader: Reader, root: yaml.Node, robot: Robot) -> ServoFigures | None:
         for key, entry in fields.items()
         if key in ("robot", "measured", "transport", "validation")
     }
-    return ServoFigures(reader.path, joints, supply_v, resistance, extra)
+    gait = read_gait_compensation(reader, fields["gait"].value) if "gait" in fields else None
+    return ServoFigures(reader.path, joints, supply_v, resistance, extra, gait)
+
+
+def read_gait_compensation(reader: Reader, node: yaml.Node) -> GaitCompensation:
+    """A ``gait: {lift_sag, stride_scale, turn_scale}`` block (a robot file's or a servo
+    figures file's); a refused value is reported (so the file is refused too) and its default
+    stands in for it."""
+    fields = reader.fields(node, "gait", GAIT.keys) or {}
+    values = {
+        key: reader.number(fields[key].value, f"gait: {key}", low=low, high=high)
+        for key, (low, high) in GAIT_BOUNDS.items()
+        if key in fields
+    }
+    names = {"lift_sag": "lift_sag_mm"}
+    return GaitCompensation(**{names.get(k, k): v for k, v in values.items() if v is not None})
 
 
 def _servo_id(node: yaml.Node) -> int | None:

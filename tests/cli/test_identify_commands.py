@@ -36,3 +36,22 @@ def test_a_motion_names_the_joints_it_moves(tmp_path, quick, capsys):
     assert main(["identify", "motions/arm6/wave.yaml", "-o", str(output), *port]) == 0
     measured = yaml.safe_load(output.read_text())["joints"]
     assert list(measured) == ["shoulder", "elbow", "wrist_pitch", "gripper"]  # what wave moves
+
+
+def test_a_walker_is_told_its_recalibrated_gait_compensation(tmp_path, quick, capsys, monkeypatch):
+    import sys
+
+    from choreo.robot.types import GaitCompensation
+
+    identify_module = sys.modules["choreo.identify.identify"]
+    monkeypatch.setattr(
+        identify_module, "calibrated_gait", lambda robot: GaitCompensation(8, 1.1, 1.2)
+    )
+    output = tmp_path / "figures.yaml"
+    port = ["--port", "sim://?physics=hexapod18&stand=1"]
+    assert main(["identify", "hexapod18", "--joints", "lf_tibia", "-o", str(output), *port]) == 0
+    out = capsys.readouterr().out
+    assert (
+        f"gait compensation recalibrated in the preview with these figures (in {output}): "
+        "lift +8 mm, stride x1.1, turn x1.2"
+    ) in out

@@ -13,7 +13,6 @@ from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.errors import PlanningError
 from choreo.motion.motion_file import load_motion
-from choreo.plan import ticks
 from choreo.plan.planner import plan_approach, plan_motion
 from choreo.plan.ticks import (
     MAX_TICK_MS,
@@ -247,35 +246,3 @@ def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
     motion = load_motion(path)
     trajectory = plan_motion(motion).trajectory
     check_plan(motion.robot, trajectory, compile_ticks(trajectory, motion.robot), 0.5)
-
-
-def compiled_split_and_alone(trajectory, robot, **options):
-    """compile_ticks with the search split between two threads at any length, as on two
-    cores, and on one thread; each a TickPlan or the PlanningError it raised."""
-    results = []
-    for cores in (2, 1):
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(ticks, "SPLIT_POINTS", 4)
-            patch.setattr(ticks, "_cores", lambda cores=cores: cores)
-            try:
-                results.append(compile_ticks(trajectory, robot, **options))
-            except PlanningError as error:  # a tolerance the bus cannot reach
-                results.append(error.problems)
-    return results
-
-
-@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
-@pytest.mark.parametrize("tolerance_deg", [0.5, 0.05, 2.0])
-def test_a_split_search_gives_the_ticks_of_one_search(path, tolerance_deg):
-    motion = load_motion(path)
-    trajectory = plan_motion(motion, stretch=True).trajectory
-    split, alone = compiled_split_and_alone(trajectory, motion.robot, tolerance_deg=tolerance_deg)
-    assert split == alone
-
-
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(motions())
-def test_a_split_search_of_random_motions_gives_the_ticks_of_one_search(motion):
-    trajectory = plan_motion(motion, stretch=True).trajectory
-    split, alone = compiled_split_and_alone(trajectory, motion.robot)
-    assert split == alone

@@ -5,8 +5,9 @@ from __future__ import annotations
 import pytest
 
 from choreo.errors import SourceError
-from choreo.robot.robot_file import load_robot
+from choreo.robot.robot_file import load_robot, with_servo_figures
 from choreo.robot.servo_figures import DEFAULT_SUPPLY_RESISTANCE_OHM, read_servo_figures
+from choreo.robot.types import GaitCompensation
 
 ARM6 = load_robot("arm6")
 
@@ -45,6 +46,8 @@ def test_figures_are_read_by_joint_name_and_by_servo_id(tmp_path):
         ("joints:\n  elbow: {response_delay_s: 0.5}\n", r"response_delay_s must be.*0\.1"),
         ("joints:\n  elbow: {stiffness: 3}\n", r"unknown key 'stiffness'"),
         ("supply: {voltage_v: 0}\n", r"supply: voltage_v must be"),
+        ("gait: {stride_scale: 3}\n", r":1:22: gait: stride_scale must be in 0.5..2, got 3"),
+        ("gait: {lift: 5}\n", r"unknown key 'lift' in gait \(did you mean 'lift_sag'\?\)"),
         ("", r":1:1: the file is empty"),
     ],
 )
@@ -87,3 +90,17 @@ def test_a_robot_file_naming_measured_figures_uses_them_for_the_preview_and_the_
     (folder / "measured.yaml").unlink()
     with pytest.raises(SourceError, match="servo_figures: .*measured.yaml does not exist"):
         load_robot(folder / "robot.yaml")
+
+
+def test_a_walkers_figures_carry_its_gait_compensation_which_replaces_the_robot_files(tmp_path):
+    hexapod = load_robot("hexapod18", with_figures=False)
+    path = tmp_path / "figures.yaml"
+    path.write_text(
+        "joints:\n  lf_femur: {kp_nm_rad: 12}\n"
+        "gait: {lift_sag: 9.5, stride_scale: 1.1, turn_scale: 1.2}\n"
+    )
+    figures = read_servo_figures(path, hexapod)
+    assert figures.gait == GaitCompensation(9.5, 1.1, 1.2)
+    assert with_servo_figures(hexapod, figures).gait == figures.gait
+    path.write_text("joints:\n  lf_femur: {kp_nm_rad: 12}\n")  # none: the robot file's
+    assert with_servo_figures(hexapod, read_servo_figures(path, hexapod)).gait == hexapod.gait

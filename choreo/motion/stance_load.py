@@ -1,0 +1,124 @@
+"""What the legs on the floor must hold up: the torque each joint needs to carry the robot's
+weight in a stance, against its servo's stall torque at the supply the robot runs on.
+
+A gait fast enough for the joints' speed can still be too heavy for them: with three feet down
+instead of six each carries twice the weight, and a servo at a low supply has less torque (in
+proportion to the supply, as the preview has it). Statics, no physics: the weight, at the centre
+of mass, is shared by the feet down as evenly as balance allows (the least-squares forces that
+sum to the weight and put its moment about the centre of mass to nought), and each joint holds
+the moment of its foot's share about its axis (the foot's Jacobian, by finite differences).
+The legs' own swing and the body's acceleration are left out: at a gait's pace they are small
+against the weight, and a stance that fails statically fails walking too.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from choreo.bus.servo_models import SERVO_MODELS
+from choreo.robot.types import Joint, Robot
+
+if TYPE_CHECKING:
+    from choreo.robot.kinematics import Kinematics
+
+GRAVITY_M_S2 = 9.81
+DOWN_MM = 1.0  # a foot this close to the lowest is on the floor
+STEP_RAD = 1e-4  # the finite difference of the feet's Jacobian
+
+
+@dataclass(frozen=True)
+class Overload:
+    """The joint that needs most of its stall torque in a stance, where it needs more."""
+
+    joint: str
+    needed_nm: float
+    stall_nm: float  # at the supply
+    supply_v: float | None  # as the robot file declares it (None: the servo's rated one)
+    feet_down: int
+    mass_kg: float
+    keyframe: int  # index among the stances judged
+
+
+def stall_torque_nm(robot: Robot, joint: Joint) -> float:
+    """``joint``'s servo's stall torque at the supply the robot file declares (its own or its
+    measured figure if it has one, at the servo's rated supply, scaled as the preview does)."""
+    model = SERVO_MODELS[joint.servo_model]
+    rated = joint.actuator.get("stall_torque_nm", model.stall_torque_nm)
+    return rated * model.supply_scale(robot.declared_supply_v(joint))
+
+
+def worst_overload(
+    kin: Kinematics, feet: Sequence[str], stances_deg: Sequence[np.ndarray]
+) -> Overload | None:
+    """The stance (joint angles, robot order) and joint where the weight needs the most over
+    its servo's stall torque, or None if every joint holds every stance."""
+    robot = kin.robot
+    stall = np.array([stall_torque_nm(robot, joint) for joint in robot.joints])
+    mass_kg = float(kin.model.body_mass.sum())
+    worst: Overload | None = None
+    legs = None
+    for index, angles in enumerate(stances_deg):
+        angles = np.asarray(angles, dtype=float)
+        legs = legs or {foot: _leg_of(kin, foot, angles) for foot in feet}
+        needed, down = holding_torques_nm(kin, feet, angles, mass_kg, legs)
+        over = np.abs(needed) / stall
+        j = int(np.argmax(over))
+        if over[j] > 1 and (worst is None or over[j] > worst.needed_nm / worst.stall_nm):
+            supply = robot.declared_supply_v(robot.joints[j])
+            worst = Overload(
+                robot.joint_names[j], float(abs(needed[j])), float(stall[j]), supply, down,
+                mass_kg, index,
+            )  # fmt: skip
+    return worst
+
+
+def holding_torques_nm(
+    kin: Kinematics,
+    feet: Sequence[str],
+    angles_deg: np.ndarray,
+    mass_kg: float,
+    legs: dict[str, np.ndarray] | None = None,
+) -> tuple[np.ndarray, int]:
+    """Each joint's torque (N·m, robot order) to hold the robot up on its feet down at
+    ``angles_deg`` (the body level), and how many feet are down; ``legs``: the joints that
+    move each foot (found here if not given)."""
+    feet_m = np.array([kin.site_pose(foot, angles_deg).position_mm for foot in feet]) / 1000
+    down = feet_m[:, 2] <= feet_m[:, 2].min() + DOWN_MM / 1000
+    kin.site_pose(feet[0], angles_deg)  # the bodies where the stance puts them
+    masses = kin.model.body_mass
+    centre_world = (masses[:, None] * kin.data.xipos).sum(axis=0) / masses.sum()
+    centre_m = kin.world_to_base_mm(centre_world * 1000) / 1000
+    # the feet's upward forces: summing to the weight, balanced about the centre of mass
+    balance = np.vstack([np.ones(int(down.sum())), feet_m[down, 0], feet_m[down, 1]])
+    weight = mass_kg * GRAVITY_M_S2
+    forces = np.linalg.lstsq(balance, weight * np.array([1.0, *centre_m[:2]]), rcond=None)[0]
+    torques = np.zeros(len(angles_deg))
+    for foot, force in zip(np.flatnonzero(down), forces):
+        name = feet[int(foot)]
+        leg = legs[name] if legs is not None else _leg_of(kin, name, angles_deg)
+        torques += _lift_per_rad(kin, name, angles_deg, leg) * force
+    return torques, int(down.sum())
+
+
+def _leg_of(kin: Kinematics, foot: str, angles_deg: np.ndarray) -> np.ndarray:
+    """The joints (robot order) that move ``foot``: its leg's."""
+    return np.flatnonzero(_lift_per_rad(kin, foot, angles_deg, np.arange(len(angles_deg))) != 0)
+
+
+def _lift_per_rad(
+    kin: Kinematics, foot: str, angles_deg: np.ndarray, joints: np.ndarray
+) -> np.ndarray:
+    """How far each of ``joints`` raises the foot per radian (m/rad; 0 for the others): the
+    vertical row of its Jacobian, which times the floor's push on the foot is the torque the
+    joint holds."""
+    base = kin.site_pose(foot, angles_deg).position_mm[2] / 1000
+    rows = np.zeros(len(angles_deg))
+    for j in joints:
+        moved = angles_deg.copy()
+        moved[j] += np.degrees(STEP_RAD)
+        rows[j] = (kin.site_pose(foot, moved).position_mm[2] / 1000 - base) / STEP_RAD
+    return rows
