@@ -15,12 +15,11 @@ from choreo.bus.protocol import MAX_SERVO_ID
 from choreo.bus.servo_bus import EchoMode
 from choreo.bus.servo_models import ACTUATOR_FIELDS, POSITION_RANGE_UNITS, SERVO_MODELS
 from choreo.core.file_shape import Shape, mapping_shape
-from choreo.motion import keyframe_entry
-from choreo.motion import motion_file as motion
+from choreo.motion import keyframe_entry, keyframe_list
 from choreo.motion.scene import PROP_BOUNDS
 from choreo.motion.timing import MAX_SPEED, MAX_TIME_S, MIN_SPEED
+from choreo.robot import bus_entry, joint_entry, servo_figures
 from choreo.robot import robot_file as robot
-from choreo.robot import servo_figures
 
 
 def schema(name: str) -> dict:
@@ -45,35 +44,37 @@ def test_schemas_are_valid_draft_2020_12(name):
 
 def test_the_loaders_take_their_keys_from_the_schemas():
     """The keys as docs/motion-format.md lists them: own keys first, then the shared timing."""
-    assert motion.MOTION == mapping_shape("motion")
-    assert motion.MOTION.keys == (
+    assert keyframe_list.MOTION == mapping_shape("motion")
+    assert keyframe_list.MOTION.keys == (
         "name", "description", "robot", "speed", "repeat", "start", "end", "props", "music",
         "keyframes",
     )  # fmt: skip
-    assert motion.MOTION.required == ("robot", "keyframes")
+    assert keyframe_list.MOTION.required == ("robot", "keyframes")
     assert keyframe_entry.KEYFRAME == Shape(
         ("pose", "sites", "body", "hold", "stop", "velocity", "t", "after", "beat", "bar"), ()
     )
     assert keyframe_entry.GAIT == Shape(("gait",), ("gait",))
-    assert motion.INCLUDE == Shape(("include", "mirror", "t", "after", "beat", "bar"), ("include",))
+    assert keyframe_list.INCLUDE == Shape(
+        ("include", "mirror", "t", "after", "beat", "bar"), ("include",)
+    )
     assert robot.ROBOT.keys == (
         "name", "mjcf", "scene", "servo_figures", "bus", "defaults", "joints", "poses", "mirror",
         "gait",
     )  # fmt: skip
     assert robot.ROBOT.required == ("name", "joints", "poses")
-    assert robot.JOINT.keys == ("id", *robot.DEFAULTS.keys)
-    assert robot.JOINT.required == ("id",)
-    assert robot.BUS == Shape(
+    assert joint_entry.JOINT.keys == ("id", *robot.DEFAULTS.keys)
+    assert joint_entry.JOINT.required == ("id",)
+    assert bus_entry.BUS == Shape(
         ("port", "timeout_ms", "retries", "echo", "supply_v", "direction"), ()
     )
-    assert robot.ECHO_MODES == tuple(mode.value for mode in EchoMode)
+    assert bus_entry.ECHO_MODES == tuple(mode.value for mode in EchoMode)
     assert robot.MIRROR_PAIR == Shape(("left", "right", "sign"), ("left", "right", "sign"))
     assert servo_figures.GAIT == Shape(tuple(servo_figures.GAIT_BOUNDS), ())  # robot's gait:
-    assert set(robot.REQUIRED_JOINT_KEYS) <= set(robot.JOINT.keys)
+    assert set(joint_entry.REQUIRED_JOINT_KEYS) <= set(joint_entry.JOINT.keys)
 
 
 def test_the_preview_knows_every_actuator_key_of_the_schema():
-    assert robot.ACTUATOR.keys == ACTUATOR_FIELDS
+    assert joint_entry.ACTUATOR.keys == ACTUATOR_FIELDS
 
 
 def test_the_ranges_the_robot_schema_repeats_are_the_codes():

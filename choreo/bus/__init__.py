@@ -4,6 +4,8 @@ models' datasheet facts and their configuration.
 - :mod:`~choreo.bus.protocol`: the LX packet codec (commands, fields and their ranges);
 - :mod:`~choreo.bus.framing`: the resync core every frame decoder shares (LX, RRC, LOBOT);
 - :mod:`~choreo.bus.servo_bus`: :class:`ServoBus`, the one place commands are sent and read;
+  :mod:`~choreo.bus.typed_commands` its typed commands and what they read, and
+  :mod:`~choreo.bus.read_failure` why a read got no valid reply;
 - :mod:`~choreo.bus.settings`: how to reach a robot's bus (:class:`BusSettings`), the built-in
   emulated bus where no port is named;
 - :mod:`~choreo.bus.transports`: the backends a port string picks (raw LX, ``rrc://``,

@@ -26,8 +26,9 @@ from choreo.bus.protocol import (
     check_request,
     field_range,
 )
-from choreo.bus.servo_bus import AngleLimits, Presence, ServoBus, VinLimits
+from choreo.bus.servo_bus import Presence, ServoBus
 from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG
+from choreo.bus.typed_commands import AngleLimits, VinLimits
 from choreo.errors import BusError, BusTimeoutError, ProtocolError
 
 log = logging.getLogger(__name__)

@@ -220,23 +220,7 @@ def run_preview(args: argparse.Namespace) -> int:
 
 def _preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
-    if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
-        raise UsageError(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
-    if (
-        output is not None
-        and output.suffix.lower() == ".mp4"
-        and (args.size[0] % 2 or args.size[1] % 2)
-    ):
-        raise UsageError(
-            f"--size {args.size[0]}x{args.size[1]}: mp4 needs an even width and height"
-        )
-    if args.check and (output is not None or args.viewer):
-        raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
-    fps = checked_fps(args.fps, output.suffix.lower()) if output is not None else args.fps
-    if output is not None:
-        check_writable(output, overwrite=args.overwrite)
-    if args.report is not None:
-        check_writable(args.report)
+    fps = _checked_outputs(args)
 
     from choreo import preview  # imports mujoco: only when this command runs
 
@@ -269,8 +253,49 @@ def _preview(args: argparse.Namespace) -> int:
         plan=plan_options(args),
         start_pose=args.start_pose,
     )
-    rollout = simulated.rollout
     results = preview.run_checks(simulated, thresholds)
+    errors = _print_findings(args, preview, motion, simulated, results, thresholds)
+    if args.report is not None:
+        report = preview.preview_report(
+            simulated, results, motion=str(args.motion), thresholds=thresholds
+        )
+        text = json.dumps(report_in_flags(report), indent=2, ensure_ascii=False)
+        write_text_atomically(args.report, text + "\n")
+        print(f"wrote {args.report}")
+    if output is not None:
+        _render(args, preview, simulated.rollout, output, fps, results, motion)
+    if args.viewer:
+        preview.show_in_viewer(simulated.rollout)
+    rendering = output is not None or args.viewer
+    return 1 if errors and not rendering else 0
+
+
+def _checked_outputs(args: argparse.Namespace) -> float | None:
+    """Refuse outputs that cannot be written before anything is simulated; the frame rate."""
+    output: Path | None = args.output
+    if output is not None and output.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise UsageError(f"-o {output}: the file must end in {', '.join(OUTPUT_SUFFIXES)}")
+    if (
+        output is not None
+        and output.suffix.lower() == ".mp4"
+        and (args.size[0] % 2 or args.size[1] % 2)
+    ):
+        raise UsageError(
+            f"--size {args.size[0]}x{args.size[1]}: mp4 needs an even width and height"
+        )
+    if args.check and (output is not None or args.viewer):
+        raise UsageError("--check runs the checks only: drop -o and --viewer, or --check")
+    fps = checked_fps(args.fps, output.suffix.lower()) if output is not None else args.fps
+    if output is not None:
+        check_writable(output, overwrite=args.overwrite)
+    if args.report is not None:
+        check_writable(args.report)
+    return fps
+
+
+def _print_findings(args, preview, motion, simulated, results, thresholds) -> int:
+    """Print what the simulation found, line by line, and the summary; the number of errors."""
+    rollout = simulated.rollout
     for line in preview.start_lines(rollout):
         print(f"{args.motion}: {in_flags(line)}")
     for result in results:
@@ -291,31 +316,22 @@ def _preview(args: argparse.Namespace) -> int:
         f"{args.motion}: {rollout.duration_s:.2f} s simulated, {errors} error(s), "
         f"{len(results) - errors} warning(s)"
     )
+    return errors
 
-    if args.report is not None:
-        report = preview.preview_report(
-            simulated, results, motion=str(args.motion), thresholds=thresholds
-        )
-        text = json.dumps(report_in_flags(report), indent=2, ensure_ascii=False)
-        write_text_atomically(args.report, text + "\n")
-        print(f"wrote {args.report}")
-    if output is not None:
-        render_settings = preview.RenderSettings(
-            width=args.size[0],
-            height=args.size[1],
-            fps=fps,
-            sheet_frames=args.frames,
-            high_quality=args.hq,
-        )
-        done = _render_with_progress(preview, rollout, output, render_settings, results, motion)
-        print(
-            f"wrote {output} ({done.frames} frames of {args.size[0]}x{args.size[1]}, "
-            f"rendered with {done.backend})"
-        )
-    if args.viewer:
-        preview.show_in_viewer(rollout)
-    rendering = output is not None or args.viewer
-    return 1 if errors and not rendering else 0
+
+def _render(args, preview, rollout, output: Path, fps: float | None, results, motion) -> None:
+    render_settings = preview.RenderSettings(
+        width=args.size[0],
+        height=args.size[1],
+        fps=fps,
+        sheet_frames=args.frames,
+        high_quality=args.hq,
+    )
+    done = _render_with_progress(preview, rollout, output, render_settings, results, motion)
+    print(
+        f"wrote {output} ({done.frames} frames of {args.size[0]}x{args.size[1]}, "
+        f"rendered with {done.backend})"
+    )
 
 
 def describe_travel(travel) -> str:

@@ -19,9 +19,10 @@ from rich.table import Table
 
 from choreo.bus import servo_config
 from choreo.bus.protocol import Command
-from choreo.bus.servo_bus import AngleLimits, ServoBus, ServoInfo, VinLimits
+from choreo.bus.servo_bus import ServoBus
 from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.bus.transports import Capabilities
+from choreo.bus.typed_commands import AngleLimits, ServoInfo, VinLimits
 from choreo.cli.arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
 from choreo.errors import ChoreoError, UsageError
 

@@ -1,7 +1,9 @@
 """An emulated bus of LX serial servos, for users without hardware and for tests.
 
 - :class:`BusEmulator`: servos on a wire with real timing (bytes in, replies out).
-- :class:`EmulatedServo`: one servo's EEPROM, motion and faults (``emulator.servo(1)``).
+- :class:`EmulatedServo`: one servo's state, motion and faults (``emulator.servo(1)``);
+  ``servo_commands``: its answer to each command; ``eeprom``: what it keeps across power-off;
+  ``servo_motion``: how its horn moves and reads; ``reply_faults``: faults injected into replies.
 - ``sim://`` URLs: call :func:`register_url_handler` once, then
   ``serial.serial_for_url("sim://?ids=1-6&clock=virtual")`` gives a :class:`SimSerial`.
 - :class:`PtyBridge`: the emulator on a pseudo-terminal (``choreo emulate --pty PATH``).
@@ -23,14 +25,10 @@ from choreo.emulator.bus_emulator import (
     WireLog,
     parse_servo_specs,
 )
-from choreo.emulator.emulated_servo import (
-    Eeprom,
-    EmulatedServo,
-    ReplyFate,
-    ReplyFaults,
-    StartedMove,
-)
+from choreo.emulator.eeprom import Eeprom
+from choreo.emulator.emulated_servo import EmulatedServo, StartedMove
 from choreo.emulator.protocol_sim import SimSerial, emulator_from_url
+from choreo.emulator.reply_faults import ReplyFate, ReplyFaults
 
 if TYPE_CHECKING:  # mypy checks that sim:// keeps the contract every backend keeps
     from choreo.bus.transports import Transport

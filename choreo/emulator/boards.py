@@ -24,7 +24,7 @@ from typing import ClassVar
 from choreo.bus.protocol import BYTE_TIME_S, Command, PacketDecoder, encode_packet
 from choreo.bus.transports import Link, lobot, rrc
 from choreo.emulator.bus_emulator import BusEmulator, SentReply
-from choreo.emulator.emulated_servo import ReplyFate
+from choreo.emulator.reply_faults import ReplyFate
 
 BOARD_LATENCY_S = 0.00005
 SERVO_REPLY_TIMEOUT_S = 0.005  # RRC firmware: proc_timeout, 5 ticks of 1 ms

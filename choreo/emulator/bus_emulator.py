@@ -43,14 +43,10 @@ from choreo.core.arguments import Range, check_number
 from choreo.core.atomic import write_text_atomically
 from choreo.core.clock import Clock, RealClock
 from choreo.core.file_kind import not_a_file, os_error_text
-from choreo.emulator.emulated_servo import (
-    DEFAULT_START_GAP_S,
-    Eeprom,
-    EmulatedServo,
-    ReplyFate,
-    StartedMove,
-)
+from choreo.emulator.eeprom import Eeprom
+from choreo.emulator.emulated_servo import DEFAULT_START_GAP_S, EmulatedServo, StartedMove
 from choreo.emulator.physics import Physics
+from choreo.emulator.reply_faults import ReplyFate
 from choreo.errors import ChoreoError
 
 

@@ -1,4 +1,6 @@
-"""One emulated LX bus servo: its EEPROM, its motion, its faults, and its answer to each command.
+"""One emulated LX bus servo: its state, its motion and its faults; its answer to each command is
+``servo_commands``, what it keeps across power-off ``eeprom``, how its horn moves and reads
+``servo_motion``, and faults injected into its replies ``reply_faults``.
 
 Behaviour follows ``docs/protocol.md`` ("What a servo does"). Choices made where the
 servo's behaviour is undocumented:
@@ -39,103 +41,33 @@ servo's behaviour is undocumented:
 
 from __future__ import annotations
 
-import enum
 import functools
 import logging
 import math
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
-from typing import ClassVar
+from dataclasses import dataclass
 
 from choreo.bus.protocol import (
     BROADCAST_ID,
-    BYTE_TIME_S,
     SPECS,
     Command,
     ErrorMask,
     Packet,
     decode_request,
     encode_reply,
-    field_range,
 )
-from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG, ServoModel
+from choreo.bus.servo_models import UNITS_PER_DEG, ServoModel
+from choreo.emulator.eeprom import Eeprom
 from choreo.emulator.physics import ServoPhysics
+from choreo.emulator.reply_faults import ReplyFate, ReplyFaults
+from choreo.emulator.servo_commands import ServoCommands
+from choreo.emulator.servo_motion import Motion, check_readable, wrap_reading
 
 logger = logging.getLogger(__name__)
 
-UNITS_PER_TURN = 1500  # 1500 × 0.24° = 360°
-READ_MIN_UNITS = -250  # readings wrap into READ_MIN_UNITS .. READ_MIN_UNITS + UNITS_PER_TURN - 1
-DIS_PULSES_PER_TURN = 4096
 FACTORY_TEMP_C = 30.0
 DEFAULT_START_GAP_S = 0.0  # off: a START right after its preset is taken (see the docstring)
-
-
-# EEPROM field -> its valid range: that of the write command's field (one source of truth: SPECS).
-_EEPROM_RANGES: dict[str, tuple[int, int]] = {
-    "servo_id": field_range(Command.ID_WRITE, "new_id"),
-    "offset_units": field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units"),
-    "angle_min_units": field_range(Command.ANGLE_LIMIT_WRITE, "min_units"),
-    "angle_max_units": field_range(Command.ANGLE_LIMIT_WRITE, "max_units"),
-    "vin_min_mv": field_range(Command.VIN_LIMIT_WRITE, "min_mv"),
-    "vin_max_mv": field_range(Command.VIN_LIMIT_WRITE, "max_mv"),
-    "temp_max_c": field_range(Command.TEMP_MAX_LIMIT_WRITE, "temp_c"),
-    "led_off": field_range(Command.LED_CTRL_WRITE, "led_off"),
-    "error_mask": field_range(Command.LED_ERROR_WRITE, "mask"),
-}
-
-
-@dataclass(frozen=True)
-class Eeprom:
-    """What a servo keeps across power-off; factory values by default."""
-
-    servo_id: int
-    offset_units: int = 0
-    angle_min_units: int = 0
-    angle_max_units: int = 1000
-    vin_min_mv: int = 4500
-    vin_max_mv: int = 14000
-    temp_max_c: int = 85
-    led_off: int = 0  # 0 = LED on, as on the wire
-    error_mask: int = int(ErrorMask.OVER_TEMPERATURE | ErrorMask.VOLTAGE | ErrorMask.STALLED)
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            lo, hi = _EEPROM_RANGES[f.name]
-            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-                raise ValueError(f"{f.name} must be an integer in {lo}..{hi}, got {value!r}")
-        for low, high in (("angle_min_units", "angle_max_units"), ("vin_min_mv", "vin_max_mv")):
-            if getattr(self, low) >= getattr(self, high):
-                raise ValueError(
-                    f"{low} must be less than {high}, "
-                    f"got {getattr(self, low)} >= {getattr(self, high)}"
-                )
-
-
-class ReplyFate(enum.Enum):
-    SENT = "sent"
-    DROPPED = "dropped"  # injected: never sent
-    CORRUPTED = "corrupted"  # injected: one bit flipped
-    COLLIDED = "collided"  # several servos answered at once
-
-
-@dataclass(frozen=True)
-class ReplyFaults:
-    """Injected reply faults of one servo: the next N replies, or each with a probability."""
-
-    drop_next: int = 0
-    corrupt_next: int = 0
-    drop_probability: float = 0.0
-    corrupt_probability: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("drop_next", "corrupt_next"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("drop_probability", "corrupt_probability"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise ValueError(f"{name} must be in 0..1, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)
@@ -160,25 +92,6 @@ class HandledPacket:
     moves: tuple[StartedMove, ...] = ()
 
 
-@dataclass(frozen=True)
-class _Motion:
-    """Uniform motion of the output from ``start_s`` until ``end_s`` (inf: keeps turning)."""
-
-    start_s: float
-    start_units: float
-    velocity_units_s: float = 0.0
-    end_s: float = -math.inf
-
-    def output_at(self, time_s: float) -> float:
-        moving_s = max(0.0, min(time_s, self.end_s) - self.start_s)
-        return self.start_units + self.velocity_units_s * moving_s
-
-
-def wrap_reading(units: float) -> float:
-    """A position as the servo's potentiometer reads it: one turn is 1500 counts."""
-    return (units - READ_MIN_UNITS) % UNITS_PER_TURN + READ_MIN_UNITS
-
-
 def _at_now(method):
     """Run a public method under the bus lock at ``now()``, after every due packet has acted."""
 
@@ -190,15 +103,7 @@ def _at_now(method):
     return at_now
 
 
-def _check_readable(pos_units: float) -> None:
-    if not READ_MIN_UNITS <= pos_units < READ_MIN_UNITS + UNITS_PER_TURN:
-        raise ValueError(
-            f"pos_units must be in {READ_MIN_UNITS}..{READ_MIN_UNITS + UNITS_PER_TURN - 1} "
-            f"(one turn of the potentiometer), got {pos_units}"
-        )
-
-
-class EmulatedServo:
+class EmulatedServo(ServoCommands):
     """One servo. The bus calls :meth:`hears` and :meth:`handle` at each packet's arrival time.
 
     The public properties and methods (for tests and users) act at ``now()`` under ``lock``; the
@@ -218,7 +123,7 @@ class EmulatedServo:
         physics: ServoPhysics | None = None,
         loaded: bool = False,
     ):
-        _check_readable(position_units)
+        check_readable(position_units)
         self.model = model
         self._physics = physics
         self.start_gap_s = start_gap_s
@@ -240,7 +145,7 @@ class EmulatedServo:
         self._last_move = (self._clamp_to_limits(round(position_units)), 0)
         self._resume_when_cool = False
         self._travelled_units = 0.0
-        self._motion = _Motion(now(), position_units + self._offset_units)
+        self._motion = Motion(now(), position_units + self._offset_units)
         self._moves_started: list[StartedMove] = []
 
     # --- what tests and users see ----------------------------------------------------------
@@ -350,7 +255,7 @@ class EmulatedServo:
     @_at_now
     def move_by_hand(self, now, pos_units: float) -> None:
         """Turn the horn of an unloaded servo so that it reads ``pos_units`` (teach mode)."""
-        _check_readable(pos_units)
+        check_readable(pos_units)
         if self._physics is not None:
             raise ValueError(
                 f"servo {self._eeprom.servo_id} stands in a physical world: its horn goes where "
@@ -361,24 +266,14 @@ class EmulatedServo:
                 f"servo {self._eeprom.servo_id} is loaded (holding torque): "
                 f"unload it before moving it by hand"
             )
-        self._set_motion(now, _Motion(now, pos_units + self._offset_units))
+        self._set_motion(now, Motion(now, pos_units + self._offset_units))
 
     # --- the bus side ----------------------------------------------------------------------
     def take_reply_fault(self, draw: Callable[[], float]) -> ReplyFate:
         """The fate of the reply being sent (SENT, DROPPED or CORRUPTED); ``draw`` gives a
         uniform random number in [0, 1) from the bus's seeded generator."""
-        faults = self._reply_faults
-        if faults.drop_next:
-            self._reply_faults = replace(faults, drop_next=faults.drop_next - 1)
-            return ReplyFate.DROPPED
-        if faults.drop_probability and draw() < faults.drop_probability:
-            return ReplyFate.DROPPED
-        if faults.corrupt_next:
-            self._reply_faults = replace(faults, corrupt_next=faults.corrupt_next - 1)
-            return ReplyFate.CORRUPTED
-        if faults.corrupt_probability and draw() < faults.corrupt_probability:
-            return ReplyFate.CORRUPTED
-        return ReplyFate.SENT
+        fate, self._reply_faults = self._reply_faults.take(draw)
+        return fate
 
     def hears(self, packet: Packet) -> bool:
         return self._connected and packet.servo_id in (self._eeprom.servo_id, BROADCAST_ID)
@@ -446,7 +341,7 @@ class EmulatedServo:
             self._vin_mv, self._temp_c = vin_mv, temp_c
             self._update_faults(now)
 
-    def _set_motion(self, now: float, motion: _Motion) -> None:
+    def _set_motion(self, now: float, motion: Motion) -> None:
         self._travelled_units += abs(self._motion.output_at(now) - self._motion.start_units)
         self._travelled_units += abs(motion.start_units - self._motion.output_at(now))
         self._motion = motion
@@ -457,11 +352,11 @@ class EmulatedServo:
         """Stand still where the output is now (held if loaded, resting if not)."""
         output = self._output_at(now)
         self._target_units = output - self._offset_units
-        self._set_motion(now, _Motion(now, output))
+        self._set_motion(now, Motion(now, output))
 
     def _spin(self, now: float) -> None:
         velocity = self._motor_speed / 1000 * self._top_speed_units_s
-        self._set_motion(now, _Motion(now, self._motion.output_at(now), velocity, math.inf))
+        self._set_motion(now, Motion(now, self._motion.output_at(now), velocity, math.inf))
 
     def _drive_to(self, now: float, target_units: float, time_s: float, command: Command) -> None:
         """Uniform move of the output to ``target_units + offset``, no faster than the top speed."""
@@ -470,7 +365,7 @@ class EmulatedServo:
         duration_s = max(time_s, abs(distance) / self._top_speed_units_s)
         velocity = distance / duration_s if duration_s > 0 else 0.0
         self._target_units = target_units
-        self._set_motion(now, _Motion(now, start, velocity, now + duration_s))
+        self._set_motion(now, Motion(now, start, velocity, now + duration_s))
         self._moves_started.append(
             StartedMove(
                 now,
@@ -529,162 +424,3 @@ class EmulatedServo:
         elif self._resume_when_cool:
             self._resume_when_cool = False
             self._load(now)
-
-    # --- one method per command: (self, at_s, packet, **request fields) -> reply fields ------
-    def _move_time_write(self, at_s, packet, *, pos_units, time_ms):
-        self._move(at_s, pos_units, time_ms, Command.MOVE_TIME_WRITE)
-
-    def _move_time_read(self, at_s, packet):
-        pos_units, time_ms = self._last_move
-        return dict(pos_units=pos_units, time_ms=time_ms)
-
-    def _move_time_wait_write(self, at_s, packet, *, pos_units, time_ms):
-        self._preset = (pos_units, time_ms)
-        self._preset_end_s = at_s
-
-    def _move_time_wait_read(self, at_s, packet):
-        pos_units, time_ms = self._preset or (0, 0)
-        return dict(pos_units=pos_units, time_ms=time_ms)
-
-    def _move_start(self, at_s, packet):
-        if self._preset is None:
-            return
-        first_byte_s = at_s - len(packet.encode()) * BYTE_TIME_S
-        if first_byte_s - self._preset_end_s < self.start_gap_s:
-            logger.debug(
-                "servo %d missed MOVE_START sent too soon after its preset", self._eeprom.servo_id
-            )
-            return
-        self._move(at_s, *self._preset, Command.MOVE_START)
-
-    def _move_stop(self, at_s, packet):
-        if self._loaded and not self._motor_mode:
-            self._hold(at_s)
-
-    def _id_write(self, at_s, packet, *, new_id):
-        self._eeprom = replace(self._eeprom, servo_id=new_id)
-
-    def _id_read(self, at_s, packet):
-        return dict(servo_id=self._eeprom.servo_id)
-
-    def _offset_adjust(self, at_s, packet, *, offset_units):
-        self._offset_units = offset_units
-        if self._loaded and not self._motor_mode:
-            remaining_s = max(0.0, self._motion.end_s - at_s)
-            self._drive_to(at_s, self._target_units, remaining_s, Command.ANGLE_OFFSET_ADJUST)
-
-    def _offset_write(self, at_s, packet):
-        self._eeprom = replace(self._eeprom, offset_units=self._offset_units)
-
-    def _offset_read(self, at_s, packet):
-        return dict(offset_units=self._offset_units)
-
-    def _angle_limit_write(self, at_s, packet, *, min_units, max_units):
-        self._eeprom = replace(self._eeprom, angle_min_units=min_units, angle_max_units=max_units)
-
-    def _angle_limit_read(self, at_s, packet):
-        return dict(min_units=self._eeprom.angle_min_units, max_units=self._eeprom.angle_max_units)
-
-    def _vin_limit_write(self, at_s, packet, *, min_mv, max_mv):
-        self._eeprom = replace(self._eeprom, vin_min_mv=min_mv, vin_max_mv=max_mv)
-        self._update_faults(at_s)
-
-    def _vin_limit_read(self, at_s, packet):
-        return dict(min_mv=self._eeprom.vin_min_mv, max_mv=self._eeprom.vin_max_mv)
-
-    def _temp_max_write(self, at_s, packet, *, temp_c):
-        self._eeprom = replace(self._eeprom, temp_max_c=temp_c)
-        self._update_faults(at_s)
-
-    def _temp_max_read(self, at_s, packet):
-        return dict(temp_c=self._eeprom.temp_max_c)
-
-    def _temp_read(self, at_s, packet):
-        return dict(temp_c=min(255, max(0, round(self._temp_c))))
-
-    def _vin_read(self, at_s, packet):
-        return dict(vin_mv=self._vin_mv)
-
-    def _pos_read(self, at_s, packet):
-        return dict(pos_units=round(self._reading_at(at_s)))
-
-    def _motor_mode_write(self, at_s, packet, *, mode, reserved, speed):
-        self._motor_speed = speed
-        if mode == 1:
-            self._motor_mode = True
-            self._load(at_s)
-            return
-        if self._motor_mode:
-            self._motor_mode = False
-            reading = self._reading_at(at_s)
-            self._set_motion(at_s, _Motion(at_s, reading + self._offset_units))
-        if self._loaded:
-            self._hold(at_s)
-
-    def _motor_mode_read(self, at_s, packet):
-        return dict(mode=int(self._motor_mode), reserved=0, speed=self._motor_speed)
-
-    def _load_write(self, at_s, packet, *, loaded):
-        if loaded:
-            self._load(at_s)
-        else:
-            self._resume_when_cool = False
-            self._unload(at_s)
-
-    def _load_read(self, at_s, packet):
-        return dict(loaded=int(self._loaded))
-
-    def _led_ctrl_write(self, at_s, packet, *, led_off):
-        self._eeprom = replace(self._eeprom, led_off=led_off)
-
-    def _led_ctrl_read(self, at_s, packet):
-        return dict(led_off=self._eeprom.led_off)
-
-    def _led_error_write(self, at_s, packet, *, mask):
-        self._eeprom = replace(self._eeprom, error_mask=mask)
-
-    def _led_error_read(self, at_s, packet):
-        return dict(mask=self._eeprom.error_mask)
-
-    def _dis_read(self, at_s, packet):
-        travelled = self._travelled_units + abs(
-            self._motion.output_at(at_s) - self._motion.start_units
-        )
-        pulses = round(travelled * DEG_PER_UNIT / 360 * DIS_PULSES_PER_TURN)
-        return dict(distance=pulses & 0xFFFFFFFF)
-
-    C = Command
-    # Each handler takes (self, at_s, packet, **request fields) and returns the reply's fields,
-    # or None when the command has no reply.
-    _HANDLERS: ClassVar[dict[Command, Callable[..., dict[str, int] | None]]] = {
-        C.MOVE_TIME_WRITE: _move_time_write,
-        C.MOVE_TIME_READ: _move_time_read,
-        C.MOVE_TIME_WAIT_WRITE: _move_time_wait_write,
-        C.MOVE_TIME_WAIT_READ: _move_time_wait_read,
-        C.MOVE_START: _move_start,
-        C.MOVE_STOP: _move_stop,
-        C.ID_WRITE: _id_write,
-        C.ID_READ: _id_read,
-        C.ANGLE_OFFSET_ADJUST: _offset_adjust,
-        C.ANGLE_OFFSET_WRITE: _offset_write,
-        C.ANGLE_OFFSET_READ: _offset_read,
-        C.ANGLE_LIMIT_WRITE: _angle_limit_write,
-        C.ANGLE_LIMIT_READ: _angle_limit_read,
-        C.VIN_LIMIT_WRITE: _vin_limit_write,
-        C.VIN_LIMIT_READ: _vin_limit_read,
-        C.TEMP_MAX_LIMIT_WRITE: _temp_max_write,
-        C.TEMP_MAX_LIMIT_READ: _temp_max_read,
-        C.TEMP_READ: _temp_read,
-        C.VIN_READ: _vin_read,
-        C.POS_READ: _pos_read,
-        C.OR_MOTOR_MODE_WRITE: _motor_mode_write,
-        C.OR_MOTOR_MODE_READ: _motor_mode_read,
-        C.LOAD_OR_UNLOAD_WRITE: _load_write,
-        C.LOAD_OR_UNLOAD_READ: _load_read,
-        C.LED_CTRL_WRITE: _led_ctrl_write,
-        C.LED_CTRL_READ: _led_ctrl_read,
-        C.LED_ERROR_WRITE: _led_error_write,
-        C.LED_ERROR_READ: _led_error_read,
-        C.DIS_READ: _dis_read,
-    }
-    del C

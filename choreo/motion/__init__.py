@@ -1,6 +1,7 @@
 """Motion files: keyframes for a robot, read with every mistake located, and written back.
 
 - :mod:`~choreo.motion.motion_file`: :func:`load_motion`, :class:`Motion`, :class:`Keyframe`;
+  :mod:`~choreo.motion.keyframe_list`: the ``keyframes:`` list and the files it includes;
   :mod:`~choreo.motion.keyframe_entry`: one keyframe entry as written (pose, timing, space);
 - :mod:`~choreo.motion.timing`: the keyframe timing rules (t, after, hold, repeat, speed);
 - :mod:`~choreo.motion.music_block`: the ``music:`` block, beats and bars to seconds;

@@ -36,7 +36,7 @@ from choreo.motion.spatial import (
 from choreo.motion.timing import (
     MAX_TIME_S,
 )
-from choreo.robot.robot_file import read_angles
+from choreo.robot.poses import read_angles
 from choreo.robot.types import Robot
 
 # The slowest a keyframe's velocity may ask for: 1 % of the joints' velocity limits (3 deg/s for

@@ -7,14 +7,10 @@ in the robot's joint order) and where it was written, so later stages can point 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from choreo.core.arguments import check_flag, check_path, is_path, shown
-from choreo.core.file_kind import not_a_file
-from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
     Entry,
     Node,
@@ -30,11 +26,8 @@ from choreo.motion.gait import BodyPose, Gait
 from choreo.motion.keyframe_entry import (
     Include,
     Step,
-    read_gait_block,
-    read_keyframe,
-    read_timing,
-    t_where,
 )
+from choreo.motion.keyframe_list import find_robot_of, motion_fields, read_steps
 from choreo.motion.music_block import BeatRef, Music, past_song, read_music
 from choreo.motion.scene import Prop, StartPosture, read_props, read_start
 from choreo.motion.spatial import (
@@ -42,18 +35,14 @@ from choreo.motion.spatial import (
     GaitSpec,
     SiteTarget,
     expand_spatial,
-    has_key,
 )
 from choreo.motion.timing import (
     MAX_SPEED,
     MIN_SPEED,
-    backward_times,
-    known_arrivals_s,
-    played_keyframes,
 )
-from choreo.robot.lookup import find_robot_file
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.robot_file import load_robot
-from choreo.robot.types import Robot, mirror_pose
+from choreo.robot.types import Robot
 
 
 @dataclass(frozen=True)
@@ -115,12 +104,6 @@ def too_many_played(keyframes: int, repeat: int, what: str = "repeat") -> str | 
     )
 
 
-# The keys of each mapping, from the JSON Schema (the one description of the file's shape).
-MOTION = mapping_shape("motion")
-INCLUDE = mapping_shape("motion", "#/$defs/includeEntry")
-HOME_POSE = "home"
-
-
 def load_motion(path: str | os.PathLike[str], allow_past_song: bool = False) -> Motion:
     """Read a motion file and its robot; expand includes; fill partial poses.
 
@@ -152,7 +135,8 @@ def motion_of(motion: object, allow_past_song: bool = False) -> Motion:
 
 
 def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Motion | None:
-    fields = _motion_fields(reader, root)
+    """The motion the file describes, or None when any of it was refused (reported)."""
+    fields = motion_fields(reader, root)
     if fields is None:
         return None
     robot = _load_robot_of(reader, fields["robot"]) if "robot" in fields else None
@@ -173,17 +157,11 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         read_start(reader, fields["end"].value, "end") if "end" in fields else StartPosture.STANDING
     )
     props = read_props(reader, fields["props"].value) if "props" in fields else ()
-    music = read_music(reader, fields["music"]) if "music" in fields else None
-    if music is not None and speed not in (None, 1.0):
-        reader.report(
-            fields["speed"].value,
-            f"speed {fmt(speed)} would leave the music behind (the song plays at its own "
-            "tempo); remove speed, or the music block",
-        )
+    music = _read_music(reader, fields, speed)
     if robot is None or "keyframes" not in fields:
         return None
     chain = (Include(reader.path, None, music, "music" in fields and music is None),)
-    steps = _read_steps(reader, fields["keyframes"], robot, chain)
+    steps = read_steps(reader, fields["keyframes"], robot, chain)
     if (
         name is None
         or description is None
@@ -195,6 +173,47 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
         or reader.problems
     ):
         return None
+    keyframes = _keyframes(reader, fields, robot, steps, repeat, music, allow_past_song)
+    if keyframes is None:
+        return None
+    return Motion(
+        name=name,
+        path=reader.path,
+        robot=robot,
+        keyframes=keyframes,
+        description=description,
+        speed=speed,
+        repeat=repeat,
+        start=start,
+        end=end,
+        props=props,
+        music=music,
+    )
+
+
+def _read_music(reader: Reader, fields: dict[str, Entry], speed: float | None) -> Music | None:
+    """The song the motion dances to, which plays at its own tempo: no speed beside it."""
+    music = read_music(reader, fields["music"]) if "music" in fields else None
+    if music is not None and speed not in (None, 1.0):
+        reader.report(
+            fields["speed"].value,
+            f"speed {fmt(speed)} would leave the music behind (the song plays at its own "
+            "tempo); remove speed, or the music block",
+        )
+    return music
+
+
+def _keyframes(
+    reader: Reader,
+    fields: dict[str, Entry],
+    robot: Robot,
+    steps: list[Step],
+    repeat: int,
+    music: Music | None,
+    allow_past_song: bool,
+) -> tuple[Keyframe, ...] | None:
+    """The motion's keyframes from its steps: counted, solved by IK, their partial poses filled
+    and held against the song; None when that is refused (reported)."""
     # counted before the gaits are solved: a long walk is refused before the work, not after
     if _too_many_keyframes(reader, fields, steps, repeat):
         return None
@@ -213,33 +232,11 @@ def _read_motion(reader: Reader, root: Node | None, allow_past_song: bool) -> Mo
             ),
         )
         return None
-    return Motion(
-        name=name,
-        path=reader.path,
-        robot=robot,
-        keyframes=keyframes,
-        description=description,
-        speed=speed,
-        repeat=repeat,
-        start=start,
-        end=end,
-        props=props,
-        music=music,
-    )
-
-
-def _motion_fields(reader: Reader, root: Node | None) -> dict[str, Entry] | None:
-    if root is None:
-        reader.problems.add(
-            SourceLocation(reader.path, 1, 1),
-            "the file is empty; a motion needs robot and keyframes",
-        )
-        return None
-    return reader.fields(root, "the motion file", MOTION.keys, required=MOTION.required)
+    return keyframes
 
 
 def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
-    robot_path = _find_robot_of(reader, entry)
+    robot_path = find_robot_of(reader, entry)
     if robot_path is None:
         return None
     try:
@@ -250,41 +247,6 @@ def _load_robot_of(reader: Reader, entry: Entry) -> Robot | None:
         )
         reader.problems.extend(error.problems)
         return None
-
-
-def _find_robot_of(reader: Reader, entry: Entry) -> Path | None:
-    ref = reader.string(entry.value, "robot")
-    if ref is None:
-        return None
-    try:
-        return find_robot_file(ref, relative_to=reader.path)
-    except LookupError as error:
-        reader.report(entry.value, str(error))
-        return None
-
-
-def _read_steps(
-    reader: Reader, entry: Entry, robot: Robot, chain: tuple[Include, ...]
-) -> list[Step]:
-    items = reader.sequence(entry.value, "keyframes")
-    if items is None:
-        return []
-    if not items:
-        reader.report(entry.key_node, "keyframes: the motion has no keyframes; give at least one")
-    steps: list[Step] = []
-    for item in items:
-        if isinstance(item, yaml.MappingNode) and any(k.value == "include" for k, _ in item.value):
-            steps.extend(_read_include(reader, item, robot, chain))
-        elif has_key(item, "gait"):
-            steps += read_gait_block(reader, item)
-        else:
-            step = read_keyframe(reader, item, robot, chain[0])
-            if step is not None and len(chain) > 1:  # say through which includes it came
-                entries = tuple(link.entry for link in reversed(chain[1:]) if link.entry)
-                step = replace(step, where=replace(step.where, included_at=entries))
-            steps += [step] if step is not None else []
-    _check_times(reader, steps)
-    return steps
 
 
 def most_gait_steps(gait: Gait, other_keyframes: int) -> int:
@@ -323,170 +285,6 @@ def _too_many_keyframes(
     where = fields["repeat"].value if "repeat" in fields else fields["keyframes"].key_node
     reader.report(where, problem)
     return True
-
-
-def _read_include(
-    reader: Reader, item: Node, robot: Robot, chain: tuple[Include, ...]
-) -> list[Step]:
-    what = "an include entry (pose, hold, stop and velocity go in the included keyframes)"
-    fields = reader.fields(item, what, INCLUDE.keys, required=INCLUDE.required)
-    if fields is None:
-        return []
-    relative = reader.string(fields["include"].value, "include")
-    mirror = reader.boolean(fields["mirror"].value, "mirror") if "mirror" in fields else False
-    timing = read_timing(reader, fields, chain[0])
-    if relative is None or mirror is None or timing is None:
-        return []
-    path = reader.path.parent / relative
-    link = Include(path, reader.where(fields["include"].value), chain[0].music)
-    if any(_same_file(path, earlier.path) for earlier in chain):
-        files = " -> ".join(str(earlier.path) for earlier in (*chain, link))
-        reader.report(
-            fields["include"].value,
-            f"include cycle: {files}; a motion cannot include itself, directly or through others",
-        )
-        return []
-    kind = not_a_file(path)
-    if kind is not None or not path.is_file():
-        reader.report(
-            fields["include"].value,
-            f"include: {path} is {kind}, not a motion file"
-            if kind is not None
-            else f"include: {path} does not exist (paths are relative to this file's folder)",
-        )
-        return []
-    steps = _block(
-        reader,
-        _read_included(reader.problems, robot, (*chain, link)),
-        timing,
-        t_where(reader, fields),
-    )
-    if mirror:
-        steps = _mirror_block(reader, fields["mirror"].value, robot, steps)
-    return steps
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    # realpath, not Path.resolve: a loop of symbolic links is reported, not a RuntimeError
-    return os.path.realpath(a) == os.path.realpath(b)
-
-
-def _read_included(problems: Problems, robot: Robot, chain: tuple[Include, ...]) -> list[Step]:
-    """The steps of an included file, whose robot must be ``robot``; no speed, repeat, start or
-    props."""
-    link = chain[-1]
-    reader = Reader(link.path, problems)
-    try:
-        fields = _motion_fields(reader, parse_yaml_file(link.path))
-    except SourceError as error:
-        problems.extend(error.problems)
-        return []
-    if fields is None:
-        return []
-    for key in ("name", "description"):
-        if key in fields:
-            reader.string(fields[key].value, key)
-    for key in ("speed", "repeat", "start", "end", "props"):
-        if key in fields:
-            reader.report(
-                fields[key].key_node,
-                f"{key} is not allowed in an included file "
-                f"(included at {link.entry}): the including "
-                f"motion's {key} applies; remove it",
-            )
-    robot_path = _find_robot_of(reader, fields["robot"]) if "robot" in fields else None
-    if robot_path is not None and robot_path.resolve() != robot.path.resolve():
-        reader.report(
-            fields["robot"].value,
-            f"an included file must use the including motion's robot "
-            f"{robot.name!r} ({robot.path}), not {robot_path} (included at {link.entry})",
-        )
-        return []
-    if robot_path is None or "keyframes" not in fields:
-        return []
-    return _read_steps(reader, fields["keyframes"], robot, chain)
-
-
-def _block(
-    reader: Reader,
-    steps: list[Step],
-    timing: tuple[float | None, float | None, BeatRef | None],
-    t_where: SourceLocation | None,
-) -> list[Step]:
-    """Included steps as a block: its t values become after delays (keeping their spacing), and
-    the include entry's timing, if any, replaces the first step's (``t_where``: its t's place).
-
-    The included file's time starts when the keyframe before the include is left; an untimed
-    first step is the origin of its t values.
-    """
-    if not steps:
-        return []
-    arrivals_s = known_arrivals_s(played_keyframes(steps))  # in the included file's time
-    first = steps[0]
-    own = first.t_s if first.t_s is not None else first.after_s
-    t_s, after_s, beat = timing if timing[:2] != (None, None) else (None, own, None)
-    block = [replace(first, t_s=t_s, after_s=after_s, t_where=t_where, beat=beat)]
-    for index, step in enumerate(steps[1:], start=1):
-        previous, previous_arrival_s = steps[index - 1], arrivals_s[index - 1]
-        if step.t_s is None:
-            block.append(step)
-        elif previous_arrival_s is None:
-            reader.problems.add(
-                step.t_where or step.where,  # a step with a t knows where it was written
-                "t in an included file becomes an after delay, so "
-                f"the keyframe before it ({previous.where}) needs a "
-                "t or after too; give it one, or use after here",
-            )
-        else:
-            after_s = step.t_s - previous_arrival_s - previous.hold_s
-            block.append(replace(step, t_s=None, after_s=after_s, t_where=None, beat=None))
-    return block
-
-
-def _mirror_block(reader: Reader, mirror_node: Node, robot: Robot, steps: list[Step]) -> list[Step]:
-    """Steps mirrored with the robot's mirror pairs; mirrored angles must be inside the limits."""
-    if not robot.mirror_pairs:
-        reader.report(
-            mirror_node, f"robot {robot.name!r} has no mirror pairs; add 'mirror:' to {robot.path}"
-        )
-        return steps
-    mirrored: list[Step] = []
-    for step in steps:
-        if step.space is not None:
-            reader.report(
-                mirror_node,
-                f"mirror: the keyframe at {step.where} is given in space (sites, body or "
-                f"gait), which cannot be mirrored; mirror a file of joint keyframes",
-            )
-        angles = mirror_pose(robot, step.angles_deg)
-        for outside in robot.limit_violations(angles):
-            reader.report(
-                mirror_node,
-                f"mirror: the keyframe at {step.where} mirrored puts {outside.joint.name} at "
-                f"{fmt(outside.angle_deg)}°, outside its limits {outside.joint.limits.range_text}",
-            )
-        mirrored.append(replace(step, angles_deg=angles, label=""))
-    return mirrored
-
-
-def _check_times(reader: Reader, steps: list[Step]) -> None:
-    """t values increase along the file, counting the holds and after delays in between."""
-    for backward in backward_times(played_keyframes(steps)):
-        step = steps[backward.index]
-        reader.problems.add(
-            step.t_where or step.where,  # a step with a t knows where it was written
-            f"{_time_text(backward.t_s, step.beat)} goes backwards: the keyframe "
-            f"before it ({steps[backward.index - 1].where}) cannot be "
-            f"left before {fmt(backward.earliest_leave_s)} s; t values must "
-            f"increase along the file",
-        )
-
-
-def _time_text(t_s: float, beat: BeatRef | None) -> str:
-    """'t 2.5', or for a keyframe written on a beat 'beat 6 (t 2.500)'."""
-    if beat is None:
-        return f"t {fmt(t_s)}"
-    return f"{beat.describe(beat.grid.beat_at(t_s))} (t {t_s:.3f})"
 
 
 def _fill_poses(robot: Robot, steps: list[Step]) -> tuple[Keyframe, ...]:

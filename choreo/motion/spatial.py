@@ -23,6 +23,7 @@ import yaml
 from choreo.core.yaml_source import Entry, Node, Problems, Reader, SourceLocation, did_you_mean, fmt
 from choreo.motion.gait import SIX_LEGS, BodyPose, Gait, Pattern, feet_under_body, gait_keyframes
 from choreo.motion.timing import MAX_TIME_S
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.types import GaitCompensation, Robot
 
 if TYPE_CHECKING:
@@ -32,7 +33,6 @@ FRAMES = ("base", "world")
 SITE_KEYS = ("at", "pitch", "frame")
 BODY_KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 GAIT_KEYS = ("pattern", "steps", "stride", "sideways", "turn", "lift", "period")
-HOME_POSE = "home"
 
 
 @dataclass(frozen=True)

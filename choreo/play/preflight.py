@@ -14,8 +14,9 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from choreo.bus.protocol import Command
-from choreo.bus.servo_bus import AngleLimits, MotorMode, Presence, ServoBus, VinLimits
+from choreo.bus.servo_bus import Presence, ServoBus
 from choreo.bus.servo_models import rated_supply_problem
+from choreo.bus.typed_commands import AngleLimits, MotorMode, VinLimits
 from choreo.core.arguments import check_type
 from choreo.errors import ChoreoError
 from choreo.robot.types import Joint, Robot

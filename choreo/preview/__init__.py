@@ -8,9 +8,10 @@ checked for problems and rendered offscreen::
 - :mod:`~choreo.preview.pipeline`: :func:`simulate_motion`, a motion planned, compiled, played
   to the simulated robot from its start pose and measured (its ``Rehearsal``, ``rehearsal_of``:
   the ticks from the start pose, without the physics);
-- :mod:`~choreo.preview.sim`: :func:`simulate`, ticks in, a :class:`Rollout` out: what the
-  simulation recorded; ``model``, ``actuator`` and ``start`` make the robot, its servos and its
-  start for it;
+- :mod:`~choreo.preview.sim`: :func:`simulate`, ticks in, a :class:`Rollout` out
+  (:mod:`~choreo.preview.rollout`): what the simulation recorded; ``model``, ``actuator`` and
+  ``start`` make the robot, its servos and its start for it, ``step_loop`` steps and checkpoints
+  it, ``contact_log`` logs its touches;
 - :mod:`~choreo.preview.simulated`: :class:`SimulatedMotion`, a rollout with what was measured on
   it: ``travel`` (the body), ``props``, ``walk`` (a walker's stance; ``stance``) and its gaits,
   ``reach`` (``sites:`` targets), ``impact`` (how a robot that ends lying comes down);
@@ -54,8 +55,10 @@ from choreo.preview.report import (
     reach_line,
     start_lines,
 )
-from choreo.preview.sim import MoveStart, Resume, Rollout, Settling, SimSettings, simulate
+from choreo.preview.rollout import MoveStart, Rollout, Settling
+from choreo.preview.sim import SimSettings, simulate
 from choreo.preview.simulated import SimulatedMotion
+from choreo.preview.step_loop import Resume
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.viewer import has_display, show_in_viewer
 from choreo.preview.walk import GaitOutcome, Walk, gait_outcomes

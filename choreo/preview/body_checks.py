@@ -7,7 +7,7 @@ import numpy as np
 
 from choreo.preview.findings import CheckKind, CheckResult, CheckThresholds, Severity, Timeline
 from choreo.preview.impact import IMPACT_SPEED_M_S
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion
 
 

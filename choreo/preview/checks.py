@@ -20,8 +20,8 @@ from choreo.preview.findings import (
 )
 from choreo.preview.props import PLACE_TOLERANCE_M
 from choreo.preview.reach import REACH_ERROR_MM, REACH_WARNING_MM
+from choreo.preview.rollout import Rollout
 from choreo.preview.servo_checks import check_saturation, check_tracking
-from choreo.preview.sim import Rollout
 from choreo.preview.simulated import SimulatedMotion, simulated_of
 from choreo.preview.walk import LIFT_WARNING_FRACTION, TRAVEL_WARNING_FRACTION
 

@@ -10,7 +10,7 @@ from enum import Enum
 import numpy as np
 
 from choreo.core.arguments import NON_NEGATIVE, Range, check_number
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 
 
 class Severity(str, Enum):

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from choreo.preview.model import link_of_body
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 
 BEFORE_S = 0.01  # the speed at impact is measured over this long before the touch
 IMPACT_SPEED_M_S = 0.5  # faster than this onto the ground: a fall (a free fall of 13 mm)

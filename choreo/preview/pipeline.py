@@ -24,9 +24,11 @@ from choreo.preview.actuator import CommandStream, commanded_path_units
 from choreo.preview.impact import Impact, impacts
 from choreo.preview.model import load_model
 from choreo.preview.reach import JointJump, SiteReach, SitesDue, joint_jumps, site_reach
-from choreo.preview.sim import Resume, Rollout, SimSettings, simulate
+from choreo.preview.rollout import Rollout
+from choreo.preview.sim import SimSettings, simulate
 from choreo.preview.simulated import SimulatedMotion
 from choreo.preview.stance import feet_and_centre, floors_kept, planned_stance
+from choreo.preview.step_loop import Resume
 from choreo.preview.walk import GaitDue, Walk
 from choreo.robot.kinematics import Kinematics
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 
 LIFTED_M = 0.005  # raised this far above where it rested: lifted
 DROP_SPEED_M_S = 0.3  # falling faster than this after being lifted: dropped (a 5 mm fall)

@@ -25,7 +25,7 @@ from choreo.music.decode import add_song_to_video
 from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.gl import context_class, offscreen_backend
 from choreo.preview.model import load_model
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
 
 log = logging.getLogger(__name__)

@@ -11,7 +11,7 @@ from choreo.core.arguments import check_text, check_type, shown
 from choreo.errors import OptionError, Worded, joined
 from choreo.preview.actuator import FigureSource, figure_sources
 from choreo.preview.findings import CheckResult, CheckThresholds, Severity
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, simulated_of
 
 

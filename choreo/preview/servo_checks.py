@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from choreo.preview.findings import CheckKind, CheckResult, CheckThresholds, Severity, Timeline
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 
 
 def check_saturation(rollout: Rollout, thresholds: CheckThresholds) -> list[CheckResult]:

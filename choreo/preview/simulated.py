@@ -13,7 +13,7 @@ from choreo.motion.scene import StartPosture
 from choreo.preview.impact import Impact
 from choreo.preview.props import PropOutcome, prop_outcomes
 from choreo.preview.reach import JointJump, SiteReach
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.travel import BodyTravel, body_travel
 from choreo.preview.walk import GaitOutcome, Walk, gait_outcomes
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 
 _PATH_SAMPLE_S = 0.05  # path length from the body's position every 50 ms: sway, not vibration
 

@@ -37,8 +37,8 @@ from choreo.core.clock import Clock
 from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
 from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
-from choreo.preview.sim import check_stable, hold_until_still
 from choreo.preview.start import start_state
+from choreo.preview.step_loop import check_stable, hold_until_still
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import (
     DEFAULT_SUPPLY_RESISTANCE_OHM,

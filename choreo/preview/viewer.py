@@ -11,7 +11,7 @@ import numpy as np
 from choreo.errors import PreviewError, Worded, joined
 from choreo.preview.gl import window_system_problem
 from choreo.preview.model import load_model
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
 
 FRAME_S = 1 / 60

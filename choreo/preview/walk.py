@@ -13,7 +13,7 @@ import numpy as np
 
 from choreo.core.yaml_source import SourceLocation
 from choreo.motion.gait import Gait
-from choreo.preview.sim import Rollout
+from choreo.preview.rollout import Rollout
 from choreo.preview.stance import PLANTED_M, PlannedStance, support_margin
 
 TRAVEL_WARNING_FRACTION = 0.75  # travel or turn below this share of the asked: a warning

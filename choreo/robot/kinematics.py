@@ -9,20 +9,19 @@ base, a walker's torso, held where the model's ``home`` keyframe puts it). A sit
 elevation of its z axis (its approach direction) above the base frame's horizontal plane:
 +90 points up, -90 straight down.
 
-IK is damped least squares (Levenberg-Marquardt: a step that makes things worse is retried with
-more damping) inside the robot's joint limits (a joint at a limit that the step would push
-further drops out of the step), seeded by the caller (the previous keyframe). If that gets stuck,
-fixed random restarts are drawn ever farther from the seed, 20 at a time, and descended side by
-side as arrays; of those that reach, the solution nearest the seed is kept (so a small move in
+IK is damped least squares (``ik_descent``; Levenberg-Marquardt: a step that makes things worse is
+retried with more damping) inside the robot's joint limits (a joint at a limit that the step would
+push further drops out of the step), seeded by the caller (the previous keyframe). If that gets
+stuck, fixed random restarts are drawn ever farther from the seed, 20 at a time, and descended side
+by side as arrays; of those that reach, the solution nearest the seed is kept (so a small move in
 space stays a small move in joints), and joints the goals do not constrain stay where they were.
-Each step poses the robot with MuJoCo's ``mj_kinematics`` (a couple of microseconds per start)
-and builds the Jacobians from the joints' axes and anchors; a descent stops as soon as it has
-converged, stalls or stops moving, so a target out of reach fails in tens of milliseconds. The
-verdict (``Solution``) is MuJoCo's own forward kinematics of the angles found. ``mujoco`` is
-imported here only when a ``Kinematics`` is made: motions without Cartesian keyframes never load
-it. (mink, a QP IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these
-tasks — site positions, one axis' elevation, joint limits — are small enough for damped least
-squares.)
+Each step poses the robot with MuJoCo's ``mj_kinematics`` (a couple of microseconds per start) and
+builds the Jacobians from the joints' axes and anchors; a descent stops as soon as it has converged,
+stalls or stops moving, so a target out of reach fails in tens of milliseconds. The verdict
+(``Solution``) is MuJoCo's own forward kinematics of the angles found. ``mujoco`` is imported here
+only when a ``Kinematics`` is made: motions without Cartesian keyframes never load it. (mink, a QP
+IK library on MuJoCo, would also do, but needs qpsolvers and a QP solver; these tasks — site
+positions, one axis' elevation, joint limits — are small enough for damped least squares.)
 """
 
 from __future__ import annotations
@@ -35,24 +34,24 @@ import numpy as np
 import numpy.typing as npt
 
 from choreo.errors import ChoreoError
+from choreo.robot.ik_descent import (
+    ANGLE_TOLERANCE_DEG,
+    POLISH_PROGRESS,
+    POSITION_TOLERANCE_MM,
+    Attempts,
+    Poses,
+    Task,
+    cross,
+    descend,
+    linearise,
+    pitch_deg,
+)
 from choreo.robot.types import Robot
 
-POSITION_TOLERANCE_MM = 0.5  # a solution this close (and within the angle tolerance) is reached
-ANGLE_TOLERANCE_DEG = 0.5
-_CONVERGED_MM, _CONVERGED_DEG = 0.02, 0.02
 _ITERATIONS = 400
 _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
 _RESTART_ITERATIONS = 30
 _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
-_DAMPING = 1e-4
-# a step that made things worse is retried with 10 times the damping; one that helped eases it
-_STIFFEN, _EASE = 10.0, 3.0
-# a descent that has not cut its residual by 10 % in 10 steps is stuck (a fold, a limit): stop it;
-# the last one, polishing the closest point of a target out of reach, goes on down to 1 %
-_PROGRESS, _POLISH_PROGRESS, _PATIENCE = 0.1, 0.01, 10
-_STILL_RAD = 1e-7  # a step this small: the descent is at its closest, reached or not
-_MAX_STEP_RAD = 0.3
-_POSITION_WEIGHT = 10.0  # residual rows: metres x 10 (1 mm ~ 0.01) next to radians (1° ~ 0.017)
 FEET_TEXT = "choreo:feet"  # MJCF <custom><text name=... data="site site ..."/>: a walker's feet
 
 
@@ -175,7 +174,7 @@ class Kinematics:
     def site_pose(self, site: str, angles_deg: npt.ArrayLike) -> SitePose:
         self._set(np.asarray(angles_deg, dtype=float))
         position, axis = self._site_in_base(self._checked_site(site))
-        return SitePose(position * 1000, _pitch_deg(axis))
+        return SitePose(position * 1000, pitch_deg(axis))
 
     def _checked_site(self, name: str) -> int:
         site = self.site_id(name)
@@ -213,16 +212,16 @@ class Kinematics:
             if tried.cost.min() < best_cost:
                 best, best_cost = tried.angles_deg[np.argmin(tried.cost)], tried.cost.min()
         # the best start may only have been slow to converge (folded poses are): polish it
-        polished = self._descend(task, best[None], free_mask, _ITERATIONS, _POLISH_PROGRESS)
+        polished = self._descend(task, best[None], free_mask, _ITERATIONS, POLISH_PROGRESS)
         return self._measure(goals, sites, polished.angles_deg[0])
 
-    def _task(self, goals: Sequence[SiteGoal], sites: list[int]) -> _Task:
+    def _task(self, goals: Sequence[SiteGoal], sites: list[int]) -> Task:
         pitched = np.array([goal.pitch_deg is not None for goal in goals])
         pitch_deg = np.array(
             [goal.pitch_deg for goal in goals if goal.pitch_deg is not None], float
         )
         pitch = np.radians(pitch_deg)
-        return _Task(
+        return Task(
             np.array(sites),
             self._moving(tuple(sites)),
             np.array([goal.position_mm for goal in goals], dtype=float) / 1000,
@@ -241,7 +240,7 @@ class Kinematics:
         drawn = rng.uniform(low, np.minimum(self.upper_deg, seed_deg + spread))
         return np.where(free, drawn, seed_deg)
 
-    def _constrained(self, task: _Task) -> np.ndarray:
+    def _constrained(self, task: Task) -> np.ndarray:
         """Which joints move what the goals ask (a site's position, its pitch) anywhere: a
         column of the task Jacobian that is non-zero at one of a few random poses (a joint that
         moves it somewhere moves it almost everywhere). A wrist roll about a tool's own axis
@@ -250,76 +249,30 @@ class Kinematics:
         if key not in self._constrained_joints:
             rng = np.random.default_rng(1)
             angles = rng.uniform(self.lower_deg, self.upper_deg, (3, len(self.lower_deg)))
-            _, jacobian, _, _ = _linearise(task, self._poses(task, np.radians(angles)))
+            _, jacobian, _, _ = linearise(task, self._poses(task, np.radians(angles)))
             self._constrained_joints[key] = np.any(np.linalg.norm(jacobian, axis=1) > 1e-6, axis=0)
         return self._constrained_joints[key]
 
     def _descend(
         self,
-        task: _Task,
+        task: Task,
         start_deg: np.ndarray,
         free: np.ndarray,
         iterations: int,
         progress_needed: float | None = None,
-    ) -> _Attempts:
-        """Damped least squares from each start (rows) at once, Levenberg-Marquardt style: a
-        step that makes things worse is taken back and retried with more damping (near a
-        singularity or out of reach, where plain steps swing back and forth). A start stops when
-        it has converged, when its steps vanish (it is as close as it gets), or when it has not
-        cut its residual by ``progress_needed`` in ``_PATIENCE`` steps (in a fold, at a limit)."""
-        progress_needed = progress_needed or _PROGRESS
-        free_at = np.flatnonzero(free)
-        low, high = np.radians(self.lower_deg[free_at]), np.radians(self.upper_deg[free_at])
-        q = np.radians(start_deg)
-        n = len(q)
-        best_q, best = q.copy(), np.full(n, np.inf)
-        errors = np.zeros((n, len(task.targets)))
-        pitch_errors = np.zeros((n, len(task.pitch_deg)))
-        damping = np.full(n, _DAMPING)
-        progress, since, still = best.copy(), np.zeros(n, int), np.zeros(n, bool)
-        residuals: np.ndarray | None = None  # at each row's best point
-        jacobians = np.empty(0)
-        moving = np.arange(n)
-        for iteration in range(iterations + 1):
-            residual, jacobian, error_mm, pitch_error = _linearise(
-                task, self._poses(task, q[moving])
-            )
-            if residuals is None:
-                residuals, jacobians = np.empty_like(residual), np.empty_like(jacobian)
-            cost = np.linalg.norm(residual, axis=1)
-            better = cost < best[moving]
-            at = moving[better]
-            best[at], best_q[at] = cost[better], q[at]
-            errors[at], pitch_errors[at] = error_mm[better], pitch_error[better]
-            residuals[at], jacobians[at] = residual[better], jacobian[better]
-            damping[at] = np.maximum(_DAMPING, damping[at] / _EASE)
-            damping[moving[~better]] *= _STIFFEN
-            advanced = best[moving] < progress[moving] * (1 - progress_needed)
-            progress[moving[advanced]], since[moving[advanced]] = best[moving[advanced]], iteration
-            converged = np.all(errors[moving] <= _CONVERGED_MM, axis=1) & np.all(
-                pitch_errors[moving] <= _CONVERGED_DEG, axis=1
-            )
-            going = ~converged & ~still[moving] & (iteration - since[moving] < _PATIENCE)
-            if iteration == iterations or not going.any():
-                break
-            moving = moving[going]
-            start = best_q[moving]
-            step = _limited_step(
-                jacobians[moving][:, :, free_at],
-                residuals[moving],
-                start[:, free_at],
-                low,
-                high,
-                damping[moving],
-            )
-            start[:, free_at] = np.clip(start[:, free_at] + step, low, high)
-            q[moving] = start
-            still[moving] = np.abs(step).max(axis=1, initial=0.0) < _STILL_RAD
-        angles_deg = start_deg.copy()  # held joints exactly as given, not via radians
-        angles_deg[:, free_at] = np.degrees(best_q[:, free_at])
-        return _Attempts(angles_deg, errors, pitch_errors)
+    ) -> Attempts:
+        """``ik_descent.descend`` inside this robot's joint limits, posed on its model."""
+        return descend(
+            task,
+            start_deg,
+            free,
+            iterations,
+            (self.lower_deg, self.upper_deg),
+            self._poses,
+            progress_needed,
+        )
 
-    def _poses(self, task: _Task, q_rad: np.ndarray) -> _Poses:
+    def _poses(self, task: Task, q_rad: np.ndarray) -> Poses:
         """The task's sites and Jacobians for joint vectors ``(N, joints)`` (radians): MuJoCo's
         forward kinematics, one vector at a time (a couple of microseconds each), and the
         Jacobians from the joints' axes and anchors, for all of them at once."""
@@ -341,12 +294,12 @@ class Kinematics:
         axes, anchors = axes @ rotation, (anchors - self._base_pos) @ rotation
         lever = positions[:, :, None, :] - anchors[:, None, :, :]  # (N, sites, joints, 3)
         moves = task.moves[None, :, :, None]
-        velocity, turn = _cross(axes[:, None], lever), axes[:, None]
+        velocity, turn = cross(axes[:, None], lever), axes[:, None]
         if not self._hinge.all():
             hinge = self._hinge[:, None]
             velocity, turn = np.where(hinge, velocity, turn), np.where(hinge, turn, 0.0)
         velocity, turn = velocity * moves, turn * moves
-        return _Poses(
+        return Poses(
             positions,
             frames[..., 2::3] @ rotation,  # the z column of each row-major 3x3
             np.swapaxes(velocity, 2, 3),
@@ -374,141 +327,10 @@ class Kinematics:
         reached, position_errors, pitch_errors = [], [], []
         for goal, site in zip(goals, sites):
             position, axis = self._site_in_base(site)
-            pose = SitePose(position * 1000, _pitch_deg(axis))
+            pose = SitePose(position * 1000, pitch_deg(axis))
             reached.append(pose)
             position_errors.append(float(np.linalg.norm(pose.position_mm - goal.position_mm)))
             pitch_errors.append(
                 0.0 if goal.pitch_deg is None else abs(pose.pitch_deg - goal.pitch_deg)
             )
         return Solution(q_deg, tuple(reached), tuple(position_errors), tuple(pitch_errors))
-
-
-@dataclass(frozen=True)
-class _Task:
-    """What the goals ask, as arrays: every site's position (m), the pitched ones' pitch."""
-
-    sites: np.ndarray  # (sites,) MuJoCo site ids, goal order
-    moves: np.ndarray  # (sites, joints) bool: the joint moves the site
-    targets: np.ndarray  # (sites, 3) metres, base frame
-    pitched: np.ndarray  # (sites,) bool: the goal asks for a pitch
-    pitch_deg: np.ndarray  # (pitched sites,)
-    pitch_cos_sin: np.ndarray  # (pitched sites, 2)
-
-
-@dataclass(frozen=True)
-class _Attempts:
-    """Where a batch of descents ended (rows), with the solver's own errors there."""
-
-    angles_deg: np.ndarray  # (N, joints)
-    error_mm: np.ndarray  # (N, sites)
-    pitch_error_deg: np.ndarray  # (N, pitched sites)
-
-    @property
-    def reached(self) -> np.ndarray:
-        return np.all(self.error_mm <= POSITION_TOLERANCE_MM, axis=1) & np.all(
-            self.pitch_error_deg <= ANGLE_TOLERANCE_DEG, axis=1
-        )
-
-    @property
-    def cost(self) -> np.ndarray:  # mm and degrees alike, as the tolerances are
-        return self.error_mm.sum(axis=1) + self.pitch_error_deg.sum(axis=1)
-
-
-@dataclass(frozen=True)
-class _Poses:
-    """Where the task's sites are for a batch of joint vectors (N), in the base frame (m)."""
-
-    positions: np.ndarray  # (N, sites, 3)
-    z_axes: np.ndarray  # (N, sites, 3) each site's z axis (its pitch is that axis' elevation)
-    jac_position: np.ndarray  # (N, sites, 3, joints) d position / d joint (rad, m)
-    jac_turn: np.ndarray  # (N, sites, 3, joints) each joint's angular velocity, where it turns
-
-
-def _linearise(task: _Task, poses: _Poses) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """For a batch of poses: the stacked weighted residuals ``(N, rows)``, their Jacobians
-    ``(N, rows, joints)``, each site's distance (mm) and each pitch's error (deg)."""
-    n, joints = len(poses.positions), poses.jac_position.shape[-1]
-    error = task.targets - poses.positions
-    rows = [_POSITION_WEIGHT * error.reshape(n, -1)]
-    jacobians = [_POSITION_WEIGHT * poses.jac_position.reshape(n, -1, joints)]
-    axes = poses.z_axes[:, task.pitched]
-    pitch_deg = np.degrees(np.arcsin(np.clip(axes[..., 2], -1.0, 1.0)))
-    if task.pitched.any():
-        positions = poses.positions[:, task.pitched]
-        target, follow = _axis_with_pitch(axes, positions, task.pitch_cos_sin)
-        rows.append((target - axes).reshape(n, -1))
-        # d(axis)/dq = omega x axis, omega the joint's angular velocity; the target turns with
-        # the axis' heading, which leaves the axis' elevation for these rows to ask for
-        omega = np.swapaxes(poses.jac_turn[:, task.pitched], 2, 3)
-        turning = _cross(omega, axes[:, :, None, :])  # (N, pitched, joints, 3)
-        turning[..., :2] -= np.einsum("npij,npkj->npki", follow, turning[..., :2])
-        jacobians.append(np.swapaxes(turning, 2, 3).reshape(n, -1, joints))
-    return (
-        np.concatenate(rows, axis=1),
-        np.concatenate(jacobians, axis=1),
-        np.linalg.norm(error, axis=2) * 1000,
-        np.abs(pitch_deg - task.pitch_deg),
-    )
-
-
-def _limited_step(
-    jacobian: np.ndarray,
-    residual: np.ndarray,
-    q: np.ndarray,
-    low: np.ndarray,
-    high: np.ndarray,
-    damping: np.ndarray,
-) -> np.ndarray:
-    """Damped least-squares steps (rows, each with its damping); joints at a limit a step would
-    push past are held out of it (their Jacobian column zeroed leaves them out of the solve)."""
-    active = np.ones(q.shape, bool)
-    damped = damping[:, None, None] * np.eye(jacobian.shape[1])
-    for _ in range(3):
-        j = jacobian * active[:, None, :]
-        jt = np.swapaxes(j, 1, 2)
-        step = (jt @ np.linalg.solve(j @ jt + damped, residual[..., None]))[..., 0]
-        blocked = ((q <= low + 1e-9) & (step < 0)) | ((q >= high - 1e-9) & (step > 0))
-        if not (blocked & active).any():
-            break
-        active &= ~blocked
-    largest = np.abs(step).max(axis=1, initial=0.0)
-    return step * np.minimum(1.0, _MAX_STEP_RAD / np.maximum(largest, 1e-12))[:, None]
-
-
-_LEVI_CIVITA = np.zeros((3, 3, 3))
-_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
-_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` over the last axis, broadcast; a third of its cost (it runs at every step)."""
-    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
-
-
-def _pitch_deg(axis: np.ndarray) -> float:
-    return float(np.degrees(np.arcsin(np.clip(axis[2], -1.0, 1.0))))
-
-
-def _axis_with_pitch(
-    axis: np.ndarray, position: np.ndarray, pitch: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The unit vectors at elevation ``pitch`` (``(..., 2)``: its cosine and sine) nearest
-    ``axis`` (``(..., 3)``): same heading, or, where the axis is vertical, heading away from the
-    base axis towards the site. Also how they turn with the axis' horizontal part (``(..., 2,
-    2)``): the target follows the heading, so only the elevation is asked for."""
-    heading = axis[..., :2]
-    norm = np.hypot(heading[..., :1], heading[..., 1:])
-    vertical = norm < 1e-3
-    if vertical.any():  # rare: (nearly) vertical, and even on the base axis
-        heading = np.where(vertical, position[..., :2], heading)
-        norm = np.hypot(heading[..., :1], heading[..., 1:])
-        heading = np.where(norm > 1e-9, heading, [1.0, 0.0])
-        norm = np.where(norm > 1e-9, norm, 1.0)
-    unit = heading / norm
-    target = np.concatenate(
-        [pitch[..., :1] * unit, np.broadcast_to(pitch[..., 1:], norm.shape)], -1
-    )
-    # cos(pitch) times the derivative of the unit heading (none where the position gave it)
-    follow = np.where(vertical, 0.0, pitch[..., :1] / norm)[..., None]
-    turning = follow * (np.eye(2) - unit[..., :, None] * unit[..., None, :])
-    return target, turning

@@ -5,18 +5,10 @@ from __future__ import annotations
 import pytest
 import serial
 from emulated import recorded_writes
+from servo_bus_helpers import ECHO_SETUPS, make_bus
 
-from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, encode_request
-from choreo.bus.servo_bus import (
-    AngleLimits,
-    EchoMode,
-    MotorMode,
-    MoveTime,
-    Presence,
-    ScanResult,
-    ServoBus,
-    VinLimits,
-)
+from choreo.bus.protocol import BROADCAST_ID, Command, encode_request
+from choreo.bus.servo_bus import EchoMode, Presence, ScanResult, ServoBus
 from choreo.bus.settings import BUILT_IN_PORT, BusSettings
 from choreo.bus.transports import Connection, lobot, raw, rrc
 from choreo.core.clock import VirtualClock
@@ -24,60 +16,6 @@ from choreo.emulator import BusEmulator, ReplyFaults, ServoSpec, SimSerial, conn
 from choreo.errors import BusTimeoutError, OptionError, PortError, ProtocolError
 
 BYTE_TIME_S = 10 / 115200  # start + 8 data + stop bits at 115200 baud
-
-
-def make_bus(ids=(1, 2, 3), *, echo=False, mode=EchoMode.AUTO, model="LX-224HV", **kwargs):
-    emulator = BusEmulator(ids, model=model, clock=VirtualClock(), echo=echo)
-    return ServoBus(connection(emulator, echo=mode), **kwargs), emulator
-
-
-ECHO_SETUPS = [
-    (False, EchoMode.NONE),
-    (False, EchoMode.AUTO),
-    (True, EchoMode.AUTO),
-    (True, EchoMode.DISCARD),
-]
-
-
-@pytest.fixture(params=ECHO_SETUPS, ids=lambda p: f"echo={int(p[0])}-{p[1].value}")
-def bus_and_emulator(request):
-    echo, mode = request.param
-    return make_bus(echo=echo, mode=mode)
-
-
-def test_every_read_command(bus_and_emulator):
-    bus, emulator = bus_and_emulator
-    bus.set_angle_limits(2, 100, 900)
-    bus.set_vin_limits(2, 5000, 12000)
-    bus.set_temp_limit(2, 70)
-    bus.adjust_offset(2, -10)
-    bus.set_led(2, False)
-    bus.set_led_errors(2, ErrorMask.OVER_TEMPERATURE | ErrorMask.STALLED)
-    bus.stage_move(2, 300, 500)
-    bus.move(2, 700, 200)
-    emulator.servo(2).temperature_c = 41
-    emulator.servo(2).vin_mv = 11100
-    emulator.clock.advance(1.0)
-
-    assert bus.read_position(2) == 700
-    assert bus.read_move(2) == MoveTime(700, 200)
-    assert bus.read_staged_move(2) == MoveTime(300, 500)
-    assert bus.read_id(2) == 2
-    assert bus.read_offset(2) == -10
-    assert bus.read_angle_limits(2) == AngleLimits(100, 900)
-    assert bus.read_vin_limits(2) == VinLimits(5000, 12000)
-    assert bus.read_temp_limit(2) == 70
-    assert bus.read_temperature(2) == 41
-    assert bus.read_vin(2) == 11100
-    assert bus.read_mode(2) == MotorMode(motor=False, speed=0)
-    assert bus.read_loaded(2) is True  # a move loads the servo
-    assert bus.read_led(2) is False
-    assert bus.read_led_errors(2) == ErrorMask.OVER_TEMPERATURE | ErrorMask.STALLED
-    assert isinstance(bus.read_distance(2), int)
-    bus.set_motor_mode(2, -300)
-    assert bus.read_mode(2) == MotorMode(motor=True, speed=-300)
-    bus.unload(2)
-    assert bus.read_loaded(2) is False
 
 
 def test_scan_finds_every_servo_and_only_them(bus_and_emulator):
@@ -167,44 +105,12 @@ def test_corrupted_replies_are_retried():
     assert bus.read_vin(1) > 0
 
 
-def test_exhausted_retries_raise_a_timeout_naming_the_servo():
-    bus, emulator = make_bus(retries=1)
-    emulator.servo(3).reply_faults = ReplyFaults(drop_next=2)
-    with pytest.raises(
-        BusTimeoutError,
-        match=r"^servo 3 did not answer POS_READ on sim:// "
-        r"\(2 tries, 50 ms each\): check power and wiring, or run `choreo scan`$",
-    ) as caught:
-        bus.read_position(3)
-    assert (caught.value.servo_id, caught.value.command) == (3, Command.POS_READ)
-    assert isinstance(BusTimeoutError("x"), TimeoutError)
-    assert bus.read_position(3) == 500  # the bus is usable again
-
-
 def test_absent_servo_times_out_after_every_try_in_virtual_time():
     bus, emulator = make_bus(retries=2, timeout_s=0.05)
     before = emulator.clock.now()
     with pytest.raises(BusTimeoutError, match="servo 9"):
         bus.read_temperature(9)
     assert emulator.clock.now() - before == pytest.approx(3 * 0.05, abs=0.005)
-
-
-def test_persistent_corruption_is_a_protocol_error():
-    bus, emulator = make_bus(retries=1)
-    emulator.servo(2).reply_faults = ReplyFaults(corrupt_probability=1.0)
-    with pytest.raises(
-        ProtocolError,
-        match=r"servo 2: 2 replies to VIN_READ failed the checksum \(2 tries, 50 ms each\)",
-    ) as caught:
-        bus.read_vin(2)
-    assert (caught.value.servo_id, caught.value.command) == (2, Command.VIN_READ)
-
-
-def test_duplicate_ids_garble_replies_and_say_so():
-    emulator = BusEmulator([ServoSpec(1), ServoSpec(1)], clock=VirtualClock())
-    bus = ServoBus(connection(emulator), retries=0)
-    with pytest.raises(ProtocolError, match="two servos may share ID 1"):
-        bus.read_position(1)
 
 
 def test_late_reply_of_a_timed_out_read_is_not_taken_for_the_next_reply():
@@ -332,31 +238,6 @@ def test_scan_with_retries_finds_a_servo_whose_first_reply_was_corrupted():
     assert bus.scan_presence(range(0, 5), retries=0) == ScanResult(found=(1, 3), garbled=(2,))
 
 
-def test_discard_mode_without_echo_says_what_to_try():
-    bus, _ = make_bus(echo=False, mode=EchoMode.DISCARD, retries=0)
-    with pytest.raises(ProtocolError, match="expected the echo of the request.*echo mode"):
-        bus.read_position(1)
-
-
-def test_silent_broadcast_says_no_servo_answered():
-    bus, _ = make_bus(ids=(), retries=0)
-    with pytest.raises(
-        BusTimeoutError,
-        match=r"^no servo answered ID_READ on sim:// \(1 try of 50 ms\): check power",
-    ):
-        bus.read_id()
-
-
-def test_colliding_broadcast_replies_say_several_servos_answered():
-    bus, _ = make_bus(ids=(1, 2), retries=0)
-    with pytest.raises(
-        ProtocolError,
-        match=r"^1 reply to a broadcast ID_READ failed the checksum "
-        r"\(1 try of 50 ms\): several servos answered at once",
-    ):
-        bus.read_id()
-
-
 def test_broadcast_rules():
     bus, _ = make_bus(ids=(7,))
     assert bus.read_id() == 7  # broadcast ID_READ with one servo: its real ID
@@ -367,21 +248,6 @@ def test_broadcast_rules():
     with pytest.raises(ValueError, match="refusing to broadcast ID_WRITE"):
         bus.send(Command.ID_WRITE, BROADCAST_ID, new_id=3)
     assert bus.read_id(7) == 7  # nothing was sent
-
-
-def test_an_adjusted_offset_is_kept_only_once_saved():
-    bus, emulator = make_bus()
-    bus.adjust_offset(1, -10)
-    assert emulator.servo(1).eeprom.offset_units == 0
-    bus.save_offset(1)
-    assert bus.read_offset(1) == -10
-    assert emulator.servo(1).eeprom.offset_units == -10
-
-
-def test_set_id_renumbers_one_servo():
-    bus, emulator = make_bus()
-    bus.set_id(2, 12)
-    assert bus.scan(range(0, 16)) == [1, 3, 12]
 
 
 def test_out_of_range_arguments_are_value_errors():
@@ -454,13 +320,6 @@ def test_a_bad_value_is_refused_the_same_on_every_transport_before_anything_is_s
     with pytest.raises(OptionError, match=r"^(pos_units|servo_id) must be in 0\.\.(1000|254)"):
         call(bus)
     assert port.writes == []
-
-
-def test_lx16a_does_not_answer_wait_read_and_info_says_so():
-    bus, _ = make_bus(model="LX-16A")
-    info = bus.read_info(1)
-    assert info.staged_move is None and info.distance is None
-    assert info.pos_units == 500 and info.angle_limits == AngleLimits(0, 1000)
 
 
 def test_open_by_url_and_exclusive_access():

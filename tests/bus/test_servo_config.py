@@ -13,7 +13,8 @@ from emulated import sent
 
 from choreo.bus import servo_config
 from choreo.bus.protocol import BROADCAST_ID, Command, ErrorMask, PacketDecoder
-from choreo.bus.servo_bus import AngleLimits, ServoBus, VinLimits
+from choreo.bus.servo_bus import ServoBus
+from choreo.bus.typed_commands import AngleLimits, VinLimits
 from choreo.cli import flag_of
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, ReplyFaults, SimSerial

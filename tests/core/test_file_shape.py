@@ -55,6 +55,6 @@ def test_choices_are_the_enum_at_the_pointer():
 
 
 def test_the_robot_loader_takes_its_echo_modes_from_the_schema():
-    from choreo.robot.robot_file import ECHO_MODES
+    from choreo.robot.bus_entry import ECHO_MODES
 
     assert ECHO_MODES == tuple(schema("robot")["properties"]["bus"]["properties"]["echo"]["enum"])

@@ -196,7 +196,7 @@ def test_lobot_stop_holds_the_servos_where_they_are():
 
 
 def test_a_lobot_stop_whose_read_times_out_holds_the_last_commanded_targets():
-    from choreo.emulator.emulated_servo import ReplyFaults
+    from choreo.emulator.reply_faults import ReplyFaults
 
     with board_bus("lobot", ids="1-3") as bus:
         emulator = bus.port.emulator

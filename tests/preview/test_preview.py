@@ -10,9 +10,9 @@ import math
 
 import mujoco
 import numpy as np
-import paths
 import pytest
 from paths import REPO
+from preview_helpers import MOTIONS, linear_ticks, tick_at
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_models import ACTUATOR_FIELDS
@@ -24,7 +24,6 @@ from choreo.play.dry_run import packet_schedule
 from choreo.preview import (
     CheckKind,
     CheckThresholds,
-    MoveStart,
     Severity,
     SimSettings,
     actuator_params,
@@ -42,23 +41,9 @@ from choreo.preview.actuator import (
 )
 from choreo.preview.findings import episodes
 from choreo.preview.model import apply_servo_models, index_joints, load_model
-from choreo.robot.robot_file import load_robot
 
-DATA = paths.DATA / "preview"
-MOTIONS = DATA / "motions"
 LX16A_STALL_NM = 17 * 0.0981  # servo-models.md: 17 kg·cm
 LX16A_NO_LOAD_DEG_S = 60 / 0.16  # 0.16 s/60°
-
-
-def linear_ticks(robot, start_deg, end_deg, duration_ms: int, tick_ms: int) -> list[Tick]:
-    """A straight move in equal ticks, every servo staged every tick."""
-    start_deg, end_deg = np.asarray(start_deg, float), np.asarray(end_deg, float)
-    ticks = []
-    for k in range(1, duration_ms // tick_ms + 1):
-        angles = start_deg + (end_deg - start_deg) * k * tick_ms / duration_ms
-        units = tuple(int(round(j.to_units(a))) for j, a in zip(robot.joints, angles))
-        ticks.append(Tick((k - 1) * tick_ms, tick_ms, units, (True,) * len(units)))
-    return ticks
 
 
 def stream_of(*ticks: Tick) -> CommandStream:
@@ -221,106 +206,6 @@ def test_holding_a_pose_stays_there_with_little_torque(arm3):
     assert rollout.times_s[-1] == pytest.approx(0.5 + SimSettings().tail_s)
 
 
-def test_a_free_floating_robot_starts_standing_on_its_home_keyframe(hexapod):
-    home = hexapod.pose_vector("home")
-    rollout = simulate(hexapod, linear_ticks(hexapod, home, home, 300, 100), home)
-    model = mujoco.MjModel.from_xml_path(str(hexapod.mjcf_path))
-    key_height = model.key("home").qpos[2]
-    assert rollout.body.name == "torso"
-    assert rollout.body.height_m[rollout.start_step] == pytest.approx(key_height, abs=0.005)
-    assert rollout.body.tilt_deg.max() < 1.0
-    assert run_checks(rollout) == []
-
-
-def test_a_resumed_rollout_is_the_fresh_one_and_reuses_what_came_before_the_change(hexapod):
-    home = np.array(hexapod.pose_vector("home"))
-    lower = np.array([j.limits.min_deg for j in hexapod.joints])
-    upper = np.array([j.limits.max_deg for j in hexapod.joints])
-    crouch = np.clip(home + 8.0, lower, upper)
-    first = linear_ticks(hexapod, home, crouch, 2400, 100)
-    # the same ticks until 1.5 s, then back home instead of on down
-    midway = home + (crouch - home) * 15 / 24
-    back = linear_ticks(hexapod, midway, home, 900, 100)
-    changed = first[:15] + [dataclasses.replace(t, start_ms=1500 + t.start_ms) for t in back]
-    before = simulate(hexapod, first, home)
-    fresh = simulate(hexapod, changed, home)
-    resumed = simulate(hexapod, changed, home, resume=before.resume)
-
-    def assert_same(ours, theirs, name):
-        if isinstance(ours, np.ndarray):
-            assert np.array_equal(ours, theirs), name
-        elif dataclasses.is_dataclass(ours) and name in ("contacts", "body"):
-            for field in dataclasses.fields(ours):
-                assert_same(getattr(ours, field.name), getattr(theirs, field.name), field.name)
-        else:
-            assert ours == theirs, name
-
-    for field in dataclasses.fields(fresh):
-        if field.name != "resume":
-            assert_same(getattr(fresh, field.name), getattr(resumed, field.name), field.name)
-    assert len(fresh.contacts.step) > 0  # the feet on the floor: the contact log resumed too
-    # the physics ran on from the last checkpoint before 1.5 s (1 s): those before it are reused
-    dt = float(fresh.times_s[1] - fresh.times_s[0])
-    checkpoints = resumed.resume.checkpoints
-    reused = [c for c in checkpoints if any(c is b for b in before.resume.checkpoints)]
-    assert [c.step * dt for c in reused] == [0.0]
-    assert checkpoints[len(reused)].step * dt == pytest.approx(1.0)
-
-
-def test_moves_from_the_measured_position_make_a_loaded_joint_sag_more(arm3):
-    """The pessimistic assumption: each START forgets the lag."""
-    heavy = load_robot(DATA / "models" / "arm3_heavy" / "robot.yaml")
-    ticks = linear_ticks(heavy, [0, 20, 0], [0, 20, 0], 1000, 50)
-    errors = {}
-    for start in MoveStart:
-        rollout = simulate(heavy, ticks, [0, 20, 0], settings=SimSettings(move_start=start))
-        errors[start] = np.abs(rollout.position_deg[:, 1] - 20).max()
-    assert errors[MoveStart.SETPOINT] < 6  # static sag: torque / kp
-    assert errors[MoveStart.POSITION] > errors[MoveStart.SETPOINT] + 1
-
-
-# --- the checks --------------------------------------------------------------------------------
-def first_touch_s(robot, trajectory, bodies: set[str]) -> float:
-    """When the planned trajectory first brings ``bodies`` into contact: MuJoCo's collision
-    detection along the plan, independent of the preview."""
-    model = mujoco.MjModel.from_xml_path(str(robot.scene_path))
-    data = mujoco.MjData(model)
-    address = [model.joint(j.mjcf_joint).qposadr[0] for j in robot.joints]
-    times = np.arange(0.0, trajectory.duration_s, 0.002)
-    for t, angles in zip(times, trajectory.positions(times)):
-        data.qpos[address] = np.radians(angles)
-        mujoco.mj_forward(model, data)
-        for contact in data.contact[: data.ncon]:
-            touching = {model.body(model.geom_bodyid[g]).name for g in contact.geom}
-            if touching == bodies:
-                return float(t)
-    raise AssertionError(f"the plan never brings {bodies} together")
-
-
-def tick_at(ticks, t_s: float) -> Tick:
-    return next(tick for tick in ticks if tick.start_ms / 1000 <= t_s < tick.end_ms / 1000)
-
-
-@pytest.mark.parametrize(
-    "name, kind, bodies, touching",
-    [
-        ("collide.yaml", CheckKind.SELF_COLLISION, ("base", "forearm"), {"base", "forearm"}),
-        ("floor.yaml", CheckKind.FLOOR_CONTACT, ("forearm", "floor"), {"forearm", "world"}),
-    ],
-)
-def test_a_collision_is_caught_naming_the_bodies_within_a_tick(name, kind, bodies, touching):
-    motion = load_motion(MOTIONS / name)
-    trajectory = plan_motion(motion).trajectory
-    ticks = compile_ticks(trajectory, motion.robot).ticks
-    expected_s = first_touch_s(motion.robot, trajectory, touching)
-    results = run_checks(simulate_motion(motion))
-    found = [r for r in results if r.kind is kind]
-    assert found, results
-    assert found[0].bodies == bodies and found[0].severity is Severity.ERROR
-    assert abs(found[0].time_s - expected_s) <= tick_at(ticks, expected_s).duration_ms / 1000
-    assert bodies[0] in found[0].message and f"t={found[0].time_s:.2f} s" in found[0].message
-
-
 def first_overload_s(robot, trajectory, joint: str) -> float:
     """When following the plan first needs more than the stall torque at ``joint``: MuJoCo's
     inverse dynamics along the plan, with the datasheet's damping and armature."""
@@ -450,19 +335,6 @@ def test_no_ticks_means_holding_the_first_pose(arm3):
     assert rollout.duration_s == pytest.approx(SimSettings().tail_s)
     assert np.abs(rollout.position_deg - [10, 20, 30]).max() < 1.0
     assert np.abs(rollout.command_deg - [10, 20, 30]).max() < 1e-9
-
-
-def test_a_simulation_that_blows_up_is_an_error_naming_the_joint(arm3):
-    absurd = {
-        "kp_nm_rad": 1e9,
-        "stall_torque_nm": 1e9,
-        "armature_kg_m2": 1e-9,
-        "damping_nm_s_rad": 1e-9,
-    }
-    settings = SimSettings(actuator_overrides={"shoulder": absurd})
-    ticks = [Tick(0, 0, (500, 900, 500), (True,) * 3)]
-    with pytest.raises(PreviewError, match="unstable .*last at shoulder"):
-        simulate(arm3, ticks, [0, 0, 0], settings=settings)
 
 
 def test_the_robot_files_actuator_block_overrides_the_servo_model(arm3):

@@ -18,6 +18,7 @@ import numpy as np
 import paths
 import pytest
 from paths import REPO
+from preview_helpers import linear_ticks
 
 from choreo.cli import main
 from choreo.errors import OptionError, SourceError
@@ -146,16 +147,6 @@ def test_a_robot_lying_face_down_is_turned_onto_its_front():
 
 
 # --- stalls, can't keep up, near misses --------------------------------------------------------
-def linear_ticks(robot, start_deg, end_deg, duration_ms: int, tick_ms: int) -> list[Tick]:
-    start_deg, end_deg = np.asarray(start_deg, float), np.asarray(end_deg, float)
-    ticks = []
-    for k in range(1, duration_ms // tick_ms + 1):
-        angles = start_deg + (end_deg - start_deg) * k * tick_ms / duration_ms
-        units = tuple(int(round(j.to_units(a))) for j, a in zip(robot.joints, angles))
-        ticks.append(Tick((k - 1) * tick_ms, tick_ms, units, (True,) * len(units)))
-    return ticks
-
-
 def test_an_unloaded_servo_at_full_speed_does_not_stall():
     """Issue 11: arm6 wrist_roll rolling -100° -> 100° at its no-load 375°/s was called a
     stall. It is at its torque limit because it runs as fast as it can: a warning at most."""

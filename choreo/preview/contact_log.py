@@ -1,0 +1,98 @@
+"""The contacts of a simulation worth reporting, logged step by step into ``Contacts``: pairs are
+classified (self, floor, neighbour, ground, foot, held) only when they change."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from choreo.preview.model import (
+    FLOOR_CONTACT,
+    FOOT_CONTACT,
+    GROUND_CONTACT,
+    HELD_CONTACT,
+    NEIGHBOUR_CONTACT,
+    NO_CONTACT,
+    SELF_CONTACT,
+    contact_kinds,
+    free_joint,
+    geom_labels,
+)
+from choreo.preview.rollout import ContactPair, Contacts
+
+CONTACT_NAMES = {
+    SELF_CONTACT: "self",
+    FLOOR_CONTACT: "floor",
+    NEIGHBOUR_CONTACT: "neighbour",
+    GROUND_CONTACT: "ground",
+    FOOT_CONTACT: "foot",
+    HELD_CONTACT: "held",
+}
+
+
+class ContactLog:
+    """The contacts worth reporting, step by step. Most steps repeat the previous step's contact
+    pairs (feet on the floor), so pairs are only classified when they change."""
+
+    def __init__(self, model: mujoco.MjModel, min_depth_m: float, feet: Sequence[int] = ()):
+        self._kinds = contact_kinds(model, free_floating=free_joint(model) is not None, feet=feet)
+        self._labels = geom_labels(model)
+        self._on_world = model.geom_bodyid == 0
+        self._min_depth_m = min_depth_m
+        self._last_pairs = b""
+        # indices into the current contact list, with the pair each touch belongs to
+        self._watched: list[tuple[int, tuple[int, str, str]]] = []
+        self._pair_ids: dict[tuple[int, str, str], int] = {}
+        self.steps: list[int] = []
+        self.pair_index: list[int] = []
+        self.depths_m: list[float] = []
+
+    def see(self, data: mujoco.MjData, step: int) -> None:
+        contact = data.contact
+        geoms = contact.geom[: data.ncon]
+        pairs = geoms.tobytes()
+        if pairs != self._last_pairs:
+            self._last_pairs = pairs
+            watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
+            self._watched = [(int(i), self._pair_key(*geoms[i])) for i in watched]
+        if not self._watched:
+            return
+        depths = -contact.dist[: data.ncon]
+        for i, key in self._watched:
+            if depths[i] > self._min_depth_m:
+                self.steps.append(step)
+                self.pair_index.append(self._pair_ids.setdefault(key, len(self._pair_ids)))
+                self.depths_m.append(float(depths[i]))
+
+    def _pair_key(self, g1: int, g2: int) -> tuple[int, str, str]:
+        """The pair's kind and names (the world's or a prop's second, else sorted), which are
+        numbered as they are first recorded."""
+        kind = int(self._kinds[g1, g2])
+        a, b = self._labels[g1], self._labels[g2]
+        if kind in (FLOOR_CONTACT, GROUND_CONTACT, FOOT_CONTACT):
+            names = (b, a) if self._on_world[g1] else (a, b)
+        else:
+            names = (a, b) if a <= b else (b, a)  # sorted
+        return (kind, *names)
+
+    @property
+    def named(self) -> int:
+        return len(self._pair_ids)
+
+    def take_from(self, other: ContactLog, entries: int, pairs: int) -> None:
+        """``other``'s first ``entries`` contacts and ``pairs`` named pairs, as this log's."""
+        self.steps = other.steps[:entries]
+        self.pair_index = other.pair_index[:entries]
+        self.depths_m = other.depths_m[:entries]
+        self._pair_ids = dict(list(other._pair_ids.items())[:pairs])
+
+    def recorded(self) -> Contacts:
+        ordered = sorted(self._pair_ids, key=self._pair_ids.__getitem__)
+        return Contacts(
+            tuple(ContactPair(CONTACT_NAMES[kind], a, b) for kind, a, b in ordered),
+            np.array(self.steps, dtype=int),
+            np.array(self.pair_index, dtype=int),
+            np.array(self.depths_m, dtype=float),
+        )

@@ -1,0 +1,215 @@
+"""The simulation's step loop: each physics step with the servos' set-points through their law,
+recorded; holding the start pose until still; checkpoints of the whole simulator, from which a
+later tick list that begins the same way resumes (``Resume``)."""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from choreo.errors import PreviewError
+from choreo.plan.ticks import Tick
+from choreo.preview.actuator import CommandStream, ServoBank, ServoDrive
+from choreo.preview.contact_log import ContactLog
+from choreo.preview.rollout import MoveStart
+from choreo.robot.types import Robot
+
+INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # everything stepping depends on
+
+
+CHECKPOINT_S = 1.0  # a rollout keeps the whole simulator's state this often (``Resume``)
+
+
+STILL_SPEED = 0.01  # m/s and rad/s: every degree of freedom slower than this is still
+
+
+STILL_FOR_S = 0.05  # ... for this long
+
+
+MIN_SETTLE_S = 0.02
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The simulator as it was at the start of run step ``step`` (before its STARTs): MuJoCo's
+    whole integration state, the servos' moves, and how much had been recorded."""
+
+    step: int  # counted from the first step after the settling
+    state: np.ndarray
+    servos: ServoBank
+    drive: ServoDrive
+    contacts: int  # entries of the contact log
+    pairs: int  # contact pairs named
+
+
+@dataclass(frozen=True)
+class Resume:
+    """What a rollout leaves to simulate faster a tick list that begins as its own did."""
+
+    inputs: tuple  # robot, start angles, settings, posture, props: must be the same
+    ticks: tuple[Tick, ...]
+    settled: bool
+    n_settle: int
+    record: StepRecord
+    contacts: ContactLog
+    checkpoints: tuple[Checkpoint, ...]
+
+    def checkpoint_for(
+        self, inputs: tuple, ticks: tuple[Tick, ...], dt: float, n_run: int
+    ) -> Checkpoint | None:
+        """The last checkpoint before the first tick that differs, inside a run of ``n_run``
+        steps (None: start afresh)."""
+        if inputs != self.inputs:
+            return None
+        same = 0
+        for old, new in zip(self.ticks, ticks):
+            if old != new:
+                break
+            same += 1
+        if same == len(self.ticks) == len(ticks):
+            changed_s = math.inf
+        else:
+            changed = [t[same].start_ms for t in (self.ticks, ticks) if same < len(t)]
+            changed_s = min(changed) / 1000
+        # the first step a START at changed_s could touch (as StepLoop.run rounds it), less one
+        first_touched = math.ceil(changed_s / dt - 1e-6) if math.isfinite(changed_s) else None
+        usable = [
+            c
+            for c in self.checkpoints
+            if c.step < n_run and (first_touched is None or c.step < first_touched)
+        ]
+        return usable[-1] if usable else None
+
+
+class StepRecord:
+    """The recorded signals, one row per physics step."""
+
+    def __init__(self, capacity: int, nq: int, n_joints: int):
+        self.qpos = np.empty((capacity, nq))
+        self.ctrl = np.empty((capacity, n_joints))
+        self.torque = np.empty((capacity, n_joints))
+        self.count = 0
+
+
+class StepLoop:
+    """The step loop, kept lean (it runs ~500 times per simulated second)."""
+
+    def __init__(self, model, data, index, drive: ServoDrive, contacts, log: StepRecord):
+        self.model, self.data, self.index = model, data, index
+        self.drive = drive
+        self.contacts, self.log = contacts, log
+
+    def step(self, ctrl_rad: np.ndarray) -> None:
+        """One physics step with the servos' set-points at ``ctrl_rad``, through their law
+        (``ServoDrive``: delay, offset, gear play, dead band)."""
+        data, log, k = self.data, self.log, self.log.count
+        data.ctrl[self.index.actuator] = self.drive.ctrl(ctrl_rad, data.qpos[self.index.qpos])
+        log.ctrl[k] = ctrl_rad
+        log.qpos[k] = data.qpos
+        mujoco.mj_step(self.model, data)  # its forces and contacts belong to the state at t
+        log.torque[k] = data.actuator_force[self.index.actuator]
+        if data.ncon:
+            self.contacts.see(data, k)
+        log.count = k + 1
+
+    def settle(self, hold_rad: np.ndarray, max_steps: int) -> bool:
+        """Hold the start pose until every degree of freedom has been still for a while (True)
+        or ``max_steps`` have passed (False)."""
+        dt = float(self.model.opt.timestep)
+        return hold_until_still(self.data, dt, lambda: self.step(hold_rad), max_steps)
+
+    def run(
+        self,
+        stream: CommandStream,
+        servos: ServoBank,
+        robot: Robot,
+        move_start: MoveStart,
+        n: int,
+        first: int = 0,
+        checkpoint_every: int = 0,
+    ) -> list[Checkpoint]:
+        """The tick stream from step ``first`` (0, or a restored checkpoint's): between two
+        STARTs every set-point is a known function of time, so each stretch's controls are
+        computed at once. Returns a checkpoint every ``checkpoint_every`` steps (0: none)."""
+        dt = float(self.model.opt.timestep)
+        times = np.arange(n) * dt
+        started = np.flatnonzero(stream.started)
+        # the step at which each START happens: the first step at or after its time
+        start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
+        marks = range(first, n, checkpoint_every) if checkpoint_every else ()
+        boundaries = sorted({first, n, *marks, *[int(b) for b in start_steps if first <= b < n]})
+        checkpoints = []
+        for begin, end in zip(boundaries[:-1], boundaries[1:]):
+            if checkpoint_every and begin % checkpoint_every == 0:
+                checkpoints.append(self._checkpoint(begin, servos))
+            for tick in started[start_steps == begin]:
+                if move_start is MoveStart.POSITION:
+                    position_units = robot.to_units(np.degrees(self.data.qpos[self.index.qpos]))
+                else:
+                    position_units = servos.setpoint_units(times[begin])
+                servos.start(stream, tick, times[begin], position_units)
+            ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
+            for row in ctrl:
+                self.step(row)
+        return checkpoints
+
+    def _checkpoint(self, step: int, servos: ServoBank) -> Checkpoint:
+        state = np.empty(mujoco.mj_stateSize(self.model, INTEGRATION_STATE))
+        mujoco.mj_getState(self.model, self.data, state, INTEGRATION_STATE)
+        return Checkpoint(
+            step,
+            state,
+            copy.deepcopy(servos),
+            copy.deepcopy(self.drive),
+            len(self.contacts.steps),
+            self.contacts.named,
+        )
+
+    def restore(self, checkpoint: Checkpoint, resume: Resume, n_settle: int) -> ServoBank:
+        """The simulator as it was at ``checkpoint`` of ``resume``'s run, with everything
+        recorded before it; the servos' moves then (a copy) are returned."""
+        mujoco.mj_setState(self.model, self.data, checkpoint.state, INTEGRATION_STATE)
+        self.drive = copy.deepcopy(checkpoint.drive)
+        count = n_settle + checkpoint.step
+        old, log = resume.record, self.log
+        log.qpos[:count], log.ctrl[:count] = old.qpos[:count], old.ctrl[:count]
+        log.torque[:count] = old.torque[:count]
+        log.count = count
+        self.contacts.take_from(resume.contacts, checkpoint.contacts, checkpoint.pairs)
+        return copy.deepcopy(checkpoint.servos)
+
+
+def hold_until_still(
+    data: mujoco.MjData, dt_s: float, step: Callable[[], None], max_steps: int
+) -> bool:
+    """Call ``step`` (one physics step holding a pose) until every degree of freedom has been
+    still for a while (True) or ``max_steps`` have passed (False)."""
+    min_steps, still_steps = round(MIN_SETTLE_S / dt_s), round(STILL_FOR_S / dt_s)
+    still_since = 0
+    for k in range(max_steps):
+        step()
+        if np.abs(data.qvel).max(initial=0.0) >= STILL_SPEED:
+            still_since = k + 1
+        elif k + 1 >= max(min_steps, still_since + still_steps):
+            return True
+    return max_steps == 0
+
+
+def check_stable(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """MuJoCo resets the state when accelerations blow up; a rollout after that means nothing."""
+    warning = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
+    if warning.number:
+        joint = (
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.dof_jntid[warning.lastinfo])
+            or "a joint"
+        )
+        raise PreviewError(
+            f"the simulation became unstable ({warning.number} bad accelerations, "
+            f"last at {joint}): check the MJCF's masses, inertias and timestep, and "
+            f"any actuator overrides"
+        )
