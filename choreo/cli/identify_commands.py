@@ -7,8 +7,14 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from choreo.cli.arguments import add_port_arguments, bus_settings, stop_signals_as_ctrl_c
+
+if TYPE_CHECKING:  # the modules themselves are imported when the command runs
+    from choreo.bus.settings import BusSettings
+    from choreo.identify.identify import IdentifyReport
+    from choreo.robot.types import Robot
 
 FIGURE_WORDS = (
     ("deadband_deg", "dead band {:.2f}°"),
@@ -72,15 +78,7 @@ def run_identify(args: argparse.Namespace) -> int:
 
     robot, joints = _robot_and_joints(args.target, args.joints)
     output = args.output or _default_output(robot)
-    settings = bus_settings(args, robot)
-    if settings.port is None:
-        stand = "&stand=1" if robot.free_floating else ""  # a walker is measured on a stand
-        settings = dataclasses.replace(settings, port=f"sim://?physics={robot.path}{stand}")
-        print(
-            f"no --port given: identifying the emulated {robot.name} whose servos are the "
-            f"physics ({settings.port})",
-            file=sys.stderr,
-        )
+    settings = _emulated_unless_a_port(bus_settings(args, robot), robot)
     bar = Progress(
         TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), transient=True
     )
@@ -108,6 +106,25 @@ def run_identify(args: argparse.Namespace) -> int:
             on_progress=on_progress,
             on_joint=on_joint,
         )
+    _print_summary(report, output, robot)
+    return 0
+
+
+def _emulated_unless_a_port(settings: BusSettings, robot: Robot) -> BusSettings:
+    """Without --port: the emulated robot whose servos are the physics."""
+    if settings.port is not None:
+        return settings
+    stand = "&stand=1" if robot.free_floating else ""  # a walker is measured on a stand
+    settings = dataclasses.replace(settings, port=f"sim://?physics={robot.path}{stand}")
+    print(
+        f"no --port given: identifying the emulated {robot.name} whose servos are the "
+        f"physics ({settings.port})",
+        file=sys.stderr,
+    )
+    return settings
+
+
+def _print_summary(report: IdentifyReport, output: Path, robot: Robot) -> None:
     if report.already:
         print(f"kept from {output}: {', '.join(report.already)} (--again measures them again)")
     if report.identified:
@@ -127,7 +144,6 @@ def run_identify(args: argparse.Namespace) -> int:
         print(f"gait compensation not recalibrated: {report.gait_problem}")
     if robot.servo_figures is None or Path(robot.servo_figures.path).resolve() != output.resolve():
         print(f"to use it, add to {robot.path}:  servo_figures: {_relative(output, robot.path)}")
-    return 0
 
 
 _STAGES = {"test moves": 0.0, "held-out moves": 0.3, "fitting": 0.6}
