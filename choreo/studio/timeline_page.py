@@ -16,7 +16,7 @@ import logging
 import math
 import queue
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence, Sized
 from dataclasses import dataclass
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -595,38 +595,47 @@ class TimelinePage:
     def _move(self, moves: Sequence[tuple[int, float]]) -> None:
         """Keyframes dragged (index, to time s), each moved as Move keyframe here does: those
         moving later from the last, those moving earlier from the first, so none passes
-        another on the way; the first refusal stops the rest."""
+        another on the way; the first refusal stops the rest. One step to undo."""
         studio = self._studio
         plan = studio.session.plan
         if plan is None or any(i >= len(plan.keyframe_times_s) for i, _ in moves):
             studio.refuse(f"refused: the motion has {self._keyframes()} keyframes")
             return
         later = bool(moves) and moves[0][1] > plan.keyframe_times_s[moves[0][0]]
-        for index, t_s in sorted(moves, reverse=later):
-            studio.select_keyframe(index)
-            studio.scrub(t_s)
-            if not self._done(studio.retime_keyframe):
-                return
+        with studio.journal.one_step(f"moved {count(moves, 'keyframe')}"):
+            for index, t_s in sorted(moves, reverse=later):
+                studio.select_keyframe(index)
+                studio.scrub(t_s)
+                if not self._done(studio.retime_keyframe):
+                    return
 
     def _delete(self, indices: Sequence[int]) -> None:
         """Keyframes deleted as Delete keyframe does, the last first (the numbers of the
-        others stay)."""
+        others stay). One step to undo."""
         studio = self._studio
         if any(i >= self._keyframes() for i in indices):
             studio.refuse(f"refused: the motion has {self._keyframes()} keyframes")
             return
-        for index in sorted(set(indices), reverse=True):
-            studio.select_keyframe(index)
-            if not self._done(studio.delete_keyframe):
-                return
+        with studio.journal.one_step(f"deleted {count(set(indices), 'keyframe')}"):
+            for index in sorted(set(indices), reverse=True):
+                studio.select_keyframe(index)
+                if not self._done(studio.delete_keyframe):
+                    return
 
     def _paste(self, keyframes: Sequence[tuple[float, Mapping[str, float]]]) -> None:
-        """Copied poses (time s, joint -> degrees) added as Add keyframe does, earliest first."""
+        """Copied poses (time s, joint -> degrees) added as Add keyframe does, earliest first.
+        One step to undo."""
         studio = self._studio
-        for t_s, pose in sorted(keyframes, key=lambda k: k[0]):
-            studio.scrub(t_s)
-            if not studio.take_angles(pose) or not self._done(studio.add_keyframe):
-                return
+        with studio.journal.one_step(f"pasted {count(keyframes, 'keyframe')}"):
+            for t_s, pose in sorted(keyframes, key=lambda k: k[0]):
+                studio.scrub(t_s)
+                if not studio.take_angles(pose) or not self._done(studio.add_keyframe):
+                    return
+
+
+def count(things: Sized, noun: str) -> str:
+    """ "3 keyframes", "1 keyframe"."""
+    return f"{len(things)} {noun}{'s' * (len(things) != 1)}"
 
 
 def reload_status(result: Reload, plan: Plan | None) -> tuple[str, str]:
