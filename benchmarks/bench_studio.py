@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "studio"))
 from browser import chosen  # noqa: E402
 from test_studio_browser import free_port  # noqa: E402
-from test_timeline_page import Timeline, many_keyframes  # noqa: E402  (tests/studio on the path)
+from test_timeline_page_browser import Timeline, many_keyframes  # noqa: E402  (tests/studio)
 
 SAVES = 5
 SESSION_SAVES = 100  # 10 minutes, a save every 6 s

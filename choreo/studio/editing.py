@@ -120,7 +120,7 @@ class Editing(StudioParts):
         try:
             items = yaml_edit.keyframe_items(text or "")
         except (yaml_edit.EditRefused, ValueError):
-            items = []
+            items = ()
         same = [i for i in range(len(items)) if item_text(text or "", i) == selection.text]
         if not same or text is None:
             self._select(None)
