@@ -14,26 +14,23 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
 
 import numpy as np
 
 from choreo.core.atomic import write_text_atomically
-from choreo.errors import ChoreoError, PlanningError, SourceError
-from choreo.motion.motion_file import Keyframe, Motion, load_motion
-from choreo.plan.planner import plan_motion
+from choreo.errors import ChoreoError
+from choreo.motion.motion_file import Keyframe
 from choreo.studio import yaml_edit
 from choreo.studio.journal import Journal, JournalRefused, Step
+from choreo.studio.nearest import STANDS_S, nearest_time
 from choreo.studio.parts import StudioParts
-from choreo.studio.session import Plan, make_plan
+from choreo.studio.session import Plan
+from choreo.studio.trial import check_loads, check_plans
 from choreo.studio.yaml_edit import EditRefused
 
 BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
-STANDS_S = 0.005  # a keyframe this near the timeline's time stands there (half its 0.01 s step)
 KEPT_S = 0.001  # another keyframe that moved less than this kept its time
 CHANGED_DEG = 0.05  # a joint moved less than this (half the sliders' step) did not change
-NEAREST_STEP_S = 0.05  # the times tried instead of one that does not plan: this far apart
-NEAREST_TRIES = 9  # and this many (each is a plan: a tenth of a second for a 30 s motion)
 MOVED_NAMED = 3  # a warning names this many keyframes that moved, then counts the rest
 
 
@@ -431,46 +428,11 @@ class Editing(StudioParts):
         why = problems[0] + (f" (and {len(problems) - 1} more)" if len(problems) > 1 else "")
         if change.retry is None:
             raise EditRefused(f"the file would not load or plan: {why}")
-        tried = self._times_to_try(change)
-        works = next((t for t in tried if self._plans_at(change, t)), None)
-        if works is not None:
-            hint = f"the nearest time that works is {works:.2f} s"
-        elif tried:
-            hint = f"no time from {min(tried):.2f} to {max(tried):.2f} s works either"
-        else:
-            hint = "no other time between its neighbours to try"
-        raise EditRefused(f"at {self.time_s:.2f} s it would not plan: {why}; {hint}")
-
-    def _times_to_try(self, change: Change) -> list[float]:
-        """Where an edit at the timeline's time may plan instead, nearest first: where the
-        planner, allowed to stretch, puts the keyframe, then every NEAREST_STEP_S either side,
-        between the keyframes either side of it (at most NEAREST_TRIES times)."""
-        low, high = change.window
-        t = self.time_s
-        tried: list[float] = []
-        try:
-            stretched = plan_motion(
-                check_loads(self.session.motion_path, change.text), stretch=True
-            )
-            shifts = [s.shift_s for s in stretched.stretches if s.where.line == change.line]
-        except ChoreoError:
-            shifts = []
-        if shifts:
-            tried.append(float(np.ceil((t + shifts[0]) / NEAREST_STEP_S - 1e-6) * NEAREST_STEP_S))
-        for k in range(1, NEAREST_TRIES):
-            for candidate in (t - k * NEAREST_STEP_S, t + k * NEAREST_STEP_S):
-                candidate = round(candidate, 6)
-                if low + STANDS_S < candidate < high - STANDS_S and candidate not in tried:
-                    tried.append(candidate)
-        return tried[:NEAREST_TRIES]
-
-    def _plans_at(self, change: Change, t_s: float) -> bool:
-        assert change.retry is not None
-        try:
-            check_plans(self.session.motion_path, change.retry(t_s).text)
-        except (ChoreoError, EditRefused):
-            return False
-        return True
+        retry = change.retry
+        search = nearest_time(
+            path, change.text, self.time_s, lambda t: retry(t).text, change.window, change.line
+        )
+        raise EditRefused(f"at {self.time_s:.2f} s it would not plan: {why}; {search.hint()}")
 
     # --- the journal --------------------------------------------------------------------------
 
@@ -562,34 +524,3 @@ def others_moved(before: Plan, after: Plan, change: Change) -> str:
     )
     more = f" and {len(moved) - MOVED_NAMED} more" if len(moved) > MOVED_NAMED else ""
     return f"⚠ other keyframes moved (timed as soon as the limits allow): {named}{more}"
-
-
-def check_loads(path: Path, text: str) -> Motion:
-    """The motion ``text`` written to ``path`` would be; ``SourceError`` (naming ``path``) if
-    it would not load."""
-    return _trial(path, text, load_motion)
-
-
-def check_plans(path: Path, text: str) -> Plan:
-    """The plan the studio would show for ``text`` written to ``path``; ``SourceError`` or
-    ``PlanningError`` (naming ``path``) if it would not load or plan."""
-    return _trial(path, text, lambda trial: make_plan(load_motion(trial)))
-
-
-T = TypeVar("T")
-
-
-def _trial(path: Path, text: str, make: Callable[[Path], T]) -> T:
-    """``make`` of a file beside ``path`` holding ``text`` (so that its includes and song are
-    found as ``path``'s), its problems naming ``path``."""
-    trial = path.with_name(f".{path.name}.studio-check{path.suffix}")
-    try:
-        trial.write_text(text, encoding="utf-8")
-        return make(trial)
-    except (SourceError, PlanningError) as error:
-        problems = [p.replace(str(trial), str(path)) for p in error.problems]
-        raise type(error)(problems) from None
-    except ChoreoError as error:
-        raise SourceError(str(error).replace(str(trial), str(path))) from None
-    finally:
-        trial.unlink(missing_ok=True)

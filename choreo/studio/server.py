@@ -22,7 +22,7 @@ from choreo.errors import ChoreoError
 from choreo.studio import require
 from choreo.studio.address import Address
 from choreo.studio.driving import NO_ROBOT, Driving
-from choreo.studio.editing import Editing, check_loads
+from choreo.studio.editing import Editing
 from choreo.studio.live import LiveRobot
 from choreo.studio.page import Page
 from choreo.studio.posing import LatestOnly, Posing
@@ -31,6 +31,7 @@ from choreo.studio.serving import UnreadableMessages, port_to_serve
 from choreo.studio.session import Reload, Session
 from choreo.studio.timeline import Timeline
 from choreo.studio.timeline_page import TimelinePage, reload_status
+from choreo.studio.trial import check_loads
 from choreo.studio.watch import FileWatcher
 
 __all__ = ["NO_ROBOT", "LatestOnly", "Studio", "check_loads"]
