@@ -4,10 +4,8 @@ write over a file that changed since."""
 from __future__ import annotations
 
 import pytest
-from studio_helpers import studio_on, times
 
 from choreo.studio.journal import Journal, JournalRefused
-from choreo.studio.timeline_page import Placed, Request
 
 
 def test_undo_and_redo_walk_the_writes_and_a_new_write_forgets_what_was_undone(tmp_path):
@@ -82,47 +80,3 @@ def test_writes_in_one_step_are_undone_and_redone_together_unless_an_outside_edi
     assert path.read_bytes() == b"abc, edited"
     with pytest.raises(JournalRefused, match="changed on disk"):  # never over the outside edit
         journal.undo()
-
-
-def test_keyframes_moved_deleted_or_pasted_together_from_the_timeline_are_one_undo(tmp_path):
-    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
-        path = studio.session.motion_path
-        original = path.read_bytes()
-        at = times(studio)
-        count = len(at)
-        version = studio.session.version
-        studio.timeline_page.handle(  # the last two keyframes dragged 0.1 s later together
-            Request(
-                "move",
-                placed=tuple(Placed(at[i] + 0.1, index=i) for i in (count - 2, count - 1)),
-                version=version,
-            )
-        )
-        assert times(studio)[-2:] == [round(at[-2] + 0.1, 3), round(at[-1] + 0.1, 3)]
-        moved = path.read_bytes()
-        studio.undo()
-        assert path.read_bytes() == original and times(studio) == at
-        studio.redo()
-        assert path.read_bytes() == moved
-
-        studio.timeline_page.handle(
-            Request("delete", indices=(count - 1, count - 2), version=studio.session.version)
-        )
-        assert len(times(studio)) == count - 2
-        studio.undo()
-        assert path.read_bytes() == moved
-
-        studio.timeline_page.handle(
-            Request(
-                "paste",
-                placed=(
-                    Placed(at[-1] + 0.6, pose={"elbow": -20}),  # within the timeline
-                    Placed(at[-1] + 1.0, pose={"elbow": 0}),
-                ),
-                version=studio.session.version,
-            )
-        )
-        assert len(times(studio)) == count + 2, studio.said[-3:]
-        studio.undo()
-        assert path.read_bytes() == moved
-        assert f"undid 'pasted 2 keyframes' in {path}" in studio.said
