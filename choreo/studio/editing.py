@@ -10,10 +10,8 @@ rewritten so that it keeps its time. Every write is a step of the ``journal``, t
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -22,6 +20,13 @@ from choreo.errors import ChoreoError
 from choreo.motion.motion_file import Keyframe
 from choreo.studio import yaml_edit
 from choreo.studio.journal import Journal, JournalRefused, Step
+from choreo.studio.keyframe_places import (
+    Placed,
+    item_text,
+    notation_of,
+    others_moved,
+    placed_keyframes,
+)
 from choreo.studio.nearest import STANDS_S, nearest_time
 from choreo.studio.parts import StudioParts
 from choreo.studio.session import Plan
@@ -29,19 +34,7 @@ from choreo.studio.trial import check_loads, check_plans
 from choreo.studio.yaml_edit import EditRefused
 
 BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
-KEPT_S = 0.001  # another keyframe that moved less than this kept its time
 CHANGED_DEG = 0.05  # a joint moved less than this (half the sliders' step) did not change
-MOVED_NAMED = 3  # a warning names this many keyframes that moved, then counts the rest
-
-
-@dataclass(frozen=True)
-class Placed:
-    """A keyframe of the plan and the item of the motion file's ``keyframes:`` it comes from."""
-
-    index: int  # in plan.motion.keyframes
-    item: int | None  # None: not in this file's list (an include's include)
-    alone: bool  # the item is this keyframe alone (not an include or a gait): editable here
-    t_s: float  # when it is reached, played seconds
 
 
 @dataclass(frozen=True)
@@ -405,7 +398,7 @@ class Editing(StudioParts):
             self._selection = self._selection_after(change)
             if self._selection is None:
                 self.selected = None
-            moved = others_moved(plan, trial, change)
+            moved = others_moved(plan, trial, change.replaced, change.line)
             self.note(f"{done} in {path}" + (f"; {moved}" if moved else ""))
             return True
 
@@ -452,75 +445,3 @@ class Editing(StudioParts):
             self._watcher.seen()
             self.note(f"{done} '{step.what}' in {self.session.motion_path}")
         self.reload()
-
-
-def notation_of(plan: Plan, placed: Placed | None) -> str | None:
-    """How ``placed``'s time is written: ``after``, ``t``, ``beat`` or ``bar``; None when it is
-    not (as soon as the limits allow) or comes from an include."""
-    if placed is None or not placed.alone:
-        return None
-    keyframe = plan.motion.keyframes[placed.index]
-    if keyframe.after_s is not None:
-        return "after"
-    if keyframe.beat is not None:
-        return "bar" if keyframe.beat.by_bar else "beat"
-    return "t" if keyframe.t_s is not None else None
-
-
-def placed_keyframes(text: str, plan: Plan, path: Path) -> list[Placed]:
-    """Each keyframe of ``plan`` with the item of ``text``'s ``keyframes:`` it comes from:
-    its own, or the include entry that brought it."""
-    items = yaml_edit.keyframe_items(text)
-    by_line = {item.content_line + 1: i for i, item in enumerate(items)}
-    own = Path(path).resolve()
-    keyframes = plan.motion.keyframes
-    sharing = Counter((Path(k.where.path).resolve(), k.where.line) for k in keyframes)
-    placed = []
-    for index, (keyframe, t_s) in enumerate(zip(keyframes, plan.keyframe_times_s)):
-        where = keyframe.where
-        if Path(where.path).resolve() == own and not where.included_at:
-            item = by_line.get(where.line)
-            alone = item is not None and sharing[(own, where.line)] == 1
-        else:
-            entry = next((e for e in where.included_at if Path(e.path).resolve() == own), None)
-            item, alone = (by_line.get(entry.line) if entry else None), False
-        placed.append(Placed(index, item, alone, float(t_s)))
-    return placed
-
-
-def item_text(text: str, item: int) -> str:
-    """The lines of the ``item``-th keyframe of ``text``, as written."""
-    found = yaml_edit.keyframe_items(text)[item]
-    return "\n".join(text.splitlines()[found.first_line : found.last_line + 1])
-
-
-def others_moved(before: Plan, after: Plan, change: Change) -> str:
-    """A warning naming the keyframes other than the one edited that ``change`` moved in time
-    (those timed "as soon as the limits allow", or through an include); "" if none."""
-    old = list(before.keyframe_times_s)
-    new = list(after.keyframe_times_s)
-    old_keyframes = list(before.motion.keyframes)
-    if change.replaced is not None:
-        del old[change.replaced], old_keyframes[change.replaced]
-    edited = [
-        i
-        for i, k in enumerate(after.motion.keyframes)
-        if change.line is not None and k.where.line == change.line and not k.where.included_at
-    ]
-    if edited:
-        del new[edited[0]]
-    if len(old) != len(new):
-        return ""
-    moved = [
-        (keyframe, t_new - t_old)
-        for keyframe, t_old, t_new in zip(old_keyframes, old, new)
-        if abs(t_new - t_old) >= KEPT_S
-    ]
-    if not moved:
-        return ""
-    named = ", ".join(
-        f"{k.where} {abs(shift):.2f} s {'later' if shift > 0 else 'earlier'}"
-        for k, shift in moved[:MOVED_NAMED]
-    )
-    more = f" and {len(moved) - MOVED_NAMED} more" if len(moved) > MOVED_NAMED else ""
-    return f"⚠ other keyframes moved (timed as soon as the limits allow): {named}{more}"
