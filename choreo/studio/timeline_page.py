@@ -165,7 +165,7 @@ class TimelinePage:
         studio = self._studio
         with studio.journal.one_step(f"pasted {count(keyframes, 'keyframe')}"):
             for t_s, pose in sorted(keyframes, key=lambda k: k[0]):
-                studio.scrub(t_s)
+                studio.scrub(t_s, adding=True)  # past the end too: the phrase extends it
                 if not studio.take_angles(pose) or not self._done(studio.add_keyframe):
                     return
 
