@@ -305,9 +305,10 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             print_drags(Path(tmp))
         return
+    choice = chosen()  # before Playwright starts: finding a browser starts Playwright too
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as playwright:
         folder = Path(tmp)
-        browser = chosen().launch(playwright)
+        browser = choice.launch(playwright)
         redraws, frames, parts = timeline_redraw(browser, folder)
         slowest = ", ".join(
             f"{k} {v:.1f}" for k, v in sorted(parts.items(), key=lambda kv: -kv[1])[:3]
