@@ -95,8 +95,9 @@ def nearest_time(
     later = [round(t_s + k * NEAREST_STEP_S, 6) for k in range(1, steps + 1)]
     earlier = [round(t_s - k * NEAREST_STEP_S, 6) for k in range(1, steps + 1)]
     sides = [[t for t in side if low < t < high and t != hinted] for side in (later, earlier)]
-    found = _scan(budget, sides) if sum(map(len, sides)) <= budget.left else _bisect(budget, sides)
-    while found is not None and budget.left > 0 and not budget.works(found, checked=True):
+    few = sum(map(len, sides)) < budget.left
+    found = _scan(budget, sides) if few else _bisect(budget, sides)
+    while found is not None and not budget.works(found, checked=True):  # a plan kept for it
         sides = [[t for t in side if abs(t - t_s) > abs(found - t_s)] for side in sides]
         found = _scan(budget, sides)  # the planner passed it but the page's check did not
     return Search(found, tuple(budget.tried), NEAREST_PLANS - budget.left)
@@ -116,17 +117,18 @@ def _stretched(path: Path, text: str, t_s: float, line: int | None) -> float | N
 
 
 def _scan(budget: _Budget, sides: list[list[float]]) -> float | None:
-    """Every time of ``sides`` (each nearest first), nearest first, while the budget lasts."""
-    nearest_first = sorted((t for side in sides for t in side), key=lambda t: sides_rank(sides, t))
+    """Every time of ``sides`` (each nearest first), nearest first, while the budget lasts
+    (keeping one plan to check the time found)."""
+    nearest_first = sorted((t for side in sides for t in side), key=lambda t: _rank(sides, t))
     for t in nearest_first:
-        if budget.left <= 0:
+        if budget.left <= 1:  # the last plan checks the time found
             return None
         if budget.works(t):
             return t
     return None
 
 
-def sides_rank(sides: list[list[float]], t_s: float) -> tuple[int, int]:
+def _rank(sides: list[list[float]], t_s: float) -> tuple[int, int]:
     """``t_s``'s place in a nearest-first order of both sides: its step, later first."""
     for number, side in enumerate(sides):
         if t_s in side:
@@ -141,11 +143,11 @@ def _bisect(budget: _Budget, sides: list[list[float]]) -> float | None:
     best: float | None = None
     for side in sides:
         if best is not None:
-            side = side[: sides_rank(sides, best)[0]]
-        if not side or budget.left <= 0 or not budget.works(side[-1]):
+            side = side[: _rank(sides, best)[0]]
+        if not side or budget.left <= 1 or not budget.works(side[-1]):
             continue
         failing, working = -1, len(side) - 1  # side[working] works; "before" side[0]: t_s fails
-        while working - failing > 1 and budget.left > 0:
+        while working - failing > 1 and budget.left > 1:  # the last plan checks the time found
             middle = (failing + working) // 2
             if budget.works(side[middle]):
                 working = middle
