@@ -123,9 +123,10 @@ def save_to_page(browser, folder: Path, duration_s: int, changed_s: int) -> dict
         for i in range(SAVES):
             version = studio.session.version + 1
             page.evaluate(
-                # the plan is on the page with "simulating", or with its physics if that came
-                # in the same message
-                f"() => {{ window.planShown = ({WHEN_SHOWN})('reload {version} simulat'); "
+                # the plan is on the page ("reload N planned: …; simulating…"), or with its
+                # physics if that came in the same message ("reload N simulated")
+                f"() => {{ window.planShown = Promise.race([({WHEN_SHOWN})('reload {version} "
+                f"planned'), ({WHEN_SHOWN})('reload {version} simulated')]); "
                 f"window.shown = ({WHEN_SHOWN})('reload {version} simulated'); }}"
             )
             start = time.time()
