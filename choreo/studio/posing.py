@@ -1,5 +1,7 @@
 """Posing the robot in the studio: the sliders' pose (``Posing``, the studio's part that owns it),
-set by a slider, a named pose, a mirror, or a drag handle solved by the project's IK.
+set by a slider, a named pose, a mirror, the ring of a joint picked by a click on its link, or a
+drag handle solved by the project's IK (an arm's sites, a free-standing robot's hands and feet,
+a walker's body). A drag that cannot be done is refused and its handle put back.
 
 The body's drag handle of a legged robot: the handle's move made into the ``body:`` pose a
 motion file writes (mm and degrees, rounded as written) and the legs' angles that pose means,
