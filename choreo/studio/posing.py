@@ -155,7 +155,7 @@ class Posing(StudioParts):
             return False
         if not joint.limits.contains(angle):
             self.refuse(
-                f"refused: {name} {angle:.1f}° is outside its limits {joint.limits.range_text}"
+                f"refused: {name} {angle:g}° is outside its limits {joint.limits.range_text}"
             )
             self.page.show_joints(self._pose())
             return False
