@@ -1,5 +1,6 @@
 """choreo studio: what an edit from the page costs, now that each one is loaded and planned
-before it is written (and, when it would not plan, tried at up to NEAREST_TRIES other times).
+before it is written (and, when it would not plan, the nearest time that works searched with up
+to NEAREST_PLANS plans).
 
   add        Add keyframe between two keyframes, through the studio as the page calls it: from
              the click to the file written (the check's load and plan included), not counting

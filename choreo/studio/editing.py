@@ -10,41 +10,31 @@ rewritten so that it keeps its time. Every write is a step of the ``journal``, t
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
-from typing import TypeVar
 
 import numpy as np
 
 from choreo.core.atomic import write_text_atomically
-from choreo.errors import ChoreoError, PlanningError, SourceError
-from choreo.motion.motion_file import Keyframe, Motion, load_motion
-from choreo.plan.planner import plan_motion
+from choreo.errors import ChoreoError
+from choreo.motion.motion_file import Keyframe
 from choreo.studio import yaml_edit
 from choreo.studio.journal import Journal, JournalRefused, Step
+from choreo.studio.keyframe_places import (
+    Placed,
+    item_text,
+    notation_of,
+    others_moved,
+    placed_keyframes,
+)
+from choreo.studio.nearest import STANDS_S, nearest_time
 from choreo.studio.parts import StudioParts
-from choreo.studio.session import Plan, make_plan
+from choreo.studio.session import Plan
+from choreo.studio.trial import check_loads, check_plans
 from choreo.studio.yaml_edit import EditRefused
 
 BODY_MATCH_DEG = 0.5  # a body: keyframe as loaded may be this far from the pose the handle made
-STANDS_S = 0.005  # a keyframe this near the timeline's time stands there (half its 0.01 s step)
-KEPT_S = 0.001  # another keyframe that moved less than this kept its time
 CHANGED_DEG = 0.05  # a joint moved less than this (half the sliders' step) did not change
-NEAREST_STEP_S = 0.05  # the times tried instead of one that does not plan: this far apart
-NEAREST_TRIES = 9  # and this many (each is a plan: a tenth of a second for a 30 s motion)
-MOVED_NAMED = 3  # a warning names this many keyframes that moved, then counts the rest
-
-
-@dataclass(frozen=True)
-class Placed:
-    """A keyframe of the plan and the item of the motion file's ``keyframes:`` it comes from."""
-
-    index: int  # in plan.motion.keyframes
-    item: int | None  # None: not in this file's list (an include's include)
-    alone: bool  # the item is this keyframe alone (not an include or a gait): editable here
-    t_s: float  # when it is reached, played seconds
 
 
 @dataclass(frozen=True)
@@ -120,7 +110,7 @@ class Editing(StudioParts):
         try:
             items = yaml_edit.keyframe_items(text or "")
         except (yaml_edit.EditRefused, ValueError):
-            items = []
+            items = ()
         same = [i for i in range(len(items)) if item_text(text or "", i) == selection.text]
         if not same or text is None:
             self._select(None)
@@ -408,7 +398,7 @@ class Editing(StudioParts):
             self._selection = self._selection_after(change)
             if self._selection is None:
                 self.selected = None
-            moved = others_moved(plan, trial, change)
+            moved = others_moved(plan, trial, change.replaced, change.line)
             self.note(f"{done} in {path}" + (f"; {moved}" if moved else ""))
             return True
 
@@ -431,46 +421,11 @@ class Editing(StudioParts):
         why = problems[0] + (f" (and {len(problems) - 1} more)" if len(problems) > 1 else "")
         if change.retry is None:
             raise EditRefused(f"the file would not load or plan: {why}")
-        tried = self._times_to_try(change)
-        works = next((t for t in tried if self._plans_at(change, t)), None)
-        if works is not None:
-            hint = f"the nearest time that works is {works:.2f} s"
-        elif tried:
-            hint = f"no time from {min(tried):.2f} to {max(tried):.2f} s works either"
-        else:
-            hint = "no other time between its neighbours to try"
-        raise EditRefused(f"at {self.time_s:.2f} s it would not plan: {why}; {hint}")
-
-    def _times_to_try(self, change: Change) -> list[float]:
-        """Where an edit at the timeline's time may plan instead, nearest first: where the
-        planner, allowed to stretch, puts the keyframe, then every NEAREST_STEP_S either side,
-        between the keyframes either side of it (at most NEAREST_TRIES times)."""
-        low, high = change.window
-        t = self.time_s
-        tried: list[float] = []
-        try:
-            stretched = plan_motion(
-                check_loads(self.session.motion_path, change.text), stretch=True
-            )
-            shifts = [s.shift_s for s in stretched.stretches if s.where.line == change.line]
-        except ChoreoError:
-            shifts = []
-        if shifts:
-            tried.append(float(np.ceil((t + shifts[0]) / NEAREST_STEP_S - 1e-6) * NEAREST_STEP_S))
-        for k in range(1, NEAREST_TRIES):
-            for candidate in (t - k * NEAREST_STEP_S, t + k * NEAREST_STEP_S):
-                candidate = round(candidate, 6)
-                if low + STANDS_S < candidate < high - STANDS_S and candidate not in tried:
-                    tried.append(candidate)
-        return tried[:NEAREST_TRIES]
-
-    def _plans_at(self, change: Change, t_s: float) -> bool:
-        assert change.retry is not None
-        try:
-            check_plans(self.session.motion_path, change.retry(t_s).text)
-        except (ChoreoError, EditRefused):
-            return False
-        return True
+        retry = change.retry
+        search = nearest_time(
+            path, change.text, self.time_s, lambda t: retry(t).text, change.window, change.line
+        )
+        raise EditRefused(f"at {self.time_s:.2f} s it would not plan: {why}; {search.hint()}")
 
     # --- the journal --------------------------------------------------------------------------
 
@@ -490,106 +445,3 @@ class Editing(StudioParts):
             self._watcher.seen()
             self.note(f"{done} '{step.what}' in {self.session.motion_path}")
         self.reload()
-
-
-def notation_of(plan: Plan, placed: Placed | None) -> str | None:
-    """How ``placed``'s time is written: ``after``, ``t``, ``beat`` or ``bar``; None when it is
-    not (as soon as the limits allow) or comes from an include."""
-    if placed is None or not placed.alone:
-        return None
-    keyframe = plan.motion.keyframes[placed.index]
-    if keyframe.after_s is not None:
-        return "after"
-    if keyframe.beat is not None:
-        return "bar" if keyframe.beat.by_bar else "beat"
-    return "t" if keyframe.t_s is not None else None
-
-
-def placed_keyframes(text: str, plan: Plan, path: Path) -> list[Placed]:
-    """Each keyframe of ``plan`` with the item of ``text``'s ``keyframes:`` it comes from:
-    its own, or the include entry that brought it."""
-    items = yaml_edit.keyframe_items(text)
-    by_line = {item.content_line + 1: i for i, item in enumerate(items)}
-    own = Path(path).resolve()
-    keyframes = plan.motion.keyframes
-    sharing = Counter((Path(k.where.path).resolve(), k.where.line) for k in keyframes)
-    placed = []
-    for index, (keyframe, t_s) in enumerate(zip(keyframes, plan.keyframe_times_s)):
-        where = keyframe.where
-        if Path(where.path).resolve() == own and not where.included_at:
-            item = by_line.get(where.line)
-            alone = item is not None and sharing[(own, where.line)] == 1
-        else:
-            entry = next((e for e in where.included_at if Path(e.path).resolve() == own), None)
-            item, alone = (by_line.get(entry.line) if entry else None), False
-        placed.append(Placed(index, item, alone, float(t_s)))
-    return placed
-
-
-def item_text(text: str, item: int) -> str:
-    """The lines of the ``item``-th keyframe of ``text``, as written."""
-    found = yaml_edit.keyframe_items(text)[item]
-    return "\n".join(text.splitlines()[found.first_line : found.last_line + 1])
-
-
-def others_moved(before: Plan, after: Plan, change: Change) -> str:
-    """A warning naming the keyframes other than the one edited that ``change`` moved in time
-    (those timed "as soon as the limits allow", or through an include); "" if none."""
-    old = list(before.keyframe_times_s)
-    new = list(after.keyframe_times_s)
-    old_keyframes = list(before.motion.keyframes)
-    if change.replaced is not None:
-        del old[change.replaced], old_keyframes[change.replaced]
-    edited = [
-        i
-        for i, k in enumerate(after.motion.keyframes)
-        if change.line is not None and k.where.line == change.line and not k.where.included_at
-    ]
-    if edited:
-        del new[edited[0]]
-    if len(old) != len(new):
-        return ""
-    moved = [
-        (keyframe, t_new - t_old)
-        for keyframe, t_old, t_new in zip(old_keyframes, old, new)
-        if abs(t_new - t_old) >= KEPT_S
-    ]
-    if not moved:
-        return ""
-    named = ", ".join(
-        f"{k.where} {abs(shift):.2f} s {'later' if shift > 0 else 'earlier'}"
-        for k, shift in moved[:MOVED_NAMED]
-    )
-    more = f" and {len(moved) - MOVED_NAMED} more" if len(moved) > MOVED_NAMED else ""
-    return f"⚠ other keyframes moved (timed as soon as the limits allow): {named}{more}"
-
-
-def check_loads(path: Path, text: str) -> Motion:
-    """The motion ``text`` written to ``path`` would be; ``SourceError`` (naming ``path``) if
-    it would not load."""
-    return _trial(path, text, load_motion)
-
-
-def check_plans(path: Path, text: str) -> Plan:
-    """The plan the studio would show for ``text`` written to ``path``; ``SourceError`` or
-    ``PlanningError`` (naming ``path``) if it would not load or plan."""
-    return _trial(path, text, lambda trial: make_plan(load_motion(trial)))
-
-
-T = TypeVar("T")
-
-
-def _trial(path: Path, text: str, make: Callable[[Path], T]) -> T:
-    """``make`` of a file beside ``path`` holding ``text`` (so that its includes and song are
-    found as ``path``'s), its problems naming ``path``."""
-    trial = path.with_name(f".{path.name}.studio-check{path.suffix}")
-    try:
-        trial.write_text(text, encoding="utf-8")
-        return make(trial)
-    except (SourceError, PlanningError) as error:
-        problems = [p.replace(str(trial), str(path)) for p in error.problems]
-        raise type(error)(problems) from None
-    except ChoreoError as error:
-        raise SourceError(str(error).replace(str(trial), str(path))) from None
-    finally:
-        trial.unlink(missing_ok=True)

@@ -3,6 +3,8 @@ for byte, and never over an edit made outside the page since."""
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,6 +47,24 @@ class Journal:
         """A write the studio just made (a new write forgets what was undone)."""
         self._done.append(Step(before, after, what))
         self._undone.clear()
+
+    @contextlib.contextmanager
+    def one_step(self, what: str) -> Iterator[None]:
+        """The writes recorded inside are one step, ``what`` (several keyframes moved, deleted
+        or pasted: undone and redone together). Only writes that follow one another are
+        joined: a write made over an outside edit starts a step of its own, so that no undo
+        takes the outside edit away."""
+        mark = len(self._done)
+        try:
+            yield
+        finally:
+            joined: list[Step] = []
+            for step in self._done[mark:]:
+                if joined and joined[-1].after == step.before:
+                    joined[-1] = Step(joined[-1].before, step.after, what)
+                else:
+                    joined.append(step)
+            self._done[mark:] = joined
 
     def undo(self) -> Step:
         """Put the file back as it was before the last write; ``JournalRefused`` if there is

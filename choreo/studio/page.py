@@ -17,7 +17,7 @@ import numpy as np
 
 from choreo.robot.types import Robot
 from choreo.studio.session import Plan
-from choreo.studio.timeline_page import frame_html
+from choreo.studio.timeline_server import frame_html
 
 if TYPE_CHECKING:
     from choreo.studio.server import Studio

@@ -1,5 +1,7 @@
 """Posing the robot in the studio: the sliders' pose (``Posing``, the studio's part that owns it),
-set by a slider, a named pose, a mirror, or a drag handle solved by the project's IK.
+set by a slider, a named pose, a mirror, the ring of a joint picked by a click on its link, or a
+drag handle solved by the project's IK (an arm's sites, a free-standing robot's hands and feet,
+a walker's body). A drag that cannot be done is refused and its handle put back.
 
 The body's drag handle of a legged robot: the handle's move made into the ``body:`` pose a
 motion file writes (mm and degrees, rounded as written) and the legs' angles that pose means,
@@ -23,6 +25,7 @@ from choreo.play.recorder import limit_problems
 from choreo.robot.kinematics import Kinematics, SiteGoal, Solution
 from choreo.robot.types import mirror_pose
 from choreo.studio.parts import StudioParts
+from choreo.studio.scene import rotation_of
 from choreo.studio.session import Plan
 from choreo.studio.yaml_edit import number
 
@@ -38,18 +41,6 @@ class BodyDrag:
     start: BodyPose
     stance_deg: np.ndarray
     seed_deg: np.ndarray
-
-
-def rotation_of(wxyz: npt.ArrayLike) -> np.ndarray:
-    """The rotation matrix of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(wxyz, dtype=float) / np.linalg.norm(wxyz)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def pose_of(rotation: np.ndarray, offset_mm: np.ndarray) -> BodyPose:
@@ -148,24 +139,63 @@ class Posing(StudioParts):
 
     def move_joint(self, name: str, value: object) -> None:
         with self._lock:
+            self._set_joint(name, value)
+
+    def _set_joint(self, name: str, value: object) -> bool:
+        """Joint ``name`` of the sliders' pose at ``value`` degrees; False, with a refusal, for
+        a joint the robot lacks or an angle outside its limits."""
+        plan = self._plan()
+        if plan is None:
+            return False
+        robot = plan.motion.robot
+        try:
+            joint, angle = robot.joint(name), float(value)  # type: ignore[arg-type]
+        except (KeyError, TypeError, ValueError):
+            self.refuse(f"refused: joint {name!r} = {value!r} is not a joint and an angle")
+            return False
+        if not joint.limits.contains(angle):
+            self.refuse(
+                f"refused: {name} {angle:g}° is outside its limits {joint.limits.range_text}"
+            )
+            self.page.show_joints(self._pose())
+            return False
+        pose = self._pose()
+        pose[robot.joint_names.index(name)] = angle
+        self._set_pose(pose, plan)
+        return True
+
+    def pick_joint(self, origin_m: np.ndarray, direction: np.ndarray) -> None:
+        """A click in the 3D view along the ray from ``origin_m``: on a link, a ring to turn
+        the joint that turns it; elsewhere, no ring."""
+        with self._lock:
             plan = self._plan()
-            if plan is None:
+            if self.view is None or plan is None:
                 return
-            robot = plan.motion.robot
-            try:
-                joint, angle = robot.joint(name), float(value)  # type: ignore[arg-type]
-            except (KeyError, TypeError, ValueError):
-                self.refuse(f"refused: joint {name!r} = {value!r} is not a joint and an angle")
+            joint = self.view.joint_at(origin_m, direction)
+            if joint is None:
+                self.view.remove_joint_handle()
                 return
-            if not joint.limits.contains(angle):
-                self.refuse(
-                    f"refused: {name} {angle:g}° is outside its limits {joint.limits.range_text}"
-                )
-                self.page.show_joints(self._pose())
+            self.view.add_joint_handle(joint, LatestOnly(self.turn_joint))
+            limits = plan.motion.robot.joints[joint].limits
+            self.note(
+                f"turning {plan.motion.robot.joints[joint].name}: drag its ring "
+                f"(within {limits.range_text})"
+            )
+
+    def turn_joint(self, name: str, wxyz: np.ndarray) -> None:
+        """The picked joint at the angle its ring was turned to; outside the joint's limits
+        refused, and the ring goes back to the joint's angle."""
+        with self._lock:
+            plan = self._plan()
+            if self.view is None or plan is None or name not in plan.motion.robot.joint_names:
+                self.refuse(f"refused: no joint {name!r} to turn")
                 return
-            pose = self._pose()
-            pose[robot.joint_names.index(name)] = angle
-            self._set_pose(pose, plan)
+            if not np.all(np.isfinite(wxyz)) or np.linalg.norm(wxyz) < 1e-9:
+                self.refuse(f"refused: {wxyz} is not a rotation")
+                return
+            angle = self.view.turned_deg(plan.motion.robot.joint_names.index(name), wxyz)
+            if not self._set_joint(name, round(angle, 1)):
+                self.view.snap_back()
 
     def take_pose(self, name: str) -> None:
         with self._lock:
@@ -208,8 +238,9 @@ class Posing(StudioParts):
             self._set_pose(np.array([mirrored[n] for n in robot.joint_names]), plan)
 
     def _add_site_handles(self, plan: Plan) -> None:
-        """Handles for an arm's sites, or for the body of a robot whose MJCF names its feet
-        (the robots ``body:`` keyframes are written for)."""
+        """Handles for an arm's sites, for the body of a robot whose MJCF names its feet
+        (the robots ``body:`` keyframes are written for), or for a free-standing robot's
+        limbs (a humanoid's hands and feet: one site per limb)."""
         robot = plan.motion.robot
         self._kinematics = None
         if robot.mjcf_path is None or self.view is None:
@@ -218,9 +249,12 @@ class Posing(StudioParts):
         self._feet = self._kinematics.feet() if robot.free_floating else ()
         if self._feet:
             self.view.add_body_handle(LatestOnly(self.drag_body))
-        elif not robot.free_floating:
+            return
+        if robot.free_floating:
+            sites = list(self.view.limb_sites())
+        else:
             sites = [n for n in self._kinematics.site_names if n]
-            self.view.add_site_handles(sites, LatestOnly(self.drag_site))
+        self.view.add_site_handles(sites, LatestOnly(self.drag_site))
 
     def drag_site(self, site: str, world_m: np.ndarray) -> None:
         """Solve the pose putting ``site`` at ``world_m`` with the project's IK (as a ``sites:``
@@ -231,15 +265,19 @@ class Posing(StudioParts):
             if plan is None or kinematics is None or not np.all(np.isfinite(world_m)):
                 self.refuse(f"refused: no site {site!r} to move to {world_m}")
                 return
-            x, y, z = (float(v) for v in kinematics.world_to_base_mm(world_m * 1000))
+            assert self.view is not None
+            base_m, base_rotation = self.view.body_frame(kinematics.base_body)
+            x, y, z = (float(v) for v in base_rotation.T @ (world_m - base_m) * 1000)
             goal = SiteGoal(site, (x, y, z), site_pitch(plan, site, self.time_s))
             solution = kinematics.solve([goal], self._pose())
-            self._set_pose(np.array(solution.angles_deg), plan, goal)
             if not solution.ok:
-                self.note(
-                    f"{site} cannot reach there: the nearest pose is "
-                    f"{solution.position_error_mm[0]:.0f} mm away"
+                self.refuse(
+                    f"refused: {site} cannot reach there: the nearest pose is "
+                    f"{solution.position_error_mm[0]:.0f} mm away; the last pose that works stays"
                 )
+                self.view.snap_back()
+                return
+            self._set_pose(np.array(solution.angles_deg), plan, goal)
 
     def drag_body(self, world_m: np.ndarray, wxyz: np.ndarray) -> None:
         """Move the body to where its handle is, feet planted: the legs solved by the project's
@@ -265,6 +303,8 @@ class Posing(StudioParts):
                     "from where it stands (out of the leg's reach); the last pose "
                     "that works stays"
                 )
+                assert self.view is not None
+                self.view.snap_back()
                 return
             root = (np.array(world_m, dtype=float), np.array(wxyz, dtype=float))
             self._set_pose(np.array(solution.angles_deg), plan, body=(drag, pose, root))

@@ -11,6 +11,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+import numpy.typing as npt
 
 from choreo.motion.scene import Prop
 from choreo.preview.model import free_joint, index_joints, load_model
@@ -22,6 +23,7 @@ GHOST_WIDTH = 4.0
 AMBIENT, KEY_LIGHT = 1.2, 2.0  # without the environment map: soft fill, one light from above
 HANDLE_SCALE = 0.25  # a site's drag handle, as a share of the model's size
 BODY = "/body"  # the body's handle among the sites' (no site is named so)
+JOINT = "/joint"  # the picked joint's ring (no site is named so either)
 FRAME_FROM = np.array([1.2, -1.6, 0.9])  # the camera looks at the robot from here (front left)
 FRAME_FILL = 0.6  # the robot's sphere fills this share of the view's half-height
 
@@ -55,6 +57,11 @@ class RobotView:
         self.ghost_visible = True
         self._handles: dict[str, Any] = {}  # site name -> its handle; BODY: the body's
         self._dragging: str | None = None
+        self._turning: int | None = None  # the robot joint whose ring is shown (JOINT)
+        self._joint_ids = [
+            mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, j.mjcf_joint)
+            for j in robot.joints
+        ]
         root = free_joint(self.model)
         self._root_body = None if root is None else int(self.model.jnt_bodyid[root])
         self._root_qpos = None if root is None else int(self.model.jnt_qposadr[root])
@@ -74,18 +81,22 @@ class RobotView:
             client.camera.look_at, client.camera.position = center, position
 
     def _robot_sphere(self) -> tuple[np.ndarray, float]:
-        """The centre and radius (m) of a sphere around the robot's geoms as last posed (not
-        the floor's or the props')."""
+        """The centre and radius (m) of a sphere around the robot's box."""
+        low, high = self.robot_box()
+        return (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 0.01)
+
+    def robot_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lowest and highest corners (world, m) of a box around the robot's geoms as last
+        posed (not the floor's or the props')."""
         model, data = self.model, self._data
         bodies = self._robot_bodies()
         geoms = [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) in bodies]
         if not geoms:
-            return np.array(model.stat.center), float(model.stat.extent)
+            extent = float(model.stat.extent)
+            return np.array(model.stat.center) - extent, np.array(model.stat.center) + extent
         centres = data.geom_xpos[geoms]
         reach = model.geom_rbound[geoms]
-        low = (centres - reach[:, None]).min(axis=0)
-        high = (centres + reach[:, None]).max(axis=0)
-        return (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 0.01)
+        return (centres - reach[:, None]).min(axis=0), (centres + reach[:, None]).max(axis=0)
 
     def _robot_bodies(self) -> set[int]:
         """The robot's bodies: the tree hanging from the top body of its joints."""
@@ -162,6 +173,107 @@ class RobotView:
             np.array(self._data.xquat[self._root_body]),
         )
 
+    def body_frame(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Where body ``name`` is drawn: (position m, rotation matrix)."""
+        body = self._data.body(name)
+        return np.array(body.xpos), np.array(body.xmat).reshape(3, 3)
+
+    def limb_sites(self) -> tuple[str, ...]:
+        """One site per limb, the one farthest down it (moved by most of its joints): a
+        humanoid's hands and feet. A site no joint moves (on the torso) is none."""
+        model = self.model
+        chosen = []
+        for _, joints in self.limbs():
+            limb = {self._joint_ids[j] for j in joints}
+            best, most = None, 0
+            for site in range(model.nsite):
+                moving = self._joints_above(int(model.site_bodyid[site]))
+                if moving and moving <= limb and len(moving) > most:
+                    best, most = model.site(site).name, len(moving)
+            if best:
+                chosen.append(best)
+        return tuple(chosen)
+
+    def _joints_above(self, body: int) -> set[int]:
+        """The robot's joints (MuJoCo ids) that move ``body``: in it and the bodies above it."""
+        model, found = self.model, set()
+        while body > 0:
+            found |= {j for j in self._joint_ids if int(model.jnt_bodyid[j]) == body}
+            body = int(model.body_parentid[body])
+        return found
+
+    # --- one joint picked and turned ----------------------------------------------------------
+
+    def joint_at(self, origin_m: np.ndarray, direction: np.ndarray) -> int | None:
+        """The robot joint (its index) that turns the link a ray from ``origin_m`` along
+        ``direction`` meets first; None if the ray meets no link a joint of the robot turns
+        (the floor, a prop, a base fixed to the world)."""
+        direction = np.asarray(direction, dtype=float)
+        length = float(np.linalg.norm(direction))
+        if length < 1e-12 or not np.all(np.isfinite(origin_m)):
+            return None
+        hit = np.zeros(1, dtype=np.int32)
+        origin = np.asarray(origin_m, dtype=float)
+        if mujoco.mj_ray(self.model, self._data, origin, direction / length, None, 0, -1, hit) < 0:
+            return None
+        body = int(self.model.geom_bodyid[hit[0]])
+        while body > 0:
+            joints = [i for i, j in enumerate(self._joint_ids) if self.model.jnt_bodyid[j] == body]
+            if joints:
+                return joints[0]
+            body = int(self.model.body_parentid[body])
+        return None
+
+    def add_joint_handle(self, joint: int, on_turn: Callable[[str, np.ndarray], None]) -> None:
+        """A ring about joint ``joint``'s axis at its anchor, in place of the last one:
+        ``on_turn(joint name, quaternion w x y z)`` as it is dragged (``turned_deg`` reads it)."""
+        self.remove_joint_handle()
+        name = self.robot.joints[joint].name
+        position, wxyz = self._joint_handle_pose(joint)
+        handle = self._server.scene.add_transform_controls(
+            JOINT,
+            scale=float(self.model.stat.extent) * HANDLE_SCALE,
+            active_axes=(True, False, False),  # the ring about its x axis: the joint's axis
+            disable_axes=True,
+            disable_sliders=True,
+            position=position,
+            wxyz=wxyz,
+        )
+        handle.on_update(
+            self._drag_callback(JOINT, lambda target: on_turn(name, np.array(target.wxyz)))
+        )
+        self._handles[JOINT], self._turning = handle, joint
+
+    def remove_joint_handle(self) -> None:
+        handle = self._handles.pop(JOINT, None)
+        if handle is not None:
+            handle.remove()
+        self._turning = None
+
+    def turned_deg(self, joint: int, wxyz: npt.ArrayLike) -> float:
+        """The angle of joint ``joint`` that its ring turned to ``wxyz`` stands for."""
+        turn = axis_frame(self._data.xaxis[self._joint_ids[joint]]).T @ rotation_of(wxyz)
+        return float(np.degrees(np.arctan2(turn[2, 1], turn[1, 1])))
+
+    def _joint_handle_pose(self, joint: int) -> tuple[np.ndarray, np.ndarray]:
+        """The ring at the joint's anchor, its x axis on the joint's axis, turned as the joint
+        is (so ``turned_deg`` of it is the joint's angle)."""
+        joint_id = self._joint_ids[joint]
+        angle = float(self._data.qpos[self.model.jnt_qposadr[joint_id]])
+        rotation = axis_frame(self._data.xaxis[joint_id]) @ about_x(angle)
+        return np.array(self._data.xanchor[joint_id]), quaternion_of(rotation)
+
+    def handle_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Where handle ``name`` (a site, BODY or JOINT) is: (position m, quaternion w x y z)."""
+        handle = self._handles[name]
+        return np.array(handle.position), np.array(handle.wxyz)
+
+    def snap_back(self) -> None:
+        """Every handle back where the robot shown puts it, the one being dragged too (after a
+        refused drag)."""
+        self._dragging = None
+        self._place_handles()
+
     def show(self, qpos: np.ndarray, ghost_deg: np.ndarray | None) -> None:
         """The robot at ``qpos``; the ghost at the same place with the joints at ``ghost_deg``."""
         self._data.qpos[:] = qpos
@@ -234,5 +346,36 @@ class RobotView:
                 continue
             if name == BODY:
                 handle.position, handle.wxyz = self.root_pose()
+            elif name == JOINT:
+                assert self._turning is not None
+                handle.position, handle.wxyz = self._joint_handle_pose(self._turning)
             else:
                 handle.position = np.array(self._data.site(name).xpos)
+
+
+def axis_frame(axis: npt.ArrayLike) -> np.ndarray:
+    """A rotation whose x axis is ``axis`` (its y and z fixed by ``axis`` alone)."""
+    x = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    least = np.eye(3)[int(np.argmin(np.abs(x)))]  # the world axis farthest from it
+    y = np.cross(x, least)
+    y /= np.linalg.norm(y)
+    return np.column_stack([x, y, np.cross(x, y)])
+
+
+def about_x(angle_rad: float) -> np.ndarray:
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rotation_of(wxyz: npt.ArrayLike) -> np.ndarray:
+    """The rotation matrix of a quaternion (w, x, y, z)."""
+    matrix = np.zeros(9)
+    mujoco.mju_quat2Mat(matrix, np.asarray(wxyz, dtype=float) / np.linalg.norm(wxyz))
+    return matrix.reshape(3, 3)
+
+
+def quaternion_of(rotation: np.ndarray) -> np.ndarray:
+    """The quaternion (w, x, y, z) of a rotation matrix."""
+    wxyz = np.zeros(4)
+    mujoco.mju_mat2Quat(wxyz, np.ascontiguousarray(rotation, dtype=float).reshape(9))
+    return wxyz

@@ -22,7 +22,7 @@ from choreo.errors import ChoreoError
 from choreo.studio import require
 from choreo.studio.address import Address
 from choreo.studio.driving import NO_ROBOT, Driving
-from choreo.studio.editing import Editing, check_loads
+from choreo.studio.editing import Editing
 from choreo.studio.live import LiveRobot
 from choreo.studio.page import Page
 from choreo.studio.posing import LatestOnly, Posing
@@ -31,6 +31,7 @@ from choreo.studio.serving import UnreadableMessages, port_to_serve
 from choreo.studio.session import Reload, Session
 from choreo.studio.timeline import Timeline
 from choreo.studio.timeline_page import TimelinePage, reload_status
+from choreo.studio.trial import check_loads
 from choreo.studio.watch import FileWatcher
 
 __all__ = ["NO_ROBOT", "LatestOnly", "Studio", "check_loads"]
@@ -74,6 +75,7 @@ class Studio(Timeline, Posing, Editing, Driving):
             self.server, self, timeline_port=self.timeline_page.port, live=live is not None
         )
         self.server.on_client_disconnect(self._tab_closed)
+        self.server.scene.on_click()(self._clicked)
         self.view = None
         self._stop = threading.Event()
         self._watcher = FileWatcher(lambda: self.session.watched_files, self.reload)
@@ -146,6 +148,10 @@ class Studio(Timeline, Posing, Editing, Driving):
         with self._lock:
             if self.view is not None:
                 self.view.frame_camera(tuple(self.server.get_clients().values()))
+
+    def _clicked(self, event) -> None:
+        """A click in the 3D view (not a drag): a link's joint picked to turn."""
+        self.pick_joint(np.array(event.ray_origin), np.array(event.ray_direction))
 
     def _tab_closed(self, _client) -> None:
         """With the last tab gone, nothing plays and nothing is driven: a tab opened later finds

@@ -23,18 +23,21 @@ class Timeline(StudioParts):
         self.playing = False
         self.speed = 1.0
 
-    def scrub(self, t_s: float) -> None:
+    def scrub(self, t_s: float, *, adding: bool = False) -> None:
+        """The timeline to ``t_s``; ``adding``: a keyframe is to be added there (pasted), so
+        the time may lie past the end, which it will extend."""
         with self._lock:
             plan = self._plan()
             if plan is None:
                 return
-            if not plan.start_s - TIME_SLACK_S <= t_s <= plan.end_s + TIME_SLACK_S:
+            end_s = np.inf if adding else plan.end_s
+            if not plan.start_s - TIME_SLACK_S <= t_s <= end_s + TIME_SLACK_S:
                 self.refuse(
                     f"refused: t {t_s:g} s is outside the timeline "
                     f"{plan.start_s:.2f}..{plan.end_s:.2f} s"
                 )
                 return
-            self.time_s = self._snapped(plan, float(np.clip(t_s, plan.start_s, plan.end_s)))
+            self.time_s = self._snapped(plan, float(np.clip(t_s, plan.start_s, end_s)))
             self._back_to_the_plan()
             self._redraw(plan)
             self.page.show_joints(plan.planned_deg(self.time_s))

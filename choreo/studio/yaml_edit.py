@@ -8,6 +8,7 @@ its own comments, key order and quoting survive an update.
 
 from __future__ import annotations
 
+import functools
 import io
 import re
 from collections.abc import Mapping, Sequence
@@ -15,6 +16,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import yaml
+from yaml.nodes import MappingNode, SequenceNode
 
 from choreo.motion.gait import BodyPose
 from choreo.motion.keyframe_entry import TIMING_KEYS  # the loader's: one list of timing keys
@@ -25,6 +28,7 @@ BEAT_DECIMALS = 3  # a thousandth of a beat: well under a millisecond at any tem
 SPACE_KEYS = ("sites", "body", "gait")  # a joint pose written over a keyframe replaces these
 DECIMALS = 1  # degrees and times written with one decimal (0.1° is below a servo's step)
 TIME_DECIMALS = 3  # seconds: to the millisecond
+_FAST_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's, where PyYAML has it
 
 
 class EditRefused(ValueError):
@@ -50,15 +54,28 @@ def _yaml():
     return yaml
 
 
-def keyframe_items(text: str) -> list[KeyframeItem]:
-    """The keyframes written in ``text`` (not those of its includes), in file order."""
-    document = _yaml().load(text)
-    if not isinstance(document, Mapping) or "keyframes" not in document:
+@functools.lru_cache(maxsize=8)
+def keyframe_items(text: str) -> tuple[KeyframeItem, ...]:
+    """The keyframes written in ``text`` (not those of its includes), in file order. Found
+    with libyaml's parser, as the motion loader does (same lines; a round-trip parse of a long
+    file costs seconds), and kept for the last few texts: an edit tried at several times asks
+    for the same file's again."""
+    try:
+        document = yaml.compose(text, Loader=_FAST_LOADER)
+    except yaml.YAMLError as error:
+        raise EditRefused(f"the file is not valid YAML: {error}") from None
+    pairs = document.value if isinstance(document, MappingNode) else []
+    keys = [key.value for key, _ in pairs]
+    if "keyframes" not in keys or not isinstance(pairs[keys.index("keyframes")][1], SequenceNode):
         raise EditRefused("the file has no keyframes: list")
-    sequence = document["keyframes"]
+    at = keys.index("keyframes")
     lines = text.splitlines()
-    end = _list_end(document, lines)
-    starts = [sequence.lc.data[i][0] for i in range(len(sequence))]
+    end = len(lines)
+    if at + 1 < len(keys):  # the next top-level key's line, its comments left to it
+        end = pairs[at + 1][0].start_mark.line
+        while end > 0 and _blank_or_comment(lines[end - 1]):
+            end -= 1
+    starts = [node.start_mark.line for node in pairs[at][1].value]
     items = []
     for i, content_line in enumerate(starts):
         first = _dash_line(lines, content_line)
@@ -67,19 +84,7 @@ def keyframe_items(text: str) -> list[KeyframeItem]:
         while last > content_line and _blank_or_comment(lines[last]):
             last -= 1
         items.append(KeyframeItem(first, last, content_line, lines[first].index("-")))
-    return items
-
-
-def _list_end(document: Any, lines: list[str]) -> int:
-    """The line after the keyframes list: the next top-level key's, or the end of the file."""
-    keys = list(document)
-    after = keys.index("keyframes") + 1
-    if after < len(keys):
-        line = document.lc.key(keys[after])[0]
-        while line > 0 and _blank_or_comment(lines[line - 1]):
-            line -= 1
-        return line
-    return len(lines)
+    return tuple(items)
 
 
 def _dash_line(lines: list[str], content_line: int) -> int:
@@ -195,9 +200,8 @@ def _rewrite_item(
     keys of ``replaces`` not among them dropped. A key whose value is already the one written
     keeps its text; a changed one keeps its place and its line's comment; a new one takes the
     place of the first key dropped, or goes under the others. Every other line stays."""
-    document = _yaml().load(text)
     item_lines = keyframe_items(text)[index]
-    entry = document["keyframes"][index]
+    entry = _entry(text, index)
     lines, ending = _lines(text)
     if not isinstance(entry, require("ruamel.yaml.comments").CommentedMap) or entry.fa.flow_style():
         raise EditRefused(f"{where}: a keyframe written on one line in braces: edit it in the text")
@@ -339,8 +343,16 @@ def update_site(
 
 
 def _entry(text: str, index: int) -> Any:
-    document = _yaml().load(text)
-    entry = document["keyframes"][index]
+    """The ``index``-th keyframe item as ruamel.yaml reads it round trip, its marks at the
+    file's lines and columns: the item's lines alone are read (a whole long file costs
+    seconds), or the whole file where the item names another's anchor."""
+    item = keyframe_items(text)[index]
+    lines = text.splitlines()
+    alone = "\n" * item.first_line + "\n".join(lines[item.first_line : item.last_line + 1])
+    try:
+        entry = _yaml().load(alone)[0]
+    except require("ruamel.yaml").YAMLError:  # an alias of an anchor outside the item
+        entry = _yaml().load(text)["keyframes"][index]
     return entry if isinstance(entry, Mapping) else None
 
 

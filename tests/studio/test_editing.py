@@ -83,7 +83,7 @@ def test_a_write_that_would_not_plan_is_refused_with_the_nearest_time_that_works
         studio.scrub(1.2)  # the elbow from -30 to -10 between 1.0 and 1.4 s: no time works
         studio.move_joint("elbow", -10)
         studio.add_keyframe()
-        assert refused(studio).endswith("; no time from 1.05 to 1.35 s works either")
+        assert refused(studio).endswith("; none of the 6 times tried from 1.05 to 1.35 s works")
         assert path.read_text() == WAVE
         assert sorted(p.name for p in path.parent.iterdir()) == ["wave.yaml"]  # no trial left
 

@@ -54,3 +54,29 @@ def test_an_outside_edit_is_never_overwritten(tmp_path):
     path.unlink()
     with pytest.raises(JournalRefused, match=f"^cannot redo added a keyframe: {path}: "):
         journal.redo()
+
+
+def test_writes_in_one_step_are_undone_and_redone_together_unless_an_outside_edit_came_between(
+    tmp_path,
+):
+    path = tmp_path / "m.yaml"
+    journal = Journal(path)
+    path.write_bytes(b"a")
+    journal.record(b"", b"a", "added a")
+    with journal.one_step("moved 3 keyframes"):
+        for before, after in ((b"a", b"ab"), (b"ab", b"abc"), (b"abc", b"abcd")):
+            path.write_bytes(after)
+            journal.record(before, after, "moved the keyframe")
+    assert journal.undo().what == "moved 3 keyframes"
+    assert path.read_bytes() == b"a"
+    assert journal.redo().what == "moved 3 keyframes"
+    assert path.read_bytes() == b"abcd"
+
+    with journal.one_step("deleted 2 keyframes"):  # saved in an editor between the two
+        journal.record(b"abcd", b"abc", "deleted the keyframe")
+        journal.record(b"abc, edited", b"ab, edited", "deleted the keyframe")
+    path.write_bytes(b"ab, edited")
+    assert journal.undo().what == "deleted the keyframe"
+    assert path.read_bytes() == b"abc, edited"
+    with pytest.raises(JournalRefused, match="changed on disk"):  # never over the outside edit
+        journal.undo()

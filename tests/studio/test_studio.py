@@ -23,7 +23,7 @@ from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
-from choreo.studio.posing import rotation_of
+from choreo.studio.scene import rotation_of
 from choreo.studio.server import LatestOnly, Studio, check_loads
 from choreo.studio.session import Session
 from choreo.studio.watch import FileWatcher

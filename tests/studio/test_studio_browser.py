@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import browser as chromium
+import mujoco
 import numpy as np
 import pytest
 from paths import DATA, REPO
@@ -209,6 +210,45 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
         assert any("refused: gripper 90° is outside its limits" in s for s in studio.said)
     finally:
         second.close()
+
+
+def on_screen(page, camera, point_m: np.ndarray) -> tuple[float, float]:
+    """Where the 3D view's canvas draws ``point_m`` (world, m) for a tab's ``camera``: page
+    pixels."""
+    box = page.locator("canvas").first.bounding_box()
+    assert box is not None
+    position = np.array(camera.position)
+    forward = np.array(camera.look_at) - position
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, camera.up_direction)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    relative = np.asarray(point_m) - position
+    depth, half = relative @ forward, np.tan(camera.fov / 2)
+    x = relative @ right / (depth * half * box["width"] / box["height"])
+    y = relative @ up / (depth * half)
+    return box["x"] + (x + 1) / 2 * box["width"], box["y"] + (1 - y) / 2 * box["height"]
+
+
+def test_a_click_on_a_link_picks_its_joint_and_frame_the_robot_brings_it_back(first_tab, studio):
+    page = first_tab
+    (client,) = studio.server.get_clients().values()  # this module's one tab
+    view = studio.view
+    assert view is not None
+    elbow = view.model.joint(view.robot.joint("elbow").mjcf_joint)
+    link = view.model.body(int(elbow.bodyid[0]))  # the link the elbow turns
+    data = mujoco.MjData(view.model)
+    data.qpos[:] = view.qpos
+    mujoco.mj_kinematics(view.model, data)
+    page.mouse.click(*on_screen(page, client.camera, data.xipos[link.id]))
+    expect(page.get_by_text("turning elbow").first).to_be_visible(timeout=WAIT_MS)
+    assert studio.view.handle_pose("/joint") is not None
+
+    framed = np.array(studio.server.initial_camera.position)
+    client.camera.position = framed * 3  # the user wandered off
+    wait_for(lambda: np.allclose(client.camera.position, framed * 3, atol=1e-3), "the camera away")
+    click(page, "Frame the robot")
+    wait_for(lambda: np.allclose(client.camera.position, framed, atol=1e-3), "the robot framed")
 
 
 # --- edits an animator can trust: motions/arm6/wave.yaml, timed with after: ----------------------

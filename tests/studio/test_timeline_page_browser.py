@@ -1,5 +1,4 @@
-"""The studio's timeline: what it is sent (``timeline_state``), what its page may ask
-(``parse_request``), and the page itself driven in Chromium: diamonds clicked, dragged, boxed,
+"""The studio's timeline page driven in Chromium: diamonds clicked, dragged, boxed,
 copied and pasted change the file as they should, the keys do what the README's table says,
 findings are marks that name their keyframe, and every mark and keyframe is drawn.
 
@@ -10,14 +9,12 @@ to show it.
 
 from __future__ import annotations
 
-import json
 import shutil
 import socket
 import time
 from pathlib import Path
 
 import browser as chromium
-import numpy as np
 import pytest
 from playwright.sync_api import sync_playwright
 
@@ -26,12 +23,6 @@ from choreo.motion.motion_file import load_motion
 from choreo.studio.address import Address
 from choreo.studio.server import Studio
 from choreo.studio.session import make_plan
-from choreo.studio.timeline_page import (
-    RequestError,
-    keyframe_of,
-    parse_request,
-    timeline_state,
-)
 
 DATA = Path(__file__).parent.parent / "data" / "studio"
 WAVE = DATA / "wave.yaml"
@@ -62,72 +53,6 @@ def many_keyframes(count: int, step_s: float) -> str:
     for i in range(1, count):
         lines += [f"  - pose: {{base_yaw: {10 if i % 2 else -10}}}", f"    t: {i * step_s:g}"]
     return "\n".join(lines) + "\n"
-
-
-# --- without a browser --------------------------------------------------------------------------
-
-
-def test_the_state_holds_every_keyframe_with_the_joints_it_changes_and_the_music():
-    plan = make_plan(load_motion(WAVE))
-    state = timeline_state(plan, 3, [("base", range(6))], peaks=(0, 50, 100))
-    keyframes = state["keyframes"]
-    assert [k["t"] for k in keyframes] == [0.0, 1.0, 2.0, 3.0]
-    assert [k["where"] for k in keyframes] == [
-        "wave.yaml:6",
-        "wave.yaml:8",
-        "wave.yaml:10",
-        "wave.yaml:14",
-    ]
-    # home, then shoulder and elbow, then base_yaw (the pose before is kept), then all back
-    assert [k["joints"] for k in keyframes] == [[0, 1, 2, 3, 4, 5], [1, 2], [0], [0, 1, 2]]
-    assert keyframes[2]["pose"]["elbow"] == 40 and all(k["editable"] for k in keyframes)
-    assert state["limbs"] == [{"name": "base", "joints": [0, 1, 2, 3, 4, 5]}]
-    music = state["music"]
-    assert music["offset_s"] == 0.5 and music["beats_per_bar"] == 4
-    assert music["beats"][:3] == pytest.approx([0, BEAT_S, 2 * BEAT_S], abs=1e-4)
-    assert music["peaks"] == [0, 50, 100] and music["song_url"] == "song?v=3"
-    curves = state["curves"]
-    at_2s = int(np.searchsorted(curves["t"], 2.0))
-    assert curves["plan"][0][at_2s] == pytest.approx(30, abs=0.5)  # base_yaw at keyframe 3
-    assert curves["plan"][2][at_2s] == pytest.approx(40, abs=0.5)  # elbow
-    assert curves["sim"] is None  # not simulated yet
-    assert len(curves["t"]) <= 2000
-    json.dumps(state)  # all of it goes to the page as JSON
-
-
-def test_a_finding_belongs_to_the_keyframe_the_motion_is_moving_to():
-    times = (0.0, 1.5, 3.0)
-    assert [keyframe_of(times, t) for t in (0.0, 0.2, 1.5, 1.6, 2.99, 3.0, 9.0)] == [
-        0,
-        1,
-        1,
-        2,
-        2,
-        2,
-        2,
-    ]
-
-
-def test_the_pages_requests_are_read_and_bad_ones_refused_with_a_line():
-    move = parse_request(b'{"op": "move", "moves": [{"index": 2, "t": 2.5}], "version": 4}')
-    assert (move.op, move.version, move.placed[0].index, move.placed[0].t_s) == ("move", 4, 2, 2.5)
-    paste = parse_request(b'{"op": "paste", "keyframes": [{"t": 1, "pose": {"elbow": 40}}]}')
-    assert paste.placed[0].pose == {"elbow": 40.0}
-    assert parse_request(b'{"op": "scrub", "t": 1.25}').t_s == 1.25
-    assert parse_request(b'{"op": "delete", "indices": [3, 1]}').indices == (3, 1)
-    for bad in (
-        b"not json",
-        b'{"op": "explode"}',
-        b'{"op": "scrub", "t": "soon"}',
-        b'{"op": "scrub", "t": NaN}',
-        b'{"op": "delete", "indices": [-1]}',
-        b'{"op": "move", "moves": []}',
-        b'{"op": "paste", "keyframes": [{"t": 1, "pose": {"elbow": "up"}}]}',
-        b'{"op": "select", "indices": [1], "version": true}',
-    ):
-        with pytest.raises(RequestError) as refused:
-            parse_request(bad)
-        assert "\n" not in str(refused.value)
 
 
 # --- in Chromium ---------------------------------------------------------------------------------
