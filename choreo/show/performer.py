@@ -10,7 +10,8 @@ Only the conductor that staged the part moves it: the part came with that conduc
 and while a part is held any other show's stage is answered "busy with show X". The servos stop
 at once on the conductor's stop, when its liveliness token vanishes, or when its heartbeat has
 been silent for ``max_silence_s`` (a frozen conductor, a cut network): the player's clock wakes
-from its wait and the player sends MOVE_STOP.
+from its wait and the player sends MOVE_STOP (:mod:`choreo.show.custody`). When it was written,
+and why, goes in the part's report and in one line said here.
 """
 
 from __future__ import annotations
@@ -20,17 +21,17 @@ import os
 import queue
 import socket
 import tempfile
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import Clock, RealClock
 from choreo.emulator import BusEmulator
 from choreo.emulator.trace import START_SLACK_S, WireTrace
-from choreo.errors import ChoreoError, PlaybackAborted, SourceError
+from choreo.errors import ChoreoError, SourceError
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.play_options import PlayOptions
@@ -42,6 +43,13 @@ from choreo.play.report import Outcome, PlayProgress, StreamReport
 # the performer starts, not while it stages a part during the show's countdown.
 from choreo.robot import model_check  # noqa: F401
 from choreo.robot.types import Robot
+from choreo.show.custody import (
+    DEFAULT_MAX_SILENCE_S,
+    Custody,
+    CustodyClock,
+    CustodyPlayer,
+    Holder,
+)
 from choreo.show.messages import (
     Announcement,
     Answer,
@@ -54,6 +62,7 @@ from choreo.show.messages import (
     Readiness,
     StagedPart,
     Stop,
+    StopCause,
     decode,
     encode,
 )
@@ -64,41 +73,9 @@ from choreo.show.ticket import signed
 log = logging.getLogger(__name__)
 
 PROGRESS_PERIOD_S = 0.25
-WAIT_STEP_S = 0.1  # how often the idle loop looks at the stop flag
-# A heartbeat silent this long stops the servos. The conductor beats every BEAT_PERIOD_S
-# (choreo.show.conductor): 0.4 s is four beats lost in a row, and the watchdog looks every
-# WATCHDOG_PERIOD_S, so the servos stop within half a second of the last beat.
-DEFAULT_MAX_SILENCE_S = 0.4
-WATCHDOG_PERIOD_S = 0.05  # few wake-ups beside the player: 400 + 50 ms stays under 500
+WAIT_STEP_S = 0.1  # how often the idle loop looks at its closing flag
 
 OpenBus = Callable[[Robot], ServoBus]
-
-
-class StoppableClock:
-    """A real clock whose waits end early, raising ``PlaybackAborted``, once ``stopped`` is set
-    (the player then stops the servos, as after a failed health check)."""
-
-    def __init__(self, clock: Clock, stopped: threading.Event, reason: Callable[[], str]):
-        self.clock, self.stopped, self.reason = clock, stopped, reason
-
-    def now(self) -> float:
-        return self.clock.now()
-
-    def sleep_until(self, deadline_s: float) -> None:
-        spin_s = 0.001
-        while not self.stopped.wait(max(0.0, deadline_s - self.clock.now() - spin_s)):
-            if self.clock.now() >= deadline_s - spin_s:
-                self.clock.sleep_until(deadline_s)
-                return
-        raise PlaybackAborted(self.reason())
-
-
-@dataclass(frozen=True)
-class Holder:
-    """The conductor that holds this performer: its show and the ticket it staged with."""
-
-    show_id: str
-    ticket: str
 
 
 @dataclass
@@ -130,22 +107,21 @@ class Performer:
         self.network, self.name, self.open_bus = network, name, open_bus
         self.transport, self.say, self.max_silence_s = transport, say, max_silence_s
         self.state, self.robot = "idle", ""
-        self.requests: queue.Queue[tuple[str, Request]] = queue.Queue()
-        self.stopped = threading.Event()
-        self.stop_reason = ""
-        self.holder: Holder | None = None
-        self.conductor_alive = False
-        self.last_beat_s = 0.0  # monotonic clock
-        self.last_seq = -1
-        self._closing = threading.Event()
+        # what the main loop takes; None only wakes it (a stop)
+        self.requests: queue.Queue[tuple[str, Request | None]] = queue.Queue()
+        self.custody: Custody | None = None  # while a conductor holds this performer
+        self._closing = False
         key = network.realm.performer(name)
         network.serve(f"{key}/info", lambda r: r.reply(encode(self.announcement())))
         network.serve(f"{key}/clock", lambda r: r.reply(encode(ClockReading(time.time()))))
         network.serve(f"{key}/stage", self._on_stage)
         network.serve(f"{key}/go", self._on_go)
         network.announce(key)
-        self._watchdog = threading.Thread(target=self._watch_heartbeat, daemon=True)
-        self._watchdog.start()
+
+    @property
+    def holder(self) -> Holder | None:
+        custody = self.custody
+        return custody.holder if custody is not None else None
 
     def announcement(self) -> Announcement:
         holder = self.holder
@@ -159,11 +135,12 @@ class Performer:
             holder.show_id if holder else "",
         )
 
-    def stop(self, reason: str) -> None:
+    def stop(self, cause: StopCause, reason: str) -> None:
         """From any thread: stop the servos of the part staged or playing now."""
-        if not self.stopped.is_set():
-            self.stop_reason = reason
-            self.stopped.set()
+        custody = self.custody
+        if custody is not None:
+            custody.stop(cause, reason)
+            self.requests.put(("stop", None))  # the idle loop drops a staged part at once
 
     # --- what arrives in Zenoh's threads -------------------------------------------------------
     def _on_stage(self, request: Request) -> None:
@@ -210,14 +187,19 @@ class Performer:
             return f"the staged part is show {holder.show_id}'s, not {go.show_id}'s"
         if go.ticket != holder.ticket:
             return f"the start did not come from the conductor that staged show {go.show_id}"
-        if not self.conductor_alive or self._silence_s() > self.max_silence_s:
+        custody = self.custody
+        if custody is None or not custody.live():
             return f"no live conductor holds show {go.show_id}"
         return ""
 
     def _on_conductor(self, _key: str, alive: bool) -> None:
-        self.conductor_alive = alive
+        custody = self.custody
+        if custody is not None:
+            custody.conductor_alive = alive
         if not alive:
-            self.stop("lost the conductor (its liveliness token vanished)")
+            self.stop(
+                StopCause.CONDUCTOR_LOST, "lost the conductor (its liveliness token vanished)"
+            )
 
     def _on_stop(self, _key: str, payload: bytes) -> None:
         holder = self.holder
@@ -231,36 +213,22 @@ class Performer:
         if not signed(holder.ticket, stop.signature, stop.show_id, "stop", stop.reason):
             self.say(f"ignored a stop for show {stop.show_id} not signed by its conductor")
             return
-        self.stop(f"stopped by the conductor: {stop.reason}")
+        self.stop(StopCause.STOP_MESSAGE, f"stopped by the conductor: {stop.reason}")
 
     def _on_beat(self, _key: str, payload: bytes) -> None:
-        holder = self.holder
+        custody = self.custody
         try:
             beat = decode(Beat, payload)
         except ChoreoError:
             return
-        if holder is None or beat.show_id != holder.show_id or beat.seq <= self.last_seq:
-            return  # another show's, or a replay
-        if signed(holder.ticket, beat.signature, beat.show_id, "beat", beat.seq):
-            self.last_seq, self.last_beat_s = beat.seq, time.monotonic()
-
-    def _silence_s(self) -> float:
-        return time.monotonic() - self.last_beat_s
-
-    def _watch_heartbeat(self) -> None:
-        """Stop the part of a conductor silent past ``max_silence_s`` (its own thread)."""
-        while not self._closing.wait(WATCHDOG_PERIOD_S):
-            silence_s = self._silence_s()
-            if self.holder is not None and silence_s > self.max_silence_s:
-                self.stop(
-                    f"lost the conductor (no heartbeat for {silence_s * 1000:.0f} ms, over "
-                    f"{self.max_silence_s * 1000:.0f} ms)"
-                )
+        if custody is None or beat.show_id != custody.holder.show_id:
+            return  # another show's
+        if signed(custody.holder.ticket, beat.signature, beat.show_id, "beat", beat.seq):
+            custody.beat(beat.seq)
 
     def close(self) -> None:
-        """Ends ``serve_forever`` (within WAIT_STEP_S, after a part being played) and the
-        watchdog."""
-        self._closing.set()
+        """Ends ``serve_forever`` (within WAIT_STEP_S, after a part being played)."""
+        self._closing = True
 
     # --- the main loop -------------------------------------------------------------------------
     def serve_forever(self) -> None:
@@ -268,14 +236,14 @@ class Performer:
         ``close`` from another thread."""
         staged: _Staged | None = None
         try:
-            while not self._closing.is_set():
-                try:
-                    kind, request = self.requests.get(timeout=WAIT_STEP_S)
-                except queue.Empty:
-                    if staged is not None and self.stopped.is_set():
-                        self.say(f"{self.stop_reason}: part dropped, servos stopped")
-                        self._release(staged, stop=True)
-                        staged = None
+            while not self._closing:
+                kind, request = self._next_request()
+                custody = self.custody
+                if staged is not None and custody is not None and custody.stopped.is_set():
+                    self._release(staged, stop=True)
+                    self.say(f"{custody.reason}: part dropped, {stop_summary(custody)}")
+                    staged = None
+                if request is None:
                     continue
                 if kind == "stage":
                     busy = self._busy_for(request.payload)
@@ -299,8 +267,21 @@ class Performer:
             if staged is not None:
                 self._release(staged, stop=True)
 
+    def _next_request(self) -> tuple[str, Request | None]:
+        """The next request, or ("", None) once the held part's silence bound is reached (its
+        custody then stopped) or WAIT_STEP_S has passed."""
+        custody = self.custody
+        wait_s = WAIT_STEP_S
+        if custody is not None:
+            wait_s = min(wait_s, max(0.0, custody.silent_at() - custody.clock.now()))
+        try:
+            return self.requests.get(timeout=wait_s)
+        except queue.Empty:
+            if custody is not None:
+                custody.check_silence()
+            return "", None
+
     def _stage(self, request: Request) -> _Staged | None:
-        self.stopped.clear()
         part = decode(StagedPart, request.payload)  # read once already: _busy_for
         conductor = self.network.realm.show(part.show_id)
         if not self.network.alive(conductor, timeout_s=1.0):
@@ -341,8 +322,9 @@ class Performer:
         staged = _Staged(
             part.show_id, robot, bus, emulator, performance, start_pose, limits, folder, []
         )
-        self.last_seq, self.last_beat_s = -1, time.monotonic()  # the silence counts from here
-        self.holder = Holder(part.show_id, part.ticket)
+        self.custody = Custody(
+            Holder(part.show_id, part.ticket), _real_clock(bus), self.max_silence_s
+        )  # the silence counts from here
         staged.cancels.append(self.network.watch(conductor, self._on_conductor))
         staged.cancels.append(self.network.subscribe(f"{conductor}/stop", self._on_stop))
         staged.cancels.append(self.network.subscribe(f"{conductor}/beat", self._on_beat))
@@ -378,9 +360,9 @@ class Performer:
         began_s = clock.now()
         wall_to_clock_s = began_s - time.time()
         first_start = go.start_s + wall_to_clock_s - staged.performance.approach_s
-        report = play_part(
-            self, staged, StoppableClock(clock, self.stopped, lambda: self.stop_reason), first_start
-        )
+        custody = self.custody
+        assert custody is not None  # held from the staging until _release
+        report = play_part(self, staged, custody, CustodyClock(clock, custody), first_start)
         wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
         self.say(
@@ -389,8 +371,10 @@ class Performer:
         events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
         self._release(staged, stop=False)  # free before the conductor hears: its next cue
         self.network.publish(events, encode(finished))
+        if custody.servos_stopped_s is not None:
+            self.say(stop_summary(custody))
         if wire is not None:
-            self.say(wire_summary(wire, began_s))
+            self.say(wire_summary(wire, began_s, wall_to_clock_s))
         if report.outcome is Outcome.INTERRUPTED:
             raise KeyboardInterrupt  # Ctrl-C here: after the conductor was told
 
@@ -405,8 +389,11 @@ class Performer:
         """How the part ended: its STARTs as this computer's clock read them when their bytes
         were written (any transport), and on an emulated bus (``wire``) its MOVE_STOP."""
         outcome, reason = PartOutcome(report.outcome.value), report.reason
-        if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
-            outcome, reason = PartOutcome.STOPPED, self.stop_reason
+        custody = self.custody
+        request = custody.request if custody is not None else None
+        if report.outcome is Outcome.ABORTED and request is not None:  # the clock's abort
+            outcome, reason = PartOutcome.STOPPED, request.reason
+        written = custody.servos_stopped_s if custody is not None else None
         part_due_s = report.start_time_s + staged.performance.approach_s  # the motion's t=0
         starts = report.start_times
         first = next((s for s in starts if s.deadline_s >= part_due_s - START_SLACK_S), None)
@@ -422,6 +409,8 @@ class Performer:
             None if stop is None else stop - wall_to_clock_s,
             report.lateness_percentile_ms(99),
             first.late_ms if first else None,
+            None if written is None else written - wall_to_clock_s,
+            request.cause if request is not None else None,
         )
 
     def _release(self, staged: _Staged, *, stop: bool) -> None:
@@ -430,16 +419,22 @@ class Performer:
         staged.released = True
         for cancel in staged.cancels:
             cancel()
+        custody = self.custody
         if stop:
             Player(staged.bus, staged.robot, RealClock(), staged.limits).stop()
+            if custody is not None:
+                custody.servos_stopped()
         staged.bus.close()
         staged.folder.cleanup()
-        self.state, self.holder, self.conductor_alive = "idle", None, False
-        self.stopped.clear()
+        self.state, self.custody = "idle", None
 
 
 def play_part(
-    performer: Performer, staged: _Staged, clock: StoppableClock, first_start_s: float
+    performer: Performer,
+    staged: _Staged,
+    custody: Custody,
+    clock: CustodyClock,
+    first_start_s: float,
 ) -> StreamReport:
     """The one place a performer uses the player: its part from the staged pose, first START at
     ``first_start_s`` on ``clock``; servos left holding."""
@@ -453,8 +448,8 @@ def play_part(
             message = PartProgress(performer.name, p.time_s - approach_s, p.duration_s - approach_s)
             performer.network.publish(events, encode(message))
 
-    player = Player(
-        staged.bus, staged.robot, clock, staged.limits, PlayOptions(), on_progress=progress
+    player = CustodyPlayer(
+        custody, staged.bus, staged.robot, clock, staged.limits, PlayOptions(), on_progress=progress
     )
     report = player.play(staged.performance.ticks, staged.start_pose, start_at_s=first_start_s)
     player.leave(report.outcome)
@@ -468,12 +463,33 @@ def _real_clock(bus: ServoBus) -> Clock:
     return clock
 
 
-def wire_summary(wire: WireTrace, since_s: float) -> str:
-    """One line on how the emulated servos were left: stopped, and nothing started after."""
+def stop_summary(custody: Custody) -> str:
+    """One line on a show's stop: why, when its MOVE_STOP bytes were written (wall clock, to the
+    microsecond) and how long after the conductor's last heartbeat."""
+    written_s = custody.servos_stopped_s
+    assert written_s is not None
+    cause = custody.request.cause.value if custody.request is not None else "at this performer"
+    since_beat_ms = (written_s - custody.last_beat_s) * 1000
+    wall_s = time.time() - (custody.clock.now() - written_s)
+    return (
+        f"servos stopped ({cause}): MOVE_STOP written at {clock_time(wall_s)}, "
+        f"{since_beat_ms:.0f} ms after the conductor's last heartbeat"
+    )
+
+
+def clock_time(wall_s: float) -> str:
+    """A wall-clock instant as this computer's local time of day, to the microsecond."""
+    return datetime.fromtimestamp(wall_s).strftime("%H:%M:%S.%f")
+
+
+def wire_summary(wire: WireTrace, since_s: float, wall_to_clock_s: float) -> str:
+    """One line on how the emulated servos were left: stopped (when, wall clock), and nothing
+    started after."""
     stop = wire.last_stop_s(since_s)
     if stop is None:
         return "emulated bus: no MOVE_STOP on the wire (the part ran to its end)"
     later = [m for m in wire.moves if m.time_s > stop]
-    return f"emulated bus: MOVE_STOP on the wire; {len(later)} move(s) started after it" + (
-        "" if later else ": every servo stopped"
+    return (
+        f"emulated bus: MOVE_STOP on the wire at {clock_time(stop - wall_to_clock_s)}; "
+        f"{len(later)} move(s) started after it" + ("" if later else ": every servo stopped")
     )
