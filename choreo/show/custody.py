@@ -14,8 +14,10 @@ polling thread, and nothing that runs in Zenoh's threads has to reach the player
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import datetime
 
 from choreo.core.clock import Clock
 from choreo.errors import PlaybackAborted
@@ -26,7 +28,6 @@ from choreo.show.messages import StopCause
 # (choreo.show.conductor): 0.4 s is four beats lost in a row; the stop follows at once, so a
 # conductor that goes silent just after a beat has its robots stopped within half a second.
 DEFAULT_MAX_SILENCE_S = 0.4
-SPIN_S = 0.001  # the last stretch before a START is spun, as RealClock does
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,25 @@ class Custody:
             self.servos_stopped_s = self.clock.now()
 
 
+def stop_summary(custody: Custody) -> str:
+    """One line on a show's stop: why, when its MOVE_STOP bytes were written (wall clock, to the
+    microsecond) and how long after the conductor's last heartbeat."""
+    written_s = custody.servos_stopped_s
+    assert written_s is not None
+    cause = custody.request.cause.value if custody.request is not None else "at this performer"
+    since_beat_ms = (written_s - custody.last_beat_s) * 1000
+    wall_s = time.time() - (custody.clock.now() - written_s)
+    return (
+        f"servos stopped ({cause}): MOVE_STOP written at {clock_time(wall_s)}, "
+        f"{since_beat_ms:.0f} ms after the conductor's last heartbeat"
+    )
+
+
+def clock_time(wall_s: float) -> str:
+    """A wall-clock instant as this computer's local time of day, to the microsecond."""
+    return datetime.fromtimestamp(wall_s).strftime("%H:%M:%S.%f")
+
+
 class CustodyClock:
     """The player's clock in a show: ``clock``'s time, with waits that end early, raising
     ``PlaybackAborted``, once the custody stops (the player then stops the servos, as after a
@@ -135,8 +155,8 @@ class CustodyClock:
             silent_at = custody.silent_at()
             if silent_at < deadline_s:  # a beat may come before: wake then, and look again
                 self.block(max(0.0, silent_at - now))
-            elif deadline_s - now <= SPIN_S or not self.block(deadline_s - now - SPIN_S):
-                self.clock.sleep_until(deadline_s)
+            elif not self.block(deadline_s - now):
+                self.clock.sleep_until(deadline_s)  # only if woken a hair early
         raise PlaybackAborted(custody.reason)
 
 

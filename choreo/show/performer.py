@@ -16,20 +16,19 @@ and why, goes in the part's report and in one line said here.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import queue
 import socket
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from datetime import datetime
 from pathlib import Path
 
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import Clock, RealClock
-from choreo.emulator import BusEmulator
 from choreo.emulator.trace import START_SLACK_S, WireTrace
 from choreo.errors import ChoreoError, SourceError
 from choreo.plan.performance import Performance, prepare
@@ -37,6 +36,7 @@ from choreo.plan.pipeline import compile_motion
 from choreo.play.play_options import PlayOptions
 from choreo.play.player import Player
 from choreo.play.preflight import ServoLimits, preflight, unchecked
+from choreo.play.realtime import PLAY_PRIORITY, how_to_allow
 from choreo.play.report import Outcome, PlayProgress, StreamReport
 
 # Loading a robot checks its MJCF with MuJoCo, slow to import (a second on a Pi): import it when
@@ -49,6 +49,8 @@ from choreo.show.custody import (
     CustodyClock,
     CustodyPlayer,
     Holder,
+    clock_time,
+    stop_summary,
 )
 from choreo.show.messages import (
     Announcement,
@@ -75,6 +77,11 @@ log = logging.getLogger(__name__)
 PROGRESS_PERIOD_S = 0.25
 WAIT_STEP_S = 0.1  # how often the idle loop looks at its closing flag
 
+# The player's own real-time priority also locks all memory: for a performer (Zenoh's threads
+# and arenas) 250 ms and 200 MB on a 2-core PC, while Zenoh's threads stall and the heartbeat
+# goes silent past its bound. So a show asks for the priority alone (play_priority).
+SHOW_PLAY = PlayOptions(realtime=False)
+
 OpenBus = Callable[[Robot], ServoBus]
 
 
@@ -85,13 +92,21 @@ class _Staged:
     show_id: str
     robot: Robot
     bus: ServoBus
-    emulator: BusEmulator | None
     performance: Performance
+    duration_s: float  # the motion's, after its approach
     start_pose: tuple[float, ...]
     limits: dict[str, ServoLimits]
     folder: tempfile.TemporaryDirectory
     cancels: list[Callable[[], None]]
     released: bool = False
+
+
+class _Refusal(Exception):
+    """Why a part cannot be staged here: every problem, for the conductor to list."""
+
+    def __init__(self, robot: str, *problems: str):
+        super().__init__(*problems)
+        self.robot, self.problems = robot, problems
 
 
 class Performer:
@@ -282,67 +297,61 @@ class Performer:
             return "", None
 
     def _stage(self, request: Request) -> _Staged | None:
+        """A part unpacked, planned and preflighted on its own bus, then held for its conductor
+        (answered ready); None when it cannot be (answered with every problem)."""
         part = decode(StagedPart, request.payload)  # read once already: _busy_for
-        conductor = self.network.realm.show(part.show_id)
-        if not self.network.alive(conductor, timeout_s=1.0):
-            self._refuse(request, "", f"no conductor holds show {part.show_id} (no liveliness "
-                         "token): a part is taken only from a running `choreo show`")  # fmt: skip
-            return None
         folder = tempfile.TemporaryDirectory(prefix="choreo-part-")
+        try:
+            staged = self._prepare(part, folder)
+        except _Refusal as refusal:
+            folder.cleanup()
+            self._refuse(request, refusal.robot, *refusal.problems)
+            return None
+        self._hold(part, staged)
+        ready = Readiness(self.name, staged.robot.name, (), staged.performance.approach_s,
+                          staged.duration_s, tuple(unchecked(staged.bus)))  # fmt: skip
+        request.reply(encode(ready))
+        self.say(f"staged {part.motion} for {staged.robot.name}: preflight passed")
+        return staged
+
+    def _prepare(self, part: StagedPart, folder: tempfile.TemporaryDirectory) -> _Staged:
+        """The part ready to play from ``folder``, its bus open; ``_Refusal`` otherwise."""
+        if not self.network.alive(self.network.realm.show(part.show_id), timeout_s=1.0):
+            raise _Refusal("", f"no conductor holds show {part.show_id} (no liveliness token): "
+                           "a part is taken only from a running `choreo show`")  # fmt: skip
         try:
             motion = unpack(part, Path(folder.name))
             compiled = compile_motion(motion)
         except SourceError as error:
-            folder.cleanup()
-            self._refuse(request, "", *error.problems)
-            return None
+            raise _Refusal("", *error.problems) from None
         except ChoreoError as error:
-            folder.cleanup()
-            self._refuse(request, "", *str(error).splitlines())
-            return None
+            raise _Refusal("", *str(error).splitlines()) from None
         robot = motion.robot
         try:
             bus = self.open_bus(robot)
         except (ChoreoError, OSError) as error:  # a port that is not there, or busy
-            folder.cleanup()
-            self._refuse(request, robot.name, f"cannot open its bus: {error}")
-            return None
-        emulator = bus.emulator
+            raise _Refusal(robot.name, f"cannot open its bus: {error}") from None
         try:
             _real_clock(bus)
             start_pose, limits = preflight(bus, robot)
         except ChoreoError as error:
             bus.close()
-            folder.cleanup()
-            self._refuse(
-                request, robot.name, *str(error).removeprefix("refusing to play:").splitlines()
-            )
-            return None
+            problems = str(error).removeprefix("refusing to play:").splitlines()
+            raise _Refusal(robot.name, *problems) from None
         performance = prepare(compiled, start_pose)
-        staged = _Staged(
-            part.show_id, robot, bus, emulator, performance, start_pose, limits, folder, []
-        )
+        return _Staged(part.show_id, robot, bus, performance,
+                       compiled.trajectory.duration_s, start_pose, limits, folder, [])  # fmt: skip
+
+    def _hold(self, part: StagedPart, staged: _Staged) -> None:
+        """The staged part in its conductor's custody: its stop, heartbeat and token heard."""
+        conductor = self.network.realm.show(part.show_id)
         self.custody = Custody(
-            Holder(part.show_id, part.ticket), _real_clock(bus), self.max_silence_s
+            Holder(part.show_id, part.ticket), _real_clock(staged.bus), self.max_silence_s
         )  # the silence counts from here
         staged.cancels.append(self.network.watch(conductor, self._on_conductor))
         staged.cancels.append(self.network.subscribe(f"{conductor}/stop", self._on_stop))
         staged.cancels.append(self.network.subscribe(f"{conductor}/beat", self._on_beat))
-        self.state, self.robot = "staged", robot.name
-        request.reply(
-            encode(
-                Readiness(
-                    self.name,
-                    robot.name,
-                    (),
-                    performance.approach_s,
-                    compiled.trajectory.duration_s,
-                    tuple(unchecked(bus)),
-                )
-            )
-        )
-        self.say(f"staged {part.motion} for {robot.name}: preflight passed")
-        return staged
+        self.state, self.robot = "staged", staged.robot.name
 
     def _refuse(self, request: Request, robot: str, *problems: str) -> None:
         """Answer a part with the problems that keep it from playing here."""
@@ -362,8 +371,12 @@ class Performer:
         first_start = go.start_s + wall_to_clock_s - staged.performance.approach_s
         custody = self.custody
         assert custody is not None  # held from the staging until _release
-        report = play_part(self, staged, custody, CustodyClock(clock, custody), first_start)
-        wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
+        with play_priority() as priority:
+            report = play_part(self, staged, custody, CustodyClock(clock, custody), first_start)
+        if not priority:
+            self.say(f"normal priority: a busy computer can make STARTs late; {how_to_allow()}")
+        emulator = staged.bus.emulator
+        wire = WireTrace.of(emulator) if emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
         self.say(
             f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
@@ -429,6 +442,23 @@ class Performer:
         self.state, self.custody = "idle", None
 
 
+@contextlib.contextmanager
+def play_priority() -> Iterator[bool]:
+    """SCHED_FIFO at the player's priority for the calling thread where permitted (not the
+    memory locking: SHOW_PLAY); yields whether it was got."""
+    previous = (os.sched_getscheduler(0), os.sched_getparam(0))
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(PLAY_PRIORITY))
+        raised = True
+    except OSError:  # EPERM: not permitted
+        raised = False
+    try:
+        yield raised
+    finally:
+        if raised:
+            os.sched_setscheduler(0, *previous)
+
+
 def play_part(
     performer: Performer,
     staged: _Staged,
@@ -443,13 +473,17 @@ def play_part(
     approach_s = staged.performance.approach_s
 
     def progress(p: PlayProgress) -> None:
+        # Once a tick is started and the next staged: give way to another performer on this
+        # computer whose START is due now (same real-time priority, woken at the same instant);
+        # with several on fewer cores they would otherwise start one after another.
+        os.sched_yield()
         if p.time_s - last[0] >= PROGRESS_PERIOD_S or p.tick == p.ticks:
             last[0] = p.time_s
             message = PartProgress(performer.name, p.time_s - approach_s, p.duration_s - approach_s)
             performer.network.publish(events, encode(message))
 
     player = CustodyPlayer(
-        custody, staged.bus, staged.robot, clock, staged.limits, PlayOptions(), on_progress=progress
+        custody, staged.bus, staged.robot, clock, staged.limits, SHOW_PLAY, on_progress=progress
     )
     report = player.play(staged.performance.ticks, staged.start_pose, start_at_s=first_start_s)
     player.leave(report.outcome)
@@ -461,25 +495,6 @@ def _real_clock(bus: ServoBus) -> Clock:
     if not isinstance(clock, RealClock):
         raise ChoreoError("a show runs on the wall clock: drop clock=virtual from the sim:// URL")
     return clock
-
-
-def stop_summary(custody: Custody) -> str:
-    """One line on a show's stop: why, when its MOVE_STOP bytes were written (wall clock, to the
-    microsecond) and how long after the conductor's last heartbeat."""
-    written_s = custody.servos_stopped_s
-    assert written_s is not None
-    cause = custody.request.cause.value if custody.request is not None else "at this performer"
-    since_beat_ms = (written_s - custody.last_beat_s) * 1000
-    wall_s = time.time() - (custody.clock.now() - written_s)
-    return (
-        f"servos stopped ({cause}): MOVE_STOP written at {clock_time(wall_s)}, "
-        f"{since_beat_ms:.0f} ms after the conductor's last heartbeat"
-    )
-
-
-def clock_time(wall_s: float) -> str:
-    """A wall-clock instant as this computer's local time of day, to the microsecond."""
-    return datetime.fromtimestamp(wall_s).strftime("%H:%M:%S.%f")
 
 
 def wire_summary(wire: WireTrace, since_s: float, wall_to_clock_s: float) -> str:
