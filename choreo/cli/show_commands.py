@@ -257,7 +257,7 @@ def run_show(args: argparse.Namespace) -> int:
         )
     for report in reports:
         _print_report(report)
-    if reports[-1].stop_reason == "Ctrl-C at the conductor":
+    if reports[-1].interrupted:
         return 130
     return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
 
