@@ -132,7 +132,11 @@ class CustodyClock:
 
     ``block(timeout_s)`` waits until the custody stops or the time is over and says whether it
     stopped; by default ``custody.stopped.wait`` (real time). On a virtual clock, pass one that
-    advances the clock instead."""
+    advances the clock instead.
+
+    Unlike RealClock it does not spin the last millisecond before a START: at real-time priority
+    the kernel wakes it on time anyway, and performers sharing a computer's cores (a rehearsal
+    on one machine) spinning at that priority start one after another, a millisecond apart."""
 
     def __init__(
         self,
