@@ -131,13 +131,18 @@ def make_certificates(folder: Path, addresses: tuple[str, ...] = ()) -> None:
     openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=show CA",
             "-keyout", "ca.key", "-out", "ca.pem", cwd=folder)  # fmt: skip
     for who in ("performer", "conductor"):
-        openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={who}",
-                "-keyout", f"{who}.key", "-out", f"{who}.csr", cwd=folder)  # fmt: skip
-        names = ",".join(["DNS:localhost", "IP:127.0.0.1", *(f"IP:{a}" for a in addresses)])
-        (folder / f"{who}.ext").write_text(f"subjectAltName={names}\n")
-        openssl("x509", "-req", "-in", f"{who}.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
-                "-CAcreateserial", "-days", "1", "-extfile", f"{who}.ext",
-                "-out", f"{who}.pem", cwd=folder)  # fmt: skip
+        sign_certificate(folder, who, addresses)
+
+
+def sign_certificate(folder: Path, who: str, addresses: tuple[str, ...] = ()) -> None:
+    """A certificate for ``who`` (its common name) signed by the CA in ``folder``."""
+    openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={who}",
+            "-keyout", f"{who}.key", "-out", f"{who}.csr", cwd=folder)  # fmt: skip
+    names = ",".join(["DNS:localhost", "IP:127.0.0.1", *(f"IP:{a}" for a in addresses)])
+    (folder / f"{who}.ext").write_text(f"subjectAltName={names}\n")
+    openssl("x509", "-req", "-in", f"{who}.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
+            "-CAcreateserial", "-days", "1", "-extfile", f"{who}.ext",
+            "-out", f"{who}.pem", cwd=folder)  # fmt: skip
 
 
 def tls_config(

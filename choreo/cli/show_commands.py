@@ -257,7 +257,7 @@ def run_show(args: argparse.Namespace) -> int:
         )
     for report in reports:
         _print_report(report)
-    if reports[-1].stop_reason == "Ctrl-C at the conductor":
+    if reports[-1].interrupted:
         return 130
     return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
 
@@ -307,6 +307,10 @@ def report_document(report) -> dict:
                 "first_start_conductor_s": p.first_start_s,
                 "approach_start_s": None if p.finished is None else p.finished.approach_start_s,
                 "stop_s": None if p.finished is None else p.finished.stop_s,
+                "stop_written_s": None if p.finished is None else p.finished.stop_written_s,
+                "stop_cause": None
+                if p.finished is None or p.finished.stop_cause is None
+                else p.finished.stop_cause.value,
                 "ticks_played": None if p.finished is None else p.finished.ticks_played,
                 "ticks_total": None if p.finished is None else p.finished.ticks_total,
                 "lateness_p99_ms": None if p.finished is None else p.finished.lateness_p99_ms,

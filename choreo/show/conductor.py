@@ -17,7 +17,7 @@ import threading
 import time
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from choreo.errors import ChoreoError
 from choreo.motion.motion_file import load_motion
@@ -47,6 +47,7 @@ REMEASURE_PERIOD_S = 1.0  # during the show, each clock is measured again this o
 REMEASURE_ROUND_TRIPS = 4  # a few: between them the conductor does not hear its events
 FINISH_GRACE_S = 5.0  # past the planned end, a part that said nothing counts as lost
 STOP_REPLIES_S = 2.0  # after a stop, how long to wait for the parts to say they stopped
+INTERRUPTED = "Ctrl-C at the conductor"  # the stop's reason (SIGTERM is Ctrl-C too)
 
 
 @dataclass(frozen=True)
@@ -85,6 +86,7 @@ class ShowReport:
     stop_sent_s: float | None  # when the conductor sent a stop
     stop_reason: str
     called_at_s: float  # when the conductor began
+    interrupted: bool = False  # Ctrl-C (or SIGTERM) at the conductor stopped it
 
     @property
     def completed(self) -> bool:
@@ -382,61 +384,27 @@ class Conductor:
         called_at: float,
         interrupted: bool = False,
     ) -> ShowReport:
-        """Follow the parts to their end; Ctrl-C (now or ``interrupted`` before) stops them."""
+        """Follow the parts to their end; Ctrl-C (now or ``interrupted`` before) stops them.
+        Each clock is measured again meanwhile, in a thread of its own."""
         end_s = start_s + max(
             p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
         )
-        outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = {}
+        following = _Following(end_s + FINISH_GRACE_S, math.ceil(start_s - time.time()))
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
-        done = threading.Event()
         watcher = threading.Thread(
-            target=self._measure_again, args=(start_s, outcomes, later, done), daemon=True
+            target=self._measure_again,
+            args=(start_s, following.outcomes, later, following.measuring_done),
+            daemon=True,
         )
         watcher.start()
-        counted = math.ceil(start_s - time.time())  # the countdown's last whole second said
-        stop_sent: float | None = None
-        stop_reason = ""
-        deadline = end_s + FINISH_GRACE_S
-        while len(outcomes) < len(self.names) and time.time() < deadline:
-            try:
-                if interrupted:
-                    raise KeyboardInterrupt
-                to_go = math.ceil(start_s - time.time())
-                if 0 < to_go < counted and stop_sent is None:
-                    self.say(f"the show begins in {to_go} s")
-                    counted = to_go
-                kind, what = self.events.get(timeout=0.1)
-            except queue.Empty:
-                continue
-            except KeyboardInterrupt:
-                interrupted = False
-                done.set()  # no more round trips: the stop goes first
-                stop_reason = "Ctrl-C at the conductor"
-                stop_sent = self.send_stop(stop_reason)
-                self.say(f"{stop_reason}: stopping every performer")
-                deadline = time.time() + STOP_REPLIES_S
-                continue
-            if kind == "lost" and what in self.names and what not in outcomes:
-                outcomes[what] = (PartOutcome.LOST, "its liveliness token vanished", None)
-                self.say(f"{what}: lost (its liveliness token vanished)")
-                failed = what
-            elif isinstance(what, Finished) and what.performer in self.names:
-                outcomes[what.performer] = (what.outcome, what.reason, what)
-                self.say(f"{what.performer}: {what.outcome.value}"
-                         f"{': ' + what.reason if what.reason else ''}")  # fmt: skip
-                failed = what.performer if what.outcome is PartOutcome.ABORTED else ""
-            else:
-                continue
-            if failed and stop_sent is None and self.show.on_abort is OnAbort.STOP:
-                stop_reason = f"{failed} aborted or was lost (on_abort: stop)"
-                done.set()
-                stop_sent = self.send_stop(stop_reason)
-                deadline = min(deadline, time.time() + STOP_REPLIES_S)
-        done.set()
-        watcher.join()
+        try:
+            self._await_parts(start_s, following, interrupted)
+        finally:
+            following.measuring_done.set()
+            watcher.join()
         parts = []
         for part in self.show.parts:
-            outcome, reason, finished = outcomes.get(
+            outcome, reason, finished = following.outcomes.get(
                 part.performer, (PartOutcome.LOST, "no word from it after the show's end", None)
             )
             clock, last = clocks[part.performer], later.get(part.performer)
@@ -445,4 +413,68 @@ class Conductor:
                            part.offset_s, start_s + part.offset_s, outcome, reason, finished,
                            None if last is None else last.offset_s - clock.offset_s)
             )  # fmt: skip
-        return ShowReport(self.show.name, start_s, tuple(parts), stop_sent, stop_reason, called_at)
+        return ShowReport(self.show.name, start_s, tuple(parts), following.stop_sent_s,
+                          following.stop_reason, called_at, following.interrupted)  # fmt: skip
+
+    def _await_parts(self, start_s: float, following: _Following, interrupted: bool) -> None:
+        """Every part's end, as its events come (or the deadline), saying the countdown;
+        Ctrl-C stops every part, and so does a part that fails when the show says so."""
+        while len(following.outcomes) < len(self.names) and time.time() < following.deadline_s:
+            try:
+                if interrupted:
+                    interrupted = False
+                    raise KeyboardInterrupt
+                self._count_down(start_s, following)
+                kind, what = self.events.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            except KeyboardInterrupt:
+                following.interrupted = True
+                self._stop_parts(following, INTERRUPTED)
+                following.deadline_s = time.time() + STOP_REPLIES_S
+                self.say(f"{INTERRUPTED}: stopping every performer")
+                continue
+            failed = self._heard(following, kind, what)
+            if failed and following.stop_sent_s is None and self.show.on_abort is OnAbort.STOP:
+                self._stop_parts(following, f"{failed} aborted or was lost (on_abort: stop)")
+                following.deadline_s = min(following.deadline_s, time.time() + STOP_REPLIES_S)
+
+    def _count_down(self, start_s: float, following: _Following) -> None:
+        """Say each whole second left before the show's instant (until a stop)."""
+        to_go = math.ceil(start_s - time.time())
+        if 0 < to_go < following.counted and following.stop_sent_s is None:
+            self.say(f"the show begins in {to_go} s")
+            following.counted = to_go
+
+    def _heard(self, following: _Following, kind: str, what: object) -> str:
+        """Note a part's end (a performer's Finished, or its token lost); the name of the
+        performer whose part failed by it ("" when none did)."""
+        outcomes = following.outcomes
+        if kind == "lost" and what in self.names and what not in outcomes:
+            outcomes[what] = (PartOutcome.LOST, "its liveliness token vanished", None)
+            self.say(f"{what}: lost (its liveliness token vanished)")
+            return str(what)
+        if isinstance(what, Finished) and what.performer in self.names:
+            outcomes[what.performer] = (what.outcome, what.reason, what)
+            self.say(f"{what.performer}: {what.outcome.value}"
+                     f"{': ' + what.reason if what.reason else ''}")  # fmt: skip
+            return what.performer if what.outcome is PartOutcome.ABORTED else ""
+        return ""
+
+    def _stop_parts(self, following: _Following, reason: str) -> None:
+        following.measuring_done.set()  # no more round trips: the stop goes first
+        following.stop_reason = reason
+        following.stop_sent_s = self.send_stop(reason)
+
+
+@dataclass
+class _Following:
+    """What ``Conductor.follow`` has heard so far."""
+
+    deadline_s: float  # wall clock: a part not heard of by then counts as lost
+    counted: int  # the countdown's last whole second said
+    outcomes: dict[str, tuple[PartOutcome, str, Finished | None]] = field(default_factory=dict)
+    stop_sent_s: float | None = None
+    stop_reason: str = ""
+    interrupted: bool = False  # Ctrl-C (or SIGTERM) at the conductor stopped it
+    measuring_done: threading.Event = field(default_factory=threading.Event)

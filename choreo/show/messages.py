@@ -11,6 +11,7 @@ import base64
 import dataclasses
 import enum
 import json
+import types
 import typing
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -34,8 +35,8 @@ def decode(kind: type[M], payload: bytes) -> M:
     """A ``kind`` from its JSON; a ChoreoError saying what came instead (another version?)."""
     try:
         fields = json.loads(payload)
-        types = typing.get_type_hints(kind)
-        return kind(**{k: _field(types.get(k), v) for k, v in fields.items()})
+        hints = typing.get_type_hints(kind)
+        return kind(**{k: _field(hints.get(k), v) for k, v in fields.items()})
     except (ValueError, TypeError) as error:
         raise ChoreoError(
             f"a {kind.__name__} message could not be read ({error}); are both sides the same "
@@ -44,6 +45,8 @@ def decode(kind: type[M], payload: bytes) -> M:
 
 
 def _field(kind: object, value: object) -> object:
+    if value is not None and typing.get_origin(kind) in (typing.Union, types.UnionType):
+        kind = next(k for k in typing.get_args(kind) if k is not type(None))  # X | None
     if isinstance(kind, type) and issubclass(kind, enum.Enum):
         return kind(value)  # ValueError for a value this version does not know
     return tuple(value) if isinstance(value, list) else value
@@ -59,6 +62,15 @@ class PartOutcome(enum.Enum):
     STOPPED = "stopped"  # the conductor's stop: Ctrl-C there, or another part aborted
     LOST = "lost"  # the conductor heard nothing more from the performer
     STAGED = "staged"  # a dry run: staged and preflighted, then released
+
+
+class StopCause(enum.Enum):
+    """Why a show stopped a performer's servos (the player's own stops, Ctrl-C at the performer
+    or a failed health check, are told by its outcome)."""
+
+    SILENCE = "silence"  # the conductor's heartbeat was silent past the bound
+    CONDUCTOR_LOST = "conductor lost"  # its liveliness token vanished
+    STOP_MESSAGE = "stop message"  # its signed stop: Ctrl-C there, or another part aborted
 
 
 @dataclass(frozen=True)
@@ -184,3 +196,6 @@ class Finished:
     stop_s: float | None  # its MOVE_STOP on the wire (emulated bus), if it stopped
     lateness_p99_ms: float
     first_start_late_ms: float | None = None  # written after it was due (negative: before)
+    # read from its clock when its MOVE_STOP bytes were written (any transport), and why
+    stop_written_s: float | None = None
+    stop_cause: StopCause | None = None

@@ -10,38 +10,48 @@ Only the conductor that staged the part moves it: the part came with that conduc
 and while a part is held any other show's stage is answered "busy with show X". The servos stop
 at once on the conductor's stop, when its liveliness token vanishes, or when its heartbeat has
 been silent for ``max_silence_s`` (a frozen conductor, a cut network): the player's clock wakes
-from its wait and the player sends MOVE_STOP.
+from its wait and the player sends MOVE_STOP (:mod:`choreo.show.custody`). When it was written,
+and why, goes in the part's report and in one line said here.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import queue
 import socket
 import tempfile
-import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 from choreo.bus.servo_bus import ServoBus
 from choreo.core.clock import Clock, RealClock
-from choreo.emulator import BusEmulator
 from choreo.emulator.trace import START_SLACK_S, WireTrace
-from choreo.errors import ChoreoError, PlaybackAborted, SourceError
+from choreo.errors import ChoreoError, SourceError
 from choreo.plan.performance import Performance, prepare
 from choreo.plan.pipeline import compile_motion
 from choreo.play.play_options import PlayOptions
 from choreo.play.player import Player
 from choreo.play.preflight import ServoLimits, preflight, unchecked
+from choreo.play.realtime import PLAY_PRIORITY, how_to_allow
 from choreo.play.report import Outcome, PlayProgress, StreamReport
 
 # Loading a robot checks its MJCF with MuJoCo, slow to import (a second on a Pi): import it when
 # the performer starts, not while it stages a part during the show's countdown.
 from choreo.robot import model_check  # noqa: F401
 from choreo.robot.types import Robot
+from choreo.show.custody import (
+    DEFAULT_MAX_SILENCE_S,
+    Custody,
+    CustodyClock,
+    CustodyPlayer,
+    Holder,
+    clock_time,
+    stop_summary,
+)
 from choreo.show.messages import (
     Announcement,
     Answer,
@@ -54,6 +64,7 @@ from choreo.show.messages import (
     Readiness,
     StagedPart,
     Stop,
+    StopCause,
     decode,
     encode,
 )
@@ -64,41 +75,14 @@ from choreo.show.ticket import signed
 log = logging.getLogger(__name__)
 
 PROGRESS_PERIOD_S = 0.25
-WAIT_STEP_S = 0.1  # how often the idle loop looks at the stop flag
-# A heartbeat silent this long stops the servos. The conductor beats every BEAT_PERIOD_S
-# (choreo.show.conductor): 0.4 s is four beats lost in a row, and the watchdog looks every
-# WATCHDOG_PERIOD_S, so the servos stop within half a second of the last beat.
-DEFAULT_MAX_SILENCE_S = 0.4
-WATCHDOG_PERIOD_S = 0.05  # few wake-ups beside the player: 400 + 50 ms stays under 500
+WAIT_STEP_S = 0.1  # how often the idle loop looks at its closing flag
+
+# The player's own real-time priority also locks all memory: for a performer (Zenoh's threads
+# and arenas) 250 ms and 200 MB on a 2-core PC, while Zenoh's threads stall and the heartbeat
+# goes silent past its bound. So a show asks for the priority alone (play_priority).
+SHOW_PLAY = PlayOptions(realtime=False)
 
 OpenBus = Callable[[Robot], ServoBus]
-
-
-class StoppableClock:
-    """A real clock whose waits end early, raising ``PlaybackAborted``, once ``stopped`` is set
-    (the player then stops the servos, as after a failed health check)."""
-
-    def __init__(self, clock: Clock, stopped: threading.Event, reason: Callable[[], str]):
-        self.clock, self.stopped, self.reason = clock, stopped, reason
-
-    def now(self) -> float:
-        return self.clock.now()
-
-    def sleep_until(self, deadline_s: float) -> None:
-        spin_s = 0.001
-        while not self.stopped.wait(max(0.0, deadline_s - self.clock.now() - spin_s)):
-            if self.clock.now() >= deadline_s - spin_s:
-                self.clock.sleep_until(deadline_s)
-                return
-        raise PlaybackAborted(self.reason())
-
-
-@dataclass(frozen=True)
-class Holder:
-    """The conductor that holds this performer: its show and the ticket it staged with."""
-
-    show_id: str
-    ticket: str
 
 
 @dataclass
@@ -108,13 +92,21 @@ class _Staged:
     show_id: str
     robot: Robot
     bus: ServoBus
-    emulator: BusEmulator | None
     performance: Performance
+    duration_s: float  # the motion's, after its approach
     start_pose: tuple[float, ...]
     limits: dict[str, ServoLimits]
     folder: tempfile.TemporaryDirectory
     cancels: list[Callable[[], None]]
     released: bool = False
+
+
+class _Refusal(Exception):
+    """Why a part cannot be staged here: every problem, for the conductor to list."""
+
+    def __init__(self, robot: str, *problems: str):
+        super().__init__(*problems)
+        self.robot, self.problems = robot, problems
 
 
 class Performer:
@@ -130,22 +122,21 @@ class Performer:
         self.network, self.name, self.open_bus = network, name, open_bus
         self.transport, self.say, self.max_silence_s = transport, say, max_silence_s
         self.state, self.robot = "idle", ""
-        self.requests: queue.Queue[tuple[str, Request]] = queue.Queue()
-        self.stopped = threading.Event()
-        self.stop_reason = ""
-        self.holder: Holder | None = None
-        self.conductor_alive = False
-        self.last_beat_s = 0.0  # monotonic clock
-        self.last_seq = -1
-        self._closing = threading.Event()
+        # what the main loop takes; None only wakes it (a stop)
+        self.requests: queue.Queue[tuple[str, Request | None]] = queue.Queue()
+        self.custody: Custody | None = None  # while a conductor holds this performer
+        self._closing = False
         key = network.realm.performer(name)
         network.serve(f"{key}/info", lambda r: r.reply(encode(self.announcement())))
         network.serve(f"{key}/clock", lambda r: r.reply(encode(ClockReading(time.time()))))
         network.serve(f"{key}/stage", self._on_stage)
         network.serve(f"{key}/go", self._on_go)
         network.announce(key)
-        self._watchdog = threading.Thread(target=self._watch_heartbeat, daemon=True)
-        self._watchdog.start()
+
+    @property
+    def holder(self) -> Holder | None:
+        custody = self.custody
+        return custody.holder if custody is not None else None
 
     def announcement(self) -> Announcement:
         holder = self.holder
@@ -159,11 +150,12 @@ class Performer:
             holder.show_id if holder else "",
         )
 
-    def stop(self, reason: str) -> None:
+    def stop(self, cause: StopCause, reason: str) -> None:
         """From any thread: stop the servos of the part staged or playing now."""
-        if not self.stopped.is_set():
-            self.stop_reason = reason
-            self.stopped.set()
+        custody = self.custody
+        if custody is not None:
+            custody.stop(cause, reason)
+            self.requests.put(("stop", None))  # the idle loop drops a staged part at once
 
     # --- what arrives in Zenoh's threads -------------------------------------------------------
     def _on_stage(self, request: Request) -> None:
@@ -210,14 +202,19 @@ class Performer:
             return f"the staged part is show {holder.show_id}'s, not {go.show_id}'s"
         if go.ticket != holder.ticket:
             return f"the start did not come from the conductor that staged show {go.show_id}"
-        if not self.conductor_alive or self._silence_s() > self.max_silence_s:
+        custody = self.custody
+        if custody is None or not custody.live():
             return f"no live conductor holds show {go.show_id}"
         return ""
 
     def _on_conductor(self, _key: str, alive: bool) -> None:
-        self.conductor_alive = alive
+        custody = self.custody
+        if custody is not None:
+            custody.conductor_alive = alive
         if not alive:
-            self.stop("lost the conductor (its liveliness token vanished)")
+            self.stop(
+                StopCause.CONDUCTOR_LOST, "lost the conductor (its liveliness token vanished)"
+            )
 
     def _on_stop(self, _key: str, payload: bytes) -> None:
         holder = self.holder
@@ -231,36 +228,22 @@ class Performer:
         if not signed(holder.ticket, stop.signature, stop.show_id, "stop", stop.reason):
             self.say(f"ignored a stop for show {stop.show_id} not signed by its conductor")
             return
-        self.stop(f"stopped by the conductor: {stop.reason}")
+        self.stop(StopCause.STOP_MESSAGE, f"stopped by the conductor: {stop.reason}")
 
     def _on_beat(self, _key: str, payload: bytes) -> None:
-        holder = self.holder
+        custody = self.custody
         try:
             beat = decode(Beat, payload)
         except ChoreoError:
             return
-        if holder is None or beat.show_id != holder.show_id or beat.seq <= self.last_seq:
-            return  # another show's, or a replay
-        if signed(holder.ticket, beat.signature, beat.show_id, "beat", beat.seq):
-            self.last_seq, self.last_beat_s = beat.seq, time.monotonic()
-
-    def _silence_s(self) -> float:
-        return time.monotonic() - self.last_beat_s
-
-    def _watch_heartbeat(self) -> None:
-        """Stop the part of a conductor silent past ``max_silence_s`` (its own thread)."""
-        while not self._closing.wait(WATCHDOG_PERIOD_S):
-            silence_s = self._silence_s()
-            if self.holder is not None and silence_s > self.max_silence_s:
-                self.stop(
-                    f"lost the conductor (no heartbeat for {silence_s * 1000:.0f} ms, over "
-                    f"{self.max_silence_s * 1000:.0f} ms)"
-                )
+        if custody is None or beat.show_id != custody.holder.show_id:
+            return  # another show's
+        if signed(custody.holder.ticket, beat.signature, beat.show_id, "beat", beat.seq):
+            custody.beat(beat.seq)
 
     def close(self) -> None:
-        """Ends ``serve_forever`` (within WAIT_STEP_S, after a part being played) and the
-        watchdog."""
-        self._closing.set()
+        """Ends ``serve_forever`` (within WAIT_STEP_S, after a part being played)."""
+        self._closing = True
 
     # --- the main loop -------------------------------------------------------------------------
     def serve_forever(self) -> None:
@@ -268,14 +251,14 @@ class Performer:
         ``close`` from another thread."""
         staged: _Staged | None = None
         try:
-            while not self._closing.is_set():
-                try:
-                    kind, request = self.requests.get(timeout=WAIT_STEP_S)
-                except queue.Empty:
-                    if staged is not None and self.stopped.is_set():
-                        self.say(f"{self.stop_reason}: part dropped, servos stopped")
-                        self._release(staged, stop=True)
-                        staged = None
+            while not self._closing:
+                kind, request = self._next_request()
+                custody = self.custody
+                if staged is not None and custody is not None and custody.stopped.is_set():
+                    self._release(staged, stop=True)
+                    self.say(f"{custody.reason}: part dropped, {stop_summary(custody)}")
+                    staged = None
+                if request is None:
                     continue
                 if kind == "stage":
                     busy = self._busy_for(request.payload)
@@ -299,68 +282,76 @@ class Performer:
             if staged is not None:
                 self._release(staged, stop=True)
 
+    def _next_request(self) -> tuple[str, Request | None]:
+        """The next request, or ("", None) once the held part's silence bound is reached (its
+        custody then stopped) or WAIT_STEP_S has passed."""
+        custody = self.custody
+        wait_s = WAIT_STEP_S
+        if custody is not None:
+            wait_s = min(wait_s, max(0.0, custody.silent_at() - custody.clock.now()))
+        try:
+            return self.requests.get(timeout=wait_s)
+        except queue.Empty:
+            if custody is not None:
+                custody.check_silence()
+            return "", None
+
     def _stage(self, request: Request) -> _Staged | None:
-        self.stopped.clear()
+        """A part unpacked, planned and preflighted on its own bus, then held for its conductor
+        (answered ready); None when it cannot be (answered with every problem)."""
         part = decode(StagedPart, request.payload)  # read once already: _busy_for
-        conductor = self.network.realm.show(part.show_id)
-        if not self.network.alive(conductor, timeout_s=1.0):
-            self._refuse(request, "", f"no conductor holds show {part.show_id} (no liveliness "
-                         "token): a part is taken only from a running `choreo show`")  # fmt: skip
-            return None
         folder = tempfile.TemporaryDirectory(prefix="choreo-part-")
+        try:
+            staged = self._prepare(part, folder)
+        except _Refusal as refusal:
+            folder.cleanup()
+            self._refuse(request, refusal.robot, *refusal.problems)
+            return None
+        self._hold(part, staged)
+        ready = Readiness(self.name, staged.robot.name, (), staged.performance.approach_s,
+                          staged.duration_s, tuple(unchecked(staged.bus)))  # fmt: skip
+        request.reply(encode(ready))
+        self.say(f"staged {part.motion} for {staged.robot.name}: preflight passed")
+        return staged
+
+    def _prepare(self, part: StagedPart, folder: tempfile.TemporaryDirectory) -> _Staged:
+        """The part ready to play from ``folder``, its bus open; ``_Refusal`` otherwise."""
+        if not self.network.alive(self.network.realm.show(part.show_id), timeout_s=1.0):
+            raise _Refusal("", f"no conductor holds show {part.show_id} (no liveliness token): "
+                           "a part is taken only from a running `choreo show`")  # fmt: skip
         try:
             motion = unpack(part, Path(folder.name))
             compiled = compile_motion(motion)
         except SourceError as error:
-            folder.cleanup()
-            self._refuse(request, "", *error.problems)
-            return None
+            raise _Refusal("", *error.problems) from None
         except ChoreoError as error:
-            folder.cleanup()
-            self._refuse(request, "", *str(error).splitlines())
-            return None
+            raise _Refusal("", *str(error).splitlines()) from None
         robot = motion.robot
         try:
             bus = self.open_bus(robot)
         except (ChoreoError, OSError) as error:  # a port that is not there, or busy
-            folder.cleanup()
-            self._refuse(request, robot.name, f"cannot open its bus: {error}")
-            return None
-        emulator = bus.emulator
+            raise _Refusal(robot.name, f"cannot open its bus: {error}") from None
         try:
             _real_clock(bus)
             start_pose, limits = preflight(bus, robot)
         except ChoreoError as error:
             bus.close()
-            folder.cleanup()
-            self._refuse(
-                request, robot.name, *str(error).removeprefix("refusing to play:").splitlines()
-            )
-            return None
+            problems = str(error).removeprefix("refusing to play:").splitlines()
+            raise _Refusal(robot.name, *problems) from None
         performance = prepare(compiled, start_pose)
-        staged = _Staged(
-            part.show_id, robot, bus, emulator, performance, start_pose, limits, folder, []
-        )
-        self.last_seq, self.last_beat_s = -1, time.monotonic()  # the silence counts from here
-        self.holder = Holder(part.show_id, part.ticket)
+        return _Staged(part.show_id, robot, bus, performance,
+                       compiled.trajectory.duration_s, start_pose, limits, folder, [])  # fmt: skip
+
+    def _hold(self, part: StagedPart, staged: _Staged) -> None:
+        """The staged part in its conductor's custody: its stop, heartbeat and token heard."""
+        conductor = self.network.realm.show(part.show_id)
+        self.custody = Custody(
+            Holder(part.show_id, part.ticket), _real_clock(staged.bus), self.max_silence_s
+        )  # the silence counts from here
         staged.cancels.append(self.network.watch(conductor, self._on_conductor))
         staged.cancels.append(self.network.subscribe(f"{conductor}/stop", self._on_stop))
         staged.cancels.append(self.network.subscribe(f"{conductor}/beat", self._on_beat))
-        self.state, self.robot = "staged", robot.name
-        request.reply(
-            encode(
-                Readiness(
-                    self.name,
-                    robot.name,
-                    (),
-                    performance.approach_s,
-                    compiled.trajectory.duration_s,
-                    tuple(unchecked(bus)),
-                )
-            )
-        )
-        self.say(f"staged {part.motion} for {robot.name}: preflight passed")
-        return staged
+        self.state, self.robot = "staged", staged.robot.name
 
     def _refuse(self, request: Request, robot: str, *problems: str) -> None:
         """Answer a part with the problems that keep it from playing here."""
@@ -378,10 +369,14 @@ class Performer:
         began_s = clock.now()
         wall_to_clock_s = began_s - time.time()
         first_start = go.start_s + wall_to_clock_s - staged.performance.approach_s
-        report = play_part(
-            self, staged, StoppableClock(clock, self.stopped, lambda: self.stop_reason), first_start
-        )
-        wire = WireTrace.of(staged.emulator) if staged.emulator is not None else None
+        custody = self.custody
+        assert custody is not None  # held from the staging until _release
+        with play_priority() as priority:
+            report = play_part(self, staged, custody, CustodyClock(clock, custody), first_start)
+        if not priority:
+            self.say(f"normal priority: a busy computer can make STARTs late; {how_to_allow()}")
+        emulator = staged.bus.emulator
+        wire = WireTrace.of(emulator) if emulator is not None else None
         finished = self._finished(staged, report, began_s, wall_to_clock_s, wire)
         self.say(
             f"part {finished.outcome.value}{': ' + finished.reason if finished.reason else ''}"
@@ -389,8 +384,10 @@ class Performer:
         events = f"{self.network.realm.show(staged.show_id)}/events/{self.name}"
         self._release(staged, stop=False)  # free before the conductor hears: its next cue
         self.network.publish(events, encode(finished))
+        if custody.servos_stopped_s is not None:
+            self.say(stop_summary(custody))
         if wire is not None:
-            self.say(wire_summary(wire, began_s))
+            self.say(wire_summary(wire, began_s, wall_to_clock_s))
         if report.outcome is Outcome.INTERRUPTED:
             raise KeyboardInterrupt  # Ctrl-C here: after the conductor was told
 
@@ -405,8 +402,11 @@ class Performer:
         """How the part ended: its STARTs as this computer's clock read them when their bytes
         were written (any transport), and on an emulated bus (``wire``) its MOVE_STOP."""
         outcome, reason = PartOutcome(report.outcome.value), report.reason
-        if report.outcome is Outcome.ABORTED and self.stopped.is_set():  # the clock's abort
-            outcome, reason = PartOutcome.STOPPED, self.stop_reason
+        custody = self.custody
+        request = custody.request if custody is not None else None
+        if report.outcome is Outcome.ABORTED and request is not None:  # the clock's abort
+            outcome, reason = PartOutcome.STOPPED, request.reason
+        written = custody.servos_stopped_s if custody is not None else None
         part_due_s = report.start_time_s + staged.performance.approach_s  # the motion's t=0
         starts = report.start_times
         first = next((s for s in starts if s.deadline_s >= part_due_s - START_SLACK_S), None)
@@ -422,6 +422,8 @@ class Performer:
             None if stop is None else stop - wall_to_clock_s,
             report.lateness_percentile_ms(99),
             first.late_ms if first else None,
+            None if written is None else written - wall_to_clock_s,
+            request.cause if request is not None else None,
         )
 
     def _release(self, staged: _Staged, *, stop: bool) -> None:
@@ -430,16 +432,39 @@ class Performer:
         staged.released = True
         for cancel in staged.cancels:
             cancel()
+        custody = self.custody
         if stop:
             Player(staged.bus, staged.robot, RealClock(), staged.limits).stop()
+            if custody is not None:
+                custody.servos_stopped()
         staged.bus.close()
         staged.folder.cleanup()
-        self.state, self.holder, self.conductor_alive = "idle", None, False
-        self.stopped.clear()
+        self.state, self.custody = "idle", None
+
+
+@contextlib.contextmanager
+def play_priority() -> Iterator[bool]:
+    """SCHED_FIFO at the player's priority for the calling thread where permitted (not the
+    memory locking: SHOW_PLAY); yields whether it was got."""
+    previous = (os.sched_getscheduler(0), os.sched_getparam(0))
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(PLAY_PRIORITY))
+        raised = True
+    except OSError:  # EPERM: not permitted
+        raised = False
+    try:
+        yield raised
+    finally:
+        if raised:
+            os.sched_setscheduler(0, *previous)
 
 
 def play_part(
-    performer: Performer, staged: _Staged, clock: StoppableClock, first_start_s: float
+    performer: Performer,
+    staged: _Staged,
+    custody: Custody,
+    clock: CustodyClock,
+    first_start_s: float,
 ) -> StreamReport:
     """The one place a performer uses the player: its part from the staged pose, first START at
     ``first_start_s`` on ``clock``; servos left holding."""
@@ -448,13 +473,17 @@ def play_part(
     approach_s = staged.performance.approach_s
 
     def progress(p: PlayProgress) -> None:
+        # Once a tick is started and the next staged: give way to another performer on this
+        # computer whose START is due now (same real-time priority, woken at the same instant);
+        # with several on fewer cores they would otherwise start one after another.
+        os.sched_yield()
         if p.time_s - last[0] >= PROGRESS_PERIOD_S or p.tick == p.ticks:
             last[0] = p.time_s
             message = PartProgress(performer.name, p.time_s - approach_s, p.duration_s - approach_s)
             performer.network.publish(events, encode(message))
 
-    player = Player(
-        staged.bus, staged.robot, clock, staged.limits, PlayOptions(), on_progress=progress
+    player = CustodyPlayer(
+        custody, staged.bus, staged.robot, clock, staged.limits, SHOW_PLAY, on_progress=progress
     )
     report = player.play(staged.performance.ticks, staged.start_pose, start_at_s=first_start_s)
     player.leave(report.outcome)
@@ -468,12 +497,14 @@ def _real_clock(bus: ServoBus) -> Clock:
     return clock
 
 
-def wire_summary(wire: WireTrace, since_s: float) -> str:
-    """One line on how the emulated servos were left: stopped, and nothing started after."""
+def wire_summary(wire: WireTrace, since_s: float, wall_to_clock_s: float) -> str:
+    """One line on how the emulated servos were left: stopped (when, wall clock), and nothing
+    started after."""
     stop = wire.last_stop_s(since_s)
     if stop is None:
         return "emulated bus: no MOVE_STOP on the wire (the part ran to its end)"
     later = [m for m in wire.moves if m.time_s > stop]
-    return f"emulated bus: MOVE_STOP on the wire; {len(later)} move(s) started after it" + (
-        "" if later else ": every servo stopped"
+    return (
+        f"emulated bus: MOVE_STOP on the wire at {clock_time(stop - wall_to_clock_s)}; "
+        f"{len(later)} move(s) started after it" + ("" if later else ": every servo stopped")
     )

@@ -17,6 +17,7 @@ from paths import DATA, REPO
 ROOT = REPO
 SHOWS = DATA / "shows"
 ARM = "sim://?ids=1-6"
+TIME_OF_DAY = r"\d\d:\d\d:\d\d\.\d{6}"  # as a performer says when its MOVE_STOP went
 
 
 def free_port() -> int:
@@ -103,10 +104,17 @@ def test_killing_the_conductor_stops_every_performer(performers):
     show.proc.kill()
     for name, (process, _) in performers.started.items():
         process.wait_for(f"{name}: part stopped: lost the conductor")
+        stopped = process.wait_for("servos stopped")
+        assert re.fullmatch(
+            rf"{name}: servos stopped \(conductor lost\): MOVE_STOP written at {TIME_OF_DAY}, "
+            r"\d+ ms after the conductor's last heartbeat",
+            stopped,
+        )
         summary = process.wait_for("emulated bus:")
-        assert summary == (
-            f"{name}: emulated bus: MOVE_STOP on the wire; "
-            "0 move(s) started after it: every servo stopped"
+        assert re.fullmatch(
+            rf"{name}: emulated bus: MOVE_STOP on the wire at {TIME_OF_DAY}; "
+            "0 move\\(s\\) started after it: every servo stopped",
+            summary,
         )
     show.finish()
 
@@ -129,7 +137,11 @@ def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_pa
     assert parts["left"]["reason"] == (
         "stopped by the conductor: right aborted or was lost (on_abort: stop)"
     )
-    assert parts["left"]["stop_s"] is not None  # its MOVE_STOP on the wire
+    assert parts["left"]["stop_cause"] == "stop message"
+    assert None not in (
+        parts["left"]["stop_written_s"],
+        parts["left"]["stop_s"],
+    )  # sent, on the wire
     performers.started["left"][0].wait_for("every servo stopped")
 
 
@@ -146,7 +158,8 @@ def test_ctrl_c_at_the_conductor_stops_every_performer(performers, tmp_path):
     assert report["stop_reason"] == "Ctrl-C at the conductor"
     for part in report["performers"]:
         assert part["outcome"] == "stopped"
-        assert part["stop_s"] is not None
+        assert part["stop_cause"] == "stop message"
+        assert None not in (part["stop_written_s"], part["stop_s"])
     for process, _ in performers.started.values():
         process.wait_for("every servo stopped")
 
@@ -246,6 +259,9 @@ def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound(perfo
         for name, (process, _) in performers.started.items():
             line = process.wait_for("part stopped: lost the conductor")
             assert line.startswith(f"{name}: part stopped: lost the conductor (no heartbeat for ")
+            assert process.wait_for("servos stopped").startswith(
+                f"{name}: servos stopped (silence): MOVE_STOP written at "
+            )
             assert process.wait_for("emulated bus:").endswith("every servo stopped")
     finally:
         show.proc.send_signal(signal.SIGCONT)

@@ -8,9 +8,10 @@ import time
 import pytest
 from show_helpers import Caller, Stage, eventually
 
+from choreo.core.clock import RealClock
+from choreo.show.custody import Custody, Holder
 from choreo.show.messages import Go, encode
 from choreo.show.network import Network
-from choreo.show.performer import Holder
 
 
 @pytest.fixture
@@ -99,19 +100,18 @@ def test_a_silent_conductor_loses_its_part_and_its_start_is_refused(stage, sessi
 
 
 def test_a_start_while_the_conductor_is_not_live_is_refused(stage):
-    """Between a conductor going silent and the watchdog dropping its part (at most one
-    watchdog period), its start is refused too."""
+    """Between a conductor going silent and its part being dropped, its start is refused too."""
     performer = stage.performer
-    performer.holder = Holder("show-1", "t" * 32)
-    performer.conductor_alive, performer.last_beat_s = False, time.monotonic()
+    custody = Custody(Holder("show-1", "t" * 32), RealClock(), 0.4)
+    performer.custody = custody
     assert performer._refusal_of(encode(Go("show-1", 0.0, "t" * 32))) == (
-        "no live conductor holds show show-1"
+        "no live conductor holds show show-1"  # no liveliness token heard
     )
-    performer.conductor_alive, performer.last_beat_s = True, time.monotonic() - 1.0
+    custody.conductor_alive, custody.last_beat_s = True, time.monotonic() - 1.0
     assert performer._refusal_of(encode(Go("show-1", 0.0, "t" * 32))) == (
-        "no live conductor holds show show-1"
+        "no live conductor holds show show-1"  # silent
     )
-    performer.holder = None
+    performer.custody = None
 
 
 def test_forged_heartbeats_do_not_keep_a_part_alive(stage, session):

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import re
-import threading
 import time
 from importlib import resources
 from pathlib import Path
@@ -16,8 +15,7 @@ import yaml
 from paths import DATA, REPO
 
 from choreo import Outcome
-from choreo.core.clock import RealClock
-from choreo.errors import ChoreoError, OptionError, PlaybackAborted, SourceError
+from choreo.errors import ChoreoError, OptionError, SourceError
 from choreo.motion.motion_file import load_motion
 from choreo.show import network as zenoh_network
 from choreo.show.clock_offset import (
@@ -38,7 +36,6 @@ from choreo.show.messages import (
     decode,
     encode,
 )
-from choreo.show.performer import StoppableClock
 from choreo.show.showfile import OnAbort, load_show
 from choreo.show.staging import pack, unpack
 from choreo.validate import check_file
@@ -122,17 +119,6 @@ def test_without_a_bound_the_measure_takes_its_rounds_only():
 )
 def test_an_offset_exceeds_the_bound_with_its_error(offset_s, error_s, over):
     assert exceeds(ClockOffset(offset_s, error_s, 8), 0.002) is over
-
-
-def test_a_stopped_clock_wakes_its_sleeper_with_the_reason():
-    stopped = threading.Event()
-    clock = StoppableClock(RealClock(), stopped, lambda: "stopped by the conductor")
-    deadline = clock.now() + 0.01
-    clock.sleep_until(deadline)
-    assert clock.now() >= deadline
-    stopped.set()
-    with pytest.raises(PlaybackAborted, match="stopped by the conductor"):
-        clock.sleep_until(clock.now() + 3600)  # at once: the test would hang otherwise
 
 
 # --- show files ---------------------------------------------------------------------------------
