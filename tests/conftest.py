@@ -67,20 +67,21 @@ SHIPPED_SIMULATION_FILES = (
 # adding to the librosa files' worker.
 OWN_UNITS = ("tests/test_docs.py::test_readme_command_runs[choreo preview ",)
 
-# The costliest units, costliest first (measured with --durations on 2 cores): a parallel run hands
-# them out first, and the many short files fill in around them, so no long unit starts last and
-# leaves the other worker idle (xdist's own order, by number of tests, starts with the files of
-# hundreds of quick tests). Units not named keep that order, after these.
+# The costliest units, costliest first (by their wall time with -n 2 on a busy 2-core machine): a
+# parallel run hands them out first, and the many short files fill in around them, so no long unit
+# starts last and leaves the other worker idle (xdist's own order, by number of tests, starts with
+# the files of hundreds of quick tests). Units not named keep that order, after these.
 COSTLIEST_FIRST = (
+    "tests/cli/test_show_commands.py",
     "tests/studio/test_timeline_page_browser.py",
     "librosa",
-    "tests/cli/test_show_commands.py",
     "shipped simulations",
     "tests/studio/test_studio_browser.py",
-    OWN_UNITS[0],  # the README's previews
     "tests/studio/test_editing.py",
     "tests/show/test_netns.py",
+    OWN_UNITS[0],  # the README's previews
     "tests/identify/test_identify.py",
+    "tests/robot/test_kinematics.py",
     "tests/preview/test_render.py",
     "tests/preview/test_twin.py",
 )
