@@ -2,7 +2,8 @@
 
 Runs the README's test command (``python -m pytest -q -n auto``) once quiet and once beside two
 busy-looping processes (one per core of a 2-core machine, killed when the suite ends), and prints
-each run's duration and pytest's closing line.
+each run's duration, the CPU time the suite's processes used (the same whatever else runs, so
+runs on a shared machine compare), the load average it started at, and pytest's closing line.
 
 Run: python benchmarks/bench_suite.py [--hogs 2] [--skip-quiet]
 """
@@ -10,6 +11,8 @@ Run: python benchmarks/bench_suite.py [--hogs 2] [--skip-quiet]
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import subprocess
 import sys
 import time
@@ -21,8 +24,16 @@ REPO = Path(__file__).resolve().parents[1]
 GOAL_S = 180.0
 
 
-def run_suite() -> tuple[float, str]:
-    """The suite's wall time, and pytest's closing line after the names of any failed tests."""
+def children_cpu_s() -> float:
+    """CPU seconds of the finished child processes (and theirs), user and system."""
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
+def run_suite() -> tuple[float, float, str]:
+    """The suite's wall time and CPU time, and pytest's closing line after the names of any
+    failed tests."""
+    cpu_before = children_cpu_s()
     started = time.monotonic()
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-n", "auto", "-p", "no:cacheprovider"],
@@ -34,7 +45,8 @@ def run_suite() -> tuple[float, str]:
     lines = done.stdout.strip().splitlines()
     failed = [line for line in lines if line.startswith(("FAILED ", "ERROR "))]
     closing = lines[-1] if lines else f"exit status {done.returncode}"
-    return time.monotonic() - started, "\n".join([*failed, closing])
+    wall_s, cpu_s = time.monotonic() - started, children_cpu_s() - cpu_before
+    return wall_s, cpu_s, "\n".join([*failed, closing])
 
 
 def main() -> None:
@@ -46,9 +58,13 @@ def main() -> None:
     if not args.skip_quiet:
         runs.insert(0, ("quiet", 0))
     for name, hogs in runs:
-        with cpu_hogs(hogs):
-            seconds, closing = run_suite()
-        print(f"suite {name}: {seconds:.0f} s (goal <= {GOAL_S:.0f} s): {closing}")
+        load = os.getloadavg()[0]
+        with cpu_hogs(hogs):  # the hogs' CPU is not counted: they end after run_suite
+            wall_s, cpu_s, closing = run_suite()
+        print(
+            f"suite {name}: {wall_s:.0f} s (goal <= {GOAL_S:.0f} s), {cpu_s:.0f} s of CPU, "
+            f"load {load:.1f} at the start on {os.cpu_count()} cores: {closing}"
+        )
 
 
 if __name__ == "__main__":

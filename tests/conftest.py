@@ -58,27 +58,68 @@ LIBROSA_FILES = (
 # then simulates each motion once for all of them (shipped_helpers.simulated_shipped).
 SHIPPED_SIMULATION_FILES = (
     "tests/preview/test_preview_shipped.py",
+    "tests/preview/test_start.py",
     "tests/preview/test_travel.py",
     "tests/preview/test_walk.py",
 )
 
+# The README's previews each render in a process of their own (its video of the tonypi dance: 30 s
+# of CPU) and need no librosa: each is a unit of its own, so they spread over the workers instead of
+# adding to the librosa files' worker.
+OWN_UNITS = ("tests/test_docs.py::test_readme_command_runs[choreo preview ",)
+
+# The costliest units, costliest first (by their wall time with -n 2 on a busy 2-core machine): a
+# parallel run hands them out first, and the many short files fill in around them, so no long unit
+# starts last and leaves the other worker idle (xdist's own order, by number of tests, starts with
+# the files of hundreds of quick tests). Units not named keep that order, after these.
+COSTLIEST_FIRST = (
+    "tests/cli/test_show_commands.py",
+    "tests/studio/test_timeline_page_browser.py",
+    "librosa",
+    "shipped simulations",
+    "tests/studio/test_studio_browser.py",
+    "tests/studio/test_editing.py",
+    "tests/show/test_netns.py",
+    OWN_UNITS[0],  # the README's previews
+    "tests/identify/test_identify.py",
+    "tests/robot/test_kinematics.py",
+    "tests/preview/test_render.py",
+    "tests/preview/test_twin.py",
+)
+
+
+def _cost_rank(unit: str) -> int:
+    """A unit's place in COSTLIEST_FIRST (by the name a unit of its own starts with), or after."""
+    for rank, name in enumerate(COSTLIEST_FIRST):
+        if unit == name or (name in OWN_UNITS and unit.startswith(name)):
+            return rank
+    return len(COSTLIEST_FIRST)
+
+
 if importlib.util.find_spec("xdist") is not None:  # a hook pytest knows only with xdist
 
     def pytest_xdist_make_scheduler(config, log):
-        """``--dist loadfile`` (the default here), with the librosa files as one unit and the
-        shipped simulations' files as another."""
+        """``--dist loadfile`` (the default here), with the librosa files as one unit, the shipped
+        simulations' files as another, the OWN_UNITS tests one each, and the costliest first."""
         if config.getoption("dist") != "loadfile":
             return None
         from xdist.scheduler import LoadFileScheduling
 
-        class ByFileLibrosaTogether(LoadFileScheduling):
+        class ByFileCostliestFirst(LoadFileScheduling):
             def _split_scope(self, nodeid: str) -> str:
+                if nodeid.startswith(OWN_UNITS):
+                    return nodeid
                 file = super()._split_scope(nodeid)
                 if file in LIBROSA_FILES:
                     return "librosa"
                 return "shipped simulations" if file in SHIPPED_SIMULATION_FILES else file
 
-        return ByFileLibrosaTogether(config, log)
+            def _assign_work_unit(self, node) -> None:
+                costliest = min(self.workqueue, key=_cost_rank)  # the first of equal rank
+                self.workqueue.move_to_end(costliest, last=False)
+                super()._assign_work_unit(node)
+
+        return ByFileCostliestFirst(config, log)
 
 
 # The tests that drive Chromium are the files named test_*_browser.py

@@ -19,6 +19,7 @@ import paths
 import pytest
 from paths import REPO
 from preview_helpers import linear_ticks
+from shipped_helpers import simulated_shipped
 
 from choreo.cli import main
 from choreo.errors import OptionError, SourceError
@@ -69,9 +70,10 @@ def kinds(results) -> set[CheckKind]:
 
 # --- the start ---------------------------------------------------------------------------------
 def test_stand_up_starts_lying_on_the_floor_in_its_first_pose():
-    motion = load_motion(REPO / "motions" / "hexapod18" / "stand_up.yaml")
+    path = REPO / "motions" / "hexapod18" / "stand_up.yaml"
+    motion = load_motion(path)
     assert motion.start is StartPosture.LYING
-    simulated = simulate_motion(motion)
+    simulated = simulated_shipped(path)
     rollout = simulated.rollout
     s0 = rollout.start_step
     # it lies in its first pose already: no approach, and the body where the MJCF's lying key is
@@ -90,8 +92,9 @@ def test_stand_up_starts_lying_on_the_floor_in_its_first_pose():
 
 
 def test_squat_starts_standing_at_home_and_approaches_as_the_player_does():
-    motion = load_motion(REPO / "motions" / "tonypi" / "squat.yaml")
-    simulated = simulate_motion(motion)
+    path = REPO / "motions" / "tonypi" / "squat.yaml"
+    motion = load_motion(path)
+    simulated = simulated_shipped(path)
     rollout = simulated.rollout
     home = motion.robot.pose_vector("home")
     performance = prepare(compile_motion(motion), home)
@@ -118,7 +121,7 @@ def test_squat_starts_standing_at_home_and_approaches_as_the_player_does():
     "path", sorted((REPO / "motions" / "tonypi").glob("*.yaml")), ids=lambda p: p.stem
 )
 def test_a_humanoid_starts_upright_with_its_feet_on_the_floor(path):
-    rollout = simulate_motion(load_motion(path)).rollout
+    rollout = simulated_shipped(path).rollout
     s0 = rollout.start_step
     assert abs(clearance_at(rollout, s0)) < 0.001
     assert rollout.body.tilt_deg[s0] < 1.0
