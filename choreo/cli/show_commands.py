@@ -185,18 +185,9 @@ def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
 
 # --- choreo show -----------------------------------------------------------------------------
 def run_show(args: argparse.Namespace) -> int:
-    from choreo.show.conductor import Conductor, ConductorOptions
-    from choreo.validate import check_file  # plans every motion: only when a show runs
+    from choreo.show.conductor import ConductorOptions
 
-    problems = check_file(args.show, physics=False).problems  # every motion, before any robot
-    if problems:
-        raise ChoreoError(
-            f"refusing to start the show: {len(problems)} problem(s) in its files:\n  "
-            + "\n  ".join(problems)
-        )
-    show = load_show(args.show)
-    if args.report is not None:
-        check_writable(args.report)
+    show = _checked_show(args)
     options = ConductorOptions(wait_s=args.wait, dry_run=args.dry_run)
     sink, song = (None, None) if args.no_audio or args.dry_run else _open_song(args, show)
 
@@ -215,40 +206,73 @@ def run_show(args: argparse.Namespace) -> int:
             _network(args) as network,
             Progress(*columns, console=console) as progress,
         ):
-            reports = []
-            for cue in show.in_cues():  # one after another; a cue that did not complete ends it
-                tasks = {
-                    p.performer: progress.add_task(p.performer, total=1.0, at="waiting")
-                    for p in cue.parts
-                }
-
-                def on_progress(p, tasks=tasks) -> None:
-                    if p.performer in tasks:
-                        done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
-                        at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
-                        progress.update(tasks[p.performer], completed=done, at=at)
-
-                def on_armed(armed, cue=cue) -> None:
-                    progress.console.print(_status_table(cue.name, armed))
-                    if args.go:
-                        return
-                    progress.stop()  # the live bars would write over the prompt
-                    try:
-                        _say("armed: press Enter for GO (Ctrl-C calls the show off)")
-                        input()
-                    except EOFError:
-                        raise ChoreoError(
-                            "no GO: the input ended before Enter; give --go to start without one"
-                        ) from None
-                    progress.start()
-
-                conductor = Conductor(network, cue, progress.console.print, options)
-                reports.append(conductor.run(on_progress, cue_song, on_armed))
-                if not reports[-1].completed:
-                    break
+            reports = _run_cues(args, show, network, progress, options, cue_song)
     finally:
         if sink is not None:
             sink.stop()
+    _write_and_print(args, show, reports)
+    if reports[-1].interrupted:
+        return 130
+    return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
+
+
+def _checked_show(args: argparse.Namespace) -> Show:
+    """The show file, once every motion in it plans and its report can be written."""
+    from choreo.validate import check_file  # plans every motion: only when a show runs
+
+    problems = check_file(args.show, physics=False).problems  # every motion, before any robot
+    if problems:
+        raise ChoreoError(
+            f"refusing to start the show: {len(problems)} problem(s) in its files:\n  "
+            + "\n  ".join(problems)
+        )
+    show = load_show(args.show)
+    if args.report is not None:
+        check_writable(args.report)
+    return show
+
+
+def _run_cues(args, show, network, progress, options, cue_song) -> list:
+    """Each cue in turn, armed and started on GO; a cue that did not complete ends the show."""
+    from choreo.show.conductor import Conductor
+
+    reports = []
+    for cue in show.in_cues():
+        tasks = {
+            p.performer: progress.add_task(p.performer, total=1.0, at="waiting") for p in cue.parts
+        }
+
+        def on_progress(p, tasks=tasks) -> None:
+            if p.performer in tasks:
+                done = max(0.0, p.time_s) / p.duration_s if p.duration_s > 0 else 1.0
+                at = f"{p.time_s:6.1f}/{p.duration_s:.1f} s"
+                progress.update(tasks[p.performer], completed=done, at=at)
+
+        def on_armed(armed, cue=cue) -> None:
+            progress.console.print(_status_table(cue.name, armed))
+            if not args.go:
+                _wait_for_go(progress)
+
+        conductor = Conductor(network, cue, progress.console.print, options)
+        reports.append(conductor.run(on_progress, cue_song, on_armed))
+        if not reports[-1].completed:
+            break
+    return reports
+
+
+def _wait_for_go(progress: Progress) -> None:
+    progress.stop()  # the live bars would write over the prompt
+    try:
+        _say("armed: press Enter for GO (Ctrl-C calls the show off)")
+        input()
+    except EOFError:
+        raise ChoreoError(
+            "no GO: the input ended before Enter; give --go to start without one"
+        ) from None
+    progress.start()
+
+
+def _write_and_print(args: argparse.Namespace, show: Show, reports: list) -> None:
     if args.report is not None:
         documents = [report_document(report) for report in reports]
         write_report(
@@ -257,9 +281,6 @@ def run_show(args: argparse.Namespace) -> int:
         )
     for report in reports:
         _print_report(report)
-    if reports[-1].interrupted:
-        return 130
-    return 0 if len(reports) == len(show.in_cues()) and reports[-1].completed else 1
 
 
 def _status_table(title: str, armed) -> Table:
