@@ -132,7 +132,11 @@
   }
 
   // --- time and pixels ----------------------------------------------------------------------
-  const plotW = () => canvas.clientWidth - LABEL_W;
+  // the canvas's CSS width, read once per redraw (and per pointer event): reading clientWidth
+  // for every point drawn asks the browser for its layout thousands of times a redraw
+  let cssW = 0;
+  const canvasW = () => cssW || (cssW = canvas.clientWidth);
+  const plotW = () => canvasW() - LABEL_W;
   const xOf = (t) => LABEL_W + ((t - view.t0) / view.span) * plotW();
   const tOf = (x) => view.t0 + ((x - LABEL_W) / plotW()) * view.span;
 
@@ -228,7 +232,8 @@
   // --- drawing --------------------------------------------------------------------------------
   function resize() {
     const ratio = window.devicePixelRatio || 1;
-    const w = Math.round(canvas.clientWidth * ratio), h = Math.round(canvas.clientHeight * ratio);
+    cssW = canvas.clientWidth;
+    const w = Math.round(cssW * ratio), h = Math.round(canvas.clientHeight * ratio);
     for (const c of [canvas, layer]) {
       if (c.width !== w || c.height !== h) {
         c.width = w;
@@ -272,7 +277,7 @@
   }
 
   function drawLayer(L) {
-    const W = canvas.clientWidth;
+    const W = canvasW();
     ctx = layerCtx;
     ctx.clearRect(0, 0, W, L.height);
     ctx.font = "11px system-ui, sans-serif";
@@ -307,7 +312,7 @@
   }
 
   function drawGrid(L) {
-    const W = canvas.clientWidth;
+    const W = canvasW();
     ctx.save();
     ctx.beginPath();
     ctx.rect(LABEL_W, 0, W - LABEL_W, L.height);
@@ -339,7 +344,7 @@
   }
 
   function drawRuler(L) {
-    const W = canvas.clientWidth;
+    const W = canvasW();
     ctx.fillStyle = "#f1f1f4";
     ctx.fillRect(0, 0, W, RULER_H);
     ctx.fillStyle = "#d0d0d6";
@@ -383,7 +388,7 @@
 
   function drawWave(L) {
     const music = state.music, peaks = music.peaks;
-    const W = canvas.clientWidth;
+    const W = canvasW();
     const mid = L.waveTop + L.wave / 2, half = L.wave / 2 - 3;
     ctx.fillStyle = "#f6f3fc";
     ctx.fillRect(LABEL_W, L.waveTop, W - LABEL_W, L.wave);
@@ -406,7 +411,7 @@
   }
 
   function drawFindings(L) {
-    const W = canvas.clientWidth;
+    const W = canvasW();
     ctx.fillStyle = "#fcfcfd";
     ctx.fillRect(LABEL_W, L.findTop, W - LABEL_W, FIND_H);
     for (const finding of state.findings) {
@@ -440,13 +445,27 @@
     return drag && drag.kind === "keys" && drag.moved && selection.has(index) ? k.t + drag.dt : k.t;
   }
 
-  function drawDiamonds(y, indices) {
+  // keyframe indices by joint, kept with the state (the lanes ask for them every redraw)
+  function keysOfJoint(j) {
+    if (!state._byJoint) {
+      state._byJoint = new Map();
+      state.keyframes.forEach((k, i) => {
+        for (const joint of k.joints) {
+          if (!state._byJoint.has(joint)) state._byJoint.set(joint, new Set());
+          state._byJoint.get(joint).add(i);
+        }
+      });
+    }
+    return state._byJoint.get(j) || new Set();
+  }
+
+  function drawDiamonds(y, indices, xs) {
     // indices: keyframes in time order drawn on the row centred at y; one path per colour,
     // and one diamond per pixel column (a thousand keyframes in a few hundred pixels)
     const paths = { "#ff8a00": [], "#3b4a6b": [], "#9aa0ad": [] };
     for (const i of indices) {
       const colour = selection.has(i) ? "#ff8a00" : state.keyframes[i].editable ? "#3b4a6b" : "#9aa0ad";
-      paths[colour].push(Math.round(xOf(draggedTime(i))));
+      paths[colour].push(xs ? xs.get(i) : Math.round(xOf(draggedTime(i))));
     }
     for (const colour in paths) {
       const xs = paths[colour];
@@ -476,15 +495,16 @@
   }
 
   function drawLanes(L) {
-    const W = canvas.clientWidth;
+    const W = canvasW();
     const shown = visibleKeyframes();
+    const xs = new Map(shown.map((i) => [i, Math.round(xOf(draggedTime(i)))])); // once, not per lane
     ctx.fillStyle = "#f4f5f8";
     ctx.fillRect(LABEL_W, L.keysTop, W - LABEL_W, KEYS_H);
     ctx.save();
     ctx.beginPath();
     ctx.rect(LABEL_W - DIAMOND - 1, 0, W, L.lanesTop);
     ctx.clip();
-    drawDiamonds(L.keysTop + KEYS_H / 2, shown);
+    drawDiamonds(L.keysTop + KEYS_H / 2, shown, xs);
     ctx.restore();
     ctx.save();
     ctx.beginPath();
@@ -496,23 +516,24 @@
       if (row.kind === "limb") {
         ctx.fillStyle = "#e9eaf0";
         ctx.fillRect(0, top, W, ROW_H);
-        const joints = new Set(row.limb.joints);
         if (view.folded.has(row.limb.name)) {
-          drawDiamonds(top + ROW_H / 2, shown.filter((i) => state.keyframes[i].joints.some((j) => joints.has(j))));
+          const keys = row.limb.joints.map(keysOfJoint);
+          drawDiamonds(top + ROW_H / 2, shown.filter((i) => keys.some((k) => k.has(i))), xs);
         }
       } else {
         if (r % 2) {
           ctx.fillStyle = "rgba(0,0,0,0.025)";
           ctx.fillRect(LABEL_W, top, W, ROW_H);
         }
-        drawDiamonds(top + ROW_H / 2, shown.filter((i) => state.keyframes[i].joints.includes(row.j)));
+        const keys = keysOfJoint(row.j);
+        drawDiamonds(top + ROW_H / 2, shown.filter((i) => keys.has(i)), xs);
       }
     });
     ctx.restore();
   }
 
   function drawCurves(L) {
-    const W = canvas.clientWidth, top = L.curvesTop + 6, h = L.curvesH - 12;
+    const W = canvasW(), top = L.curvesTop + 6, h = L.curvesH - 12;
     ctx.fillStyle = "#fff";
     ctx.fillRect(0, L.curvesTop, W, L.curvesH);
     ctx.fillStyle = "#d0d0d6";
@@ -523,11 +544,7 @@
       ctx.fillText("click a joint's name to see its curves", 8, L.curvesTop + 14);
       return;
     }
-    let lo = Infinity, hi = -Infinity;
-    for (const j of picked) {
-      for (const v of curves.plan[j]) if (v !== null) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
-      if (curves.sim) for (const v of curves.sim[j]) if (v !== null) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
-    }
+    let [lo, hi] = valueRange(picked);
     if (!(hi > lo)) { lo -= 5; hi += 5; }
     const pad = (hi - lo) * 0.08;
     lo -= pad; hi += pad;
@@ -555,29 +572,54 @@
     ctx.restore();
   }
 
+  // the lowest and highest value of the picked joints' curves, kept with the state (it is
+  // the same for every redraw until the state or the picked joints change)
+  function valueRange(picked) {
+    const key = picked.join(",");
+    if (!state._ranges) state._ranges = new Map();
+    if (!state._ranges.has(key)) {
+      let lo = Infinity, hi = -Infinity;
+      const curves = state.curves;
+      for (const j of picked) {
+        for (const series of curves.sim ? [curves.plan[j], curves.sim[j]] : [curves.plan[j]]) {
+          for (const v of series) if (v !== null) { if (v < lo) lo = v; if (v > hi) hi = v; }
+        }
+      }
+      state._ranges.set(key, [lo, hi]);
+    }
+    return state._ranges.get(key);
+  }
+
   function polyline(times, values, from, to, yOf, width, dash) {
     ctx.lineWidth = width;
     ctx.setLineDash(dash);
     ctx.beginPath();
     // one point per CURVE_PX pixels: the lowest and highest value in them, in their order
-    let open = false, column = NaN, lo = null, hi = null;
-    const flush = () => {
-      if (lo === null) return;
-      const [first, second] = lo[0] <= hi[0] ? [lo, hi] : [hi, lo];
-      for (const [, x, y] of first === second ? [first] : [first, second]) {
-        if (open) ctx.lineTo(x, y);
-        else ctx.moveTo(x, y);
-        open = true;
-      }
-      lo = hi = null;
+    // (plain numbers, not a small array per point: thousands of points a redraw)
+    let open = false, column = NaN, any = false;
+    let loI = 0, loX = 0, loY = 0, hiI = 0, hiX = 0, hiY = 0;
+    const to_ = (x, y) => {
+      if (open) ctx.lineTo(x, y);
+      else ctx.moveTo(x, y);
+      open = true;
     };
+    const flush = () => {
+      if (!any) return;
+      if (loI === hiI) to_(loX, loY);
+      else if (loI < hiI) { to_(loX, loY); to_(hiX, hiY); }
+      else { to_(hiX, hiY); to_(loX, loY); }
+      any = false;
+    };
+    const x0 = LABEL_W - (view.t0 / view.span) * plotW(), perS = plotW() / view.span;
     for (let i = from; i < to; i++) {
-      if (values[i] === null) { flush(); open = false; continue; }
-      const x = xOf(times[i]), y = yOf(values[i]);
+      const v = values[i];
+      if (v === null) { flush(); open = false; continue; }
+      const x = x0 + times[i] * perS, y = yOf(v);
       const here = Math.floor(x / CURVE_PX);
       if (here !== column) { flush(); column = here; }
-      if (lo === null || y > lo[2]) lo = [i, x, y];
-      if (hi === null || y < hi[2]) hi = [i, x, y];
+      if (!any || y > loY) { loI = i; loX = x; loY = y; }
+      if (!any || y < hiY) { hiI = i; hiX = x; hiY = y; }
+      any = true;
     }
     flush();
     ctx.stroke();
@@ -720,6 +762,7 @@
   // --- pointer --------------------------------------------------------------------------------
   function point(event) {
     const box = canvas.getBoundingClientRect();
+    cssW = canvas.clientWidth;
     return [event.clientX - box.left, event.clientY - box.top];
   }
 
