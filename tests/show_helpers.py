@@ -120,6 +120,23 @@ class Caller:
         self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason, signed)))
 
 
+def stage_stop_and_play(conductor: Caller, stage: Stage) -> None:
+    """What a conductor the network lets through can do: stage a part, stop it with a signed
+    stop, stage it again and play it to its end."""
+    conductor.hold()
+    try:
+        assert conductor.stage().ok
+        conductor.stop("from the conductor")
+        eventually(lambda: stage.heard("part dropped"), "the part is dropped")
+        assert stage.heard("stopped by the conductor: from the conductor: part dropped")
+        eventually(lambda: conductor.info().state == "idle", "the performer is free again")
+        assert conductor.stage().ok
+        assert conductor.go().ok
+        eventually(lambda: stage.heard("part completed"), "the part plays to its end")
+    finally:
+        conductor.fall_silent()
+
+
 # --- mutual TLS: certificates made with openssl, and Zenoh configurations using them ---------
 def openssl(*args: str, cwd: Path) -> None:
     subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)

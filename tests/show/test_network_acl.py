@@ -17,6 +17,7 @@ from show_helpers import (
     eventually,
     make_certificates,
     sign_certificate,
+    stage_stop_and_play,
     tls_config,
 )
 
@@ -79,15 +80,4 @@ def test_the_conductor_the_rules_allow_stages_starts_and_stops(stage, certificat
     with session(stage, certificates, "conductor") as allowed:
         conductor = Caller(allowed, "show-1")
         eventually(lambda: conductor.info(timeout_s=NO_ANSWER_S), "the conductor reaches it")
-        conductor.hold()
-        try:
-            assert conductor.stage().ok
-            conductor.stop("from the conductor")
-            eventually(lambda: stage.heard("part dropped"), "the part is dropped")
-            assert stage.heard("stopped by the conductor: from the conductor: part dropped")
-            eventually(lambda: conductor.info().state == "idle", "the performer is free again")
-            assert conductor.stage().ok
-            assert conductor.go().ok
-            eventually(lambda: stage.heard("part completed"), "the part plays to its end")
-        finally:
-            conductor.fall_silent()
+        stage_stop_and_play(conductor, stage)

@@ -8,7 +8,14 @@ import shutil
 from pathlib import Path
 
 import pytest
-from show_helpers import Caller, Stage, eventually, make_certificates, tls_config
+from show_helpers import (
+    Caller,
+    Stage,
+    eventually,
+    make_certificates,
+    stage_stop_and_play,
+    tls_config,
+)
 
 from choreo.show.network import Network
 
@@ -73,15 +80,4 @@ def test_the_conductor_with_its_certificate_stages_starts_and_stops(stage, certi
     with Network(connect=[stage.endpoint], zenoh_config=config) as session:
         conductor = Caller(session, "show-1")
         eventually(lambda: conductor.info(timeout_s=NO_ANSWER_S), "the conductor reaches it")
-        conductor.hold()
-        try:
-            assert conductor.stage().ok
-            conductor.stop("from the conductor")
-            eventually(lambda: stage.heard("part dropped"), "the part is dropped")
-            assert stage.heard("stopped by the conductor: from the conductor: part dropped")
-            eventually(lambda: conductor.info().state == "idle", "the performer is free again")
-            assert conductor.stage().ok
-            assert conductor.go().ok
-            eventually(lambda: stage.heard("part completed"), "the part plays to its end")
-        finally:
-            conductor.fall_silent()
+        stage_stop_and_play(conductor, stage)
