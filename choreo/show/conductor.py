@@ -396,12 +396,16 @@ class Conductor:
             args=(start_s, following.outcomes, later, following.measuring_done),
             daemon=True,
         )
-        watcher.start()
         try:
+            try:
+                watcher.start()  # waits for the thread to run: long enough for a Ctrl-C to land
+            except KeyboardInterrupt:
+                interrupted = True  # the parts are stopped and reported all the same
             self._await_parts(start_s, following, interrupted)
         finally:
             following.measuring_done.set()
-            watcher.join()
+            if watcher.ident is not None:
+                watcher.join()
         parts = []
         for part in self.show.parts:
             outcome, reason, finished = following.outcomes.get(
@@ -420,24 +424,29 @@ class Conductor:
         """Every part's end, as its events come (or the deadline), saying the countdown;
         Ctrl-C stops every part, and so does a part that fails when the show says so."""
         while len(following.outcomes) < len(self.names) and time.time() < following.deadline_s:
+            # Ctrl-C may come while an event is being told as well as while waiting for one
             try:
                 if interrupted:
                     interrupted = False
                     raise KeyboardInterrupt
                 self._count_down(start_s, following)
-                kind, what = self.events.get(timeout=0.1)
-            except queue.Empty:
-                continue
+                try:
+                    kind, what = self.events.get(timeout=0.1)
+                except queue.Empty:
+                    continue
+                self._on_event(following, kind, what)
             except KeyboardInterrupt:
                 following.interrupted = True
                 self._stop_parts(following, INTERRUPTED)
                 following.deadline_s = time.time() + STOP_REPLIES_S
                 self.say(f"{INTERRUPTED}: stopping every performer")
-                continue
-            failed = self._heard(following, kind, what)
-            if failed and following.stop_sent_s is None and self.show.on_abort is OnAbort.STOP:
-                self._stop_parts(following, f"{failed} aborted or was lost (on_abort: stop)")
-                following.deadline_s = min(following.deadline_s, time.time() + STOP_REPLIES_S)
+
+    def _on_event(self, following: _Following, kind: str, what: object) -> None:
+        """Note a part's end; a failed part stops the others when the show says so."""
+        failed = self._heard(following, kind, what)
+        if failed and following.stop_sent_s is None and self.show.on_abort is OnAbort.STOP:
+            self._stop_parts(following, f"{failed} aborted or was lost (on_abort: stop)")
+            following.deadline_s = min(following.deadline_s, time.time() + STOP_REPLIES_S)
 
     def _count_down(self, start_s: float, following: _Following) -> None:
         """Say each whole second left before the show's instant (until a stop)."""
