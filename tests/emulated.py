@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import contextlib
+import subprocess
+import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from choreo.bus.protocol import Command
@@ -71,6 +73,36 @@ def served_on_a_pty(emulator: BusEmulator, link_path: Path) -> Iterator[Path]:
         bridge.stop()
         thread.join(WAIT_S)
         bridge.close()
+
+
+def play_then_signal(
+    emulator: BusEmulator, port: str, signum: int, playing: Callable[[list], bool]
+) -> tuple[int, str, list]:
+    """Run `choreo play` of arm6's dance on ``port`` (which ``emulator`` serves), send ``signum``
+    once ``playing(the wire log so far)`` holds, and give the exit code, stderr and the packets
+    logged from the signal on."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
+        + list(PATIENT_READS),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+
+        def started() -> bool:
+            if process.poll() is not None:
+                raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
+            # list() copies at once: the bridge thread appends to the log meanwhile
+            return playing(list(emulator.log.packets))
+
+        wait_for(started, "the motion to be playing")
+        sent_before = len(emulator.log.packets)  # the log only grows (far below its limit)
+        process.send_signal(signum)
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    return process.returncode, stderr, list(emulator.log.packets)[sent_before:]
 
 
 def built_in_emulator_in_virtual_time(robot: Robot) -> BusEmulator:

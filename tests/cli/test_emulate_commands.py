@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pytest
-from emulated import PATIENT_READS, home_specs, served_on_a_pty, wait_for
+from emulated import home_specs, play_then_signal, served_on_a_pty
 
 from choreo.bus.protocol import Command, decode_request
 from choreo.cli import main
@@ -82,30 +82,15 @@ def test_a_signal_puts_the_boards_stop_on_the_wire_and_nothing_moves_after_it(
 ):
     """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     board, emulator, port = board_on_a_pty
-    process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", port]
-        + list(PATIENT_READS),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+    returncode, stderr, after = play_then_signal(
+        emulator,
+        port,
+        signum,
+        # the approach and two ticks
+        lambda log: sum(p.packet.command == Command.MOVE_TIME_WRITE for p in log) >= 18,
     )
-    try:
-
-        def playing():
-            if process.poll() is not None:
-                raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
-            moves = [p for p in list(emulator.log.packets) if p.packet.command == 1]
-            return len(moves) >= 18  # the approach and two ticks
-
-        wait_for(playing, "the motion to be playing")
-        sent_before = len(emulator.log.packets)  # the log only grows (far below its limit)
-        process.send_signal(signum)
-        _, stderr = process.communicate(timeout=30)
-    finally:
-        process.kill()
-    assert process.returncode == 130, stderr
+    assert returncode == 130, stderr
     assert "Traceback" not in stderr
-    after = list(emulator.log.packets)[sent_before:]
     commands = [(p.packet.command, p.packet.servo_id) for p in after]
     if board == "rrc":  # one stop frame: MOVE_STOP to each servo in turn
         stop = [(Command.MOVE_STOP, i) for i in range(1, 7)]

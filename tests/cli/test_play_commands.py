@@ -5,12 +5,10 @@ checks what reaches the wire and in which order, never how soon."""
 from __future__ import annotations
 
 import signal
-import subprocess
-import sys
 
 import pytest
 from cli_helpers import WAVE, choreo_process, motion_file, packets
-from emulated import PATIENT_READS, wait_for
+from emulated import PATIENT_READS, play_then_signal, wait_for
 
 from choreo.bus.protocol import BROADCAST_ID, Command
 from choreo.cli import main
@@ -22,33 +20,16 @@ MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_STA
 def test_a_signal_puts_move_stop_on_the_wire_and_exits_130(arm_on_a_pty, signum):
     """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     emulator, link = arm_on_a_pty
-    process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", "play", "motions/arm6/dance.yaml", "--port", str(link)]
-        + list(PATIENT_READS),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+    returncode, stderr, logged = play_then_signal(
+        emulator,
+        str(link),
+        signum,
+        # the approach and two ticks
+        lambda log: sum(p.packet.command == Command.MOVE_START for p in log) >= 3,
     )
-    try:
-
-        def playing():
-            if process.poll() is not None:
-                raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
-            # list() copies at once: the bridge thread appends to the log meanwhile
-            starts = [
-                p for p in list(emulator.log.packets) if p.packet.command == Command.MOVE_START
-            ]
-            return len(starts) >= 3  # the approach and two ticks
-
-        wait_for(playing, "the motion to be playing")
-        sent_before = len(emulator.log.packets)  # the log only grows (far below its limit)
-        process.send_signal(signum)
-        _, stderr = process.communicate(timeout=30)
-    finally:
-        process.kill()
-    assert process.returncode == 130, stderr
+    assert returncode == 130, stderr
     assert "Traceback" not in stderr
-    after = [p.packet for p in list(emulator.log.packets)[sent_before:]]
+    after = [p.packet for p in logged]
     stops = [i for i, packet in enumerate(after) if packet.command == Command.MOVE_STOP]
     assert stops and after[stops[0]].servo_id == BROADCAST_ID
     # the stop is the last thing that moves the servos: nothing after it starts a move
@@ -127,7 +108,7 @@ def test_the_robot_files_bus_settings_are_defaults_the_command_line_overrides():
 
 
 def test_a_port_lost_during_play_is_one_error_line_and_no_traceback(tmp_path):
-    from emulated import home_specs, served_on_a_pty, wait_for
+    from emulated import home_specs, served_on_a_pty
 
     from choreo.core.clock import RealClock
     from choreo.emulator import BusEmulator
