@@ -237,7 +237,7 @@ def dry_run(motion: Motion, options: PlayOptions, port: str | None) -> int:
     link = transports.link(port)
     music = motion.music if options.audio else None
     robot = compiled.robot
-    performance = prepare(compiled, robot.pose_vector("home"))
+    performance = prepare(compiled, robot.pose_vector(HOME_POSE))
     print(f"dry run: no port opened; the approach starts from {robot.name}'s home pose")
     if not link.capabilities.staged_start:
         print(

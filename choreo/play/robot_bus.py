@@ -13,6 +13,7 @@ from choreo.bus.settings import BusSettings
 from choreo.core.clock import RealClock
 from choreo.emulator import BusEmulator, ServoSpec
 from choreo.emulator.backend import connection as emulator_connection
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.types import Robot
 
 
@@ -45,7 +46,7 @@ def open_robot_bus(
 
 def built_in_emulator(robot: Robot) -> BusEmulator:
     """The robot's servos on an emulated bus in real time, standing at its home pose."""
-    home = robot.pose_vector("home")
+    home = robot.pose_vector(HOME_POSE)
     specs = [
         ServoSpec(j.servo_id, j.servo_model, position_units=j.to_units(a))
         for j, a in zip(robot.joints, home)

@@ -40,6 +40,7 @@ from choreo.preview.model import (
 from choreo.preview.rollout import FreeBody, MoveStart, Rollout, Settling
 from choreo.preview.start import foot_links, start_state
 from choreo.preview.step_loop import CHECKPOINT_S, Resume, StepLoop, StepRecord, check_stable
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.types import Robot
 
 # the settling before the motion and the tail after it: a minute of either is already a mistake
@@ -95,8 +96,8 @@ def simulate(
     apply_servo_models(model, index, params, robot)
     root = free_joint(model)
     feet: tuple[int, ...] = ()
-    if root is not None and "home" in robot.poses:
-        feet = foot_links(model, index, robot.pose_vector("home"))
+    if root is not None and HOME_POSE in robot.poses:
+        feet = foot_links(model, index, robot.pose_vector(HOME_POSE))
     data = start_state(model, index, start_deg, posture)
     dt = float(model.opt.timestep)
     drive = ServoDrive(params, dt, np.radians(start_deg))

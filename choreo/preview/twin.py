@@ -39,6 +39,7 @@ from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
 from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
 from choreo.preview.start import start_state
 from choreo.preview.step_loop import check_stable, hold_until_still
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import (
     DEFAULT_SUPPLY_RESISTANCE_OHM,
@@ -93,7 +94,7 @@ class PhysicsTwin:
         apply_servo_models(self._model, self._index, self.actuators, robot)
         self.dt_s = float(self._model.opt.timestep)
         home = np.array(
-            robot.pose_vector("home") if "home" in robot.poses else [0.0] * len(robot.joints)
+            robot.pose_vector(HOME_POSE) if HOME_POSE in robot.poses else [0.0] * len(robot.joints)
         )
         self._data = start_state(self._model, self._index, home)
         self._drive = ServoDrive(self.actuators, self.dt_s, np.radians(home))

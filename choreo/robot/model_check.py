@@ -16,6 +16,7 @@ import yaml
 
 from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, did_you_mean, fmt
 from choreo.robot.joint_source import JointSource
+from choreo.robot.poses import HOME_POSE
 
 if TYPE_CHECKING:
     from choreo.robot.types import Joint
@@ -48,9 +49,9 @@ def check_model(
     if "joints" in fields:
         refused = {_written_mjcf_joint(s) for s in sources if s.joint is None}
         _check_actuators(reader, model, mjcf_path.name, mapped, refused, fields["joints"].key_node)
-    if "home" in poses:
-        home_node = next(key for key, _ in fields["poses"].value.value if key.value == "home")
-        _check_home(reader, model, mjcf_path.name, mapped, poses["home"], home_node)
+    if HOME_POSE in poses:
+        home_node = next(key for key, _ in fields["poses"].value.value if key.value == HOME_POSE)
+        _check_home(reader, model, mjcf_path.name, mapped, poses[HOME_POSE], home_node)
     if scene_path is not None:
         scene = _compile(reader, scene_path)
         if scene is not None:

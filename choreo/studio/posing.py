@@ -23,6 +23,7 @@ import numpy.typing as npt
 from choreo.motion.gait import BodyPose, feet_under_body
 from choreo.play.recorder import limit_problems
 from choreo.robot.kinematics import Kinematics, SiteGoal, Solution
+from choreo.robot.poses import HOME_POSE
 from choreo.robot.types import mirror_pose
 from choreo.studio.parts import StudioParts
 from choreo.studio.scene import rotation_of
@@ -321,7 +322,7 @@ class Posing(StudioParts):
         last = reached[-1]
         planted = [i for i in range(last + 1) if keyframes[i].body is None]
         robot = plan.motion.robot
-        stance = keyframes[planted[-1]].targets_deg if planted else robot.pose_vector("home")
+        stance = keyframes[planted[-1]].targets_deg if planted else robot.pose_vector(HOME_POSE)
         position, wxyz = self.view.root_pose()
         return BodyDrag(
             handle_m=position,
