@@ -3,12 +3,14 @@ by hand from another Zenoh session on loopback, as an impostor would. Order and 
 
 from __future__ import annotations
 
+import os
 import time
 
 import pytest
 from show_helpers import Caller, Stage, eventually
 
 from choreo.core.clock import RealClock
+from choreo.play.realtime import how_to_allow
 from choreo.show.custody import Custody, Holder
 from choreo.show.messages import Go, encode
 from choreo.show.network import Network
@@ -73,6 +75,22 @@ def test_a_start_for_another_show_or_without_the_ticket_is_refused(stage, sessio
     assert conductor.info().state == "staged"  # refused starts leave the part as it was
     assert conductor.go().ok  # the conductor's own start is taken
     eventually(lambda: stage.heard("part completed"), "the part plays to its end")
+
+
+def test_a_performer_refused_real_time_priority_plays_its_part_and_says_how_to_allow_it(
+    stage, session, monkeypatch
+):
+    """As an unprivileged user runs it (the tests run as root, who is always permitted)."""
+
+    def not_permitted(*_):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "sched_setscheduler", not_permitted)
+    conductor = session("show-1")
+    conductor.hold()
+    assert conductor.stage().ok and conductor.go().ok
+    eventually(lambda: stage.heard("part completed"), "the part plays to its end")
+    assert stage.heard(f"normal priority: a busy computer can make STARTs late; {how_to_allow()}")
 
 
 def test_a_stop_not_signed_with_the_ticket_is_ignored_and_the_conductor_s_is_obeyed(stage, session):
