@@ -26,8 +26,6 @@ import numpy as np
 from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, fmt
 from choreo.errors import ChoreoError, OptionError
 from choreo.motion.timing import TimedKeyframe
-from choreo.music.beats import LEVELS, OFFSET_BEATS
-from choreo.music.decode import check_song_path, decode_song
 
 MUSIC_KEYS = ("song", "start", "bpm", "meter", "beats", "level", "offset_beats")
 DEFAULT_METER = 4
@@ -121,6 +119,10 @@ def read_music(reader: Reader, entry: Entry) -> Music | None:
     fields = reader.fields(entry.value, "the music block", MUSIC_KEYS, required=("song",))
     if fields is None or "song" not in fields:
         return None
+    # choreo.music (decoding, beat tracking) is imported only by a motion that has music: a
+    # dance without it is planned without loading it (start-up of every ``choreo plan``)
+    from choreo.music.decode import decode_song
+
     song = _read_song(reader, fields["song"])
     start_s = reader.number(fields["start"].value, "start", low=0) if "start" in fields else 0.0
     per_bar = _read_meter(reader, fields["meter"].value) if "meter" in fields else None
@@ -160,6 +162,8 @@ def _read_grid_choice(
     reader: Reader, fields: dict[str, Entry], tempo: float | str | None
 ) -> tuple[str, float] | None:
     """(level, offset_beats) of ``beats: auto``: the alternative grid ``choreo beats`` offers."""
+    from choreo.music.beats import LEVELS, OFFSET_BEATS  # with music only (see read_music)
+
     given = [fields[k] for k in ("level", "offset_beats") if k in fields]
     if given and tempo is not None and tempo != "auto":
         reader.report(given[0].key_node, f"{given[0].key} goes with beats: auto, not bpm")
@@ -183,6 +187,8 @@ def _read_grid_choice(
 
 
 def _read_song(reader: Reader, entry: Entry) -> Path | None:
+    from choreo.music.decode import check_song_path  # with music only (see read_music)
+
     relative = reader.string(entry.value, "song")
     if relative is None:
         return None
