@@ -14,7 +14,11 @@ Prints:
    true figures (the goal: the fitted within 3 %).
 
     python benchmarks/bench_identify.py [--robot arm6] [--truths 5] [--skip-robot] [--skip-truths]
-        [--walk] [--cases hexapod18:lf_coxa]
+        [--walk] [--cases hexapod18:lf_coxa] [--neighbours stiff|no-play]
+
+`--neighbours` gives the joints next to the identified one (robot order) their assumed figures
+with no gear play and dead band (`no-play`) or a 200 N·m/rad gain and 20 N·m stall (`stiff`): what
+of a joint's misfit comes from its neighbours (docs/servo-models.md, "Measured figures").
 """
 
 from __future__ import annotations
@@ -33,11 +37,18 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.bus.servo_models import servo_model
 from choreo.bus.settings import BusSettings
 from choreo.identify import JointResult, identify
+from choreo.identify.fit import assumed_figures
+from choreo.preview.actuator import actuator_params
 from choreo.robot.robot_file import load_robot
+from choreo.robot.types import Robot
 
 CASES = (("arm6", "elbow"), ("hexapod18", "lf_femur"), ("tonypi", "left_knee"))
 ABSOLUTE = {"deadband_deg": 0.1, "backlash_deg": 0.1}  # goal: within this many degrees
 RELATIVE = 0.15  # goal for the rest: within 15 %
+NEIGHBOURS = {
+    "no-play": {"backlash_deg": 0.0, "deadband_deg": 0.0},
+    "stiff": {"kp_nm_rad": 200.0, "stall_torque_nm": 20.0},
+}
 SHOWN = (
     ("deadband_deg", "dead band °", 1),
     ("backlash_deg", "backlash °", 1),
@@ -65,6 +76,20 @@ def random_truth(rng: np.random.Generator, model_name: str) -> dict[str, float]:
         "friction_nm": round(model.stall_torque_nm * float(rng.uniform(0.005, 0.04)), 4),
         "response_delay_s": round(float(rng.uniform(0.002, 0.02)), 4),
     }
+
+
+def neighbour_truths(robot: Robot, joint: str, kind: str | None) -> dict[str, dict[str, float]]:
+    """The joints next to ``joint`` with their assumed figures changed as ``kind`` says."""
+    if kind is None:
+        return {}
+    j = robot.joint_names.index(joint)
+    params = actuator_params(robot)
+    truths = {}
+    for i in (j - 1, j + 1):
+        if 0 <= i < len(robot.joints):
+            figures = {k: v for k, v in assumed_figures(params[i]).items() if k != "offset_deg"}
+            truths[robot.joint_names[i]] = figures | NEIGHBOURS[kind]
+    return truths
 
 
 def within_goal(name: str, truth: float, fit: float) -> bool:
@@ -108,6 +133,7 @@ def recovery(
     truths: int,
     models: list[str] | None = None,
     cases: tuple[tuple[str, str], ...] = CASES,
+    neighbours: str | None = None,
 ) -> None:
     print(
         f"== recovery: {truths} random truths per servo model (goal ±15 %, 0.1° for dead band "
@@ -128,7 +154,8 @@ def recovery(
             truth = random_truth(rng, model)
             with tempfile.TemporaryDirectory() as folder:
                 truth_file = Path(folder) / "truth.yaml"
-                truth_file.write_text(yaml.safe_dump({"joints": {joint: truth}}))
+                hidden = {joint: truth, **neighbour_truths(robot, joint, neighbours)}
+                truth_file.write_text(yaml.safe_dump({"joints": hidden}))
                 with ServoBus.from_settings(BusSettings(port=port(robot_name, truth_file))) as bus:
                     report = identify(robot, bus, Path(folder) / "fit.yaml", joints=[joint])
             (result,) = report.identified
@@ -237,6 +264,7 @@ def main() -> int:
         metavar="ROBOT:JOINT",
         help="the recovery table's joints instead of the three above (e.g. hexapod18:lf_coxa)",
     )
+    parser.add_argument("--neighbours", choices=sorted(NEIGHBOURS))
     parser.add_argument("--skip-robot", action="store_true")
     parser.add_argument("--skip-truths", action="store_true")
     parser.add_argument("--walk", action="store_true")
@@ -247,7 +275,7 @@ def main() -> int:
         whole_robot(args.robot)
     if not args.skip_truths:
         cases = tuple(tuple(c.split(":", 1)) for c in args.cases) if args.cases else CASES
-        recovery(args.truths, args.models, cases)  # type: ignore[arg-type]
+        recovery(args.truths, args.models, cases, args.neighbours)  # type: ignore[arg-type]
     return 0
 
 
