@@ -9,9 +9,12 @@ index and the problems found at that moment.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
+import signal
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -439,12 +442,37 @@ def _write_mp4(
         ffmpeg_log_level="error",
         output_params=["-preset", "veryfast", "-crf", "23"],
     )
-    writer.send(None)
     try:
+        with _stop_signals_held():
+            writer.send(None)  # starts ffmpeg
         for frame in frames:
             writer.send(np.ascontiguousarray(frame))
     finally:
         writer.close()
+
+
+@contextlib.contextmanager
+def _stop_signals_held() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP wait until the block ends, then arrive as usual.
+
+    A stop that lands while imageio starts ffmpeg, after the process is running but before
+    imageio's generator guards it, leaves ffmpeg running on its own: it writes the temporary
+    video after it was removed (seen once in CI). Held, the stop arrives once ``writer.close``
+    can end ffmpeg. Handlers, not a signal mask: ffmpeg would inherit a mask for its whole life.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread receives signals
+        return
+    held: list[int] = []
+    signums = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {signum: signal.signal(signum, lambda n, _: held.append(n)) for signum in signums}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+        if held:
+            signal.raise_signal(held[0])
 
 
 def _write_gif(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:

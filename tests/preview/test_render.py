@@ -41,7 +41,7 @@ from choreo.preview import (
     simulate_motion,
 )
 from choreo.preview.model import load_model
-from choreo.preview.render import frame_camera, problem_text, status_text
+from choreo.preview.render import _stop_signals_held, frame_camera, problem_text, status_text
 
 DATA = paths.DATA / "preview"
 FINE = DATA / "motions" / "fine.yaml"
@@ -412,3 +412,15 @@ def test_sigterm_during_a_render_leaves_no_temporary_behind(tmp_path):
     assert render.wait(timeout=60) == 130
     assert render.stderr is not None and render.stderr.read().endswith("choreo: interrupted\n")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_stop_while_ffmpeg_starts_arrives_once_it_is_started():
+    """The window where a Ctrl-C used to leave ffmpeg running on its own (it then wrote the
+    temporary video after choreo removed it)."""
+    reached_the_end_of_the_block = False
+    with pytest.raises(KeyboardInterrupt):
+        with _stop_signals_held():
+            signal.raise_signal(signal.SIGINT)
+            reached_the_end_of_the_block = True
+    assert reached_the_end_of_the_block
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # as it was
