@@ -115,15 +115,13 @@ class Front:
             head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), HEAD_TIMEOUT_S)
             port = route(head, self._routes, self._default_port)
             if port is None:
-                raise ValueError("not an HTTP request")
+                await _refuse(writer)
+                return
             backend_reader, backend = await asyncio.open_connection(LOOPBACK, port)
             backend.write(head)  # what the client sent after its head is still in ``reader``
             await _splice(reader, writer, backend_reader, backend)
-        except (ValueError, asyncio.LimitOverrunError):
-            log.debug("front: refused a connection that sent no HTTP request")
-            with contextlib.suppress(OSError):
-                writer.write(BAD_REQUEST)
-                await writer.drain()
+        except asyncio.LimitOverrunError:  # a head longer than any request's
+            await _refuse(writer)
         except (OSError, EOFError, TimeoutError) as error:  # a client gone, or never asking
             log.debug("front: a connection ended: %r", error)
         finally:
@@ -131,6 +129,13 @@ class Front:
             for end in (writer, backend):
                 if end is not None:
                     end.close()
+
+
+async def _refuse(writer: asyncio.StreamWriter) -> None:
+    log.debug("front: refused a connection that sent no HTTP request")
+    with contextlib.suppress(OSError):
+        writer.write(BAD_REQUEST)
+        await writer.drain()
 
 
 async def _splice(
