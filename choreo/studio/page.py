@@ -40,12 +40,12 @@ def from_page(action: Callable[[Any], None]) -> Callable[[Any], None]:
 
 
 class Page:
-    def __init__(self, server: Any, studio: Studio, timeline_port: int, live: bool = False):
+    def __init__(self, server: Any, studio: Studio, live: bool = False):
         self._server, self._studio = server, studio
         gui = server.gui
         gui.configure_theme(show_logo=False, show_share_button=False)
         gui.set_panel_label(TITLE)
-        gui.add_html(frame_html(timeline_port, TITLE))
+        gui.add_html(frame_html(TITLE))
         self.title = gui.add_markdown(f"**{TITLE}**")
         self.status = gui.add_html(status_html("loading…", ""))
         self.problems = gui.add_html("", visible=False)

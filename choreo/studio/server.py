@@ -1,4 +1,4 @@
-"""The studio: one motion file, one viser server, every tab showing the same state.
+"""The studio: one motion file, one address, every tab showing the same state.
 
 ``Studio`` is made of one part per concern (``parts``): the timeline, posing, editing with its
 journal, and the live robot; here are its life (start, reload, close) and what ties the parts.
@@ -6,6 +6,10 @@ journal, and the live robot; here are its life (start, reload, close) and what t
 Threads: viser calls the page's callbacks from its own threads, the file watcher and the player
 run in theirs; ``Studio._lock`` makes each change of state whole (a reload never interleaves with
 an edit or a redraw).
+
+Serving: the ``Front`` listens at the address asked for; behind it, on loopback ports the system
+picks, viser serves the 3D view and its panel, and the timeline's page its own (under
+``timeline_server.ROOT``).
 """
 
 from __future__ import annotations
@@ -18,19 +22,20 @@ from pathlib import Path
 
 import numpy as np
 
-from choreo.errors import ChoreoError
 from choreo.studio import require
 from choreo.studio.address import Address
 from choreo.studio.driving import NO_ROBOT, Driving
 from choreo.studio.editing import Editing
+from choreo.studio.front import LOOPBACK
 from choreo.studio.live import LiveRobot
 from choreo.studio.page import Page
 from choreo.studio.posing import LatestOnly, Posing
 from choreo.studio.scene import RobotView
-from choreo.studio.serving import UnreadableMessages, port_to_serve
+from choreo.studio.serving import UnreadableMessages, front_at
 from choreo.studio.session import Reload, Session
 from choreo.studio.timeline import Timeline
 from choreo.studio.timeline_page import TimelinePage, reload_status
+from choreo.studio.timeline_server import ROOT
 from choreo.studio.trial import check_loads
 from choreo.studio.watch import FileWatcher
 
@@ -55,25 +60,17 @@ class Studio(Timeline, Posing, Editing, Driving):
         self._init_posing()
         self._init_editing()
         self._init_driving()
-        port = port_to_serve(listen)  # viser would move to another port, or hang
+        self.front = front_at(listen)  # the one address a user sees: a wrong one is one line
+        self.address = Address(listen.host, self.front.port)
         self._unreadable = UnreadableMessages(say)
         self._unreadable.install()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: the CLI says the URL
-            self.server = viser.ViserServer(host=listen.host, port=port, verbose=False)
-        if port and self.server.get_port() != port:  # taken in the moment since it was checked
-            self.server.stop()
-            self._unreadable.remove()
-            raise ChoreoError.naming(
-                "listen", f"{{option}} {listen.host}:{port}: the port was just taken; try again"
-            )
+            self.server = viser.ViserServer(host=LOOPBACK, port=0, verbose=False)
         # The page's "share" asks viser's relay for a public URL: never, this page writes files.
         self.server.request_share_url = lambda *args, **kwargs: None
-        self.address = Address(listen.host, self.server.get_port())
         self.live = live
-        self.timeline_page = TimelinePage(listen.host, self)
-        self.page = Page(
-            self.server, self, timeline_port=self.timeline_page.port, live=live is not None
-        )
+        self.timeline_page = TimelinePage(self)
+        self.page = Page(self.server, self, live=live is not None)
         self.server.on_client_disconnect(self._tab_closed)
         self.server.scene.on_click()(self._clicked)
         self.view = None
@@ -83,6 +80,7 @@ class Studio(Timeline, Posing, Editing, Driving):
 
     def start(self) -> None:
         self.timeline_page.start()
+        self.front.start(self.server.get_port(), {ROOT: self.timeline_page.port})
         self.reload()
         self._watcher.start()
         self._player.start()
@@ -92,6 +90,7 @@ class Studio(Timeline, Posing, Editing, Driving):
             self.live.close()
         self._stop.set()
         self._watcher.stop()
+        self.front.close()  # first: no tab sends anything more
         self.timeline_page.close()
         if self._player.is_alive():
             self._player.join(timeout=2.0)

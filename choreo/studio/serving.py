@@ -1,6 +1,8 @@
 """Where the studio's page is served: the address checked before the server starts, so that an
 address that does not resolve, is not this computer's, or whose port is taken is one line at
 once (viser would try the next thousand ports, and on an address it cannot bind, wait forever).
+The studio's ``Front`` is the only server on that address; viser and the timeline listen on
+loopback ports the system picks, behind it.
 
 A port named is the one used; only the default (``Address.next_free``) moves on to the next
 free port, and port 0 takes any free one. No viser or MuJoCo here: the command line checks the
@@ -17,6 +19,7 @@ from collections.abc import Callable
 
 from choreo.errors import ChoreoError
 from choreo.studio.address import Address
+from choreo.studio.front import Front
 
 RESOLVE_TIMEOUT_S = 1.0  # a host the resolver cannot answer for in this long is refused
 NEXT_FREE_TRIES = 100  # the default port moves on at most this far
@@ -31,24 +34,39 @@ def port_to_serve(address: Address) -> int:
         problem = _bind_problem(infos, port)
         if problem is None:
             return port
-        if problem.errno != errno.EADDRINUSE:
-            raise ChoreoError.naming(
-                "listen",
-                f"{{option}} {address.host}: cannot serve there: "
-                f"{problem.strerror or problem}; give an address of this computer, such as "
-                "127.0.0.1 (this computer only) or 0.0.0.0 (every network)",
-            )
-        if not address.next_free:
-            raise ChoreoError.naming(
-                "listen",
-                f"{{option}} {address.host}:{port}: the port is taken (another studio, or "
-                f"another server); give another port, or {address.host}:0 for any free one",
-            )
+        if problem.errno != errno.EADDRINUSE or not address.next_free:
+            raise cannot_serve(Address(address.host, port), problem)
         port += 1
     raise ChoreoError.naming(
         "listen",
         f"{{option}}: ports {address.port}..{port - 1} on {address.host} are all taken; give "
         f"{address.host}:0 for any free one",
+    )
+
+
+def front_at(address: Address) -> Front:
+    """The studio's ``Front``, listening at ``address`` (on the next free port if that is
+    asked for); ``ChoreoError`` (naming ``listen``) as ``port_to_serve``."""
+    port = port_to_serve(address)
+    try:
+        return Front(address.host, port)
+    except OSError as problem:  # taken in the moment since it was checked
+        raise cannot_serve(Address(address.host, port), problem) from None
+
+
+def cannot_serve(address: Address, problem: OSError) -> ChoreoError:
+    """The one line (naming ``listen``) for ``address`` that cannot be bound for ``problem``."""
+    if problem.errno == errno.EADDRINUSE:
+        return ChoreoError.naming(
+            "listen",
+            f"{{option}} {address.host}:{address.port}: the port is taken (another studio, or "
+            f"another server); give another port, or {address.host}:0 for any free one",
+        )
+    return ChoreoError.naming(
+        "listen",
+        f"{{option}} {address.host}: cannot serve there: {problem.strerror or problem}; give "
+        "an address of this computer, such as 127.0.0.1 (this computer only) or 0.0.0.0 "
+        "(every network)",
     )
 
 

@@ -25,9 +25,9 @@ class TimelinePage:
     add, undo), so an edit from the timeline is the edit the panel's buttons make, checked
     and journalled the same way."""
 
-    def __init__(self, host: str, studio: Studio):
+    def __init__(self, studio: Studio):
         self._studio = studio
-        self.server = TimelineServer(host, self.handle, self._song)
+        self.server = TimelineServer(self.handle, self._song)
         self._peaks: tuple[tuple | None, tuple[int, ...]] = (None, ())
 
     @property

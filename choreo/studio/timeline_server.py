@@ -1,8 +1,9 @@
 """The timeline's page component served beside viser's page: its files (``web/``: HTML, a
 canvas and a script; no build step, nothing fetched from elsewhere), the song, the state as
 Server-Sent Events (``state``, ``play``, ``time``, ``status``), and the page's requests taken as
-posted JSON, on a port the system picks on viser's host. ``frame_html`` frames it into viser's
-page, full width at the bottom.
+posted JSON, all under ``ROOT``, on a loopback port the system picks: the studio's ``front``
+passes it the requests under ``ROOT`` on the studio's one address. ``frame_html`` frames it
+into viser's page, full width at the bottom.
 
 viser's GUI lays controls out in a side panel; lanes of keyframe diamonds, a waveform and curves
 under one playhead need a canvas.
@@ -21,16 +22,18 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from choreo.studio.front import LOOPBACK
 from choreo.studio.timeline_requests import Request, RequestError, parse_request
 
 log = logging.getLogger(__name__)
 
 MAX_REQUEST_BYTES = 1_000_000
 KEEP_ALIVE_S = 15.0
+ROOT = "/timeline/"  # every path served, on the studio's address; viser's are all others
 FILES = {  # what the component's server serves from web/: path -> (file, content type)
-    "/": ("timeline.html", "text/html; charset=utf-8"),
-    "/timeline.js": ("timeline.js", "text/javascript; charset=utf-8"),
-    "/timeline.css": ("timeline.css", "text/css; charset=utf-8"),
+    ROOT: ("timeline.html", "text/html; charset=utf-8"),
+    f"{ROOT}timeline.js": ("timeline.js", "text/javascript; charset=utf-8"),
+    f"{ROOT}timeline.css": ("timeline.css", "text/css; charset=utf-8"),
 }
 SONG_TYPES = {".ogg": "audio/ogg", ".mp3": "audio/mpeg", ".wav": "audio/wav", ".flac": "audio/flac"}
 
@@ -69,20 +72,15 @@ class Broadcast:
 
 
 class TimelineServer:
-    """Serves the timeline's page on ``host`` (a free port); ``on_request`` hears its requests
+    """Serves the timeline's page on a free loopback port; ``on_request`` hears its requests
     (from the server's threads), ``song`` names the song file to serve."""
 
-    def __init__(
-        self,
-        host: str,
-        on_request: Callable[[Request], None],
-        song: Callable[[], Path | None],
-    ):
+    def __init__(self, on_request: Callable[[Request], None], song: Callable[[], Path | None]):
         self.events = Broadcast()
         self._on_request = on_request
         self._song = song
         handler = type("Handler", (_Handler,), {"timeline": self})
-        self._http = ThreadingHTTPServer((host, 0), handler)
+        self._http = ThreadingHTTPServer((LOOPBACK, 0), handler)
         self._http.daemon_threads = True
         self.port = int(self._http.server_address[1])
         self._thread = threading.Thread(
@@ -145,15 +143,15 @@ class _Handler(BaseHTTPRequestHandler):
             name, kind = FILES[path]
             body = resources.files(__package__).joinpath("web", name).read_bytes()
             self._send(HTTPStatus.OK, kind, body)
-        elif path == "/events":
+        elif path == f"{ROOT}events":
             self._stream_events()
-        elif path == "/song":
+        elif path == f"{ROOT}song":
             self._send_song()
         else:
             self._send(HTTPStatus.NOT_FOUND, "text/plain", b"not found")
 
     def do_POST(self) -> None:  # noqa: N802
-        if self.path != "/command":
+        if self.path != f"{ROOT}command":
             self._send(HTTPStatus.NOT_FOUND, "text/plain", b"not found")
             return
         length = int(self.headers.get("Content-Length") or 0)
@@ -171,6 +169,7 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _send(self, status: HTTPStatus, kind: str, body: bytes) -> None:
         self.send_response(status)
+        self._send_closing()
         self.send_header("Content-Type", kind)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
@@ -189,8 +188,14 @@ class _Handler(BaseHTTPRequestHandler):
             return
         self._send(HTTPStatus.OK, kind, body)
 
+    def _send_closing(self) -> None:
+        """One request a connection: the studio's ``front`` routes a connection by its first
+        request, and the browser's next one may be viser's."""
+        self.send_header("Connection", "close")
+
     def _stream_events(self) -> None:
         self.send_response(HTTPStatus.OK)
+        self._send_closing()
         self.send_header("Content-Type", "text/event-stream")
         self.send_header("Cache-Control", "no-store")
         self.end_headers()
@@ -203,7 +208,6 @@ class _Handler(BaseHTTPRequestHandler):
                 self.wfile.flush()
         except OSError:  # the tab went away
             return
-        self.close_connection = True
 
 
 # --- the frame in viser's page ------------------------------------------------------------------
@@ -219,7 +223,7 @@ _FRAME_SCRIPT = """
   const frame = document.createElement("iframe");
   frame.id = "choreo-timeline";
   frame.title = "timeline";
-  frame.src = location.protocol + "//" + location.hostname + ":%(port)d/";
+  frame.src = %(root)s;
   frame.style.cssText = "position:fixed;left:0;right:0;bottom:0;width:100%%;height:%(height)s;" +
     "border:0;z-index:150;background:#fbfbfc";
   document.body.appendChild(frame);
@@ -245,10 +249,11 @@ _FRAME_SCRIPT = """
 """
 
 
-def frame_html(port: int, title: str) -> str:
-    """The HTML for viser's page that frames the timeline served on ``port``."""
+def frame_html(title: str) -> str:
+    """The HTML for viser's page that frames the timeline (served under ``ROOT`` on the same
+    address)."""
     script = _FRAME_SCRIPT % {
-        "port": port,
+        "root": json.dumps(ROOT),
         "height": TIMELINE_HEIGHT,
         "title": json.dumps(title),
     }

@@ -7,12 +7,14 @@ from __future__ import annotations
 import asyncio
 import shutil
 import socket
+import urllib.request
 from pathlib import Path
 
 import msgspec
 import pytest
 import viser
 import websockets
+from emulated import wait_for
 
 from choreo.cli import main
 from choreo.cli.studio_commands import listen_address
@@ -69,6 +71,33 @@ def test_a_port_named_that_is_taken_is_an_error_and_only_the_default_moves_on(ta
         Studio(WAVE, Address("127.0.0.1", taken_port), say=print)
     assert port_to_serve(Address("127.0.0.1", taken_port, next_free=True)) > taken_port
     assert port_to_serve(Address("127.0.0.1", 0)) == 0  # the server takes any free one
+
+
+def test_the_page_and_the_timeline_are_all_on_the_one_address_and_close_with_the_studio(
+    tmp_path,
+):
+    motion = tmp_path / "wave.yaml"
+    shutil.copy(WAVE, motion)
+    studio = Studio(motion, Address("127.0.0.1", 0), say=lambda line: None)
+    behind = [studio.server.get_port(), studio.timeline_page.port]
+    assert studio.server.get_host() == "127.0.0.1"  # viser: loopback, on a port of its own
+    assert studio.address.port not in behind
+    studio.start()
+    url = studio.address.url
+    try:
+        with urllib.request.urlopen(url) as page:  # viser's page
+            assert b"<html" in page.read()
+        with urllib.request.urlopen(f"{url}timeline/") as timeline:
+            assert b"<canvas" in timeline.read()
+        play = urllib.request.Request(f"{url}timeline/command", data=b'{"op":"play"}')
+        with urllib.request.urlopen(play) as answer:
+            assert answer.status == 204
+        wait_for(lambda: studio.playing, "the play the timeline asked for")
+    finally:
+        studio.close()
+    for port in (studio.address.port, *behind):
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection(("127.0.0.1", port), timeout=2.0).close()
 
 
 def test_a_message_the_server_cannot_read_is_one_line_not_a_traceback(tmp_path, capfd):

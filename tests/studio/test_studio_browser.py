@@ -14,6 +14,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import browser as chromium
 import mujoco
@@ -90,6 +91,9 @@ def studio(served, first_tab):
 
 def open_page(browser, studio):
     page = browser.new_page(viewport=VIEWPORT)
+    page.asked = []  # every URL the page and its frames ask for, the websocket's included
+    page.on("request", lambda request: page.asked.append(request.url))
+    page.on("websocket", lambda websocket: page.asked.append(websocket.url))
     page.goto(studio.address.url)
     # a new page's first frames take a busy machine's software rendering a minute
     expect(page.get_by_text("studio wave")).to_be_visible(timeout=4 * WAIT_MS)
@@ -100,7 +104,7 @@ def timeline_frame(page, studio):
     """The timeline's page, framed into viser's."""
     element = page.wait_for_selector("#choreo-timeline", timeout=WAIT_MS)
     frame = element.content_frame() if element is not None else None
-    assert frame is not None and f":{studio.timeline_page.port}/" in frame.url
+    assert frame is not None and frame.url == f"{studio.address.url}timeline/"  # the one address
     frame.wait_for_function("() => window.choreoTimeline !== undefined", timeout=WAIT_MS)
     return frame
 
@@ -154,6 +158,17 @@ def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, st
     song_time = "() => document.getElementById('song').currentTime"
     timeline = timeline_frame(page, studio)
     wait_for(lambda: timeline.evaluate(song_time) == pytest.approx(2.5), "the song at 2.5 s")
+    # the page, its websocket, the timeline, its events, requests and song: all on one address
+    ours = f"127.0.0.1:{studio.address.port}"
+    asked = [urlsplit(url) for url in page.asked]
+    assert [url for url in asked if url.scheme not in ("data", "blob") and url.netloc != ours] == []
+    assert {(url.scheme, url.path or "/") for url in asked} >= {
+        ("http", "/"),
+        ("ws", "/"),
+        ("http", "/timeline/"),
+        ("http", "/timeline/events"),
+        ("http", "/timeline/song"),
+    }
 
 
 # The slider's pose written as a keyframe after the one at t 2.0, before the next one's comment:

@@ -108,7 +108,7 @@ class Timeline:
         self.page, self.studio = page, studio
         element = page.wait_for_selector("#choreo-timeline", timeout=WAIT_S * 1000)
         frame = element.content_frame() if element is not None else None
-        assert frame is not None and f":{studio.timeline_page.port}/" in frame.url
+        assert frame is not None and frame.url == f"{studio.address.url}timeline/"
         frame.wait_for_function("() => window.choreoTimeline !== undefined")
         self.frame = frame
         self.canvas = self.frame.locator("#canvas")

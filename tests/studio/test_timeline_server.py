@@ -1,5 +1,5 @@
-"""The timeline's page component served beside viser's: its files, its events in order, the
-page's requests taken one at a time, and a bad request refused with one line."""
+"""The timeline's page component served beside viser's, under /timeline/: its files, its events
+in order, the page's requests taken one at a time, and a bad request refused with one line."""
 
 from __future__ import annotations
 
@@ -34,12 +34,17 @@ def test_the_server_serves_the_page_and_hands_on_the_requests_it_can_read():
         taken.append(request)
         arrived.set()
 
-    server = TimelineServer("127.0.0.1", on_request, song=lambda: None)
+    server = TimelineServer(on_request, song=lambda: None)
     server.start()
-    base = f"http://127.0.0.1:{server.port}"
+    base = f"http://127.0.0.1:{server.port}/timeline"  # the paths the front passes on
     try:
         with urllib.request.urlopen(f"{base}/") as page:
             assert b"<canvas" in page.read()
+            # one request a connection: the front routes a connection by its first request
+            assert page.headers["Connection"] == "close"
+        with pytest.raises(urllib.error.HTTPError) as elsewhere:
+            urllib.request.urlopen(f"http://127.0.0.1:{server.port}/timeline.js")  # viser's
+        assert elsewhere.value.code == 404
 
         def post(body: bytes) -> int:
             request = urllib.request.Request(f"{base}/command", data=body, method="POST")
@@ -61,8 +66,9 @@ def test_the_server_serves_the_page_and_hands_on_the_requests_it_can_read():
 
 
 def test_the_frame_runs_its_script_from_an_image_that_fails_to_load():
-    html = frame_html(8123, "choreo studio")
+    html = frame_html("choreo studio")
     head = '<img src="data:," alt="" style="display: none" onerror="'
     assert html.startswith(head) and html.endswith('">')
     script = html[len(head) : -2]
-    assert '"' not in script and ":%d/" not in script and ":8123/" in script  # all escaped
+    assert '"' not in script and "%(" not in script  # all escaped and filled in
+    assert "frame.src = &quot;/timeline/&quot;;" in script  # on the page's own address
