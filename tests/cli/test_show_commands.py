@@ -312,6 +312,8 @@ def test_a_performer_in_another_realm_is_not_found():
 def test_a_performer_reachable_from_the_network_without_authentication_warns():
     process, _ = performer_process("left", "--listen", f"tcp/0.0.0.0:{free_port()}")
     try:
+        # stderr is read by a thread of its own: "waiting" on stdout may be read before it
+        process.wait_for("choreo: warning:")
         warnings = [line for line in process.lines if "warning" in line]
         assert len(warnings) == 1
         assert warnings[0].startswith("choreo: warning: this session is reachable beyond this")
