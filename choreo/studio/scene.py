@@ -233,7 +233,9 @@ class RobotView:
         handle = self._server.scene.add_transform_controls(
             JOINT,
             scale=float(self.model.stat.extent) * HANDLE_SCALE,
-            active_axes=(True, False, False),  # the ring about its x axis: the joint's axis
+            # the ring about its x axis (the joint's axis) is drawn for the y-z plane: viser's
+            # gizmo shows a ring only where both axes of its plane are active
+            active_axes=(False, True, True),
             disable_axes=True,
             disable_sliders=True,
             position=position,
