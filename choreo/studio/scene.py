@@ -233,7 +233,9 @@ class RobotView:
         handle = self._server.scene.add_transform_controls(
             JOINT,
             scale=float(self.model.stat.extent) * HANDLE_SCALE,
-            active_axes=(True, False, False),  # the ring about its x axis: the joint's axis
+            # the ring about its x axis (the joint's axis) is drawn for the y-z plane: viser's
+            # gizmo shows a ring only where both axes of its plane are active
+            active_axes=(False, True, True),
             disable_axes=True,
             disable_sliders=True,
             position=position,
@@ -252,7 +254,7 @@ class RobotView:
 
     def turned_deg(self, joint: int, wxyz: npt.ArrayLike) -> float:
         """The angle of joint ``joint`` that its ring turned to ``wxyz`` stands for."""
-        turn = axis_frame(self._data.xaxis[self._joint_ids[joint]]).T @ rotation_of(wxyz)
+        turn = self._zero_frame(joint).T @ rotation_of(wxyz)
         return float(np.degrees(np.arctan2(turn[2, 1], turn[1, 1])))
 
     def _joint_handle_pose(self, joint: int) -> tuple[np.ndarray, np.ndarray]:
@@ -260,8 +262,29 @@ class RobotView:
         is (so ``turned_deg`` of it is the joint's angle)."""
         joint_id = self._joint_ids[joint]
         angle = float(self._data.qpos[self.model.jnt_qposadr[joint_id]])
-        rotation = axis_frame(self._data.xaxis[joint_id]) @ about_x(angle)
+        rotation = self._zero_frame(joint) @ about_x(angle)
         return np.array(self._data.xanchor[joint_id]), quaternion_of(rotation)
+
+    def _zero_frame(self, joint: int) -> np.ndarray:
+        """Where joint ``joint``'s ring stands at angle 0: its x axis on the joint's axis, its y
+        and z fixed to the link above the joint. Made from the axis in the link's own frame, not
+        the world's: a frame made from the axis alone turns its y and z a quarter turn when the
+        axis leans a hair (a simulated one does, a posed one does not), so a drag's second move
+        read 90° off its first."""
+        model, data = self.model, self._data
+        joint_id = self._joint_ids[joint]
+        body = int(model.jnt_bodyid[joint_id])
+        frame = data.xmat[body].reshape(3, 3)
+        # MuJoCo turns a body by its hinges in order, each from its reference angle (qpos0):
+        # undo them back to this one
+        for j in reversed(range(joint_id, model.njnt)):
+            if model.jnt_bodyid[j] == body and model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                address = model.jnt_qposadr[j]
+                hinge = axis_frame(model.jnt_axis[j])
+                turned = float(data.qpos[address] - model.qpos0[address])
+                frame = frame @ hinge @ about_x(-turned) @ hinge.T
+        reference = float(model.qpos0[model.jnt_qposadr[joint_id]])
+        return frame @ axis_frame(model.jnt_axis[joint_id]) @ about_x(-reference)
 
     def handle_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """Where handle ``name`` (a site, BODY or JOINT) is: (position m, quaternion w x y z)."""

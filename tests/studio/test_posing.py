@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 import viser
-from studio_helpers import copy_motion
+from studio_helpers import copy_motion, studio_on
 
 from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
@@ -92,6 +92,30 @@ def test_a_click_on_a_link_picks_its_joint_and_its_ring_turns_it_within_its_limi
             view.handle_pose(JOINT)
     finally:
         studio.close()
+
+
+def test_a_ring_dragged_on_reads_the_same_turn_once_the_robot_shown_is_the_posed_one(tmp_path):
+    """A drag's moves all turn the ring from where it stood when the drag began. After the first,
+    the robot shown is the posed one, not the simulation, whose joint axes lean a hair: the ring
+    is read in the frame it was drawn in, not one a quarter turn round (a drag of -20° took the
+    elbow to -105°)."""
+    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
+        view = studio.view
+        assert view is not None
+        elbow = view.robot.joint_names.index("elbow")
+        joint = view.model.joint(view.robot.joints[elbow].mjcf_joint)
+        studio.scrub(5.2)  # after the last keyframe: the simulated arm settles at home
+        body = view.model.body(int(joint.bodyid[0])).name
+        studio.pick_joint(*ray_to_body(view, body, np.array([0.0, -1.0, 0.0])))
+        shown_deg = float(np.degrees(view.qpos[joint.qposadr[0]]))
+        _, start = view.handle_pose(JOINT)
+        for turn_deg in (-5.0, -10.0, -20.0):
+            turned = quaternion_of(rotation_of(start) @ about_x(np.radians(turn_deg)))
+            studio.turn_joint("elbow", turned)
+            assert studio.posing is not None
+            # within the lean of the links above: posed, they leave the simulation's angles
+            # (a few tenths of a degree off the plan's) for the plan's
+            assert studio.posing[elbow] == pytest.approx(shown_deg + turn_deg, abs=0.5)
 
 
 def test_the_ring_of_a_joint_reads_its_angle_whatever_way_its_axis_points():

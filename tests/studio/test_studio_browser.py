@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import shutil
-import socket
 import time
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -23,35 +22,32 @@ import pytest
 from paths import DATA, REPO
 from PIL import Image
 from playwright.sync_api import expect, sync_playwright
+from studio_browser_helpers import (
+    VIEWPORT,
+    WAIT_MS,
+    click,
+    free_port,
+    launched_browser,
+    number_input,
+    on_screen,
+    type_number,
+    value_of,
+    wait_for,
+)
 
 from choreo.studio.address import Address
 from choreo.studio.journal import Journal
 from choreo.studio.server import Studio
 
 MOTION = DATA / "studio" / "wave.yaml"
-VIEWPORT = {"width": 900, "height": 640}
 SCENE = {"x": 80, "y": 150, "width": 460, "height": 420}  # the 3D view, clear of the panels
 DARK = 300  # R+G+B of arm6's black links; the floor's grid lines are lighter than 400
 TICK_TOLERANCE_DEG = 0.5  # the ticks may be this far from the plan (choreo play's default)
-WAIT_MS = 30_000  # how long a page may take to show a change (software rendering, busy CI box)
 
 
 @pytest.fixture(scope="module")
 def browser():
-    try:
-        choice = chromium.chosen()
-    except chromium.NoBrowser as error:
-        pytest.fail(str(error), pytrace=False)
-    with sync_playwright() as playwright:
-        browser = choice.launch(playwright)
-        yield browser
-        browser.close()
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
+    yield from launched_browser()
 
 
 @pytest.fixture(scope="module")
@@ -109,22 +105,6 @@ def timeline_frame(page, studio):
     return frame
 
 
-def number_input(page, label: str):
-    """The number box beside the control labelled ``label``."""
-    row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
-    return page.locator(row).locator("input").last
-
-
-def type_number(page, label: str, value: float) -> None:
-    box = number_input(page, label)
-    box.fill(f"{value:g}")
-    box.press("Enter")
-
-
-def value_of(page, label: str) -> float:
-    return float(number_input(page, label).input_value())
-
-
 def scene_pixels(page) -> np.ndarray:
     shot = page.screenshot(clip=SCENE, timeout=WAIT_MS)
     return np.asarray(Image.open(io.BytesIO(shot)).convert("RGB")).astype(int)
@@ -132,13 +112,6 @@ def scene_pixels(page) -> np.ndarray:
 
 def changed_pixels(a: np.ndarray, b: np.ndarray) -> int:
     return int(np.abs(a - b).sum(axis=2).astype(bool).sum())
-
-
-def wait_for(condition, what: str, timeout_s: float = WAIT_MS / 1000):
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"gave up waiting for {what}"
-        time.sleep(0.05)
 
 
 def test_the_page_names_and_draws_the_robot_and_scrubbing_moves_it(first_tab, studio):
@@ -227,24 +200,6 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
         second.close()
 
 
-def on_screen(page, camera, point_m: np.ndarray) -> tuple[float, float]:
-    """Where the 3D view's canvas draws ``point_m`` (world, m) for a tab's ``camera``: page
-    pixels."""
-    box = page.locator("canvas").first.bounding_box()
-    assert box is not None
-    position = np.array(camera.position)
-    forward = np.array(camera.look_at) - position
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, camera.up_direction)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    relative = np.asarray(point_m) - position
-    depth, half = relative @ forward, np.tan(camera.fov / 2)
-    x = relative @ right / (depth * half * box["width"] / box["height"])
-    y = relative @ up / (depth * half)
-    return box["x"] + (x + 1) / 2 * box["width"], box["y"] + (1 - y) / 2 * box["height"]
-
-
 def test_a_click_on_a_link_picks_its_joint_and_frame_the_robot_brings_it_back(first_tab, studio):
     page = first_tab
     (client,) = studio.server.get_clients().values()  # this module's one tab
@@ -294,10 +249,6 @@ def choose(page, label: str, option: str) -> None:
     row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
     page.locator(row).get_by_role("combobox").click()
     page.get_by_role("option", name=option, exact=True).click()
-
-
-def click(page, button: str) -> None:
-    page.get_by_role("button", name=button, exact=True).click()
 
 
 def test_an_edit_waits_while_the_page_shows_a_plan_older_than_the_file(first_tab, arm):

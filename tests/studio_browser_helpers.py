@@ -1,0 +1,80 @@
+"""The studio's page in Chromium: the browser, its number boxes and buttons, and where the 3D
+view draws a point of the world (to put the mouse on a link or a handle)."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections.abc import Iterator
+
+import browser as chromium
+import numpy as np
+import pytest
+from playwright.sync_api import Browser, sync_playwright
+
+VIEWPORT = {"width": 900, "height": 640}
+WAIT_MS = 30_000  # how long a page may take to show a change (software rendering, busy CI box)
+
+
+def launched_browser() -> Iterator[Browser]:
+    """Chromium for a module's tests (a fixture's body: it fails them when there is none)."""
+    try:
+        choice = chromium.chosen()
+    except chromium.NoBrowser as error:
+        pytest.fail(str(error), pytrace=False)
+    with sync_playwright() as playwright:
+        browser = choice.launch(playwright)
+        yield browser
+        browser.close()
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def wait_for(condition, what: str, timeout_s: float = WAIT_MS / 1000):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"gave up waiting for {what}"
+        time.sleep(0.05)
+
+
+def number_input(page, label: str):
+    """The number box beside the control labelled ``label``."""
+    row = f"xpath=//p[normalize-space(.)='{label}']/ancestor::div[contains(@class,'Flex-root')][1]"
+    return page.locator(row).locator("input").last
+
+
+def type_number(page, label: str, value: float) -> None:
+    box = number_input(page, label)
+    box.fill(f"{value:g}")
+    box.press("Enter")
+
+
+def value_of(page, label: str) -> float:
+    return float(number_input(page, label).input_value())
+
+
+def click(page, button: str) -> None:
+    page.get_by_role("button", name=button, exact=True).click()
+
+
+def on_screen(page, camera, point_m: np.ndarray) -> tuple[float, float]:
+    """Where the 3D view's canvas draws ``point_m`` (world, m) for a tab's ``camera`` (the
+    camera the tab reported to viser: its place, target, up and vertical field of view): page
+    pixels."""
+    box = page.locator("canvas").first.bounding_box()
+    assert box is not None
+    position = np.array(camera.position)
+    forward = np.array(camera.look_at) - position
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, camera.up_direction)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    relative = np.asarray(point_m) - position
+    depth, half = relative @ forward, np.tan(camera.fov / 2)
+    x = relative @ right / (depth * half * box["width"] / box["height"])
+    y = relative @ up / (depth * half)
+    return box["x"] + (x + 1) / 2 * box["width"], box["y"] + (1 - y) / 2 * box["height"]
