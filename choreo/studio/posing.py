@@ -184,8 +184,9 @@ class Posing(StudioParts):
             )
 
     def turn_joint(self, name: str, wxyz: np.ndarray) -> None:
-        """The picked joint at the angle its ring was turned to; outside the joint's limits
-        refused, and the ring goes back to the joint's angle."""
+        """The picked joint at the angle its ring was turned to. Turned past a limit, the joint
+        stops at that limit, as a hand-turned joint would, with a line saying so, and the ring
+        goes back onto the joint."""
         with self._lock:
             plan = self._plan()
             if self.view is None or plan is None or name not in plan.motion.robot.joint_names:
@@ -194,9 +195,22 @@ class Posing(StudioParts):
             if not np.all(np.isfinite(wxyz)) or np.linalg.norm(wxyz) < 1e-9:
                 self.refuse(f"refused: {wxyz} is not a rotation")
                 return
-            angle = self.view.turned_deg(plan.motion.robot.joint_names.index(name), wxyz)
-            if not self._set_joint(name, round(angle, 1)):
-                self.view.snap_back()
+            index = plan.motion.robot.joint_names.index(name)
+            angle = round(self.view.turned_deg(index, wxyz), 1)
+            limits = plan.motion.robot.joints[index].limits
+            if limits.contains(angle):
+                self._set_joint(name, angle)
+                return
+            # the limit on the side the joint stands: the ring's angle wraps at ±180°, so the
+            # one nearer the asked angle may be across the joint's whole range
+            now = float(self._pose()[index])
+            limit = min((limits.min_deg, limits.max_deg), key=lambda end: abs(end - now))
+            if now != limit:
+                self.note(
+                    f"{name} stops at its limit {limit:g}° (the ring was turned to {angle:g}°)"
+                )
+                self._set_joint(name, limit)
+            self.view.snap_back()
 
     def take_pose(self, name: str) -> None:
         with self._lock:

@@ -76,15 +76,26 @@ def test_a_click_on_a_link_picks_its_joint_and_its_ring_turns_it_within_its_limi
         others = [i for i in range(len(before)) if i != elbow]
         assert np.allclose(studio.posing[others], before[others])
 
-        # turned past its limit: refused, the pose stays, the ring goes back to the elbow
+        # turned 10° past its upper limit: the elbow stops at it, says so, and the ring goes
+        # back onto the elbow; the other joints stay
+        limits = robot.joint("elbow").limits
         posed = studio.posing.copy()
-        beyond = robot.joint("elbow").limits.max_deg + 10 - float(posed[elbow])
+        beyond = limits.max_deg + 10 - float(posed[elbow])
         studio.turn_joint("elbow", quaternion_of(rotation_of(turned) @ about_x(np.radians(beyond))))
-        assert said[-1].startswith("⛔ refused: elbow ")
-        assert said[-1].endswith(f"is outside its limits {robot.joint('elbow').limits.range_text}")
-        assert np.array_equal(studio.posing, posed)
+        assert said[-1] == (
+            f"elbow stops at its limit {limits.max_deg:g}° "
+            f"(the ring was turned to {limits.max_deg + 10:g}°)"
+        )
+        assert studio.posing[elbow] == limits.max_deg
+        assert np.array_equal(studio.posing[others], posed[others])
         _, back = view.handle_pose(JOINT)
-        assert view.turned_deg(elbow, back) == pytest.approx(posed[elbow], abs=0.01)
+        assert view.turned_deg(elbow, back) == pytest.approx(limits.max_deg, abs=0.01)
+
+        # on to 190°, which the ring reads as -170°: still the upper limit, the one the elbow
+        # stands at, never a jump across its range to the lower
+        around = quaternion_of(rotation_of(back) @ about_x(np.radians(190 - limits.max_deg)))
+        studio.turn_joint("elbow", around)
+        assert studio.posing[elbow] == limits.max_deg
 
         # a click on the floor: no ring
         studio.pick_joint(np.array([0.5, 0.5, 1.0]), np.array([0.0, 0.0, -1.0]))
