@@ -83,7 +83,9 @@ def simulate(
 
     ``resume``, an earlier rollout's (of the same robot, start and settings): the steps before
     the first tick that differs are taken from it, and the physics runs on from its last
-    checkpoint before that tick; the result is the same, bit for bit."""
+    checkpoint before that tick (the same, bit for bit); once the ticks left are its ticks and
+    the simulator is as it was then (within ``step_loop.JOIN_TOLERANCE``), the rest is taken
+    from it too."""
     # One straight recipe (build, settle or resume, run, record) whose length is the Rollout's
     # fields, one per line: split further, its parts would pass most of its locals around.
     n_joints = len(robot.joints)
@@ -118,8 +120,9 @@ def simulate(
     else:
         settled = loop.settle(np.radians(start_deg), max_settle)
         n_settle, first = record.count, 0
+    rejoin = None if resume is None else resume.rejoin(inputs, tuple(ticks), dt, n_settle, n_run)
     checkpoints = loop.run(
-        stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt)
+        stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt), rejoin
     )
     check_stable(model, data)
     if checkpoint is not None:

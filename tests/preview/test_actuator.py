@@ -1,11 +1,19 @@
-"""The servo's law at each physics step (``ServoDrive``): delay, offset, gear play, dead band."""
+"""The servo's law at each physics step (``ServoDrive``): delay, offset, gear play, dead band; and
+when two servo states go on alike (what lets a simulation take the rest of an earlier one)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
+from choreo.plan.ticks import Tick
+from choreo.preview.actuator import (
+    ActuatorParams,
+    CommandStream,
+    ServoBank,
+    ServoDrive,
+    actuator_params,
+)
 from choreo.robot.robot_file import load_robot
 
 ARM6 = load_robot("arm6")
@@ -64,3 +72,38 @@ def test_figures_out_of_range_are_refused_naming_the_field():
     with pytest.raises(ValueError, match="friction_nm of joint base_yaw must be a number >= 0"):
         one_servo(friction_nm=-1.0)
     assert one_servo(offset_deg=-3.0).offset_deg == -3.0
+
+
+def test_two_servo_banks_are_the_same_but_for_rounding_and_not_with_another_preset():
+    stream = CommandStream.from_ticks(
+        [Tick(0, 500, (600, 400), (True, True)), Tick(400, 300, (700, 400), (True, False))], 2
+    )
+
+    def bank(start_units, second: int = 1) -> ServoBank:
+        servos = ServoBank(np.array([500.0, 500.0]), max_speed_units_s=None)
+        servos.start(stream, 0, 0.0, np.array(start_units, dtype=float))
+        servos.start(stream, second, 0.4, servos.setpoint_units(0.4))
+        return servos
+
+    ours = bank([500.0, 500.0])
+    assert ours.same_as(bank([500.0, 500.0 + 1e-12]))  # one bit of a float apart
+    assert not ours.same_as(bank([500.0, 500.1]))  # the second servo elsewhere on its way
+    assert not ours.same_as(bank([500.0, 500.0], second=0))  # the first re-staged otherwise
+
+
+def test_two_servo_drives_go_on_alike_with_aims_within_tolerance_and_the_same_delayed_set_points():
+    def drive_after(setpoints_deg, **figures: float) -> ServoDrive:
+        drive = drive_of(one_servo(deadband_deg=0.0, **figures))
+        for angle in setpoints_deg:
+            drive.ctrl(np.radians([angle]), np.zeros(1))
+        return drive
+
+    # going up, the aim trails by the half play; 1e-4° further and back leaves it that far on
+    ours = drive_after([1.0, 2.0, 3.0], backlash_deg=2.0)
+    assert ours.same_as(drive_after([1.0, 2.0, 3.0], backlash_deg=2.0), 1e-9)
+    nudged = drive_after([1.0, 2.0, 3.0001, 3.0], backlash_deg=2.0)
+    assert not ours.same_as(nudged, 1e-9) and ours.same_as(nudged, np.radians(1e-3))
+    # a set-point still waiting out the delay differs: not the same, at any tolerance
+    late = drive_after([1.0, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
+    other = drive_after([1.5, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
+    assert np.array_equal(late.aim_rad, other.aim_rad) and not late.same_as(other, 1.0)
