@@ -341,23 +341,40 @@ class ServoBank:
         # a zero-time move (possible only without a speed cap) jumps at once
         self._rate_per_s[runs] = 1 / np.maximum(duration, INSTANT_S)
 
-    def _state(self) -> tuple[np.ndarray, ...]:
-        return (
-            self._preset_units,
-            self._preset_duration_s,
-            self._from_units,
-            self._delta_units,
-            self._start_s,
-            self._rate_per_s,
-        )
+    def _resting(self, now_s: float) -> np.ndarray:
+        """Per servo: it stands at its preset's target (or has none) from ``now_s`` on, its move
+        over or going nowhere, so re-running the preset moves it nowhere, however long that
+        was to take."""
+        done = (now_s - self._start_s) * self._rate_per_s >= 1.0
+        still = done | (np.abs(self._delta_units) <= ROUNDING)
+        there = ~(np.abs(self.setpoint_units(now_s) - self._preset_units) > ROUNDING)
+        return still & there  # a servo without a preset (NaN) is never re-run: there
 
-    def same_as(self, other: ServoBank) -> bool:
-        """Whether ``other`` (of the same servos) holds the same presets and moves: from now on
-        both give the same set-points for the same ticks. Equal but for float rounding
-        (``from + (target - from)`` is ``target`` only to the last bit)."""
+    def same_as(self, other: ServoBank, now_s: float) -> bool:
+        """Whether ``other`` (of the same servos) gives the same set-points as this one from
+        ``now_s`` on, for the same ticks: the same presets' targets; a servo resting on its
+        target (``_resting``) standing at the same place, any other with the same move and
+        preset duration. Equal but for float rounding (``from + (target - from)`` is
+        ``target`` only to the last bit)."""
+        resting = self._resting(now_s)
+        if not np.array_equal(resting, other._resting(now_s)):
+            return False
+        moving = ~resting
+        pairs = [
+            (self._preset_units, other._preset_units),
+            (self.setpoint_units(now_s), other.setpoint_units(now_s)),
+        ]
+        for name in (
+            "_preset_duration_s",
+            "_from_units",
+            "_delta_units",
+            "_start_s",
+            "_rate_per_s",
+        ):
+            pairs.append((getattr(self, name)[moving], getattr(other, name)[moving]))
         return all(
             np.allclose(ours, theirs, rtol=ROUNDING, atol=ROUNDING, equal_nan=True)
-            for ours, theirs in zip(self._state(), other._state())
+            for ours, theirs in pairs
         )
 
     def setpoint_units(self, now_s: float | np.ndarray) -> np.ndarray:

@@ -52,14 +52,15 @@ class Checkpoint:
     drive: ServoDrive
     contacts: int  # entries of the contact log
 
-    def goes_on_as(self, other: Checkpoint, physics: slice) -> bool:
-        """Whether the simulator at ``other`` (the same step of another run) goes on as at this
-        one for the same ticks: the same servo moves and laws, and joints and bodies
-        (``state[physics]``: positions, velocities, actuator states) within JOIN_TOLERANCE."""
+    def goes_on_as(self, other: Checkpoint, physics: slice, now_s: float) -> bool:
+        """Whether the simulator at ``other`` (the same step, at ``now_s``, of another run) goes
+        on as at this one for the same ticks: the same servo moves and laws, and joints and
+        bodies (``state[physics]``: positions, velocities, actuator states) within
+        JOIN_TOLERANCE."""
         apart = np.abs(self.state[physics] - other.state[physics]).max(initial=0.0)
         return (
             bool(apart <= JOIN_TOLERANCE)
-            and self.servos.same_as(other.servos)
+            and self.servos.same_as(other.servos, now_s)
             and self.drive.same_as(other.drive, JOIN_TOLERANCE)
         )
 
@@ -128,10 +129,12 @@ class Rejoin:
     from_step: int
     checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
 
-    def joins_at(self, ours: Checkpoint, physics: slice) -> Checkpoint | None:
+    def joins_at(self, ours: Checkpoint, physics: slice, dt: float) -> Checkpoint | None:
         """The earlier run's checkpoint at ``ours``'s step if the run goes on as it did there."""
         theirs = self.checkpoints.get(ours.step) if ours.step >= self.from_step else None
-        return theirs if theirs is not None and ours.goes_on_as(theirs, physics) else None
+        if theirs is None or not ours.goes_on_as(theirs, physics, ours.step * dt):
+            return None
+        return theirs
 
 
 def start_step(start_s: float | np.ndarray, dt_s: float) -> np.ndarray:
@@ -209,7 +212,7 @@ class StepLoop:
             if checkpoint_every and begin % checkpoint_every == 0:
                 ours = self._checkpoint(begin, servos)
                 checkpoints.append(ours)
-                if rejoin is not None and (theirs := rejoin.joins_at(ours, self.physics)):
+                if rejoin is not None and (theirs := rejoin.joins_at(ours, self.physics, dt)):
                     return checkpoints + self._take_rest(rejoin.resume, ours, theirs)
             for tick in started[start_steps == begin]:
                 if move_start is MoveStart.POSITION:

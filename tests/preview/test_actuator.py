@@ -74,21 +74,30 @@ def test_figures_out_of_range_are_refused_naming_the_field():
     assert one_servo(offset_deg=-3.0).offset_deg == -3.0
 
 
-def test_two_servo_banks_are_the_same_but_for_rounding_and_not_with_another_preset():
-    stream = CommandStream.from_ticks(
-        [Tick(0, 500, (600, 400), (True, True)), Tick(400, 300, (700, 400), (True, False))], 2
-    )
-
-    def bank(start_units, second: int = 1) -> ServoBank:
+def test_two_servo_banks_are_the_same_but_for_rounding_and_a_rested_servos_old_preset_time():
+    def bank(first_ms: int, nudge=(0.0, 0.0), second: int = 1) -> ServoBank:
+        """Both servos sent to 600 over ``first_ms``; at 0.8 s, the first alone on to 700."""
+        stream = CommandStream.from_ticks(
+            [
+                Tick(0, first_ms, (600, 600), (True, True)),
+                Tick(800, 400, (700, 600), (True, False)),
+            ],
+            2,
+        )
         servos = ServoBank(np.array([500.0, 500.0]), max_speed_units_s=None)
-        servos.start(stream, 0, 0.0, np.array(start_units, dtype=float))
-        servos.start(stream, second, 0.4, servos.setpoint_units(0.4))
+        servos.start(stream, 0, 0.0, np.array([500.0, 500.0]))
+        servos.start(stream, second, 0.8, servos.setpoint_units(0.8) + nudge)
         return servos
 
-    ours = bank([500.0, 500.0])
-    assert ours.same_as(bank([500.0, 500.0 + 1e-12]))  # one bit of a float apart
-    assert not ours.same_as(bank([500.0, 500.1]))  # the second servo elsewhere on its way
-    assert not ours.same_as(bank([500.0, 500.0], second=0))  # the first re-staged otherwise
+    ours = bank(500)
+    assert ours.same_as(bank(500, nudge=(1e-12, 0.0)), 1.0)  # a bit apart
+    # the second servo, at 600 since 0.5 s (or 0.7 s), re-runs its preset at 0.8 s going
+    # nowhere: how long the preset was to take no longer matters
+    assert ours.same_as(bank(700), 1.0)
+    # one not there yet at 0.8 s (due at 0.9 s) re-runs it over its whole time again
+    assert not ours.same_as(bank(900), 1.0)
+    assert not ours.same_as(bank(500, nudge=(0.1, 0.0)), 1.0)  # the first moving from elsewhere
+    assert not ours.same_as(bank(500, second=0), 1.0)  # the first re-staged otherwise
 
 
 def test_two_servo_drives_go_on_alike_with_aims_within_tolerance_and_the_same_delayed_set_points():
