@@ -110,7 +110,7 @@ def simulate(
     max_settle = round(settings.max_settle_s / dt)
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = StepRecord(max_settle + n_run, model.nq, n_joints)
-    loop = StepLoop(model, data, index, drive, contacts, record)
+    loop = StepLoop(model, data, index, drive, contacts, record, _planar_root(model, root))
     inputs = (robot, tuple(start_deg), settings, posture, tuple(props))
     checkpoint = None if resume is None else resume.checkpoint_for(inputs, tuple(ticks), dt, n_run)
     if resume is not None and checkpoint is not None:
@@ -157,6 +157,18 @@ def simulate(
             inputs, tuple(ticks), settled, n_settle, record, contacts, tuple(checkpoints)
         ),
     )
+
+
+def _planar_root(model: mujoco.MjModel, root: int | None) -> int | None:
+    """Where a free-floating robot's root x and y are in qpos if nothing in the world tells one
+    place on the floor from another: the world's geoms level planes, nothing else free or tied
+    to the world, gravity straight down. None otherwise (a fixed robot, props)."""
+    if root is None or free_prop_joints(model) or model.nmocap or model.neq:
+        return None
+    planes = model.geom_type[model.geom_bodyid == 0] == mujoco.mjtGeom.mjGEOM_PLANE
+    tilts = model.geom_quat[model.geom_bodyid == 0][:, 1:3]  # a turn about z only: level
+    level = not model.opt.gravity[:2].any() and not tilts.any()
+    return int(model.jnt_qposadr[root]) if planes.all() and level else None
 
 
 def _checked_start(initial_deg: Sequence[float], n_joints: int) -> np.ndarray:

@@ -64,6 +64,14 @@ class Checkpoint:
             and self.drive.same_as(other.drive, JOIN_TOLERANCE)
         )
 
+    def moved(self, qpos_shift: np.ndarray, physics: slice) -> Checkpoint:
+        """This checkpoint with ``qpos_shift`` added to its positions."""
+        if not qpos_shift.any():
+            return self
+        state = self.state.copy()
+        state[physics.start : physics.start + len(qpos_shift)] += qpos_shift
+        return replace(self, state=state)
+
 
 @dataclass(frozen=True)
 class Resume:
@@ -129,13 +137,6 @@ class Rejoin:
     from_step: int
     checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
 
-    def joins_at(self, ours: Checkpoint, physics: slice, dt: float) -> Checkpoint | None:
-        """The earlier run's checkpoint at ``ours``'s step if the run goes on as it did there."""
-        theirs = self.checkpoints.get(ours.step) if ours.step >= self.from_step else None
-        if theirs is None or not ours.goes_on_as(theirs, physics, ours.step * dt):
-            return None
-        return theirs
-
 
 def start_step(start_s: float | np.ndarray, dt_s: float) -> np.ndarray:
     """The physics step at which a START at ``start_s`` (one time or an array) happens: the first
@@ -156,10 +157,23 @@ class StepRecord:
 class StepLoop:
     """The step loop, kept lean (it runs ~500 times per simulated second)."""
 
-    def __init__(self, model, data, index, drive: ServoDrive, contacts, log: StepRecord):
+    def __init__(
+        self,
+        model,
+        data,
+        index,
+        drive: ServoDrive,
+        contacts,
+        log: StepRecord,
+        planar: int | None = None,
+    ):
+        """``planar``: where a free-floating robot's root x and y are in qpos when nothing in the
+        world tells one place on the floor from another (an earlier run that went on alike
+        shifted there is taken, shifted)."""
         self.model, self.data, self.index = model, data, index
         self.drive = drive
         self.contacts, self.log = contacts, log
+        self.planar = planar
         # where a checkpoint's state holds the positions, velocities and actuator states
         # (mjtState's parts come in the order of their bits: time, qpos, qvel, act first)
         physics = mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL
@@ -212,8 +226,8 @@ class StepLoop:
             if checkpoint_every and begin % checkpoint_every == 0:
                 ours = self._checkpoint(begin, servos)
                 checkpoints.append(ours)
-                if rejoin is not None and (theirs := rejoin.joins_at(ours, self.physics, dt)):
-                    return checkpoints + self._take_rest(rejoin.resume, ours, theirs)
+                if rejoin is not None and (shift := self._joins(rejoin, ours, dt)) is not None:
+                    return checkpoints + self._take_rest(rejoin, ours, shift)
             for tick in started[start_steps == begin]:
                 if move_start is MoveStart.POSITION:
                     position_units = robot.to_units(np.degrees(self.data.qpos[self.index.qpos]))
@@ -249,19 +263,34 @@ class StepLoop:
         self.contacts.take_from(resume.contacts, checkpoint.contacts)
         return copy.deepcopy(checkpoint.servos)
 
-    def _take_rest(self, resume: Resume, ours: Checkpoint, theirs: Checkpoint) -> list[Checkpoint]:
-        """What ``resume``'s run recorded from ``theirs`` (at ``ours``'s step, going on alike) to
-        its end, as this run's; its later checkpoints are returned (counting this log's
-        contacts)."""
+    def _joins(self, rejoin: Rejoin, ours: Checkpoint, dt: float) -> np.ndarray | None:
+        """How far to shift the earlier run's positions (zeros, or a planar root's x and y) to
+        go on from ``ours`` as it did from the same step; None: it does not go on alike."""
+        theirs = rejoin.checkpoints.get(ours.step) if ours.step >= rejoin.from_step else None
+        if theirs is None:
+            return None
+        shift = np.zeros(self.model.nq)
+        if self.planar is not None:
+            xy = slice(self.physics.start + self.planar, self.physics.start + self.planar + 2)
+            shift[self.planar : self.planar + 2] = ours.state[xy] - theirs.state[xy]
+        if not ours.goes_on_as(theirs.moved(shift, self.physics), self.physics, ours.step * dt):
+            return None
+        return shift
+
+    def _take_rest(self, rejoin: Rejoin, ours: Checkpoint, shift: np.ndarray) -> list[Checkpoint]:
+        """What ``rejoin``'s run recorded from ``ours``'s step (going on alike, its positions
+        shifted by ``shift``) to its end, as this run's; its later checkpoints are returned
+        (shifted too, counting this log's contacts)."""
+        resume, theirs = rejoin.resume, rejoin.checkpoints[ours.step]
         begin, end = resume.n_settle + ours.step, resume.record.count
         old, log = resume.record, self.log
-        log.qpos[begin:end], log.ctrl[begin:end] = old.qpos[begin:end], old.ctrl[begin:end]
-        log.torque[begin:end] = old.torque[begin:end]
+        log.qpos[begin:end] = old.qpos[begin:end] + shift
+        log.ctrl[begin:end], log.torque[begin:end] = old.ctrl[begin:end], old.torque[begin:end]
         log.count = end
         self.contacts.take_rest(resume.contacts, theirs.contacts)
-        shift = ours.contacts - theirs.contacts
+        more = ours.contacts - theirs.contacts
         return [
-            replace(c, contacts=c.contacts + shift)
+            replace(c.moved(shift, self.physics), contacts=c.contacts + more)
             for c in resume.checkpoints
             if c.step > ours.step
         ]

@@ -66,8 +66,8 @@ def shifted(ticks: list[Tick], ms: int) -> list[Tick]:
 
 def reused_steps(rollout, before) -> list[int]:
     """The checkpoints ``rollout`` took from ``before``'s run rather than simulating them."""
-    theirs = {id(c.state) for c in before.resume.checkpoints}
-    return [c.step for c in rollout.resume.checkpoints if id(c.state) in theirs]
+    theirs = {id(c.servos) for c in before.resume.checkpoints}
+    return [c.step for c in rollout.resume.checkpoints if id(c.servos) in theirs]
 
 
 def without_values(findings):
@@ -112,6 +112,34 @@ def test_a_run_that_ends_as_an_earlier_one_takes_its_rest_and_equals_the_full_ru
     assert np.abs(again.qpos - full_again.qpos).max() <= JOIN_TOLERANCE
     assert again.contacts.pairs == full_again.contacts.pairs
     assert np.array_equal(again.contacts.step, full_again.contacts.step)
+
+
+def test_a_walker_that_slid_on_the_floor_takes_the_earlier_run_shifted_as_far(hexapod):
+    """Nothing in the world tells one place on the floor from another: a body that went on
+    as before a few millimetres over goes on so to the end."""
+    home = np.array(hexapod.pose_vector("home"))
+    lower = np.array([j.limits.min_deg for j in hexapod.joints])
+    upper = np.array([j.limits.max_deg for j in hexapod.joints])
+
+    def crouch_then_sway(depth_deg: float) -> list[Tick]:
+        crouch = np.clip(home + depth_deg, lower, upper)
+        sway = np.clip(home + np.tile([6.0, 0.0, 0.0], 6), lower, upper)
+        ticks = linear_ticks(hexapod, home, crouch, 1000, 100)
+        ticks += shifted(linear_ticks(hexapod, crouch, home, 1000, 100), 1000)
+        ticks += shifted(linear_ticks(hexapod, home, sway, 1000, 100), 2000)
+        ticks += shifted(linear_ticks(hexapod, sway, home, 1000, 100), 3000)
+        return ticks + shifted(linear_ticks(hexapod, home, home, 2000, 500), 4000)
+
+    before = simulate(hexapod, crouch_then_sway(8.0), home)
+    changed = crouch_then_sway(12.0)
+    full = simulate(hexapod, changed, home)
+    spliced = simulate(hexapod, changed, home, resume=before.resume)
+    assert reused_steps(spliced, before)  # the rest taken
+    root = full.body.qpos_address
+    slid = np.abs(before.qpos[-1, root : root + 2] - full.qpos[-1, root : root + 2]).max()
+    assert slid > 5 * JOIN_TOLERANCE  # the deeper crouch left the body elsewhere
+    assert np.abs(spliced.qpos - full.qpos).max() <= JOIN_TOLERANCE
+    assert np.array_equal(spliced.contacts.step, full.contacts.step)
 
 
 def test_a_change_whose_effect_lasts_is_simulated_to_the_end_not_spliced_away():
