@@ -36,6 +36,7 @@ from choreo.preview.model import (
     link_name,
     link_of_body,
     load_model,
+    model_digest,
 )
 from choreo.preview.rollout import FreeBody, MoveStart, Rollout, Settling
 from choreo.preview.start import foot_links, start_state
@@ -111,7 +112,9 @@ def simulate(
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = StepRecord(max_settle + n_run, model.nq, n_joints)
     loop = StepLoop(model, data, index, drive, contacts, record, _planar_root(model, root))
-    inputs = (robot, tuple(start_deg), settings, posture, tuple(props))
+    # the model's digest too: an MJCF edited on disk leaves the robot file, and so ``robot``, as
+    # it was
+    inputs = (robot, tuple(start_deg), settings, posture, tuple(props), model_digest(model))
     checkpoint = None if resume is None else resume.checkpoint_for(inputs, tuple(ticks), dt, n_run)
     if resume is not None and checkpoint is not None:
         settled, n_settle = resume.settled, resume.n_settle

@@ -77,7 +77,7 @@ class Checkpoint:
 class Resume:
     """What a rollout leaves to simulate faster a tick list that begins as its own did."""
 
-    inputs: tuple  # robot, start angles, settings, posture, props: must be the same
+    inputs: tuple  # robot, start angles, settings, posture, props, model digest: the same
     ticks: tuple[Tick, ...]
     settled: bool
     n_settle: int

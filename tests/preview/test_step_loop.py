@@ -7,6 +7,7 @@ error."""
 from __future__ import annotations
 
 import dataclasses
+import shutil
 
 import numpy as np
 import pytest
@@ -170,6 +171,23 @@ def test_a_change_whose_effect_lasts_is_simulated_to_the_end_not_spliced_away():
         full.duration_s, abs=0.05
     )
     assert not [f for f in run_checks(before) if f.kind.value == "saturation"]
+
+
+def test_a_model_edited_on_disk_is_simulated_afresh(tmp_path, arm3):
+    """The robot file is as it was, so the robot compares equal: the model's digest tells."""
+    shutil.copytree(arm3.path.parent, tmp_path / "arm3")
+    ticks = linear_ticks(arm3, [0, 0, 0], [0, 60, 0], 2000, 100)
+    robot = load_robot(tmp_path / "arm3" / "robot.yaml")
+    before = simulate(robot, ticks, [0, 0, 0])
+    mjcf = tmp_path / "arm3" / "arm3.xml"
+    heavier = mjcf.read_text().replace('pos="0 0 0.07" mass="0.05"', 'pos="0 0 0.07" mass="0.5"')
+    assert heavier != mjcf.read_text()
+    mjcf.write_text(heavier)
+    robot = load_robot(tmp_path / "arm3" / "robot.yaml")
+    fresh = simulate(robot, ticks, [0, 0, 0])
+    resumed = simulate(robot, ticks, [0, 0, 0], resume=before.resume)
+    assert np.array_equal(resumed.qpos, fresh.qpos)
+    assert not np.allclose(fresh.qpos, before.qpos, atol=1e-3)  # the heavier forearm sags
 
 
 def test_moves_from_the_measured_position_make_a_loaded_joint_sag_more(arm3):
