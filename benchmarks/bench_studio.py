@@ -27,8 +27,8 @@ page, and what memory a long session of edits leaves.
                  within 20 ms.
 
 Needs the studio extra, Playwright and Debian's chromium (as tests/studio/test_studio_browser.py).
-Run: python benchmarks/bench_studio.py [timeline|drag]   (only the timeline's, or the drags',
-figures)
+Run: python benchmarks/bench_studio.py [timeline|drag|save]   (only the timeline's, the drags'
+or the saves' figures)
 """
 
 from __future__ import annotations
@@ -301,6 +301,21 @@ def print_drags(folder: Path) -> None:
         )
 
 
+def print_saves(browser, folder: Path) -> None:
+    for duration_s in (30, 300):
+        for changed_s, which in ((duration_s // 2, "halfway"), (1, "first")):
+            times = save_to_page(browser, folder, duration_s, changed_s)
+            goal = f" (goal: shown <= {GOALS_S[duration_s]:g} s)"
+            print(
+                f"{duration_s:>3} s motion, {which} keyframe changed, median (max) over "
+                f"{SAVES} saves{goal}: save -> "
+                + ", ".join(
+                    f"{what} {statistics.median(t):.2f} s ({max(t):.2f})"
+                    for what, t in times.items()
+                )
+            )
+
+
 def main() -> None:
     if sys.argv[1:] == ["drag"]:  # only the drags' figures
         with tempfile.TemporaryDirectory() as tmp:
@@ -310,6 +325,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, sync_playwright() as playwright:
         folder = Path(tmp)
         browser = choice.launch(playwright)
+        if sys.argv[1:] == ["save"]:  # only the saves' figures
+            print_saves(browser, folder)
+            browser.close()
+            return
         redraws, frames, parts = timeline_redraw(browser, folder)
         slowest = ", ".join(
             f"{k} {v:.1f}" for k, v in sorted(parts.items(), key=lambda kv: -kv[1])[:3]
@@ -333,18 +352,7 @@ def main() -> None:
         if sys.argv[1:] == ["timeline"]:  # only the timeline's figures
             browser.close()
             return
-        for duration_s in (30, 300):
-            for changed_s, which in ((duration_s // 2, "halfway"), (1, "first")):
-                times = save_to_page(browser, folder, duration_s, changed_s)
-                goal = f" (goal: shown <= {GOALS_S[duration_s]:g} s)"
-                print(
-                    f"{duration_s:>3} s motion, {which} keyframe changed, median (max) over "
-                    f"{SAVES} saves{goal}: save -> "
-                    + ", ".join(
-                        f"{what} {statistics.median(t):.2f} s ({max(t):.2f})"
-                        for what, t in times.items()
-                    )
-                )
+        print_saves(browser, folder)
         browser.close()
         print(f"scrub: {scrub_rate(folder):.0f} requests/s handled by the server")
         print_drags(folder)

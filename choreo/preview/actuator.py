@@ -37,6 +37,7 @@ from choreo.plan.ticks import MAX_TICK_MS, Tick
 from choreo.robot.types import Joint, Robot
 
 INSTANT_S = 1e-9  # the duration that stands for "at once" (avoids dividing by zero)
+ROUNDING = 1e-9  # two servo states this close are the same but for float rounding
 
 
 @dataclass(frozen=True)
@@ -242,6 +243,17 @@ class ServoDrive:
         error = np.minimum(np.maximum(aim - position_rad, -self.half_band_rad), self.half_band_rad)
         return aim - error
 
+    def same_as(self, other: ServoDrive, tolerance_rad: float) -> bool:
+        """Whether ``other`` (of the same servos) goes on as this one does: the same set-points
+        waiting out the delay (but for float rounding), and aims within ``tolerance_rad`` (the
+        gear play holds an aim where it was left, as the dead band holds a joint, so a
+        tolerance and not equality)."""
+        return (
+            self._newest == other._newest
+            and np.allclose(self._history, other._history, rtol=0.0, atol=ROUNDING)
+            and bool(np.abs(self.aim_rad - other.aim_rad).max(initial=0.0) <= tolerance_rad)
+        )
+
 
 @dataclass(frozen=True)
 class CommandStream:
@@ -328,6 +340,42 @@ class ServoBank:
         self._start_s[runs] = now_s
         # a zero-time move (possible only without a speed cap) jumps at once
         self._rate_per_s[runs] = 1 / np.maximum(duration, INSTANT_S)
+
+    def _resting(self, now_s: float) -> np.ndarray:
+        """Per servo: it stands at its preset's target (or has none) from ``now_s`` on, its move
+        over or going nowhere, so re-running the preset moves it nowhere, however long that
+        was to take."""
+        done = (now_s - self._start_s) * self._rate_per_s >= 1.0
+        still = done | (np.abs(self._delta_units) <= ROUNDING)
+        there = ~(np.abs(self.setpoint_units(now_s) - self._preset_units) > ROUNDING)
+        return still & there  # a servo without a preset (NaN) is never re-run: there
+
+    def same_as(self, other: ServoBank, now_s: float) -> bool:
+        """Whether ``other`` (of the same servos) gives the same set-points as this one from
+        ``now_s`` on, for the same ticks: the same presets' targets; a servo resting on its
+        target (``_resting``) standing at the same place, any other with the same move and
+        preset duration. Equal but for float rounding (``from + (target - from)`` is
+        ``target`` only to the last bit)."""
+        resting = self._resting(now_s)
+        if not np.array_equal(resting, other._resting(now_s)):
+            return False
+        moving = ~resting
+        pairs = [
+            (self._preset_units, other._preset_units),
+            (self.setpoint_units(now_s), other.setpoint_units(now_s)),
+        ]
+        for name in (
+            "_preset_duration_s",
+            "_from_units",
+            "_delta_units",
+            "_start_s",
+            "_rate_per_s",
+        ):
+            pairs.append((getattr(self, name)[moving], getattr(other, name)[moving]))
+        return all(
+            np.allclose(ours, theirs, rtol=ROUNDING, atol=ROUNDING, equal_nan=True)
+            for ours, theirs in pairs
+        )
 
     def setpoint_units(self, now_s: float | np.ndarray) -> np.ndarray:
         """Set-points at one time (n_joints,) or at an array of times (n_times, n_joints)."""

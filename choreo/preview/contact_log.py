@@ -3,6 +3,7 @@ classified (self, floor, neighbour, ground, foot, held) only when they change.""
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Sequence
 
 import mujoco
@@ -45,6 +46,7 @@ class ContactLog:
         # indices into the current contact list, with the pair each touch belongs to
         self._watched: list[tuple[int, tuple[int, str, str]]] = []
         self._pair_ids: dict[tuple[int, str, str], int] = {}
+        self._named_at: list[int] = []  # per pair: the entry that first named it (ascending)
         self.steps: list[int] = []
         self.pair_index: list[int] = []
         self.depths_m: list[float] = []
@@ -62,9 +64,16 @@ class ContactLog:
         depths = -contact.dist[: data.ncon]
         for i, key in self._watched:
             if depths[i] > self._min_depth_m:
+                self.pair_index.append(self._pair_id(key))
                 self.steps.append(step)
-                self.pair_index.append(self._pair_ids.setdefault(key, len(self._pair_ids)))
                 self.depths_m.append(float(depths[i]))
+
+    def _pair_id(self, key: tuple[int, str, str]) -> int:
+        pair = self._pair_ids.get(key)
+        if pair is None:
+            pair = self._pair_ids[key] = len(self._pair_ids)
+            self._named_at.append(len(self.steps))
+        return pair
 
     def _pair_key(self, g1: int, g2: int) -> tuple[int, str, str]:
         """The pair's kind and names (the world's or a prop's second, else sorted), which are
@@ -77,16 +86,31 @@ class ContactLog:
             names = (a, b) if a <= b else (b, a)  # sorted
         return (kind, *names)
 
-    @property
-    def named(self) -> int:
-        return len(self._pair_ids)
-
-    def take_from(self, other: ContactLog, entries: int, pairs: int) -> None:
-        """``other``'s first ``entries`` contacts and ``pairs`` named pairs, as this log's."""
+    def take_from(self, other: ContactLog, entries: int) -> None:
+        """``other``'s first ``entries`` contacts, and the pairs they name, as this log's."""
+        pairs = bisect.bisect_left(other._named_at, entries)
         self.steps = other.steps[:entries]
         self.pair_index = other.pair_index[:entries]
         self.depths_m = other.depths_m[:entries]
         self._pair_ids = dict(list(other._pair_ids.items())[:pairs])
+        self._named_at = other._named_at[:pairs]
+
+    def take_rest(self, other: ContactLog, entries: int) -> None:
+        """``other``'s contacts from entry ``entries`` on, after this log's: its pairs numbered
+        as this log numbers them (in the order they first touch), the new ones after."""
+        rest = np.array(other.pair_index[entries:], dtype=int)
+        keys = list(other._pair_ids)
+        ours = np.zeros(len(keys), dtype=int)  # other's pair number -> ours
+        seen, first = np.unique(rest, return_index=True)
+        for theirs, at in sorted(zip(seen.tolist(), first.tolist()), key=lambda pair: pair[1]):
+            pair = self._pair_ids.get(keys[theirs])
+            if pair is None:
+                pair = self._pair_ids[keys[theirs]] = len(self._pair_ids)
+                self._named_at.append(len(self.steps) + at)
+            ours[theirs] = pair
+        self.steps += other.steps[entries:]
+        self.pair_index += ours[rest].tolist()
+        self.depths_m += other.depths_m[entries:]
 
     def recorded(self) -> Contacts:
         ordered = sorted(self._pair_ids, key=self._pair_ids.__getitem__)

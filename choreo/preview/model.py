@@ -6,6 +6,7 @@ armature from the servo model) on the compiled model, whatever the MJCF says.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -68,6 +69,23 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
     if any(prop.free for prop in props):
         _hold_what_friction_holds(model)
     return model
+
+
+def model_digest(model: mujoco.MjModel) -> str:
+    """A digest of what the physics reads of a compiled model: its arrays (masses, geometry,
+    joints, actuators, ...) and its options, not the textures' pixels. Two loads of the same
+    files give the same digest; an edit to the MJCF that changes the physics changes it (the
+    robot file itself may not change)."""
+    digest = hashlib.blake2b(digest_size=16)
+    for name in dir(model):
+        value = getattr(model, name) if not name.startswith("_") and name != "tex_data" else None
+        if isinstance(value, np.ndarray):
+            digest.update(name.encode() + value.tobytes())
+    for name in dir(model.opt):
+        value = getattr(model.opt, name) if not name.startswith("_") else None
+        if isinstance(value, (int, float, np.ndarray)):
+            digest.update(name.encode() + np.asarray(value, dtype=float).tobytes())
+    return digest.hexdigest()
 
 
 GRASP_IMPRATIO = 10.0  # friction constraints this much stiffer than normal ones (MuJoCo's 1)

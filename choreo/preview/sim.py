@@ -36,6 +36,7 @@ from choreo.preview.model import (
     link_name,
     link_of_body,
     load_model,
+    model_digest,
 )
 from choreo.preview.rollout import FreeBody, MoveStart, Rollout, Settling
 from choreo.preview.start import foot_links, start_state
@@ -83,7 +84,9 @@ def simulate(
 
     ``resume``, an earlier rollout's (of the same robot, start and settings): the steps before
     the first tick that differs are taken from it, and the physics runs on from its last
-    checkpoint before that tick; the result is the same, bit for bit."""
+    checkpoint before that tick (the same, bit for bit); once the ticks left are its ticks and
+    the simulator is as it was then (within ``step_loop.JOIN_TOLERANCE``), the rest is taken
+    from it too."""
     # One straight recipe (build, settle or resume, run, record) whose length is the Rollout's
     # fields, one per line: split further, its parts would pass most of its locals around.
     n_joints = len(robot.joints)
@@ -108,8 +111,10 @@ def simulate(
     max_settle = round(settings.max_settle_s / dt)
     n_run = int(math.floor((stream.end_s + settings.tail_s) / dt + 1e-9)) + 1
     record = StepRecord(max_settle + n_run, model.nq, n_joints)
-    loop = StepLoop(model, data, index, drive, contacts, record)
-    inputs = (robot, tuple(start_deg), settings, posture, tuple(props))
+    loop = StepLoop(model, data, index, drive, contacts, record, _planar_root(model, root))
+    # the model's digest too: an MJCF edited on disk leaves the robot file, and so ``robot``, as
+    # it was
+    inputs = (robot, tuple(start_deg), settings, posture, tuple(props), model_digest(model))
     checkpoint = None if resume is None else resume.checkpoint_for(inputs, tuple(ticks), dt, n_run)
     if resume is not None and checkpoint is not None:
         settled, n_settle = resume.settled, resume.n_settle
@@ -118,8 +123,9 @@ def simulate(
     else:
         settled = loop.settle(np.radians(start_deg), max_settle)
         n_settle, first = record.count, 0
+    rejoin = None if resume is None else resume.rejoin(inputs, tuple(ticks), dt, n_settle, n_run)
     checkpoints = loop.run(
-        stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt)
+        stream, servos, robot, settings.move_start, n_run, first, round(CHECKPOINT_S / dt), rejoin
     )
     check_stable(model, data)
     if checkpoint is not None:
@@ -154,6 +160,18 @@ def simulate(
             inputs, tuple(ticks), settled, n_settle, record, contacts, tuple(checkpoints)
         ),
     )
+
+
+def _planar_root(model: mujoco.MjModel, root: int | None) -> int | None:
+    """Where a free-floating robot's root x and y are in qpos if nothing in the world tells one
+    place on the floor from another: the world's geoms level planes, nothing else free or tied
+    to the world, gravity straight down. None otherwise (a fixed robot, props)."""
+    if root is None or free_prop_joints(model) or model.nmocap or model.neq:
+        return None
+    planes = model.geom_type[model.geom_bodyid == 0] == mujoco.mjtGeom.mjGEOM_PLANE
+    tilts = model.geom_quat[model.geom_bodyid == 0][:, 1:3]  # a turn about z only: level
+    level = not model.opt.gravity[:2].any() and not tilts.any()
+    return int(model.jnt_qposadr[root]) if planes.all() and level else None
 
 
 def _checked_start(initial_deg: Sequence[float], n_joints: int) -> np.ndarray:

@@ -1,13 +1,13 @@
 """The simulation's step loop: each physics step with the servos' set-points through their law,
 recorded; holding the start pose until still; checkpoints of the whole simulator, from which a
-later tick list that begins the same way resumes (``Resume``)."""
+later tick list that begins the same way resumes (``Resume``), and at which one that ends the
+same way takes the rest of the earlier run once its state is the earlier run's (``Rejoin``)."""
 
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -22,7 +22,14 @@ from choreo.robot.types import Robot
 INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # everything stepping depends on
 
 
-CHECKPOINT_S = 1.0  # a rollout keeps the whole simulator's state this often (``Resume``)
+CHECKPOINT_S = 0.5  # a rollout keeps the whole simulator's state this often (``Resume``)
+
+
+# Two states this close go on alike (rad and rad/s a joint, m and m/s a free body): the rest of
+# the earlier run is taken. Not tighter: a joint left inside its servo's dead band stays where it
+# stopped, so a change that nudged it (arm6's wrist, 2e-6 rad after a change at the base) stays
+# in every later state and a tighter tolerance never takes the rest.
+JOIN_TOLERANCE = 1e-5
 
 
 STILL_SPEED = 0.01  # m/s and rad/s: every degree of freedom slower than this is still
@@ -44,14 +51,33 @@ class Checkpoint:
     servos: ServoBank
     drive: ServoDrive
     contacts: int  # entries of the contact log
-    pairs: int  # contact pairs named
+
+    def goes_on_as(self, other: Checkpoint, physics: slice, now_s: float) -> bool:
+        """Whether the simulator at ``other`` (the same step, at ``now_s``, of another run) goes
+        on as at this one for the same ticks: the same servo moves and laws, and joints and
+        bodies (``state[physics]``: positions, velocities, actuator states) within
+        JOIN_TOLERANCE."""
+        apart = np.abs(self.state[physics] - other.state[physics]).max(initial=0.0)
+        return (
+            bool(apart <= JOIN_TOLERANCE)
+            and self.servos.same_as(other.servos, now_s)
+            and self.drive.same_as(other.drive, JOIN_TOLERANCE)
+        )
+
+    def moved(self, qpos_shift: np.ndarray, physics: slice) -> Checkpoint:
+        """This checkpoint with ``qpos_shift`` added to its positions."""
+        if not qpos_shift.any():
+            return self
+        state = self.state.copy()
+        state[physics.start : physics.start + len(qpos_shift)] += qpos_shift
+        return replace(self, state=state)
 
 
 @dataclass(frozen=True)
 class Resume:
     """What a rollout leaves to simulate faster a tick list that begins as its own did."""
 
-    inputs: tuple  # robot, start angles, settings, posture, props: must be the same
+    inputs: tuple  # robot, start angles, settings, posture, props, model digest: the same
     ticks: tuple[Tick, ...]
     settled: bool
     n_settle: int
@@ -71,19 +97,51 @@ class Resume:
             if old != new:
                 break
             same += 1
-        if same == len(self.ticks) == len(ticks):
-            changed_s = math.inf
-        else:
-            changed = [t[same].start_ms for t in (self.ticks, ticks) if same < len(t)]
-            changed_s = min(changed) / 1000
-        # the first step a START at changed_s could touch (as StepLoop.run rounds it), less one
-        first_touched = math.ceil(changed_s / dt - 1e-6) if math.isfinite(changed_s) else None
+        changed = [t[same].start_ms for t in (self.ticks, ticks) if same < len(t)]
+        # the first step a START of a changed tick could touch, less one
+        first_touched = int(start_step(min(changed) / 1000, dt)) if changed else None
         usable = [
             c
             for c in self.checkpoints
             if c.step < n_run and (first_touched is None or c.step < first_touched)
         ]
         return usable[-1] if usable else None
+
+    def rejoin(
+        self, inputs: tuple, ticks: tuple[Tick, ...], dt: float, n_settle: int, n_run: int
+    ) -> Rejoin | None:
+        """Where a run of ``ticks`` (``n_run`` steps after ``n_settle`` settling) could take the
+        rest of this one: from the step after the last START of a tick that differs (None: the
+        inputs or lengths differ)."""
+        lengths = (n_settle, n_settle + n_run)
+        if inputs != self.inputs or lengths != (self.n_settle, self.record.count):
+            return None
+        same = 0
+        for old, new in zip(reversed(self.ticks), reversed(ticks)):
+            if old != new:
+                break
+            same += 1
+        changed = [t[len(t) - same - 1].start_ms for t in (self.ticks, ticks) if len(t) > same]
+        after = max(changed, default=None)
+        from_step = 0 if after is None else int(start_step(after / 1000, dt)) + 1
+        return Rejoin(self, from_step, {c.step: c for c in self.checkpoints})
+
+
+@dataclass(frozen=True)
+class Rejoin:
+    """An earlier run whose rest a run may take: from step ``from_step`` on both play the same
+    ticks, so where the simulator is as it was there (``Checkpoint.goes_on_as``), the earlier
+    run's steps, contacts and checkpoints from there on are what simulating on would give."""
+
+    resume: Resume
+    from_step: int
+    checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
+
+
+def start_step(start_s: float | np.ndarray, dt_s: float) -> np.ndarray:
+    """The physics step at which a START at ``start_s`` (one time or an array) happens: the first
+    step at or after its time."""
+    return np.ceil(np.asarray(start_s) / dt_s - 1e-6).astype(int)
 
 
 class StepRecord:
@@ -99,10 +157,29 @@ class StepRecord:
 class StepLoop:
     """The step loop, kept lean (it runs ~500 times per simulated second)."""
 
-    def __init__(self, model, data, index, drive: ServoDrive, contacts, log: StepRecord):
+    def __init__(
+        self,
+        model,
+        data,
+        index,
+        drive: ServoDrive,
+        contacts,
+        log: StepRecord,
+        planar: int | None = None,
+    ):
+        """``planar``: where a free-floating robot's root x and y are in qpos when nothing in the
+        world tells one place on the floor from another (an earlier run that went on alike
+        shifted there is taken, shifted)."""
         self.model, self.data, self.index = model, data, index
         self.drive = drive
         self.contacts, self.log = contacts, log
+        self.planar = planar
+        # where a checkpoint's state holds the positions, velocities and actuator states
+        # (mjtState's parts come in the order of their bits: time, qpos, qvel, act first)
+        physics = mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL
+        physics |= mujoco.mjtState.mjSTATE_ACT
+        time = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)
+        self.physics = slice(time, time + mujoco.mj_stateSize(model, physics))
 
     def step(self, ctrl_rad: np.ndarray) -> None:
         """One physics step with the servos' set-points at ``ctrl_rad``, through their law
@@ -132,21 +209,25 @@ class StepLoop:
         n: int,
         first: int = 0,
         checkpoint_every: int = 0,
+        rejoin: Rejoin | None = None,
     ) -> list[Checkpoint]:
         """The tick stream from step ``first`` (0, or a restored checkpoint's): between two
         STARTs every set-point is a known function of time, so each stretch's controls are
-        computed at once. Returns a checkpoint every ``checkpoint_every`` steps (0: none)."""
+        computed at once. Returns a checkpoint every ``checkpoint_every`` steps (0: none); at
+        one where the simulator goes on as ``rejoin``'s run did, the rest is that run's."""
         dt = float(self.model.opt.timestep)
         times = np.arange(n) * dt
         started = np.flatnonzero(stream.started)
-        # the step at which each START happens: the first step at or after its time
-        start_steps = np.ceil(stream.start_s[started] / dt - 1e-6).astype(int)
+        start_steps = start_step(stream.start_s[started], dt)
         marks = range(first, n, checkpoint_every) if checkpoint_every else ()
         boundaries = sorted({first, n, *marks, *[int(b) for b in start_steps if first <= b < n]})
         checkpoints = []
         for begin, end in zip(boundaries[:-1], boundaries[1:]):
             if checkpoint_every and begin % checkpoint_every == 0:
-                checkpoints.append(self._checkpoint(begin, servos))
+                ours = self._checkpoint(begin, servos)
+                checkpoints.append(ours)
+                if rejoin is not None and (shift := self._joins(rejoin, ours, dt)) is not None:
+                    return checkpoints + self._take_rest(rejoin, ours, shift)
             for tick in started[start_steps == begin]:
                 if move_start is MoveStart.POSITION:
                     position_units = robot.to_units(np.degrees(self.data.qpos[self.index.qpos]))
@@ -167,7 +248,6 @@ class StepLoop:
             copy.deepcopy(servos),
             copy.deepcopy(self.drive),
             len(self.contacts.steps),
-            self.contacts.named,
         )
 
     def restore(self, checkpoint: Checkpoint, resume: Resume, n_settle: int) -> ServoBank:
@@ -180,8 +260,40 @@ class StepLoop:
         log.qpos[:count], log.ctrl[:count] = old.qpos[:count], old.ctrl[:count]
         log.torque[:count] = old.torque[:count]
         log.count = count
-        self.contacts.take_from(resume.contacts, checkpoint.contacts, checkpoint.pairs)
+        self.contacts.take_from(resume.contacts, checkpoint.contacts)
         return copy.deepcopy(checkpoint.servos)
+
+    def _joins(self, rejoin: Rejoin, ours: Checkpoint, dt: float) -> np.ndarray | None:
+        """How far to shift the earlier run's positions (zeros, or a planar root's x and y) to
+        go on from ``ours`` as it did from the same step; None: it does not go on alike."""
+        theirs = rejoin.checkpoints.get(ours.step) if ours.step >= rejoin.from_step else None
+        if theirs is None:
+            return None
+        shift = np.zeros(self.model.nq)
+        if self.planar is not None:
+            xy = slice(self.physics.start + self.planar, self.physics.start + self.planar + 2)
+            shift[self.planar : self.planar + 2] = ours.state[xy] - theirs.state[xy]
+        if not ours.goes_on_as(theirs.moved(shift, self.physics), self.physics, ours.step * dt):
+            return None
+        return shift
+
+    def _take_rest(self, rejoin: Rejoin, ours: Checkpoint, shift: np.ndarray) -> list[Checkpoint]:
+        """What ``rejoin``'s run recorded from ``ours``'s step (going on alike, its positions
+        shifted by ``shift``) to its end, as this run's; its later checkpoints are returned
+        (shifted too, counting this log's contacts)."""
+        resume, theirs = rejoin.resume, rejoin.checkpoints[ours.step]
+        begin, end = resume.n_settle + ours.step, resume.record.count
+        old, log = resume.record, self.log
+        log.qpos[begin:end] = old.qpos[begin:end] + shift
+        log.ctrl[begin:end], log.torque[begin:end] = old.ctrl[begin:end], old.torque[begin:end]
+        log.count = end
+        self.contacts.take_rest(resume.contacts, theirs.contacts)
+        more = ours.contacts - theirs.contacts
+        return [
+            replace(c.moved(shift, self.physics), contacts=c.contacts + more)
+            for c in resume.checkpoints
+            if c.step > ours.step
+        ]
 
 
 def hold_until_still(

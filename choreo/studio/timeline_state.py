@@ -4,6 +4,7 @@ each one belongs to, and the music's beats and the song's waveform."""
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections.abc import Sequence
@@ -34,6 +35,7 @@ def timeline_state(
     motion, robot = plan.motion, plan.motion.robot
     times = plan.keyframe_times_s
     own = Path(motion.path).resolve()
+    resolved = functools.cache(lambda path: Path(path).resolve())  # a file per keyframe: once
     keyframes = []
     previous: tuple[float, ...] | None = None
     for keyframe, t in zip(motion.keyframes, times):
@@ -50,7 +52,7 @@ def timeline_state(
                 "where": f"{Path(where.path).name}:{where.line}",
                 "label": keyframe.label,
                 "joints": changed,
-                "editable": Path(where.path).resolve() == own and not where.included_at,
+                "editable": resolved(where.path) == own and not where.included_at,
                 "pose": {n: round(a, 3) for n, a in zip(robot.joint_names, keyframe.targets_deg)},
             }
         )

@@ -1,11 +1,19 @@
-"""The servo's law at each physics step (``ServoDrive``): delay, offset, gear play, dead band."""
+"""The servo's law at each physics step (``ServoDrive``): delay, offset, gear play, dead band; and
+when two servo states go on alike (what lets a simulation take the rest of an earlier one)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
+from choreo.plan.ticks import Tick
+from choreo.preview.actuator import (
+    ActuatorParams,
+    CommandStream,
+    ServoBank,
+    ServoDrive,
+    actuator_params,
+)
 from choreo.robot.robot_file import load_robot
 
 ARM6 = load_robot("arm6")
@@ -64,3 +72,47 @@ def test_figures_out_of_range_are_refused_naming_the_field():
     with pytest.raises(ValueError, match="friction_nm of joint base_yaw must be a number >= 0"):
         one_servo(friction_nm=-1.0)
     assert one_servo(offset_deg=-3.0).offset_deg == -3.0
+
+
+def test_two_servo_banks_are_the_same_but_for_rounding_and_a_rested_servos_old_preset_time():
+    def bank(first_ms: int, nudge=(0.0, 0.0), second: int = 1) -> ServoBank:
+        """Both servos sent to 600 over ``first_ms``; at 0.8 s, the first alone on to 700."""
+        stream = CommandStream.from_ticks(
+            [
+                Tick(0, first_ms, (600, 600), (True, True)),
+                Tick(800, 400, (700, 600), (True, False)),
+            ],
+            2,
+        )
+        servos = ServoBank(np.array([500.0, 500.0]), max_speed_units_s=None)
+        servos.start(stream, 0, 0.0, np.array([500.0, 500.0]))
+        servos.start(stream, second, 0.8, servos.setpoint_units(0.8) + nudge)
+        return servos
+
+    ours = bank(500)
+    assert ours.same_as(bank(500, nudge=(1e-12, 0.0)), 1.0)  # a bit apart
+    # the second servo, at 600 since 0.5 s (or 0.7 s), re-runs its preset at 0.8 s going
+    # nowhere: how long the preset was to take no longer matters
+    assert ours.same_as(bank(700), 1.0)
+    # one not there yet at 0.8 s (due at 0.9 s) re-runs it over its whole time again
+    assert not ours.same_as(bank(900), 1.0)
+    assert not ours.same_as(bank(500, nudge=(0.1, 0.0)), 1.0)  # the first moving from elsewhere
+    assert not ours.same_as(bank(500, second=0), 1.0)  # the first re-staged otherwise
+
+
+def test_two_servo_drives_go_on_alike_with_aims_within_tolerance_and_the_same_delayed_set_points():
+    def drive_after(setpoints_deg, **figures: float) -> ServoDrive:
+        drive = drive_of(one_servo(deadband_deg=0.0, **figures))
+        for angle in setpoints_deg:
+            drive.ctrl(np.radians([angle]), np.zeros(1))
+        return drive
+
+    # going up, the aim trails by the half play; 1e-4° further and back leaves it that far on
+    ours = drive_after([1.0, 2.0, 3.0], backlash_deg=2.0)
+    assert ours.same_as(drive_after([1.0, 2.0, 3.0], backlash_deg=2.0), 1e-9)
+    nudged = drive_after([1.0, 2.0, 3.0001, 3.0], backlash_deg=2.0)
+    assert not ours.same_as(nudged, 1e-9) and ours.same_as(nudged, np.radians(1e-3))
+    # a set-point still waiting out the delay differs: not the same, at any tolerance
+    late = drive_after([1.0, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
+    other = drive_after([1.5, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
+    assert np.array_equal(late.aim_rad, other.aim_rad) and not late.same_as(other, 1.0)

@@ -1,5 +1,6 @@
 """Contacts that hold what friction holds: a block gripped with twice the friction its weight
-needs is carried without creeping through the fingers; with half, it slips out."""
+needs is carried without creeping through the fingers; with half, it slips out. A compiled
+model's digest follows its physics."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ from paths import REPO
 
 from choreo.motion.motion_file import load_motion
 from choreo.preview import simulate_motion
-from choreo.preview.model import load_model
+from choreo.preview.model import load_model, model_digest
+from choreo.robot.robot_file import load_robot
 
 PAD_FRICTION = 1.2  # the arm6 fingertip pads' (MuJoCo takes the larger of the two geoms')
 CLOSE, LIFTED = 4, 6  # the pick's keyframes: the gripper closing (and its hold), lifted 90 mm up
@@ -87,3 +89,15 @@ def test_a_grip_with_half_the_friction_needed_lets_the_block_slip(tmp_path):
     assert friction_margin(simulated, motion) == pytest.approx(0.5, abs=0.15)
     (block,) = simulated.props
     assert block.lifted_m < 0.005 and not block.placed
+
+
+def test_a_models_digest_is_the_same_for_the_same_files_and_changes_with_the_physics():
+    robot = load_robot("arm6")
+    first = model_digest(load_model(robot))
+    assert model_digest(load_model(robot)) == first
+    model = load_model(robot)
+    model.body_mass[-1] *= 2
+    assert model_digest(model) != first
+    model = load_model(robot)
+    model.opt.timestep /= 2
+    assert model_digest(model) != first

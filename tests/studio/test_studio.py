@@ -19,13 +19,14 @@ from choreo.emulator import BusEmulator, SimSerial
 from choreo.errors import SourceError
 from choreo.motion.music_block import BeatGrid
 from choreo.plan.planner import APPROACH_LIMIT_SCALE
+from choreo.preview.step_loop import JOIN_TOLERANCE
 from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
 from choreo.studio.live import LiveRobot
 from choreo.studio.scene import rotation_of
 from choreo.studio.server import LatestOnly, Studio, check_loads
-from choreo.studio.session import Session
+from choreo.studio.session import Session, simulate_plan
 from choreo.studio.watch import FileWatcher
 from choreo.studio.yaml_edit import (
     EditRefused,
@@ -197,6 +198,41 @@ def test_the_plan_comes_first_and_the_physics_of_a_superseded_reload_is_dropped(
     assert np.allclose(given, [session.plan.planned_deg(t) for t in times], atol=0.5)
     assert np.allclose(physics.simulated_deg(np.array([2.0]))[0][:3], [30, 30, 40], atol=2.0)
     assert session.simulate(second.version) is None  # simulated already
+
+
+def swaying_arm(first_yaw_deg: float) -> str:
+    """arm6 swaying through a keyframe a second for 8 s, then reaching down onto the floor."""
+    lines = ["robot: arm6", "keyframes:", "  - pose: home"]
+    for t in range(1, 9):
+        yaw = first_yaw_deg if t == 1 else (-1) ** t * 20
+        lines += [f"  - pose: {{base_yaw: {yaw}, shoulder: 10, elbow: 20}}", f"    t: {t}"]
+    lines += ["  - pose: {shoulder: 90, elbow: 90}", "    t: 10"]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_save_that_changes_the_first_keyframe_simulates_until_the_arm_is_back_on_its_old_path(
+    tmp_path,
+):
+    path = tmp_path / "sway.yaml"
+    path.write_text(swaying_arm(20))
+    session = Session(path)
+    session.simulate(session.reload().version)
+    before = session.plan.physics.rollout
+    path.write_text(swaying_arm(25))
+    session.simulate(session.reload().version)
+    physics = session.plan.physics
+    fresh = simulate_plan(session.plan)  # without the last run
+    # the last run's later checkpoints were taken, not simulated again
+    theirs = {id(c.state) for c in before.resume.checkpoints}
+    assert any(id(c.state) in theirs for c in physics.rollout.resume.checkpoints)
+    apart_deg = np.abs(physics.rollout.position_deg - fresh.rollout.position_deg).max()
+    assert apart_deg <= np.degrees(JOIN_TOLERANCE)
+    # the findings are the whole run's, of its spliced rest too: the reach onto the floor
+    assert physics.rollout.times_s[-1] == fresh.rollout.times_s[-1] > 10
+    assert [(f.kind, f.time_s, f.joint) for f in physics.findings] == [
+        (f.kind, f.time_s, f.joint) for f in fresh.findings
+    ]
+    assert "floor_contact" in {f.kind.value for f in physics.findings if f.time_s > 9}
 
 
 def test_the_watcher_notices_a_save(tmp_path):
