@@ -114,7 +114,8 @@ def whole_robot(robot_name: str) -> None:
         print(
             f"  {result.joint:12s} {times[-1]:6.1f} s wall ({cpu_s:5.1f} s CPU)  "
             f"{result.bus_s:5.1f} s bus  "
-            f"{result.reads_per_s:5.0f} reads/s  held-out median {v.default_median_deg:.2f}° -> "
+            f"{result.reads_per_s:5.0f} reads/s ({result.own_reads_per_s:3.0f} own)  "
+            f"held-out median {v.default_median_deg:.2f}° -> "
             f"{v.fitted_median_deg:.2f}°",
             flush=True,
         )
@@ -149,7 +150,8 @@ def recovery(
         if models and model not in models:
             continue
         print(f"-- {model} ({robot_name} {joint})")
-        print(header + "   held-out median/p95 assumed -> fitted")
+        print(header + "   held-out median/p95 assumed -> fitted   neighbours moved")
+        case_hits: dict[str, list[bool]] = {name: [] for name, _, _ in SHOWN}
         for _ in range(truths):
             truth = random_truth(rng, model)
             with tempfile.TemporaryDirectory() as folder:
@@ -163,6 +165,7 @@ def recovery(
             for name, _, scale in SHOWN:
                 ok = within_goal(name, truth[name], result.figures[name])
                 hits[name].append(ok)
+                case_hits[name].append(ok)
                 cells.append(
                     f"{truth[name] * scale:9.3g} -> {result.figures[name] * scale:7.3g}"
                     f"{' ' if ok else '*'}"
@@ -173,9 +176,14 @@ def recovery(
             print(
                 f"  {model:10s}" + "".join(f"{c:>22s}" for c in cells) + f"   "
                 f"{v.default_median_deg:.2f}/{v.default_p95_deg:.2f} -> "
-                f"{v.fitted_median_deg:.2f}/{v.fitted_p95_deg:.2f}",
+                f"{v.fitted_median_deg:.2f}/{v.fitted_p95_deg:.2f}   "
+                + ", ".join(f"{n} {d:.1f}°" for n, d in result.neighbours_moved_deg.items()),
                 flush=True,
             )
+        print(
+            f"  {joint} within the goal: "
+            + ", ".join(f"{label} {sum(case_hits[n])}/{len(case_hits[n])}" for n, label, _ in SHOWN)
+        )
     print("  within the goal (* marks a miss above):")
     for name, label, _ in SHOWN:
         print(f"    {label:14s} {sum(hits[name])}/{len(hits[name])}")
