@@ -28,8 +28,11 @@ from choreo.preview.joint_load import JointLoad
 
 FIT_STEP_S = 0.006  # the joint model's step: 3 of the preview's (within 0.01° on the test moves)
 # the neighbours' reads are smoothed over this (a Gaussian's sigma) before their acceleration is
-# taken: long enough to smooth a read step away, short against their ringing (~10 Hz on arm6)
-NEIGHBOUR_SMOOTHING_S = 0.012
+# taken: about one read period of each of two neighbours, which smooths a read unit's step away
+# and keeps 91 % of their ringing (~10 Hz on arm6). On arm6's elbow (5 hidden truths), 12 ms
+# left its gain 1-6 % low and its delay 12-34 % short; 4 ms let the read noise pass for
+# friction (+9 to +30 %)
+NEIGHBOUR_SMOOTHING_S = 0.007
 
 # the figures fitted, in this order (offset only where a torque-off drop was allowed)
 FIGURES = (
