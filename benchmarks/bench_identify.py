@@ -18,7 +18,8 @@ Prints:
 
 `--neighbours` gives the joints next to the identified one (robot order) their assumed figures
 with no gear play and dead band (`no-play`) or a 200 N·m/rad gain and 20 N·m stall (`stiff`): what
-of a joint's misfit comes from its neighbours (docs/servo-models.md, "Measured figures").
+of a joint's misfit comes from its neighbours (docs/servo-models.md, "A joint's neighbours,
+read and replayed").
 """
 
 from __future__ import annotations
@@ -98,6 +99,21 @@ def within_goal(name: str, truth: float, fit: float) -> bool:
     return abs(fit - truth) <= RELATIVE * abs(truth)
 
 
+def identified_on_hidden(
+    robot: Robot, joint: str, truth: dict[str, float], neighbours: str | None
+) -> JointResult:
+    """``joint`` identified on the emulated ``robot`` whose servo there has ``truth`` (hidden in
+    a truth file), its neighbours changed as ``neighbours`` says."""
+    with tempfile.TemporaryDirectory() as folder:
+        truth_file = Path(folder) / "truth.yaml"
+        hidden = {joint: truth, **neighbour_truths(robot, joint, neighbours)}
+        truth_file.write_text(yaml.safe_dump({"joints": hidden}))
+        with ServoBus.from_settings(BusSettings(port=port(robot.name, truth_file))) as bus:
+            report = identify(robot, bus, Path(folder) / "fit.yaml", joints=[joint])
+    (result,) = report.identified
+    return result
+
+
 def whole_robot(robot_name: str) -> None:
     robot = load_robot(robot_name, with_figures=False)
     print(f"== {robot_name}: every joint identified on {port(robot_name)}")
@@ -154,13 +170,7 @@ def recovery(
         case_hits: dict[str, list[bool]] = {name: [] for name, _, _ in SHOWN}
         for _ in range(truths):
             truth = random_truth(rng, model)
-            with tempfile.TemporaryDirectory() as folder:
-                truth_file = Path(folder) / "truth.yaml"
-                hidden = {joint: truth, **neighbour_truths(robot, joint, neighbours)}
-                truth_file.write_text(yaml.safe_dump({"joints": hidden}))
-                with ServoBus.from_settings(BusSettings(port=port(robot_name, truth_file))) as bus:
-                    report = identify(robot, bus, Path(folder) / "fit.yaml", joints=[joint])
-            (result,) = report.identified
+            result = identified_on_hidden(robot, joint, truth, neighbours)
             cells = []
             for name, _, scale in SHOWN:
                 ok = within_goal(name, truth[name], result.figures[name])
