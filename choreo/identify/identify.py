@@ -376,6 +376,10 @@ def _save(
             "supply_v": round(result.supply_v, 2),
             "temperature_c": result.temp_c,
         }
+        if result.neighbours_moved_deg:  # read along: how far each gave way under the joint
+            validation[result.joint]["neighbours_moved_deg"] = {
+                name: round(moved, 2) for name, moved in result.neighbours_moved_deg.items()
+            }
     order = {name: i for i, name in enumerate(robot.joint_names)}
     document = {
         "robot": robot.name,

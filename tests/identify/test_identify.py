@@ -71,6 +71,8 @@ def test_the_fitted_figures_find_a_hidden_truth_and_predict_held_out_moves(tmp_p
     written = yaml.safe_load((tmp_path / "figures.yaml").read_text())
     assert written["joints"]["elbow"] == elbow.figures
     assert written["validation"]["elbow"]["fitted_median_deg"] == round(v.fitted_median_deg, 3)
+    moved = written["validation"]["elbow"]["neighbours_moved_deg"]
+    assert moved == {name: round(deg, 2) for name, deg in elbow.neighbours_moved_deg.items()}
 
 
 def test_a_run_keeps_every_joint_done_and_goes_on_from_the_next(tmp_path, quick):
