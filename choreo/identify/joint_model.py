@@ -9,12 +9,12 @@ physics step works on arrays with one entry per candidate, so a whole generation
 costs about what one candidate does.
 
 The others hold with their own servos, and its neighbours in the chain yield under the torque
-the joint puts out (on arm6, the shoulder gives way ~6° when the elbow pushes at its stall
-torque): a model of the joint on a rigid base takes that for a softer servo. So where the
-neighbours were read during the moves, their measured motion is replayed: each one's
-acceleration pushes the joint back through their coupling inertia, and its angle changes the
-gravity torque on it (``JointLoad.neighbours``). That push is the same for every candidate:
-it is worked out once, before the steps.
+the joint puts out (on arm6, the shoulder gives way 3-5° under the elbow's test steps): a model
+of the joint on a rigid base takes that for a softer servo. So where the neighbours were read
+during the moves, their measured motion is replayed: each one's acceleration pushes the joint
+back through their coupling inertia, and its angle changes the gravity torque on it
+(``JointLoad.neighbours``). That push is the same for every candidate: it is worked out once,
+before the steps.
 """
 
 from __future__ import annotations

@@ -95,6 +95,7 @@ def joint_load(
         for n, other in enumerate(near):
             coupling[n, k] = column[index.dof[other]]
             slope[n, k] = _gravity_slope(model, data, dof, int(index.qpos[other]))
+    data.qpos[address] = np.radians(pose_deg[j])  # the neighbours' own inertia, at the pose
     kept = _strongly_coupled(near, coupling, inertia, model, data, index)
     neighbours = tuple(Coupling(robot.joint_names[near[n]], coupling[n], slope[n]) for n in kept)
     return JointLoad(joint, angles, inertia, gravity, float(model.opt.timestep), neighbours)
