@@ -43,7 +43,7 @@ def test_the_moves_go_on_their_times_and_the_reads_follow_the_servo():
     assert len(measured.supply_v) == len(measured.temp_c) == int(1.5 / SLOW_READ_S)
 
 
-def test_the_neighbours_are_read_in_turn_and_the_joint_keeps_every_other_read():
+def test_the_neighbours_are_read_every_fourth_read_and_the_joint_keeps_the_rest():
     names = ("shoulder", "elbow", "wrist_pitch")
     held = {"shoulder": 10.0, "elbow": 0.0, "wrist_pitch": -20.0}
     joints = {name: ARM6.joint(name) for name in names}
@@ -72,3 +72,7 @@ def test_the_neighbours_are_read_in_turn_and_the_joint_keeps_every_other_read():
     # the transport's rate is shared, not lost
     assert 400 < measured.reads_per_s < 700
     assert np.allclose(trial.read_deg[trial.read_s > 0.7], 20.0, atol=0.3)
+    # one neighbour: still every fourth read, the joint keeps the rest
+    alone = run_moves(bus, joints["elbow"], plan, 20.0, neighbours=neighbours[:1]).trial
+    (shoulder_reads,) = alone.neighbours
+    assert len(alone.read_s) == pytest.approx(3 * len(shoulder_reads.read_s), abs=3)
