@@ -22,10 +22,12 @@ from choreo.preview.start import start_state
 from choreo.robot.types import Robot
 
 GRID_STEP_DEG = 1.0
-MAX_NEIGHBOURS = 2  # each one read costs the joint's own reads a share of the bus
+MAX_NEIGHBOURS = 2  # each one read costs the joint's own reads a quarter of the bus
 # a neighbour coupled more weakly than this (its coupling inertia over the geometric mean of both
-# inertias: 0 for crossed axes) barely pushes on the joint: not worth its reads
-MIN_COUPLING = 0.05
+# inertias: 0 for crossed axes) barely pushes on the joint: not worth its reads. arm6's elbow
+# and shoulder are 0.56, elbow and wrist_pitch 0.21, tonypi's knee and hip 0.23; its knee and
+# ankle, 0.05, are left out
+MIN_COUPLING = 0.1
 SLOPE_STEP_RAD = np.radians(0.5)  # the gravity slope's finite difference
 
 
