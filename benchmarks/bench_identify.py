@@ -18,7 +18,8 @@ Prints:
 
 `--neighbours` gives the joints next to the identified one (robot order) their assumed figures
 with no gear play and dead band (`no-play`) or a 200 N·m/rad gain and 20 N·m stall (`stiff`): what
-of a joint's misfit comes from its neighbours (docs/servo-models.md, "Measured figures").
+of a joint's misfit comes from its neighbours (docs/servo-models.md, "A joint's neighbours,
+read and replayed").
 """
 
 from __future__ import annotations
@@ -98,6 +99,21 @@ def within_goal(name: str, truth: float, fit: float) -> bool:
     return abs(fit - truth) <= RELATIVE * abs(truth)
 
 
+def identified_on_hidden(
+    robot: Robot, joint: str, truth: dict[str, float], neighbours: str | None
+) -> JointResult:
+    """``joint`` identified on the emulated ``robot`` whose servo there has ``truth`` (hidden in
+    a truth file), its neighbours changed as ``neighbours`` says."""
+    with tempfile.TemporaryDirectory() as folder:
+        truth_file = Path(folder) / "truth.yaml"
+        hidden = {joint: truth, **neighbour_truths(robot, joint, neighbours)}
+        truth_file.write_text(yaml.safe_dump({"joints": hidden}))
+        with ServoBus.from_settings(BusSettings(port=port(robot.name, truth_file))) as bus:
+            report = identify(robot, bus, Path(folder) / "fit.yaml", joints=[joint])
+    (result,) = report.identified
+    return result
+
+
 def whole_robot(robot_name: str) -> None:
     robot = load_robot(robot_name, with_figures=False)
     print(f"== {robot_name}: every joint identified on {port(robot_name)}")
@@ -114,7 +130,8 @@ def whole_robot(robot_name: str) -> None:
         print(
             f"  {result.joint:12s} {times[-1]:6.1f} s wall ({cpu_s:5.1f} s CPU)  "
             f"{result.bus_s:5.1f} s bus  "
-            f"{result.reads_per_s:5.0f} reads/s  held-out median {v.default_median_deg:.2f}° -> "
+            f"{result.reads_per_s:5.0f} reads/s ({result.own_reads_per_s:3.0f} own)  "
+            f"held-out median {v.default_median_deg:.2f}° -> "
             f"{v.fitted_median_deg:.2f}°",
             flush=True,
         )
@@ -149,20 +166,16 @@ def recovery(
         if models and model not in models:
             continue
         print(f"-- {model} ({robot_name} {joint})")
-        print(header + "   held-out median/p95 assumed -> fitted")
+        print(header + "   held-out median/p95 assumed -> fitted   neighbours moved")
+        case_hits: dict[str, list[bool]] = {name: [] for name, _, _ in SHOWN}
         for _ in range(truths):
             truth = random_truth(rng, model)
-            with tempfile.TemporaryDirectory() as folder:
-                truth_file = Path(folder) / "truth.yaml"
-                hidden = {joint: truth, **neighbour_truths(robot, joint, neighbours)}
-                truth_file.write_text(yaml.safe_dump({"joints": hidden}))
-                with ServoBus.from_settings(BusSettings(port=port(robot_name, truth_file))) as bus:
-                    report = identify(robot, bus, Path(folder) / "fit.yaml", joints=[joint])
-            (result,) = report.identified
+            result = identified_on_hidden(robot, joint, truth, neighbours)
             cells = []
             for name, _, scale in SHOWN:
                 ok = within_goal(name, truth[name], result.figures[name])
                 hits[name].append(ok)
+                case_hits[name].append(ok)
                 cells.append(
                     f"{truth[name] * scale:9.3g} -> {result.figures[name] * scale:7.3g}"
                     f"{' ' if ok else '*'}"
@@ -173,9 +186,14 @@ def recovery(
             print(
                 f"  {model:10s}" + "".join(f"{c:>22s}" for c in cells) + f"   "
                 f"{v.default_median_deg:.2f}/{v.default_p95_deg:.2f} -> "
-                f"{v.fitted_median_deg:.2f}/{v.fitted_p95_deg:.2f}",
+                f"{v.fitted_median_deg:.2f}/{v.fitted_p95_deg:.2f}   "
+                + ", ".join(f"{n} {d:.1f}°" for n, d in result.neighbours_moved_deg.items()),
                 flush=True,
             )
+        print(
+            f"  {joint} within the goal: "
+            + ", ".join(f"{label} {sum(case_hits[n])}/{len(case_hits[n])}" for n, label, _ in SHOWN)
+        )
     print("  within the goal (* marks a miss above):")
     for name, label, _ in SHOWN:
         print(f"    {label:14s} {sum(hits[name])}/{len(hits[name])}")

@@ -157,11 +157,21 @@ def _joint_line(result) -> str:
     )
     v = result.validation
     better = f"{100 * v.improvement:.0f} % less" if math.isfinite(v.improvement) else "n/a"
-    return (
+    rate = f"{result.reads_per_s:.0f} reads/s"
+    if result.neighbours_moved_deg:  # its neighbours were read along
+        rate += f" ({result.own_reads_per_s:.0f} its own)"
+    line = (
         f"{result.joint}: {figures}; held-out error median {v.fitted_median_deg:.2f}° "
         f"(p95 {v.fitted_p95_deg:.2f}°) against {v.default_median_deg:.2f}° "
-        f"(p95 {v.default_p95_deg:.2f}°) assumed: {better}; {result.reads_per_s:.0f} reads/s"
+        f"(p95 {v.default_p95_deg:.2f}°) assumed: {better}; {rate}"
     )
+    if result.neighbours_gave_way:
+        moved = ", ".join(f"{name} {deg:.1f}°" for name, deg in result.neighbours_gave_way.items())
+        line += (
+            f"\n  {result.joint}'s neighbours gave way under its moves (up to {moved}): "
+            "the fit replayed their measured motion"
+        )
+    return line
 
 
 def _robot_and_joints(target: str, joints):

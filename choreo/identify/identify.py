@@ -2,13 +2,14 @@
 stands, fit its figures, judge them on held-out moves, and keep them in a servo figures file.
 
 One joint at a time, the others holding the pose the robot stands in: the joint's test moves
-(``moves``) run on the bus with reads as fast as it allows (``measure``), its figures are fitted
-on a model of that joint alone under the robot's own load (``fit``, ``joint_model``), and the
-file is written after every joint, so a run stopped half way goes on from the next joint. Ctrl-C
-(and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo where it is, holding. A
-walker's gait compensation is then recalibrated in the preview with the file's figures and
-written to it too (``preview.gait_calibration``): the gaits make up for these servos' sag and
-slip, not the assumed ones'.
+(``moves``) run on the bus with reads as fast as it allows (``measure``), its neighbours in the
+chain read in turn with it (they give way under its torque), its figures are fitted on a model
+of that joint under the robot's own load with the neighbours' measured motion replayed (``fit``,
+``joint_model``), and the file is written after every joint, so a run stopped half way goes on
+from the next joint. Ctrl-C (and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo
+where it is, holding. A walker's gait compensation is then recalibrated in the preview with the
+file's figures and written to it too (``preview.gait_calibration``): the gaits make up for these
+servos' sag and slip, not the assumed ones'.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import datetime
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ from choreo.identify.fit import (
     validate,
 )
 from choreo.identify.joint_model import FIGURES
-from choreo.identify.measure import Measured, run_moves
+from choreo.identify.measure import Measured, Neighbour, run_moves
 from choreo.identify.moves import fit_moves, held_out_moves
 from choreo.preview.actuator import ActuatorParams, actuator_params
 from choreo.preview.gait_calibration import calibrated_gait, walks
@@ -53,6 +54,9 @@ READS_NEEDED = (
 )
 SETTLE_S = 0.5  # after the others are told to hold, before the first joint moves
 DECIMALS = {"response_delay_s": 4, "friction_nm": 4}  # figures kept to these decimals (else 3)
+# a neighbour that gave way more than this under the joint's moves (4 read units) is told: the
+# fit replays it, but the figures then hold for the joint in that chain, held that way
+GAVE_WAY_DEG = 1.0
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,14 @@ class JointResult:
     temp_c: float
     bus_s: float  # bus time the joint's tests took
     fit_error_deg: float
+    own_reads_per_s: float = 0.0  # of reads_per_s (every position read), the joint's own
+    # how far each neighbour read along (its chain neighbours) went from where it held
+    neighbours_moved_deg: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def neighbours_gave_way(self) -> dict[str, float]:
+        """The neighbours that moved more than ``GAVE_WAY_DEG`` under the joint's moves."""
+        return {n: moved for n, moved in self.neighbours_moved_deg.items() if moved > GAVE_WAY_DEG}
 
 
 @dataclass(frozen=True)
@@ -202,11 +214,15 @@ def _identify_joint(
         return tell
 
     j = robot.joint_names.index(name)
-    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, progress)
+    load = joint_load(robot, name, pose)
+    neighbours = [
+        Neighbour(robot.joint(c.joint), pose[robot.joint_names.index(c.joint)])
+        for c in load.neighbours
+    ]
+    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, neighbours, progress)
     progress("fitting")(0.0)
     supply_v = float(np.median(measured.fit.supply_v + measured.held_out.supply_v))
     assumed = at_supply(assumed_figures(params[j]), params[j].supply_v, supply_v)
-    load = joint_load(robot, name, pose)
     fitted = fit_servo(measured.fit.trial, load, assumed, with_offset=drop, generations=generations)
     validation = validate(measured.held_out.trial, load, assumed, fitted.figures)
     rated = at_supply(fitted.figures, supply_v, params[j].rated_supply_v or supply_v)
@@ -221,6 +237,8 @@ def _identify_joint(
         max(temps) if temps else float("nan"),
         measured.bus_s,
         fitted.fit_error_deg,
+        measured.own_reads / measured.bus_s if measured.bus_s > 0 else 0.0,
+        measured.neighbours_moved_deg,
     )
 
 
@@ -231,8 +249,21 @@ class _JointMeasured:
     bus_s: float  # bus time both took, with the move back to the pose
 
     @property
-    def reads(self) -> int:
+    def own_reads(self) -> int:
         return len(self.fit.trial.read_s) + len(self.held_out.trial.read_s)
+
+    @property
+    def reads(self) -> int:
+        """Every position read, the neighbours' too."""
+        trials = (self.fit.trial, self.held_out.trial)
+        return self.own_reads + sum(len(n.read_s) for t in trials for n in t.neighbours)
+
+    @property
+    def neighbours_moved_deg(self) -> dict[str, float]:
+        moved: dict[str, float] = {}
+        for reads in self.fit.trial.neighbours + self.held_out.trial.neighbours:
+            moved[reads.joint] = max(moved.get(reads.joint, 0.0), reads.moved_deg)
+        return moved
 
 
 def _measure_joint(
@@ -240,12 +271,19 @@ def _measure_joint(
     joint: Joint,
     pose_deg: float,
     drop: bool,
+    neighbours: Sequence[Neighbour],
     progress: Callable[[str], Callable[[float], None]],
 ) -> _JointMeasured:
-    """``joint``'s test moves and held-out moves on the bus, then back to where it stood."""
+    """``joint``'s test moves and held-out moves on the bus, its ``neighbours`` read along,
+    then back to where it stood."""
     start = bus.clock.now()
     fit_trial = run_moves(
-        bus, joint, fit_moves(joint, pose_deg, drop), pose_deg, progress("test moves")
+        bus,
+        joint,
+        fit_moves(joint, pose_deg, drop),
+        pose_deg,
+        progress("test moves"),
+        neighbours,
     )
     held_out = run_moves(
         bus,
@@ -253,6 +291,7 @@ def _measure_joint(
         held_out_moves(joint, pose_deg),
         fit_trial.trial.read_deg[-1],
         progress("held-out moves"),
+        neighbours,
     )
     bus.move(joint.servo_id, round(joint.to_units(pose_deg)), 500)  # back to the pose
     return _JointMeasured(fit_trial, held_out, bus.clock.now() - start)
@@ -337,6 +376,10 @@ def _save(
             "supply_v": round(result.supply_v, 2),
             "temperature_c": result.temp_c,
         }
+        if result.neighbours_moved_deg:  # read along: how far each gave way under the joint
+            validation[result.joint]["neighbours_moved_deg"] = {
+                name: round(moved, 2) for name, moved in result.neighbours_moved_deg.items()
+            }
     order = {name: i for i, name in enumerate(robot.joint_names)}
     document = {
         "robot": robot.name,

@@ -7,6 +7,14 @@ stall torque, back-EMF damping, dry friction), on the joint alone: its inertia a
 torque on it come from the robot's model with every other joint held (``JointLoad``). Each
 physics step works on arrays with one entry per candidate, so a whole generation of the search
 costs about what one candidate does.
+
+The others hold with their own servos, and its neighbours in the chain yield under the torque
+the joint puts out (on arm6, the shoulder gives way 3-5° under the elbow's test steps): a model
+of the joint on a rigid base takes that for a softer servo. So where the neighbours were read
+during the moves, their measured motion is replayed: each one's acceleration pushes the joint
+back through their coupling inertia, and its angle changes the gravity torque on it
+(``JointLoad.neighbours``). That push is the same for every candidate: it is worked out once,
+before the steps.
 """
 
 from __future__ import annotations
@@ -19,6 +27,12 @@ import numpy as np
 from choreo.preview.joint_load import JointLoad
 
 FIT_STEP_S = 0.006  # the joint model's step: 3 of the preview's (within 0.01° on the test moves)
+# the neighbours' reads are smoothed over this (a Gaussian's sigma) before their acceleration is
+# taken: about one read period of each of two neighbours, which smooths a read unit's step away
+# and keeps 91 % of their ringing (~10 Hz on arm6). On arm6's elbow (5 hidden truths), 12 ms
+# left its gain 1-6 % low and its delay 12-34 % short; 4 ms let the read noise pass for
+# friction (+9 to +30 %)
+NEIGHBOUR_SMOOTHING_S = 0.007
 
 # the figures fitted, in this order (offset only where a torque-off drop was allowed)
 FIGURES = (
@@ -51,14 +65,32 @@ class Unload:
 
 
 @dataclass(frozen=True)
+class NeighbourReads:
+    """A neighbour's position reads during the joint's moves (midpoint times, degrees in its
+    servo's frame), and where it was told to hold."""
+
+    joint: str
+    read_s: np.ndarray
+    read_deg: np.ndarray
+    held_deg: float
+
+    @property
+    def moved_deg(self) -> float:
+        """How far it went from where it holds, at most."""
+        return float(np.abs(self.read_deg - self.held_deg).max(initial=0.0))
+
+
+@dataclass(frozen=True)
 class Trial:
     """What was sent and read over one stretch of test moves: the commands, the position reads
-    (midpoint times and degrees), and where the servo aimed and stood at the start."""
+    (midpoint times and degrees), where the servo aimed and stood at the start, and its
+    neighbours' reads (none: they are taken as rigid)."""
 
     commands: tuple[SentMove | Unload, ...]
     read_s: np.ndarray
     read_deg: np.ndarray
     start_setpoint_deg: float
+    neighbours: tuple[NeighbourReads, ...] = ()
 
     @property
     def duration_s(self) -> float:
@@ -77,6 +109,7 @@ def simulate(
     k = len(figures["kp_nm_rad"])
     n_steps = int(np.ceil(trial.duration_s / dt_s)) + 2
     wanted, loaded, reloads = _aims(trial, figures, n_steps, dt_s)
+    pushed = neighbour_torque_nm(trial, load, n_steps, dt_s)
     half_band = np.radians(figures["deadband_deg"]) / 2
     half_play = np.radians(figures["backlash_deg"]) / 2
     kp, stall = figures["kp_nm_rad"], figures["stall_torque_nm"]
@@ -110,6 +143,7 @@ def simulate(
         else:
             torque.fill(0.0)
         torque += np.interp(q, grid_rad, gravity_nm)
+        torque += pushed[step]
         np.multiply(keep_v, v, out=free_v)
         free_v += per_implicit * torque
         np.abs(free_v, out=v)
@@ -121,6 +155,45 @@ def simulate(
     return np.degrees(
         np.column_stack([np.interp(trial.read_s, times, positions[:, c]) for c in range(k)])
     )
+
+
+def neighbour_torque_nm(trial: Trial, load: JointLoad, n_steps: int, dt_s: float) -> np.ndarray:
+    """The torque the neighbours' measured motion puts on the joint at each step (its state
+    after the step at ``(step + 1) * dt_s``): minus their coupling inertia times their
+    acceleration, plus the change of gravity with their angle; both at the angle the joint
+    read. Neighbours the load does not couple, or not read, push nothing."""
+    times = np.arange(1, n_steps + 1) * dt_s
+    pushed = np.zeros(n_steps)
+    couplings = {coupling.joint: coupling for coupling in load.neighbours}
+    if not len(trial.read_s):
+        return pushed
+    angle_deg = np.interp(times, trial.read_s, trial.read_deg)
+    for reads in trial.neighbours:
+        coupling = couplings.get(reads.joint)
+        if coupling is None or len(reads.read_s) < 2:
+            continue
+        moved = np.radians(_smoothed(np.interp(times, reads.read_s, reads.read_deg), dt_s))
+        moved -= np.radians(reads.held_deg)
+        # its velocity at each step's end, and the change over the step: the step's
+        # acceleration, as the joint's own velocity takes it (integrated once, so read noise
+        # is not differentiated twice into the positions)
+        velocity = np.gradient(moved, dt_s)
+        acceleration = np.diff(velocity, prepend=velocity[0]) / dt_s
+        inertia = np.interp(angle_deg, load.angles_deg, coupling.inertia_kg_m2)
+        slope = np.interp(angle_deg, load.angles_deg, coupling.gravity_nm_rad)
+        pushed += slope * moved - inertia * acceleration
+    return pushed
+
+
+def _smoothed(values: np.ndarray, dt_s: float) -> np.ndarray:
+    """``values`` (on steps ``dt_s`` apart) through a Gaussian of NEIGHBOUR_SMOOTHING_S: a
+    position read is whole units (0.24°), whose steps would be spikes in its acceleration."""
+    sigma = NEIGHBOUR_SMOOTHING_S / dt_s
+    half = int(np.ceil(3 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
+    kernel /= kernel.sum()
+    padded = np.pad(values, half, mode="edge")
+    return np.convolve(padded, kernel, mode="valid")
 
 
 def _aims(

@@ -17,11 +17,29 @@ import mujoco
 import numpy as np
 
 from choreo.preview.actuator import actuator_params
-from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.preview.model import JointIndex, apply_servo_models, index_joints, load_model
 from choreo.preview.start import start_state
 from choreo.robot.types import Robot
 
 GRID_STEP_DEG = 1.0
+MAX_NEIGHBOURS = 2  # each one read costs the joint's own reads a quarter of the bus
+# a neighbour coupled more weakly than this (its coupling inertia over the geometric mean of both
+# inertias: 0 for crossed axes) barely pushes on the joint: not worth its reads. arm6's elbow
+# and shoulder are 0.56, elbow and wrist_pitch 0.21, tonypi's knee and hip 0.23; its knee and
+# ankle, 0.05, are left out
+MIN_COUPLING = 0.1
+SLOPE_STEP_RAD = np.radians(0.5)  # the gravity slope's finite difference
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """How neighbour ``joint`` moving pushes on the loaded joint, over the loaded joint's grid:
+    the mass matrix between them (its acceleration times this is a torque against the joint)
+    and the change of the gravity torque on the joint per radian of the neighbour."""
+
+    joint: str
+    inertia_kg_m2: np.ndarray
+    gravity_nm_rad: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -34,6 +52,8 @@ class JointLoad:
     inertia_kg_m2: np.ndarray
     gravity_nm: np.ndarray
     timestep_s: float  # the model's physics step
+    # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS)
+    neighbours: tuple[Coupling, ...] = ()
 
     def gravity_at(self, angle_rad: np.ndarray) -> np.ndarray:
         return np.interp(np.degrees(angle_rad), self.angles_deg, self.gravity_nm)
@@ -49,7 +69,8 @@ def joint_load(
     overrides: Mapping[str, Mapping[str, float]] | None = None,
 ) -> JointLoad:
     """``joint``'s load over its limits, the other joints at ``pose_deg`` (robot order), the
-    servos' armature from their figures (``overrides`` as for ``actuator_params``)."""
+    servos' armature from their figures (``overrides`` as for ``actuator_params``), with how its
+    chain neighbours push on it."""
     model = load_model(robot)
     index = index_joints(model, robot)
     apply_servo_models(model, index, actuator_params(robot, overrides), robot)
@@ -58,9 +79,12 @@ def joint_load(
     angles = np.arange(limits.min_deg, limits.max_deg + GRID_STEP_DEG / 2, GRID_STEP_DEG)
     data = start_state(model, index, np.asarray(pose_deg, dtype=float))
     dof, address = int(index.dof[j]), int(index.qpos[j])
+    near = _chain_neighbours(model, index, j)
     inertia, gravity = np.empty(len(angles)), np.empty(len(angles))
-    # M·e_dof, read at dof: the joint's own inertia. mj_mulM takes the same arguments in every
-    # MuJoCo choreo allows, where mj_fullM's changed in 4.0 (data in place of its qM).
+    coupling, slope = np.empty((len(near), len(angles))), np.empty((len(near), len(angles)))
+    # M·e_dof: the joint's own inertia at dof, its coupling with each neighbour at theirs.
+    # mj_mulM takes the same arguments in every MuJoCo choreo allows, where mj_fullM's changed
+    # in 4.0 (data in place of its qM).
     unit, column = np.zeros(model.nv), np.zeros(model.nv)
     unit[dof] = 1.0
     for k, angle in enumerate(angles):
@@ -70,4 +94,60 @@ def joint_load(
         mujoco.mj_mulM(model, data, column, unit)
         inertia[k] = column[dof]
         gravity[k] = -data.qfrc_bias[dof]  # at rest the bias is gravity alone
-    return JointLoad(joint, angles, inertia, gravity, float(model.opt.timestep))
+        for n, other in enumerate(near):
+            coupling[n, k] = column[index.dof[other]]
+            slope[n, k] = _gravity_slope(model, data, dof, int(index.qpos[other]))
+    data.qpos[address] = np.radians(pose_deg[j])  # the neighbours' own inertia, at the pose
+    kept = _strongly_coupled(near, coupling, inertia, model, data, index)
+    neighbours = tuple(Coupling(robot.joint_names[near[n]], coupling[n], slope[n]) for n in kept)
+    return JointLoad(joint, angles, inertia, gravity, float(model.opt.timestep), neighbours)
+
+
+def _chain_neighbours(model: mujoco.MjModel, index: JointIndex, j: int) -> list[int]:
+    """The robot joints (robot order) next to joint ``j`` in the kinematic tree: the nearest
+    one it hangs from, and those whose nearest one up the tree is ``j``."""
+    robot_of_dof = {int(d): n for n, d in enumerate(index.dof)}
+
+    def parent(n: int) -> int | None:
+        dof = int(model.dof_parentid[index.dof[n]])
+        while dof >= 0 and dof not in robot_of_dof:
+            dof = int(model.dof_parentid[dof])
+        return robot_of_dof.get(dof)
+
+    up = parent(j)
+    return ([] if up is None else [up]) + [n for n in robot_of_dof.values() if parent(n) == j]
+
+
+def _gravity_slope(model: mujoco.MjModel, data: mujoco.MjData, dof: int, address: int) -> float:
+    """d(gravity torque on ``dof``)/d(the angle at qpos ``address``), at rest, N·m/rad."""
+    torque = []
+    held = float(data.qpos[address])
+    for shift in (SLOPE_STEP_RAD, -SLOPE_STEP_RAD):
+        data.qpos[address] = held + shift
+        mujoco.mj_forward(model, data)
+        torque.append(-data.qfrc_bias[dof])
+    data.qpos[address] = held
+    return float((torque[0] - torque[1]) / (2 * SLOPE_STEP_RAD))
+
+
+def _strongly_coupled(
+    near: list[int],
+    coupling: np.ndarray,
+    inertia: np.ndarray,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    index: JointIndex,
+) -> list[int]:
+    """Of ``near`` (rows of ``coupling``), the MAX_NEIGHBOURS most strongly coupled to the
+    joint, weaker than MIN_COUPLING left out."""
+    own = np.empty(len(near))
+    diagonal = np.zeros(model.nv)
+    mujoco.mj_forward(model, data)
+    for n, other in enumerate(near):  # each neighbour's own inertia
+        unit = np.zeros(model.nv)
+        unit[index.dof[other]] = 1.0
+        mujoco.mj_mulM(model, data, diagonal, unit)
+        own[n] = diagonal[index.dof[other]]
+    strength = np.abs(coupling).max(axis=1, initial=0.0) / np.sqrt(own * inertia.max())
+    ranked = sorted(range(len(near)), key=lambda n: -strength[n])
+    return sorted(n for n in ranked[:MAX_NEIGHBOURS] if strength[n] >= MIN_COUPLING)

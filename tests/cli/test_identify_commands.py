@@ -55,3 +55,28 @@ def test_a_walker_is_told_its_recalibrated_gait_compensation(tmp_path, quick, ca
         f"gait compensation recalibrated in the preview with these figures (in {output}): "
         "lift +8 mm, stride x1.1, turn x1.2"
     ) in out
+
+
+def test_a_joint_whose_neighbours_gave_way_under_it_says_so(tmp_path, quick, capsys, monkeypatch):
+    import sys
+
+    from choreo.identify.joint_model import SentMove
+    from choreo.identify.moves import MovePlan
+
+    def full_speed(joint, pose_deg, drop=False):  # steps the elbow's stall torque drives
+        steps = (SentMove(0.0, pose_deg + 20.0, 0.0), SentMove(0.5, pose_deg - 20.0, 0.0))
+        return MovePlan(steps, 1.0)
+
+    identify_module = sys.modules["choreo.identify.identify"]
+    monkeypatch.setattr(identify_module, "fit_moves", full_speed)
+    output = tmp_path / "figures.yaml"
+    port = ["--port", "sim://?physics=arm6"]
+    assert main(["identify", "arm6", "--joints", "elbow", "-o", str(output), *port]) == 0
+    out = " ".join(capsys.readouterr().out.split())  # as one line: the console wraps
+    assert "reads/s (" in out and " its own)" in out
+    assert out.count("gave way") == 1
+    assert "elbow's neighbours gave way under its moves (up to shoulder " in out
+    assert "the fit replayed their measured motion" in out
+    # a joint whose neighbours hold firm under it (crossed axes: none read) says nothing
+    assert main(["identify", "arm6", "--joints", "base_yaw", "-o", str(output), *port]) == 0
+    assert "gave way" not in capsys.readouterr().out

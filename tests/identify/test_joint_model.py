@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from choreo.identify.fit import assumed_figures
-from choreo.identify.joint_model import SentMove, Trial, figures_of, simulate
+from choreo.identify.joint_model import NeighbourReads, SentMove, Trial, figures_of, simulate
 from choreo.preview.actuator import actuator_params
 from choreo.preview.joint_load import joint_load
 from choreo.robot.robot_file import load_robot
@@ -64,3 +64,48 @@ def test_gravity_makes_a_loaded_joint_sag_by_its_torque_over_the_gain():
     gravity = float(load.gravity_at(np.radians([read[-1, 0]]))[0])
     assert gravity > 0.1  # the arm leans forward, gravity pulls it on
     assert sag[1] > 1.8 * sag[0] > 0
+
+
+ELBOW = joint_load(ARM6, "elbow", [0.0] * 6)
+ELBOW_READS = np.arange(0.0, 1.0, 0.004)
+
+
+def elbow_holding(shoulder: NeighbourReads, weaker: float = 1.0) -> np.ndarray:
+    """The elbow told to hold at 0 for 1 s on a rigid shoulder, and with the shoulder read as
+    ``shoulder``; its servo's gain and torque ``weaker`` times less than assumed."""
+    held = Trial((SentMove(0.0, 0.0, 0.0),), ELBOW_READS, np.zeros(len(ELBOW_READS)), 0.0)
+    moved = Trial(held.commands, ELBOW_READS, held.read_deg, 0.0, (shoulder,))
+    figures = assumed_figures(actuator_params(ARM6)[2])
+    for name in ("kp_nm_rad", "stall_torque_nm"):
+        figures[name] /= weaker
+    both = figures_of([figures])
+    return np.column_stack([simulate(held, ELBOW, both), simulate(moved, ELBOW, both)])
+
+
+def test_a_neighbour_jerked_forward_throws_the_joint_back_by_their_coupling():
+    reads = np.arange(0.0, 1.0, 0.008)
+    forward = np.clip((reads - 0.3) / 0.05, 0, 1) * 5.0  # the shoulder 5° forward in 50 ms
+    shoulder = NeighbourReads("shoulder", reads, forward, 0.0)
+    upright = int(np.searchsorted(ELBOW.angles_deg, 0.0))
+    share = ELBOW.neighbours[0].inertia_kg_m2[upright] / ELBOW.inertia_kg_m2[upright]
+    # a servo too weak to catch it in 50 ms: the forearm is left behind by the shoulder's turn
+    # times their coupling over its own inertia
+    weak = elbow_holding(shoulder, weaker=50.0)
+    assert np.abs(weak[:, 0]).max() < 0.01  # on a rigid shoulder it holds
+    assert weak[np.searchsorted(ELBOW_READS, 0.36), 1] == pytest.approx(-5.0 * share, rel=0.1)
+    # the assumed servo catches it part way, and brings it back
+    read = elbow_holding(shoulder)
+    assert -5.0 * share * 0.5 < read[:, 1].min() < -0.5
+    assert abs(read[-1, 1]) < 0.3
+
+
+def test_a_neighbour_standing_over_changes_the_gravity_on_the_joint():
+    reads = np.arange(0.0, 1.0, 0.008)
+    read = elbow_holding(NeighbourReads("shoulder", reads, np.full(len(reads), 20.0), 0.0))
+    slope = ELBOW.neighbours[0].gravity_nm_rad[int(np.searchsorted(ELBOW.angles_deg, 0.0))]
+    elbow = actuator_params(ARM6)[2]
+    # the shoulder 20° forward, the forearm leans with it: the elbow sags by the gravity torque
+    # over its gain, and by half its dead band, where the servo starts pushing
+    expected_deg = np.degrees(slope * np.radians(20.0) / elbow.kp_nm_rad) + elbow.deadband_deg / 2
+    assert read[-1, 1] == pytest.approx(expected_deg, abs=0.04)
+    assert abs(read[-1, 0]) < 0.01

@@ -24,3 +24,24 @@ def test_the_base_turning_carries_no_gravity_and_the_inertia_includes_the_armatu
     assert np.abs(load.gravity_nm).max() < 1e-6
     assert np.all(load.inertia_kg_m2 > 0.005)  # the servo's armature and more
     assert load.angles_deg[0] == ARM6.joint("base_yaw").limits.min_deg
+
+
+def test_the_elbows_neighbours_are_the_joints_next_to_it_on_parallel_axes():
+    load = joint_load(ARM6, "elbow", [0.0] * 6)
+    assert [c.joint for c in load.neighbours] == ["shoulder", "wrist_pitch"]
+    shoulder, wrist = load.neighbours
+    # the shoulder accelerating carries the whole forearm with it: a coupling near the
+    # elbow's own inertia; the hand beyond the wrist is lighter
+    upright = int(np.searchsorted(load.angles_deg, 0.0))
+    assert 0.5 < shoulder.inertia_kg_m2[upright] / load.inertia_kg_m2[upright] < 1.0
+    assert 0 < wrist.inertia_kg_m2[upright] < shoulder.inertia_kg_m2[upright]
+    # on parallel axes, gravity on the forearm goes with the shoulder's angle plus the elbow's:
+    # turning the shoulder changes it as turning the elbow does
+    own_slope = np.gradient(load.gravity_nm, np.radians(load.angles_deg))
+    assert shoulder.gravity_nm_rad[upright] == pytest.approx(own_slope[upright], rel=0.05)
+
+
+def test_a_neighbour_on_a_crossed_axis_is_not_one():
+    # the shoulder pitches, the base turns about the vertical: neither pushes on the other
+    assert joint_load(ARM6, "base_yaw", [0.0] * 6).neighbours == ()
+    assert [c.joint for c in joint_load(ARM6, "shoulder", [0.0] * 6).neighbours] == ["elbow"]
