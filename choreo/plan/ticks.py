@@ -52,9 +52,12 @@ DEFAULT_BUS_MARGIN_MS = 1.5  # slack per tick beyond the wire time (host jitter,
 QUANTIZATION_DEG = DEG_PER_UNIT / 2  # rounding a target to whole units
 MAX_STEP_MS = 2  # the sample lattice (1 ms when the tolerance is too tight for 2)
 MARGIN_SHARE = 0.02  # of the tolerance the lattice margin may take
-LANES = 64  # greedy chains searched side by side (see _Search)
+LANES = 128  # greedy chains searched side by side (see _Search)
 LANE_MIN_STEPS = 500  # lattice steps per lane at least: a short motion has fewer lanes
-WINDOW_STEPS = 16  # chord lengths each lane tries per numpy call
+# chords each lane tries per numpy call: 16 with many lanes, up to 128 with few
+WINDOW_CHORDS = 2048  # for all lanes together
+WINDOW_STEPS = (16, 128)
+RUNNING_ROW_BY_ROW = 512  # elements a row at least, for a running maximum row by row
 DEVIATION_TICKS = 256  # ticks whose deviation is found per numpy call
 
 
@@ -238,8 +241,7 @@ class _Search:
         steps = np.arange(1, min(self.end, self.max_steps) + 1)
         self.inv_d = 1.0 / steps
         tol = tolerance_deg - self.margin_deg
-        self.tol_d = np.concatenate([tol, tol])[None, :] / steps[:, None]
-        self.columns = np.arange(WINDOW_STEPS)[:, None]
+        self.tol_d = tol[None, :] / steps[:, None]
         self.next_point: dict[int, int] = {}  # each start's reach, as a lattice point
         self.forced_from: set[int] = set()  # starts whose tick the bus floor lengthened
         self.taken: set[int] = set()  # starts a lane has searched or is searching from
@@ -297,7 +299,7 @@ class _Search:
                 lanes.drop(stopped)
 
     def _window(self, lanes: _Lanes, limit: np.ndarray) -> np.ndarray:
-        """Every lane's next window of chords (``WINDOW_STEPS`` lengths from ``lanes.first``):
+        """Every lane's next window of chords (``lanes.window`` lengths from ``lanes.first``):
         narrows each lane's cone, keeps its longest chord that fits; True for the lanes whose
         search is over (cone closed, or their limit reached).
 
@@ -306,32 +308,30 @@ class _Search:
         in order finds every chord that fits, and once a joint's cone is closed none further
         does.
         """
-        steps = lanes.first + self.columns  # (window, lanes)
+        steps = lanes.first + np.arange(lanes.window)[:, None]  # (window, lanes)
         inside = steps <= limit
         # past a lane's limit its last chord again: no new bound, and masked out of the fits
         np.minimum(steps, limit, out=steps)
         offsets = steps - 1
-        n, samples = self.n, self.samples_deg
-        slope = np.empty(steps.shape + (2 * n,))  # (window, lanes, [joints, joints negated])
-        joints = slope[..., :n]
-        np.subtract(samples[lanes.start + steps], samples[lanes.start], out=joints)
-        np.multiply(joints, self.inv_d[offsets][..., None], out=joints)
-        np.negative(joints, out=slope[..., n:])
-        bound = np.subtract(slope, self.tol_d[offsets])
-        # the cone so far into the first chord's bounds, then a running maximum along the
-        # chords (fmax, not maximum: the samples are finite, so they agree, and fmax skips the
-        # NaN handling); row by row, as numpy's accumulate is many times slower across rows
-        np.fmax(bound[0], lanes.cone, out=bound[0])
-        for row in range(1, len(bound)):
-            np.fmax(bound[row - 1], bound[row], out=bound[row])
-        fits = (bound <= slope).all(axis=2)
+        slope = self.samples_deg[lanes.start + steps]  # (window, lanes, joints)
+        slope -= self.samples_deg[lanes.start]
+        slope *= self.inv_d[offsets][..., None]
+        tol = self.tol_d[offsets]
+        low = slope - tol
+        high = np.add(slope, tol, out=tol)
+        # the cone so far into the first chord's bounds, then along the chords (fmax, not
+        # maximum: the samples are finite, so they agree, and fmax skips the NaN handling)
+        np.fmax(low[0], lanes.low, out=low[0])
+        np.fmin(high[0], lanes.high, out=high[0])
+        _running(np.fmax, low)
+        _running(np.fmin, high)
+        fits = np.logical_and(low <= slope, slope <= high).all(axis=2)
         fits &= inside
-        last = WINDOW_STEPS - 1 - fits[::-1].argmax(axis=0)
+        last = lanes.window - 1 - fits[::-1].argmax(axis=0)
         lanes.best = np.where(fits.any(axis=0), lanes.first + last, lanes.best)
-        lanes.cone = bound[-1]
-        lanes.first += WINDOW_STEPS
-        closed = np.add(lanes.cone[:, :n], lanes.cone[:, n:]).max(axis=1) > 0
-        return closed | (lanes.first > limit)
+        lanes.low, lanes.high = low[-1], high[-1]
+        lanes.first += lanes.window
+        return (lanes.low > lanes.high).any(axis=1) | (lanes.first > limit)
 
     def max_deviation(self, bounds: np.ndarray, path_deg: np.ndarray) -> float:
         """An upper bound (exact at the samples, plus the lattice margin) on how far the servos'
@@ -362,14 +362,16 @@ class _Search:
 class _Lanes:
     """Greedy chains searched side by side (see ``_Search``), one entry per lane: the start of
     the tick it seeks, the chord length its next window begins with, the longest chord found to
-    fit so far, its cone so far (see ``_Search._window``) and the point at or past which it
-    gives up."""
+    fit so far, its cone so far (each joint's lowest and highest slope) and the point at or
+    past which it gives up."""
 
     start: np.ndarray
     cap: np.ndarray
     first: np.ndarray
     best: np.ndarray
-    cone: np.ndarray  # (lanes, [joints, joints negated])
+    low: np.ndarray  # (lanes, joints)
+    high: np.ndarray
+    window: int
 
     @staticmethod
     def fresh(starts: np.ndarray, caps: np.ndarray, n_joints: int) -> _Lanes:
@@ -379,21 +381,38 @@ class _Lanes:
             caps,
             np.ones(k, dtype=int),
             np.zeros(k, dtype=int),
-            np.full((k, 2 * n_joints), -np.inf),
+            np.full((k, n_joints), -np.inf),
+            np.full((k, n_joints), np.inf),
+            min(max(WINDOW_CHORDS // k, WINDOW_STEPS[0]), WINDOW_STEPS[1]),
         )
 
     def restart(self, lanes: np.ndarray) -> None:
         """``lanes`` begin the search of a new tick (from their ``start``)."""
         self.first[lanes] = 1
         self.best[lanes] = 0
-        self.cone[lanes] = -np.inf
+        self.low[lanes] = -np.inf
+        self.high[lanes] = np.inf
 
     def drop(self, lanes: list[int]) -> None:
         keep = np.ones(len(self.start), dtype=bool)
         keep[lanes] = False
         self.start, self.cap = self.start[keep], self.cap[keep]
         self.first, self.best = self.first[keep], self.best[keep]
-        self.cone = self.cone[keep]
+        self.low, self.high = self.low[keep], self.high[keep]
+
+
+def _running(op: np.ufunc, rows: np.ndarray) -> None:
+    """``op.accumulate`` along the first axis, in place: numpy's own is many times slower
+    there. Wide rows one after the other; a few narrow ones (a lone lane) by doubling spans
+    (log2 calls of numpy, each on them all)."""
+    if rows[0].size >= RUNNING_ROW_BY_ROW:
+        for row in range(1, len(rows)):
+            op(rows[row - 1], rows[row], out=rows[row])
+        return
+    span = 1
+    while span < len(rows):
+        op(rows[span:], rows[:-span].copy(), out=rows[span:])  # the rows as they were
+        span *= 2
 
 
 def _lattice_step_ms(margin_deg: float, peak_acc_deg_s2: float) -> int:
