@@ -239,11 +239,9 @@ class _Search:
         self.max_steps = MAX_TICK_MS // self.step_ms
         times_s = np.arange(self.end + 1) * self.step_ms / 1000
         self.samples_deg = np.ascontiguousarray(trajectory.positions(times_s))  # (time, joint)
-        # 1/d and tolerance/d for chords d = 1..max steps long
-        steps = np.arange(1, min(self.end, self.max_steps) + 1)
-        self.inv_d = 1.0 / steps
-        tol = tolerance_deg - self.margin_deg
-        self.tol_d = tol[None, :] / steps[:, None]
+        # 1/d for chords d = 1..max steps long
+        self.inv_d = 1.0 / np.arange(1, min(self.end, self.max_steps) + 1)
+        self.tol_deg = tolerance_deg - self.margin_deg  # what the samples may stray, per joint
         self.next_point: dict[int, int] = {}  # each start's reach, as a lattice point
         self.forced_from: set[int] = set()  # starts whose tick the bus floor lengthened
         self.taken: set[int] = set()  # starts a lane has searched or is searching from
@@ -314,11 +312,12 @@ class _Search:
         inside = steps <= limit
         # past a lane's limit its last chord again: no new bound, and masked out of the fits
         np.minimum(steps, limit, out=steps)
-        offsets = steps - 1
-        slope = self.samples_deg[lanes.start + steps]  # (window, lanes, joints)
-        slope -= self.samples_deg[lanes.start]
-        slope *= self.inv_d[offsets][..., None]
-        tol = self.tol_d[offsets]
+        samples = self.samples_deg
+        # each lane's rows in turn (as they lie in memory), then as (window, joints, lanes)
+        chords = samples[(lanes.start + steps).T] - samples[lanes.start][:, None]
+        slope = np.ascontiguousarray(chords.transpose(1, 2, 0))
+        slope *= self.inv_d[steps - 1][:, None]
+        tol = np.divide(self.tol_deg[:, None], steps[:, None])  # as tol_d was: tol / d
         low = slope - tol
         high = np.add(slope, tol, out=tol)
         # the cone so far into the first chord's bounds, then along the chords (fmax, not
@@ -327,13 +326,13 @@ class _Search:
         np.fmin(high[0], lanes.high, out=high[0])
         _running(np.fmax, low)
         _running(np.fmin, high)
-        fits = np.logical_and(low <= slope, slope <= high).all(axis=2)
+        fits = np.logical_and.reduce(np.logical_and(low <= slope, slope <= high), axis=1)
         fits &= inside
         last = lanes.window - 1 - fits[::-1].argmax(axis=0)
         lanes.best = np.where(fits.any(axis=0), lanes.first + last, lanes.best)
         lanes.low, lanes.high = low[-1], high[-1]
         lanes.first += lanes.window
-        return (lanes.low > lanes.high).any(axis=1) | (lanes.first > limit)
+        return (lanes.low > lanes.high).any(axis=0) | (lanes.first > limit)
 
     def max_deviation(self, bounds: np.ndarray, path_deg: np.ndarray) -> float:
         """An upper bound (exact at the samples, plus the lattice margin) on how far the servos'
@@ -371,7 +370,7 @@ class _Lanes:
     cap: np.ndarray
     first: np.ndarray
     best: np.ndarray
-    low: np.ndarray  # (lanes, joints)
+    low: np.ndarray  # (joints, lanes)
     high: np.ndarray
     window: int
 
@@ -383,8 +382,8 @@ class _Lanes:
             caps,
             np.ones(k, dtype=int),
             np.zeros(k, dtype=int),
-            np.full((k, n_joints), -np.inf),
-            np.full((k, n_joints), np.inf),
+            np.full((n_joints, k), -np.inf),
+            np.full((n_joints, k), np.inf),
             min(max(WINDOW_CHORDS // k, WINDOW_STEPS[0]), WINDOW_STEPS[1]),
         )
 
@@ -392,15 +391,15 @@ class _Lanes:
         """``lanes`` begin the search of a new tick (from their ``start``)."""
         self.first[lanes] = 1
         self.best[lanes] = 0
-        self.low[lanes] = -np.inf
-        self.high[lanes] = np.inf
+        self.low[:, lanes] = -np.inf
+        self.high[:, lanes] = np.inf
 
     def drop(self, lanes: list[int]) -> None:
         keep = np.ones(len(self.start), dtype=bool)
         keep[lanes] = False
         self.start, self.cap = self.start[keep], self.cap[keep]
         self.first, self.best = self.first[keep], self.best[keep]
-        self.low, self.high = self.low[keep], self.high[keep]
+        self.low, self.high = self.low[:, keep], self.high[:, keep]
 
 
 def _per_column(op: np.ufunc, rows: np.ndarray) -> np.ndarray:
