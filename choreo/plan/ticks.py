@@ -349,12 +349,11 @@ class _Search:
         path straight between the targets ``path_deg`` at ``bounds``: as np.interp finds it (the
         same arithmetic, so the same figure), for every joint at once."""
         lengths = np.diff(bounds)
-        tick = np.repeat(np.arange(len(lengths)), lengths)
         slopes = np.diff(path_deg, axis=0) / lengths.astype(float)[:, None]
-        into = np.arange(len(tick)) - np.repeat(bounds[:-1] - bounds[0], lengths)
-        off = slopes[tick]
+        into = np.arange(bounds[0], bounds[-1]) - np.repeat(bounds[:-1], lengths)  # steps
+        off = np.repeat(slopes, lengths, axis=0)
         off *= into.astype(float)[:, None]
-        off += path_deg[tick]
+        off += np.repeat(path_deg[:-1], lengths, axis=0)
         off -= self.samples_deg[bounds[0] : bounds[-1]]
         return np.abs(off, out=off)
 
