@@ -253,7 +253,7 @@ class _Search:
         floor = math.ceil(floor_ms / self.step_ms)
         n_lanes = max(1, min(LANES, self.end // LANE_MIN_STEPS))
         starts = [self.end * k // n_lanes for k in range(n_lanes)]
-        # a lane that has not met the next one a whole lane's length past its start gives up
+        # a lane gives up a whole lane's length past the next one's start, if not met by then
         caps = starts[2:] + [self.end] * min(2, n_lanes)
         self._follow(starts, caps, floor)
         points, forced = [0], []
