@@ -123,11 +123,16 @@ class Trajectory:
         """Into ``out`` (``(len, n)`` each): joint by joint, the times falling in each phase
         counted, from the phase holding the first to the one holding the last."""
         rows = [np.empty((self.n_joints, len(located))) for _ in out]
+        # the ndarray's own searchsorted, and counts by subtraction rather than np.diff: numpy's
+        # functions add Python calls, and these run for every joint of every chunk
         for j, knots in enumerate(self.knots_s):
-            first = np.searchsorted(knots, located[0], side="right") - 1
-            last = np.searchsorted(knots, located[-1], side="right")
+            first = int(knots.searchsorted(located[0], side="right")) - 1
+            last = int(knots.searchsorted(located[-1], side="right"))
             knots = knots[first:last]
-            counts = np.diff(np.searchsorted(located, knots, side="left"), append=len(located))
+            begins = located.searchsorted(knots, side="left")
+            counts = np.empty_like(begins)
+            np.subtract(begins[1:], begins[:-1], out=counts[:-1])
+            counts[-1] = len(located) - begins[-1]
             dt = times_s - np.repeat(knots, counts)
             p, v, a_half, j_sixth = (
                 np.repeat(column[j, first:last], counts) for column in self._taylor
