@@ -52,7 +52,14 @@ DEFAULT_BUS_MARGIN_MS = 1.5  # slack per tick beyond the wire time (host jitter,
 QUANTIZATION_DEG = DEG_PER_UNIT / 2  # rounding a target to whole units
 MAX_STEP_MS = 2  # the sample lattice (1 ms when the tolerance is too tight for 2)
 MARGIN_SHARE = 0.02  # of the tolerance the lattice margin may take
-GUESS_MARGIN = 12  # lattice steps past the last tick's reach where the next is first sought
+LANES = 128  # greedy chains searched side by side (see _Search)
+LANE_MIN_STEPS = 500  # lattice steps per lane at least: a short motion has fewer lanes
+# chords each lane tries per numpy call: 16 with many lanes, up to 128 with few
+WINDOW_CHORDS = 2048  # for all lanes together
+WINDOW_STEPS = (16, 128)
+RUNNING_ROW_BY_ROW = 512  # elements a row at least, for a running maximum row by row
+FOLD_ROWS = 16  # rows reduced as one (see _per_column)
+DEVIATION_TICKS = 256  # ticks whose deviation is found per numpy call
 
 
 @dataclass(frozen=True)
@@ -119,11 +126,11 @@ def compile_ticks(
     servo = _ServoPositions(robot)
     floor_ms = math.ceil(wire_time_ms(staging_bytes(len(robot.joints))) + bus_margin_ms)
     search = _Search(trajectory, tolerance_deg, end_ms)
-    servo.check_range(search.samples_deg.T, search.step_ms)
+    servo.check_range(search.samples_deg, search.step_ms)
     bounds, forced = search.ticks(floor_ms)
     if forced:
         _check_forced(robot, search, bounds, forced, floor_ms)
-    targets = servo.to_units(search.samples_deg[:, bounds].T)
+    targets = servo.to_units(search.samples_deg[bounds])
     servo.check_targets(targets, bounds * search.step_ms)
     plan = _tick_plan(search, bounds, targets, robot)
     log.debug(
@@ -154,13 +161,13 @@ def _tick_plan(search: _Search, bounds: np.ndarray, targets: np.ndarray, robot: 
     they send and how far they stray."""
     bounds_ms = bounds * search.step_ms
     staged = targets[1:] != targets[:-1]
-    ticks = tuple(
-        Tick(a, d, tuple(t), tuple(s))
-        for a, d, t, s in zip(
+    ticks = tuple(  # map, not a generator: a third faster over thousands of ticks
+        map(
+            Tick,
             bounds_ms[:-1].tolist(),
             np.diff(bounds_ms).tolist(),
-            targets[1:].tolist(),
-            staged.tolist(),
+            map(tuple, targets[1:].tolist()),
+            map(tuple, staged.tolist()),
         )
     )
     deviation = search.max_deviation(bounds, robot.to_deg(targets))
@@ -183,7 +190,8 @@ class _ServoPositions:
 
     def check_range(self, samples_deg: np.ndarray, step_ms: int) -> None:
         """The smooth trajectory stays where the servos can go."""
-        low, high = self.to_units(samples_deg.min(axis=0)), self.to_units(samples_deg.max(axis=0))
+        low = self.to_units(_per_column(np.minimum, samples_deg))
+        high = self.to_units(_per_column(np.maximum, samples_deg))
         lo, hi = POSITION_RANGE_UNITS
         if min(low.min(), high.min()) < lo or max(low.max(), high.max()) > hi:
             self._raise_outside(self.to_units(samples_deg), np.arange(len(samples_deg)) * step_ms)
@@ -212,9 +220,12 @@ class _Search:
     """Greedy farthest reach over the sampled trajectory, in lattice steps (see the module
     docstring).
 
-    A window's slopes are taken one row per joint and then per joint negated (``[s, -s]``), so
-    that one running maximum along a row gives both bounds of the cone: ``max(slope - tol)``
-    (the low side) and ``max(-slope - tol) = -min(slope + tol)`` (minus the high side).
+    The reach from one tick start depends only on that start, so greedy chains begun at points
+    spread over the motion (lanes) are searched side by side, one numpy call for every lane's
+    window at once (a window alone is too small for numpy: its calls, not its arithmetic, took
+    the time). A lane stops where it lands on a start another lane has taken, from which the
+    rest is known; greedy chains begun apart were seen to meet within 1-7 ticks. The chain
+    from 0 is then read off the reaches found, searching on from any point no lane reached.
     """
 
     def __init__(self, trajectory: Trajectory, tolerance_deg: float, end_ms: int):
@@ -227,77 +238,192 @@ class _Search:
         self.end = math.ceil(end_ms / self.step_ms)  # last lattice point: at or after the end
         self.max_steps = MAX_TICK_MS // self.step_ms
         times_s = np.arange(self.end + 1) * self.step_ms / 1000
-        self.samples_deg = trajectory.positions(times_s).T
-        # 1/d and tolerance/d for chords d = 1..max steps long
-        steps = np.arange(1, min(self.end, self.max_steps) + 1)
-        self.inv_d = 1.0 / steps
-        tol = tolerance_deg - self.margin_deg
-        self.tol_d = np.concatenate([tol, tol])[:, None] / steps
+        self.samples_deg = np.ascontiguousarray(trajectory.positions(times_s))  # (time, joint)
+        # 1/d for chords d = 1..max steps long
+        self.inv_d = 1.0 / np.arange(1, min(self.end, self.max_steps) + 1)
+        self.tol_deg = tolerance_deg - self.margin_deg  # what the samples may stray, per joint
+        self.next_point: dict[int, int] = {}  # each start's reach, as a lattice point
+        self.forced_from: set[int] = set()  # starts whose tick the bus floor lengthened
+        self.taken: set[int] = set()  # starts a lane has searched or is searching from
 
     def ticks(self, floor_ms: int) -> tuple[np.ndarray, list[int]]:
         """Tick boundaries (lattice indices, from 0 to the end) and the ticks the bus floor
         forced past their reach: each next boundary is the farthest reach from the last, or
         the bus floor past it."""
         floor = math.ceil(floor_ms / self.step_ms)
+        n_lanes = max(1, min(LANES, self.end // LANE_MIN_STEPS))
+        starts = [self.end * k // n_lanes for k in range(n_lanes)]
+        # a lane gives up a whole lane's length past the next one's start, if not met by then
+        caps = starts[2:] + [self.end] * min(2, n_lanes)
+        self._follow(starts, caps, floor)
         points, forced = [0], []
-        guess = 16  # lattice steps of the first window the next reach is sought in
         while points[-1] < self.end:
             start = points[-1]
-            limit = min(self.end - start, self.max_steps)
-            reach = self.reach(start, limit, guess)
-            guess = reach + GUESS_MARGIN  # the next tick is likely about as long
-            if reach < min(floor, limit):
+            if start not in self.next_point:
+                self._follow([start], [self.end], floor)
+            if start in self.forced_from:
                 forced.append(len(points) - 1)
-                reach = min(floor, limit)
-            points.append(start + reach)
+            points.append(self.next_point[start])
         return np.array(points), forced
 
-    def reach(self, start: int, limit: int, guess: int) -> int:
-        """The longest chord from lattice point ``start`` (at most ``limit`` steps) that fits.
+    def _follow(self, starts: list[int], caps: list[int], floor: int) -> None:
+        """Greedy chains from ``starts``, side by side, each until it lands on a start already
+        taken, at the end, or at or past its cap."""
+        self.taken.update(starts)
+        lanes = _Lanes.fresh(np.array(starts), np.array(caps), self.n)
+        while lanes.start.size:
+            limit = np.minimum(self.end - lanes.start, self.max_steps)
+            done = np.flatnonzero(self._window(lanes, limit))
+            if not done.size:
+                continue
+            stopped = []
+            for lane, start, reach, lane_limit, cap in zip(
+                done.tolist(),
+                lanes.start[done].tolist(),
+                lanes.best[done].tolist(),
+                limit[done].tolist(),
+                lanes.cap[done].tolist(),
+            ):
+                if reach < min(floor, lane_limit):
+                    self.forced_from.add(start)
+                    reach = min(floor, lane_limit)
+                point = start + reach
+                self.next_point[start] = point
+                if point >= self.end or point >= cap or point in self.taken:
+                    stopped.append(lane)
+                else:
+                    self.taken.add(point)
+                lanes.start[lane] = point
+            lanes.restart(done)
+            if stopped:
+                lanes.drop(stopped)
+
+    def _window(self, lanes: _Lanes, limit: np.ndarray) -> np.ndarray:
+        """Every lane's next window of chords (``lanes.window`` lengths from ``lanes.first``):
+        narrows each lane's cone, keeps its longest chord that fits; True for the lanes whose
+        search is over (cone closed, or their limit reached).
 
         A chord of length L fits iff its slope D_L/L lies, for every sample d before L, between
-        (D_d - tol)/d and (D_d + tol)/d: a cone that only narrows, so one pass over a window
-        finds every chord that fits, and the search stops once a joint's cone is closed.
+        (D_d - tol)/d and (D_d + tol)/d: a cone that only narrows, so one pass over the chords
+        in order finds every chord that fits, and once a joint's cone is closed none further
+        does.
         """
-        n, samples, inv_d, tol_d = self.n, self.samples_deg, self.inv_d, self.tol_d
-        base = samples[:, start : start + 1]
-        best, first, carry = 0, 1, None
-        while first <= limit:
-            last = min(first + guess - 1, limit)
-            slope = np.empty((2 * n, last - first + 1))
-            joints = slope[:n]
-            np.subtract(samples[:, start + first : start + last + 1], base, out=joints)
-            np.multiply(joints, inv_d[first - 1 : last], out=joints)
-            np.negative(joints, out=slope[n:])
-            bound = np.subtract(slope, tol_d[:, first - 1 : last])
-            if carry is not None:  # the cone so far, carried into this window's first column
-                np.fmax(bound[:, :1], carry, out=bound[:, :1])
-            # fmax, not maximum: the samples are finite, so they agree, and fmax skips the NaN
-            # handling (a fifth faster on these short rows, which dominate the search)
-            np.fmax.accumulate(bound, axis=1, out=bound)
-            # the ufuncs' own methods: ndarray.all and np.flatnonzero add Python calls, and
-            # this runs for every tick
-            fits = np.logical_and.reduce(bound <= slope, axis=0).nonzero()[0]
-            if fits.size:
-                best = first + int(fits[-1])
-            carry = bound[:, -1:]
-            if np.maximum.reduce(carry[:n] + carry[n:], axis=None) > 0:  # the cone closed
-                break
-            first, guess = last + 1, 2 * guess
-        return best
+        steps = lanes.first + np.arange(lanes.window)[:, None]  # (window, lanes)
+        inside = steps <= limit
+        # past a lane's limit its last chord again: no new bound, and masked out of the fits
+        np.minimum(steps, limit, out=steps)
+        samples = self.samples_deg
+        # each lane's rows in turn (as they lie in memory), then as (window, joints, lanes)
+        chords = samples[(lanes.start + steps).T] - samples[lanes.start][:, None]
+        slope = np.ascontiguousarray(chords.transpose(1, 2, 0))
+        slope *= self.inv_d[steps - 1][:, None]
+        tol = np.divide(self.tol_deg[:, None], steps[:, None])  # as tol_d was: tol / d
+        low = slope - tol
+        high = np.add(slope, tol, out=tol)
+        # the cone so far into the first chord's bounds, then along the chords (fmax, not
+        # maximum: the samples are finite, so they agree, and fmax skips the NaN handling)
+        np.fmax(low[0], lanes.low, out=low[0])
+        np.fmin(high[0], lanes.high, out=high[0])
+        _running(np.fmax, low)
+        _running(np.fmin, high)
+        fits = np.logical_and.reduce(np.logical_and(low <= slope, slope <= high), axis=1)
+        fits &= inside
+        last = lanes.window - 1 - fits[::-1].argmax(axis=0)
+        lanes.best = np.where(fits.any(axis=0), lanes.first + last, lanes.best)
+        lanes.low, lanes.high = low[-1], high[-1]
+        lanes.first += lanes.window
+        return (lanes.low > lanes.high).any(axis=0) | (lanes.first > limit)
 
     def max_deviation(self, bounds: np.ndarray, path_deg: np.ndarray) -> float:
         """An upper bound (exact at the samples, plus the lattice margin) on how far the servos'
         piecewise-linear path through the rounded targets strays from the smooth trajectory."""
-        points = np.arange(self.samples_deg.shape[1], dtype=float)
-        bounds = bounds.astype(float)
-        largest_off = np.array(
-            [
-                np.abs(np.interp(points, bounds, path_deg[:, j]) - samples).max()
-                for j, samples in enumerate(self.samples_deg)
-            ]
-        )
+        largest_off = np.abs(path_deg[-1] - self.samples_deg[-1])
+        for first in range(0, len(bounds) - 1, DEVIATION_TICKS):  # a few at a time: in cache
+            ticks = slice(first, first + DEVIATION_TICKS + 1)
+            off = self._offsets(bounds[ticks], path_deg[ticks])
+            np.maximum(largest_off, _per_column(np.maximum, off), out=largest_off)
         return float((largest_off + self.margin_deg).max())
+
+    def _offsets(self, bounds: np.ndarray, path_deg: np.ndarray) -> np.ndarray:
+        """|path - samples| at every lattice point from the first bound to before the last, the
+        path straight between the targets ``path_deg`` at ``bounds``: as np.interp finds it (the
+        same arithmetic, so the same figure), for every joint at once."""
+        lengths = np.diff(bounds)
+        slopes = np.diff(path_deg, axis=0) / lengths.astype(float)[:, None]
+        into = np.arange(bounds[0], bounds[-1]) - np.repeat(bounds[:-1], lengths)  # steps
+        off = np.repeat(slopes, lengths, axis=0)
+        off *= into.astype(float)[:, None]
+        off += np.repeat(path_deg[:-1], lengths, axis=0)
+        off -= self.samples_deg[bounds[0] : bounds[-1]]
+        return np.abs(off, out=off)
+
+
+@dataclass
+class _Lanes:
+    """Greedy chains searched side by side (see ``_Search``), one entry per lane: the start of
+    the tick it seeks, the chord length its next window begins with, the longest chord found to
+    fit so far, its cone so far (each joint's lowest and highest slope) and the point at or
+    past which it gives up."""
+
+    start: np.ndarray
+    cap: np.ndarray
+    first: np.ndarray
+    best: np.ndarray
+    low: np.ndarray  # (joints, lanes)
+    high: np.ndarray
+    window: int
+
+    @staticmethod
+    def fresh(starts: np.ndarray, caps: np.ndarray, n_joints: int) -> _Lanes:
+        k = len(starts)
+        return _Lanes(
+            starts,
+            caps,
+            np.ones(k, dtype=int),
+            np.zeros(k, dtype=int),
+            np.full((n_joints, k), -np.inf),
+            np.full((n_joints, k), np.inf),
+            min(max(WINDOW_CHORDS // k, WINDOW_STEPS[0]), WINDOW_STEPS[1]),
+        )
+
+    def restart(self, lanes: np.ndarray) -> None:
+        """``lanes`` begin the search of a new tick (from their ``start``)."""
+        self.first[lanes] = 1
+        self.best[lanes] = 0
+        self.low[:, lanes] = -np.inf
+        self.high[:, lanes] = np.inf
+
+    def drop(self, lanes: list[int]) -> None:
+        keep = np.ones(len(self.start), dtype=bool)
+        keep[lanes] = False
+        self.start, self.cap = self.start[keep], self.cap[keep]
+        self.first, self.best = self.first[keep], self.best[keep]
+        self.low, self.high = self.low[:, keep], self.high[:, keep]
+
+
+def _per_column(op: np.ufunc, rows: np.ndarray) -> np.ndarray:
+    """``op.reduce(rows, axis=0)``, the rows first folded 16 to one: numpy reduces a row at a
+    time, and a row of a joint or two dozen is too short to pay for its call."""
+    n_rows, n_columns = rows.shape
+    whole = n_rows // FOLD_ROWS * FOLD_ROWS
+    if not whole:
+        return op.reduce(rows, axis=0)
+    folded = op.reduce(rows[:whole].reshape(-1, FOLD_ROWS * n_columns), axis=0)
+    return op.reduce(np.concatenate([folded.reshape(FOLD_ROWS, n_columns), rows[whole:]]), axis=0)
+
+
+def _running(op: np.ufunc, rows: np.ndarray) -> None:
+    """``op.accumulate`` along the first axis, in place: numpy's own is many times slower
+    there. Wide rows one after the other; a few narrow ones (a lone lane) by doubling spans
+    (log2 calls of numpy, each on them all)."""
+    if rows[0].size >= RUNNING_ROW_BY_ROW:
+        for row in range(1, len(rows)):
+            op(rows[row - 1], rows[row], out=rows[row])
+        return
+    span = 1
+    while span < len(rows):
+        op(rows[span:], rows[:-span].copy(), out=rows[span:])  # the rows as they were
+        span *= 2
 
 
 def _lattice_step_ms(margin_deg: float, peak_acc_deg_s2: float) -> int:

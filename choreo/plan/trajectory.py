@@ -5,7 +5,6 @@ reach it, and how the planner's ruckig profiles are assembled into one (``assemb
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import chain
 from typing import NamedTuple
@@ -16,6 +15,7 @@ from choreo.core.yaml_source import SourceLocation
 
 PHASES = 7  # constant-jerk phases of one ruckig profile
 _DENSE_QUERY = 256  # longer sorted queries are evaluated joint by joint (cheaper there)
+_DENSE_CHUNK = 16384  # times evaluated at once in a long sorted query
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,11 +57,11 @@ class Trajectory:
     def sample(self, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, velocity, acceleration) at ``times_s``, each ``(len(times_s), n_joints)``."""
         pos, vel, acc = self._evaluate(self._checked_times(times_s), rates=True)
-        return pos.T, vel.T, acc.T
+        return pos, vel, acc
 
     def positions(self, times_s: np.ndarray) -> np.ndarray:
         """Positions only (cheaper than ``sample``), ``(len(times_s), n_joints)`` degrees."""
-        return self._evaluate(self._checked_times(times_s), rates=False)[0].T
+        return self._evaluate(self._checked_times(times_s), rates=False)[0]
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, velocity, acceleration) at one time, each ``(n_joints,)``."""
@@ -100,7 +100,7 @@ class Trajectory:
         return times_s
 
     def _evaluate(self, times_s: np.ndarray, rates: bool) -> list[np.ndarray]:
-        """Position (and velocity, acceleration if ``rates``) at every time, ``(n, len)`` each."""
+        """Position (and velocity, acceleration if ``rates``) at every time, ``(len, n)`` each."""
         # After the end the last (rest) phase holds: locating by the clamped time finds it.
         located = np.minimum(times_s, self.duration_s)
         if len(located) <= _DENSE_QUERY or np.any(located[1:] < located[:-1]):
@@ -108,18 +108,40 @@ class Trajectory:
             index -= 1
             dt = times_s - self.knots_s.ravel()[index]
             c = self._taylor_rows[index]
-            return _taylor_values(c[..., 0], c[..., 1], c[..., 2], c[..., 3], dt, rates)
-        # Long sorted queries: count the times falling in each phase, joint by joint.
-        n = self.n_joints
-        out = [np.empty((n, len(located))) for _ in range(3 if rates else 1)]
-        for j in range(n):
-            counts = np.diff(
-                np.searchsorted(located, self.knots_s[j], side="left"), append=len(located)
-            )
-            dt = times_s - np.repeat(self.knots_s[j], counts)
-            p, v, a_half, j_sixth = (np.repeat(column[j], counts) for column in self._taylor)
-            _taylor_values(p, v, a_half, j_sixth, dt, rates, out=[array[j] for array in out])
+            values = _taylor_values(c[..., 0], c[..., 1], c[..., 2], c[..., 3], dt, rates)
+            return [array.T for array in values]
+        # Long sorted queries: a chunk of times at a time (so that the arrays stay in cache)
+        out = [np.empty((len(located), self.n_joints)) for _ in range(3 if rates else 1)]
+        for first in range(0, len(located), _DENSE_CHUNK):
+            chunk = slice(first, first + _DENSE_CHUNK)
+            self._evaluate_sorted(located[chunk], times_s[chunk], [a[chunk] for a in out])
         return out
+
+    def _evaluate_sorted(
+        self, located: np.ndarray, times_s: np.ndarray, out: list[np.ndarray]
+    ) -> None:
+        """Into ``out`` (``(len, n)`` each): joint by joint, the times falling in each phase
+        counted, from the phase holding the first to the one holding the last."""
+        rows = [np.empty((self.n_joints, len(located))) for _ in out]
+        # the ndarray's own searchsorted, and counts by subtraction rather than np.diff: numpy's
+        # functions add Python calls, and these run for every joint of every chunk
+        for j, knots in enumerate(self.knots_s):
+            first = int(knots.searchsorted(located[0], side="right")) - 1
+            last = int(knots.searchsorted(located[-1], side="right"))
+            knots = knots[first:last]
+            begins = located.searchsorted(knots, side="left")
+            counts = np.empty_like(begins)
+            np.subtract(begins[1:], begins[:-1], out=counts[:-1])
+            counts[-1] = len(located) - begins[-1]
+            dt = times_s - np.repeat(knots, counts)
+            p, v, a_half, j_sixth = (
+                np.repeat(column[j, first:last], counts) for column in self._taylor
+            )
+            values = _taylor_values(p, v, a_half, j_sixth, dt, len(out) > 1)
+            for array, value in zip(rows, values):
+                array[j] = value
+        for array, row in zip(out, rows):  # joint-major in cache, then into place at once
+            array[...] = row.T
 
 
 def _taylor_values(
@@ -129,10 +151,9 @@ def _taylor_values(
     j_sixth: np.ndarray,
     dt: np.ndarray,
     rates: bool,
-    out: Sequence[np.ndarray | None] = (None, None, None),
 ) -> list[np.ndarray]:
-    """Position (and velocity, acceleration if ``rates``), into the arrays ``out`` if given."""
-    pos = np.multiply(j_sixth, dt, out=out[0])
+    """Position (and velocity, acceleration if ``rates``)."""
+    pos = j_sixth * dt
     pos += a_half
     pos *= dt
     pos += v
@@ -140,11 +161,11 @@ def _taylor_values(
     pos += p
     if not rates:
         return [pos]
-    vel = np.multiply(3 * j_sixth, dt, out=out[1])
+    vel = 3 * j_sixth * dt
     vel += 2 * a_half
     vel *= dt
     vel += v
-    acc = np.multiply(6 * j_sixth, dt, out=out[2])
+    acc = 6 * j_sixth * dt
     acc += 2 * a_half
     return [pos, vel, acc]
 

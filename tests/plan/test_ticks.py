@@ -13,6 +13,7 @@ from plan_helpers import kf, make_motion, make_robot, motions
 
 from choreo.errors import PlanningError
 from choreo.motion.motion_file import load_motion
+from choreo.plan import ticks
 from choreo.plan.planner import plan_approach, plan_motion
 from choreo.plan.ticks import (
     MAX_TICK_MS,
@@ -246,3 +247,17 @@ def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
     motion = load_motion(path)
     trajectory = plan_motion(motion).trajectory
     check_plan(motion.robot, trajectory, compile_ticks(trajectory, motion.robot), 0.5)
+
+
+@pytest.mark.parametrize("lanes", [2, 7, 64])
+@pytest.mark.parametrize("name", ["hexapod18/side_step", "arm6/dance", "tonypi/dance"])
+def test_chains_searched_side_by_side_find_the_ticks_of_one_chain(monkeypatch, name, lanes):
+    # lanes a few ticks apart (or closer than one) meet, overtake each other and give up short
+    # of the next, which the one chain from 0 must not notice
+    motion = load_motion(REPO / "motions" / f"{name}.yaml")
+    trajectory = plan_motion(motion).trajectory
+    monkeypatch.setattr(ticks, "LANES", 1)
+    one_chain = compile_ticks(trajectory, motion.robot)
+    monkeypatch.setattr(ticks, "LANES", lanes)
+    monkeypatch.setattr(ticks, "LANE_MIN_STEPS", 1)
+    assert compile_ticks(trajectory, motion.robot) == one_chain
