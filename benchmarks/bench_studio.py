@@ -52,7 +52,7 @@ from choreo.studio.server import Studio
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "studio"))
 from browser import chosen  # noqa: E402
-from test_studio_browser import free_port  # noqa: E402
+from studio_browser_helpers import free_port  # noqa: E402
 from test_timeline_page_browser import Timeline, many_keyframes  # noqa: E402  (tests/studio)
 
 SAVES = 5

@@ -10,13 +10,11 @@ to show it.
 from __future__ import annotations
 
 import shutil
-import socket
-import time
 from pathlib import Path
 
-import browser as chromium
 import pytest
-from playwright.sync_api import sync_playwright
+import studio_browser_helpers as helpers
+from studio_browser_helpers import free_port
 
 from choreo.core.atomic import write_text_atomically
 from choreo.motion.motion_file import load_motion
@@ -61,17 +59,8 @@ def many_keyframes(count: int, step_s: float, swing_deg: float = 10) -> str:
 # --- in Chromium ---------------------------------------------------------------------------------
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def wait_for(condition, what: str, timeout_s: float = WAIT_S):
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"gave up waiting for {what}"
-        time.sleep(0.05)
+    helpers.wait_for(condition, what, timeout_s)
 
 
 @pytest.fixture(scope="module")
@@ -88,17 +77,16 @@ def served(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def page(served):
-    try:
-        choice = chromium.chosen()
-    except chromium.NoBrowser as error:
-        pytest.fail(str(error), pytrace=False)
-    with sync_playwright() as playwright:
-        browser = choice.launch(playwright)
-        page = browser.new_page(viewport={"width": 1280, "height": 820})
-        page.goto(served.address.url)
-        yield page
-        browser.close()
+def browser():
+    yield from helpers.launched_browser()
+
+
+@pytest.fixture(scope="module")
+def page(served, browser):
+    page = browser.new_page(viewport={"width": 1280, "height": 820})
+    page.goto(served.address.url)
+    yield page
+    page.close()
 
 
 class Timeline:
