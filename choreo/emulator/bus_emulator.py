@@ -33,12 +33,12 @@ import random
 import threading
 from collections import deque
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
 from choreo.bus.protocol import BYTE_TIME_S, Packet, PacketDecoder, checksum, parse_ids
-from choreo.bus.servo_models import servo_model
+from choreo.bus.servo_models import ServoModel, servo_model
 from choreo.core.arguments import Range, check_number
 from choreo.core.atomic import write_text_atomically
 from choreo.core.clock import Clock, RealClock
@@ -158,6 +158,7 @@ class BusEmulator:
         if physics is not None:  # the world's servos, standing as it puts them
             specs = [ServoSpec(s.servo_id, s.model, s.position_units) for s in physics.servos]
         worlds = [s.physics for s in physics.servos] if physics else [None] * len(specs)
+        speeds = [s.top_speed_deg_s for s in physics.servos] if physics else [None] * len(specs)
         self.physics = physics
         self.clock = clock if clock is not None else RealClock()
         self.turnaround_s = turnaround_s
@@ -180,7 +181,7 @@ class BusEmulator:
         self._eeproms = self._load_state() or [Eeprom(servo_id) for servo_id, _ in self._layout]
         self.servos: tuple[EmulatedServo, ...] = tuple(
             EmulatedServo(
-                servo_model(model_name),
+                _capped_at(servo_model(model_name), speed),
                 eeprom,
                 self._now,
                 lock=self._lock,
@@ -189,8 +190,8 @@ class BusEmulator:
                 physics=world,
                 loaded=world is not None,  # the robot stands in its world: its servos hold
             )
-            for spec, (_, model_name), eeprom, world in zip(
-                specs, self._layout, self._eeproms, worlds
+            for spec, (_, model_name), eeprom, world, speed in zip(
+                specs, self._layout, self._eeproms, worlds, speeds
             )
         )
 
@@ -463,3 +464,10 @@ def _collide(replies: Sequence[bytes]) -> bytes:
 
 def _describe(layout: Sequence[tuple[int, str]]) -> str:
     return ", ".join(f"{servo_id} ({model_name})" for servo_id, model_name in layout)
+
+
+def _capped_at(model: ServoModel, top_speed_deg_s: float | None) -> ServoModel:
+    """``model`` whose own moves are capped at ``top_speed_deg_s`` (None: its datasheet's)."""
+    if top_speed_deg_s is None:
+        return model
+    return replace(model, no_load_speed_deg_s=top_speed_deg_s)

@@ -54,12 +54,16 @@ class ServoPhysics(Protocol):
 
 @dataclass(frozen=True)
 class PhysicalServo:
-    """A servo the world puts on the bus: its ID, model and where its horn stands at first."""
+    """A servo the world puts on the bus: its ID, model and where its horn stands at first,
+    and the speed its own moves are capped at (None: its model's datasheet speed). The world's
+    servo may be faster or slower than the datasheet's (a truth file says), and its moves are
+    capped at its own speed, as the preview's servos cap theirs."""
 
     servo_id: int
     model: str
     position_units: float
     physics: ServoPhysics
+    top_speed_deg_s: float | None = None
 
 
 class Physics(Protocol):

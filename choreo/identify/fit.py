@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.identify.joint_model import FIGURES, Trial, simulate
-from choreo.identify.search import minimise
+from choreo.identify.joint_model import COARSE_STEP_S, FIGURES, FIT_STEP_S, Trial, simulate
+from choreo.identify.search import Cost, minimise
 from choreo.preview.actuator import ActuatorParams
 from choreo.preview.joint_load import JointLoad
 
@@ -96,14 +96,25 @@ def fit_servo(
             figures["offset_deg"] = np.zeros(len(points))
         return figures
 
-    def cost(points: np.ndarray) -> np.ndarray:
-        predicted = simulate(trial, load, decode(points))
-        return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
+    def cost_at(step_s: float) -> Cost:
+        def cost(points: np.ndarray) -> np.ndarray:
+            predicted = simulate(trial, load, decode(points), dt_s=step_s)
+            return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
+
+        return cost
 
     start_values = np.array([assumed[name] for name in names])
     start_values = np.where(logs, np.log(np.maximum(start_values, 1e-12)), start_values)
     start = np.clip((start_values - low) / (high - low), 0, 1)
-    found = minimise(cost, start, generations=generations, population=POPULATION, seed=seed)
+    # the valley found with the coarse step, the last third of the search on the fine one
+    found = minimise(
+        cost_at(COARSE_STEP_S),
+        start,
+        generations=generations,
+        population=POPULATION,
+        seed=seed,
+        refine=(cost_at(FIT_STEP_S), max(1, generations // 3)),
+    )
     best = decode(found.best[None])
     return Fitted({name: float(best[name][0]) for name in FIGURES}, found.cost, found.evaluations)
 

@@ -26,7 +26,14 @@ import numpy as np
 
 from choreo.preview.joint_load import JointLoad
 
-FIT_STEP_S = 0.006  # the joint model's step: 3 of the preview's (within 0.01° on the test moves)
+# the joint model's step, 1.5 of the preview's. On a joint whose load is mostly its servo's own
+# armature (arm6's base, wrist_pitch, a coxa), 6 ms strayed 0.04-0.15° on average from a 1 ms
+# simulation over a quick step, as much as the fit's whole error, and the wrist_pitch's gain came
+# out up to 21 % high on hidden truths (4/5 within 15 % at 3 ms, 3/5 at 6 ms); 3 ms halves the
+# straying (the search takes it for its last third only, `fit.py`)
+FIT_STEP_S = 0.003
+# the step of the search's first two thirds, which find the valley: 6 ms costs half as much
+COARSE_STEP_S = 0.006
 # the neighbours' reads are smoothed over this (a Gaussian's sigma) before their acceleration is
 # taken: about one read period of each of two neighbours, which smooths a read unit's step away
 # and keeps 91 % of their ringing (~10 Hz on arm6). On arm6's elbow (5 hidden truths), 12 ms

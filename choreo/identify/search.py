@@ -35,28 +35,31 @@ def minimise(
     population: int | None = None,
     seed: int = 0,
     tolerance: float = 1e-4,
+    refine: tuple[Cost, int] | None = None,
 ) -> Found:
-    """The point of [0, 1]^n where ``cost`` is lowest, searched from ``start``."""
+    """The point of [0, 1]^n where ``cost`` is lowest, searched from ``start``. ``refine``: a
+    finer (dearer) cost and how many generations it takes over for, from where the search
+    stands: the best is then the best that cost found."""
     rng = np.random.default_rng(seed)
     settings = _Settings.of(len(start), population)
     state = _State.at(np.clip(np.asarray(start, dtype=float), 0, 1), sigma)
-    best, best_cost, evaluations = (
-        state.mean.copy(),
-        float(_penalised(cost, state.mean[None])[0]),
-        1,
-    )
-    generation = 0
-    for generation in range(1, generations + 1):  # noqa: B007 (reported)
-        steps = state.sample(rng, settings.lam)
-        points = state.mean + state.sigma * steps
-        costs = _penalised(cost, points)
-        evaluations += settings.lam
-        order = np.argsort(costs)
-        if costs[order[0]] < best_cost:
-            best, best_cost = np.clip(points[order[0]], 0, 1), float(costs[order[0]])
-        state.adapt(settings, steps[order[: settings.mu]], generation)
-        if state.spread < tolerance:
-            break
+    phases = [(cost, generations)] if refine is None else [(cost, generations - refine[1]), refine]
+    best, best_cost, evaluations, generation = state.mean.copy(), np.inf, 0, 0
+    for phase_cost, count in phases:
+        best_cost = float(_penalised(phase_cost, best[None])[0])  # judged anew by this cost
+        evaluations += 1
+        for _ in range(max(count, 0)):
+            generation += 1
+            steps = state.sample(rng, settings.lam)
+            points = state.mean + state.sigma * steps
+            costs = _penalised(phase_cost, points)
+            evaluations += settings.lam
+            order = np.argsort(costs)
+            if costs[order[0]] < best_cost:
+                best, best_cost = np.clip(points[order[0]], 0, 1), float(costs[order[0]])
+            state.adapt(settings, steps[order[: settings.mu]], generation)
+            if state.spread < tolerance:
+                break
     return Found(best, best_cost, evaluations, generation)
 
 

@@ -221,8 +221,13 @@ class ServoDrive:
         self.offset_rad = np.radians([p.offset_deg for p in params])
         self.half_play_rad = np.radians([p.backlash_deg for p in params]) / 2
         self.half_band_rad = np.radians([p.deadband_deg for p in params]) / 2
-        self.delay_steps = np.array([round(p.response_delay_s / dt_s) for p in params], dtype=int)
-        depth = int(self.delay_steps.max(initial=0)) + 1
+        # a delay between two steps acts on the set-point between theirs (as identify's joint
+        # model has it): rounded to whole steps, a 3.7 ms delay would act as 4 ms
+        steps = np.array([p.response_delay_s / dt_s for p in params], dtype=float)
+        steps = np.where(np.isclose(steps, np.round(steps)), np.round(steps), steps)
+        self.delay_steps = np.floor(steps).astype(int)
+        self._delay_part = steps - self.delay_steps
+        depth = int((self.delay_steps + (self._delay_part > 0)).max(initial=0)) + 1
         self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
         self._newest = 0
         self._columns = np.arange(len(params))
@@ -234,6 +239,8 @@ class ServoDrive:
         self._newest = (self._newest + 1) % depth
         self._history[self._newest] = setpoint_rad
         late = self._history[(self._newest - self.delay_steps) % depth, self._columns]
+        older = self._history[(self._newest - self.delay_steps - 1) % depth, self._columns]
+        late = late + (older - late) * self._delay_part
         wanted = late + self.offset_rad
         # np.minimum/np.maximum rather than np.clip: this runs at every physics step
         aim = np.minimum(

@@ -126,8 +126,17 @@ class PhysicsTwin:
         self._origin_s = clock.now()  # bus time of the settled state
         self._steps = 0
         self.servos: tuple[PhysicalServo, ...] = tuple(
-            PhysicalServo(j.servo_id, j.servo_model, float(u), _ServoInWorld(self, i))
-            for i, (j, u) in enumerate(zip(robot.joints, home_units))
+            PhysicalServo(
+                j.servo_id,
+                j.servo_model,
+                float(u),
+                _ServoInWorld(self, i),
+                # its own moves capped at its speed at the supply, as the preview's ServoBank
+                # caps them: a faster or slower servo than the datasheet's (a truth file) is
+                # so on the bus too
+                top_speed_deg_s=a.no_load_speed_deg_s,
+            )
+            for i, (j, u, a) in enumerate(zip(robot.joints, home_units, self.actuators))
         )
 
     # --- what the servos see ---------------------------------------------------------------

@@ -35,6 +35,15 @@ def test_a_step_asked_at_once_runs_no_faster_than_the_servo_and_a_slower_servo_i
     assert read[-1] == pytest.approx([60.0, 60.0], abs=0.5)
 
 
+def test_the_models_step_follows_a_light_joints_quick_step_as_a_fine_one_does():
+    """The base's load is mostly its servo's armature, as a wrist's or a coxa's: its quick
+    steps are the fastest motion the fit sees."""
+    step = trial(SentMove(0.0, 5.0, 0.0), until_s=0.6)
+    figures = candidates(friction_nm=0.03, response_delay_s=0.005)
+    fine = simulate(step, LOAD, figures, dt_s=0.001)
+    assert np.abs(simulate(step, LOAD, figures) - fine).mean() < 0.03
+
+
 def test_a_response_delay_starts_the_move_that_much_later():
     step = trial(SentMove(0.0, 10.0, 0.2), until_s=0.4)
     read = simulate(step, LOAD, candidates(response_delay_s=0.05))

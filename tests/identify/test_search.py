@@ -29,3 +29,25 @@ def test_the_same_seed_gives_the_same_answer():
     first = minimise(cost, np.full(3, 0.6), generations=20, seed=4)
     again = minimise(cost, np.full(3, 0.6), generations=20, seed=4)
     assert np.array_equal(first.best, again.best)
+
+
+def test_a_finer_cost_takes_over_for_the_last_generations_and_judges_the_best():
+    coarse_bottom, fine_bottom = np.array([0.3, 0.6]), np.array([0.32, 0.58])
+    calls = {"coarse": 0, "fine": 0}
+
+    def bowl(bottom: np.ndarray, name: str):
+        def cost(p: np.ndarray) -> np.ndarray:
+            calls[name] += 1
+            return np.sum((p - bottom) ** 2, axis=1)
+
+        return cost
+
+    found = minimise(
+        bowl(coarse_bottom, "coarse"),
+        np.full(2, 0.5),
+        generations=90,
+        refine=(bowl(fine_bottom, "fine"), 30),
+    )
+    assert found.best == pytest.approx(fine_bottom, abs=2e-3)
+    assert found.cost == pytest.approx(np.sum((found.best - fine_bottom) ** 2))
+    assert calls["coarse"] > calls["fine"] > 1  # the fine one for its third of the generations

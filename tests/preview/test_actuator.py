@@ -59,6 +59,16 @@ def test_a_response_delay_acts_on_set_points_that_many_steps_old_and_an_offset_s
     assert seen == pytest.approx([2.0] * 5 + [3.0, 4.0, 5.0])
 
 
+def test_a_response_delay_between_two_steps_acts_on_the_set_point_between_theirs():
+    delay_s = 2.5 * DT_S  # rounded to whole steps it would act 0.5 step early or late
+    drive = drive_of(one_servo(deadband_deg=0.0, backlash_deg=0.0, response_delay_s=delay_s))
+    seen = [
+        float(np.degrees(drive.ctrl(np.radians([float(k)]), np.zeros(1))[0])) for k in range(1, 7)
+    ]
+    # the set-points 1, 2, 3 ... two and a half steps late: 0 until then, 0.5, 1.5, 2.5 after
+    assert seen == pytest.approx([0.0, 0.0, 0.5, 1.5, 2.5, 3.5])
+
+
 def test_damping_follows_the_stall_torque_and_speed_unless_given():
     given = one_servo(stall_torque_nm=1.0, no_load_speed_deg_s=200.0)
     assert given.damping_nm_s_rad == pytest.approx(1.0 / np.radians(200.0))  # back-EMF

@@ -140,6 +140,19 @@ def test_a_truth_file_makes_the_servos_differ_from_the_robot_files(tmp_path):
     assert sags["truth"] > 2 * sags["assumed"] > 0
 
 
+def test_a_servo_caps_its_own_moves_at_its_speed_in_the_truth_file(tmp_path):
+    """As the preview's servos do: a servo slower than the datasheet's sets its own pace."""
+    truth = tmp_path / "truth.yaml"
+    truth.write_text("joints:\n  base_yaw: {no_load_speed_deg_s: 150.0}\n")
+    bus, twin = open_twin(f"&truth={truth}")
+    with bus:
+        servos = bus.emulator.servos  # type: ignore[union-attr]
+        assert twin.actuators[0].no_load_speed_deg_s == pytest.approx(150.0, rel=0.05)
+        assert servos[0].model.no_load_speed_deg_s == twin.actuators[0].no_load_speed_deg_s
+        assert servos[1].model.no_load_speed_deg_s == twin.actuators[1].no_load_speed_deg_s
+        assert servos[1].model.no_load_speed_deg_s > 300.0  # the others' as assumed
+
+
 def test_gear_play_and_dead_band_are_seen_in_small_reversals(tmp_path):
     """The base (no gravity load) with 2° of play: a 1.5° reversal is taken up by the play, and
     the output does not move; with the robot file's 0.5° it does."""
