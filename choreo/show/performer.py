@@ -348,6 +348,9 @@ class Performer:
         self.custody = Custody(
             Holder(part.show_id, part.ticket), _real_clock(staged.bus), self.max_silence_s
         )  # the silence counts from here
+        # _prepare has just found its token; the watch's history of it may come after the
+        # conductor's start (seen on a busy machine), which must not be refused for that
+        self.custody.conductor_alive = True
         staged.cancels.append(self.network.watch(conductor, self._on_conductor))
         staged.cancels.append(self.network.subscribe(f"{conductor}/stop", self._on_stop))
         staged.cancels.append(self.network.subscribe(f"{conductor}/beat", self._on_beat))

@@ -117,6 +117,28 @@ def test_a_silent_conductor_loses_its_part_and_its_start_is_refused(stage, sessi
     assert conductor.go().problem == "no part is staged"
 
 
+def test_a_start_right_after_the_staging_is_taken_before_the_token_s_news_arrives(
+    stage, session, monkeypatch
+):
+    """The staging found the conductor's token; the watch's own report of it may come after the
+    start (on a busy machine it did): that start is taken, and a vanished token still stops."""
+    reports: list = []
+
+    def watch_reporting_nothing_yet(key, on_change):
+        reports.append(on_change)
+        return lambda: None  # the cancel
+
+    monkeypatch.setattr(stage.network, "watch", watch_reporting_nothing_yet)
+    conductor = session("show-1")
+    conductor.hold()
+    assert conductor.stage().ok
+    answer = conductor.go()
+    assert answer is not None and answer.ok, answer
+    (vanished,) = reports  # then the token goes: the part stops as when the watch reports it
+    vanished("show-1", False)
+    eventually(lambda: stage.heard("lost the conductor (its liveliness token vanished)"), "stop")
+
+
 def test_a_start_while_the_conductor_is_not_live_is_refused(stage):
     """Between a conductor going silent and its part being dropped, its start is refused too."""
     performer = stage.performer
