@@ -3,6 +3,7 @@ view draws a point of the world (to put the mouse on a link or a handle)."""
 
 from __future__ import annotations
 
+import shutil
 import socket
 import time
 from collections.abc import Iterator
@@ -10,7 +11,10 @@ from collections.abc import Iterator
 import browser as chromium
 import numpy as np
 import pytest
-from playwright.sync_api import Browser, sync_playwright
+from paths import REPO
+from playwright.sync_api import Browser, expect, sync_playwright
+
+ARM_WAVE = REPO / "motions" / "arm6" / "wave.yaml"
 
 VIEWPORT = {"width": 900, "height": 640}
 WAIT_MS = 30_000  # how long a page may take to show a change (software rendering, busy CI box)
@@ -39,6 +43,17 @@ def wait_for(condition, what: str, timeout_s: float = WAIT_MS / 1000):
     while not condition():
         assert time.monotonic() < deadline, f"gave up waiting for {what}"
         time.sleep(0.05)
+
+
+def back_to_the_shipped_wave(studio, page) -> None:
+    """The studio's file as motions/arm6/wave.yaml ships (saved over it, if an earlier test
+    changed it), reloaded and shown: one studio and page for a module's tests."""
+    path = studio.session.motion_path
+    if path.read_bytes() != ARM_WAVE.read_bytes():
+        version = studio.session.version
+        shutil.copy(ARM_WAVE, path)
+        wait_for(lambda: studio.session.version > version, "the studio to reload")
+        expect(page.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
 
 
 def number_input(page, label: str):

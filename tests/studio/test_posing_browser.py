@@ -21,8 +21,10 @@ from paths import REPO
 from PIL import Image
 from playwright.sync_api import expect
 from studio_browser_helpers import (
+    ARM_WAVE,
     VIEWPORT,
     WAIT_MS,
+    back_to_the_shipped_wave,
     click,
     free_port,
     launched_browser,
@@ -36,7 +38,6 @@ from choreo.studio.address import Address
 from choreo.studio.scene import BODY, HANDLE_SCALE, JOINT, rotation_of
 from choreo.studio.server import Studio
 
-ARM_WAVE = REPO / "motions" / "arm6" / "wave.yaml"
 BODY_SWAY = REPO / "motions" / "hexapod18" / "body_sway.yaml"
 AFTER_THE_LAST_S = 5.2  # wave's last keyframe (home) is at 4.9 s: the arm stands at home
 # viser's gizmo (drei's PivotControls) draws the ring about its x axis as a quarter circle from
@@ -91,12 +92,7 @@ def arm_tab(browser, arm_served):
 def arm(arm_served, arm_tab):
     """The studio on wave.yaml as shipped, the page at 5.2 s: arm6 at home, after the last
     keyframe."""
-    path = arm_served.session.motion_path
-    if path.read_bytes() != ARM_WAVE.read_bytes():
-        version = arm_served.session.version
-        shutil.copy(ARM_WAVE, path)
-        wait_for(lambda: arm_served.session.version > version, "the studio to reload")
-        expect(arm_tab.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
+    back_to_the_shipped_wave(arm_served, arm_tab)
     type_number(arm_tab, "t (s)", 0.0)  # a change, whatever the time was: the pose is the plan's
     type_number(arm_tab, "t (s)", AFTER_THE_LAST_S)
     wait_for(lambda: arm_served.time_s == AFTER_THE_LAST_S, "the timeline at 5.2 s")

@@ -19,12 +19,14 @@ import browser as chromium
 import mujoco
 import numpy as np
 import pytest
-from paths import DATA, REPO
+from paths import DATA
 from PIL import Image
 from playwright.sync_api import expect, sync_playwright
 from studio_browser_helpers import (
+    ARM_WAVE,
     VIEWPORT,
     WAIT_MS,
+    back_to_the_shipped_wave,
     click,
     free_port,
     launched_browser,
@@ -223,21 +225,14 @@ def test_a_click_on_a_link_picks_its_joint_and_frame_the_robot_brings_it_back(fi
 
 # --- edits an animator can trust: motions/arm6/wave.yaml, timed with after: ----------------------
 
-ARM_WAVE = REPO / "motions" / "arm6" / "wave.yaml"
-
 
 @pytest.fixture
 def arm(served, first_tab):
     """The module's studio and tab on motions/arm6/wave.yaml instead (saved over its file:
     one page for all, as a second page costs a software-rendering browser seconds), nothing
     to undo, at t = 0."""
-    path = served.session.motion_path
-    if path.read_bytes() != ARM_WAVE.read_bytes():
-        version = served.session.version
-        shutil.copy(ARM_WAVE, path)
-        wait_for(lambda: served.session.version > version, "the studio to reload")
-        expect(first_tab.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
-    served.journal = Journal(path)
+    back_to_the_shipped_wave(served, first_tab)
+    served.journal = Journal(served.session.motion_path)
     type_number(first_tab, "t (s)", 0.0)
     expect(number_input(first_tab, "t (s)")).to_have_value("0", timeout=WAIT_MS)
     served.said.clear()
