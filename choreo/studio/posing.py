@@ -1,7 +1,8 @@
 """Posing the robot in the studio: the sliders' pose (``Posing``, the studio's part that owns it),
 set by a slider, a named pose, a mirror, the ring of a joint picked by a click on its link, or a
 drag handle solved by the project's IK (an arm's sites, a free-standing robot's hands and feet,
-a walker's body). A drag that cannot be done is refused and its handle put back.
+a walker's body). A drag that cannot be done is refused; its handle goes back onto the robot
+when let go.
 
 The body's drag handle of a legged robot: the handle's move made into the ``body:`` pose a
 motion file writes (mm and degrees, rounded as written) and the legs' angles that pose means,
@@ -185,8 +186,8 @@ class Posing(StudioParts):
 
     def turn_joint(self, name: str, wxyz: np.ndarray) -> None:
         """The picked joint at the angle its ring was turned to. Turned past a limit, the joint
-        stops at that limit, as a hand-turned joint would, with a line saying so, and the ring
-        goes back onto the joint."""
+        stops at that limit, as a hand-turned joint would, with a line saying so; the ring goes
+        back onto the joint when let go."""
         with self._lock:
             plan = self._plan()
             if self.view is None or plan is None or name not in plan.motion.robot.joint_names:
@@ -210,7 +211,6 @@ class Posing(StudioParts):
                     f"{name} stops at its limit {limit:g}° (the ring was turned to {angle:g}°)"
                 )
                 self._set_joint(name, limit)
-            self.view.snap_back()
 
     def take_pose(self, name: str) -> None:
         with self._lock:
@@ -290,7 +290,6 @@ class Posing(StudioParts):
                     f"refused: {site} cannot reach there: the nearest pose is "
                     f"{solution.position_error_mm[0]:.0f} mm away; the last pose that works stays"
                 )
-                self.view.snap_back()
                 return
             self._set_pose(np.array(solution.angles_deg), plan, goal)
 
@@ -318,8 +317,6 @@ class Posing(StudioParts):
                     "from where it stands (out of the leg's reach); the last pose "
                     "that works stays"
                 )
-                assert self.view is not None
-                self.view.snap_back()
                 return
             root = (np.array(world_m, dtype=float), np.array(wxyz, dtype=float))
             self._set_pose(np.array(solution.angles_deg), plan, body=(drag, pose, root))

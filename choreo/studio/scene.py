@@ -6,6 +6,9 @@ The only module of the studio that touches MuJoCo's data (``choreo.preview`` bui
 
 from __future__ import annotations
 
+import asyncio
+import logging
+import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -18,6 +21,7 @@ from choreo.preview.model import free_joint, index_joints, load_model
 from choreo.robot.types import Robot
 from choreo.studio import require
 
+log = logging.getLogger(__name__)
 GHOST_RGB = (40, 120, 255)
 GHOST_WIDTH = 4.0
 AMBIENT, KEY_LIGHT = 1.2, 2.0  # without the environment map: soft fill, one light from above
@@ -56,7 +60,10 @@ class RobotView:
         self._bones = self._bones[self._bones[:, 0] > 0]  # bodies hanging from the world: none
         self.ghost_visible = True
         self._handles: dict[str, Any] = {}  # site name -> its handle; BODY: the body's
-        self._dragging: str | None = None
+        self._dragging: dict[str, int] = {}  # handle name -> how many tabs drag it now
+        # the robot drawn and the handles placed on it: a drag let go places them from viser's
+        # event loop's threads while the studio draws from its own
+        self._drawing = threading.RLock()
         self._turning: int | None = None  # the robot joint whose ring is shown (JOINT)
         self._joint_ids = [
             mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, j.mjcf_joint)
@@ -241,16 +248,16 @@ class RobotView:
             position=position,
             wxyz=wxyz,
         )
-        handle.on_update(
-            self._drag_callback(JOINT, lambda target: on_turn(name, np.array(target.wxyz)))
-        )
-        self._handles[JOINT], self._turning = handle, joint
+        handle.on_update(self._drag_callback(JOINT, lambda _, wxyz: on_turn(name, wxyz)))
+        with self._drawing:
+            self._handles[JOINT], self._turning = handle, joint
 
     def remove_joint_handle(self) -> None:
-        handle = self._handles.pop(JOINT, None)
+        with self._drawing:
+            handle = self._handles.pop(JOINT, None)
+            self._turning = None
         if handle is not None:
             handle.remove()
-        self._turning = None
 
     def turned_deg(self, joint: int, wxyz: npt.ArrayLike) -> float:
         """The angle of joint ``joint`` that its ring turned to ``wxyz`` stands for."""
@@ -291,18 +298,13 @@ class RobotView:
         handle = self._handles[name]
         return np.array(handle.position), np.array(handle.wxyz)
 
-    def snap_back(self) -> None:
-        """Every handle back where the robot shown puts it, the one being dragged too (after a
-        refused drag)."""
-        self._dragging = None
-        self._place_handles()
-
     def show(self, qpos: np.ndarray, ghost_deg: np.ndarray | None) -> None:
         """The robot at ``qpos``; the ghost at the same place with the joints at ``ghost_deg``."""
-        self._data.qpos[:] = qpos
-        mujoco.mj_kinematics(self.model, self._data)
-        self._scene.update_from_mjdata(self._data)
-        self._place_handles()
+        with self._drawing:
+            self._data.qpos[:] = qpos
+            mujoco.mj_kinematics(self.model, self._data)
+            self._scene.update_from_mjdata(self._data)
+            self._place_handles()
         if ghost_deg is None or not self.ghost_visible or not len(self._bones):
             self._server.scene.remove_by_name("/ghost")
             return
@@ -330,11 +332,14 @@ class RobotView:
                 position=np.array(self._data.site(name).xpos),
             )
             handle.on_update(self._drag_callback(name, self._site_drag(name, on_drag)))
-            self._handles[name] = handle
+            with self._drawing:
+                self._handles[name] = handle
 
     @staticmethod
-    def _site_drag(name: str, on_drag: Callable[[str, np.ndarray], None]) -> Callable[[Any], None]:
-        return lambda target: on_drag(name, np.array(target.position))
+    def _site_drag(
+        name: str, on_drag: Callable[[str, np.ndarray], None]
+    ) -> Callable[[np.ndarray, np.ndarray], None]:
+        return lambda position, _: on_drag(name, position)
 
     def add_body_handle(self, on_drag: Callable[[np.ndarray, np.ndarray], None]) -> None:
         """A handle on a free-floating robot's body, to move and turn it:
@@ -346,34 +351,57 @@ class RobotView:
             position=position,
             wxyz=wxyz,
         )
-        handle.on_update(
-            self._drag_callback(
-                BODY, lambda target: on_drag(np.array(target.position), np.array(target.wxyz))
-            )
-        )
-        self._handles[BODY] = handle
+        handle.on_update(self._drag_callback(BODY, on_drag))
+        with self._drawing:
+            self._handles[BODY] = handle
 
-    def _drag_callback(self, name: str, on_drag: Callable[[Any], None]):
-        def callback(event) -> None:
+    def _drag_callback(self, name: str, on_move: Callable[[np.ndarray, np.ndarray], None]):
+        """viser's callback for the drags of handle ``name``: ``on_move(position m, quaternion
+        w x y z)`` for each move, in a thread. A handle is not moved while a tab drags it: viser
+        forwards each move to the other tabs in a message that replaces a put-back queued just
+        before it and is not sent to the tab that drags, which kept a refused pose. Let go, it
+        goes where the robot is. Async, so that viser runs it on its event loop in the order the
+        tab sent its start, moves and end (a plain one runs in any of its threads, in any order),
+        and reads each move's pose before a later message changes it."""
+
+        async def callback(event) -> None:
             if event.phase == "start":
-                self._dragging = name
-            elif event.phase == "end":
-                self._dragging = None
-            on_drag(event.target)
+                self._dragging[name] = self._dragging.get(name, 0) + 1
+            elif event.phase == "update":
+                target = event.target
+                in_a_thread(on_move, np.array(target.position), np.array(target.wxyz))
+            else:  # "end": let go (or its tab closed)
+                self._dragging[name] = max(self._dragging.get(name, 0) - 1, 0)
+                in_a_thread(self._place_handles)
 
         return callback
 
     def _place_handles(self) -> None:
-        for name, handle in self._handles.items():
-            if name == self._dragging:  # the one in the user's hand stays where it is put
-                continue
-            if name == BODY:
-                handle.position, handle.wxyz = self.root_pose()
-            elif name == JOINT:
-                assert self._turning is not None
-                handle.position, handle.wxyz = self._joint_handle_pose(self._turning)
-            else:
-                handle.position = np.array(self._data.site(name).xpos)
+        """Every handle where the robot shown puts it but those being dragged."""
+        with self._drawing:
+            for name, handle in self._handles.items():
+                if self._dragging.get(name):  # in a tab's hand: placed when let go
+                    continue
+                if name == BODY:
+                    handle.position, handle.wxyz = self.root_pose()
+                elif name == JOINT:
+                    assert self._turning is not None
+                    handle.position, handle.wxyz = self._joint_handle_pose(self._turning)
+                else:
+                    handle.position = np.array(self._data.site(name).xpos)
+
+
+def in_a_thread(work: Callable[..., None], *args: Any) -> None:
+    """``work(*args)`` in a thread of the running event loop's; a failure is logged (a bug
+    must not go unheard, nor stop the page being heard)."""
+
+    def run() -> None:
+        try:
+            work(*args)
+        except Exception:  # noqa: BLE001
+            log.exception("a drag's work failed")
+
+    asyncio.get_running_loop().run_in_executor(None, run)
 
 
 def axis_frame(axis: npt.ArrayLike) -> np.ndarray:

@@ -1,19 +1,40 @@
 """Posing in the 3D view without a browser: a click on a link picks the joint that turns it and
 its ring turns it within its limits; a humanoid's hands and feet have handles solved by the
-project's IK; a refused drag puts its handle back and says why; the robot is framed on load."""
+project's IK; a refused drag says why, and the tab that dragged the handle (a site's, the body's,
+a joint's ring) shows it back on the robot once let go, whenever the studio answered the moves;
+the robot is framed on load."""
 
 from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import mujoco
 import numpy as np
 import pytest
 import viser
-from studio_helpers import copy_motion, studio_on
+from studio_helpers import copy_motion, refused, studio_on
+from viser._messages import (
+    SetOrientationMessage,
+    SetPositionMessage,
+    TransformControlsDragEndMessage,
+    TransformControlsDragStartMessage,
+    TransformControlsUpdateMessage,
+)
 
 from choreo.robot.kinematics import Kinematics
 from choreo.robot.robot_file import load_robot
 from choreo.studio.address import Address
-from choreo.studio.scene import JOINT, RobotView, about_x, axis_frame, quaternion_of, rotation_of
+from choreo.studio.scene import (
+    BODY,
+    JOINT,
+    RobotView,
+    about_x,
+    axis_frame,
+    quaternion_of,
+    rotation_of,
+)
 from choreo.studio.server import Studio
 
 # tonypi stands at home, then squats.
@@ -215,3 +236,147 @@ def test_every_robot_is_framed_on_load_filling_a_third_of_the_view_or_more(robot
             assert (high[1] - low[1]) / 2 >= 1 / 3  # at least a third of its height
     finally:
         server.stop()
+
+
+# --- a drag in one tab, as viser hands it to the studio ------------------------------------------
+
+TAB = 7  # the id of the tab that drags (no page is open: what it would be sent stays queued)
+
+
+def run_into(future: Future, task) -> None:
+    try:
+        future.set_result(task())
+    except BaseException as error:  # as a thread's future would hold it
+        future.set_exception(error)
+
+
+class RunAtOnce(ThreadPoolExecutor):
+    """Runs each task as it is submitted. viser hands a drag's callbacks to threads and then
+    forwards the dragged pose to the other tabs; run at once, the studio's answer to a move
+    comes before that forward: the order in which a handle put back during a drag lost its
+    put-back (the forward, queued after it under the same key, replaced it and is not sent to
+    the tab that drags)."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        future: Future = Future()
+        run_into(future, lambda: fn(*args, **kwargs))
+        return future
+
+    def run_held(self) -> None:
+        pass
+
+
+class RunLater(ThreadPoolExecutor):
+    """Holds each task until ``run_held``, then runs them in turn: a busy machine's threads
+    start a drag's work after the tab let go of the handle."""
+
+    def __init__(self):
+        super().__init__(max_workers=1)
+        self._held: list[tuple[Future, Callable[[], object]]] = []
+
+    def submit(self, fn, /, *args, **kwargs):
+        future: Future = Future()
+        self._held.append((future, lambda: fn(*args, **kwargs)))
+        return future
+
+    def run_held(self) -> None:
+        for future, task in self._held:
+            run_into(future, task)
+
+
+def drag_in_a_tab(studio: Studio, name: str, moves, threads=RunAtOnce) -> None:
+    """Drag handle ``name`` in tab ``TAB`` through ``moves`` ((position m, quaternion w x y z)
+    each) and let go, through viser's own handlers of the tab's messages, on its event loop,
+    the work handed to threads done by ``threads``."""
+    server = studio.server
+    loop = server._event_loop
+    executor = threads()
+    server.scene._thread_executor = executor  # viser's, for plain callbacks
+    loop.set_default_executor(executor)
+
+    def handle(handler, message) -> None:
+        asyncio.run_coroutine_threadsafe(handler(TAB, message), loop).result()
+
+    scene = server.scene
+    handle(scene._handle_transform_controls_drag_start, TransformControlsDragStartMessage(name))
+    for position, wxyz in moves:
+        update = TransformControlsUpdateMessage(name, tuple(wxyz), tuple(position))
+        handle(scene._handle_transform_controls_updates, update)
+    handle(scene._handle_transform_controls_drag_end, TransformControlsDragEndMessage(name))
+    executor.run_held()
+
+
+def shown_in_the_tab(studio: Studio, name: str, dragged) -> tuple[np.ndarray, np.ndarray]:
+    """Where the tab that dragged handle ``name`` to ``dragged`` (position, quaternion) shows
+    it once everything queued for it is sent: the last position and orientation viser keeps
+    queued for the handle unless that one is not for this tab (then the tab keeps its own)."""
+    buffer = studio.server._websock_server.get_message_buffer()
+    with buffer.buffer_lock:
+        queued = [message for _, message in sorted(buffer.message_from_id.items())]
+    shown = []
+    for kind, field, own in (
+        (SetPositionMessage, "position", dragged[0]),
+        (SetOrientationMessage, "wxyz", dragged[1]),
+    ):
+        last = [m for m in queued if isinstance(m, kind) and m.name == name][-1:]
+        sent = last and last[0].excluded_self_client != TAB
+        shown.append(np.array(getattr(last[0], field) if sent else own, dtype=float))
+    return shown[0], shown[1]
+
+
+@pytest.mark.parametrize("threads", [RunAtOnce, RunLater])
+def test_a_site_handle_dragged_out_of_reach_ends_on_the_site_in_the_tab_that_dragged_it(
+    tmp_path, threads
+):
+    """Whenever the studio's threads answer the moves: during the drag or after it."""
+    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
+        view = studio.view
+        assert view is not None
+        name = "/sites/tool"
+        start = view.handle_pose("tool")
+        reach = (start[0] + np.array([0.0, 0.0, -0.05]), start[1])  # down 5 cm: within reach
+        away = (start[0] + np.array([0.0, 0.0, 1.0]), start[1])  # a metre up: out of reach
+        drag_in_a_tab(studio, name, [reach, away], threads)
+        assert refused(studio).startswith("⛔ refused: tool cannot reach there: ")
+        site_m = posed_data(view).site("tool").xpos
+        assert np.allclose(site_m, reach[0], atol=0.002)  # the last move that worked
+        shown, _ = shown_in_the_tab(studio, name, away)
+        assert np.allclose(shown, site_m)
+
+
+def test_a_ring_turned_past_its_joints_limit_ends_at_the_limit_in_the_tab_that_turned_it(tmp_path):
+    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
+        view = studio.view
+        assert view is not None
+        robot = view.robot
+        elbow, limits = robot.joint_names.index("elbow"), robot.joint("elbow").limits
+        joint = view.model.joint(robot.joints[elbow].mjcf_joint)
+        studio.pick_joint(
+            *ray_to_body(view, view.model.body(int(joint.bodyid[0])).name, [0, -1, 0])
+        )
+        position, wxyz = view.handle_pose(JOINT)
+        # 10° short of the limit (taken), then 20° past it: the elbow stops at the limit
+        start = studio._pose()[elbow]
+        short, past = (
+            quaternion_of(rotation_of(wxyz) @ about_x(np.radians(limits.max_deg + d - start)))
+            for d in (-10, 20)
+        )
+        drag_in_a_tab(studio, JOINT, [(position, short), (position, past)])
+        assert studio.said[-1] == (  # type: ignore[attr-defined]
+            f"elbow stops at its limit {limits.max_deg:g}° "
+            f"(the ring was turned to {limits.max_deg + 20:g}°)"
+        )
+        assert studio.posing is not None and studio.posing[elbow] == limits.max_deg
+        _, shown = shown_in_the_tab(studio, JOINT, (position, past))
+        assert view.turned_deg(elbow, shown) == pytest.approx(limits.max_deg, abs=0.05)
+
+
+def test_a_body_handle_dragged_out_of_reach_ends_on_the_body_in_the_tab_that_dragged_it(tmp_path):
+    with studio_on(tmp_path, "hexapod18/body_sway.yaml") as studio:
+        view = studio.view
+        assert view is not None
+        start = view.handle_pose(BODY)
+        drag_in_a_tab(studio, BODY, [(start[0] + np.array([0.0, 0.0, 0.25]), start[1])])
+        assert refused(studio).startswith("⛔ refused: the body cannot go there: ")
+        shown, _ = shown_in_the_tab(studio, BODY, (start[0] + [0.0, 0.0, 0.25], start[1]))
+        assert np.allclose(shown, view.root_pose()[0])
