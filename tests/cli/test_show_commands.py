@@ -13,6 +13,7 @@ import signal
 import socket
 import subprocess
 import sys
+from collections.abc import Callable
 
 import pytest
 from cli_helpers import ChoreoProcess as Process
@@ -442,21 +443,39 @@ def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(
     assert "did not appear" not in err
 
 
-def test_the_show_is_armed_shown_and_started_on_enter(performers):
+class EnterWhenRead:
+    """A keyboard whose user presses Enter once asked (input() reads a line), first noting
+    what ``look`` sees then."""
+
+    def __init__(self, look: Callable[[], object]):
+        self.look, self.seen_before_enter = look, None
+
+    def readline(self, *_) -> str:
+        self.seen_before_enter = self.look()
+        return "\n"
+
+
+def test_the_show_is_armed_shown_and_started_on_enter(performers, capsys, monkeypatch):
+    from choreo.cli import main
+
     endpoints = performers("left", "right")
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    show = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
-    show.wait_for("press Enter for GO")
-    assert not any("playing" in line for p, _ in performers.started.values() for line in p.lines)
-    assert show.proc.stdin is not None
-    show.proc.stdin.write("\n")
-    show.proc.stdin.flush()
-    code, err = show.finish()
+    said = performers.started.values()
+    keyboard = EnterWhenRead(lambda: [line for p, _ in said for line in p.lines])
+    monkeypatch.setattr(sys, "stdin", keyboard)
+    code = main(["show", str(SHOWS / "duo.yaml"), "--no-audio", *connects])
+    err = capsys.readouterr().err
     assert code == 0, err
-    table = err[: err.index("every performer took the start")]
+    assert keyboard.seen_before_enter is not None  # asked for Enter
+    assert not any("playing" in line for line in keyboard.seen_before_enter)
+    asked = err.index("press Enter for GO")
+    table = err[:asked]
     for name in ("left", "right"):
         assert re.search(rf"{name}\s.*arm6\s.*ok\s.*ms (ahead|behind)\s.*passed", table), table
+    assert asked < err.index("every performer took the start")
     assert "the show begins in 1 s" in err  # the countdown's last second
+    for process, _ in said:
+        process.wait_for("part completed")
 
 
 def test_without_enter_nothing_plays_and_every_part_is_dropped(performers, capsys, monkeypatch):
