@@ -13,9 +13,11 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 
 import pytest
+from cli_helpers import PROCESS_WAIT_S
 from cli_helpers import ChoreoProcess as Process
 from paths import DATA, REPO
 
@@ -72,12 +74,25 @@ def troupe_processes():
         process.stop()
 
 
+# A performer's line when it takes a part, and the last it says of a part (on an emulated bus)
+STAGED = ": preflight passed"
+PART_ENDS = ("part dropped, ", ": emulated bus: ")
+
+
+def every_part_ended(process: Process) -> bool:
+    """Whether a performer has said the last line of each part it took on this page."""
+    lines = process.lines
+    ended = sum(any(end in line for end in PART_ENDS) for line in lines)
+    return sum(STAGED in line for line in lines) == ended
+
+
 @pytest.fixture
 def performers(troupe_processes, request):
     """The shared performers by name, started the first time one is asked for; their endpoints,
     in the order asked (``performers.started``: this test's, by name). Each test reads only what
-    they say during it (a page turned), and leaves them idle: it waits for each part it began to
-    be released. After a failed test they are stopped, and the next test starts its own."""
+    they say during it (a page turned); after it, each has said the last line of every part it
+    took (so none of it lands on the next test's page). After a failed test they are stopped, and
+    the next test starts its own."""
     for process, _ in troupe_processes.values():
         process.turn_page()
     failed_before = request.session.testsfailed
@@ -93,12 +108,20 @@ def performers(troupe_processes, request):
 
     start.started = started  # type: ignore[attr-defined]
     yield start
-    if request.session.testsfailed != failed_before or any(
-        process.proc.poll() is not None for process, _ in troupe_processes.values()
+    deadline = time.monotonic() + PROCESS_WAIT_S
+    unfinished = list(started)
+    while unfinished and time.monotonic() < deadline:
+        unfinished = [name for name in unfinished if not every_part_ended(started[name][0])]
+        time.sleep(0.02)
+    if (
+        unfinished
+        or request.session.testsfailed != failed_before
+        or any(process.proc.poll() is not None for process, _ in troupe_processes.values())
     ):
         for process, _ in troupe_processes.values():
             process.stop()
         troupe_processes.clear()
+    assert not unfinished, f"{unfinished} never said the end of a part they took"
 
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
