@@ -13,115 +13,40 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from collections.abc import Callable
 
 import pytest
-from cli_helpers import PROCESS_WAIT_S
 from cli_helpers import ChoreoProcess as Process
-from paths import DATA, REPO
+from paths import DATA
+from perform_helpers import ARM, Troupe, perform, performer_process
+from show_helpers import free_port
 
-ROOT = REPO
 SHOWS = DATA / "shows"
-ARM = "sim://?ids=1-6"
 TIME_OF_DAY = r"\d\d:\d\d:\d\d\.\d{6}"  # as a performer says when its MOVE_STOP went
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-# A conductor's heartbeat comes every 100 ms; on a machine loaded by other work it was seen
-# 408-476 ms apart, past the default 400 ms bound, and the parts stopped. Tests of anything but
-# that bound give their performers this much patience; the frozen-conductor test keeps the default
-# (silence_ms=None: no flag).
-PATIENT_SILENCE_MS = 2000
-
-
-def perform(
-    name: str, *extra: str, port: str = ARM, silence_ms: int | None = PATIENT_SILENCE_MS
-) -> tuple[Process, str]:
-    """A `choreo perform` on loopback, starting: (process, its endpoint)."""
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    patience = () if silence_ms is None else ("--max-silence-ms", str(silence_ms))
-    process = Process(
-        "perform", *("--name", name, "--port", port, "--listen", listen), *patience, *extra
-    )
-    return process, listen
-
-
-def performer_process(
-    name: str, *extra: str, port: str = ARM, silence_ms: int | None = PATIENT_SILENCE_MS
-) -> tuple[Process, str]:
-    """A performer of its own, waiting for a show: (process, its endpoint)."""
-    process, listen = perform(name, *extra, port=port, silence_ms=silence_ms)
-    process.wait_for("waiting for a show", stream="stdout")
-    return process, listen
-
-
-# The performers the tests share (left, right, centre), each on its own emulated arm, patient: a
-# performer serves show after show, and each `choreo` process costs about half a second of CPU to
-# start. A test that kills a performer, or needs another port or silence bound, starts one of its
-# own (performer_process).
 @pytest.fixture(scope="module")
-def troupe_processes():
-    """The shared performers started so far, by name: (process, endpoint); stopped after."""
-    running: dict[str, tuple[Process, str]] = {}
-    yield running
-    for process, _ in running.values():
-        process.stop()
-
-
-# A performer's line when it takes a part, and the last it says of a part (on an emulated bus)
-STAGED = ": preflight passed"
-PART_ENDS = ("part dropped, ", ": emulated bus: ")
-
-
-def every_part_ended(process: Process) -> bool:
-    """Whether a performer has said the last line of each part it took on this page."""
-    lines = process.lines
-    ended = sum(any(end in line for end in PART_ENDS) for line in lines)
-    return sum(STAGED in line for line in lines) == ended
+def troupe():
+    """The performers this file's tests share (left, right, centre); stopped after."""
+    shared = Troupe()
+    yield shared
+    shared.stop()
 
 
 @pytest.fixture
-def performers(troupe_processes, request):
-    """The shared performers by name, started the first time one is asked for; their endpoints,
-    in the order asked (``performers.started``: this test's, by name). Each test reads only what
-    they say during it (a page turned); after it, each has said the last line of every part it
-    took (so none of it lands on the next test's page). After a failed test they are stopped, and
-    the next test starts its own."""
-    for process, _ in troupe_processes.values():
-        process.turn_page()
+def performers(troupe, request):
+    """The shared performers by name (Troupe): their endpoints, in the order asked;
+    ``performers.started``: this test's, by name. A test that kills a performer, or needs
+    another port or silence bound, starts one of its own (performer_process)."""
+    started = troupe.begin_test()
     failed_before = request.session.testsfailed
-    started: dict[str, tuple[Process, str]] = {}
 
     def start(*names: str) -> list[str]:
-        starting = [name for name in names if name not in troupe_processes]
-        troupe_processes.update((name, perform(name)) for name in starting)
-        for name in starting:
-            troupe_processes[name][0].wait_for("waiting for a show", stream="stdout")
-        started.update((name, troupe_processes[name]) for name in names)
-        return [troupe_processes[name][1] for name in names]
+        return troupe.start(started, *names)
 
     start.started = started  # type: ignore[attr-defined]
     yield start
-    deadline = time.monotonic() + PROCESS_WAIT_S
-    unfinished = list(started)
-    while unfinished and time.monotonic() < deadline:
-        unfinished = [name for name in unfinished if not every_part_ended(started[name][0])]
-        time.sleep(0.02)
-    if (
-        unfinished
-        or request.session.testsfailed != failed_before
-        or any(process.proc.poll() is not None for process, _ in troupe_processes.values())
-    ):
-        for process, _ in troupe_processes.values():
-            process.stop()
-        troupe_processes.clear()
-    assert not unfinished, f"{unfinished} never said the end of a part they took"
+    troupe.end_test(started, failed=request.session.testsfailed != failed_before)
 
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
