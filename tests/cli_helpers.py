@@ -94,7 +94,9 @@ PREVIEW_MOTIONS = Path("tests/data/preview/motions")
 
 class ChoreoProcess:
     """A choreo command in the background, its stdout and stderr collected line by line;
-    ``prefix`` runs it through another command (``ip netns exec NS``)."""
+    ``prefix`` runs it through another command (``ip netns exec NS``). A process that serves
+    several tests (a performer) turns a page for each: ``lines`` and ``wait_for`` then read only
+    the stderr lines said since (``every_line``: all of them)."""
 
     def __init__(
         self, *args: str, stdin: int | None = subprocess.DEVNULL, prefix: tuple[str, ...] = ()
@@ -108,10 +110,13 @@ class ChoreoProcess:
             stderr=subprocess.PIPE,
             text=True,
         )
-        self.lines: list[str] = []
+        self.every_line: list[str] = []  # on stderr
+        self._page = 0  # the index in every_line of the first line of this page
         self._out: list[str] = []
         self._readers = [
-            threading.Thread(target=self._read, args=(self.proc.stderr, self.lines), daemon=True),
+            threading.Thread(
+                target=self._read, args=(self.proc.stderr, self.every_line), daemon=True
+            ),
             threading.Thread(target=self._read, args=(self.proc.stdout, self._out), daemon=True),
         ]
         for reader in self._readers:
@@ -122,23 +127,32 @@ class ChoreoProcess:
         for line in stream:
             into.append(line.rstrip("\n"))
 
+    @property
+    def lines(self) -> list[str]:
+        """The stderr lines said since the page was turned."""
+        return self.every_line[self._page :]
+
+    def turn_page(self) -> None:
+        """From now on ``lines`` and ``wait_for`` read only the stderr lines said after this."""
+        self._page = len(self.every_line)
+
     def wait_for(self, text: str, stream: str = "stderr") -> str:
-        lines = self.lines if stream == "stderr" else self._out
         deadline = time.monotonic() + PROCESS_WAIT_S
         while time.monotonic() < deadline:
+            lines = self.lines if stream == "stderr" else self._out
             found = [line for line in lines if text in line]
             if found:
                 return found[0]
             if self.proc.poll() is not None and not any(r.is_alive() for r in self._readers):
                 break
             time.sleep(0.02)
-        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(lines + self._out))
+        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(self.lines + self._out))
 
     def finish(self) -> tuple[int, str]:
         code = self.proc.wait(timeout=PROCESS_WAIT_S)
         for reader in self._readers:
             reader.join(timeout=PROCESS_WAIT_S)
-        return code, "\n".join(self.lines)
+        return code, "\n".join(self.every_line)
 
     @property
     def stdout(self) -> str:

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 
 import pytest
-from cli_helpers import REPO
 
 from choreo.cli import main
 
@@ -58,23 +55,17 @@ def test_scan_honours_retries_so_one_damaged_reply_is_not_a_shared_id(monkeypatc
 
 
 @pytest.mark.parametrize("terminal", [True, False])
-def test_scan_shows_progress_on_stderr_only_on_a_terminal(terminal):
-    env = {k: v for k, v in os.environ.items() if k not in ("FORCE_COLOR", "TTY_COMPATIBLE")}
+def test_scan_shows_progress_on_stderr_only_on_a_terminal(terminal, capsys, monkeypatch):
+    for name in ("FORCE_COLOR", "TTY_COMPATIBLE"):
+        monkeypatch.delenv(name, raising=False)
     if terminal:
-        env["FORCE_COLOR"] = "1"  # rich treats stderr as a terminal
-    process = subprocess.run(
-        [sys.executable, "-m", "choreo", "scan", "--port", "sim://?ids=1-3", "--ids", "0-9"],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert process.returncode == 0, process.stderr
-    assert "3 servo(s) on sim://?ids=1-3" in process.stdout and "scanning" not in process.stdout
-    assert ("scanning ID" in process.stderr and "/10" in process.stderr) is terminal
+        monkeypatch.setenv("FORCE_COLOR", "1")  # rich treats stderr as a terminal
+    assert main(["scan", "--port", "sim://?ids=1-3", "--ids", "0-9"]) == 0
+    out, err = capsys.readouterr()
+    assert "3 servo(s) on sim://?ids=1-3" in out and "scanning" not in out
+    assert ("scanning ID" in err and "/10" in err) is terminal
     if not terminal:
-        assert process.stderr == ""
+        assert err == ""
 
 
 def test_scan_through_a_board_names_no_baud_rate_of_the_raw_bus(capsys):

@@ -3,6 +3,7 @@ rest, 130 for a signal), and a closed pipe into a quiet exit."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -110,18 +111,28 @@ def ascii_choreo(*argv: str) -> subprocess.CompletedProcess:
     )
 
 
-def test_what_the_output_cannot_encode_is_escaped_not_an_error(tmp_path):
-    robots = ascii_choreo("robots", "arm6")
+def ascii_main(monkeypatch, *argv: str) -> tuple[int, bytes, bytes]:
+    """main(argv) here, its stdout and stderr ASCII text streams as in the process above
+    (strict, as Python makes them): exit code, and the bytes written to each."""
+    written = {"stdout": io.BytesIO(), "stderr": io.BytesIO()}
+    for name, sink in written.items():
+        monkeypatch.setattr(sys, name, io.TextIOWrapper(sink, encoding="ascii", write_through=True))
+    code = main(list(argv))
+    return code, written["stdout"].getvalue(), written["stderr"].getvalue()
+
+
+def test_what_the_output_cannot_encode_is_escaped_not_an_error(tmp_path, monkeypatch):
+    robots = ascii_choreo("robots", "arm6")  # in a process: its streams as Python made them
     assert (robots.returncode, robots.stderr) == (0, b"")
     assert b"| min \\xb0 | max \\xb0 |" in robots.stdout  # degrees
     motion = tmp_path / "wävé.yaml"
     motion.write_text(WAVE.read_text())
-    validated = ascii_choreo("validate", str(motion))
-    assert (validated.returncode, validated.stderr) == (0, b"")
-    assert validated.stdout == f"{tmp_path}/w\\xe4v\\xe9.yaml: ok\n".encode()
-    missing = ascii_choreo("beats", str(tmp_path / "nö.ogg"))
-    assert (missing.returncode, missing.stdout) == (1, b"")
-    assert missing.stderr == f"choreo: error: {tmp_path}/n\\xf6.ogg does not exist\n".encode()
+    code, out, err = ascii_main(monkeypatch, "validate", str(motion))
+    assert (code, err) == (0, b"")
+    assert out == f"{tmp_path}/w\\xe4v\\xe9.yaml: ok\n".encode()
+    code, out, err = ascii_main(monkeypatch, "beats", str(tmp_path / "nö.ogg"))
+    assert (code, out) == (1, b"")
+    assert err == f"choreo: error: {tmp_path}/n\\xf6.ogg does not exist\n".encode()
 
 
 # `choreo *argv` that sends itself the signal SIGNAL as it starts importing MODULE: a signal that

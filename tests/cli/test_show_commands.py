@@ -1,76 +1,81 @@
 """Shows end to end: `choreo perform` processes on emulated buses and one `choreo show`, all on
 loopback (each performer listens on its own 127.0.0.1 port, the conductor connects to them; no
-scouting), killed and interrupted mid-show. Order and content only: no timing is asserted."""
+scouting), killed and interrupted mid-show. The conductor runs in a process of its own where the
+test signals, kills or feeds it while it runs, else in the test's (main(argv)). Order and content
+only: no timing is asserted."""
 
 from __future__ import annotations
 
+import io
 import json
 import re
 import signal
 import socket
 import subprocess
+import sys
+from collections.abc import Callable
 
 import pytest
 from cli_helpers import ChoreoProcess as Process
-from paths import DATA, REPO
+from paths import DATA
+from perform_helpers import ARM, Troupe, perform, performer_process
+from show_helpers import free_port
 
-ROOT = REPO
 SHOWS = DATA / "shows"
-ARM = "sim://?ids=1-6"
 TIME_OF_DAY = r"\d\d:\d\d:\d\d\.\d{6}"  # as a performer says when its MOVE_STOP went
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-# A conductor's heartbeat comes every 100 ms; on a machine loaded by other work it was seen
-# 408-476 ms apart, past the default 400 ms bound, and the parts stopped. Tests of anything but
-# that bound give their performers this much patience; the frozen-conductor test keeps the default
-# (silence_ms=None: no flag).
-PATIENT_SILENCE_MS = 2000
+@pytest.fixture(scope="module")
+def troupe():
+    """The performers this file's tests share (left, right, centre); stopped after."""
+    shared = Troupe()
+    yield shared
+    shared.stop()
 
 
 @pytest.fixture
-def performers():
-    """Start performers by name (each on its own emulated bus and port); all stopped after."""
-    started: dict[str, tuple[Process, int]] = {}
+def performers(troupe, request):
+    """The shared performers by name (Troupe): their endpoints, in the order asked;
+    ``performers.started``: this test's, by name. A test that kills a performer, or needs
+    another port or silence bound, starts one of its own (performer_process)."""
+    started = troupe.begin_test()
+    failed_before = request.session.testsfailed
 
-    def start(names: dict[str, str], silence_ms: int | None = PATIENT_SILENCE_MS) -> list[str]:
-        patience = () if silence_ms is None else ("--max-silence-ms", str(silence_ms))
-        for name, port in names.items():
-            listen = free_port()
-            process = Process(
-                "perform",
-                *("--name", name, "--port", port, "--listen", f"tcp/127.0.0.1:{listen}"),
-                *patience,
-            )
-            started[name] = (process, listen)
-        for process, _ in started.values():
-            process.wait_for("waiting for a show", stream="stdout")
-        return [f"tcp/127.0.0.1:{listen}" for _, listen in started.values()]
+    def start(*names: str) -> list[str]:
+        return troupe.start(started, *names)
 
     start.started = started  # type: ignore[attr-defined]
     yield start
-    for process, _ in started.values():
-        process.stop()
+    troupe.end_test(started, failed=request.session.testsfailed != failed_before)
 
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
+    """`choreo show` in a process of its own: for the tests that signal it, kill it or feed its
+    input, or do something else while it runs."""
+    return Process("show", *conducting(show, endpoints, *extra))
+
+
+def conducting(show: str, endpoints: list[str], *extra: str) -> list[str]:
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    return Process("show", str(SHOWS / show), "--no-audio", "--go", *connects, *extra)
+    return [str(SHOWS / show), "--no-audio", "--go", *connects, *extra]
 
 
-def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
-    endpoints = performers({"one": ARM, "two": ARM, "three": ARM})
+def conduct(capsys, show: str, endpoints: list[str], *extra: str) -> tuple[int, str, str]:
+    """`choreo show` run here (its subject is not the process): exit code, stdout, stderr."""
+    from choreo.cli import main
+
+    code = main(["show", *conducting(show, endpoints, *extra)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path, capsys):
+    endpoints = performers("left", "right", "centre")
     report_path = tmp_path / "show.json"
-    show = conductor("trio.yaml", endpoints, "--report", str(report_path))
-    code, err = show.finish()
+    code, out, err = conduct(capsys, "trio.yaml", endpoints, "--report", str(report_path))
     assert code == 0, err
     report = json.loads(report_path.read_text())
-    assert [p["name"] for p in report["performers"]] == ["one", "two", "three"]
+    assert [p["name"] for p in report["performers"]] == ["left", "right", "centre"]
     for part in report["performers"]:
         assert (part["outcome"], part["robot"]) == ("completed", "arm6")
         assert part["ticks_played"] == part["ticks_total"] > 0
@@ -78,26 +83,29 @@ def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path):
         assert part["clock_offset_error_ms"] >= 0
         assert part["stop_s"] is None  # ran to its end: no MOVE_STOP
         assert part["first_start_late_ms"] is not None  # read when its bytes were written
-    three = report["performers"][2]
-    assert three["offset_s"] == pytest.approx(60 / 112)  # one beat at 112 BPM
+    centre = report["performers"][2]
+    assert centre["offset_s"] == pytest.approx(60 / 112)  # one beat at 112 BPM
     assert report["first_start_spread_ms"] is not None
-    assert "first START spread across performers" in show.stdout
+    assert "first START spread across performers" in out
     for process, _ in performers.started.values():
         process.wait_for("part completed")
 
 
-def test_a_missing_performer_is_named(performers):
-    endpoints = performers({"here": ARM})
-    code, err = conductor("ghost.yaml", endpoints, "--wait", "1").finish()
+def test_a_missing_performer_is_named(performers, capsys):
+    endpoints = performers("left")
+    code, _, err = conduct(capsys, "ghost.yaml", endpoints, "--wait", "1")
     assert code == 1
     assert "1 performer(s) did not appear within 1 s: ghost" in err
     assert "choreo perform --name ghost" in err
 
 
-def test_a_failed_preflight_is_listed_and_the_show_refuses_to_start(performers):
+def test_a_failed_preflight_is_listed_and_the_show_refuses_to_start(performers, capsys):
     # right's bus lacks the gripper (ID 6): its preflight fails; left's passes but must not play
-    endpoints = performers({"left": ARM, "right": "sim://?ids=1-5"})
-    code, err = conductor("duo.yaml", endpoints).finish()
+    right, right_endpoint = performer_process("right", port="sim://?ids=1-5")
+    try:
+        code, _, err = conduct(capsys, "duo.yaml", [*performers("left"), right_endpoint])
+    finally:
+        right.stop()
     assert code == 1
     assert "refusing to start the show:" in err
     assert "right (arm6): 1 servo(s) did not answer: gripper (ID 6)" in err
@@ -107,7 +115,7 @@ def test_a_failed_preflight_is_listed_and_the_show_refuses_to_start(performers):
 
 
 def test_killing_the_conductor_stops_every_performer(performers):
-    endpoints = performers({"left": ARM, "right": ARM})
+    endpoints = performers("left", "right")
     show = conductor("wave_duo.yaml", endpoints)
     for process, _ in performers.started.values():
         process.wait_for("playing")
@@ -130,15 +138,19 @@ def test_killing_the_conductor_stops_every_performer(performers):
 
 
 def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+    right, right_endpoint = performer_process("right")  # its own: it is killed
     report_path = tmp_path / "show.json"
-    show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
-    show.wait_for("every performer took the start")  # then right dies: lost, not silent
-    right = performers.started["right"][0]
-    right.wait_for("playing")
-    performers.started["left"][0].wait_for("playing")
-    right.proc.kill()
-    code, err = show.finish()
+    try:
+        show = conductor(
+            "wave_duo.yaml", [*performers("left"), right_endpoint], "--report", str(report_path)
+        )
+        show.wait_for("every performer took the start")  # then right dies: lost, not silent
+        right.wait_for("playing")
+        performers.started["left"][0].wait_for("playing")
+        right.proc.kill()
+        code, err = show.finish()
+    finally:
+        right.stop()
     assert code == 1, err
     assert "right: lost (its liveliness token vanished)" in err
     parts = {p["name"]: p for p in json.loads(report_path.read_text())["performers"]}
@@ -156,7 +168,7 @@ def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_pa
 
 
 def test_ctrl_c_at_the_conductor_stops_every_performer(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+    endpoints = performers("left", "right")
     report_path = tmp_path / "show.json"
     show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
     for process, _ in performers.started.values():
@@ -175,16 +187,20 @@ def test_ctrl_c_at_the_conductor_stops_every_performer(performers, tmp_path):
 
 
 def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+    right, right_endpoint = performer_process("right")  # its own: it is killed
     report_path = tmp_path / "show.json"
-    show = conductor("duo_continue.yaml", endpoints, "--report", str(report_path))
-    right = performers.started["right"][0]
-    # "playing" comes before right's answer to the start reaches the conductor: killed in
-    # between, right never took the start (a busy machine did that)
-    show.wait_for("every performer took the start")
-    right.wait_for("playing")
-    right.proc.kill()
-    code, err = show.finish()
+    try:
+        show = conductor(
+            "duo_continue.yaml", [*performers("left"), right_endpoint], "--report", str(report_path)
+        )
+        # "playing" comes before right's answer to the start reaches the conductor: killed in
+        # between, right never took the start (a busy machine did that)
+        show.wait_for("every performer took the start")
+        right.wait_for("playing")
+        right.proc.kill()
+        code, err = show.finish()
+    finally:
+        right.stop()
     assert code == 1, err
     assert "right: lost (its liveliness token vanished)" in err
     parts = {p["name"]: p for p in json.loads(report_path.read_text())["performers"]}
@@ -192,6 +208,7 @@ def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, t
     assert parts["left"]["ticks_played"] == parts["left"]["ticks_total"]
     assert parts["left"]["clock_drift_ms"] is not None  # its clock measured again during the 5 s
     assert json.loads(report_path.read_text())["stop_sent_s"] is None
+    performers.started["left"][0].wait_for("part completed")
 
 
 @pytest.mark.parametrize(
@@ -213,24 +230,14 @@ def test_an_endpoint_that_is_not_one_is_refused_before_zenoh_sees_it(argv, capsy
     )
 
 
-def performer_process(name: str, *extra: str, port: str = ARM) -> tuple[Process, str]:
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    process = Process(
-        "perform",
-        *("--name", name, "--port", port, "--listen", listen),
-        *("--max-silence-ms", str(PATIENT_SILENCE_MS), *extra),
-    )
-    process.wait_for("waiting for a show", stream="stdout")
-    return process, listen
-
-
-def test_two_performers_of_one_name_are_refused_naming_both(tmp_path):
+def test_two_performers_of_one_name_are_refused_naming_both(performers, tmp_path, capsys):
     solo = tmp_path / "solo.yaml"
     solo.write_text(f"performers:\n  - {{name: left, motion: {SHOWS / 'nod.yaml'}}}\n")
-    first, one = performer_process("left")
+    (one,) = performers("left")
+    first = performers.started["left"][0]
     second, two = performer_process("left")
     try:
-        code, err = conductor(str(solo), [one, two]).finish()
+        code, _, err = conduct(capsys, str(solo), [one, two])
         assert code == 1, err
         host = socket.gethostname()
         assert (
@@ -241,20 +248,19 @@ def test_two_performers_of_one_name_are_refused_naming_both(tmp_path):
             f"{host} (pid {first.proc.pid}, on {ARM}): give each its own --name"
         ) in err
         assert not any("staged" in line for line in first.lines + second.lines)
-        # on loopback only: no warning about the network
-        assert not any("warning" in line for line in first.lines + second.lines)
+        # on loopback only: no warning about the network (since each started)
+        assert not any("warning" in line for line in first.every_line + second.every_line)
     finally:
-        first.stop()
         second.stop()
 
 
-def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, capsys):
+    endpoints = performers("left", "right")
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
     # the first conductor holds both, armed and waiting for its GO
     first = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
     first.wait_for("press Enter for GO")
-    code, err = conductor("duo.yaml", endpoints).finish()
+    code, _, err = conduct(capsys, "duo.yaml", endpoints)
     assert code == 1, err
     assert "refusing to start the show:" in err
     for name in ("left", "right"):
@@ -266,28 +272,37 @@ def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performe
     assert code == 0, err  # the first show was not disturbed
 
 
-def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound(performers):
-    endpoints = performers({"left": ARM, "right": ARM}, silence_ms=None)
-    show = conductor("wave_duo.yaml", endpoints)
-    for process, _ in performers.started.values():
-        process.wait_for("playing")
-    show.proc.send_signal(signal.SIGSTOP)  # its liveliness token stays: only its heartbeat stops
+def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound():
+    # performers of their own, with the default silence bound: the one under test
+    strict = {name: perform(name, silence_ms=None) for name in ("left", "right")}
     try:
-        for name, (process, _) in performers.started.items():
-            line = process.wait_for("part stopped: lost the conductor")
-            assert line.startswith(f"{name}: part stopped: lost the conductor (no heartbeat for ")
-            assert process.wait_for("servos stopped").startswith(
-                f"{name}: servos stopped (silence): MOVE_STOP written at "
-            )
-            assert process.wait_for("emulated bus:").endswith("every servo stopped")
+        for process, _ in strict.values():
+            process.wait_for("waiting for a show", stream="stdout")
+        show = conductor("wave_duo.yaml", [endpoint for _, endpoint in strict.values()])
+        for process, _ in strict.values():
+            process.wait_for("playing")
+        show.proc.send_signal(signal.SIGSTOP)  # its liveliness token stays: its heartbeat stops
+        try:
+            for name, (process, _) in strict.items():
+                line = process.wait_for("part stopped: lost the conductor")
+                assert line.startswith(
+                    f"{name}: part stopped: lost the conductor (no heartbeat for "
+                )
+                assert process.wait_for("servos stopped").startswith(
+                    f"{name}: servos stopped (silence): MOVE_STOP written at "
+                )
+                assert process.wait_for("emulated bus:").endswith("every servo stopped")
+        finally:
+            show.proc.send_signal(signal.SIGCONT)
+            show.proc.kill()
+            show.finish()
     finally:
-        show.proc.send_signal(signal.SIGCONT)
-        show.proc.kill()
-        show.finish()
+        for process, _ in strict.values():
+            process.stop()
 
 
 def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+    endpoints = performers("left", "right")
     report_path = tmp_path / "show.json"
     show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
     for process, _ in performers.started.values():
@@ -302,14 +317,11 @@ def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path):
         process.wait_for("every servo stopped")
 
 
-def test_a_performer_in_another_realm_is_not_found():
-    process, endpoint = performer_process("left", "--realm", "lab")
-    try:
-        code, err = conductor("duo.yaml", [endpoint], "--wait", "1").finish()
-        assert code == 1
-        assert "2 performer(s) did not appear within 1 s: left, right" in err
-    finally:
-        process.stop()
+def test_a_performer_in_another_realm_is_not_found(performers, capsys):
+    # the performer in the default realm, the conductor in lab
+    code, _, err = conduct(capsys, "duo.yaml", performers("left"), "--wait", "1", "--realm", "lab")
+    assert code == 1
+    assert "2 performer(s) did not appear within 1 s: left, right" in err
 
 
 def test_a_performer_reachable_from_the_network_without_authentication_warns():
@@ -365,12 +377,12 @@ def test_a_zenoh_configuration_that_cannot_be_used_is_one_line(tmp_path, capsys)
     assert err.count("\n") == 1 and ".rs:" not in err
 
 
-def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(tmp_path):
+def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(tmp_path, capsys):
     for name, pose in (("a.yaml", "nowhere"), ("b.yaml", "elsewhere")):
         (tmp_path / name).write_text(f"robot: arm6\nkeyframes:\n  - pose: {pose}\n")
     show = tmp_path / "show.yaml"
     show.write_text("performers:\n  - {name: a, motion: a.yaml}\n  - {name: b, motion: b.yaml}\n")
-    code, err = Process("show", str(show), "--no-audio", "--go", "--wait", "30").finish()
+    code, _, err = conduct(capsys, str(show), [], "--wait", "30")
     assert code == 1
     lines = err.splitlines()
     assert lines[0] == "choreo: error: refusing to start the show: 2 problem(s) in its files:"
@@ -379,27 +391,49 @@ def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(
     assert "did not appear" not in err
 
 
-def test_the_show_is_armed_shown_and_started_on_enter(performers):
-    endpoints = performers({"left": ARM, "right": ARM})
+class EnterWhenRead:
+    """A keyboard whose user presses Enter once asked (input() reads a line), first noting
+    what ``look`` sees then."""
+
+    def __init__(self, look: Callable[[], object]):
+        self.look, self.seen_before_enter = look, None
+
+    def readline(self, *_) -> str:
+        self.seen_before_enter = self.look()
+        return "\n"
+
+
+def test_the_show_is_armed_shown_and_started_on_enter(performers, capsys, monkeypatch):
+    from choreo.cli import main
+
+    endpoints = performers("left", "right")
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    show = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
-    show.wait_for("press Enter for GO")
-    assert not any("playing" in line for p, _ in performers.started.values() for line in p.lines)
-    assert show.proc.stdin is not None
-    show.proc.stdin.write("\n")
-    show.proc.stdin.flush()
-    code, err = show.finish()
+    said = performers.started.values()
+    keyboard = EnterWhenRead(lambda: [line for p, _ in said for line in p.lines])
+    monkeypatch.setattr(sys, "stdin", keyboard)
+    code = main(["show", str(SHOWS / "duo.yaml"), "--no-audio", *connects])
+    err = capsys.readouterr().err
     assert code == 0, err
-    table = err[: err.index("every performer took the start")]
+    assert keyboard.seen_before_enter is not None  # asked for Enter
+    assert not any("playing" in line for line in keyboard.seen_before_enter)
+    asked = err.index("press Enter for GO")
+    table = err[:asked]
     for name in ("left", "right"):
         assert re.search(rf"{name}\s.*arm6\s.*ok\s.*ms (ahead|behind)\s.*passed", table), table
+    assert asked < err.index("every performer took the start")
     assert "the show begins in 1 s" in err  # the countdown's last second
+    for process, _ in said:
+        process.wait_for("part completed")
 
 
-def test_without_enter_nothing_plays_and_every_part_is_dropped(performers):
-    endpoints = performers({"left": ARM, "right": ARM})
+def test_without_enter_nothing_plays_and_every_part_is_dropped(performers, capsys, monkeypatch):
+    from choreo.cli import main
+
+    endpoints = performers("left", "right")
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    code, err = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects).finish()
+    monkeypatch.setattr(sys, "stdin", io.StringIO(""))  # the input ends at once
+    code = main(["show", str(SHOWS / "duo.yaml"), "--no-audio", *connects])
+    err = capsys.readouterr().err
     assert code == 1
     assert (
         "choreo: error: no GO: the input ended before Enter; give --go to start without one" in err
@@ -410,10 +444,10 @@ def test_without_enter_nothing_plays_and_every_part_is_dropped(performers):
         assert not any("playing" in line for line in process.lines)
 
 
-def test_cues_play_one_after_another(performers, tmp_path):
-    endpoints = performers({"left": ARM, "right": ARM})
+def test_cues_play_one_after_another(performers, tmp_path, capsys):
+    endpoints = performers("left", "right")
     report_path = tmp_path / "show.json"
-    code, err = conductor("cues.yaml", endpoints, "--report", str(report_path)).finish()
+    code, _, err = conduct(capsys, "cues.yaml", endpoints, "--report", str(report_path))
     assert code == 0, err
     report = json.loads(report_path.read_text())
     assert [c["show"] for c in report["cues"]] == ["cues, cue 1 (opening)", "cues, cue 2 (cue 2)"]

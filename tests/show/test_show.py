@@ -257,13 +257,13 @@ def test_the_conductor_refuses_clocks_past_the_bound_naming_each_performer():
     from choreo.show.conductor import Conductor
 
     show = load_show(SHOWS / "trio.yaml")  # the default bound: 2 ms
-    skews = {"one": 0.0, "two": 0.050, "three": -0.030}
+    skews = {"left": 0.0, "right": 0.050, "centre": -0.030}
     conductor = Conductor(SkewedPerformers(skews), show, print)  # type: ignore[arg-type]
     with pytest.raises(ChoreoError) as caught:
         conductor.measure_clocks()
     lines = str(caught.value).splitlines()
     assert lines[0] == "refusing to start the show:"
-    assert [line.split(":")[0].strip() for line in lines[1:]] == ["two", "three"]
+    assert [line.split(":")[0].strip() for line in lines[1:]] == ["right", "centre"]
     # each measured offset is the true one within the uncertainty it states (real time here:
     # the round trips take what they take), give or take the printed rounding
     for line, direction, true_ms in ((lines[1], "ahead", 50.0), (lines[2], "behind", 30.0)):
