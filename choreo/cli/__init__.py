@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import gc
 import importlib
 import io
 import logging
@@ -26,6 +27,7 @@ from contextlib import contextmanager
 from types import ModuleType
 
 from choreo import __version__
+from choreo.core.collector import collector_paused
 from choreo.core.file_kind import os_error_text
 from choreo.errors import BusError, ChoreoError, OptionError, UsageError, worded
 
@@ -113,8 +115,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         # meanwhile end the command as they do once it runs
         from choreo.cli.arguments import stop_signals_as_ctrl_c
 
-        with stop_signals_as_ctrl_c():
+        with stop_signals_as_ctrl_c(), collector_paused():
             args = build_parser(argv).parse_args(argv)
+            # The modules' functions, classes and tables (some 100,000 objects, no garbage)
+            # stay to the end: the collector was paused while they loaded, and passes over
+            # them until the command is done (0.02-0.05 s of a `choreo plan`)
+            gc.freeze()
     except KeyboardInterrupt:
         return interrupted()
     logging.basicConfig(
@@ -153,6 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except Exception as error:  # not a ChoreoError: a bug in choreo, never a user's mistake
         return report_bug(error, args.verbose)
+    finally:
+        gc.unfreeze()  # the collector's again: a program running many commands keeps no garbage
 
 
 @contextmanager

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import difflib
-import gc
 import math
 import re
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from decimal import Context, Decimal
 from pathlib import Path
@@ -143,25 +142,6 @@ _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 # A 2,000-keyframe motion for 18 servos is well under 1 MiB; reading stops here, so a wrong path
 # (/dev/zero, a video) is refused instead of filling the memory.
 MAX_FILE_BYTES = 16 * 1024 * 1024
-
-
-@contextlib.contextmanager
-def reading_a_file() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector while a file's node tree and the values read from
-    it are built.
-
-    A 2,000-keyframe motion makes some 300,000 nodes, marks and values, none of them in a
-    reference cycle, so the collector finds nothing in them; yet each of its full passes walks
-    them all again, and those passes took 0.25 s of a 1.5 s ``choreo plan``. Nested reads (a
-    motion's robot, its includes) leave the collector as the outermost found it.
-    """
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was_enabled:
-            gc.enable()
 
 
 def parse_yaml_file(path: Path) -> Node | None:

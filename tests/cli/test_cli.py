@@ -169,3 +169,26 @@ def test_an_argument_a_command_does_not_know_gets_that_command_s_usage(command, 
     err = capsys.readouterr().err
     assert err.startswith(f"usage: choreo {command} [-h]")
     assert err.splitlines()[-1] == f"choreo {command}: error: unrecognized arguments: --yes"
+
+
+def test_the_collector_passes_over_the_loaded_modules_only_while_a_command_runs(
+    tmp_path, capsys, monkeypatch
+):
+    import gc
+
+    import choreo.cli.plan_commands as plan_commands
+
+    seen = []
+    compile_motion = plan_commands.compile_motion
+
+    def watched(*args, **kwargs):
+        seen.append((gc.isenabled(), gc.get_freeze_count() > 0))
+        return compile_motion(*args, **kwargs)
+
+    monkeypatch.setattr(plan_commands, "compile_motion", watched)
+    assert main(["plan", str(WAVE)]) == 0
+    assert seen == [(True, True)]  # the modules set aside, the collector running
+    missing = tmp_path / "missing.yaml"
+    assert main(["plan", str(missing)]) == 1  # a command that fails gives them back too
+    capsys.readouterr()
+    assert (gc.isenabled(), gc.get_freeze_count()) == (True, 0)

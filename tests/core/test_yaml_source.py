@@ -18,7 +18,6 @@ from choreo.core.yaml_source import (
     SourceLocation,
     parse_yaml_file,
     quoted,
-    reading_a_file,
     shortened,
 )
 from choreo.errors import SourceError
@@ -180,23 +179,6 @@ def test_what_is_no_finite_number_is_refused_where_it_is(text):
     problems = Problems()
     assert read_number(text, problems) is None
     assert problems.messages == [f"f.yaml:1:4: x must be a number, got {text}"]
-
-
-def test_reading_a_file_pauses_the_collector_and_gives_back_the_state_it_found():
-    assert gc.isenabled()
-    with reading_a_file():
-        assert not gc.isenabled()
-        with reading_a_file():  # a motion reading its robot
-            assert not gc.isenabled()
-        assert not gc.isenabled()  # the inner read leaves it to the outer one
-    assert gc.isenabled()
-    gc.disable()  # a program that runs without the collector keeps it off
-    try:
-        with reading_a_file():
-            pass
-        assert not gc.isenabled()
-    finally:
-        gc.enable()
 
 
 def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
