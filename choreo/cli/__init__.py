@@ -119,7 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args = build_parser(argv).parse_args(argv)
             # The modules' functions, classes and tables (some 100,000 objects, no garbage)
             # stay to the end: the collector was paused while they loaded, and passes over
-            # them until the command is done (0.02-0.05 s of a `choreo plan`)
+            # them until the command is done (0.02 s of a `choreo plan`)
             gc.freeze()
     except KeyboardInterrupt:
         return interrupted()
