@@ -192,3 +192,14 @@ def test_the_collector_passes_over_the_loaded_modules_only_while_a_command_runs(
     assert main(["plan", str(missing)]) == 1  # a command that fails gives them back too
     capsys.readouterr()
     assert (gc.isenabled(), gc.get_freeze_count()) == (True, 0)
+
+
+def test_numpy_gets_one_blas_thread_unless_the_user_chose_a_number(monkeypatch):
+    from choreo.cli import one_blas_thread
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    one_blas_thread()
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "4")
+    one_blas_thread()
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "4"
