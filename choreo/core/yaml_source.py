@@ -134,6 +134,7 @@ def fmt(value: float) -> str:
 
 FLOAT_TAG = "tag:yaml.org,2002:float"
 INT_TAG = "tag:yaml.org,2002:int"
+STR_TAG = "tag:yaml.org,2002:str"
 
 # libyaml's parser (same marks, same safety) is several times faster where PyYAML has it.
 _SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -270,7 +271,29 @@ def describe(node: Node) -> str:
         return "nothing (null)"
     if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
         return f"a whole number {len(node.value)} digits long"
-    return quoted(node.value) if node.tag == "tag:yaml.org,2002:str" else shortened(node.value)
+    return quoted(node.value) if node.tag == STR_TAG else shortened(node.value)
+
+
+def plain_number(node: Node) -> float | None:
+    """A finite number written plainly (``-12.5``, ``90``), read quickly, as ``Reader.number``
+    reads it; ``None`` for anything else (a text, ``.inf``, ``0x1F``, ``012``, a mapping...),
+    which ``Reader.number`` reads in full and reports. Nearly every value of a motion file is
+    one: its poses are read through here."""
+    if not isinstance(node, yaml.ScalarNode):  # (!!float [1] is a list)
+        return None
+    text = node.value
+    if node.tag == FLOAT_TAG:
+        try:
+            value = float(text)
+        except ValueError:  # .inf, .nan, 190:20:30 (base 60)
+            return None
+        return value if math.isfinite(value) else None  # 1.0e+999
+    if node.tag == INT_TAG:
+        digits = text[1:] if text.startswith(("-", "+")) else text
+        # (0x1F, 0b1, 012 octal, 1_000, 3:25 base 60, 5,000 digits: read in full)
+        if digits.isascii() and digits.isdigit() and (digits[0] != "0" or len(digits) == 1):
+            return float(int(text)) if len(digits) <= 18 else None
+    return None
 
 
 class Reader:
@@ -436,7 +459,7 @@ _TEXT_EXPONENT = re.compile(r"([-+]?[0-9]+)(\.[0-9]*)?[eE]([-+]?)([0-9]+)")
 def _exponent_hint(node: Node) -> str:
     """`` (YAML reads 1e12 as text: write 1.0e+12)`` for a number YAML 1.1 leaves as text."""
     match = _TEXT_EXPONENT.fullmatch(str(node.value)) if isinstance(node, yaml.ScalarNode) else None
-    if match is None or node.tag != "tag:yaml.org,2002:str" or len(node.value) > QUOTED_CHARS:
+    if match is None or node.tag != STR_TAG or len(node.value) > QUOTED_CHARS:
         return ""
     whole, fraction, sign, exponent = match.groups()
     number = f"{whole}{fraction if fraction and fraction != '.' else '.0'}e{sign or '+'}{exponent}"

@@ -17,6 +17,7 @@ from choreo.core.yaml_source import (
     Reader,
     SourceLocation,
     parse_yaml_file,
+    plain_number,
     quoted,
     shortened,
 )
@@ -168,6 +169,33 @@ def test_the_specs_floats_are_read_at_their_value(text):
     problems = Problems()
     assert read_number(text, problems) == pytest.approx(SPEC_FLOATS[text], abs=0, rel=1e-15)
     assert not problems
+
+
+# Numbers as YAML 1.1 may write them: plain_number reads the plain ones as Reader.number does,
+# and leaves the rest (None) to it, to be read in full and reported.
+PLAIN_NUMBERS = ["0", "-0", "+5", "-35", "-12.5", "-0.0", "1.0e+12", "685_230.15", "!!float 3"]
+OTHER_VALUES = [
+    "012", "0x1F", "0b101", "1_000", "3:25", "190:20:30.15", ".inf", ".nan", "1.0e+999", "1e12",
+    "!!float [1]", "'5'", "~", "true", "1" + "0" * 5000,
+]  # fmt: skip
+
+
+def yaml_value(text: str) -> yaml.Node:
+    return yaml.compose(f"x: {text}\n", Loader=yaml.SafeLoader).value[0][1]
+
+
+@pytest.mark.parametrize("text", PLAIN_NUMBERS)
+def test_a_plain_number_is_read_quickly_as_the_reader_reads_it(text):
+    problems = Problems()
+    full = Reader(Path("f.yaml"), problems).number(yaml_value(text), "x")
+    plain = plain_number(yaml_value(text))
+    assert plain is not None and not problems
+    assert (plain, math.copysign(1, plain)) == (full, math.copysign(1, full))
+
+
+@pytest.mark.parametrize("text", OTHER_VALUES)
+def test_any_other_value_is_left_to_the_reader(text):
+    assert plain_number(yaml_value(text)) is None
 
 
 def test_negative_zero_keeps_its_sign():
