@@ -197,12 +197,25 @@ class _BoundedLoader(_SAFE_LOADER):  # type: ignore[valid-type,misc]
 
     The composer (libyaml's too) calls ``descend_resolver`` before it builds each node and
     ``ascend_resolver`` after. The safe loader has no path resolvers, the one thing the base
-    methods would follow, so these replace them.
+    methods would follow, so these replace them; and ``resolve``, which tags each plain
+    scalar, looks its first character's resolvers up in a table made once.
     """
 
     def __init__(self, stream: str):
         super().__init__(stream)
         self._depth = 0
+
+    def resolve(self, kind: type[Node], value: str | None, implicit: object) -> str:
+        # BaseResolver.resolve without its path resolvers, and with the list of resolvers it
+        # makes per scalar (those of the first character, then those of any) made once, here:
+        # it runs for each of the 57,000 nodes of a long motion (0.17 -> 0.15 s of its YAML)
+        if kind is yaml.ScalarNode and implicit[0]:  # type: ignore[index]  # a pair for scalars
+            assert value is not None
+            for tag, regexp in _RESOLVERS_BY_FIRST.get(value[:1], _RESOLVERS_OF_ANY):
+                if regexp.match(value):
+                    return tag
+            return STR_TAG
+        return super().resolve(kind, value, implicit)
 
     def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
         self._depth += 1
@@ -211,6 +224,14 @@ class _BoundedLoader(_SAFE_LOADER):  # type: ignore[valid-type,misc]
 
     def ascend_resolver(self) -> None:
         self._depth -= 1
+
+
+_RESOLVERS_OF_ANY = tuple(_BoundedLoader.yaml_implicit_resolvers.get(None, []))
+_RESOLVERS_BY_FIRST = {
+    first: tuple(resolvers) + _RESOLVERS_OF_ANY
+    for first, resolvers in _BoundedLoader.yaml_implicit_resolvers.items()
+    if first is not None
+}
 
 
 def _check_depth(path: Path, text: str) -> None:

@@ -52,7 +52,7 @@ def read_angles(
     return angles
 
 
-def _plain_angles(node: Node, joints: Mapping[str, Joint | None]) -> dict[str, float] | None:
+def _plain_angles(node: Node, joints: Mapping[str, Joint | None]) -> dict[str, float | None] | None:
     """What ``read_angles`` reads from a mapping with nothing to report: each key a joint's
     name, given once, each angle a plain number inside the joint's limits. ``None`` for
     anything else, which ``read_angles`` reads in full, and reports. A motion's poses are
@@ -60,7 +60,7 @@ def _plain_angles(node: Node, joints: Mapping[str, Joint | None]) -> dict[str, f
     they are read in a third of the time."""
     if not isinstance(node, yaml.MappingNode):
         return None
-    angles: dict[str, float] = {}
+    angles: dict[str, float | None] = {}
     for key_node, value_node in node.value:
         name = key_node.value
         plain_key = key_node.tag == STR_TAG and isinstance(key_node, yaml.ScalarNode)

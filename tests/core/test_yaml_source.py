@@ -284,3 +284,13 @@ def test_fmt_writes_whole_numbers_exactly_up_to_16_digits():
         "-1e+400",
         "0.5",
     ]
+
+
+def test_every_kind_of_scalar_is_tagged_as_pyyaml_s_own_loader_tags_it(tmp_path):
+    scalars = [*PLAIN_NUMBERS, *OTHER_VALUES[:-1], "", "null", "Null", "yes", "off", "~"]
+    scalars += ["2026-11-27", "<<", "=", "text", "'quoted 5'", '"5"', "-", ".5", "+.inf"]
+    path = tmp_path / "f.yaml"
+    path.write_text("".join(f"- {text}\n" for text in scalars))
+    ours = parse_yaml_file(path)
+    pyyaml = yaml.compose(path.read_text(), Loader=yaml.SafeLoader)
+    assert repr(ours) == repr(pyyaml)  # every node's tag and value, nested ones too
