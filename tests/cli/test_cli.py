@@ -203,3 +203,19 @@ def test_numpy_gets_one_blas_thread_unless_the_user_chose_a_number(monkeypatch):
     monkeypatch.setenv("OPENBLAS_NUM_THREADS", "4")
     one_blas_thread()
     assert os.environ["OPENBLAS_NUM_THREADS"] == "4"
+
+
+def test_the_program_leaves_what_is_left_at_its_exit_set_aside_from_the_collector(
+    monkeypatch, capsys
+):
+    import gc
+
+    from choreo.cli import program
+
+    monkeypatch.setattr(sys, "argv", ["choreo", "robots"])
+    try:
+        assert program() == 0
+        assert gc.get_freeze_count() > 0  # the interpreter's last collection passes over them
+    finally:
+        gc.unfreeze()
+    assert "arm6" in capsys.readouterr().out
