@@ -294,3 +294,19 @@ def test_every_kind_of_scalar_is_tagged_as_pyyaml_s_own_loader_tags_it(tmp_path)
     ours = parse_yaml_file(path)
     pyyaml = yaml.compose(path.read_text(), Loader=yaml.SafeLoader)
     assert repr(ours) == repr(pyyaml)  # every node's tag and value, nested ones too
+
+
+def test_lists_64_deep_are_read_and_the_65th_is_refused_where_it_opens(tmp_path):
+    path = tmp_path / "f.yaml"
+    path.write_text("[" * 64 + "1" + "]" * 64 + "\n")
+    node = parse_yaml_file(path)
+    for _ in range(63):
+        node = node.value[0]
+    assert node.value[0].value == "1"
+    path.write_text("[" * 65 + "1" + "]" * 65 + "\n")
+    with pytest.raises(SourceError) as raised:
+        parse_yaml_file(path)
+    assert str(raised.value) == (
+        f"{path}:1:65: nested more than 64 lists or mappings deep; robot and motion files need a "
+        "few levels"
+    )
