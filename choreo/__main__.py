@@ -1,5 +1,5 @@
 import sys
 
-from choreo.cli import main
+from choreo.cli import program
 
-sys.exit(main())
+sys.exit(program())

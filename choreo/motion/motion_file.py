@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from choreo.core.arguments import check_flag, check_path, is_path, shown
+from choreo.core.collector import collector_paused
 from choreo.core.yaml_source import (
     Entry,
     Node,
@@ -19,7 +20,6 @@ from choreo.core.yaml_source import (
     SourceLocation,
     fmt,
     parse_yaml_file,
-    reading_a_file,
 )
 from choreo.errors import OptionError, SourceError, Worded
 from choreo.motion.gait import BodyPose, Gait
@@ -114,7 +114,7 @@ def load_motion(path: str | os.PathLike[str], allow_past_song: bool = False) -> 
     path = check_path("path", path, "a motion file's path")
     check_flag("allow_past_song", allow_past_song)
     problems = Problems()
-    with reading_a_file():
+    with collector_paused():
         motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
     if motion is None or problems:
         raise SourceError(problems.messages)

@@ -8,6 +8,7 @@ import os
 from dataclasses import dataclass
 
 from choreo.core.arguments import check_flag, check_number, check_optional_number, check_type
+from choreo.core.collector import collector_paused
 from choreo.errors import OptionError
 from choreo.motion.motion_file import Motion, motion_of
 from choreo.motion.timing import SPEED
@@ -62,13 +63,10 @@ def compile_motion(
     ``stretch`` and ``tolerance_deg`` (see :class:`PlanOptions`)."""
     motion = motion_of(motion)
     plan = plan_options(plan, speed, stretch, tolerance_deg)  # checked before the planning's work
-    result = plan_motion(motion, speed=plan.speed, stretch=plan.stretch)
-    return CompiledMotion(
-        motion.robot,
-        result.trajectory,
-        compile_ticks(result.trajectory, motion.robot, tolerance_deg=plan.tolerance_deg),
-        result.stretches,
-    )
+    with collector_paused():  # segments, profiles and ticks: many objects, no cycles
+        result = plan_motion(motion, speed=plan.speed, stretch=plan.stretch)
+        ticks = compile_ticks(result.trajectory, motion.robot, tolerance_deg=plan.tolerance_deg)
+    return CompiledMotion(motion.robot, result.trajectory, ticks, result.stretches)
 
 
 def plan_options(

@@ -86,8 +86,9 @@ class SegmentSolver:
         self._ruckig = Ruckig(n_joints)
         self._input = InputParameter(n_joints)
         self._input.synchronization = Synchronization.Time
+        self._input.current_acceleration = self._input.target_acceleration = [0.0] * n_joints
         self._output = RuckigTrajectory(n_joints)
-        self._zero = [0.0] * n_joints
+        self._limits: Limits | None = None  # those in the input now (set only when they change)
 
     def duration_s(
         self,
@@ -101,13 +102,13 @@ class SegmentSolver:
         inp = self._input
         inp.current_position = p0
         inp.current_velocity = v0
-        inp.current_acceleration = self._zero
         inp.target_position = p1
         inp.target_velocity = v1
-        inp.target_acceleration = self._zero
-        inp.max_velocity = limits.vel
-        inp.max_acceleration = limits.acc
-        inp.max_jerk = limits.jerk
+        if limits is not self._limits:  # the same for most segments of a plan
+            inp.max_velocity = limits.vel
+            inp.max_acceleration = limits.acc
+            inp.max_jerk = limits.jerk
+            self._limits = limits
         inp.minimum_duration = minimum_duration_s
         try:
             result = self._ruckig.calculate(inp, self._output)

@@ -4,7 +4,6 @@ reach it, and how the planner's ruckig profiles are assembled into one (``assemb
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from itertools import chain
 from typing import NamedTuple
@@ -212,7 +211,7 @@ def assemble(
     """Phases in time order: a wait before the first keyframe, then per keyframe its hold (one
     constant phase) and the 7 phases to the next keyframe, then a rest at the last pose."""
     m, n = positions.shape
-    seg_knots, seg_poly = _integrate(arrive[:-1] + holds_s[:-1], segments, n)
+    seg_knots, seg_poly = _integrate(arrive[:-1] + holds_s[:-1], positions[:-1], segments)
     has_hold = holds_s > 0
     rows_per_keyframe = has_hold.astype(int) + np.append(np.full(m - 1, PHASES), 0)
     first_row = 1 + np.concatenate(([0], np.cumsum(rows_per_keyframe)[:-1]))  # row 0: the wait
@@ -224,7 +223,7 @@ def assemble(
     constant_start = np.concatenate(([0.0], arrive[has_hold], [arrive[-1] + holds_s[-1]]))
     knots[constant_rows] = constant_start[:, None]
     poly[0, constant_rows] = constant_pose
-    seg_rows = (first_row[:-1] + has_hold[:-1])[:, None] + np.arange(PHASES)  # (m-1, 7)
+    seg_rows = np.arange(PHASES)[:, None] + (first_row[:-1] + has_hold[:-1])  # (7, m-1)
     knots[seg_rows] = seg_knots
     poly[:, seg_rows] = seg_poly
     return Trajectory(
@@ -237,30 +236,35 @@ def assemble(
 
 
 def _integrate(
-    leave_s: np.ndarray, segments: list[Profile], n: int
+    leave_s: np.ndarray, start_deg: np.ndarray, segments: list[Profile]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Knots (S, 7, n) and (p, v, a, j) at each phase start (4, S, 7, n) of all segments."""
+    """Knots (7, S, n) and (p, v, a, j) at each phase start (4, 7, S, n) of all segments, each
+    leaving ``start_deg`` (S, n) at ``leave_s``. Phase by phase, over contiguous (S, n) arrays
+    (twice as fast as over a (S, n, 7) array's strided columns)."""
+    n = start_deg.shape[1]
     if not segments:
-        return np.empty((0, PHASES, n)), np.empty((4, 0, PHASES, n))
-    shape = (len(segments), n, PHASES)
-    phase_s = np.fromiter(
-        chain.from_iterable(s.phase_s for s in segments), float, math.prod(shape)
-    ).reshape(shape)
-    jerk = np.fromiter(
-        chain.from_iterable(s.jerk for s in segments), float, math.prod(shape)
-    ).reshape(shape)
-    p = np.array([s.p0 for s in segments])  # (S, n)
-    v = np.array([s.v0 for s in segments])
+        return np.empty((PHASES, 0, n)), np.empty((4, PHASES, 0, n))
+    phase_s = _phase_major([s.phase_s for s in segments], n)
+    jerk = _phase_major([s.jerk for s in segments], n)
+    p = start_deg
+    v = np.array([s.v0 for s in segments])  # (S, n)
     a = np.zeros_like(p)
     t = np.repeat(leave_s[:, None], n, axis=1)
-    knots = np.empty((len(segments), PHASES, n))
+    knots = np.empty((PHASES, len(segments), n))
     poly = np.empty((4,) + knots.shape)
     for k in range(PHASES):
-        tau, j = phase_s[:, :, k], jerk[:, :, k]
-        knots[:, k] = t
-        poly[:, :, k] = p, v, a, j
+        tau, j = phase_s[k], jerk[k]
+        knots[k] = t
+        poly[0, k], poly[1, k], poly[2, k], poly[3, k] = p, v, a, j
         p = p + tau * (v + tau * (a / 2 + tau * j / 6))
         v = v + tau * (a + tau * j / 2)
         a = a + tau * j
         t = t + tau
     return knots, poly
+
+
+def _phase_major(per_segment: list[list[float]], n: int) -> np.ndarray:
+    """Lists of ``[joint * 7 + phase]`` values, one per segment, as one (7, S, n) array."""
+    size = len(per_segment) * n * PHASES
+    flat = np.fromiter(chain.from_iterable(per_segment), float, size)
+    return np.ascontiguousarray(flat.reshape(len(per_segment), n, PHASES).transpose(2, 0, 1))

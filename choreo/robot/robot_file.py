@@ -12,6 +12,7 @@ import yaml
 from choreo.bus.servo_models import SERVO_MODELS
 from choreo.bus.settings import BusSettings
 from choreo.core.arguments import check_path
+from choreo.core.collector import collector_paused
 from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
@@ -22,7 +23,6 @@ from choreo.core.yaml_source import (
     SourceLocation,
     did_you_mean,
     parse_yaml_file,
-    reading_a_file,
 )
 from choreo.errors import SourceError
 from choreo.robot.bus_entry import read_bus
@@ -60,7 +60,7 @@ def load_robot(
     except LookupError as error:
         raise SourceError(str(error)) from None
     problems = Problems()
-    with reading_a_file():
+    with collector_paused():
         root = parse_yaml_file(path)
         robot = _read_robot(Reader(path, problems), root)
     if robot is None or problems:

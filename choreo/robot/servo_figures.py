@@ -36,6 +36,7 @@ from choreo.bus.servo_models import (
     SIGNED_ACTUATOR_FIELDS,
     ZERO_OK_ACTUATOR_FIELDS,
 )
+from choreo.core.collector import collector_paused
 from choreo.core.file_shape import mapping_shape
 from choreo.core.yaml_source import (
     Problems,
@@ -43,7 +44,6 @@ from choreo.core.yaml_source import (
     describe,
     did_you_mean,
     parse_yaml_file,
-    reading_a_file,
 )
 from choreo.errors import SourceError
 from choreo.robot.types import GaitCompensation, Robot
@@ -87,7 +87,7 @@ def read_servo_figures(path: str | Path, robot: Robot) -> ServoFigures:
     problem (``path:line:col``) otherwise."""
     path = Path(path)
     problems = Problems()
-    with reading_a_file():
+    with collector_paused():
         root = parse_yaml_file(path)
         reader = Reader(path, problems)
         figures = _read(reader, root, robot) if root is not None else None

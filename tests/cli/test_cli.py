@@ -180,3 +180,53 @@ def test_an_argument_a_command_does_not_know_gets_that_command_s_usage(command, 
     err = capsys.readouterr().err
     assert err.startswith(f"usage: choreo {command} [-h]")
     assert err.splitlines()[-1] == f"choreo {command}: error: unrecognized arguments: --yes"
+
+
+def test_the_collector_passes_over_the_loaded_modules_only_while_a_command_runs(
+    tmp_path, capsys, monkeypatch
+):
+    import gc
+
+    import choreo.cli.plan_commands as plan_commands
+
+    seen = []
+    compile_motion = plan_commands.compile_motion
+
+    def watched(*args, **kwargs):
+        seen.append((gc.isenabled(), gc.get_freeze_count() > 0))
+        return compile_motion(*args, **kwargs)
+
+    monkeypatch.setattr(plan_commands, "compile_motion", watched)
+    assert main(["plan", str(WAVE)]) == 0
+    assert seen == [(True, True)]  # the modules set aside, the collector running
+    missing = tmp_path / "missing.yaml"
+    assert main(["plan", str(missing)]) == 1  # a command that fails gives them back too
+    capsys.readouterr()
+    assert (gc.isenabled(), gc.get_freeze_count()) == (True, 0)
+
+
+def test_numpy_gets_one_blas_thread_unless_the_user_chose_a_number(monkeypatch):
+    from choreo.cli import one_blas_thread
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    one_blas_thread()
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "4")
+    one_blas_thread()
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "4"
+
+
+def test_the_program_leaves_what_is_left_at_its_exit_set_aside_from_the_collector(
+    monkeypatch, capsys
+):
+    import gc
+
+    from choreo.cli import program
+
+    monkeypatch.setattr(sys, "argv", ["choreo", "robots"])
+    try:
+        assert program() == 0
+        assert gc.get_freeze_count() > 0  # the interpreter's last collection passes over them
+    finally:
+        gc.unfreeze()
+    assert "arm6" in capsys.readouterr().out

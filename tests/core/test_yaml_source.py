@@ -17,8 +17,8 @@ from choreo.core.yaml_source import (
     Reader,
     SourceLocation,
     parse_yaml_file,
+    plain_number,
     quoted,
-    reading_a_file,
     shortened,
 )
 from choreo.errors import SourceError
@@ -171,6 +171,33 @@ def test_the_specs_floats_are_read_at_their_value(text):
     assert not problems
 
 
+# Numbers as YAML 1.1 may write them: plain_number reads the plain ones as Reader.number does,
+# and leaves the rest (None) to it, to be read in full and reported.
+PLAIN_NUMBERS = ["0", "-0", "+5", "-35", "-12.5", "-0.0", "1.0e+12", "685_230.15", "!!float 3"]
+OTHER_VALUES = [
+    "012", "0x1F", "0b101", "1_000", "3:25", "190:20:30.15", ".inf", ".nan", "1.0e+999", "1e12",
+    "!!float [1]", "'5'", "~", "true", "1" + "0" * 5000,
+]  # fmt: skip
+
+
+def yaml_value(text: str) -> yaml.Node:
+    return yaml.compose(f"x: {text}\n", Loader=yaml.SafeLoader).value[0][1]
+
+
+@pytest.mark.parametrize("text", PLAIN_NUMBERS)
+def test_a_plain_number_is_read_quickly_as_the_reader_reads_it(text):
+    problems = Problems()
+    full = Reader(Path("f.yaml"), problems).number(yaml_value(text), "x")
+    plain = plain_number(yaml_value(text))
+    assert plain is not None and not problems
+    assert (plain, math.copysign(1, plain)) == (full, math.copysign(1, full))
+
+
+@pytest.mark.parametrize("text", OTHER_VALUES)
+def test_any_other_value_is_left_to_the_reader(text):
+    assert plain_number(yaml_value(text)) is None
+
+
 def test_negative_zero_keeps_its_sign():
     assert math.copysign(1, read_number("-0.0", Problems())) == -1
 
@@ -180,23 +207,6 @@ def test_what_is_no_finite_number_is_refused_where_it_is(text):
     problems = Problems()
     assert read_number(text, problems) is None
     assert problems.messages == [f"f.yaml:1:4: x must be a number, got {text}"]
-
-
-def test_reading_a_file_pauses_the_collector_and_gives_back_the_state_it_found():
-    assert gc.isenabled()
-    with reading_a_file():
-        assert not gc.isenabled()
-        with reading_a_file():  # a motion reading its robot
-            assert not gc.isenabled()
-        assert not gc.isenabled()  # the inner read leaves it to the outer one
-    assert gc.isenabled()
-    gc.disable()  # a program that runs without the collector keeps it off
-    try:
-        with reading_a_file():
-            pass
-        assert not gc.isenabled()
-    finally:
-        gc.enable()
 
 
 def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
@@ -274,3 +284,29 @@ def test_fmt_writes_whole_numbers_exactly_up_to_16_digits():
         "-1e+400",
         "0.5",
     ]
+
+
+def test_every_kind_of_scalar_is_tagged_as_pyyaml_s_own_loader_tags_it(tmp_path):
+    scalars = [*PLAIN_NUMBERS, *OTHER_VALUES[:-1], "", "null", "Null", "yes", "off", "~"]
+    scalars += ["2026-11-27", "<<", "=", "text", "'quoted 5'", '"5"', "-", ".5", "+.inf"]
+    path = tmp_path / "f.yaml"
+    path.write_text("".join(f"- {text}\n" for text in scalars))
+    ours = parse_yaml_file(path)
+    pyyaml = yaml.compose(path.read_text(), Loader=yaml.SafeLoader)
+    assert repr(ours) == repr(pyyaml)  # every node's tag and value, nested ones too
+
+
+def test_lists_64_deep_are_read_and_the_65th_is_refused_where_it_opens(tmp_path):
+    path = tmp_path / "f.yaml"
+    path.write_text("[" * 64 + "1" + "]" * 64 + "\n")
+    node = parse_yaml_file(path)
+    for _ in range(63):
+        node = node.value[0]
+    assert node.value[0].value == "1"
+    path.write_text("[" * 65 + "1" + "]" * 65 + "\n")
+    with pytest.raises(SourceError) as raised:
+        parse_yaml_file(path)
+    assert str(raised.value) == (
+        f"{path}:1:65: nested more than 64 lists or mappings deep; robot and motion files need a "
+        "few levels"
+    )

@@ -27,6 +27,22 @@ def test_compiling_is_planning_then_segmenting_with_the_options_passed_on():
     assert compiled.stretches == ()
 
 
+def test_the_collector_waits_while_a_motion_is_planned_and_compiled(monkeypatch):
+    import gc
+
+    import choreo.plan.pipeline as pipeline
+
+    seen = []
+    for name in ("plan_motion", "compile_ticks"):
+        step = getattr(pipeline, name)
+        monkeypatch.setattr(
+            pipeline, name, lambda *a, step=step, **k: seen.append(gc.isenabled()) or step(*a, **k)
+        )
+    compile_motion(load_motion(WAVE))
+    assert seen == [False, False]
+    assert gc.isenabled()
+
+
 def test_plan_options_are_taken_whole_or_as_separate_arguments_never_both():
     motion = load_motion(WAVE)
     whole = compile_motion(motion, PlanOptions(speed=0.5, tolerance_deg=0.25))

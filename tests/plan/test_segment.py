@@ -45,6 +45,17 @@ def test_a_minimum_duration_lengthens_the_segment():
     assert shortest < 2.0
 
 
+def test_one_solver_takes_each_segments_own_limits_as_a_fresh_one_does():
+    robot = make_robot(2)
+    full, slow = Limits.of(robot), Limits.of(robot, velocity_scale=0.2)
+    move = ([0.0, 0.0], [0.0, 0.0], [50.0, -20.0], [0.0, 0.0])
+    reused = SegmentSolver(2)
+    durations = [reused.duration_s(*move, limits, None) for limits in (full, slow, slow, full)]
+    fresh = [SegmentSolver(2).duration_s(*move, limits, None) for limits in (full, slow)]
+    assert durations == fresh + fresh[::-1]
+    assert durations[1] > durations[0]
+
+
 def test_the_limiting_joint_is_the_one_whose_own_move_is_longest():
     robot = make_robot(3)
     solver = SegmentSolver(3)
