@@ -43,7 +43,8 @@ def compile_once(config, package: Path, tests: Path, asked: list[Path]) -> list[
     the test modules in the files or folders ``asked`` for, as pytest rewrites them. The files
     written, for ``remove``."""
     before = _bytecode_files([package, tests])
-    compileall.compile_dir(package, quiet=1)
+    # quiet: a module that does not compile is the workers' to report, as without this
+    compileall.compile_dir(package, quiet=2)
     rewrites = config.getoption("assertmode") == "rewrite"
     test_patterns = config.getini("python_files")
     for source in sorted(tests.rglob("*.py")):
@@ -51,13 +52,20 @@ def compile_once(config, package: Path, tests: Path, asked: list[Path]) -> list[
         if is_test and not any(path == source or path in source.parents for path in asked):
             continue  # not collected: no worker imports it
         if rewrites and (is_test or source.name == "conftest.py"):
-            source_hash, code = _rewrite_test(source, config)
-            pyc = get_cache_dir(source) / (source.name[:-3] + PYC_TAIL)
-            pyc.parent.mkdir(exist_ok=True)
-            _write_pyc(config.stash[assertstate_key], code, source_hash, pyc)
+            _rewrite(config, source)
         else:
-            compileall.compile_file(source, quiet=1)
+            compileall.compile_file(source, quiet=2)
     return sorted(_bytecode_files([package, tests]) - before)
+
+
+def _rewrite(config, source: Path) -> None:
+    try:
+        source_hash, code = _rewrite_test(source, config)
+    except SyntaxError:
+        return
+    pyc = get_cache_dir(source) / (source.name[:-3] + PYC_TAIL)
+    pyc.parent.mkdir(exist_ok=True)
+    _write_pyc(config.stash[assertstate_key], code, source_hash, pyc)
 
 
 def remove(written: Iterable[Path]) -> None:
