@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import browser
+import bytecode
 import offscreen_gl
 import pytest
 from emulated import built_in_emulator_in_virtual_time, home_specs, served_on_a_pty
@@ -146,7 +147,8 @@ def own_cache(tmp_path_factory):
 def pytest_sessionstart(session):
     """What the suite needs from the machine, found or installed before any test runs, once (not
     in each xdist worker): offscreen OpenGL, and the browser when the browser tests are among
-    those asked for. Where one cannot be had, the run stops with one line naming what to run."""
+    those asked for. Where one cannot be had, the run stops with one line naming what to run.
+    Then, for the workers of a parallel run, the modules they all import, compiled once."""
     config = session.config
     if hasattr(config, "workerinput"):
         return
@@ -158,17 +160,30 @@ def pytest_sessionstart(session):
             browser.provide(say)
     except (offscreen_gl.NoOffscreenGL, browser.NoBrowser) as missing:
         pytest.exit(str(missing), returncode=pytest.ExitCode.USAGE_ERROR)
+    if bytecode.worth_compiling(config):  # before xdist starts the workers (its hook runs last)
+        tests = Path(__file__).parent
+        config.stash[_COMPILED] = bytecode.compile_once(
+            config, tests.parent / "choreo", tests, _asked(config)
+        )
+
+
+_COMPILED = pytest.StashKey[list[Path]]()
+
+
+def pytest_unconfigure(config):
+    bytecode.remove(config.stash.get(_COMPILED, []))
 
 
 def _asks_for(config, test_file: Path) -> bool:
     """Whether the run's arguments (or the configured testpaths, without any) include a file."""
+    return any(path == test_file or path in test_file.parents for path in _asked(config))
+
+
+def _asked(config) -> list[Path]:
+    """The files and folders the run's arguments name (or the configured testpaths)."""
     asked = config.args or [str(config.rootpath / path) for path in config.getini("testpaths")]
     here = config.invocation_params.dir
-    for argument in asked:
-        path = (here / argument.split("::", 1)[0]).resolve()
-        if path == test_file or path in test_file.parents:
-            return True
-    return False
+    return [(here / argument.split("::", 1)[0]).resolve() for argument in asked]
 
 
 @pytest.fixture

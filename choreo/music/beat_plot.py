@@ -8,8 +8,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from choreo.core.atomic import atomic_output
 from choreo.music.beats import BeatAnalysis
@@ -25,6 +23,11 @@ ENVELOPE_POINTS = 4000  # the waveform is drawn as a min/max envelope of this ma
 
 def plot_beats(audio: Audio, analysis: BeatAnalysis, path: Path, title: str = "") -> None:
     """Write a PNG: the waveform (min/max envelope), beats in blue, downbeats in red."""
+    # matplotlib (a second to import) only when a picture is drawn: a module that only reads
+    # the picture's size in pixels does without it
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     figure = Figure(figsize=(WIDTH_PX / DPI, HEIGHT_PX / DPI), dpi=DPI)
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()

@@ -10,8 +10,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from choreo.core.atomic import atomic_output
 from choreo.errors import OptionError
@@ -45,6 +43,11 @@ def plot_plan(
 ) -> None:
     """Write a PNG: one row per joint, position (left) and velocity (right) against time;
     ``window_s`` = (start, end) draws only that stretch of a long motion, in full detail."""
+    # matplotlib (a second to import) only when a picture is drawn: a module that only reads
+    # the picture's size in pixels does without it
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     n = len(robot.joints)
     width, height = plot_size_px(n)
     figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)

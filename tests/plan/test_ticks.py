@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -242,10 +244,17 @@ def test_random_motions_compile_to_ticks_within_tolerance_bus_floor_and_range(mo
 SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))
 
 
+@functools.cache
+def planned(path: Path):
+    """A shipped motion and its trajectory, once for the tests below (a walk's gait is solved
+    by IK as it loads: half a second for hexapod18/side_step)."""
+    motion = load_motion(path)
+    return motion, plan_motion(motion).trajectory
+
+
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
-    motion = load_motion(path)
-    trajectory = plan_motion(motion).trajectory
+    motion, trajectory = planned(path)
     check_plan(motion.robot, trajectory, compile_ticks(trajectory, motion.robot), 0.5)
 
 
@@ -254,8 +263,7 @@ def test_shipped_motions_compile_within_tolerance_and_bus_floor(path):
 def test_chains_searched_side_by_side_find_the_ticks_of_one_chain(monkeypatch, name, lanes):
     # lanes a few ticks apart (or closer than one) meet, overtake each other and give up short
     # of the next, which the one chain from 0 must not notice
-    motion = load_motion(REPO / "motions" / f"{name}.yaml")
-    trajectory = plan_motion(motion).trajectory
+    motion, trajectory = planned(REPO / "motions" / f"{name}.yaml")
     monkeypatch.setattr(ticks, "LANES", 1)
     one_chain = compile_ticks(trajectory, motion.robot)
     monkeypatch.setattr(ticks, "LANES", lanes)
