@@ -18,20 +18,25 @@ import sys
 from collections.abc import Iterable
 from pathlib import Path
 
-# pytest's own rewriting and its cache's layout (not public, but what its import hook calls)
-from _pytest.assertion.rewrite import (
-    PYC_TAIL,
-    _rewrite_test,
-    _write_pyc,
-    assertstate_key,
-    get_cache_dir,
-)
+# pytest's own rewriting and its cache's layout: not public, but what its import hook calls
+# (the same in pytest 8.0 and 9.2). A pytest without them only loses this saving.
+try:
+    from _pytest.assertion.rewrite import (
+        PYC_TAIL,
+        _rewrite_test,
+        _write_pyc,
+        assertstate_key,
+        get_cache_dir,
+    )
+except ImportError:
+    _rewrite_test = None
 
 
 def worth_compiling(config) -> bool:
     """Whether this is the first process of a parallel run that may not write bytecode."""
     return (
-        sys.dont_write_bytecode
+        _rewrite_test is not None
+        and sys.dont_write_bytecode
         and not sys.pycache_prefix  # bytecode kept elsewhere, as the user chose
         and not hasattr(config, "workerinput")
         and config.pluginmanager.get_plugin("dsession") is not None  # xdist starts workers
