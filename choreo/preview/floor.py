@@ -6,7 +6,9 @@ their 160,000 vertices on every frame: half of a 320x240 frame's CPU. A finite p
 in a few large quads, looks the same, pixel for pixel, wherever its quads' size changes nothing:
 every light is directional (spot and point lights are lit per vertex, so a coarse grid would
 show), and the plane's texture, if any, is a 2D one laid in metres (``texuniform``), whose phase
-is matched to the infinite plane's by the finite plane's size.
+is matched to the infinite plane's by the finite plane's size. Not in the renderer's high
+quality, whose haze shows the far edge move a little and whose reflection and multisampling
+differ in a few pixels along the grid's lines.
 """
 
 from __future__ import annotations

@@ -324,7 +324,8 @@ def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarra
 
 class FrameRenderer:
     """An offscreen GL context and MuJoCo render context for one model and image size. It
-    sets the model's offscreen size and quality, and draws its infinite floor finite (floor.py)."""
+    sets the model's offscreen size and quality and, but for ``high_quality``, draws its infinite
+    floor finite (floor.py)."""
 
     def __init__(
         self,
@@ -339,7 +340,7 @@ class FrameRenderer:
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         if not high_quality:
             model.vis.quality.offsamples = 0
-        draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
+            draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
         try:
             self._gl = context_class(backend)(width, height)
             self._gl.make_current()

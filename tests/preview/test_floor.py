@@ -91,3 +91,12 @@ def test_a_floor_that_would_look_different_finite_stays_infinite(floor_xml, ligh
     model = scene(floor_xml, *([light] if light else []))
     assert floor.draw_infinite_planes_finite(model) == 0
     assert model.geom("floor").size.tolist() == pytest.approx([0, 0, 0.05])
+
+
+def test_the_high_quality_renderer_keeps_the_infinite_floor():
+    """Its haze shows the far edge, its reflection and multisampling a few pixels on the grid."""
+    model = scene('<geom name="floor" type="plane" size="0 0 0.05" material="metres"/>')
+    with FrameRenderer(model, 32, 32, offscreen_backend(), high_quality=True):
+        assert model.geom("floor").size.tolist() == pytest.approx([0, 0, 0.05])
+    with FrameRenderer(model, 32, 32, offscreen_backend()):
+        assert min(model.geom("floor").size[:2]) > 0
