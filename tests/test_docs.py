@@ -120,14 +120,14 @@ def run(workdir, monkeypatch, capsys, request):
     """``run(COMMAND, error=None)``: ``choreo ARGS`` as the README writes it, in ``workdir``, every
     emulator in virtual time (virtual_choreo.py); it succeeds, or fails with exactly ``error``.
     In this process, which pays the imports (and librosa's warm-up) once for all of them; a
-    preview in a process of its own (rendering fixes PyOpenGL's platform for good, and
-    test_render.py needs a process that has not rendered)."""
+    preview that renders in a process of its own (rendering fixes PyOpenGL's platform for good,
+    and test_render.py needs a process that has not rendered); ``--check`` renders nothing."""
     monkeypatch.chdir(workdir)
     in_virtual_time(monkeypatch.setattr)
 
     def run_command(command: str, error: str | None = None) -> None:
         args = shlex.split(command)[1:]
-        if args[0] == "preview":
+        if args[0] == "preview" and "--check" not in args:
             code, stderr = in_a_process(args, workdir)
         else:
             if args[0] == "beats":

@@ -230,17 +230,25 @@ class ServoDrive:
         depth = int((self.delay_steps + (self._delay_part > 0)).max(initial=0)) + 1
         self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
         self._newest = 0
-        self._columns = np.arange(len(params))
+        # where in the flattened history each servo's late and older set-points are, for each
+        # row the newest is written to: one lookup a step instead of index arithmetic
+        rows = np.arange(depth)[:, None]
+        columns, width = np.arange(len(params)), len(params)
+        self._late_at = ((rows - self.delay_steps) % depth) * width + columns
+        self._older_at = ((rows - self.delay_steps - 1) % depth) * width + columns
+        self._between_steps = bool((self._delay_part > 0).any())
         self.aim_rad = np.asarray(initial_rad, dtype=float) + self.offset_rad
 
     def ctrl(self, setpoint_rad: np.ndarray, position_rad: np.ndarray) -> np.ndarray:
         """One step: the actuator's control for the set-points of this step."""
-        depth = len(self._history)
-        self._newest = (self._newest + 1) % depth
-        self._history[self._newest] = setpoint_rad
-        late = self._history[(self._newest - self.delay_steps) % depth, self._columns]
-        older = self._history[(self._newest - self.delay_steps - 1) % depth, self._columns]
-        late = late + (older - late) * self._delay_part
+        history = self._history
+        self._newest = (self._newest + 1) % len(history)
+        history[self._newest] = setpoint_rad
+        flat = history.reshape(-1)
+        late = flat[self._late_at[self._newest]]
+        if self._between_steps:
+            older = flat[self._older_at[self._newest]]
+            late = late + (older - late) * self._delay_part
         wanted = late + self.offset_rad
         # np.minimum/np.maximum rather than np.clip: this runs at every physics step
         aim = np.minimum(

@@ -26,6 +26,7 @@ from choreo.errors import PreviewError
 from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
 from choreo.preview.findings import CheckKind, CheckResult
+from choreo.preview.floor import draw_infinite_planes_finite
 from choreo.preview.gl import context_class, offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.rollout import Rollout
@@ -322,7 +323,9 @@ def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarra
 
 
 class FrameRenderer:
-    """An offscreen GL context and MuJoCo render context for one model and image size."""
+    """An offscreen GL context and MuJoCo render context for one model and image size. It
+    sets the model's offscreen size and quality and, but for ``high_quality``, draws its infinite
+    floor finite (floor.py)."""
 
     def __init__(
         self,
@@ -337,6 +340,7 @@ class FrameRenderer:
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         if not high_quality:
             model.vis.quality.offsamples = 0
+            draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
         try:
             self._gl = context_class(backend)(width, height)
             self._gl.make_current()

@@ -57,6 +57,7 @@ SETTLE_S = 2.0  # the start pose is held until the robot is still, at most this 
 STAND_LIFT_M = 0.08  # a free-floating robot on a stand: its body this far above standing
 SAG_STEP = 0.002  # the servos' torque follows the supply in steps this fine (a fifth of 1 %)
 TRACE_LIMIT = 200_000  # physics steps kept in the trace (400 s at 2 ms)
+STEPS_AT_ONCE = 4096  # set-points computed together (a long wait needs no more memory)
 
 
 @dataclass(frozen=True)
@@ -185,20 +186,25 @@ class PhysicsTwin:
         if due <= self._steps:
             return
         while self._steps < due:
-            now = self._origin_s + self._steps * self.dt_s
-            moving = np.clip(np.minimum(now, self._end_s) - self._start_s, 0.0, None)
-            setpoint_units = self._start_units + self._velocity * moving
-            setpoint_deg = (setpoint_units - self._zero) * self._direction * DEG_PER_UNIT
-            self._step_physics(np.radians(setpoint_deg))
-            self._steps += 1
-            self.trace.append(
-                TraceStep(
-                    self._origin_s + self._steps * self.dt_s,
-                    np.degrees(self._data.qpos[self._index.qpos]),
-                    self._supply_now_v,
+            for setpoint_rad in self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE)):
+                self._step_physics(setpoint_rad)
+                self._steps += 1
+                self.trace.append(
+                    TraceStep(
+                        self._origin_s + self._steps * self.dt_s,
+                        np.degrees(self._data.qpos[self._index.qpos]),
+                        self._supply_now_v,
+                    )
                 )
-            )
         check_stable(self._model, self._data)
+
+    def _setpoints_rad(self, end: int) -> np.ndarray:
+        """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
+        nothing drives the servos in between, so at once rather than one step at a time."""
+        now = self._origin_s + np.arange(self._steps, end)[:, None] * self.dt_s
+        moving = np.clip(np.minimum(now, self._end_s) - self._start_s, 0.0, None)
+        setpoint_units = self._start_units + self._velocity * moving
+        return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 
     def _step_physics(self, setpoint_rad: np.ndarray) -> None:
         model, data, index = self._model, self._data, self._index
