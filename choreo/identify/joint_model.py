@@ -3,10 +3,10 @@ with what was measured.
 
 The same law as the preview's (``preview/actuator.py``: the servo's own linear moves capped at
 its speed, its response delay, the horn's offset, gear play, dead band, a position gain up to the
-stall torque, back-EMF damping, dry friction), on the joint alone: its inertia and the gravity
-torque on it come from the robot's model with every other joint held (``JointLoad``). Each
-physics step works on arrays with one entry per candidate, so a whole generation of the search
-costs about what one candidate does.
+stall torque, back-EMF damping, dry friction that holds as MuJoCo's does), on the joint alone:
+its inertia and the gravity torque on it come from the robot's model with every other joint
+held (``JointLoad``). Each physics step works on arrays with one entry per candidate, so a whole
+generation of the search costs about what one candidate does.
 
 The others hold with their own servos, and its neighbours in the chain yield under the torque
 the joint puts out (on arm6, the shoulder gives way 3-5° under the elbow's test steps): a model
@@ -126,7 +126,11 @@ def simulate(
     inertia = float(load.inertia_at(np.radians(np.array([trial.start_setpoint_deg])))[0])
     per_implicit = dt_s / (inertia + dt_s * damping)  # MuJoCo's implicit damping, per step
     keep_v = inertia / (inertia + dt_s * damping)
-    slip = figures["friction_nm"] * per_implicit
+    # MuJoCo's soft dry friction (``SoftFriction``): below its limit it takes back all but a
+    # share of the torque and aims to stop the joint; it holds no joint dead still
+    friction = figures["friction_nm"]
+    held = -1 / (1 + inertia * load.friction.softness)
+    stopping = inertia * load.friction.damping_per_s - damping
     grid_rad, gravity_nm = np.radians(load.angles_deg), load.gravity_nm
     first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
     q = np.full(k, first_read) + offset
@@ -137,7 +141,8 @@ def simulate(
     # the whole fit: each numpy call in it runs ~4,000 times per candidate generation)
     low_edge, high_edge = wanted - half_play, wanted + half_play
     band_low, stall_low = -half_band, -stall
-    error, pull, torque, free_v = (np.empty(k) for _ in range(4))
+    error, pull, torque, free_v, grip = (np.empty(k) for _ in range(5))
+    friction_low = -friction
     for step in range(n_steps):
         if step in reloads:
             aim = q.copy()
@@ -153,9 +158,12 @@ def simulate(
         torque += pushed[step]
         np.multiply(keep_v, v, out=free_v)
         free_v += per_implicit * torque
-        np.abs(free_v, out=v)
-        v -= slip
-        np.copysign(np.maximum(v, 0.0, out=v), free_v, out=v)
+        np.multiply(stopping, v, out=grip)
+        grip += torque
+        grip *= held
+        np.minimum(np.maximum(grip, friction_low, out=grip), friction, out=grip)
+        np.multiply(per_implicit, grip, out=v)
+        v += free_v
         q = positions[step] = q + dt_s * v
     times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
     positions -= offset

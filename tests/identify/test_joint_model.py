@@ -2,13 +2,25 @@
 
 from __future__ import annotations
 
+import dataclasses
+
+import mujoco
 import numpy as np
 import pytest
 
 from choreo.identify.fit import assumed_figures
-from choreo.identify.joint_model import NeighbourReads, SentMove, Trial, figures_of, simulate
+from choreo.identify.joint_model import (
+    NeighbourReads,
+    SentMove,
+    Trial,
+    Unload,
+    figures_of,
+    simulate,
+)
 from choreo.preview.actuator import actuator_params
 from choreo.preview.joint_load import joint_load
+from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.preview.start import start_state
 from choreo.robot.robot_file import load_robot
 
 ARM6 = load_robot("arm6")
@@ -118,3 +130,49 @@ def test_a_neighbour_standing_over_changes_the_gravity_on_the_joint():
     expected_deg = np.degrees(slope * np.radians(20.0) / elbow.kp_nm_rad) + elbow.deadband_deg / 2
     assert read[-1, 1] == pytest.approx(expected_deg, abs=0.04)
     assert abs(read[-1, 0]) < 0.01
+
+
+def held_by_friction_in_mujoco(joint: str, friction_nm: float, torque_nm: float) -> Trial:
+    """arm6 upright in MuJoCo (1 s, its 2 ms step), ``joint``'s servo off, its dry friction
+    ``friction_nm`` against ``torque_nm`` (gravity and a push), the others held by their
+    servos: the joint's and its neighbours' positions at every step, as reads."""
+    model = load_model(ARM6)
+    index = index_joints(model, ARM6)
+    j = ARM6.joint_names.index(joint)
+    params = actuator_params(ARM6, {joint: {"friction_nm": friction_nm}})
+    apply_servo_models(model, index, params, ARM6)
+    data = start_state(model, index, np.zeros(6))
+    gravity = float(joint_load(ARM6, joint, [0.0] * 6).gravity_at(np.zeros(1))[0])
+    trace = np.empty((500, 6))
+    for step in range(len(trace)):
+        data.ctrl[index.actuator] = 0.0
+        data.ctrl[index.actuator[j]] = data.qpos[index.qpos[j]]  # no torque
+        data.qfrc_applied[index.dof[j]] = torque_nm - gravity
+        mujoco.mj_step(model, data)
+        trace[step] = np.degrees(data.qpos[index.qpos])
+    times = np.arange(1, len(trace) + 1) * model.opt.timestep
+    neighbours = tuple(
+        NeighbourReads(n, times, trace[:, ARM6.joint_names.index(n)], 0.0)
+        for n in ("shoulder", "elbow", "wrist_pitch")
+        if n != joint
+    )
+    return Trial((Unload(0.0),), times, trace[:, j], 0.0, neighbours)
+
+
+@pytest.mark.parametrize("joint", ["elbow", "wrist_pitch"])
+def test_a_joint_held_by_dry_friction_creeps_on_as_in_mujoco(joint):
+    """MuJoCo's dry friction is a soft constraint: held below its limit, a joint creeps on, a
+    heavy joint (the elbow, its inertia 1.5 times what MuJoCo weighs its friction by) as a
+    light one (the wrist_pitch)."""
+    friction, torque = 0.03, 0.02
+    held = held_by_friction_in_mujoco(joint, friction, torque)
+    load = joint_load(ARM6, joint, [0.0] * 6)
+    # gravity as it changes with the angle, plus the push that makes it ``torque`` at 0
+    pushed = dataclasses.replace(
+        load, gravity_nm=load.gravity_nm - load.gravity_at(np.zeros(1)) + torque
+    )
+    figures = assumed_figures(actuator_params(ARM6)[ARM6.joint_names.index(joint)])
+    read = simulate(held, pushed, figures_of([{**figures, "friction_nm": friction}]))[:, 0]
+    assert held.read_deg[-1] > 0.1  # half a read unit in a second
+    assert read[-1] == pytest.approx(held.read_deg[-1], rel=0.02)
+    assert np.abs(read - held.read_deg).max() < 0.005
