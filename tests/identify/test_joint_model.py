@@ -12,10 +12,12 @@ from choreo.identify.fit import assumed_figures
 from choreo.identify.joint_model import (
     NeighbourReads,
     SentMove,
+    SupplyReads,
     Trial,
     Unload,
     figures_of,
     simulate,
+    supply_sag,
 )
 from choreo.preview.actuator import actuator_params
 from choreo.preview.joint_load import joint_load
@@ -54,6 +56,43 @@ def test_the_models_step_follows_a_light_joints_quick_step_as_a_fine_one_does():
     figures = candidates(friction_nm=0.03, response_delay_s=0.005)
     fine = simulate(step, LOAD, figures, dt_s=0.001)
     assert np.abs(simulate(step, LOAD, figures) - fine).mean() < 0.03
+
+
+def test_a_sagging_supply_slows_a_step_at_stall_as_a_weaker_servo_would():
+    """Its torque and gain sag with the supply, not its back-EMF damping: at stall it runs
+    as a servo that much weaker and slower."""
+    step = trial(SentMove(0.0, 60.0, 0.0), until_s=0.4)
+    both = candidates()
+    sagging = simulate(step, LOAD, both, supply_sag_per_nm=0.1 / YAW.stall_torque_nm)[:, 0]
+    weaker = candidates(
+        stall_torque_nm=YAW.stall_torque_nm * 0.9,
+        no_load_speed_deg_s=YAW.no_load_speed_deg_s * 0.9,
+    )
+    steady = simulate(step, LOAD, weaker)
+    halfway = [step.read_s[np.argmax(read > 30.0)] for read in (sagging, *steady.T)]
+    assert halfway[0] == pytest.approx(halfway[2], abs=0.003)
+    assert halfway[0] > halfway[1] + 0.005
+
+
+def test_the_supplys_sag_is_set_by_its_reads_against_the_servos_load():
+    """The shoulder held upright and leaning 60° forward pushes against gravity: the supply
+    reads fall with that push, by 0.3 V at stall here."""
+    shoulder = actuator_params(ARM6)[1]
+    load = joint_load(ARM6, "shoulder", [0.0] * 6)
+    figures = assumed_figures(shoulder)
+    read_s = np.array([0.9, 1.0, 2.4, 2.5, 2.6])
+    leaning = abs(float(load.gravity_at(np.radians([60.0]))[0])) / shoulder.stall_torque_nm
+    upright = abs(float(load.gravity_at(np.zeros(1))[0])) / shoulder.stall_torque_nm
+    volts = 7.4 - 0.3 * np.where(read_s > 2, leaning, upright)
+    reads = np.arange(0.0, 3.0, 0.004)
+    moves = (SentMove(0.0, 0.0, 0.0), SentMove(1.2, 60.0, 0.5))
+    held = Trial(moves, reads, np.zeros(len(reads)), 0.0, supply=SupplyReads(read_s, volts))
+    assert leaning - upright > 0.2
+    per_nm = 0.3 / 7.4 / shoulder.stall_torque_nm
+    assert supply_sag(held, load, figures) == pytest.approx(per_nm, rel=0.05)
+    # too few reads to draw a line through: no sag
+    two = Trial(moves, reads, held.read_deg, 0.0, supply=SupplyReads(read_s[:2], volts[:2]))
+    assert supply_sag(two, load, figures) == 0.0
 
 
 def test_a_response_delay_starts_the_move_that_much_later():
