@@ -14,7 +14,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from choreo.identify.joint_model import COARSE_STEP_S, FIGURES, FIT_STEP_S, Trial, simulate
+from choreo.identify.joint_model import (
+    COARSE_STEP_S,
+    FIGURES,
+    FIT_STEP_S,
+    Trial,
+    simulate,
+    supply_sag,
+)
 from choreo.identify.search import Cost, minimise
 from choreo.preview.actuator import ActuatorParams
 from choreo.preview.joint_load import JointLoad
@@ -58,6 +65,7 @@ class Fitted:
     figures: dict[str, float]  # at the supply measured (as the servo really ran)
     fit_error_deg: float  # mean absolute error on the fit trial
     evaluations: int
+    supply_sag_per_nm: float = 0.0  # the supply's sag the fit took (joint_model.supply_sag)
 
 
 def assumed_figures(params: ActuatorParams) -> dict[str, float]:
@@ -87,6 +95,7 @@ def fit_servo(
     ``assumed`` (at the supply the trial ran at); the offset only ``with_offset`` (a drop)."""
     names = [name for name in FIGURES if with_offset or name != "offset_deg"]
     low, high, logs = _box(names, assumed)
+    sag = supply_sag(trial, load, assumed)
 
     def decode(points: np.ndarray) -> dict[str, np.ndarray]:
         values = low + points * (high - low)
@@ -98,7 +107,7 @@ def fit_servo(
 
     def cost_at(step_s: float) -> Cost:
         def cost(points: np.ndarray) -> np.ndarray:
-            predicted = simulate(trial, load, decode(points), dt_s=step_s)
+            predicted = simulate(trial, load, decode(points), dt_s=step_s, supply_sag_per_nm=sag)
             return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
 
         return cost
@@ -116,15 +125,22 @@ def fit_servo(
         refine=(cost_at(FIT_STEP_S), max(1, generations // 3)),
     )
     best = decode(found.best[None])
-    return Fitted({name: float(best[name][0]) for name in FIGURES}, found.cost, found.evaluations)
+    figures = {name: float(best[name][0]) for name in FIGURES}
+    return Fitted(figures, found.cost, found.evaluations, sag)
 
 
 def validate(
-    trial: Trial, load: JointLoad, assumed: dict[str, float], fitted: dict[str, float]
+    trial: Trial,
+    load: JointLoad,
+    assumed: dict[str, float],
+    fitted: dict[str, float],
+    supply_sag_per_nm: float = 0.0,
 ) -> Validation:
-    """The held-out trial simulated with the assumed and the fitted figures."""
+    """The held-out trial simulated with the assumed and the fitted figures (the supply
+    sagging as the fit took it)."""
     both = {name: np.array([assumed[name], fitted[name]]) for name in FIGURES}
-    errors = np.abs(simulate(trial, load, both) - trial.read_deg[:, None])
+    predicted = simulate(trial, load, both, supply_sag_per_nm=supply_sag_per_nm)
+    errors = np.abs(predicted - trial.read_deg[:, None])
     median, p95 = np.median(errors, axis=0), np.percentile(errors, 95, axis=0)
     return Validation(
         float(median[0]), float(p95[0]), float(median[1]), float(p95[1]), len(trial.read_deg)

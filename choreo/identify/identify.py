@@ -224,7 +224,9 @@ def _identify_joint(
     supply_v = float(np.median(measured.fit.supply_v + measured.held_out.supply_v))
     assumed = at_supply(assumed_figures(params[j]), params[j].supply_v, supply_v)
     fitted = fit_servo(measured.fit.trial, load, assumed, with_offset=drop, generations=generations)
-    validation = validate(measured.held_out.trial, load, assumed, fitted.figures)
+    validation = validate(
+        measured.held_out.trial, load, assumed, fitted.figures, fitted.supply_sag_per_nm
+    )
     rated = at_supply(fitted.figures, supply_v, params[j].rated_supply_v or supply_v)
     progress("fitting")(1.0)
     temps = measured.fit.temp_c + measured.held_out.temp_c

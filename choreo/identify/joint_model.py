@@ -3,10 +3,10 @@ with what was measured.
 
 The same law as the preview's (``preview/actuator.py``: the servo's own linear moves capped at
 its speed, its response delay, the horn's offset, gear play, dead band, a position gain up to the
-stall torque, back-EMF damping, dry friction), on the joint alone: its inertia and the gravity
-torque on it come from the robot's model with every other joint held (``JointLoad``). Each
-physics step works on arrays with one entry per candidate, so a whole generation of the search
-costs about what one candidate does.
+stall torque, back-EMF damping, dry friction that holds as MuJoCo's does), on the joint alone:
+its inertia and the gravity torque on it come from the robot's model with every other joint
+held (``JointLoad``). Each physics step works on arrays with one entry per candidate, so a whole
+generation of the search costs about what one candidate does.
 
 The others hold with their own servos, and its neighbours in the chain yield under the torque
 the joint puts out (on arm6, the shoulder gives way 3-5° under the elbow's test steps): a model
@@ -88,16 +88,25 @@ class NeighbourReads:
 
 
 @dataclass(frozen=True)
+class SupplyReads:
+    """The servo's supply reads during the moves: midpoint times (s) and volts."""
+
+    read_s: np.ndarray
+    volts: np.ndarray
+
+
+@dataclass(frozen=True)
 class Trial:
     """What was sent and read over one stretch of test moves: the commands, the position reads
-    (midpoint times and degrees), where the servo aimed and stood at the start, and its
-    neighbours' reads (none: they are taken as rigid)."""
+    (midpoint times and degrees), where the servo aimed and stood at the start, its
+    neighbours' reads (none: they are taken as rigid) and its supply reads."""
 
     commands: tuple[SentMove | Unload, ...]
     read_s: np.ndarray
     read_deg: np.ndarray
     start_setpoint_deg: float
     neighbours: tuple[NeighbourReads, ...] = ()
+    supply: SupplyReads | None = None
 
     @property
     def duration_s(self) -> float:
@@ -105,14 +114,59 @@ class Trial:
 
 
 def simulate(
-    trial: Trial, load: JointLoad, figures: dict[str, np.ndarray], dt_s: float = FIT_STEP_S
+    trial: Trial,
+    load: JointLoad,
+    figures: dict[str, np.ndarray],
+    dt_s: float = FIT_STEP_S,
+    *,
+    supply_sag_per_nm: float = 0.0,
 ) -> np.ndarray:
     """Where the servo would read at ``trial.read_s``, for each candidate: ``figures`` maps every
     name of :data:`FIGURES` to an array of candidates (shape (k,)); returns (reads, k) degrees.
+    ``supply_sag_per_nm``: the share of its supply (so of its torque and gain) the servo loses
+    per N·m it pushes (:func:`supply_sag`).
 
     The set-points (the servo's own moves, late by its delay) are worked out for every step at
     once; only what depends on where the joint is (gear play, dead band, torque, motion) is
     stepped."""
+    times, positions, _ = _run(trial, load, figures, dt_s, supply_sag_per_nm)
+    return np.degrees(
+        np.column_stack(
+            [np.interp(trial.read_s, times, positions[:, c]) for c in range(positions.shape[1])]
+        )
+    )
+
+
+def supply_sag(trial: Trial, load: JointLoad, figures: dict[str, float]) -> float:
+    """The share of its supply the servo loses per N·m it pushes, from its supply reads: the
+    line through them against how hard the servo with ``figures`` would have pushed then. The
+    supply sags by its resistance times the current the servos draw (a servo's in proportion
+    to its torque), and a servo's torque and gain sag with it, not its back-EMF damping: a
+    model that leaves it out takes the servo for slower than it is (arm6: 4-8 %). Per N·m,
+    not per share of the stall torque: most reads are of holds against gravity, whose torque
+    the figures do not change. 0 without reads that tell (too few, or all at one load)."""
+    reads = trial.supply
+    if reads is None or len(reads.read_s) < 3:
+        return 0.0
+    one = {name: np.array([value]) for name, value in figures.items()}
+    times, _, pushing = _run(trial, load, one, COARSE_STEP_S, 0.0, record=True)
+    torque = np.interp(reads.read_s, times, pushing[:, 0])
+    if np.ptp(torque) < 0.05 * figures["stall_torque_nm"]:
+        return 0.0
+    slope, volts_unloaded = np.polyfit(torque, reads.volts, 1)
+    return max(0.0, float(-slope / volts_unloaded)) if volts_unloaded > 0 else 0.0
+
+
+def _run(
+    trial: Trial,
+    load: JointLoad,
+    figures: dict[str, np.ndarray],
+    dt_s: float,
+    supply_sag_per_nm: float,
+    record: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The steps' end times, each candidate's angle after each step (n_steps, k) radians and,
+    if ``record``, how hard its servo pushed in each (N·m; else none)."""
     k = len(figures["kp_nm_rad"])
     n_steps = int(np.ceil(trial.duration_s / dt_s)) + 2
     wanted, loaded, reloads = _aims(trial, figures, n_steps, dt_s)
@@ -126,7 +180,11 @@ def simulate(
     inertia = float(load.inertia_at(np.radians(np.array([trial.start_setpoint_deg])))[0])
     per_implicit = dt_s / (inertia + dt_s * damping)  # MuJoCo's implicit damping, per step
     keep_v = inertia / (inertia + dt_s * damping)
-    slip = figures["friction_nm"] * per_implicit
+    # MuJoCo's soft dry friction (``SoftFriction``): below its limit it takes back all but a
+    # share of the torque and aims to stop the joint; it holds no joint dead still
+    friction = figures["friction_nm"]
+    held = -1 / (1 + inertia * load.friction.softness)
+    stopping = inertia * load.friction.damping_per_s - damping
     grid_rad, gravity_nm = np.radians(load.angles_deg), load.gravity_nm
     first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
     q = np.full(k, first_read) + offset
@@ -137,7 +195,10 @@ def simulate(
     # the whole fit: each numpy call in it runs ~4,000 times per candidate generation)
     low_edge, high_edge = wanted - half_play, wanted + half_play
     band_low, stall_low = -half_band, -stall
-    error, pull, torque, free_v = (np.empty(k) for _ in range(4))
+    error, pull, torque, free_v, grip = (np.empty(k) for _ in range(5))
+    friction_low = -friction
+    pushing = np.zeros((n_steps if record else 0, k))
+    pushed_nm, sag = np.empty(k), np.ones(k)
     for step in range(n_steps):
         if step in reloads:
             aim = q.copy()
@@ -147,21 +208,32 @@ def simulate(
         if loaded[step]:
             np.multiply(kp, pull, out=torque)
             np.minimum(np.maximum(torque, stall_low, out=torque), stall, out=torque)
+            # torque and gain at the supply the last step's push left (as the physics emulator
+            # has it); the back-EMF damping does not sag
+            if supply_sag_per_nm:
+                np.abs(torque, out=pushed_nm)
+                torque *= sag
+                np.multiply(pushed_nm, -supply_sag_per_nm, out=sag)
+                sag += 1.0
+            if record:
+                np.abs(torque, out=pushing[step])
         else:
             torque.fill(0.0)
+            sag.fill(1.0)
         torque += np.interp(q, grid_rad, gravity_nm)
         torque += pushed[step]
         np.multiply(keep_v, v, out=free_v)
         free_v += per_implicit * torque
-        np.abs(free_v, out=v)
-        v -= slip
-        np.copysign(np.maximum(v, 0.0, out=v), free_v, out=v)
+        np.multiply(stopping, v, out=grip)
+        grip += torque
+        grip *= held
+        np.minimum(np.maximum(grip, friction_low, out=grip), friction, out=grip)
+        np.multiply(per_implicit, grip, out=v)
+        v += free_v
         q = positions[step] = q + dt_s * v
     times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
     positions -= offset
-    return np.degrees(
-        np.column_stack([np.interp(trial.read_s, times, positions[:, c]) for c in range(k)])
-    )
+    return times, positions, pushing
 
 
 def neighbour_torque_nm(trial: Trial, load: JointLoad, n_steps: int, dt_s: float) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 
 from choreo.bus.servo_bus import ServoBus
 from choreo.errors import BusError
-from choreo.identify.joint_model import NeighbourReads, SentMove, Trial, Unload
+from choreo.identify.joint_model import NeighbourReads, SentMove, SupplyReads, Trial, Unload
 from choreo.identify.moves import MovePlan
 from choreo.robot.types import Joint
 
@@ -92,6 +92,7 @@ def run_moves(
     sent: list[SentMove | Unload] = []
     reads = _Reads(joint, neighbours)
     supply_v: list[float] = []
+    supply_s: list[float] = []  # when each was read (the fit sets the sag against the load)
     temp_c: list[float] = []
     failed = 0
     next_slow_s = 0.0
@@ -105,7 +106,9 @@ def run_moves(
             break
         if now >= next_slow_s:
             try:
+                before = clock.now()
                 supply_v.append(bus.read_vin(servo) / 1000)
+                supply_s.append((before + clock.now()) / 2 - start)
                 temp_c.append(float(bus.read_temperature(servo)))
             except BusError:
                 failed += 1
@@ -123,7 +126,13 @@ def run_moves(
         NeighbourReads(n.joint.name, *reads.of(n.joint.name), n.held_deg) for n in neighbours
     )
     return Measured(
-        Trial(tuple(sent), *reads.of(joint.name), start_setpoint_deg, nearby),
+        Trial(
+            tuple(sent),
+            *reads.of(joint.name),
+            start_setpoint_deg,
+            nearby,
+            SupplyReads(np.array(supply_s), np.array(supply_v)),
+        ),
         reads.count / elapsed if elapsed > 0 else 0.0,
         tuple(supply_v),
         tuple(temp_c),

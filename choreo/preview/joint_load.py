@@ -43,6 +43,29 @@ class Coupling:
 
 
 @dataclass(frozen=True)
+class SoftFriction:
+    """How MuJoCo holds the joint by its dry friction (``frictionloss``): not dead still but
+    as a soft constraint. Below its limit the friction torque is
+    ``-(torque + inertia * damping_per_s * velocity) / (1 + inertia * softness)`` (the torque
+    the joint's damping left, its inertia about its axis): it aims to stop the joint at
+    ``damping_per_s`` and lets ``inertia * softness / (1 + inertia * softness)`` of the torque
+    through (a tenth to a seventh on arm6), so a joint held by friction creeps on."""
+
+    softness: float  # the constraint's regulariser: (1 - d) / d times the dof's inverse weight
+    damping_per_s: float  # 2 / (dmax * timeconst): the stop it aims for
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, dof: int) -> SoftFriction:
+        """As MuJoCo's solver has it for ``dof`` (its solref and solimp; the impedance of a
+        friction constraint, which nothing violates, is solimp's dmin; the inverse weight is
+        the one MuJoCo took at qpos0, as it does, whatever the pose)."""
+        timeconst = max(float(model.dof_solref[dof, 0]), 2 * float(model.opt.timestep))
+        d_min, d_max = (float(x) for x in model.dof_solimp[dof, :2])
+        softness = (1 - d_min) / d_min * float(model.dof_invweight0[dof])
+        return cls(softness, 2 / (d_max * timeconst))
+
+
+@dataclass(frozen=True)
 class JointLoad:
     """Joint ``joint``'s load over ``angles_deg`` (its real angle, robot frame): inertia about
     its axis and the torque gravity puts on it (positive: towards larger angles)."""
@@ -52,6 +75,7 @@ class JointLoad:
     inertia_kg_m2: np.ndarray
     gravity_nm: np.ndarray
     timestep_s: float  # the model's physics step
+    friction: SoftFriction  # how MuJoCo's dry friction on it holds
     # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS)
     neighbours: tuple[Coupling, ...] = ()
 
@@ -100,7 +124,10 @@ def joint_load(
     data.qpos[address] = np.radians(pose_deg[j])  # the neighbours' own inertia, at the pose
     kept = _strongly_coupled(near, coupling, inertia, model, data, index)
     neighbours = tuple(Coupling(robot.joint_names[near[n]], coupling[n], slope[n]) for n in kept)
-    return JointLoad(joint, angles, inertia, gravity, float(model.opt.timestep), neighbours)
+    friction = SoftFriction.of(model, dof)
+    return JointLoad(
+        joint, angles, inertia, gravity, float(model.opt.timestep), friction, neighbours
+    )
 
 
 def _chain_neighbours(model: mujoco.MjModel, index: JointIndex, j: int) -> list[int]:

@@ -2,13 +2,27 @@
 
 from __future__ import annotations
 
+import dataclasses
+
+import mujoco
 import numpy as np
 import pytest
 
 from choreo.identify.fit import assumed_figures
-from choreo.identify.joint_model import NeighbourReads, SentMove, Trial, figures_of, simulate
+from choreo.identify.joint_model import (
+    NeighbourReads,
+    SentMove,
+    SupplyReads,
+    Trial,
+    Unload,
+    figures_of,
+    simulate,
+    supply_sag,
+)
 from choreo.preview.actuator import actuator_params
 from choreo.preview.joint_load import joint_load
+from choreo.preview.model import apply_servo_models, index_joints, load_model
+from choreo.preview.start import start_state
 from choreo.robot.robot_file import load_robot
 
 ARM6 = load_robot("arm6")
@@ -42,6 +56,43 @@ def test_the_models_step_follows_a_light_joints_quick_step_as_a_fine_one_does():
     figures = candidates(friction_nm=0.03, response_delay_s=0.005)
     fine = simulate(step, LOAD, figures, dt_s=0.001)
     assert np.abs(simulate(step, LOAD, figures) - fine).mean() < 0.03
+
+
+def test_a_sagging_supply_slows_a_step_at_stall_as_a_weaker_servo_would():
+    """Its torque and gain sag with the supply, not its back-EMF damping: at stall it runs
+    as a servo that much weaker and slower."""
+    step = trial(SentMove(0.0, 60.0, 0.0), until_s=0.4)
+    both = candidates()
+    sagging = simulate(step, LOAD, both, supply_sag_per_nm=0.1 / YAW.stall_torque_nm)[:, 0]
+    weaker = candidates(
+        stall_torque_nm=YAW.stall_torque_nm * 0.9,
+        no_load_speed_deg_s=YAW.no_load_speed_deg_s * 0.9,
+    )
+    steady = simulate(step, LOAD, weaker)
+    halfway = [step.read_s[np.argmax(read > 30.0)] for read in (sagging, *steady.T)]
+    assert halfway[0] == pytest.approx(halfway[2], abs=0.003)
+    assert halfway[0] > halfway[1] + 0.005
+
+
+def test_the_supplys_sag_is_set_by_its_reads_against_the_servos_load():
+    """The shoulder held upright and leaning 60° forward pushes against gravity: the supply
+    reads fall with that push, by 0.3 V at stall here."""
+    shoulder = actuator_params(ARM6)[1]
+    load = joint_load(ARM6, "shoulder", [0.0] * 6)
+    figures = assumed_figures(shoulder)
+    read_s = np.array([0.9, 1.0, 2.4, 2.5, 2.6])
+    leaning = abs(float(load.gravity_at(np.radians([60.0]))[0])) / shoulder.stall_torque_nm
+    upright = abs(float(load.gravity_at(np.zeros(1))[0])) / shoulder.stall_torque_nm
+    volts = 7.4 - 0.3 * np.where(read_s > 2, leaning, upright)
+    reads = np.arange(0.0, 3.0, 0.004)
+    moves = (SentMove(0.0, 0.0, 0.0), SentMove(1.2, 60.0, 0.5))
+    held = Trial(moves, reads, np.zeros(len(reads)), 0.0, supply=SupplyReads(read_s, volts))
+    assert leaning - upright > 0.2
+    per_nm = 0.3 / 7.4 / shoulder.stall_torque_nm
+    assert supply_sag(held, load, figures) == pytest.approx(per_nm, rel=0.05)
+    # too few reads to draw a line through: no sag
+    two = Trial(moves, reads, held.read_deg, 0.0, supply=SupplyReads(read_s[:2], volts[:2]))
+    assert supply_sag(two, load, figures) == 0.0
 
 
 def test_a_response_delay_starts_the_move_that_much_later():
@@ -118,3 +169,49 @@ def test_a_neighbour_standing_over_changes_the_gravity_on_the_joint():
     expected_deg = np.degrees(slope * np.radians(20.0) / elbow.kp_nm_rad) + elbow.deadband_deg / 2
     assert read[-1, 1] == pytest.approx(expected_deg, abs=0.04)
     assert abs(read[-1, 0]) < 0.01
+
+
+def held_by_friction_in_mujoco(joint: str, friction_nm: float, torque_nm: float) -> Trial:
+    """arm6 upright in MuJoCo (1 s, its 2 ms step), ``joint``'s servo off, its dry friction
+    ``friction_nm`` against ``torque_nm`` (gravity and a push), the others held by their
+    servos: the joint's and its neighbours' positions at every step, as reads."""
+    model = load_model(ARM6)
+    index = index_joints(model, ARM6)
+    j = ARM6.joint_names.index(joint)
+    params = actuator_params(ARM6, {joint: {"friction_nm": friction_nm}})
+    apply_servo_models(model, index, params, ARM6)
+    data = start_state(model, index, np.zeros(6))
+    gravity = float(joint_load(ARM6, joint, [0.0] * 6).gravity_at(np.zeros(1))[0])
+    trace = np.empty((500, 6))
+    for step in range(len(trace)):
+        data.ctrl[index.actuator] = 0.0
+        data.ctrl[index.actuator[j]] = data.qpos[index.qpos[j]]  # no torque
+        data.qfrc_applied[index.dof[j]] = torque_nm - gravity
+        mujoco.mj_step(model, data)
+        trace[step] = np.degrees(data.qpos[index.qpos])
+    times = np.arange(1, len(trace) + 1) * model.opt.timestep
+    neighbours = tuple(
+        NeighbourReads(n, times, trace[:, ARM6.joint_names.index(n)], 0.0)
+        for n in ("shoulder", "elbow", "wrist_pitch")
+        if n != joint
+    )
+    return Trial((Unload(0.0),), times, trace[:, j], 0.0, neighbours)
+
+
+@pytest.mark.parametrize("joint", ["elbow", "wrist_pitch"])
+def test_a_joint_held_by_dry_friction_creeps_on_as_in_mujoco(joint):
+    """MuJoCo's dry friction is a soft constraint: held below its limit, a joint creeps on, a
+    heavy joint (the elbow, its inertia 1.5 times what MuJoCo weighs its friction by) as a
+    light one (the wrist_pitch)."""
+    friction, torque = 0.03, 0.02
+    held = held_by_friction_in_mujoco(joint, friction, torque)
+    load = joint_load(ARM6, joint, [0.0] * 6)
+    # gravity as it changes with the angle, plus the push that makes it ``torque`` at 0
+    pushed = dataclasses.replace(
+        load, gravity_nm=load.gravity_nm - load.gravity_at(np.zeros(1)) + torque
+    )
+    figures = assumed_figures(actuator_params(ARM6)[ARM6.joint_names.index(joint)])
+    read = simulate(held, pushed, figures_of([{**figures, "friction_nm": friction}]))[:, 0]
+    assert held.read_deg[-1] > 0.1  # half a read unit in a second
+    assert read[-1] == pytest.approx(held.read_deg[-1], rel=0.02)
+    assert np.abs(read - held.read_deg).max() < 0.005

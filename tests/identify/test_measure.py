@@ -41,6 +41,12 @@ def test_the_moves_go_on_their_times_and_the_reads_follow_the_servo():
     assert np.allclose(reads_deg[reads_s > 1.2], 0.0, atol=0.3)
     # the slow reads: one at the start and one every SLOW_READ_S after
     assert len(measured.supply_v) == len(measured.temp_c) == int(1.5 / SLOW_READ_S)
+    # the supply reads go to the fit with their times, to set its sag against the load
+    supply = measured.trial.supply
+    assert supply is not None and list(supply.volts) == list(measured.supply_v)
+    assert np.diff(supply.read_s) == pytest.approx(
+        [SLOW_READ_S] * (len(supply.read_s) - 1), abs=0.005
+    )
 
 
 def test_the_neighbours_are_read_every_fourth_read_and_the_joint_keeps_the_rest():
