@@ -5,7 +5,9 @@ BAM fits its actuator models with CMA-ES too. This one is the textbook algorithm
 Evolution Strategy: A Tutorial", Hansen 2016, with its default settings) on a box: the search
 runs in [0, 1]^n, where every figure is scaled between its bounds, and a candidate outside the box
 is evaluated at its nearest point inside, plus a penalty for the distance. The cost function
-takes a whole generation at once (rows are candidates), which is what makes the joint model fast.
+takes a whole generation at once (rows are candidates), which is what makes the joint model fast;
+several searches from one start (``starts``) are costed together in that one call, so a second
+one, which may miss a false valley the first falls into, costs little more.
 """
 
 from __future__ import annotations
@@ -36,31 +38,65 @@ def minimise(
     seed: int = 0,
     tolerance: float = 1e-4,
     refine: tuple[Cost, int] | None = None,
+    starts: int = 1,
 ) -> Found:
     """The point of [0, 1]^n where ``cost`` is lowest, searched from ``start``. ``refine``: a
     finer (dearer) cost and how many generations it takes over for, from where the search
-    stands: the best is then the best that cost found."""
-    rng = np.random.default_rng(seed)
+    stands: the best is then the best that cost found. ``starts``: searches run side by side
+    from ``start``, each on its own random draws, their candidates costed in one call (a valley
+    one of them falls into, the others may not); the best is the best any of them found."""
     settings = _Settings.of(len(start), population)
-    state = _State.at(np.clip(np.asarray(start, dtype=float), 0, 1), sigma)
+    mean = np.clip(np.asarray(start, dtype=float), 0, 1)
+    searches = [_Search(seed + i, mean, sigma) for i in range(starts)]
     phases = [(cost, generations)] if refine is None else [(cost, generations - refine[1]), refine]
-    best, best_cost, evaluations, generation = state.mean.copy(), np.inf, 0, 0
+    evaluations, generation = 0, 0
     for phase_cost, count in phases:
-        best_cost = float(_penalised(phase_cost, best[None])[0])  # judged anew by this cost
-        evaluations += 1
+        bests = np.array([search.best for search in searches])
+        judged = _penalised(phase_cost, bests)  # judged anew by this phase's cost
+        evaluations += len(searches)
+        for search, judged_cost in zip(searches, judged):
+            search.best_cost = float(judged_cost)
+        running = list(searches)
         for _ in range(max(count, 0)):
             generation += 1
-            steps = state.sample(rng, settings.lam)
-            points = state.mean + state.sigma * steps
-            costs = _penalised(phase_cost, points)
-            evaluations += settings.lam
-            order = np.argsort(costs)
-            if costs[order[0]] < best_cost:
-                best, best_cost = np.clip(points[order[0]], 0, 1), float(costs[order[0]])
-            state.adapt(settings, steps[order[: settings.mu]], generation)
-            if state.spread < tolerance:
+            steps = [search.state.sample(search.rng, settings.lam) for search in running]
+            points = np.concatenate(
+                [s.state.mean + s.state.sigma * d for s, d in zip(running, steps)]
+            )
+            costs = _penalised(phase_cost, points).reshape(len(running), settings.lam)
+            evaluations += len(points)
+            for search, step, point, cost_of in zip(
+                running, steps, np.split(points, len(running)), costs
+            ):
+                search.take(settings, step, point, cost_of, generation)
+            running = [search for search in running if search.state.spread >= tolerance]
+            if not running:
                 break
-    return Found(best, best_cost, evaluations, generation)
+    winner = min(searches, key=lambda search: search.best_cost)
+    return Found(winner.best, winner.best_cost, evaluations, generation)
+
+
+class _Search:
+    """One CMA-ES search: its random draws, its distribution, and the best point it found."""
+
+    def __init__(self, seed: int, mean: np.ndarray, sigma: float):
+        self.rng = np.random.default_rng(seed)
+        self.state = _State.at(mean, sigma)
+        self.best, self.best_cost = mean.copy(), np.inf
+
+    def take(
+        self,
+        settings: _Settings,
+        steps: np.ndarray,
+        points: np.ndarray,
+        costs: np.ndarray,
+        generation: int,
+    ) -> None:
+        """One generation's candidates (``steps`` from the mean, ``points``) and their costs."""
+        order = np.argsort(costs)
+        if costs[order[0]] < self.best_cost:
+            self.best, self.best_cost = np.clip(points[order[0]], 0, 1), float(costs[order[0]])
+        self.state.adapt(settings, steps[order[: settings.mu]], generation)
 
 
 @dataclass(frozen=True)

@@ -51,3 +51,33 @@ def test_a_finer_cost_takes_over_for_the_last_generations_and_judges_the_best():
     assert found.best == pytest.approx(fine_bottom, abs=2e-3)
     assert found.cost == pytest.approx(np.sum((found.best - fine_bottom) ** 2))
     assert calls["coarse"] > calls["fine"] > 1  # the fine one for its third of the generations
+
+
+def two_valleys(p: np.ndarray) -> np.ndarray:
+    """A shallow valley by the start and a deeper one further off."""
+    near = np.sum((p - np.array([0.3, 0.3])) ** 2, axis=1) + 0.01
+    far = np.sum((p - np.array([0.8, 0.75])) ** 2, axis=1)
+    return np.minimum(near, far)
+
+
+def test_searches_side_by_side_keep_the_deepest_valley_any_of_them_found():
+    alone = [minimise(two_valleys, np.full(2, 0.3), generations=40, seed=s) for s in (4, 5, 6)]
+    assert [found.cost > 0.009 for found in alone] == [True, True, False]  # one found the far
+    together = minimise(two_valleys, np.full(2, 0.3), generations=40, seed=4, starts=3)
+    assert together.best == pytest.approx([0.8, 0.75], abs=1e-3)
+    assert together.cost == alone[2].cost  # each search is the one its seed runs alone
+    assert together.evaluations == sum(found.evaluations for found in alone)
+
+
+def test_searches_side_by_side_cost_their_candidates_in_one_call():
+    rows = []
+
+    def cost(p: np.ndarray) -> np.ndarray:
+        rows.append(len(p))
+        return np.sum((p - 0.4) ** 2, axis=1)
+
+    minimise(cost, np.full(3, 0.5), generations=5, population=8, starts=2, tolerance=0)
+    assert rows == [2] + [16] * 5  # the two starts judged, then each generation's candidates
+    rows.clear()  # a finer cost judges both bests anew and refines both
+    minimise(cost, np.full(3, 0.5), generations=5, population=8, starts=2, refine=(cost, 2))
+    assert rows == [2] + [16] * 3 + [2] + [16] * 2
