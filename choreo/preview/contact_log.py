@@ -43,8 +43,9 @@ class ContactLog:
         self._on_world = model.geom_bodyid == 0
         self._min_depth_m = min_depth_m
         self._last_pairs = b""
-        # indices into the current contact list, with the pair each touch belongs to
-        self._watched: list[tuple[int, tuple[int, str, str]]] = []
+        # the pair each watched touch belongs to, and where the touch is in the contact list
+        self._watched: list[tuple[int, str, str]] = []
+        self._watched_at = np.zeros(0, dtype=int)
         self._pair_ids: dict[tuple[int, str, str], int] = {}
         self._named_at: list[int] = []  # per pair: the entry that first named it (ascending)
         self.steps: list[int] = []
@@ -58,15 +59,18 @@ class ContactLog:
         if pairs != self._last_pairs:
             self._last_pairs = pairs
             watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
-            self._watched = [(int(i), self._pair_key(*geoms[i])) for i in watched]
+            self._watched = [self._pair_key(*geoms[i]) for i in watched]
+            self._watched_at = watched
         if not self._watched:
             return
-        depths = -contact.dist[: data.ncon]
-        for i, key in self._watched:
-            if depths[i] > self._min_depth_m:
+        # the watched touches' depths as Python floats at once: this runs at every step
+        depths = (-contact.dist[: data.ncon][self._watched_at]).tolist()
+        minimum = self._min_depth_m
+        for key, depth in zip(self._watched, depths):
+            if depth > minimum:
                 self.pair_index.append(self._pair_id(key))
                 self.steps.append(step)
-                self.depths_m.append(float(depths[i]))
+                self.depths_m.append(depth)
 
     def _pair_id(self, key: tuple[int, str, str]) -> int:
         pair = self._pair_ids.get(key)
