@@ -115,6 +115,7 @@ class PhysicsTwin:
         self._sag = 1.0
         self._per_stall = 1 / np.maximum(self._stall_nm, 1e-9)
         self._temp_c = np.full(n, AMBIENT_C)
+        self._setpoint, self._ctrl = np.empty(n), np.empty(n)  # each step's, reused
         self.trace: deque[TraceStep] = deque(maxlen=TRACE_LIMIT)
         hold = np.radians(home)
         hold_until_still(
@@ -184,12 +185,19 @@ class PhysicsTwin:
         due = math.ceil((time_s - self._origin_s) / self.dt_s - 1e-9)
         if due <= self._steps:
             return
+        # each step's set-points are worked out in one buffer (this runs at every physics step)
+        setpoint = self._setpoint
         while self._steps < due:
             now = self._origin_s + self._steps * self.dt_s
-            moving = np.clip(np.minimum(now, self._end_s) - self._start_s, 0.0, None)
-            setpoint_units = self._start_units + self._velocity * moving
-            setpoint_deg = (setpoint_units - self._zero) * self._direction * DEG_PER_UNIT
-            self._step_physics(np.radians(setpoint_deg))
+            np.minimum(now, self._end_s, out=setpoint)
+            np.subtract(setpoint, self._start_s, out=setpoint)
+            np.maximum(setpoint, 0.0, out=setpoint)  # how long each servo has been moving
+            np.multiply(self._velocity, setpoint, out=setpoint)
+            np.add(self._start_units, setpoint, out=setpoint)  # in position units
+            np.subtract(setpoint, self._zero, out=setpoint)
+            np.multiply(setpoint, self._direction, out=setpoint)
+            np.multiply(setpoint, DEG_PER_UNIT, out=setpoint)
+            self._step_physics(np.radians(setpoint, out=setpoint))
             self._steps += 1
             self.trace.append(
                 TraceStep(
@@ -203,7 +211,7 @@ class PhysicsTwin:
     def _step_physics(self, setpoint_rad: np.ndarray) -> None:
         model, data, index = self._model, self._data, self._index
         position = data.qpos[index.qpos]
-        ctrl = self._drive.ctrl(setpoint_rad, position)
+        ctrl = self._drive.ctrl(setpoint_rad, position, out=self._ctrl)
         data.ctrl[index.actuator] = np.where(self._loaded, ctrl, position)  # unloaded: no torque
         sag = self._supply_now_v / self.supply_v if self.supply_v else 1.0
         if abs(sag - self._sag) > SAG_STEP:
