@@ -218,9 +218,11 @@ class ServoDrive:
     play."""
 
     def __init__(self, params: Sequence[ActuatorParams], dt_s: float, initial_rad: np.ndarray):
+        n = len(params)
         self.offset_rad = np.radians([p.offset_deg for p in params])
         self.half_play_rad = np.radians([p.backlash_deg for p in params]) / 2
         self.half_band_rad = np.radians([p.deadband_deg for p in params]) / 2
+        self._minus_half_band_rad = -self.half_band_rad
         # a delay between two steps acts on the set-point between theirs (as identify's joint
         # model has it): rounded to whole steps, a 3.7 ms delay would act as 4 ms
         steps = np.array([p.response_delay_s / dt_s for p in params], dtype=float)
@@ -231,32 +233,50 @@ class ServoDrive:
         self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
         self._newest = 0
         # where in the flattened history each servo's late and older set-points are, for each
-        # row the newest is written to: one lookup a step instead of index arithmetic
-        rows = np.arange(depth)[:, None]
-        columns, width = np.arange(len(params)), len(params)
-        self._late_at = ((rows - self.delay_steps) % depth) * width + columns
-        self._older_at = ((rows - self.delay_steps - 1) % depth) * width + columns
-        self._between_steps = bool((self._delay_part > 0).any())
+        # slot the newest one may be in (worked out once: ``ctrl`` runs at every physics step)
+        slots = np.arange(depth)[:, None]
+        columns = np.arange(n)
+        self._late_at = list((slots - self.delay_steps) % depth * n + columns)
+        self._older_at = list((slots - self.delay_steps - 1) % depth * n + columns)
+        # without a delay the set-point is acted on as it comes: ``late + (older - late) * 0``
+        # is ``late`` but for a zero's sign, which adding an offset of +0.0 (never -0.0) gives
+        self._offset_undelayed_rad = self.offset_rad + 0.0
         self.aim_rad = np.asarray(initial_rad, dtype=float) + self.offset_rad
+        self._wanted, self._low, self._high, self._error = np.empty((4, n))
 
-    def ctrl(self, setpoint_rad: np.ndarray, position_rad: np.ndarray) -> np.ndarray:
-        """One step: the actuator's control for the set-points of this step."""
-        history = self._history
-        self._newest = (self._newest + 1) % len(history)
-        history[self._newest] = setpoint_rad
-        flat = history.reshape(-1)
-        late = flat[self._late_at[self._newest]]
-        if self._between_steps:
-            older = flat[self._older_at[self._newest]]
-            late = late + (older - late) * self._delay_part
-        wanted = late + self.offset_rad
-        # np.minimum/np.maximum rather than np.clip: this runs at every physics step
-        aim = np.minimum(
-            np.maximum(self.aim_rad, wanted - self.half_play_rad), wanted + self.half_play_rad
-        )
-        self.aim_rad = aim
-        error = np.minimum(np.maximum(aim - position_rad, -self.half_band_rad), self.half_band_rad)
-        return aim - error
+    def ctrl(
+        self, setpoint_rad: np.ndarray, position_rad: np.ndarray, out: np.ndarray | None = None
+    ) -> np.ndarray:
+        """One step: the actuator's control for the set-points of this step (into ``out`` if
+        given). For a handful of servos numpy's cost is per call, not per element: the law
+        takes as few calls as it allows (no fancy indexing or modulo), into buffers kept."""
+        history, wanted = self._history, self._wanted
+        if len(history) == 1:
+            history[0] = setpoint_rad
+            np.add(setpoint_rad, self._offset_undelayed_rad, out=wanted)
+        else:
+            newest = self._newest + 1
+            if newest == len(history):
+                newest = 0
+            self._newest = newest
+            history[newest] = setpoint_rad
+            flat = history.reshape(-1)  # a view: history is contiguous
+            late, older = flat[self._late_at[newest]], flat[self._older_at[newest]]
+            np.subtract(older, late, out=older)
+            np.multiply(older, self._delay_part, out=older)
+            np.add(late, older, out=late)
+            np.add(late, self.offset_rad, out=wanted)
+        # the aim stays within the half play of where it is wanted (np.minimum/np.maximum
+        # rather than np.clip: this runs at every physics step)
+        aim, low, high = self.aim_rad, self._low, self._high
+        np.subtract(wanted, self.half_play_rad, out=low)
+        np.add(wanted, self.half_play_rad, out=high)
+        np.maximum(aim, low, out=aim)
+        np.minimum(aim, high, out=aim)
+        error = np.subtract(aim, position_rad, out=self._error)
+        np.maximum(error, self._minus_half_band_rad, out=error)
+        np.minimum(error, self.half_band_rad, out=error)
+        return np.subtract(aim, error, out=out)
 
     def same_as(self, other: ServoDrive, tolerance_rad: float) -> bool:
         """Whether ``other`` (of the same servos) goes on as this one does: the same set-points

@@ -43,8 +43,10 @@ class ContactLog:
         self._on_world = model.geom_bodyid == 0
         self._min_depth_m = min_depth_m
         self._last_pairs = b""
-        # indices into the current contact list, with the pair each touch belongs to
-        self._watched: list[tuple[int, tuple[int, str, str]]] = []
+        # the pair each watched touch belongs to, and where the touch is in the contact list
+        self._watched: list[tuple[int, str, str]] = []
+        self._watched_at = np.zeros(0, dtype=int)
+        self._watched_ids: list[int] | None = None  # their pairs' numbers, once all have one
         self._pair_ids: dict[tuple[int, str, str], int] = {}
         self._named_at: list[int] = []  # per pair: the entry that first named it (ascending)
         self.steps: list[int] = []
@@ -58,15 +60,27 @@ class ContactLog:
         if pairs != self._last_pairs:
             self._last_pairs = pairs
             watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
-            self._watched = [(int(i), self._pair_key(*geoms[i])) for i in watched]
+            self._watched = [self._pair_key(*geoms[i]) for i in watched]
+            self._watched_at = watched
+            self._watched_ids = None
         if not self._watched:
             return
-        depths = -contact.dist[: data.ncon]
-        for i, key in self._watched:
-            if depths[i] > self._min_depth_m:
+        depths = -contact.dist[: data.ncon][self._watched_at]
+        if self._watched_ids is not None and bool((depths > self._min_depth_m).all()):
+            # the usual step: the same touches as the last, every one deep enough and its pair
+            # numbered, logged at once (this runs at every physics step)
+            self.pair_index += self._watched_ids
+            self.steps += [step] * len(self._watched_ids)
+            self.depths_m += depths.tolist()
+            return
+        minimum = self._min_depth_m
+        for key, depth in zip(self._watched, depths.tolist()):
+            if depth > minimum:
                 self.pair_index.append(self._pair_id(key))
                 self.steps.append(step)
-                self.depths_m.append(float(depths[i]))
+                self.depths_m.append(depth)
+        if self._watched_ids is None and all(key in self._pair_ids for key in self._watched):
+            self._watched_ids = [self._pair_ids[key] for key in self._watched]
 
     def _pair_id(self, key: tuple[int, str, str]) -> int:
         pair = self._pair_ids.get(key)
@@ -89,6 +103,7 @@ class ContactLog:
     def take_from(self, other: ContactLog, entries: int) -> None:
         """``other``'s first ``entries`` contacts, and the pairs they name, as this log's."""
         pairs = bisect.bisect_left(other._named_at, entries)
+        self._last_pairs = b""  # the pairs are numbered anew: the touches are classified anew
         self.steps = other.steps[:entries]
         self.pair_index = other.pair_index[:entries]
         self.depths_m = other.depths_m[:entries]
@@ -98,6 +113,7 @@ class ContactLog:
     def take_rest(self, other: ContactLog, entries: int) -> None:
         """``other``'s contacts from entry ``entries`` on, after this log's: its pairs numbered
         as this log numbers them (in the order they first touch), the new ones after."""
+        self._last_pairs = b""  # new pairs may be numbered: the touches are classified anew
         rest = np.array(other.pair_index[entries:], dtype=int)
         keys = list(other._pair_ids)
         ours = np.zeros(len(keys), dtype=int)  # other's pair number -> ours

@@ -138,6 +138,15 @@ class Rejoin:
     checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
 
 
+def _as_slice(indices: np.ndarray) -> slice | np.ndarray:
+    """``indices`` as a slice when they are consecutive and ascending (indexing with it takes a
+    view), else as they are."""
+    first = int(indices[0]) if len(indices) else 0
+    if np.array_equal(indices, np.arange(first, first + len(indices))):
+        return slice(first, first + len(indices))
+    return indices
+
+
 def start_step(start_s: float | np.ndarray, dt_s: float) -> np.ndarray:
     """The physics step at which a START at ``start_s`` (one time or an array) happens: the first
     step at or after its time."""
@@ -180,16 +189,24 @@ class StepLoop:
         physics |= mujoco.mjtState.mjSTATE_ACT
         time = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)
         self.physics = slice(time, time + mujoco.mj_stateSize(model, physics))
+        # MjData's arrays never move: views of them are taken once, not at every step, and the
+        # joints' positions and actuators, when consecutive (as usual), are slices (no copies)
+        self._qpos, self._force = data.qpos, data.actuator_force
+        self._joint_qpos = _as_slice(index.qpos)
+        self._actuators = _as_slice(index.actuator)
+        self._ctrl = data.ctrl[self._actuators] if isinstance(self._actuators, slice) else None
 
     def step(self, ctrl_rad: np.ndarray) -> None:
         """One physics step with the servos' set-points at ``ctrl_rad``, through their law
         (``ServoDrive``: delay, offset, gear play, dead band)."""
-        data, log, k = self.data, self.log, self.log.count
-        data.ctrl[self.index.actuator] = self.drive.ctrl(ctrl_rad, data.qpos[self.index.qpos])
+        data, log, k, qpos = self.data, self.log, self.log.count, self._qpos
+        ctrl = self.drive.ctrl(ctrl_rad, qpos[self._joint_qpos], out=self._ctrl)
+        if self._ctrl is None:
+            data.ctrl[self._actuators] = ctrl
         log.ctrl[k] = ctrl_rad
-        log.qpos[k] = data.qpos
+        log.qpos[k] = qpos
         mujoco.mj_step(self.model, data)  # its forces and contacts belong to the state at t
-        log.torque[k] = data.actuator_force[self.index.actuator]
+        log.torque[k] = self._force[self._actuators]
         if data.ncon:
             self.contacts.see(data, k)
         log.count = k + 1

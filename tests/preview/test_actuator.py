@@ -126,3 +126,64 @@ def test_two_servo_drives_go_on_alike_with_aims_within_tolerance_and_the_same_de
     late = drive_after([1.0, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
     other = drive_after([1.5, 2.0, 3.0], backlash_deg=0.0, response_delay_s=0.01)
     assert np.array_equal(late.aim_rad, other.aim_rad) and not late.same_as(other, 1.0)
+
+
+class ReferenceDrive:
+    """The servo's law written plainly, as ``ServoDrive`` had it before it was made lean: the
+    set-point ``delay`` steps late (between two steps, the set-point between theirs), plus the
+    offset, turned back only past the half play, less the error inside the half band."""
+
+    def __init__(self, params: list[ActuatorParams], initial_rad: np.ndarray):
+        self.offset = np.radians([p.offset_deg for p in params])
+        self.half_play = np.radians([p.backlash_deg for p in params]) / 2
+        self.half_band = np.radians([p.deadband_deg for p in params]) / 2
+        self.delay_steps = np.array([p.response_delay_s / DT_S for p in params])
+        self.seen = [np.array(initial_rad, dtype=float)]
+        self.aim = np.array(initial_rad, dtype=float) + self.offset
+
+    def ctrl(self, setpoint: np.ndarray, position: np.ndarray) -> np.ndarray:
+        self.seen.append(np.array(setpoint, dtype=float))
+        late = np.empty(len(setpoint))
+        for j, delay in enumerate(self.delay_steps):
+            whole = round(delay) if np.isclose(delay, round(delay)) else int(np.floor(delay))
+            part = 0.0 if np.isclose(delay, round(delay)) else delay - np.floor(delay)
+            newer = self.seen[max(len(self.seen) - 1 - whole, 0)][j]
+            older = self.seen[max(len(self.seen) - 2 - whole, 0)][j]
+            late[j] = newer + (older - newer) * part
+        wanted = late + self.offset
+        self.aim = np.minimum(
+            np.maximum(self.aim, wanted - self.half_play), wanted + self.half_play
+        )
+        error = np.minimum(np.maximum(self.aim - position, -self.half_band), self.half_band)
+        return self.aim - error
+
+
+@pytest.mark.parametrize("delays_s", [(0.0, 0.0, 0.0, 0.0), (0.0, 0.004, 0.0037, 0.011)])
+def test_the_drive_gives_exactly_what_the_plain_law_gives_over_random_set_points(delays_s):
+    rng = np.random.default_rng(7)
+    figures = {
+        name: {
+            "response_delay_s": delay,
+            "backlash_deg": float(rng.uniform(0.0, 3.0)),
+            "deadband_deg": float(rng.uniform(0.0, 1.0)),
+            "offset_deg": float(rng.uniform(-5.0, 5.0)),
+        }
+        for name, delay in zip(ARM6.joint_names, delays_s)
+    }
+    params = list(actuator_params(ARM6, figures)[: len(delays_s)])
+    initial = rng.uniform(-1.0, 1.0, len(params))
+    drive, reference = ServoDrive(params, DT_S, initial), ReferenceDrive(params, initial)
+    out = np.empty(len(params))
+    # a random walk of set-points (so the gear play turns back and forth) and positions near them
+    setpoint = initial.copy()
+    for step in range(400):
+        setpoint = setpoint + rng.normal(0.0, 0.01, len(params))
+        position = setpoint + rng.normal(0.0, 0.01, len(params))
+        expected = reference.ctrl(setpoint, position)
+        if step % 2:  # into a given array, or a new one
+            assert drive.ctrl(setpoint, position, out=out) is out
+            got = out
+        else:
+            got = drive.ctrl(setpoint, position)
+        assert np.array_equal(got, expected), f"step {step}"
+        assert np.array_equal(drive.aim_rad, reference.aim), f"step {step}"
