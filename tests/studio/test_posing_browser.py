@@ -5,8 +5,8 @@ a walker's body handle puts the handle back on the body.
 
 The mouse goes where the page draws the ring or the handle: the point of the world (the handle's
 pose the studio set, the gizmo's shape as viser draws it) through the camera the tab reported
-(``on_screen``), not pixels found by hand. One studio and one page per robot (a page's first
-frames cost seconds of software rendering).
+(``on_screen``), not pixels found by hand. One studio per robot and one page open at a time (a
+page's first frames cost seconds of software rendering, an open page a share of a core).
 """
 
 from __future__ import annotations
@@ -65,13 +65,36 @@ def start_studio(tmp_path_factory, motion):
     return studio
 
 
-def open_page(browser, studio, loaded: str):
-    page = browser.new_page(viewport=VIEWPORT)
-    page.goto(studio.address.url)
-    # a new page's first frames take a busy machine's software rendering a minute
-    expect(page.get_by_text(loaded, exact=False)).to_be_visible(timeout=4 * WAIT_MS)
-    page.locator(".mantine-Notification-root button").click()  # the "software WebGL" note
-    return page
+class Tab:
+    """The module's one page, on one studio at a time: showing another studio closes the page
+    on the last (an open page costs a software-rendering browser a share of a core)."""
+
+    def __init__(self, browser):
+        self.browser, self.studio, self.page = browser, None, None
+
+    def showing(self, studio, loaded: str):
+        """The page on ``studio``, opened on it (once it shows ``loaded``) if it is not."""
+        if self.studio is not studio:
+            self.close()
+            self.page = self.browser.new_page(viewport=VIEWPORT)
+            self.page.goto(studio.address.url)
+            # a new page's first frames take a busy machine's software rendering a minute
+            expect(self.page.get_by_text(loaded, exact=False)).to_be_visible(timeout=4 * WAIT_MS)
+            self.page.locator(".mantine-Notification-root button").click()  # "software WebGL"
+            self.studio = studio
+        return self.page
+
+    def close(self) -> None:
+        if self.page is not None:
+            self.page.close()
+        self.studio, self.page = None, None
+
+
+@pytest.fixture(scope="module")
+def tab(browser):
+    one = Tab(browser)
+    yield one
+    one.close()
 
 
 @pytest.fixture(scope="module")
@@ -81,11 +104,9 @@ def arm_served(tmp_path_factory):
     studio.close()
 
 
-@pytest.fixture(scope="module")
-def arm_tab(browser, arm_served):
-    page = open_page(browser, arm_served, "9 keyframes")
-    yield page
-    page.close()
+@pytest.fixture
+def arm_tab(tab, arm_served):
+    return tab.showing(arm_served, "9 keyframes")
 
 
 @pytest.fixture
@@ -100,28 +121,43 @@ def arm(arm_served, arm_tab):
     return arm_served
 
 
-def red_pixels(page) -> np.ndarray:
-    """Where the page is drawn in the gizmo's red (rows, columns of page pixels)."""
-    shot = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
-    return np.abs(shot - np.array(RED)).max(axis=2) <= COLOUR_TOLERANCE
+def red_pixels(page, corner: tuple[int, int], size: tuple[int, int]) -> np.ndarray:
+    """Where the page draws the gizmo's red in the region of ``size`` (width, height) page
+    pixels at ``corner`` (x, y): rows, columns from the corner. A clip, not the whole page:
+    polled while software rendering catches up, a full page costs Chromium ~0.2 s a shot."""
+    clip = {"x": corner[0], "y": corner[1], "width": size[0], "height": size[1]}
+    shot = Image.open(io.BytesIO(page.screenshot(clip=clip))).convert("RGB")
+    return np.abs(np.asarray(shot).astype(int) - np.array(RED)).max(axis=2) <= COLOUR_TOLERANCE
 
 
-def share_drawn(red: np.ndarray, page, camera, points_m) -> float:
-    """The share of ``points_m`` (world, m) drawn in the gizmo's red where ``red`` is set."""
+def share_drawn(red: np.ndarray, corner: tuple[int, int], pixels) -> float:
+    """The share of ``pixels`` (x, y on the page) drawn in the gizmo's red where ``red``
+    (the region at ``corner``) is set."""
     drawn = 0
-    for point in points_m:
-        x, y = (int(round(v)) for v in on_screen(page, camera, point))
-        drawn += bool(red[y - NEAR_PX : y + NEAR_PX + 1, x - NEAR_PX : x + NEAR_PX + 1].any())
-    return drawn / len(points_m)
+    for x, y in pixels:
+        row, column = y - corner[1], x - corner[0]
+        near = red[row - NEAR_PX : row + NEAR_PX + 1, column - NEAR_PX : column + NEAR_PX + 1]
+        drawn += bool(near.any())
+    return drawn / len(pixels)
 
 
 def draws_gizmo(page, camera, on_m, off_m=()) -> bool:
     """Whether the page draws a gizmo (its red ring or arrow) along ``on_m`` and not along
     ``off_m`` (points of the world, m)."""
+    on, off = ([on_screen_px(page, camera, p) for p in points] for points in (on_m, off_m))
+    xs, ys = [x for x, _ in on + off], [y for _, y in on + off]
+    corner = (max(0, min(xs) - NEAR_PX), max(0, min(ys) - NEAR_PX))
+    size = (max(xs) + NEAR_PX + 1 - corner[0], max(ys) + NEAR_PX + 1 - corner[1])
     page.mouse.move(1, 1)  # a gizmo under the mouse is drawn highlighted, not red
-    red = red_pixels(page)
-    shown = share_drawn(red, page, camera, on_m) >= DRAWN
-    return shown and (not off_m or share_drawn(red, page, camera, off_m) <= NOT_DRAWN)
+    red = red_pixels(page, corner, size)
+    shown = share_drawn(red, corner, on) >= DRAWN
+    return shown and (not off or share_drawn(red, corner, off) <= NOT_DRAWN)
+
+
+def on_screen_px(page, camera, point_m) -> tuple[int, int]:
+    """The page pixel (x, y) where the 3D view draws ``point_m`` (world, m)."""
+    x, y = on_screen(page, camera, point_m)
+    return int(round(x)), int(round(y))
 
 
 def wait_until_drawn(page, camera, on_m, off_m=(), what: str = "the gizmo") -> None:
@@ -256,33 +292,30 @@ def x_arrow(studio, origin_m: np.ndarray, rotation: np.ndarray) -> list[np.ndarr
     return [origin_m + share * size * rotation[:, 0] for share in (0.3, 0.4, 0.5, 0.8, 0.9)]
 
 
-def test_a_body_drag_out_of_the_legs_reach_is_refused_and_the_handle_goes_back(browser, walker):
+def test_a_body_drag_out_of_the_legs_reach_is_refused_and_the_handle_goes_back(tab, walker):
     assert walker.session.plan is not None
-    page = open_page(browser, walker, f"{len(walker.session.plan.motion.keyframes)} keyframes")
-    try:
-        (client,) = walker.server.get_clients().values()
-        position, wxyz = walker.view.handle_pose(BODY)
-        rotation = rotation_of(wxyz)
-        wait_until_drawn(page, client.camera, x_arrow(walker, position, rotation))
+    page = tab.showing(walker, f"{len(walker.session.plan.motion.keyframes)} keyframes")
+    (client,) = walker.server.get_clients().values()
+    position, wxyz = walker.view.handle_pose(BODY)
+    rotation = rotation_of(wxyz)
+    wait_until_drawn(page, client.camera, x_arrow(walker, position, rotation))
 
-        up, lift_m = rotation[:, 2], 0.25  # the body 25 cm up: no leg reaches the floor
-        grab = position + 0.85 * handle_size(walker) * up  # on the blue arrow, near its tip
-        press(page, client.camera, grab)
-        move(page, client.camera, grab + lift_m * up)
-        wait_for(lambda: any(line.startswith("⛔") for line in walker.said), "the refusal")
-        page.mouse.up()
+    up, lift_m = rotation[:, 2], 0.25  # the body 25 cm up: no leg reaches the floor
+    grab = position + 0.85 * handle_size(walker) * up  # on the blue arrow, near its tip
+    press(page, client.camera, grab)
+    move(page, client.camera, grab + lift_m * up)
+    wait_for(lambda: any(line.startswith("⛔") for line in walker.said), "the refusal")
+    page.mouse.up()
 
-        expect(page.get_by_text("the body cannot go there").first).to_be_visible(timeout=WAIT_MS)
-        assert all(
-            line.startswith("⛔ refused: the body cannot go there: foot ")
-            for line in walker.said
-            if line.startswith("⛔")
-        )
-        # the handle is back on the body as the page draws it, not where the mouse left it
-        root, _ = walker.view.root_pose()
-        floated = x_arrow(walker, root + lift_m * up, rotation)
-        back = x_arrow(walker, root, rotation)
-        wait_until_drawn(page, client.camera, back, floated, "the handle back on the body")
-        assert np.allclose(walker.view.handle_pose(BODY)[0], root)
-    finally:
-        page.close()
+    expect(page.get_by_text("the body cannot go there").first).to_be_visible(timeout=WAIT_MS)
+    assert all(
+        line.startswith("⛔ refused: the body cannot go there: foot ")
+        for line in walker.said
+        if line.startswith("⛔")
+    )
+    # the handle is back on the body as the page draws it, not where the mouse left it
+    root, _ = walker.view.root_pose()
+    floated = x_arrow(walker, root + lift_m * up, rotation)
+    back = x_arrow(walker, root, rotation)
+    wait_until_drawn(page, client.camera, back, floated, "the handle back on the body")
+    assert np.allclose(walker.view.handle_pose(BODY)[0], root)

@@ -83,7 +83,7 @@ def browser():
 
 @pytest.fixture(scope="module")
 def page(served, browser):
-    page = browser.new_page(viewport={"width": 1280, "height": 820})
+    page = browser.new_page(viewport=helpers.VIEWPORT)
     page.goto(served.address.url)
     yield page
     page.close()
