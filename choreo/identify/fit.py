@@ -1,7 +1,8 @@
 """Fitting one servo's figures to what it did, and judging them on moves the fit never saw.
 
-The cost of a candidate is the mean absolute difference between where the simulated servo
-(``joint_model``) would have read and where the real one did, over the fit trial (BAM's cost).
+The cost of a candidate is how far, on average over the fit trial, the simulated servo
+(``joint_model``) strays outside the position unit each read names (:func:`read_miss_deg`): a read
+is a whole unit, so the joint was anywhere within half a unit of it.
 The search (``search.minimise``, CMA-ES) starts from the robot file's figures and keeps every
 figure inside physical bounds around them. Validation simulates the held-out trial with the
 robot file's figures and with the fitted ones: the median and 95th percentile of the error.
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.identify.joint_model import (
     COARSE_STEP_S,
     FIGURES,
@@ -38,6 +40,13 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "response_delay_s": (0.0, 0.05, "abs"),
     "offset_deg": (-5.0, 5.0, "abs"),
 }
+# a position read is a whole unit (0.24°): the joint was anywhere within this of what it read.
+# BAM's cost, the mean absolute error, takes the read for where the joint was, so a candidate
+# that rests where the reads do (at a unit's middle) costs less than the truth, which rests
+# anywhere in the unit: on arm6's wrist_pitch the fit bought that with friction and dead band
+# (10 hidden truths: friction 3/10 within 15 %, dead band 6/10 within 0.1°; with this cost
+# 9/10 and 10/10)
+READ_HALF_UNIT_DEG = DEG_PER_UNIT / 2
 GENERATIONS = 45
 POPULATION = 24
 # searches side by side (search.minimise): on one hidden truth of tonypi's knee a single search
@@ -68,7 +77,7 @@ class Validation:
 @dataclass(frozen=True)
 class Fitted:
     figures: dict[str, float]  # at the supply measured (as the servo really ran)
-    fit_error_deg: float  # mean absolute error on the fit trial
+    fit_error_deg: float  # on the fit trial, the mean miss of the reads' units (read_miss_deg)
     evaluations: int
     supply_sag_per_nm: float = 0.0  # the supply's sag the fit took (joint_model.supply_sag)
 
@@ -113,7 +122,7 @@ def fit_servo(
     def cost_at(step_s: float) -> Cost:
         def cost(points: np.ndarray) -> np.ndarray:
             predicted = simulate(trial, load, decode(points), dt_s=step_s, supply_sag_per_nm=sag)
-            return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
+            return read_miss_deg(trial, predicted)
 
         return cost
 
@@ -133,6 +142,14 @@ def fit_servo(
     best = decode(found.best[None])
     figures = {name: float(best[name][0]) for name in FIGURES}
     return Fitted(figures, found.cost, found.evaluations, sag)
+
+
+def read_miss_deg(trial: Trial, predicted_deg: np.ndarray) -> np.ndarray:
+    """Each candidate's mean miss of the reads (``predicted_deg``: (reads, k) degrees, as
+    ``simulate`` gives): how far its angle lies outside the half unit around each read, 0
+    within it."""
+    outside = np.abs(predicted_deg - trial.read_deg[:, None]) - READ_HALF_UNIT_DEG
+    return np.mean(np.maximum(outside, 0.0), axis=0)
 
 
 def validate(

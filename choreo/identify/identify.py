@@ -71,7 +71,7 @@ class JointResult:
     supply_v: float
     temp_c: float
     bus_s: float  # bus time the joint's tests took
-    fit_error_deg: float
+    fit_error_deg: float  # on the fit trial, the mean miss of the reads' units (fit.read_miss_deg)
     own_reads_per_s: float = 0.0  # of reads_per_s (every position read), the joint's own
     # how far each neighbour read along (its chain neighbours) went from where it held
     neighbours_moved_deg: dict[str, float] = field(default_factory=dict)
