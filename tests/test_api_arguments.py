@@ -237,6 +237,8 @@ REFUSED = {
             [-INF] * 6,
             [1e308] * 6,
             [1e6] * 6,
+            10**400,
+            [10**400] * 6,
         ],
     },
     "plan_report": {
@@ -276,6 +278,8 @@ REFUSED = {
     "CheckThresholds": {
         "max_tracking_error_deg": NON_NEGATIVE_BAD,
         "near_miss_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.01, 1e308],
+        "stall_speed_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.01, 1e308],
+        "fall_height_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.5, 10**400],
     },
     "preview_report": {
         "rollout": [5, None],

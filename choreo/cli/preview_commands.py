@@ -129,7 +129,7 @@ def register(subparsers) -> None:
     )
     preview.add_argument(
         "--fall-height",
-        type=positive_float,
+        type=fraction,
         default=0.5,
         metavar="FRACTION",
         help="... or below this fraction of its starting height (default 0.5)",

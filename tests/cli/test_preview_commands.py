@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from cli_helpers import PREVIEW_MOTIONS
+from cli_helpers import PREVIEW_MOTIONS, usage_error_line
 from PIL import Image
 
 from choreo.cli import main
@@ -41,6 +41,14 @@ def test_preview_report_writes_json(tmp_path, capsys):
 def test_preview_usage_errors_exit_2(argv, message, capsys):
     assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--near-miss", "--fall-height"])
+def test_a_fraction_flag_takes_at_most_all_of_it(flag, capsys):
+    """A share of the stall torque, of the start height: 1.5 of it would flag every step."""
+    assert usage_error_line(capsys, ["preview", str(FINE), "--check", flag, "1.5"]) == (
+        f"choreo preview: error: argument {flag}: expected a fraction in (0, 1], got '1.5'"
+    )
 
 
 def test_preview_check_says_where_as_validate_does(capsys):
