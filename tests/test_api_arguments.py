@@ -273,6 +273,8 @@ REFUSED = {
         "move_start": ["bogus", 5, None],
         "tail_s": NON_NEGATIVE_BOUNDED_BAD + [61],
         "min_contact_depth_m": NON_NEGATIVE_BAD,
+        "actuator_overrides": [5, "elbow", {"elbow": 5}, {"elbow": {"gain": 1}}]
+        + [{"elbow": {"kp_nm_rad": value}} for value in POSITIVE_BAD],
     },
     "run_checks": {"rollout": [5, None], "thresholds": [{}, 5, None]},
     "CheckThresholds": {
