@@ -7,6 +7,7 @@ import argparse
 import contextlib
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -110,6 +111,28 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def ctrl_c_deferred() -> Iterator[None]:
+    """Inside, Ctrl-C, SIGTERM and SIGHUP wait for the block to end, then raise
+    KeyboardInterrupt. Around the import of a compiled extension (mujoco): interrupted in its
+    initialisation, it fails as an ImportError (a bug, as choreo sees it), and Python, having
+    seen the interrupt pass through its own code, ends by the signal after choreo has exited
+    130."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread receives signals
+        return
+    held: list[int] = []
+    signums = (signal.SIGINT, *STOP_SIGNALS)
+    previous = {signum: signal.signal(signum, lambda n, _: held.append(n)) for signum in signums}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    if held:
+        raise KeyboardInterrupt
 
 
 def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:

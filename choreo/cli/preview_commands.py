@@ -15,6 +15,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
+    ctrl_c_deferred,
     load_dance,
     plan_options,
     positive_float,
@@ -222,7 +223,8 @@ def _preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     fps = _checked_outputs(args)
 
-    from choreo import preview  # imports mujoco: only when this command runs
+    with ctrl_c_deferred():  # imports mujoco: only when this command runs
+        from choreo import preview
 
     if output is not None:  # a render that cannot be is known before the simulation
         restore_mujoco_gl()  # mujoco is imported: now the back-end MUJOCO_GL names is used
