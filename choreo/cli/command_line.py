@@ -114,10 +114,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     unblock_stop_signals()
     try:
         # the command's modules load here (a second for play): Ctrl-C, SIGTERM or SIGHUP
-        # meanwhile end the command as they do once it runs
-        from choreo.cli.arguments import stop_signals_as_ctrl_c
+        # meanwhile end the command as they do once it runs, once the modules are loaded
+        # (interrupted inside a compiled module's initialisation, Python would end by the
+        # signal, not with 130)
+        from choreo.cli.arguments import ctrl_c_deferred
 
-        with stop_signals_as_ctrl_c(), collector_paused():
+        with ctrl_c_deferred(), collector_paused():
             args = build_parser(argv).parse_args(argv)
             # The modules' functions, classes and tables (some 100,000 objects, no garbage)
             # stay to the end: the collector was paused while they loaded, and passes over
