@@ -139,6 +139,25 @@ def test_a_file_that_is_not_yaml_is_one_source_error(tmp_path, text, message):
     with pytest.raises(SourceError) as raised:
         parse_yaml_file(path)
     assert str(raised.value).startswith(f"{path}:{message}")
+    assert "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    "text, where, kind",
+    [
+        ("name: x\nrobot: arm6\x01\n", "2:12", "a control character (U+0001)"),
+        ("name: x\ufffe\n", "1:8", "a character (U+FFFE)"),
+    ],
+)
+def test_a_character_yaml_does_not_allow_is_pointed_at_in_one_line(tmp_path, text, where, kind):
+    """PyYAML says where by the offset in the text, on a second line: choreo says line:col."""
+    path = tmp_path / "f.yaml"
+    path.write_text(text)
+    with pytest.raises(SourceError) as raised:
+        parse_yaml_file(path)
+    assert str(raised.value) == (
+        f"{path}:{where}: not valid YAML: {kind} YAML does not allow; remove it"
+    )
 
 
 def test_an_empty_file_is_no_document(tmp_path):
