@@ -6,6 +6,7 @@ with one kind of mistake; parts/ holds the files they include).
 
 from __future__ import annotations
 
+import errno
 import os
 import subprocess
 import sys
@@ -94,7 +95,7 @@ def test_empty_file():
 def test_missing_file(tmp_path):
     missing = tmp_path / "nothing.yaml"
     assert problems_of(missing) == [
-        f"{missing}:1:1: cannot read the file: No such file or directory"
+        f"{missing}:1:1: cannot read the file: {os.strerror(errno.ENOENT)}"  # the system's words
     ]
 
 
