@@ -115,7 +115,7 @@ def shortened(text: str) -> str:
 
 def quoted(value: object) -> str:
     """``repr(value)`` for a message, a text cut as ``shortened`` cuts it, outside the quotes:
-    ``'root:x:0:0:root:/root:/bin/bash daemon:x:1:1:daemon:/usr/sb'…``."""
+    ``'a long line of text that is not what was asked for, and goes'…``."""
     if not isinstance(value, str):
         return shortened(repr(value))
     start, cut = _cut(value)
@@ -301,6 +301,12 @@ def describe(node: Node) -> str:
         return "nothing (null)"
     if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
         return f"a whole number {len(node.value)} digits long"
+    lines = node.end_mark.line - node.start_mark.line + 1
+    if node.tag == STR_TAG and node.style != "|" and lines > 1 and len(node.value) > QUOTED_CHARS:
+        # a long text over several lines (another kind of file, /etc/passwd): YAML joined them
+        # with spaces ("|" keeps its newlines); its first word is all a message quotes, as it is
+        # on the first line
+        return f"a text over {lines} lines starting {repr(node.value.split(' ', 1)[0][:40])}…"
     return quoted(node.value) if node.tag == STR_TAG else shortened(node.value)
 
 

@@ -236,7 +236,9 @@ def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
     assert gc.isenabled()
 
 
-def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, capsys):
+def test_a_text_file_given_as_a_robot_is_quoted_by_no_more_than_its_first_line(tmp_path, capsys):
+    """YAML reads the 40 lines as one text, joined by spaces: only the start of the first
+    line is quoted, not the start of the second."""
     accounts = "".join(
         f"user{i}:x:{1000 + i}:{1000 + i}::/home/user{i}:/bin/sh\n" for i in range(40)
     )
@@ -248,8 +250,8 @@ def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, 
     robot = tmp_path / "etc" / "passwd"
     assert capsys.readouterr().out.splitlines() == [
         f"{path}:1:8: robot {robot} has problems (listed after this line); fix them first",
-        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got "
-        "'user0:x:1000:1000::/home/user0:/bin/sh user1:x:1001:1001::/h'…",
+        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got a text over 40 "
+        "lines starting 'user0:x:1000:1000::/home/user0:/bin/sh'…",
     ]
 
 
