@@ -274,6 +274,8 @@ FLAGS = {
     "width/height": "--size",
     "taught": "--joints",
     "render_preview": "-o FILE",
+    "angle_deg": "--deg",  # choreo servo move
+    "offset_deg": "--deg",  # choreo servo offset adjust
 }
 
 
