@@ -302,10 +302,10 @@ def describe(node: Node) -> str:
     if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
         return f"a whole number {len(node.value)} digits long"
     lines = node.end_mark.line - node.start_mark.line + 1
-    if node.tag == STR_TAG and node.style != "|" and lines > 1 and len(node.value) > QUOTED_CHARS:
+    folded = getattr(node, "style", None) != "|"  # a scalar's; "|" keeps its newlines
+    if node.tag == STR_TAG and folded and lines > 1 and len(node.value) > QUOTED_CHARS:
         # a long text over several lines (another kind of file, /etc/passwd): YAML joined them
-        # with spaces ("|" keeps its newlines); its first word is all a message quotes, as it is
-        # on the first line
+        # with spaces; its first word is all a message quotes, as it is on the first line
         return f"a text over {lines} lines starting {repr(node.value.split(' ', 1)[0][:40])}…"
     return quoted(node.value) if node.tag == STR_TAG else shortened(node.value)
 
