@@ -8,12 +8,11 @@ import json
 import socket
 
 import pytest
+import zenoh  # the test extra's: a missing one fails the file, never skips it
 from show_helpers import eventually
 
 from choreo.errors import OptionError
 from choreo.show.network import CONFIG_ENV, Network, Realm, exposure
-
-zenoh = pytest.importorskip("zenoh")
 
 
 def config(**settings) -> object:
