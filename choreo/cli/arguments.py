@@ -135,9 +135,19 @@ def ctrl_c_deferred() -> Iterator[None]:
         raise KeyboardInterrupt
 
 
+def file_path(text: str) -> Path:
+    """A file's path as typed: an empty one is refused (as a Path it would be ".", the current
+    folder, and the refusal would speak of a folder no one named)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the path is empty: give a file's path")
+    return Path(text)
+
+
 def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:
     """-o/--output FILE and --overwrite, for commands that write one file."""
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help_text)
+    parser.add_argument(
+        "-o", "--output", type=file_path, required=True, metavar=metavar, help=help_text
+    )
     parser.add_argument("--overwrite", action="store_true", help=f"replace an existing {metavar}")
 
 

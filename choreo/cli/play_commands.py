@@ -6,7 +6,6 @@ import argparse
 import contextlib
 import sys
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
@@ -17,6 +16,7 @@ from choreo.cli.arguments import (
     add_planning_arguments,
     add_port_arguments,
     bus_settings,
+    file_path,
     load_dance,
     number_in,
     positive_int,
@@ -46,7 +46,7 @@ def register(subparsers) -> None:
         "controller board that cannot stage: one move frame per tick). "
         "Ctrl-C stops the servos at once.",
     )
-    play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    play.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     add_port_arguments(play)
     play.add_argument(
         "--loop",
@@ -77,7 +77,7 @@ def register(subparsers) -> None:
     )
     play.add_argument(
         "--report",
-        type=Path,
+        type=file_path,
         metavar="FILE.json",
         help="also write the report as JSON (outcome, timing, bytes, health per servo; "
         "on the emulator the path error against the plan)",

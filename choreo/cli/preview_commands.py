@@ -16,6 +16,7 @@ from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
     ctrl_c_deferred,
+    file_path,
     load_dance,
     plan_options,
     positive_float,
@@ -46,11 +47,11 @@ def register(subparsers) -> None:
         "needed): .mp4, .gif, or .png for a contact sheet. Without -o or --viewer only the "
         "checks run; they exit 1 if any finds an error. See docs/preview.md.",
     )
-    preview.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    preview.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     preview.add_argument(
         "-o",
         "--output",
-        type=Path,
+        type=file_path,
         metavar="FILE",
         help="render to FILE: .mp4, .gif, or .png (a contact sheet)",
     )
@@ -64,7 +65,7 @@ def register(subparsers) -> None:
     )
     preview.add_argument(
         "--report",
-        type=Path,
+        type=file_path,
         metavar="FILE.json",
         help="write every check result and per-joint peaks as JSON",
     )

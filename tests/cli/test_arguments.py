@@ -141,3 +141,18 @@ def test_ctrl_c_inside_a_deferred_block_arrives_when_it_ends():
                 done.append(len(done))
     assert len(done) == 1000
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+
+
+@pytest.mark.parametrize(
+    "argv, argument",
+    [
+        (["plan", ""], "MOTION"),
+        (["validate", ""], "FILE"),
+        (["beats", " "], "SONG"),
+        (["mirror", str(WAVE), "-o", ""], "-o/--output"),
+    ],
+)
+def test_an_empty_path_is_refused_as_empty_not_taken_for_the_current_folder(capsys, argv, argument):
+    assert usage_error_line(capsys, argv) == (
+        f"choreo {argv[0]}: error: argument {argument}: the path is empty: give a file's path"
+    )
