@@ -78,6 +78,14 @@ class World:
         return choreo.preflight(self.bus, self.motion.robot)
 
     @cached_property
+    def player(self):
+        return choreo.Player(**_player(self))
+
+    @cached_property
+    def performance(self):
+        return choreo.prepare(self.compiled, self.pose_and_limits[0])
+
+    @cached_property
     def report(self):
         return play_motion(self.motion, self.bus)
 
@@ -143,6 +151,11 @@ CALLS = {
     "VirtualClock": (lambda w: VirtualClock, lambda w: {}),
     "VirtualClock.advance": (lambda w: VirtualClock().advance, lambda w: dict(dt_s=0.1)),
     "Player": (lambda w: choreo.Player, _player),
+    "Player.play": (
+        lambda w: w.player.play,
+        lambda w: dict(ticks=w.performance.ticks, start_pose_deg=w.pose_and_limits[0]),
+    ),
+    "Player.leave": (lambda w: w.player.leave, lambda w: dict(outcome=choreo.Outcome.COMPLETED)),
     "preflight": (lambda w: choreo.preflight, lambda w: dict(bus=w.bus, robot=w.motion.robot)),
     "report_document": (lambda w: choreo.report_document, lambda w: dict(report=w.report)),
     "simulate_motion": (lambda w: choreo.simulate_motion, lambda w: dict(motion=w.motion)),
@@ -257,6 +270,12 @@ REFUSED = {
         "options": NOT_OPTIONS,
         "on_progress": NOT_CALLABLE,
     },
+    "Player.play": {
+        "ticks": [5, None, "ticks", [1, 2]],
+        "start_pose_deg": [5, None, "abc", [0.0] * 3, [NAN] * 6, [1e308] * 6, [10**400] * 6],
+        "start_at_s": optional(NOT_NUMBERS) + NOT_FINITE + [10**400],
+    },
+    "Player.leave": {"outcome": [5, None, "bogus", "COMPLETED"]},
     "preflight": {"bus": [5, None, PORT], "robot": [5, None, "arm6"]},
     "report_document": {"report": [5, None, {}]},
     "simulate_motion": {
