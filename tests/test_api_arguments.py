@@ -223,7 +223,11 @@ REFUSED = {
     "ServoBus.presence": {"timeout_s": optional(BOUNDED_BAD), "retries": [-1, 10, 1.5, NAN, "1"]},
     "ServoBus.set_led": {"on": NOT_FLAGS},
     "ServoBus.scan": {"ids": [5, NAN, None]},
-    "load_robot": {"path_or_name": NOT_PATHS, "relative_to": [5, NAN, ""]},
+    "load_robot": {
+        "path_or_name": NOT_PATHS,
+        "relative_to": [5, NAN, ""],
+        "with_figures": NOT_FLAGS,
+    },
     "load_motion": {"path": NOT_PATHS, "allow_past_song": NOT_FLAGS},
     "plan_motion": {"motion": NOT_PATHS, "speed": optional(POSITIVE_BAD), "stretch": NOT_FLAGS},
     "PlanOptions": {
