@@ -78,6 +78,14 @@ class World:
         return choreo.preflight(self.bus, self.motion.robot)
 
     @cached_property
+    def player(self):
+        return choreo.Player(**_player(self))
+
+    @cached_property
+    def performance(self):
+        return choreo.prepare(self.compiled, self.pose_and_limits[0])
+
+    @cached_property
     def report(self):
         return play_motion(self.motion, self.bus)
 
@@ -143,6 +151,11 @@ CALLS = {
     "VirtualClock": (lambda w: VirtualClock, lambda w: {}),
     "VirtualClock.advance": (lambda w: VirtualClock().advance, lambda w: dict(dt_s=0.1)),
     "Player": (lambda w: choreo.Player, _player),
+    "Player.play": (
+        lambda w: w.player.play,
+        lambda w: dict(ticks=w.performance.ticks, start_pose_deg=w.pose_and_limits[0]),
+    ),
+    "Player.leave": (lambda w: w.player.leave, lambda w: dict(outcome=choreo.Outcome.COMPLETED)),
     "preflight": (lambda w: choreo.preflight, lambda w: dict(bus=w.bus, robot=w.motion.robot)),
     "report_document": (lambda w: choreo.report_document, lambda w: dict(report=w.report)),
     "simulate_motion": (lambda w: choreo.simulate_motion, lambda w: dict(motion=w.motion)),
@@ -203,14 +216,18 @@ REFUSED = {
         "emulated": [None, 5, object()],
     },
     "ServoBus.move": {
-        "servo_id": [-1, 255, 1.5, NAN, "1", None],
+        "servo_id": [-1, 255, 1.5, NAN, "1", None, 10**400],
         "pos_units": [-1, 1001, 500.0, NAN, INF, 10**400, "500"],
         "time_ms": [-1, 30001, 1.5, NAN, 1e308],
     },
     "ServoBus.presence": {"timeout_s": optional(BOUNDED_BAD), "retries": [-1, 10, 1.5, NAN, "1"]},
     "ServoBus.set_led": {"on": NOT_FLAGS},
     "ServoBus.scan": {"ids": [5, NAN, None]},
-    "load_robot": {"path_or_name": NOT_PATHS, "relative_to": [5, NAN, ""]},
+    "load_robot": {
+        "path_or_name": NOT_PATHS,
+        "relative_to": [5, NAN, ""],
+        "with_figures": NOT_FLAGS,
+    },
     "load_motion": {"path": NOT_PATHS, "allow_past_song": NOT_FLAGS},
     "plan_motion": {"motion": NOT_PATHS, "speed": optional(POSITIVE_BAD), "stretch": NOT_FLAGS},
     "PlanOptions": {
@@ -237,6 +254,8 @@ REFUSED = {
             [-INF] * 6,
             [1e308] * 6,
             [1e6] * 6,
+            10**400,
+            [10**400] * 6,
         ],
     },
     "plan_report": {
@@ -255,6 +274,12 @@ REFUSED = {
         "options": NOT_OPTIONS,
         "on_progress": NOT_CALLABLE,
     },
+    "Player.play": {
+        "ticks": [5, None, "ticks", [1, 2]],
+        "start_pose_deg": [5, None, "abc", [0.0] * 3, [NAN] * 6, [1e308] * 6, [10**400] * 6],
+        "start_at_s": optional(NOT_NUMBERS) + NOT_FINITE + [10**400],
+    },
+    "Player.leave": {"outcome": [5, None, "bogus", "COMPLETED"]},
     "preflight": {"bus": [5, None, PORT], "robot": [5, None, "arm6"]},
     "report_document": {"report": [5, None, {}]},
     "simulate_motion": {
@@ -271,11 +296,15 @@ REFUSED = {
         "move_start": ["bogus", 5, None],
         "tail_s": NON_NEGATIVE_BOUNDED_BAD + [61],
         "min_contact_depth_m": NON_NEGATIVE_BAD,
+        "actuator_overrides": [5, "elbow", {"elbow": 5}, {"elbow": {"gain": 1}}]
+        + [{"elbow": {"kp_nm_rad": value}} for value in POSITIVE_BAD],
     },
     "run_checks": {"rollout": [5, None], "thresholds": [{}, 5, None]},
     "CheckThresholds": {
         "max_tracking_error_deg": NON_NEGATIVE_BAD,
         "near_miss_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.01, 1e308],
+        "stall_speed_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.01, 1e308],
+        "fall_height_fraction": NOT_NUMBERS + NOT_FINITE + NOT_POSITIVE + [1.5, 10**400],
     },
     "preview_report": {
         "rollout": [5, None],
@@ -342,7 +371,9 @@ def test_a_bad_argument_is_refused_naming_it(world, name, option, value):
     with pytest.raises(OptionError) as refused:
         call(world)(**{**valid(world), option: value})
     assert refused.value.option == option
-    assert str(refused.value).startswith(option)
+    message = str(refused.value)
+    assert message.startswith(option)
+    assert "\n" not in message and len(message) < 400  # one line: 10**400 is not spelled out
 
 
 def test_every_public_name_is_walked_or_is_a_result():

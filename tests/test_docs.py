@@ -7,6 +7,7 @@ import dataclasses
 import os
 import re
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -239,3 +240,25 @@ def test_a_vendor_action_group_imports_and_validates_as_the_readme_says(workdir,
     run("choreo import d6a wave.d6a --robot arm6 -o motion.yaml")
     run("choreo validate --stretch motion.yaml")
     assert "robot: arm6" in (workdir / "motion.yaml").read_text()
+
+
+def test_the_quickstart_is_two_commands():
+    """One line installs and plays and previews, one installs and runs the tests."""
+    quickstart = (ROOT / "README.md").read_text().split("## Quickstart\n", 1)[1]
+    quickstart = quickstart.split("\n## ", 1)[0]
+    [block] = re.findall(r"^```sh\n(.*?)^```$", quickstart, re.MULTILINE | re.DOTALL)
+    lines = block.strip().splitlines()
+    assert [line.split()[:2] for line in lines] == [["pip", "install"], ["pip", "install"]]
+
+
+def test_every_yaml_file_the_readme_shows_validates(workdir, run):
+    """The motion example (beside the block it includes) and the show file, as written."""
+    blocks = code_blocks(ROOT / "README.md", "yaml")
+    assert len(blocks) == 2
+    folder = workdir / "mine"
+    folder.mkdir()
+    shutil.copy(ROOT / "motions" / "arm6" / "wave_block.yaml", folder)
+    for index, (_, text) in enumerate(blocks):
+        path = folder / f"block{index}.yaml"
+        path.write_text(text)
+        run(f"choreo validate --no-physics {path}")

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from choreo.bus.framing import MORE, NOT_A_FRAME, ResyncDecoder
 from choreo.bus.servo_models import POSITION_RANGE_UNITS
+from choreo.core.arguments import shown
 from choreo.errors import OptionError
 
 HEADER = b"\x55\x55"
@@ -206,9 +207,9 @@ def _check_range(name: str, value: int, lo: int, hi: int) -> None:
     """``OptionError`` naming the field (a ``ValueError``) if ``value`` is not a whole number in
     ``lo..hi``: a command's fields are its caller's arguments."""
     if isinstance(value, bool) or not isinstance(value, int):
-        raise OptionError(name, f"must be an integer in {lo}..{hi}, got {value!r}")
+        raise OptionError(name, f"must be an integer in {lo}..{hi}, got {shown(value)}")
     if not lo <= value <= hi:
-        raise OptionError(name, f"must be in {lo}..{hi}, got {value}")
+        raise OptionError(name, f"must be in {lo}..{hi}, got {shown(value)}")  # 10**400: cut
 
 
 def pack_fields(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:

@@ -29,7 +29,7 @@ from choreo.bus.protocol import (
 from choreo.bus.servo_bus import Presence, ServoBus
 from choreo.bus.servo_models import DEG_PER_UNIT, UNITS_PER_DEG
 from choreo.bus.typed_commands import AngleLimits, VinLimits
-from choreo.errors import BusError, BusTimeoutError, ProtocolError
+from choreo.errors import BusError, BusTimeoutError, OptionError, ProtocolError
 
 log = logging.getLogger(__name__)
 
@@ -375,13 +375,14 @@ def _nearest_units(angle_deg: float, lo: int, hi: int) -> int | None:
 
 
 def offset_units_from_deg(offset_deg: float) -> int:
-    """The nearest offset in units (0.24° each); ``ValueError`` with the range in both units."""
+    """The nearest offset in units (0.24° each); ``OptionError`` with the range in both units."""
     lo, hi = field_range(Command.ANGLE_OFFSET_ADJUST, "offset_units")
     units = _nearest_units(offset_deg, lo, hi)
     if units is None:
-        raise ValueError(
-            f"an offset must be within {lo * DEG_PER_UNIT:+.1f}..{hi * DEG_PER_UNIT:+.1f}°"
-            f" ({lo}..{hi} units), got {offset_deg:g}°"
+        raise OptionError(
+            "offset_deg",
+            f"must be within {lo * DEG_PER_UNIT:+.1f}..{hi * DEG_PER_UNIT:+.1f}° ({lo}..{hi} "
+            f"units), got {offset_deg:g}°",
         )
     return units
 
@@ -407,9 +408,10 @@ def position_units_from_deg(angle_deg: float) -> int:
     lo, hi = field_range(Command.MOVE_TIME_WRITE, "pos_units")
     units = _nearest_units(angle_deg, lo, hi)
     if units is None:
-        raise ValueError(
-            f"a servo angle must be in {lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}° "
-            f"({lo}..{hi} units), got {angle_deg:g}°"
+        raise OptionError(
+            "angle_deg",
+            f"must be in {lo * DEG_PER_UNIT:g}..{hi * DEG_PER_UNIT:g}° ({lo}..{hi} units), "
+            f"got {angle_deg:g}°",
         )
     return units
 

@@ -7,6 +7,7 @@ import argparse
 import contextlib
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -112,9 +113,41 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
             signal.signal(signum, handler)
 
 
+@contextlib.contextmanager
+def ctrl_c_deferred() -> Iterator[None]:
+    """Inside, Ctrl-C, SIGTERM and SIGHUP wait for the block to end, then raise
+    KeyboardInterrupt. Around the import of a compiled extension (mujoco): interrupted in its
+    initialisation, it fails as an ImportError (a bug, as choreo sees it), and Python, having
+    seen the interrupt pass through its own code, ends by the signal after choreo has exited
+    130."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread receives signals
+        return
+    held: list[int] = []
+    signums = (signal.SIGINT, *STOP_SIGNALS)
+    previous = {signum: signal.signal(signum, lambda n, _: held.append(n)) for signum in signums}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    if held:
+        raise KeyboardInterrupt
+
+
+def file_path(text: str) -> Path:
+    """A file's path as typed: an empty one is refused (as a Path it would be ".", the current
+    folder, and the refusal would speak of a folder no one named)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the path is empty: give a file's path")
+    return Path(text)
+
+
 def add_output_arguments(parser: argparse.ArgumentParser, metavar: str, help_text: str) -> None:
     """-o/--output FILE and --overwrite, for commands that write one file."""
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help_text)
+    parser.add_argument(
+        "-o", "--output", type=file_path, required=True, metavar=metavar, help=help_text
+    )
     parser.add_argument("--overwrite", action="store_true", help=f"replace an existing {metavar}")
 
 

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from choreo.cli.arguments import add_port_arguments, bus_settings, stop_signals_as_ctrl_c
+from choreo.cli.arguments import add_port_arguments, bus_settings, file_path, stop_signals_as_ctrl_c
 
 if TYPE_CHECKING:  # the modules themselves are imported when the command runs
     from choreo.bus.settings import BusSettings
@@ -49,7 +49,7 @@ def register(subparsers) -> None:
     identify.add_argument(
         "-o",
         "--output",
-        type=Path,
+        type=file_path,
         metavar="FILE",
         help="the servo figures file (default: the one the robot file names, else "
         "servo_figures.yaml beside robot.yaml)",

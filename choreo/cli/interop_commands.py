@@ -4,9 +4,8 @@ out of choreo, and turning them left for right."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from choreo.cli.arguments import add_output_arguments, id_sequence
+from choreo.cli.arguments import add_output_arguments, file_path, id_sequence
 from choreo.core.atomic import check_writable
 from choreo.interop.d6a import TIME_RANGE_MS, export_d6a, import_d6a
 from choreo.motion.mirror import write_mirrored
@@ -27,7 +26,7 @@ def register(subparsers) -> None:
         "approach. Servo positions outside a joint's limits are all reported, never "
         "clamped.",
     )
-    d6a_in.add_argument("file", type=Path, metavar="FILE.d6a", help="the action group")
+    d6a_in.add_argument("file", type=file_path, metavar="FILE.d6a", help="the action group")
     d6a_in.add_argument(
         "--robot",
         required=True,
@@ -56,7 +55,7 @@ def register(subparsers) -> None:
         "moves in straight lines between rows: stop, velocity and choreo's "
         "smoothing are not kept.",
     )
-    d6a_out.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    d6a_out.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     add_output_arguments(d6a_out, "OUT.d6a", "the action group file to write")
     d6a_out.set_defaults(handler=run_export_d6a)
 
@@ -67,7 +66,7 @@ def register(subparsers) -> None:
         "timing, hold, stop and velocity (includes are written out in place), and the motion "
         "its name, start, end and props (reflected in the x-z plane, as the robot is).",
     )
-    mirror.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    mirror.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     add_output_arguments(mirror, "OUT.yaml", "the motion file to write")
     mirror.set_defaults(handler=run_mirror)
 

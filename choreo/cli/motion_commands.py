@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from choreo.cli import in_flags
-from choreo.cli.arguments import add_past_song_argument
+from choreo.cli.arguments import add_past_song_argument, file_path
 from choreo.validate import check_file
 
 
@@ -35,7 +34,7 @@ def register(subparsers) -> None:
     validate.add_argument(
         "files",
         nargs="+",
-        type=Path,
+        type=file_path,
         metavar="FILE",
         help="a motion .yaml, a robot.yaml or a show .yaml",
     )

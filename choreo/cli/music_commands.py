@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from choreo.cli import in_flags, report_in_flags
-from choreo.cli.arguments import finite_float, positive_int
+from choreo.cli.arguments import file_path, finite_float, positive_int
 from choreo.cli.plan_commands import png_path
 from choreo.core.atomic import check_writable
 from choreo.music.beats import LEVELS, TRACKERS, BeatAnalysis, detect_beats
@@ -24,7 +24,7 @@ def register(subparsers) -> None:
         "downbeats (each bar's first beat), and a music: block for a motion. Times are seconds "
         "from the start of the file.",
     )
-    beats.add_argument("song", type=Path, metavar="SONG", help="a wav, flac, ogg or mp3 file")
+    beats.add_argument("song", type=file_path, metavar="SONG", help="a wav, flac, ogg or mp3 file")
     beats.add_argument("--json", action="store_true", help="print the analysis as JSON")
     beats.add_argument(
         "--plot", type=png_path, metavar="FILE.png", help="draw the waveform with the beats"

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from choreo.cli.arguments import (
     add_planning_arguments,
+    file_path,
     load_dance,
     non_negative_float,
     plan_options,
@@ -28,7 +29,7 @@ def register(subparsers) -> None:
         "path from the smooth plan, and per joint the peak velocity and acceleration "
         "against its limits. Exits 1 if the motion cannot be planned.",
     )
-    plan.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    plan.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     plan.add_argument("--json", action="store_true", help="print the report as JSON")
     plan.add_argument(
         "--plot",

@@ -6,10 +6,9 @@ import argparse
 import contextlib
 import sys
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from choreo.bus import transports
@@ -17,6 +16,7 @@ from choreo.cli.arguments import (
     add_planning_arguments,
     add_port_arguments,
     bus_settings,
+    file_path,
     load_dance,
     number_in,
     positive_int,
@@ -46,7 +46,7 @@ def register(subparsers) -> None:
         "controller board that cannot stage: one move frame per tick). "
         "Ctrl-C stops the servos at once.",
     )
-    play.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    play.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     add_port_arguments(play)
     play.add_argument(
         "--loop",
@@ -77,7 +77,7 @@ def register(subparsers) -> None:
     )
     play.add_argument(
         "--report",
-        type=Path,
+        type=file_path,
         metavar="FILE.json",
         help="also write the report as JSON (outcome, timing, bytes, health per servo; "
         "on the emulator the path error against the plan)",
@@ -161,7 +161,9 @@ def open_audio_output(device: str | None, latency_s: float | None) -> AudioSink:
 
 @contextlib.contextmanager
 def _progress_bar() -> Iterator[Callable[[PlayProgress], None]]:
-    """A progress bar on stderr, and the callback that moves it."""
+    """A progress bar on stderr, and the callback that moves it. The bar appears with the first
+    progress, once the servos move: a motion refused before (a dance past its song, a port that
+    does not open) shows its one line alone, not under an "approach" bar that never moved."""
     console = Console(stderr=True)
     columns = (
         TextColumn("{task.description}"),
@@ -169,13 +171,20 @@ def _progress_bar() -> Iterator[Callable[[PlayProgress], None]]:
         TextColumn("{task.fields[status]}"),
         TimeElapsedColumn(),
     )
-    # No auto-refresh: its thread would take the GIL at random moments and make STARTs late.
-    # The player calls ``update`` right after a START, in the time set aside for the bus.
-    with Progress(*columns, console=console, auto_refresh=False) as progress:
-        task = progress.add_task("approach", total=None, status="")
+    with contextlib.ExitStack() as shown:
+        bar: list[tuple[Progress, TaskID]] = []
         last_refresh = [0.0]
 
         def update(p: PlayProgress) -> None:
+            if not bar:
+                # No auto-refresh: its thread would take the GIL at random moments and make
+                # STARTs late. The player calls ``update`` right after a START, in the time set
+                # aside for the bus.
+                progress = shown.enter_context(
+                    Progress(*columns, console=console, auto_refresh=False)
+                )
+                bar.append((progress, progress.add_task(p.stage, total=None, status="")))
+            progress, task = bar[0]
             progress.update(
                 task,
                 description=p.stage,

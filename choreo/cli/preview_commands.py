@@ -15,6 +15,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from choreo.cli import in_flags, report_in_flags, restore_mujoco_gl
 from choreo.cli.arguments import (
     add_planning_arguments,
+    ctrl_c_deferred,
+    file_path,
     load_dance,
     plan_options,
     positive_float,
@@ -45,11 +47,11 @@ def register(subparsers) -> None:
         "needed): .mp4, .gif, or .png for a contact sheet. Without -o or --viewer only the "
         "checks run; they exit 1 if any finds an error. See docs/preview.md.",
     )
-    preview.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    preview.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     preview.add_argument(
         "-o",
         "--output",
-        type=Path,
+        type=file_path,
         metavar="FILE",
         help="render to FILE: .mp4, .gif, or .png (a contact sheet)",
     )
@@ -63,7 +65,7 @@ def register(subparsers) -> None:
     )
     preview.add_argument(
         "--report",
-        type=Path,
+        type=file_path,
         metavar="FILE.json",
         help="write every check result and per-joint peaks as JSON",
     )
@@ -129,7 +131,7 @@ def register(subparsers) -> None:
     )
     preview.add_argument(
         "--fall-height",
-        type=positive_float,
+        type=fraction,
         default=0.5,
         metavar="FRACTION",
         help="... or below this fraction of its starting height (default 0.5)",
@@ -222,7 +224,8 @@ def _preview(args: argparse.Namespace) -> int:
     output: Path | None = args.output
     fps = _checked_outputs(args)
 
-    from choreo import preview  # imports mujoco: only when this command runs
+    with ctrl_c_deferred():  # imports mujoco: only when this command runs
+        from choreo import preview
 
     if output is not None:  # a render that cannot be is known before the simulation
         restore_mujoco_gl()  # mujoco is imported: now the back-end MUJOCO_GL names is used

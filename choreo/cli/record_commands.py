@@ -6,11 +6,11 @@ import argparse
 import queue
 import sys
 import threading
-from pathlib import Path
 
 from choreo.cli.arguments import (
     add_port_arguments,
     bus_settings,
+    file_path,
     positive_float,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
@@ -44,7 +44,7 @@ def register(subparsers) -> None:
         "OUT.yaml.journal at once, so nothing is lost if the program or the cable "
         "dies: --resume continues. The taught joints are loaded again at the end.",
     )
-    record.add_argument("out", type=Path, metavar="OUT.yaml", help="the motion file to write")
+    record.add_argument("out", type=file_path, metavar="OUT.yaml", help="the motion file to write")
     record.add_argument(
         "--robot",
         help="robot name or path to its robot.yaml (with --resume, default: the journal's robot)",

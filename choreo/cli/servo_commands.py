@@ -24,7 +24,7 @@ from choreo.bus.servo_models import DEG_PER_UNIT
 from choreo.bus.transports import Capabilities
 from choreo.bus.typed_commands import AngleLimits, ServoInfo, VinLimits
 from choreo.cli.arguments import add_port_arguments, finite_float, id_ranges, open_bus, servo_id
-from choreo.errors import ChoreoError, UsageError
+from choreo.errors import ChoreoError, OptionError, UsageError
 
 
 # One statement per flag, in the order --help lists them: a long function, kept whole so that a
@@ -242,6 +242,8 @@ def _bad_values_are_usage_errors(handler: Callable[[argparse.Namespace], int]):
     def run(args: argparse.Namespace) -> int:
         try:
             return handler(args)
+        except OptionError:
+            raise  # main() words it with the flag it names
         except ValueError as error:
             raise UsageError(str(error)) from error
 

@@ -10,7 +10,6 @@ import argparse
 import socket
 import sys
 import time
-from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
@@ -20,6 +19,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.cli.arguments import (
     add_port_arguments,
     bus_settings,
+    file_path,
     float_in,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
@@ -70,9 +70,9 @@ def register(subparsers) -> None:
         "and preflight every part, start them all on one instant with the song, and follow "
         "them. Ctrl-C stops every performer.",
     )
-    show.add_argument("show", type=Path, metavar="SHOW.yaml", help="a show file")
+    show.add_argument("show", type=file_path, metavar="SHOW.yaml", help="a show file")
     show.add_argument(
-        "--report", type=Path, metavar="FILE.json", help="also write the report as JSON"
+        "--report", type=file_path, metavar="FILE.json", help="also write the report as JSON"
     )
     show.add_argument(
         "--dry-run",
@@ -110,7 +110,7 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     )
     network.add_argument(
         "--zenoh-config",
-        type=Path,
+        type=file_path,
         metavar="FILE",
         help="Zenoh's configuration file (JSON5): mode, TLS, user/password, access control "
         "(default: $ZENOH_CONFIG, else a peer with Zenoh's defaults); see docs/shows.md",

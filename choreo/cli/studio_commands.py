@@ -7,12 +7,12 @@ import contextlib
 import ipaddress
 import sys
 from collections.abc import Iterator
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from choreo.cli.arguments import (
     add_port_arguments,
     bus_settings,
+    file_path,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
 )
@@ -57,7 +57,7 @@ def register(subparsers) -> None:
         "(after play's preflight, at the approach's speed; Stop stops it). See README, "
         "'Authoring live'.",
     )
-    studio.add_argument("motion", type=Path, metavar="MOTION", help="a motion .yaml file")
+    studio.add_argument("motion", type=file_path, metavar="MOTION", help="a motion .yaml file")
     studio.add_argument(
         "--listen",
         type=listen_address,

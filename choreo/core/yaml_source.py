@@ -115,7 +115,7 @@ def shortened(text: str) -> str:
 
 def quoted(value: object) -> str:
     """``repr(value)`` for a message, a text cut as ``shortened`` cuts it, outside the quotes:
-    ``'root:x:0:0:root:/root:/bin/bash daemon:x:1:1:daemon:/usr/sb'…``."""
+    ``'a long line of text that is not what was asked for, and goes'…``."""
     if not isinstance(value, str):
         return shortened(repr(value))
     start, cut = _cut(value)
@@ -164,10 +164,9 @@ def parse_yaml_file(path: Path) -> Node | None:
         raise SourceError(f"{path}:1:1: cannot read the file: {reason}") from None
     try:
         return _compose(path, text)
-    except yaml.MarkedYAMLError as error:
-        raise SourceError(_syntax_message(path, error)) from None
-    except yaml.YAMLError as error:  # unmarked: e.g. a character YAML does not allow
-        raise SourceError(f"{path}:1:1: not valid YAML: {error}") from None
+    except yaml.YAMLError as error:
+        line, col, problem = yaml_problem(error, text)
+        raise SourceError(f"{path}:{line}:{col}: not valid YAML: {problem}") from None
 
 
 # The loader builds the node tree by recursion: 30,000 nested "[" overflow libyaml's C stack (a
@@ -268,13 +267,23 @@ def _raise_if_too_deep(path: Path, events: Iterable[yaml.Event]) -> None:
             depth -= 1
 
 
-def _syntax_message(path: Path, error: yaml.MarkedYAMLError) -> str:
-    mark = error.problem_mark or error.context_mark
-    line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-    message = f"{path}:{line}:{col}: not valid YAML: {error.problem}"
-    if error.context and error.context_mark:
-        message += f" ({error.context} at line {error.context_mark.line + 1})"
-    return message
+def yaml_problem(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
+    """Where (line, column) and what PyYAML found wrong in ``text``, in one line (its own
+    message is several, with a picture of the line and ``in "<unicode string>"``)."""
+    if isinstance(error, yaml.MarkedYAMLError):
+        mark = error.problem_mark or error.context_mark
+        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        problem = error.problem or error.context or "not YAML"
+        if error.context and error.context_mark and error.problem:
+            problem += f" ({error.context} at line {error.context_mark.line + 1})"
+        return line, col, problem
+    if isinstance(error, yaml.reader.ReaderError):  # a character YAML does not allow: no mark
+        before = text[: error.position]
+        line, col = before.count("\n") + 1, error.position - before.rfind("\n")
+        code = error.character if isinstance(error.character, int) else ord(error.character)
+        kind = "a control character" if code < 0x20 or 0x7F <= code < 0xA0 else "a character"
+        return line, col, f"{kind} (U+{code:04X}) YAML does not allow; remove it"
+    return 1, 1, next(iter(str(error).splitlines()), "") or type(error).__name__
 
 
 def describe(node: Node) -> str:
@@ -292,6 +301,12 @@ def describe(node: Node) -> str:
         return "nothing (null)"
     if node.tag == INT_TAG and len(node.value) > QUOTED_CHARS:  # maybe too long to read at all
         return f"a whole number {len(node.value)} digits long"
+    lines = node.end_mark.line - node.start_mark.line + 1
+    folded = getattr(node, "style", None) != "|"  # a scalar's; "|" keeps its newlines
+    if node.tag == STR_TAG and folded and lines > 1 and len(node.value) > QUOTED_CHARS:
+        # a long text over several lines (another kind of file, /etc/passwd): YAML joined them
+        # with spaces; its first word is all a message quotes, as it is on the first line
+        return f"a text over {lines} lines starting {repr(node.value.split(' ', 1)[0][:40])}…"
     return quoted(node.value) if node.tag == STR_TAG else shortened(node.value)
 
 

@@ -448,8 +448,23 @@ class BusEmulator:
             return [Eeprom(**s["eeprom"]) for s in document["servos"]]
         except OSError as error:
             raise ChoreoError(f"cannot read emulator state: {os_error_text(error)}") from error
-        except (ValueError, KeyError, TypeError) as error:
-            raise ChoreoError(f"{path}: cannot read emulator state: {error}") from error
+        except json.JSONDecodeError as error:  # its words are json's: where is what matters
+            raise ChoreoError(
+                f"{path}:{error.lineno}:{error.colno}: cannot read emulator state: not JSON; "
+                f"{_START_AFRESH}"
+            ) from error
+        except (KeyError, TypeError) as error:  # a servo's entry lacks a field, or has another
+            raise ChoreoError(
+                f"{path}: cannot read emulator state: not a {STATE_FORMAT} file of version "
+                f"{STATE_VERSION} (a servo's entry is damaged); {_START_AFRESH}"
+            ) from error
+        except ValueError as error:
+            raise ChoreoError(
+                f"{path}: cannot read emulator state: {error}; {_START_AFRESH}"
+            ) from error
+
+
+_START_AFRESH = "delete it to start from the servos' factory settings"
 
 
 def _collide(replies: Sequence[bytes]) -> bytes:

@@ -176,7 +176,7 @@ class SimSerial(SerialBase):
             try:
                 self.emulator = emulator_from_url(self._port)
             except ValueError as error:
-                raise SerialException(f"bad port {self._port!r}: {error}") from error
+                raise SerialException(str(error)) from error  # its words, without a hint
         self.is_open = True
 
     def close(self) -> None:

@@ -55,7 +55,7 @@ class Performance:
 _REPORTED = SPECS[Command.POS_READ].reply[0]  # type: ignore[index]  # POS_READ is answered
 
 
-def _servo_pose(robot: Robot, start_pose_deg: object) -> list[float]:
+def servo_pose(robot: Robot, start_pose_deg: object) -> list[float]:
     """``start_pose_deg`` if each angle is one its servo could report (``OptionError`` if not)."""
     angles = pose_array(robot, start_pose_deg, "start_pose_deg")
     for joint, angle in zip(robot.joints, angles):
@@ -74,7 +74,7 @@ def prepare(compiled: CompiledMotion, start_pose_deg: Sequence[float]) -> Perfor
     are) into the first pose."""
     check_type("compiled", compiled, CompiledMotion, "a CompiledMotion (from compile_motion)")
     robot = compiled.robot
-    start_pose_deg = _servo_pose(robot, start_pose_deg)
+    start_pose_deg = servo_pose(robot, start_pose_deg)
     first_pose = compiled.trajectory.at(0.0)[0]
     approach = slow_approach(robot, start_pose_deg, first_pose, compiled.tolerance_deg)
     return Performance(approach.tick_plan, compiled.ticks, compiled.trajectory, approach.trajectory)

@@ -456,7 +456,7 @@ def pose_array(robot: Robot, angles_deg: object, option: str) -> np.ndarray:
     joints = f"one angle per joint ({', '.join(robot.joint_names)})"
     try:
         angles = np.asarray(angles_deg, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond any float
         raise OptionError(option, f"needs {joints}, got {shown(angles_deg)}") from None
     if angles.shape != (len(robot.joints),):
         raise OptionError(option, f"needs {joints}, got shape {angles.shape}")

@@ -9,7 +9,6 @@ constant-jerk phases per joint, which ``Trajectory`` evaluates with numpy.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -44,22 +43,13 @@ class Limits:
 
 class NoTrajectory(Exception):
     """ruckig found no trajectory for a segment (limits or times too extreme for its numerics):
-    ``reason`` in its words, ``joint`` the index of the joint it names, if any. The planner
-    says which keyframe's move it was."""
+    ``joint`` the index of the joint that fails on its own, if one does. The planner says which
+    keyframe's move it was. ruckig's own text (its step, its input dump) is not a user's: it is
+    kept as the exception's cause only."""
 
-    def __init__(self, reason: str, joint: int | None):
-        super().__init__(reason)
-        self.reason = reason
+    def __init__(self, joint: int | None):
+        super().__init__(f"no trajectory (joint {joint})")
         self.joint = joint
-
-    @classmethod
-    def of(cls, error: Exception) -> NoTrajectory:
-        # ruckig 0.19.4: "\n[ruckig] error in step 1, dof: 1 input: \n" and then its whole input
-        text = " ".join(str(error).split())
-        found = re.search(r"error in step (\d+), dof: (\d+)", text)
-        if found is None:
-            return cls(text[:80] or type(error).__name__, None)
-        return cls(f"error in step {found[1]}", int(found[2]))
 
     def message(
         self, robot: Robot, p0: Sequence[float], p1: Sequence[float], also_check: str = ""
@@ -68,14 +58,14 @@ class NoTrajectory(Exception):
         limits, and ``also_check``)."""
         if self.joint is None:
             return (
-                f"ruckig found no trajectory ({self.reason}); check the velocity, acceleration "
-                f"and jerk limits in {robot.path}{also_check}"
+                f"ruckig found no trajectory, its numbers out of its range; check the velocity, "
+                f"acceleration and jerk limits in {robot.path}{also_check}"
             )
         name = robot.joint_names[self.joint]
         return (
             f"ruckig found no trajectory for {name} from {p0[self.joint]:g}° to "
-            f"{p1[self.joint]:g}° ({self.reason}); check {name}'s velocity, acceleration and "
-            f"jerk limits in {robot.path}{also_check}"
+            f"{p1[self.joint]:g}°, its numbers out of its range; check {name}'s velocity, "
+            f"acceleration and jerk limits in {robot.path}{also_check}"
         )
 
 
@@ -113,9 +103,9 @@ class SegmentSolver:
         try:
             result = self._ruckig.calculate(inp, self._output)
         except (RuckigError, ValueError) as error:  # ValueError: a code Result doesn't list
-            raise NoTrajectory.of(error) from error
+            raise NoTrajectory(failing_joint(p0, v0, p1, v1, limits)) from error
         if result != Result.Working:
-            raise NoTrajectory(result.name, None)
+            raise NoTrajectory(failing_joint(p0, v0, p1, v1, limits))
         return self._output.duration
 
     def solve(
@@ -148,6 +138,30 @@ class SegmentSolver:
     def limiting_joint(self) -> int:
         """The joint whose own shortest duration is longest, in the last segment solved."""
         return int(np.argmax(self._output.independent_min_durations))
+
+
+def failing_joint(
+    p0: Sequence[float],
+    v0: Sequence[float],
+    p1: Sequence[float],
+    v1: Sequence[float],
+    limits: Limits,
+) -> int | None:
+    """The first joint ruckig finds no trajectory for on its own (None: each has one alone).
+    Found by trying each, not read from ruckig's message, whose wording is its own to change."""
+    solver, alone, output = Ruckig(1), InputParameter(1), RuckigTrajectory(1)
+    for j in range(len(p0)):
+        alone.current_position, alone.current_velocity = [p0[j]], [v0[j]]
+        alone.target_position, alone.target_velocity = [p1[j]], [v1[j]]
+        alone.current_acceleration = alone.target_acceleration = [0.0]
+        alone.max_velocity, alone.max_acceleration = [limits.vel[j]], [limits.acc[j]]
+        alone.max_jerk = [limits.jerk[j]]
+        try:
+            if solver.calculate(alone, output) != Result.Working:
+                return j
+        except (RuckigError, ValueError):
+            return j
+    return None
 
 
 def segment_ranges(positions: np.ndarray) -> tuple[list[list[float]], list[list[float]]]:

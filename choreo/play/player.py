@@ -17,10 +17,11 @@ import logging
 from collections.abc import Callable, Sequence
 
 from choreo.bus.servo_bus import ServoBus
-from choreo.core.arguments import check_callable, check_type, shown
+from choreo.core.arguments import check_callable, check_member, check_number, check_type, shown
 from choreo.core.clock import Clock, RealClock
 from choreo.errors import BusError, OptionError, PlaybackAborted, ServoFault
 from choreo.plan.approach import slow_approach
+from choreo.plan.performance import servo_pose
 from choreo.plan.ticks import Tick
 from choreo.play.health import HealthReads, ServoHealth
 from choreo.play.play_options import ExitMode, PlayOptions
@@ -72,12 +73,16 @@ class Player:
         """Play ``ticks`` from ``start_pose_deg`` (where the servos are now): the first START as
         soon as tick 0 is staged, or at ``start_at_s`` on the clock (a show's instant: if that
         is already past, the servos are re-targeted to where the plan is by then)."""
+        ticks = _checked_ticks(ticks)
+        start_pose_deg = servo_pose(self.robot, start_pose_deg)
+        if start_at_s is not None:
+            check_number("start_at_s", start_at_s)
         # The priority first: locking the memory takes a while, before the deadlines are set.
         with self._priority() as scheduling:
             if self.on_scheduling:
                 self.on_scheduling(scheduling)
             stream = Stream(
-                list(ticks),
+                ticks,
                 self.robot.to_units(start_pose_deg),
                 clock=self.clock,
                 sending=tick_sending(self.bus, self.robot),
@@ -134,6 +139,7 @@ class Player:
 
         After an abort the robot is not moved again: a lost or hot servo must not be driven.
         """
+        outcome = check_member("outcome", outcome, Outcome)
         mode, exit_move = self.options.exit_mode, None
         if mode is ExitMode.POSE and outcome is not Outcome.ABORTED:
             exit_move = go_to_pose(self, self.options.exit_pose)
@@ -142,6 +148,17 @@ class Player:
                 self.bus.unload(joint.servo_id)
         self.bus.drain()  # the port may close next: let the last commands out first
         return exit_move
+
+
+def _checked_ticks(ticks: object) -> list[Tick]:
+    """``ticks`` as a list, if they are ticks (a Performance's: ``prepare(...).ticks``)."""
+    listed = list(ticks) if isinstance(ticks, Sequence) and not isinstance(ticks, str) else None
+    if listed is None or not all(isinstance(tick, Tick) for tick in listed):
+        raise OptionError(
+            "ticks",
+            f"must be a list of Ticks, as a Performance's (prepare(...).ticks), got {shown(ticks)}",
+        )
+    return listed
 
 
 def go_to_pose(player: Player, pose: str) -> StreamReport:

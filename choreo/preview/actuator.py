@@ -19,6 +19,7 @@ no torque; past it, MuJoCo's position actuator pushes with the gain up to the st
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -33,6 +34,8 @@ from choreo.bus.servo_models import (
     ZERO_OK_ACTUATOR_FIELDS,
     servo_model,
 )
+from choreo.core.arguments import shown
+from choreo.errors import OptionError
 from choreo.plan.ticks import MAX_TICK_MS, Tick
 from choreo.robot.types import Joint, Robot
 
@@ -66,13 +69,7 @@ def actuator_params(
     """Every joint's actuator model from its servo model, then the robot file's ``bus:
     supply_v`` and each joint's ``actuator:`` values, then per-joint ``overrides`` (joint name ->
     {field of ``ActuatorParams``: value})."""
-    overrides = dict(overrides or {})
-    unknown = sorted(set(overrides) - set(robot.joint_names))
-    if unknown:
-        raise ValueError(
-            f"actuator overrides name unknown joints {', '.join(unknown)}; "
-            f"joints of {robot.name}: {', '.join(robot.joint_names)}"
-        )
+    overrides = checked_overrides(overrides, robot)
     supply = robot.bus.supply_v
     return tuple(
         _params_for(
@@ -191,6 +188,49 @@ def _params_for(joint: Joint, override: Mapping[str, float]) -> ActuatorParams:
     return ActuatorParams(**values, rated_supply_v=model.rated_supply_v)
 
 
+OVERRIDES_EXAMPLE = "{'elbow': {'stall_torque_nm': 0.5}}"
+
+
+def checked_overrides(overrides: object, robot: Robot | None = None) -> dict[str, Mapping]:
+    """``overrides`` (joint name -> {field of ``ActuatorParams``: value}) as a dict, if every
+    field and value is one a servo model takes and, given ``robot``, every joint is one of its
+    joints; an ``OptionError`` naming ``actuator_overrides`` otherwise (a program's argument:
+    robot and figures files are checked as they are read)."""
+    if overrides is None:
+        return {}
+    if not isinstance(overrides, Mapping) or not all(
+        isinstance(name, str) and isinstance(fields, Mapping) for name, fields in overrides.items()
+    ):
+        raise OptionError(
+            "actuator_overrides",
+            f"must map joint names to {{field: value}}, e.g. {OVERRIDES_EXAMPLE}, or be None, "
+            f"got {shown(overrides)}",
+        )
+    for name, fields in overrides.items():
+        for key, value in fields.items():
+            if key not in ACTUATOR_FIELDS:
+                raise OptionError(
+                    "actuator_overrides",
+                    f"gives {name} the unknown field {key!r}; the fields: "
+                    f"{', '.join(ACTUATOR_FIELDS)}",
+                )
+            try:
+                check_actuator_value(key, value, key)
+            except ValueError:
+                raise OptionError(
+                    "actuator_overrides",
+                    f"gives {name}'s {key} {shown(value)}; it must be {actuator_values(key)}",
+                ) from None
+    unknown = sorted(set(overrides) - set(robot.joint_names)) if robot else []
+    if robot and unknown:
+        raise OptionError(
+            "actuator_overrides",
+            f"names unknown joints {', '.join(unknown)}; joints of {robot.name}: "
+            f"{', '.join(robot.joint_names)}",
+        )
+    return dict(overrides)
+
+
 def check_actuator_value(key: str, value: object, what: str) -> float:
     """``value`` if it is valid for the actuator field ``key`` (``what`` names it in the
     ``ValueError`` otherwise)."""
@@ -200,15 +240,26 @@ def check_actuator_value(key: str, value: object, what: str) -> float:
     if not (
         isinstance(value, (int, float))
         and not isinstance(value, bool)
-        and math.isfinite(value)
+        and abs(value) <= sys.float_info.max  # finite, and an int no float is too large for
         and (signed or (value >= 0 if zero_ok else value > 0))
         and value <= high
     ):
-        bound = "" if signed else " >= 0" if zero_ok else " > 0"
-        if math.isfinite(high):
-            bound += f" and <= {high:g}"
-        raise ValueError(f"{what} must be a number{bound}, got {value!r}")
+        raise ValueError(f"{what} must be {actuator_values(key)}, got {value!r}")
     return float(value)
+
+
+def actuator_values(key: str) -> str:
+    """The values the actuator field ``key`` takes, in words: ``a number > 0``."""
+    bound = (
+        ""
+        if key in SIGNED_ACTUATOR_FIELDS
+        else " >= 0"
+        if key in ZERO_OK_ACTUATOR_FIELDS
+        else " > 0"
+    )
+    if key == "response_delay_s":
+        bound += f" and <= {MAX_RESPONSE_DELAY_S:g}"
+    return "a number" + bound
 
 
 class ServoDrive:

@@ -83,7 +83,7 @@ class CheckThresholds:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            fraction = name in ("saturation_fraction", "near_miss_fraction")
+            fraction = name.endswith("_fraction")  # a share of a figure: above 0, at most all of it
             check_number(name, value, FRACTION if fraction else NON_NEGATIVE)
 
 

@@ -24,6 +24,7 @@ from choreo.preview.actuator import (
     ServoBank,
     ServoDrive,
     actuator_params,
+    checked_overrides,
     commanded_path_units,
     max_speed_units_s,
 )
@@ -64,6 +65,7 @@ class SimSettings:
         )
         check_number("tail_s", self.tail_s, SIMULATED_S)
         check_number("min_contact_depth_m", self.min_contact_depth_m, NON_NEGATIVE)
+        checked_overrides(self.actuator_overrides)  # its joints: once the robot is known
 
 
 def simulate(

@@ -11,7 +11,7 @@ import yaml
 
 from choreo.bus.servo_models import SERVO_MODELS
 from choreo.bus.settings import BusSettings
-from choreo.core.arguments import check_path
+from choreo.core.arguments import check_flag, check_path
 from choreo.core.collector import collector_paused
 from choreo.core.file_kind import not_a_file
 from choreo.core.file_shape import mapping_shape
@@ -55,6 +55,7 @@ def load_robot(
     ref = path_or_name if isinstance(path_or_name, str) else path  # a name is a str
     if relative_to is not None:
         relative_to = check_path("relative_to", relative_to, "the path of the file naming it")
+    with_figures = check_flag("with_figures", with_figures)
     try:
         path = find_robot_file(ref, relative_to)
     except LookupError as error:

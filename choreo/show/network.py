@@ -12,11 +12,13 @@ Every key lives under ``choreo/<realm>/``: shows in two realms never hear each o
 
 from __future__ import annotations
 
+import errno
 import ipaddress
 import json
 import logging
 import os
 import re
+import socket
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -88,6 +90,88 @@ def check_endpoint(option: str, endpoint: str) -> None:
     )
 
 
+def _host_port(endpoint: str) -> tuple[str, str, int] | None:
+    """(protocol, host, port) of an IP endpoint; None for a Unix socket's."""
+    protocol, _, rest = endpoint.partition("/")
+    if protocol not in IP_PROTOCOLS:
+        return None
+    host, _, port = re.split(r"[?#]", rest, maxsplit=1)[0].rpartition(":")
+    return protocol, host.strip("[]"), int(port)
+
+
+def _addresses(protocol: str, host: str, port: int) -> list:
+    """``host``'s socket addresses for ``protocol`` (``socket.gaierror`` if it has none)."""
+    kind = socket.SOCK_DGRAM if protocol in ("udp", "quic") else socket.SOCK_STREAM
+    try:
+        return socket.getaddrinfo(host, port, type=kind)
+    except UnicodeError:  # a name no DNS label can spell
+        raise socket.gaierror(socket.EAI_NONAME, "not a host name") from None
+
+
+def check_resolves(option: str, endpoint: str) -> None:
+    """OptionError naming ``option`` when the endpoint's host has no address: Zenoh would try
+    to connect to it again and again, and a show would wait for performers it cannot reach."""
+    parts = _host_port(endpoint)
+    if parts is None:
+        return
+    try:
+        _addresses(*parts)
+    except socket.gaierror:
+        raise OptionError(
+            option, f"{endpoint!r}: the host {parts[1]!r} does not resolve to an address"
+        ) from None
+
+
+def listen_problem(endpoint: str, config) -> OptionError | None:
+    """Why Zenoh cannot listen on ``endpoint``, in choreo's words (Zenoh's are its own): TLS
+    with no certificate and key, a host that is not this computer's, a port in use or reserved;
+    None when it is none of these."""
+    parts = _host_port(endpoint)
+    if parts is None:  # a Unix socket's path
+        folder = Path(re.split(r"[?#]", endpoint.partition("/")[2], maxsplit=1)[0]).parent
+        if not folder.is_dir():
+            return OptionError("listen", f"{endpoint!r}: the folder {folder} does not exist")
+        return None
+    protocol, host, port = parts
+    tls = json.loads(config.get_json("transport/link/tls"))
+    if protocol in ("tls", "quic") and "#" not in endpoint:
+        if not (tls.get("listen_private_key") and tls.get("listen_certificate")):
+            return OptionError(
+                "listen",
+                f"{endpoint!r} needs this computer's TLS certificate and private key: name them "
+                "in the Zenoh configuration given with {zenoh_config} (transport/link/tls: "
+                "listen_certificate and listen_private_key), as docs/shows.md shows",
+                mentions=("zenoh_config",),
+            )
+    every = f"{protocol}/0.0.0.0:{port}"
+    try:
+        family, kind, _, _, address = _addresses(protocol, host, port)[0]
+    except socket.gaierror:
+        return OptionError(
+            "listen",
+            f"{endpoint!r}: the host {host!r} does not resolve; give an address of "
+            f"this computer, or {every} for all of them",
+        )
+    with socket.socket(family, kind) as probe:
+        try:
+            probe.bind(address)
+        except OSError as error:
+            return _bind_problem(endpoint, error.errno, host, port, every)
+    return None
+
+
+def _bind_problem(endpoint: str, code: int | None, host: str, port: int, every: str):
+    if code == errno.EADDRNOTAVAIL:
+        why = f"{host} is not an address of this computer; give one of its own, or {every}"
+    elif code == errno.EADDRINUSE:
+        why = f"port {port} is in use there (another performer or program); choose another port"
+    elif code == errno.EACCES:
+        why = f"port {port} needs administrator rights (below 1024); choose one from 1024 up"
+    else:
+        return None
+    return OptionError("listen", f"{endpoint!r}: {why}")
+
+
 class Request:
     """A query to answer, now or later from another thread (exactly once)."""
 
@@ -131,8 +215,14 @@ class Network:
                 config.insert_json5("listen/endpoints", json.dumps(list(listen)))
                 config.insert_json5("connect/endpoints", json.dumps(list(connect)))
             self.exposure = exposure(config)
+            for endpoint in connect:
+                check_resolves("connect", endpoint)
             self._session = zenoh.open(config)
         except zenoh.ZError as error:
+            for endpoint in listen:  # the cause in choreo's words, where it can tell it
+                problem = listen_problem(endpoint, config)
+                if problem is not None:
+                    raise problem from None
             raise ChoreoError(f"cannot open the Zenoh session: {_reason(error)}") from None
         self._keep: list = []  # declared entities live as long as they are referenced
 

@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 from yaml.nodes import MappingNode, SequenceNode
 
+from choreo.core.yaml_source import yaml_problem
 from choreo.motion.gait import BodyPose
 from choreo.motion.keyframe_entry import TIMING_KEYS  # the loader's: one list of timing keys
 from choreo.motion.music_block import BeatGrid
@@ -63,7 +64,8 @@ def keyframe_items(text: str) -> tuple[KeyframeItem, ...]:
     try:
         document = yaml.compose(text, Loader=_FAST_LOADER)
     except yaml.YAMLError as error:
-        raise EditRefused(f"the file is not valid YAML: {error}") from None
+        line, col, problem = yaml_problem(error, text)
+        raise EditRefused(f"the file is not valid YAML at {line}:{col}: {problem}") from None
     pairs = document.value if isinstance(document, MappingNode) else []
     keys = [key.value for key, _ in pairs]
     if "keyframes" not in keys or not isinstance(pairs[keys.index("keyframes")][1], SequenceNode):

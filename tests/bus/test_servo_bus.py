@@ -356,6 +356,9 @@ def test_unopenable_port_is_a_port_error():
         ServoBus("/dev/does-not-exist")
     with pytest.raises(PortError, match="unknown option"):
         ServoBus("sim://?idz=1")
+    # pyserial 3.5's loop:// fails on an unknown option with a KeyError: a PortError still
+    with pytest.raises(PortError, match=r"^cannot open loop://\?bogus=1: [^\n]+$"):
+        ServoBus("loop://?bogus=1")
 
 
 def test_a_real_serial_loop_echoes_and_times_out():

@@ -5,12 +5,15 @@ library checks its arguments against, which the flags share."""
 from __future__ import annotations
 
 import math
+import os
+import signal
 
 import pytest
 from cli_helpers import WAVE, usage_error_line
 
 from choreo.bus.settings import TIMEOUT_S
 from choreo.cli import build_parser, main
+from choreo.cli.arguments import ctrl_c_deferred
 from choreo.core.arguments import COUNT, NON_NEGATIVE, NUMBER, POSITIVE
 from choreo.errors import OptionError
 from choreo.plan.ticks import TOLERANCE_DEG
@@ -126,3 +129,30 @@ def test_the_tolerance_flag_and_argument_take_the_same_values(capsys, text, valu
     if flag is not None:
         assert flag.endswith(f"--tolerance: expected {TOLERANCE_DEG}, got {text!r}")
         assert argument == f"tolerance_deg must be {TOLERANCE_DEG}, got {value!r}"
+
+
+def test_ctrl_c_inside_a_deferred_block_arrives_when_it_ends():
+    """Around a compiled module's import: the block runs to its end, then KeyboardInterrupt."""
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with ctrl_c_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000):  # the handler runs between bytecodes: it has had its chance
+                done.append(len(done))
+    assert len(done) == 1000
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+
+
+@pytest.mark.parametrize(
+    "argv, argument",
+    [
+        (["plan", ""], "MOTION"),
+        (["validate", ""], "FILE"),
+        (["beats", " "], "SONG"),
+        (["mirror", str(WAVE), "-o", ""], "-o/--output"),
+    ],
+)
+def test_an_empty_path_is_refused_as_empty_not_taken_for_the_current_folder(capsys, argv, argument):
+    assert usage_error_line(capsys, argv) == (
+        f"choreo {argv[0]}: error: argument {argument}: the path is empty: give a file's path"
+    )

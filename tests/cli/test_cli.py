@@ -14,7 +14,7 @@ import warnings
 import pytest
 from cli_helpers import REPO, WAVE, error_line
 
-from choreo.cli import main
+from choreo.cli import command_line, main
 from choreo.errors import SourceError
 
 
@@ -38,7 +38,7 @@ def test_usage_error_is_part_of_the_one_error_tree():
 
 def test_cli_modules_follow_one_pattern():
     names = sorted(p.stem for p in (REPO / "choreo" / "cli").glob("*.py"))
-    commands = [n for n in names if n not in ("__init__", "arguments")]
+    commands = [n for n in names if n not in ("__init__", "command_line", "arguments")]
     assert commands and all(n.endswith("_commands") for n in commands), commands
 
 
@@ -147,7 +147,7 @@ class Signaller:
             os.kill(os.getpid(), int(signum))
 
 sys.meta_path.insert(0, Signaller())
-from choreo.cli import main
+from choreo.cli import command_line, main
 sys.exit(main(argv))
 """
 
@@ -164,6 +164,64 @@ def test_a_signal_while_the_modules_load_is_ctrl_c_without_a_traceback(command, 
         timeout=120,
     )
     assert (done.returncode, done.stdout, done.stderr) == (130, "", "choreo: interrupted\n")
+
+
+# `python -m choreo *argv` that sends itself Ctrl-C as it starts importing MODULE: before main()
+# runs, while the command line itself loads
+CTRL_C_AS_IT_STARTS = """
+import os, runpy, signal, sys
+module, *argv = sys.argv[1:]
+
+class Signaller:
+    def find_spec(self, name, path, target=None):
+        if name == module:
+            os.kill(os.getpid(), signal.SIGINT)
+
+sys.meta_path.insert(0, Signaller())
+sys.argv = ["choreo", *argv]
+runpy.run_module("choreo", run_name="__main__")
+"""
+
+
+@pytest.mark.parametrize("module", ["choreo.cli.command_line", "choreo.core.collector", "argparse"])
+def test_ctrl_c_while_the_command_line_itself_loads_is_exit_130_without_a_traceback(module):
+    """The console script and ``python -m choreo`` import choreo.cli, whose program() loads the
+    command line under its own Ctrl-C guard: no window before main() shows a traceback."""
+    done = subprocess.run(
+        [sys.executable, "-c", CTRL_C_AS_IT_STARTS, module, "play", str(WAVE), "--dry-run"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (130, "", "choreo: interrupted\n")
+
+
+def test_a_compiled_module_whose_import_ctrl_c_stopped_is_an_interruption_not_a_bug(
+    monkeypatch, capsys
+):
+    """mujoco's initialisation, interrupted, fails as ImportError('initialization failed')
+    caused by the KeyboardInterrupt: Ctrl-C, exit 130, not an internal error."""
+    from choreo.cli import bus_commands
+
+    def import_interrupted(bus, ids):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise ImportError("initialization failed") from interrupt
+
+    monkeypatch.setattr(bus_commands, "scan_with_progress", import_interrupted)
+    assert main(["scan", "--ids", "1", "--port", "sim://?ids=1"]) == 130
+    assert capsys.readouterr().err == "choreo: interrupted\n"
+
+
+def test_the_package_s_names_are_the_command_line_s_and_nothing_else():
+    import choreo.cli
+
+    assert choreo.cli.main is command_line.main
+    assert choreo.cli.flag_of("exit_pose") == "--exit-pose"
+    with pytest.raises(AttributeError, match="module 'choreo.cli' has no attribute 'nope'"):
+        choreo.cli.nope  # noqa: B018
 
 
 @pytest.mark.parametrize(

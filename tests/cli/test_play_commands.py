@@ -155,3 +155,13 @@ def test_play_stretch_says_how_much(tmp_path, capsys):
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert f"{path}:5:5: stretched: reached 0.367 s later than written\n" in err
+
+
+def test_a_play_refused_before_anything_moves_is_its_one_line_without_a_progress_bar(capsys):
+    """The bar comes with the first move: none stands at "approach" over a refusal."""
+    dance = "motions/arm6/dance.yaml"
+    argv = ["play", dance, "--loop", "3", "--no-audio", "--port", "sim://?ids=1-6&clock=virtual"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("choreo: error: --loop 3: the dance (repeat 3) runs to at least t ")
+    assert err.count("\n") == 1

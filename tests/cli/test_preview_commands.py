@@ -4,9 +4,12 @@ display, and rendering to a file."""
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
-from cli_helpers import PREVIEW_MOTIONS
+from cli_helpers import PREVIEW_MOTIONS, REPO, usage_error_line
 from PIL import Image
 
 from choreo.cli import main
@@ -41,6 +44,35 @@ def test_preview_report_writes_json(tmp_path, capsys):
 def test_preview_usage_errors_exit_2(argv, message, capsys):
     assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--near-miss", "--fall-height"])
+def test_a_fraction_flag_takes_at_most_all_of_it(flag, capsys):
+    """A share of the stall torque, of the start height: 1.5 of it would flag every step."""
+    assert usage_error_line(capsys, ["preview", str(FINE), "--check", flag, "1.5"]) == (
+        f"choreo preview: error: argument {flag}: expected a fraction in (0, 1], got '1.5'"
+    )
+
+
+def test_a_huge_speed_is_refused_as_typed_not_in_hundreds_of_digits(capsys):
+    assert usage_error_line(capsys, ["preview", str(FINE), "--check", "--speed", "1e308"]) == (
+        "choreo preview: error: argument --speed: expected a number >= 0.01 and <= 100, got '1e308'"
+    )
+
+
+def test_check_renders_nothing_so_a_mujoco_gl_naming_no_back_end_does_not_matter():
+    """mujoco refuses an unknown MUJOCO_GL as it is imported: a process of its own, where it
+    has not been imported yet."""
+    done = subprocess.run(
+        [sys.executable, "-m", "choreo", "preview", str(FINE), "--check"],
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO), "MUJOCO_GL": "bogus"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert (done.returncode, done.stderr) == (0, "")
+    assert "0 error(s)" in done.stdout
 
 
 def test_preview_check_says_where_as_validate_does(capsys):

@@ -186,9 +186,18 @@ def test_servo_limits_name_the_options_the_user_typed(capsys):
 def test_cli_move_to_a_huge_angle_is_one_line_and_sends_nothing(cli_emulator, capsys):
     assert main(["servo", "move", "--id", "2", "--deg", "1e308", "--port", "sim://?ids=1-6"]) == 2
     assert error_line(capsys) == (
-        "choreo: error: a servo angle must be in 0..240° (0..1000 units), got 1e+308°"
+        "choreo: error: --deg must be in 0..240° (0..1000 units), got 1e+308°"
     )
     assert sent(cli_emulator, Command.MOVE_TIME_WRITE) == []
+
+
+def test_cli_offset_beyond_its_range_names_the_flag(cli_emulator, capsys):
+    argv = ["servo", "offset", "adjust", "--id", "2", "--deg", "31", "--port", "sim://?ids=1-6"]
+    assert main(argv) == 2
+    assert error_line(capsys) == (
+        "choreo: error: --deg must be within -30.0..+30.0° (-125..125 units), got 31°"
+    )
+    assert sent(cli_emulator, Command.ANGLE_OFFSET_ADJUST) == []
 
 
 # --- through the CLI ---------------------------------------------------------------------------

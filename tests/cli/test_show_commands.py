@@ -377,6 +377,19 @@ def test_a_zenoh_configuration_that_cannot_be_used_is_one_line(tmp_path, capsys)
     assert err.count("\n") == 1 and ".rs:" not in err
 
 
+def test_an_endpoint_the_performer_cannot_listen_on_is_one_line_naming_the_flag(capsys):
+    from choreo.cli import main
+
+    argv = ["perform", "--port", "sim://?ids=1-6", "--listen", "tls/127.0.0.1:0"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        "choreo: error: --listen 'tls/127.0.0.1:0' needs this computer's TLS certificate and "
+        "private key: name them in the Zenoh configuration given with --zenoh-config "
+        "(transport/link/tls: listen_certificate and listen_private_key), as docs/shows.md "
+        "shows\n"
+    )
+
+
 def test_every_problem_of_every_motion_is_listed_before_any_performer_is_sought(tmp_path, capsys):
     for name, pose in (("a.yaml", "nowhere"), ("b.yaml", "elsewhere")):
         (tmp_path / name).write_text(f"robot: arm6\nkeyframes:\n  - pose: {pose}\n")

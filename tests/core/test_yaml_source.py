@@ -139,6 +139,25 @@ def test_a_file_that_is_not_yaml_is_one_source_error(tmp_path, text, message):
     with pytest.raises(SourceError) as raised:
         parse_yaml_file(path)
     assert str(raised.value).startswith(f"{path}:{message}")
+    assert "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    "text, where, kind",
+    [
+        ("name: x\nrobot: arm6\x01\n", "2:12", "a control character (U+0001)"),
+        ("name: x\ufffe\n", "1:8", "a character (U+FFFE)"),
+    ],
+)
+def test_a_character_yaml_does_not_allow_is_pointed_at_in_one_line(tmp_path, text, where, kind):
+    """PyYAML says where by the offset in the text, on a second line: choreo says line:col."""
+    path = tmp_path / "f.yaml"
+    path.write_text(text)
+    with pytest.raises(SourceError) as raised:
+        parse_yaml_file(path)
+    assert str(raised.value) == (
+        f"{path}:{where}: not valid YAML: {kind} YAML does not allow; remove it"
+    )
 
 
 def test_an_empty_file_is_no_document(tmp_path):
@@ -217,7 +236,9 @@ def test_a_file_that_fails_to_load_leaves_the_collector_running(tmp_path):
     assert gc.isenabled()
 
 
-def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, capsys):
+def test_a_text_file_given_as_a_robot_is_quoted_by_no_more_than_its_first_line(tmp_path, capsys):
+    """YAML reads the 40 lines as one text, joined by spaces: only the start of the first
+    line is quoted, not the start of the second."""
     accounts = "".join(
         f"user{i}:x:{1000 + i}:{1000 + i}::/home/user{i}:/bin/sh\n" for i in range(40)
     )
@@ -229,8 +250,8 @@ def test_a_text_file_given_as_a_robot_is_quoted_by_one_shortened_line(tmp_path, 
     robot = tmp_path / "etc" / "passwd"
     assert capsys.readouterr().out.splitlines() == [
         f"{path}:1:8: robot {robot} has problems (listed after this line); fix them first",
-        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got "
-        "'user0:x:1000:1000::/home/user0:/bin/sh user1:x:1001:1001::/h'…",
+        f"{robot}:1:1: the robot file must be a mapping (key: value lines), got a text over 40 "
+        "lines starting 'user0:x:1000:1000::/home/user0:/bin/sh'…",
     ]
 
 

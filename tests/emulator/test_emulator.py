@@ -274,9 +274,28 @@ def test_a_state_file_that_is_json_but_not_an_object_is_refused_in_one_line(tmp_
     with pytest.raises(
         ChoreoError,
         match="bus.json: cannot read emulator state: not a "
-        "choreo-emulator-state file: a JSON object is expected",
+        "choreo-emulator-state file: a JSON object is expected; delete it to start",
     ):
         Bus([1], state_path=state)
+
+
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("{\n  servos: 5\n", ":2:3: cannot read emulator state: not JSON; delete it"),
+        (
+            '{"format": "choreo-emulator-state", "version": 1, "servos": [{"model": "LX-16A"}]}',
+            ": cannot read emulator state: not a choreo-emulator-state file of version 1 (a "
+            "servo's entry is damaged); delete it",
+        ),
+    ],
+)
+def test_a_damaged_state_file_says_where_and_what_to_do_in_choreo_s_words(tmp_path, text, problem):
+    state = tmp_path / "bus.json"
+    state.write_text(text)
+    with pytest.raises(ChoreoError) as refused:
+        Bus([1], state_path=state)
+    assert str(refused.value).startswith(f"{state}{problem}")
 
 
 def test_a_state_path_that_is_a_folder_or_fifo_is_named_so(tmp_path):

@@ -444,8 +444,8 @@ def test_a_move_ruckig_finds_no_trajectory_for_is_one_line_at_its_keyframe():
         plan_motion(motion)
     assert raised.value.problems == [
         "test_motion.yaml:4:5: the move into keyframe could not be planned: ruckig found no "
-        "trajectory for j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration "
-        "and jerk limits in models/bot/robot.yaml and the keyframe's velocity"
+        "trajectory for j1 from 0° to 30°, its numbers out of its range; check j1's velocity, "
+        "acceleration and jerk limits in models/bot/robot.yaml and the keyframe's velocity"
     ]
 
 
@@ -455,8 +455,8 @@ def test_an_approach_ruckig_finds_no_trajectory_for_is_one_line():
         plan_approach(robot, [0, 0], [0, 30])
     assert str(raised.value) == (
         "the approach to the first keyframe could not be planned: ruckig found no trajectory for "
-        "j1 from 0° to 30° (error in step 1); check j1's velocity, acceleration and jerk limits "
-        "in models/bot/robot.yaml"
+        "j1 from 0° to 30°, its numbers out of its range; check j1's velocity, acceleration and "
+        "jerk limits in models/bot/robot.yaml"
     )
 
 

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 from plan_helpers import make_robot, ruckig_rest_to_rest
 
-from choreo.plan.segment import Limits, NoTrajectory, SegmentSolver, segment_ranges
+from choreo.plan.segment import (
+    Limits,
+    NoTrajectory,
+    SegmentSolver,
+    failing_joint,
+    segment_ranges,
+)
 
 
 def test_limits_scale_every_joint_and_the_velocity_alone_by_its_own_factor():
@@ -63,34 +69,27 @@ def test_the_limiting_joint_is_the_one_whose_own_move_is_longest():
     assert solver.limiting_joint() == 1
 
 
-def test_ruckigs_failure_names_the_joint_it_reports():
-    robot = make_robot(2, acc=1e-300)  # numbers ruckig's numerics fail on
+def test_ruckigs_failure_names_the_joint_that_fails_on_its_own():
+    robot = make_robot(3)
+    limits = Limits.of(robot)
+    limits.acc[1] = 1e-300  # a number ruckig's numerics fail on, for j1 alone
     with pytest.raises(NoTrajectory) as caught:
-        SegmentSolver(2).duration_s(
-            [0.0, 0.0], [0.0, 0.0], [10.0, 10.0], [0.0, 0.0], Limits.of(robot), None
-        )
-    assert caught.value.joint in (0, 1)
-    message = caught.value.message(robot, [0.0, 0.0], [10.0, 10.0])
-    name = robot.joint_names[caught.value.joint]
-    assert message.startswith(f"ruckig found no trajectory for {name} from 0° to 10° (")
-    assert "\n" not in message
+        SegmentSolver(3).duration_s([0.0] * 3, [0.0] * 3, [10.0] * 3, [0.0] * 3, limits, None)
+    assert caught.value.joint == 1
+    message = caught.value.message(robot, [0.0] * 3, [10.0, 20.0, 30.0])
+    assert message == (
+        "ruckig found no trajectory for j1 from 0° to 20°, its numbers out of its range; check "
+        "j1's velocity, acceleration and jerk limits in models/bot/robot.yaml"
+    )
 
 
-@pytest.mark.parametrize(
-    ("text", "reason", "joint"),
-    [
-        (
-            "\n[ruckig] error in step 1, dof: 1 input: \n  max_velocity = [1e-300]",
-            "error in step 1",
-            1,
-        ),
-        ("something else entirely", "something else entirely", None),
-        ("", "RuntimeError", None),
-    ],
-)
-def test_a_ruckig_error_is_read_as_its_step_and_joint(text, reason, joint):
-    error = NoTrajectory.of(RuntimeError(text))
-    assert (error.reason, error.joint) == (reason, joint)
+def test_a_failure_no_joint_has_on_its_own_names_none():
+    robot = make_robot(2)
+    assert failing_joint([0.0, 0.0], [0.0, 0.0], [10.0, 20.0], [0.0, 0.0], Limits.of(robot)) is None
+    assert NoTrajectory(None).message(robot, [0.0, 0.0], [10.0, 20.0], " and x") == (
+        "ruckig found no trajectory, its numbers out of its range; check the velocity, "
+        "acceleration and jerk limits in models/bot/robot.yaml and x"
+    )
 
 
 def test_a_segments_range_is_between_its_two_keyframes_with_slack():

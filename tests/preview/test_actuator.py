@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from choreo.errors import OptionError
 from choreo.plan.ticks import Tick
 from choreo.preview.actuator import (
     ActuatorParams,
@@ -77,9 +78,9 @@ def test_damping_follows_the_stall_torque_and_speed_unless_given():
 
 
 def test_figures_out_of_range_are_refused_naming_the_field():
-    with pytest.raises(ValueError, match="response_delay_s of joint base_yaw must be"):
+    with pytest.raises(OptionError, match="base_yaw's response_delay_s 0.5; it must be a numb"):
         one_servo(response_delay_s=0.5)
-    with pytest.raises(ValueError, match="friction_nm of joint base_yaw must be a number >= 0"):
+    with pytest.raises(OptionError, match="base_yaw's friction_nm -1.0; it must be a number >= 0"):
         one_servo(friction_nm=-1.0)
     assert one_servo(offset_deg=-3.0).offset_deg == -3.0
 

@@ -16,7 +16,7 @@ from preview_helpers import MOTIONS, linear_ticks, tick_at
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_models import ACTUATOR_FIELDS
-from choreo.errors import PreviewError
+from choreo.errors import OptionError, PreviewError
 from choreo.motion.motion_file import load_motion
 from choreo.plan.planner import plan_motion
 from choreo.plan.ticks import Tick, compile_ticks
@@ -153,12 +153,18 @@ def test_actuators_come_from_the_servo_model_and_overrides_replace_fields(arm3):
     assert default.damping_nm_s_rad == pytest.approx(0.255, abs=0.001)
     weak = actuator_params(arm3, {"shoulder": {"stall_torque_nm": 0.5}})[1]
     assert weak.stall_torque_nm == 0.5 and weak.kp_nm_rad == default.kp_nm_rad
-    with pytest.raises(ValueError, match="unknown joints knee.*yaw, shoulder, elbow"):
-        actuator_params(arm3, {"knee": {"kp_nm_rad": 1}})
-    with pytest.raises(ValueError, match="unknown actuator field 'kd'.*valid fields"):
-        actuator_params(arm3, {"elbow": {"kd": 1}})
-    with pytest.raises(ValueError, match="must be a number > 0"):
-        actuator_params(arm3, {"elbow": {"kp_nm_rad": -1}})
+    for overrides, problem in (
+        ({"knee": {"kp_nm_rad": 1}}, "names unknown joints knee; joints of arm3: yaw, shoulder, "),
+        ({"elbow": {"kd": 1}}, "gives elbow the unknown field 'kd'; the fields: stall_torque_nm, "),
+        ({"elbow": {"kp_nm_rad": -1}}, "gives elbow's kp_nm_rad -1; it must be a number > 0"),
+        ({"elbow": {"kp_nm_rad": 10**400}}, "gives elbow's kp_nm_rad 1000000000000000000"),
+        ({"elbow": {"friction_nm": math.nan}}, "gives elbow's friction_nm nan; it must be a numbe"),
+        ({"elbow": 5}, "must map joint names to {field: value}, e.g. {'elbow': {'stall_torque_nm'"),
+    ):
+        with pytest.raises(OptionError) as refused:
+            actuator_params(arm3, overrides)
+        assert refused.value.option == "actuator_overrides"
+        assert refused.value.problem.startswith(problem)
 
 
 def test_the_compiled_model_gets_the_servo_model_whatever_the_mjcf_says(arm3):

@@ -29,7 +29,6 @@ def test_the_viewer_on_a_display_that_is_not_there_is_one_line(monkeypatch, caps
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["preview", str(PREVIEW_MOTIONS / "fine.yaml"), "--viewer"]) == 1
-    assert error_line(capsys) == (
-        "choreo: error: the viewer cannot open a window on display ':99' (X11: Failed to open "
-        "display :99); render to a file instead (-o FILE)"
-    )
+    line = error_line(capsys)  # GLFW's own reason in the brackets
+    assert line.startswith("choreo: error: the viewer cannot open a window on display ':99' (")
+    assert line.endswith("); render to a file instead (-o FILE)")

@@ -100,8 +100,8 @@ def test_mirror_pair_naming_an_unknown_joint():
 
 def test_malformed_yaml_is_a_message_not_a_traceback():
     path, message = only_problem("malformed")
-    assert message.startswith(f"{path}:5:6: not valid YAML: ")
-    assert message.endswith("expected ',' or '}' (while parsing a flow mapping at line 4)")
+    assert message.startswith(f"{path}:5:6: not valid YAML: ")  # then PyYAML's words
+    assert "\n" not in message and "<unicode string>" not in message
 
 
 def test_name_must_equal_the_folder():

@@ -1,17 +1,18 @@
-"""The Zenoh session's configuration: Zenoh's own file (or ZENOH_CONFIG), the realm, and the
-one-line warning when a session can be reached from beyond this computer unauthenticated."""
+"""The Zenoh session's configuration: Zenoh's own file (or ZENOH_CONFIG), the realm, the
+one-line warning when a session can be reached from beyond this computer unauthenticated, and
+why an endpoint cannot be listened on or connected to, in choreo's words."""
 
 from __future__ import annotations
 
 import json
+import socket
 
 import pytest
+import zenoh  # the test extra's: a missing one fails the file, never skips it
 from show_helpers import eventually
 
 from choreo.errors import OptionError
 from choreo.show.network import CONFIG_ENV, Network, Realm, exposure
-
-zenoh = pytest.importorskip("zenoh")
 
 
 def config(**settings) -> object:
@@ -148,3 +149,48 @@ def test_a_wait_on_zenoh_still_hears_ctrl_c_and_passes_results_and_errors_throug
     with pytest.raises(KeyboardInterrupt):
         _interruptible(lambda: released.wait(30))  # a call that would not return for 30 s
     released.set()
+
+
+def test_an_endpoint_that_cannot_be_listened_on_says_why_naming_listen(tmp_path):
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        busy = taken.getsockname()[1]
+        problems = {}
+        for endpoint in (
+            "tcp/192.0.2.1:7447",  # TEST-NET-1: no interface here has it
+            "udp/192.0.2.1:7447",
+            "tcp/nowhere.invalid:7447",  # .invalid never resolves (RFC 6761)
+            f"tcp/127.0.0.1:{busy}",
+            "tls/127.0.0.1:0",
+            f"unixsock-stream/{tmp_path}/missing/x.sock",
+        ):
+            with pytest.raises(OptionError) as refused:
+                Network(listen=[endpoint])
+            assert refused.value.option == "listen"
+            problems[endpoint] = refused.value.problem
+    assert problems == {
+        "tcp/192.0.2.1:7447": "'tcp/192.0.2.1:7447': 192.0.2.1 is not an address of this "
+        "computer; give one of its own, or tcp/0.0.0.0:7447",
+        "udp/192.0.2.1:7447": "'udp/192.0.2.1:7447': 192.0.2.1 is not an address of this "
+        "computer; give one of its own, or udp/0.0.0.0:7447",
+        "tcp/nowhere.invalid:7447": "'tcp/nowhere.invalid:7447': the host 'nowhere.invalid' "
+        "does not resolve; give an address of this computer, or tcp/0.0.0.0:7447 for all of "
+        "them",
+        f"tcp/127.0.0.1:{busy}": f"'tcp/127.0.0.1:{busy}': port {busy} is in use there "
+        "(another performer or program); choose another port",
+        "tls/127.0.0.1:0": "'tls/127.0.0.1:0' needs this computer's TLS certificate and private "
+        "key: name them in the Zenoh configuration given with zenoh_config (transport/link/tls: "
+        "listen_certificate and listen_private_key), as docs/shows.md shows",
+        f"unixsock-stream/{tmp_path}/missing/x.sock": f"'unixsock-stream/{tmp_path}/missing/"
+        f"x.sock': the folder {tmp_path}/missing does not exist",
+    }
+
+
+def test_a_host_to_connect_to_that_does_not_resolve_is_refused_before_the_session_opens():
+    with pytest.raises(OptionError) as refused:
+        Network(connect=["tcp/nowhere.invalid:7447"])
+    assert str(refused.value) == (
+        "connect 'tcp/nowhere.invalid:7447': the host 'nowhere.invalid' does not resolve to an "
+        "address"
+    )

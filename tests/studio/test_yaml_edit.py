@@ -3,8 +3,12 @@ keeps its place and its comment, and nothing else moves."""
 
 from __future__ import annotations
 
+import pytest
+
 from choreo.studio.yaml_edit import (
+    EditRefused,
     add_keyframe,
+    keyframe_items,
     pose_mapping,
     retime_keyframe,
     update_pose,
@@ -78,3 +82,11 @@ def test_a_file_with_windows_line_endings_keeps_them():
     assert retime_keyframe(windows, 1, "here", {"bar": 6, "beat": 3}) == MUSIC.replace(
         "bar: 5   # the chorus", "bar: 6   # the chorus"
     ).replace("\n", "\r\n")
+
+
+def test_a_file_that_is_not_yaml_refuses_an_edit_in_one_line_that_says_where():
+    with pytest.raises(EditRefused) as refused:
+        keyframe_items("robot: arm6\nkeyframes:\n  - pose: [1, 2\n")
+    message = str(refused.value)
+    assert message.startswith("the file is not valid YAML at 4:1: ")  # then PyYAML's words
+    assert "\n" not in message and "<unicode string>" not in message

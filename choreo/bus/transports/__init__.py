@@ -343,6 +343,10 @@ def open_serial(
         return port
     except (serial.SerialException, ValueError, OSError) as error:
         raise PortError(f"cannot open {url}: {_open_failure(url, error)}") from error
+    except KeyError as error:  # pyserial 3.5's loop:// formats its refusal of an option wrongly
+        raise PortError(
+            f"cannot open {url}: pyserial does not take the options after '?' for this scheme"
+        ) from error
 
 
 def _let_pyserial_open(url: str) -> None:
@@ -358,6 +362,8 @@ _LIST_PORTS = "list ports with `choreo ports`; `sim://` is the built-in emulator
 
 def _open_failure(url: str, error: Exception) -> str:
     """Why a port did not open, in the user's terms, with the hint that fits the cause."""
+    if isinstance(error.__cause__, ValueError):  # the URL's own settings (sim://?start_gap_ms=-1)
+        return str(error.__cause__)
     kind = not_a_file(url) if "://" not in url else None
     if kind not in (None, "a device"):
         return f"it is {kind}, not a serial port; {_LIST_PORTS}"
