@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import signal
 import sys
+import tempfile
 from pathlib import Path
 
 import browser
@@ -135,13 +137,18 @@ if importlib.util.find_spec("xdist") is not None:  # hooks pytest knows only wit
 BROWSER_TESTS = sorted(Path(__file__).parent.rglob("test_*_browser.py"))
 
 
-@pytest.fixture(autouse=True, scope="session")
-def own_cache(tmp_path_factory):
-    """The suite's own cache folder (passed model checks): none of the user's is read, nor
-    written, and every run starts empty. The commands tests start inherit it."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("CHOREO_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        yield
+_OWN_CACHE = pytest.StashKey[pytest.MonkeyPatch]()
+
+
+def pytest_configure(config):
+    """The run's own cache folder (passed model checks, gait calibrations, the OpenGL back-end
+    that works): none of the user's is read, nor written, and every run starts empty. Made
+    before anything renders or any worker starts, so that the workers of a parallel run and the
+    commands tests start all share it: the back-end is tried once a run, not once a process."""
+    if hasattr(config, "workerinput"):
+        return  # a worker of a parallel run: it inherited the folder
+    patch = config.stash[_OWN_CACHE] = pytest.MonkeyPatch()
+    patch.setenv("CHOREO_CACHE_DIR", tempfile.mkdtemp(prefix="choreo-tests-cache-"))
 
 
 def pytest_sessionstart(session):
@@ -172,6 +179,10 @@ _COMPILED = pytest.StashKey[list[Path]]()
 
 def pytest_unconfigure(config):
     bytecode.remove(config.stash.get(_COMPILED, []))
+    patch = config.stash.get(_OWN_CACHE, None)
+    if patch is not None:
+        shutil.rmtree(os.environ["CHOREO_CACHE_DIR"], ignore_errors=True)
+        patch.undo()
 
 
 def _asks_for(config, test_file: Path) -> bool:
