@@ -66,9 +66,9 @@ SHIPPED_SIMULATION_FILES = (
     "tests/preview/test_walk.py",
 )
 
-# The README's previews each render in a process of their own (its video of the tonypi dance: 30 s
-# of CPU) and need no librosa: each is a unit of its own, so they spread over the workers instead of
-# adding to the librosa files' worker.
+# The README's previews each render (its video of the tonypi dance: 11 s of CPU) and need no
+# librosa: each is a unit of its own, so they spread over the workers instead of adding to the
+# librosa files' worker.
 OWN_UNITS = ("tests/test_docs.py::test_readme_command_runs[choreo preview ",)
 
 # The costliest units, costliest first (by their wall time with -n 2 on a busy 2-core machine): a
