@@ -54,6 +54,7 @@ LIBROSA_FILES = (
     "tests/cli/test_music_commands.py",
     "tests/music/test_neural.py",
     "tests/music/test_tempo.py",
+    "tests/music/test_tracker.py",
     "tests/test_docs.py",
 )
 
