@@ -2,11 +2,11 @@
 computes it from an onset envelope (untrimmed), without importing ``librosa.beat``.
 
 Importing ``librosa.beat`` compiles one of its functions with numba every time (librosa keeps
-that one out of numba's cache): some 3 s of CPU, half of all ``choreo beats`` spent on a song.
-Here the same arithmetic, in the same order, is done with numpy (the dynamic program a stretch of
-frames at a time: a few ms for a two-minute song). Logarithms and exponentials
-come from ``math`` (the C library's, as numba's), so the scores match librosa's to the bit
-(tests/music/test_tracker.py compares the two).
+that one out of numba's cache): some 3 s of CPU, half of what ``choreo beats`` spends on a short
+song. Here the same arithmetic, in the same order, is done with numpy (the dynamic program a
+stretch of frames at a time: 0.1 s for a five-minute song). Logarithms and exponentials come
+from ``math`` (the C library's, as numba's), so the scores match librosa's to the bit
+(tests/music/test_tracker.py compares the beats with librosa's).
 """
 
 from __future__ import annotations
