@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import signal
 import sys
+import tempfile
 from pathlib import Path
 
 import browser
@@ -52,6 +54,7 @@ LIBROSA_FILES = (
     "tests/cli/test_music_commands.py",
     "tests/music/test_neural.py",
     "tests/music/test_tempo.py",
+    "tests/music/test_tracker.py",
     "tests/test_docs.py",
 )
 
@@ -64,9 +67,9 @@ SHIPPED_SIMULATION_FILES = (
     "tests/preview/test_walk.py",
 )
 
-# The README's previews each render in a process of their own (its video of the tonypi dance: 30 s
-# of CPU) and need no librosa: each is a unit of its own, so they spread over the workers instead of
-# adding to the librosa files' worker.
+# The README's previews each render (its video of the tonypi dance: 11 s of CPU) and need no
+# librosa: each is a unit of its own, so they spread over the workers instead of adding to the
+# librosa files' worker.
 OWN_UNITS = ("tests/test_docs.py::test_readme_command_runs[choreo preview ",)
 
 # The costliest units, costliest first (by their wall time with -n 2 on a busy 2-core machine): a
@@ -135,13 +138,18 @@ if importlib.util.find_spec("xdist") is not None:  # hooks pytest knows only wit
 BROWSER_TESTS = sorted(Path(__file__).parent.rglob("test_*_browser.py"))
 
 
-@pytest.fixture(autouse=True, scope="session")
-def own_cache(tmp_path_factory):
-    """The suite's own cache folder (passed model checks): none of the user's is read, nor
-    written, and every run starts empty. The commands tests start inherit it."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("CHOREO_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        yield
+_OWN_CACHE = pytest.StashKey[pytest.MonkeyPatch]()
+
+
+def pytest_configure(config):
+    """The run's own cache folder (passed model checks, gait calibrations, the OpenGL back-end
+    that works): none of the user's is read, nor written, and every run starts empty. Made
+    before anything renders or any worker starts, so that the workers of a parallel run and the
+    commands tests start all share it: the back-end is tried once a run, not once a process."""
+    if hasattr(config, "workerinput"):
+        return  # a worker of a parallel run: it inherited the folder
+    patch = config.stash[_OWN_CACHE] = pytest.MonkeyPatch()
+    patch.setenv("CHOREO_CACHE_DIR", tempfile.mkdtemp(prefix="choreo-tests-cache-"))
 
 
 def pytest_sessionstart(session):
@@ -172,6 +180,10 @@ _COMPILED = pytest.StashKey[list[Path]]()
 
 def pytest_unconfigure(config):
     bytecode.remove(config.stash.get(_COMPILED, []))
+    patch = config.stash.get(_OWN_CACHE, None)
+    if patch is not None:
+        shutil.rmtree(os.environ["CHOREO_CACHE_DIR"], ignore_errors=True)
+        patch.undo()
 
 
 def _asks_for(config, test_file: Path) -> bool:

@@ -112,33 +112,26 @@ def workdir(tmp_path: Path) -> Path:
     return tmp_path
 
 
-# `python -m choreo`, but a command without --port plays on the built-in emulator in virtual time
-VIRTUAL_CHOREO = [sys.executable, str(ROOT / "tests" / "virtual_choreo.py")]
-
-
 @pytest.fixture
 def run(workdir, monkeypatch, capsys, request):
     """``run(COMMAND, error=None)``: ``choreo ARGS`` as the README writes it, in ``workdir``, every
     emulator in virtual time (virtual_choreo.py); it succeeds, or fails with exactly ``error``.
-    In this process, which pays the imports (and librosa's warm-up) once for all of them; a
-    preview that renders in a process of its own (rendering fixes PyOpenGL's platform for good,
-    and test_render.py needs a process that has not rendered); ``--check`` renders nothing."""
+    In this process, which pays the imports (and librosa's warm-up) once for all of them, and
+    no interpreter start for each (a preview's renders here too: test_gl.py's tests choose the
+    back-end whether or not this process has rendered)."""
     monkeypatch.chdir(workdir)
     in_virtual_time(monkeypatch.setattr)
 
     def run_command(command: str, error: str | None = None) -> None:
         args = shlex.split(command)[1:]
-        if args[0] == "preview" and "--check" not in args:
-            code, stderr = in_a_process(args, workdir)
-        else:
-            if args[0] == "beats":
-                request.getfixturevalue("warm_librosa")  # once per session, not in this test
-            capsys.readouterr()
-            try:
-                code = main(args)
-            except SystemExit as exited:  # argparse's refusal
-                code = exited.code
-            stderr = capsys.readouterr().err
+        if args[0] == "beats":
+            request.getfixturevalue("warm_librosa")  # once per session, not in this test
+        capsys.readouterr()
+        try:
+            code = main(args)
+        except SystemExit as exited:  # argparse's refusal
+            code = exited.code
+        stderr = capsys.readouterr().err
         if error is None:
             assert code == 0, stderr
         else:
@@ -146,19 +139,6 @@ def run(workdir, monkeypatch, capsys, request):
             assert stderr.strip() == error
 
     return run_command
-
-
-def in_a_process(args: list[str], folder: Path) -> tuple[int, str]:
-    """``choreo ARGS`` in a process of its own with this checkout: (exit code, stderr)."""
-    result = subprocess.run(
-        [*VIRTUAL_CHOREO, *args],
-        cwd=folder,
-        env=env_importing_this_checkout(),
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    return result.returncode, result.stderr
 
 
 @pytest.mark.parametrize(

@@ -5,9 +5,10 @@ trackers on PyPI need torch or no longer build, see the docs):
 
 - **Beats** follow the local tempo (:mod:`~choreo.music.tempo`: librosa's tempogram, each
   frame folded onto the song's dominant level, smoothed); a song whose local tempo is steady is
-  tracked at one tempo, any other with the tempo changing along the song (its
-  dynamic-programming tracker takes a tempo per frame). The tracker runs on the onset envelope
-  with its low band (kick, bass) counted twice, so loud off-beat stabs don't pull the grid off.
+  tracked at one tempo, any other with the tempo changing along the song (librosa's
+  dynamic-programming tracker, :mod:`~choreo.music.tracker`, takes a tempo per frame). The
+  tracker runs on the onset envelope with its low band (kick, bass) counted twice, so loud
+  off-beat stabs don't pull the grid off.
   Each beat is then moved onto the sharpest onset within ``SNAP_S`` (3 ms frames), so beats are
   as precise as the attacks in the song. Tempi come from the beat times (a line through each
   steady stretch).
@@ -38,8 +39,9 @@ from choreo.core.arguments import (
 from choreo.errors import ChoreoError, Worded
 from choreo.music.bars import GAP, find_bars
 from choreo.music.decode import Audio, decode_song
-from choreo.music.features import COARSE_HOP, Features, around, normalised, song_features
+from choreo.music.features import Features, around, normalised, song_features
 from choreo.music.tempo import local_tempo
+from choreo.music.tracker import track_beats
 
 SNAP_S = 0.05  # a beat moves at most this far onto an onset
 TEMPO_CHANGE = 0.04  # a beat interval this much off the running one starts a new tempo
@@ -256,13 +258,8 @@ def _track(librosa, features: Features, scale: float = 1.0) -> np.ndarray:
     """The beats, at ``scale`` times the tempo the song's tempogram says (at its dominant level)."""
     envelope = normalised(features.onset) + normalised(features.low)
     tempo = local_tempo(librosa, envelope, features.rate_hz)
-    _, frames = librosa.beat.beat_track(
-        onset_envelope=envelope,
-        sr=features.rate_hz,
-        hop_length=COARSE_HOP,
-        trim=False,
-        bpm=scale * (tempo.median_bpm if tempo.steady else tempo.bpm),
-    )
+    bpm = scale * (tempo.median_bpm if tempo.steady else tempo.bpm)
+    frames = track_beats(librosa, envelope, bpm, features.coarse_fps)
     tracked = np.asarray(frames, dtype=float) / features.coarse_fps
     return _onto_the_backbeat(features, _placed(tracked, features))
 

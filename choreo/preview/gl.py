@@ -7,19 +7,30 @@ renderer then creates its context from the chosen back-end's own class, so the c
 when ``mujoco`` was imported earlier (by the robot loader) without ``MUJOCO_GL``.
 ``MUJOCO_GL=egl``, ``osmesa`` or ``glfw`` in the environment skips the trials; any other name is
 refused when rendering, not before (the command line imports mujoco without it: see choreo.cli).
+
+The trials cost some 0.5-0.85 s of CPU, so a back-end that worked is remembered in choreo's cache
+(see choreo.robot.check_cache) under a digest of what the choice depends on: the Python and its
+MuJoCo and PyOpenGL, the system's libraries (``/etc/ld.so.cache``, rewritten whenever a library
+is installed or removed), its EGL vendors and GPU devices, and the environment variables that
+steer EGL, Mesa and PyOpenGL. A failure is never remembered; a remembered back-end that fails to
+render after all is forgotten (see :func:`forget_remembered`), so the next run tries again.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib.util
 import logging
 import os
 import re
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 from choreo.errors import PreviewError
+from choreo.robot import check_cache
 
 log = logging.getLogger(__name__)
 
@@ -31,6 +42,13 @@ UNNAMED = ("", "disable", "disabled", "off", "false", "0")
 MESA_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1", "libgles2", "libosmesa6", "libgl1-mesa-dri")
 INSTALL_HINT = f"install Mesa's EGL and OSMesa, e.g. apt-get install {' '.join(MESA_PACKAGES)}"
 TRIAL_TIMEOUT_S = 60
+REMEMBERED = "gl-backends"  # the cache's folder of back-ends that worked, by machine_key()
+# What the trials' outcome depends on beyond the Python: the files and folders whose change may
+# change it (by size, time and, for folders, their entries), and the environment's variables
+# (not MUJOCO_GL nor PYOPENGL_PLATFORM: each trial sets its own, and rendering sets them after).
+SYSTEM_PATHS = ("/etc/ld.so.cache", "/usr/share/glvnd/egl_vendor.d", "/dev/dri")
+ENVIRONMENT_PREFIXES = ("EGL_", "__EGL_", "MESA_", "LIBGL_", "GALLIUM_")
+ENVIRONMENT_NAMES = ("MUJOCO_EGL_DEVICE_ID", "LD_LIBRARY_PATH", "LD_PRELOAD")
 
 _TRIAL = """
 import importlib, sys
@@ -69,15 +87,51 @@ def choose_backend() -> str:
         platform = os.environ.get("PYOPENGL_PLATFORM", "").lower()
         if platform in BACKENDS:
             return platform
+    key = machine_key()
+    remembered = check_cache.recall(REMEMBERED, key)
+    if remembered in BACKENDS:
+        return remembered
     failures = []
     for backend in BACKENDS:
         problem = backend_problem(backend)
         if problem is None:
+            check_cache.keep(REMEMBERED, key, backend)
             return backend
         failures.append(f"{backend}: {problem}")
     raise PreviewError(
         f"cannot render offscreen: no OpenGL back-end works ({'; '.join(failures)}); {INSTALL_HINT}"
     )
+
+
+def machine_key() -> str:
+    """The digest a back-end that worked is remembered under: what the trials depend on."""
+    digest = hashlib.sha256(f"1\0{sys.executable}\0{sys.version}\0".encode())
+    if hasattr(os, "getgroups"):  # the GPU's device files are often for a group's members only
+        digest.update(f"{os.getuid()}\0{sorted(os.getgroups())}\0".encode())
+    for module in ("mujoco", "OpenGL"):
+        spec = importlib.util.find_spec(module)  # found, not imported
+        digest.update(_identity(Path(spec.origin)) if spec and spec.origin else b"absent\0")
+    for path in SYSTEM_PATHS:
+        digest.update(_identity(Path(path)))
+    for name in sorted(os.environ):
+        if name.startswith(ENVIRONMENT_PREFIXES) or name in ENVIRONMENT_NAMES:
+            digest.update(f"{name}={os.environ[name]}\0".encode())
+    return digest.hexdigest()
+
+
+def _identity(path: Path) -> bytes:
+    """A file's path, size and time of change; a folder's also lists its entries."""
+    try:
+        stat = path.stat()
+        entries = sorted(os.listdir(path)) if path.is_dir() else []
+    except OSError:
+        return f"{path}\0absent\0".encode()
+    return f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}\0{entries}\0".encode()
+
+
+def forget_remembered() -> None:
+    """Forget the back-end remembered for this machine (one that failed to render after all)."""
+    check_cache.forget(REMEMBERED, machine_key())
 
 
 def backend_problem(backend: str) -> str | None:

@@ -27,7 +27,7 @@ from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
 from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.floor import draw_infinite_planes_finite
-from choreo.preview.gl import context_class, offscreen_backend
+from choreo.preview.gl import context_class, forget_remembered, offscreen_backend
 from choreo.preview.model import load_model
 from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
@@ -344,9 +344,10 @@ class FrameRenderer:
         try:
             self._gl = context_class(backend)(width, height)
             self._gl.make_current()
-        except PreviewError:
-            raise
         except Exception as error:  # the GL libraries raise their own types
+            forget_remembered()  # a back-end remembered from an earlier run: tried afresh next time
+            if isinstance(error, PreviewError):
+                raise
             raise PreviewError(f"cannot create an offscreen {backend} context: {error}") from None
         font = (
             mujoco.mjtFontScale.mjFONTSCALE_100

@@ -85,6 +85,12 @@ def keep(kind: str, key: str, text: str) -> None:
             temporary.unlink(missing_ok=True)
 
 
+def forget(kind: str, key: str) -> None:
+    """Forget what was kept under ``key`` among the ``kind``, if anything (best effort)."""
+    with contextlib.suppress(OSError):
+        (_folder(kind) / key).unlink(missing_ok=True)
+
+
 def _folder(kind: str) -> Path:
     explicit = os.environ.get("CHOREO_CACHE_DIR")
     if explicit:

@@ -70,65 +70,7 @@ def video_frames(path: Path) -> np.ndarray:
     return np.stack([np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader])
 
 
-# --- the OpenGL back-end -----------------------------------------------------------------------
-
-
-def test_an_offscreen_backend_works_on_this_machine():
-    backend = gl.offscreen_backend()
-    assert backend in ("egl", "osmesa")
-    assert gl.backend_problem(backend) is None
-
-
-def test_egl_is_preferred_and_osmesa_is_the_fallback(monkeypatch):
-    monkeypatch.setenv("MUJOCO_GL", "")
-    tried = []
-    monkeypatch.setattr(
-        gl,
-        "backend_problem",
-        lambda b: tried.append(b) or ("no EGL device" if b == "egl" else None),
-    )
-    assert gl.choose_backend() == "osmesa"
-    assert tried == ["egl", "osmesa"]
-
-
-def test_no_working_backend_fails_saying_what_to_install(monkeypatch):
-    monkeypatch.setenv("MUJOCO_GL", "")
-    monkeypatch.setattr(gl, "backend_problem", lambda backend: f"{backend} library missing")
-    with pytest.raises(PreviewError, match="egl: egl library missing; osmesa: .*libosmesa6"):
-        gl.choose_backend()
-
-
-def test_mujoco_gl_in_the_environment_is_used_without_trying_others(monkeypatch):
-    monkeypatch.setenv("MUJOCO_GL", "osmesa")
-    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
-    assert gl.choose_backend() == "osmesa"
-
-
-@pytest.mark.parametrize("value", ["glfw", " GLFW "])
-def test_glfw_named_is_used_without_trying_others(monkeypatch, value):
-    monkeypatch.setenv("MUJOCO_GL", value)
-    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
-    assert gl.choose_backend() == "glfw"
-
-
-def test_a_mujoco_gl_that_names_no_backend_is_refused_naming_the_valid_ones(monkeypatch):
-    monkeypatch.setenv("MUJOCO_GL", "bogus")
-    monkeypatch.setattr(gl, "backend_problem", lambda backend: pytest.fail("tried"))
-    with pytest.raises(PreviewError) as raised:
-        gl.choose_backend()
-    assert str(raised.value) == (
-        "MUJOCO_GL=bogus is not an OpenGL back-end to render with: set it to egl, osmesa or "
-        "glfw, or unset it to use the first that works"
-    )
-
-
-def test_glfw_without_a_window_system_is_one_error(monkeypatch):
-    monkeypatch.setattr(gl, "window_system_problem", lambda: "no display")
-    with pytest.raises(PreviewError) as raised:
-        gl.context_class("glfw")
-    assert str(raised.value) == (
-        "cannot render with glfw: no display; unset MUJOCO_GL to render with egl or osmesa"
-    )
+# --- MUJOCO_GL (the back-end's choice: test_gl.py) -------------------------------------------
 
 
 def choreo_with_mujoco_gl(value: str, *argv: str) -> subprocess.CompletedProcess:
