@@ -9,6 +9,7 @@ import time
 from collections.abc import Iterator
 
 import browser as chromium
+import mujoco
 import numpy as np
 import pytest
 from paths import REPO
@@ -30,6 +31,25 @@ def launched_browser() -> Iterator[Browser]:
         browser = choice.launch(playwright)
         yield browser
         browser.close()
+
+
+def without_the_floor(studio) -> None:
+    """The floor's grid hidden from the studio's pages (these tests' only: users see it).
+    Software WebGL spends most of a frame on it (an idle page ~0.3 core, a third of that
+    without it), and no test looks at the floor: they look at the robot, the gizmos and the
+    panels. Found by the name mjviser gives a plane fixed in the world."""
+    view = studio.view
+    assert view is not None
+    model = view.model
+    planes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    assert planes, "no floor in the scene"
+    for geom in planes:
+        body = model.body(int(model.geom_bodyid[geom])).name
+        handle = studio.server.scene.get_handle_by_name(
+            f"/fixed_bodies/{body}/{model.geom(geom).name}"
+        )
+        assert handle is not None, f"mjviser drew no floor named for {body}"
+        handle.visible = False
 
 
 def free_port() -> int:

@@ -51,12 +51,20 @@ class FileWatcher:
         """The files as they are now are known (the studio wrote them itself)."""
         self._stamps = self._read()
 
+    def _saved(self, now: dict[Path, Stamp]) -> bool:
+        """Whether a file watched before has changed. A file only the last reload brought in
+        (an include, a song) was read by it: no save, or a reload of the same bytes would
+        follow every change of the set of files (and refuse the page's next edit as made on
+        an older reload)."""
+        return any(path in self._stamps and self._stamps[path] != at for path, at in now.items())
+
     def _run(self) -> None:
         while not self._stop.wait(POLL_S):
             now = self._read()
-            if now != self._stamps:
-                # stamps from before the reload: a save during it is seen on the next poll
-                self._stamps = now
+            saved = self._saved(now)
+            # stamps from before the reload: a save during it is seen on the next poll
+            self._stamps = now
+            if saved:
                 try:
                     self._on_change()
                 except Exception:  # noqa: BLE001  a bug must not stop the studio following saves

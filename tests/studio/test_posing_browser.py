@@ -32,6 +32,7 @@ from studio_browser_helpers import (
     type_number,
     value_of,
     wait_for,
+    without_the_floor,
 )
 
 from choreo.studio.address import Address
@@ -62,6 +63,7 @@ def start_studio(tmp_path_factory, motion):
     studio = Studio(path, Address("127.0.0.1", free_port()), say=said.append)
     studio.said = said  # type: ignore[attr-defined]
     studio.start()
+    without_the_floor(studio)
     return studio
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from studio_helpers import copy_motion
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
+from choreo.core.atomic import write_text_atomically
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, SimSerial
 from choreo.errors import SourceError
@@ -245,6 +247,37 @@ def test_the_watcher_notices_a_save(tmp_path):
         assert not changed.wait(0.3)
         path.write_text(TEXT + "# saved again\n")
         assert changed.wait(5.0)
+    finally:
+        watcher.stop()
+
+
+def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
+    """A save that adds a song (or drops one) changes the set of files watched: that is one
+    reload, not two (the second would refuse the page's next edit as made on an older one)."""
+    path, song = tmp_path / "wave.yaml", tmp_path / "groove.ogg"
+    path.write_text(TEXT)
+    song.write_bytes(b"song")
+    files = [path]
+    reloads = []
+
+    def reload() -> None:  # as the studio's: the files are asked for again after it
+        files[:] = [path, song] if len(files) == 1 else [path]
+        reloads.append(len(files))
+
+    watcher = FileWatcher(lambda: list(files), reload)
+    watcher.start()
+    try:
+        write_text_atomically(path, TEXT + "# with its song\n")  # one save, seen once
+        wait_for(lambda: reloads == [2], "the reload that brings the song in")
+        time.sleep(0.3)  # polls that see the song: no save
+        write_text_atomically(path, TEXT + "# without it\n")
+        wait_for(lambda: reloads == [2, 1], "the reload that drops it")
+        time.sleep(0.3)
+        song.write_bytes(b"no longer watched")
+        write_text_atomically(path, TEXT)
+        wait_for(lambda: len(reloads) == 3, "a save of the motion")
+        time.sleep(0.3)
+        assert reloads == [2, 1, 2]
     finally:
         watcher.stop()
 

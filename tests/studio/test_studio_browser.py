@@ -35,6 +35,7 @@ from studio_browser_helpers import (
     type_number,
     value_of,
     wait_for,
+    without_the_floor,
 )
 
 from choreo.studio.address import Address
@@ -43,7 +44,7 @@ from choreo.studio.server import Studio
 
 MOTION = DATA / "studio" / "wave.yaml"
 SCENE = {"x": 80, "y": 150, "width": 460, "height": 420}  # the 3D view, clear of the panels
-DARK = 300  # R+G+B of arm6's black links; the floor's grid lines are lighter than 400
+DARK = 300  # R+G+B of arm6's black links (the floor, hidden here, draws lighter than 400)
 TICK_TOLERANCE_DEG = 0.5  # the ticks may be this far from the plan (choreo play's default)
 
 
@@ -62,6 +63,7 @@ def served(tmp_path_factory):
     studio = Studio(motion, Address("127.0.0.1", free_port()), say=said.append)
     studio.said = said  # type: ignore[attr-defined]
     studio.start()
+    without_the_floor(studio)
     yield studio
     studio.close()
 
@@ -323,6 +325,7 @@ def test_playback_stops_when_the_last_tab_closes(browser, tmp_path):
     shutil.copy(ARM_WAVE, motion)
     studio = Studio(motion, Address("127.0.0.1", 0), say=lambda line: None)
     studio.start()
+    without_the_floor(studio)
     try:
         page = browser.new_page(viewport=VIEWPORT)
         page.goto(studio.address.url)

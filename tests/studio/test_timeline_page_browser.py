@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 import studio_browser_helpers as helpers
-from studio_browser_helpers import free_port
+from studio_browser_helpers import free_port, without_the_floor
 
 from choreo.core.atomic import write_text_atomically
 from choreo.motion.motion_file import load_motion
@@ -72,6 +72,7 @@ def served(tmp_path_factory):
     studio = Studio(folder / "wave.yaml", Address("127.0.0.1", free_port()), say=said.append)
     studio.said = said  # type: ignore[attr-defined]
     studio.start()
+    without_the_floor(studio)
     yield studio
     studio.close()
 

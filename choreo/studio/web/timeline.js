@@ -38,7 +38,8 @@
   let play = { playing: false, t: 0, speed: 1, perf: performance.now() };
   let timeS = 0;
   let drag = null; // what the pointer is doing: scrub, box, keys
-  let dirty = true;
+  let dirty = true; // to be redrawn on the next frame (changed() asks for it)
+  let framePending = false;
   let songUrl = null;
   const drift = [];
   const partMs = {}; // how long each part of the last redraw took
@@ -110,7 +111,7 @@
           });
       }
     }
-    dirty = true;
+    changed();
   }
 
   function setPlay(next) {
@@ -121,14 +122,14 @@
       song.pause();
       followSong(false);
     }
-    dirty = true;
+    changed();
   }
 
   function setTime(t) {
     timeS = t;
     if (!play.playing) followSong(false);
     keepInView(t);
-    dirty = true;
+    changed();
   }
 
   // --- time and pixels ----------------------------------------------------------------------
@@ -147,7 +148,7 @@
     view.t0 = state.start_s - (view.span - length) / 2;
     if (view.span === MIN_SPAN_S) view.t0 = state.start_s - 0.2;
     view.fitted = true;
-    dirty = true;
+    changed();
   }
 
   function zoom(factor, atT) {
@@ -162,7 +163,7 @@
   function pan(dt) {
     if (!state) return;
     view.t0 = clamp(view.t0 + dt, state.start_s - view.span * 0.9, state.end_s - view.span * 0.1);
-    dirty = true;
+    changed();
   }
 
   function keepInView(t) {
@@ -797,7 +798,7 @@
     } else {
       drag = { kind: "box", x0: x, y0: y, x, y, add: event.shiftKey };
     }
-    dirty = true;
+    changed();
   });
 
   canvas.addEventListener("pointermove", (event) => {
@@ -819,7 +820,7 @@
         placeTip(x, y);
       }
     }
-    dirty = true;
+    changed();
   });
 
   canvas.addEventListener("pointerup", (event) => {
@@ -845,7 +846,7 @@
         announceSelection(); // one keyframe selected: the studio scrubs to it
       }
     }
-    dirty = true;
+    changed();
   });
 
   canvas.addEventListener("pointerleave", () => { if (!drag) tip.style.display = "none"; });
@@ -862,7 +863,7 @@
       pan(((event.deltaX || event.deltaY) / Math.max(plotW(), 1)) * view.span);
     } else {
       view.scrollY += event.deltaY;
-      dirty = true;
+      changed();
     }
   }, { passive: false });
 
@@ -898,7 +899,7 @@
     if (play.playing) play = { ...play, t, perf: performance.now() };
     followSong(play.playing);
     keepInView(t);
-    dirty = true;
+    changed();
     const now = performance.now();
     if (!live || now - lastScrub > 40) { // at most 25 scrubs a second while dragging
       lastScrub = now;
@@ -970,7 +971,7 @@
     else if (name === "-") zoom(1.5);
     else if (name === "0") fit();
     else return false;
-    dirty = true;
+    changed();
     return true;
   }
 
@@ -1018,23 +1019,34 @@
     }
   }
 
+  // A frame is asked for when something changed, and every frame while playing; an idle
+  // timeline asks for none (a frame loop that never stopped kept a software-rendering browser a
+  // quarter of a core busy redrawing the page, with nothing new on it).
+  function changed() {
+    dirty = true;
+    if (!framePending) {
+      framePending = true;
+      requestAnimationFrame(frame);
+    }
+  }
+
   function frame() {
+    framePending = false;
     if (play.playing && state) {
       let t = play.t + ((performance.now() - play.perf) / 1000) * play.speed;
       if (t > state.end_s) t = state.end_s; // the studio says where it goes on from there
       timeS = t;
       followSong(true);
       keepInView(t);
-      dirty = true;
+      changed();
     }
     if (dirty) {
       dirty = false;
       redraw(false);
     }
-    requestAnimationFrame(frame);
   }
-  window.addEventListener("resize", () => { dirty = true; });
-  requestAnimationFrame(frame);
+  window.addEventListener("resize", changed);
+  changed();
 
   // for the tests and the benchmarks: what the page shows, and a timed redraw
   window.choreoTimeline = {
