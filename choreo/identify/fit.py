@@ -19,6 +19,7 @@ from choreo.identify.joint_model import (
     FIGURES,
     FIT_STEP_S,
     Trial,
+    push_of_neighbours,
     simulate,
     supply_sag,
 )
@@ -111,8 +112,13 @@ def fit_servo(
         return figures
 
     def cost_at(step_s: float) -> Cost:
+        pushed = push_of_neighbours(trial, load, step_s)
+
         def cost(points: np.ndarray) -> np.ndarray:
-            predicted = simulate(trial, load, decode(points), dt_s=step_s, supply_sag_per_nm=sag)
+            figures = decode(points)
+            predicted = simulate(
+                trial, load, figures, dt_s=step_s, supply_sag_per_nm=sag, pushed=pushed
+            )
             return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
 
         return cost
