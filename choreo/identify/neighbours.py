@@ -98,8 +98,10 @@ def neighbour_push(
     inertia = load.inertia_at(np.radians(joint_deg))
     if not used:
         return NeighbourPush(np.zeros(n_steps), inertia, np.zeros((n_steps, 0)))
-    rows = np.array([order[r.joint] for r in used])
-    couplings = [load.neighbours[n] for n in rows]
+    # the neighbours read, then those they carry (not read: the model alone moves them)
+    carried = [len(order) + n for n in range(len(load.carried))]
+    rows = np.array([order[r.joint] for r in used] + carried)
+    couplings = [load.neighbours[order[r.joint]] for r in used] + list(load.carried)
 
     def over_steps(grid: np.ndarray) -> np.ndarray:  # (grid, ...) -> (n_steps, ...)
         flat = grid.reshape(len(grid), -1)
@@ -122,9 +124,11 @@ def neighbour_push(
     joint_per_rad = per_neighbour("gravity_nm_rad")
     joint_velocity = np.gradient(np.radians(joint_deg), dt_s)
     joint_change = np.diff(joint_velocity, prepend=joint_velocity[0])
-    moved = np.radians(_smoothed(read, dt_s, START_SMOOTHING_S)[0])  # from where they read
-    velocity = np.zeros(len(used))
-    pushed, modelled = np.empty(n_steps), np.empty((n_steps, len(used)))
+    # from where the read ones read, the others where their servos hold them against gravity
+    moved = np.radians(_smoothed(read, dt_s, START_SMOOTHING_S)[0])
+    moved = np.concatenate([moved, _sagged(steady[0], per_rad[0], half_band, kp)[len(used) :]])
+    velocity = np.zeros(len(rows))
+    pushed, modelled = np.empty(n_steps), np.empty((n_steps, len(rows)))
     for step in range(n_steps):
         pull = moved - np.clip(moved, -half_band, half_band)
         torque = np.clip(-kp * pull, -stall, stall) + steady[step] + per_rad[step] @ moved
@@ -134,7 +138,8 @@ def neighbour_push(
         moved += dt_s * velocity
         modelled[step] = moved
     # what the model misses, slowly, from the reads: where they stood, how they sagged
-    missed = _smoothed(np.radians(read) - modelled, dt_s, SLOW_S)
+    missed = np.zeros_like(modelled)
+    missed[:, : len(used)] = _smoothed(np.radians(read) - modelled[:, : len(used)], dt_s, SLOW_S)
     missed_acceleration = np.gradient(np.gradient(missed, dt_s, axis=0), dt_s, axis=0)
     pushed += np.einsum("sa,sa->s", joint_per_rad, missed)
     pushed -= np.einsum("sa,sa->s", coupling, missed_acceleration)
@@ -143,6 +148,15 @@ def neighbour_push(
         inertia - np.einsum("sa,sa->s", coupling, through),
         np.degrees(modelled + missed),
     )
+
+
+def _sagged(
+    gravity_nm: np.ndarray, per_rad: np.ndarray, half_band: np.ndarray, kp: np.ndarray
+) -> np.ndarray:
+    """Where servos holding at 0 stand against ``gravity_nm`` (radians): past their dead band
+    by the gravity over their gain, less its own slope (each on its own)."""
+    slope = np.diagonal(per_rad)
+    return (gravity_nm + np.sign(gravity_nm) * kp * half_band) / (kp - slope)
 
 
 def _servos(servos: Sequence[ActuatorParams], supply_v: float | None) -> tuple[np.ndarray, ...]:

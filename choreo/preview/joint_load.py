@@ -79,12 +79,15 @@ class JointLoad:
     gravity_nm: np.ndarray
     timestep_s: float  # the model's physics step
     friction: SoftFriction  # how MuJoCo's dry friction on it holds
-    # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS),
-    # and among them, over the grid (grid, neighbours, neighbours): their mass matrix, and the
-    # change of the gravity torque on each (row) per radian of each (column)
+    # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS);
+    # among them and those they carry (``carried``), over the grid (grid, n, n): their mass
+    # matrix, and the change of the gravity torque on each (row) per radian of each (column)
     neighbours: tuple[Coupling, ...] = ()
     neighbour_inertia_kg_m2: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
     neighbour_gravity_nm_rad: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    # the neighbours' own neighbours that move with them (not read: the matrices above take
+    # them after the neighbours), e.g. the shoulder's elbow carrying the wrist_pitch
+    carried: tuple[Coupling, ...] = ()
 
     def gravity_at(self, angle_rad: np.ndarray) -> np.ndarray:
         return np.interp(np.degrees(angle_rad), self.angles_deg, self.gravity_nm)
@@ -112,11 +115,13 @@ def joint_load(
     data = start_state(model, index, np.asarray(pose_deg, dtype=float))
     dof, address = int(index.dof[j]), int(index.qpos[j])
     near = _chain_neighbours(model, index, j)
-    # the joint first, then its neighbours: their mass matrix, gravity and its slopes
-    dofs = [dof] + [int(index.dof[n]) for n in near]
+    beyond = sorted({b for n in near for b in _chain_neighbours(model, index, n)} - {j, *near})
+    others = near + beyond
+    # the joint first, then its neighbours and theirs: mass matrix, gravity and its slopes
+    dofs = [dof] + [int(index.dof[n]) for n in others]
     mass = np.empty((len(angles), len(dofs), len(dofs)))
     gravity = np.empty((len(angles), len(dofs)))
-    slopes = np.empty((len(angles), len(dofs), len(near)))
+    slopes = np.empty((len(angles), len(dofs), len(others)))
     # M·e: mj_mulM takes the same arguments in every MuJoCo choreo allows, where mj_fullM's
     # changed in 4.0 (data in place of its qM)
     units, column = np.eye(model.nv), np.zeros(model.nv)
@@ -128,24 +133,29 @@ def joint_load(
         for a, row in enumerate(dofs):
             mujoco.mj_mulM(model, data, column, units[row])
             mass[k, a] = column[dofs]
-        for n, other in enumerate(near):  # each moves the neighbour and steps forward
+        for n, other in enumerate(others):  # each moves the neighbour and steps forward
             slopes[k, :, n] = _gravity_slopes(model, data, dofs, int(index.qpos[other]))
     inertia = mass[:, 0, 0]
     own_at_pose = np.array(
-        [np.interp(pose_deg[j], angles, mass[:, n, n]) for n in range(1, len(dofs))]
+        [np.interp(pose_deg[j], angles, mass[:, n, n]) for n in range(1, len(near) + 1)]
     )
-    kept = _strongly_coupled(mass[:, 0, 1:].T, inertia, own_at_pose)
-    neighbours = tuple(
-        Coupling(
-            robot.joint_names[near[n]],
+    kept = _strongly_coupled(mass[:, 0, 1 : len(near) + 1].T, inertia, own_at_pose)
+    carried = [
+        len(near) + b
+        for b in range(len(beyond))
+        if any(_coupling_of(mass, 1 + n, 1 + len(near) + b) >= MIN_COUPLING for n in kept)
+    ]
+
+    def coupling(n: int) -> Coupling:
+        return Coupling(
+            robot.joint_names[others[n]],
             mass[:, 0, 1 + n],
             slopes[:, 0, n],
             gravity[:, 1 + n],
-            params[near[n]],
+            params[others[n]],
         )
-        for n in kept
-    )
-    among = np.array(kept, dtype=int)
+
+    among = np.array(kept + carried, dtype=int)
     among_mass = mass[:, 1:, 1:][:, among][:, :, among]
     among_slopes = slopes[:, 1:, :][:, among][:, :, among]
     friction = SoftFriction.of(model, dof)
@@ -156,9 +166,10 @@ def joint_load(
         gravity[:, 0],
         float(model.opt.timestep),
         friction,
-        neighbours,
+        tuple(coupling(n) for n in kept),
         among_mass,
         among_slopes,
+        tuple(coupling(n) for n in carried),
     )
 
 
@@ -190,6 +201,12 @@ def _gravity_slopes(
         torque.append(-data.qfrc_bias[dofs])
     data.qpos[address] = held
     return (torque[0] - torque[1]) / (2 * SLOPE_STEP_RAD)
+
+
+def _coupling_of(mass: np.ndarray, a: int, b: int) -> float:
+    """How strongly two of ``mass``'s dofs are coupled over the grid: at most their mass
+    matrix entry over the geometric mean of their own inertias."""
+    return float(np.max(np.abs(mass[:, a, b]) / np.sqrt(mass[:, a, a] * mass[:, b, b])))
 
 
 def _strongly_coupled(coupling: np.ndarray, inertia: np.ndarray, own: np.ndarray) -> list[int]:

@@ -69,3 +69,16 @@ def test_neighbours_free_to_move_lighten_the_joint_and_unread_ones_stand_rigid()
     rigid = neighbour_push([], ELBOW, TIMES, TRACE[:, 2], STEP_S, STEPS)
     assert np.all(rigid.torque_nm == 0.0)
     assert rigid.joint_inertia_kg_m2[0] == pytest.approx(own, rel=0.01)
+
+
+def test_a_neighbours_own_neighbour_swings_with_it_unread():
+    """The shoulder steps: its elbow (read) gives way ~6°, and the wrist_pitch the elbow carries
+    (not read) swings ~2°, as MuJoCo's does."""
+    trace = arm6_stepped_in_mujoco("shoulder", MOVES, until_s=1.6)
+    load = joint_load(ARM6, "shoulder", [0.0] * 6)
+    elbow = NeighbourReads("elbow", TIMES[3::4], np.round(trace[3::4, 2] / 0.24) * 0.24, 0.0)
+    modelled = neighbour_push([elbow], load, TIMES, trace[:, 1], STEP_S, STEPS).neighbours_deg
+    for column, name in enumerate(("elbow", "wrist_pitch")):
+        truth = np.interp(AT, TIMES, trace[:, ARM6.joint_names.index(name)])
+        assert np.ptp(truth) > 1.5
+        assert np.abs(modelled[:, column] - truth).max() < 0.03 * np.ptp(truth)

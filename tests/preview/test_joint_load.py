@@ -48,6 +48,15 @@ def test_a_neighbour_on_a_crossed_axis_is_not_one():
     assert [c.joint for c in joint_load(ARM6, "shoulder", [0.0] * 6).neighbours] == ["elbow"]
 
 
+def test_a_neighbour_carries_its_own_neighbours_on_parallel_axes():
+    """The shoulder's elbow swings the wrist_pitch with it (not read: the shoulder's
+    neighbours are read, not theirs); the elbow's neighbours carry nothing more in pitch."""
+    shoulder = joint_load(ARM6, "shoulder", [0.0] * 6)
+    assert [c.joint for c in shoulder.carried] == ["wrist_pitch"]
+    assert shoulder.neighbour_inertia_kg_m2.shape[1:] == (2, 2)
+    assert joint_load(ARM6, "elbow", [0.0] * 6).carried == ()
+
+
 def test_the_neighbours_as_joints_of_their_own_their_mass_matrix_gravity_and_servos():
     load = joint_load(ARM6, "elbow", [0.0] * 6)
     upright = int(np.searchsorted(load.angles_deg, 0.0))
