@@ -101,7 +101,11 @@ def fit_servo(
     ``assumed`` (at the supply the trial ran at); the offset only ``with_offset`` (a drop)."""
     names = [name for name in FIGURES if with_offset or name != "offset_deg"]
     low, high, logs = _box(names, assumed)
-    sag = supply_sag(trial, load, assumed)
+    # what the neighbours do, once per step size (the same for every candidate)
+    pushed = {
+        step_s: push_of_neighbours(trial, load, step_s) for step_s in (COARSE_STEP_S, FIT_STEP_S)
+    }
+    sag = supply_sag(trial, load, assumed, pushed[COARSE_STEP_S])
 
     def decode(points: np.ndarray) -> dict[str, np.ndarray]:
         values = low + points * (high - low)
@@ -112,12 +116,10 @@ def fit_servo(
         return figures
 
     def cost_at(step_s: float) -> Cost:
-        pushed = push_of_neighbours(trial, load, step_s)
-
         def cost(points: np.ndarray) -> np.ndarray:
             figures = decode(points)
             predicted = simulate(
-                trial, load, figures, dt_s=step_s, supply_sag_per_nm=sag, pushed=pushed
+                trial, load, figures, dt_s=step_s, supply_sag_per_nm=sag, pushed=pushed[step_s]
             )
             return np.mean(np.abs(predicted - trial.read_deg[:, None]), axis=0)
 

@@ -116,19 +116,25 @@ def simulate(
     )
 
 
-def supply_sag(trial: Trial, load: JointLoad, figures: dict[str, float]) -> float:
+def supply_sag(
+    trial: Trial,
+    load: JointLoad,
+    figures: dict[str, float],
+    pushed: NeighbourPush | None = None,
+) -> float:
     """The share of its supply the servo loses per N·m it pushes, from its supply reads: the
     line through them against how hard the servo with ``figures`` would have pushed then. The
     supply sags by its resistance times the current the servos draw (a servo's in proportion
     to its torque), and a servo's torque and gain sag with it, not its back-EMF damping: a
     model that leaves it out takes the servo for slower than it is (arm6: 4-8 %). Per N·m,
     not per share of the stall torque: most reads are of holds against gravity, whose torque
-    the figures do not change. 0 without reads that tell (too few, or all at one load)."""
+    the figures do not change. 0 without reads that tell (too few, or all at one load).
+    ``pushed``: what the neighbours do at ``COARSE_STEP_S``, as for :func:`simulate`."""
     reads = trial.supply
     if reads is None or len(reads.read_s) < 3:
         return 0.0
     one = {name: np.array([value]) for name, value in figures.items()}
-    times, _, pushing = _run(trial, load, one, COARSE_STEP_S, 0.0, None, record=True)
+    times, _, pushing = _run(trial, load, one, COARSE_STEP_S, 0.0, pushed, record=True)
     torque = np.interp(reads.read_s, times, pushing[:, 0])
     if np.ptp(torque) < 0.05 * figures["stall_torque_nm"]:
         return 0.0
