@@ -4,6 +4,7 @@
 - :mod:`~choreo.identify.moves`: each joint's test moves, and the held-out ones;
 - :mod:`~choreo.identify.measure`: running them with reads as fast as the bus allows;
 - :mod:`~choreo.identify.joint_model`: the servo on its joint, simulated for many candidates;
+- :mod:`~choreo.identify.neighbours`: the joint's neighbours, yielding under it as servos do;
 - :mod:`~choreo.identify.fit`: the fit (CMA-ES, :mod:`~choreo.identify.search`) and the
   validation on held-out moves.
 """

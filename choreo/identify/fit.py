@@ -21,6 +21,7 @@ from choreo.identify.joint_model import (
     FIGURES,
     FIT_STEP_S,
     Trial,
+    push_of_neighbours,
     simulate,
     supply_sag,
 )
@@ -109,7 +110,11 @@ def fit_servo(
     ``assumed`` (at the supply the trial ran at); the offset only ``with_offset`` (a drop)."""
     names = [name for name in FIGURES if with_offset or name != "offset_deg"]
     low, high, logs = _box(names, assumed)
-    sag = supply_sag(trial, load, assumed)
+    # what the neighbours do, once per step size (the same for every candidate)
+    pushed = {
+        step_s: push_of_neighbours(trial, load, step_s) for step_s in (COARSE_STEP_S, FIT_STEP_S)
+    }
+    sag = supply_sag(trial, load, assumed, pushed[COARSE_STEP_S])
 
     def decode(points: np.ndarray) -> dict[str, np.ndarray]:
         values = low + points * (high - low)
@@ -121,7 +126,10 @@ def fit_servo(
 
     def cost_at(step_s: float) -> Cost:
         def cost(points: np.ndarray) -> np.ndarray:
-            predicted = simulate(trial, load, decode(points), dt_s=step_s, supply_sag_per_nm=sag)
+            figures = decode(points)
+            predicted = simulate(
+                trial, load, figures, dt_s=step_s, supply_sag_per_nm=sag, pushed=pushed[step_s]
+            )
             return read_miss_deg(trial, predicted)
 
         return cost

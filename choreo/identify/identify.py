@@ -4,12 +4,13 @@ stands, fit its figures, judge them on held-out moves, and keep them in a servo 
 One joint at a time, the others holding the pose the robot stands in: the joint's test moves
 (``moves``) run on the bus with reads as fast as it allows (``measure``), its neighbours in the
 chain read in turn with it (they give way under its torque), its figures are fitted on a model
-of that joint under the robot's own load with the neighbours' measured motion replayed (``fit``,
-``joint_model``), and the file is written after every joint, so a run stopped half way goes on
-from the next joint. Ctrl-C (and SIGTERM, SIGHUP, which the CLI turns into it) stops every servo
-where it is, holding. A walker's gait compensation is then recalibrated in the preview with the
-file's figures and written to it too (``preview.gait_calibration``): the gaits make up for these
-servos' sag and slip, not the assumed ones'.
+of that joint under the robot's own load with the neighbours yielding as servos do, their slow
+motion from their reads (``fit``, ``joint_model``, ``neighbours``), and the file is written
+after every joint, so a run stopped half way goes on from the next joint. Ctrl-C (and SIGTERM,
+SIGHUP, which the CLI turns into it) stops every servo where it is, holding. A walker's gait
+compensation is then recalibrated in the preview with the file's figures and written to it too
+(``preview.gait_calibration``): the gaits make up for these servos' sag and slip, not the
+assumed ones'.
 """
 
 from __future__ import annotations

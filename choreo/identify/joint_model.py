@@ -8,13 +8,10 @@ its inertia and the gravity torque on it come from the robot's model with every 
 held (``JointLoad``). Each physics step works on arrays with one entry per candidate, so a whole
 generation of the search costs about what one candidate does.
 
-The others hold with their own servos, and its neighbours in the chain yield under the torque
-the joint puts out (on arm6, the shoulder gives way 3-5° under the elbow's test steps): a model
-of the joint on a rigid base takes that for a softer servo. So where the neighbours were read
-during the moves, their measured motion is replayed: each one's acceleration pushes the joint
-back through their coupling inertia, and its angle changes the gravity torque on it
-(``JointLoad.neighbours``). That push is the same for every candidate: it is worked out once,
-before the steps.
+Its neighbours in the chain yield under the torque the joint puts out: where they were read
+during the moves, they are simulated as servos holding, moved by the joint, their slow motion
+from their reads (``neighbours``); the joint's inertia is then lightened by theirs, and their
+torque pushes it, the same for every candidate.
 """
 
 from __future__ import annotations
@@ -24,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.identify.neighbours import NeighbourPush, NeighbourReads, neighbour_push
 from choreo.preview.joint_load import JointLoad
 
 # the joint model's step, 1.5 of the preview's. On a joint whose load is mostly its servo's own
@@ -34,12 +32,6 @@ from choreo.preview.joint_load import JointLoad
 FIT_STEP_S = 0.003
 # the step of the search's first two thirds, which find the valley: 6 ms costs half as much
 COARSE_STEP_S = 0.006
-# the neighbours' reads are smoothed over this (a Gaussian's sigma) before their acceleration is
-# taken: about one read period of each of two neighbours, which smooths a read unit's step away
-# and keeps 91 % of their ringing (~10 Hz on arm6). On arm6's elbow (5 hidden truths), 12 ms
-# left its gain 1-6 % low and its delay 12-34 % short; 4 ms let the read noise pass for
-# friction (+9 to +30 %)
-NEIGHBOUR_SMOOTHING_S = 0.007
 
 # the figures fitted, in this order (offset only where a torque-off drop was allowed)
 FIGURES = (
@@ -69,22 +61,6 @@ class Unload:
     """The servo's torque switched off at ``at_s`` (a drop), until the next move."""
 
     at_s: float
-
-
-@dataclass(frozen=True)
-class NeighbourReads:
-    """A neighbour's position reads during the joint's moves (midpoint times, degrees in its
-    servo's frame), and where it was told to hold."""
-
-    joint: str
-    read_s: np.ndarray
-    read_deg: np.ndarray
-    held_deg: float
-
-    @property
-    def moved_deg(self) -> float:
-        """How far it went from where it holds, at most."""
-        return float(np.abs(self.read_deg - self.held_deg).max(initial=0.0))
 
 
 @dataclass(frozen=True)
@@ -120,16 +96,19 @@ def simulate(
     dt_s: float = FIT_STEP_S,
     *,
     supply_sag_per_nm: float = 0.0,
+    pushed: NeighbourPush | None = None,
 ) -> np.ndarray:
     """Where the servo would read at ``trial.read_s``, for each candidate: ``figures`` maps every
     name of :data:`FIGURES` to an array of candidates (shape (k,)); returns (reads, k) degrees.
     ``supply_sag_per_nm``: the share of its supply (so of its torque and gain) the servo loses
-    per N·m it pushes (:func:`supply_sag`).
+    per N·m it pushes (:func:`supply_sag`). ``pushed``: what the neighbours do to it
+    (:func:`push_of_neighbours` for this trial and step: the same for every candidate, so a fit
+    works it out once), else worked out here.
 
     The set-points (the servo's own moves, late by its delay) are worked out for every step at
     once; only what depends on where the joint is (gear play, dead band, torque, motion) is
     stepped."""
-    times, positions, _ = _run(trial, load, figures, dt_s, supply_sag_per_nm)
+    times, positions, _ = _run(trial, load, figures, dt_s, supply_sag_per_nm, pushed)
     return np.degrees(
         np.column_stack(
             [np.interp(trial.read_s, times, positions[:, c]) for c in range(positions.shape[1])]
@@ -137,19 +116,25 @@ def simulate(
     )
 
 
-def supply_sag(trial: Trial, load: JointLoad, figures: dict[str, float]) -> float:
+def supply_sag(
+    trial: Trial,
+    load: JointLoad,
+    figures: dict[str, float],
+    pushed: NeighbourPush | None = None,
+) -> float:
     """The share of its supply the servo loses per N·m it pushes, from its supply reads: the
     line through them against how hard the servo with ``figures`` would have pushed then. The
     supply sags by its resistance times the current the servos draw (a servo's in proportion
     to its torque), and a servo's torque and gain sag with it, not its back-EMF damping: a
     model that leaves it out takes the servo for slower than it is (arm6: 4-8 %). Per N·m,
     not per share of the stall torque: most reads are of holds against gravity, whose torque
-    the figures do not change. 0 without reads that tell (too few, or all at one load)."""
+    the figures do not change. 0 without reads that tell (too few, or all at one load).
+    ``pushed``: what the neighbours do at ``COARSE_STEP_S``, as for :func:`simulate`."""
     reads = trial.supply
     if reads is None or len(reads.read_s) < 3:
         return 0.0
     one = {name: np.array([value]) for name, value in figures.items()}
-    times, _, pushing = _run(trial, load, one, COARSE_STEP_S, 0.0, record=True)
+    times, _, pushing = _run(trial, load, one, COARSE_STEP_S, 0.0, pushed, record=True)
     torque = np.interp(reads.read_s, times, pushing[:, 0])
     if np.ptp(torque) < 0.05 * figures["stall_torque_nm"]:
         return 0.0
@@ -163,6 +148,7 @@ def _run(
     figures: dict[str, np.ndarray],
     dt_s: float,
     supply_sag_per_nm: float,
+    pushed: NeighbourPush | None,
     record: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The steps' end times, each candidate's angle after each step (n_steps, k) radians and,
@@ -170,16 +156,19 @@ def _run(
     k = len(figures["kp_nm_rad"])
     n_steps = int(np.ceil(trial.duration_s / dt_s)) + 2
     wanted, loaded, reloads = _aims(trial, figures, n_steps, dt_s)
-    pushed = neighbour_torque_nm(trial, load, n_steps, dt_s)
+    times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
+    neighbours = pushed or push_of_neighbours(trial, load, dt_s)
     half_band = np.radians(figures["deadband_deg"]) / 2
     half_play = np.radians(figures["backlash_deg"]) / 2
     kp, stall = figures["kp_nm_rad"], figures["stall_torque_nm"]
     damping = stall / np.radians(figures["no_load_speed_deg_s"])  # back-EMF, as the preview has it
     offset = np.radians(figures["offset_deg"])
-    # the joint's own angle does not change the inertia about its axis (the others are held)
-    inertia = float(load.inertia_at(np.radians(np.array([trial.start_setpoint_deg])))[0])
+    # its inertia with the neighbours free to move: it changes with the joint's angle by under
+    # 2 % over a trial (arm6, tonypi), so one figure, which keeps the steps below scalar
+    inertia = float(np.median(neighbours.joint_inertia_kg_m2))
+    neighbours_nm = neighbours.torque_nm
     per_implicit = dt_s / (inertia + dt_s * damping)  # MuJoCo's implicit damping, per step
-    keep_v = inertia / (inertia + dt_s * damping)
+    keep_v = inertia * per_implicit / dt_s
     # MuJoCo's soft dry friction (``SoftFriction``): below its limit it takes back all but a
     # share of the torque and aims to stop the joint; it holds no joint dead still
     friction = figures["friction_nm"]
@@ -221,7 +210,7 @@ def _run(
             torque.fill(0.0)
             sag.fill(1.0)
         torque += np.interp(q, grid_rad, gravity_nm)
-        torque += pushed[step]
+        torque += neighbours_nm[step]
         np.multiply(keep_v, v, out=free_v)
         free_v += per_implicit * torque
         np.multiply(stopping, v, out=grip)
@@ -231,48 +220,18 @@ def _run(
         np.multiply(per_implicit, grip, out=v)
         v += free_v
         q = positions[step] = q + dt_s * v
-    times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
     positions -= offset
     return times, positions, pushing
 
 
-def neighbour_torque_nm(trial: Trial, load: JointLoad, n_steps: int, dt_s: float) -> np.ndarray:
-    """The torque the neighbours' measured motion puts on the joint at each step (its state
-    after the step at ``(step + 1) * dt_s``): minus their coupling inertia times their
-    acceleration, plus the change of gravity with their angle; both at the angle the joint
-    read. Neighbours the load does not couple, or not read, push nothing."""
-    times = np.arange(1, n_steps + 1) * dt_s
-    pushed = np.zeros(n_steps)
-    couplings = {coupling.joint: coupling for coupling in load.neighbours}
-    if not len(trial.read_s):
-        return pushed
-    angle_deg = np.interp(times, trial.read_s, trial.read_deg)
-    for reads in trial.neighbours:
-        coupling = couplings.get(reads.joint)
-        if coupling is None or len(reads.read_s) < 2:
-            continue
-        moved = np.radians(_smoothed(np.interp(times, reads.read_s, reads.read_deg), dt_s))
-        moved -= np.radians(reads.held_deg)
-        # its velocity at each step's end, and the change over the step: the step's
-        # acceleration, as the joint's own velocity takes it (integrated once, so read noise
-        # is not differentiated twice into the positions)
-        velocity = np.gradient(moved, dt_s)
-        acceleration = np.diff(velocity, prepend=velocity[0]) / dt_s
-        inertia = np.interp(angle_deg, load.angles_deg, coupling.inertia_kg_m2)
-        slope = np.interp(angle_deg, load.angles_deg, coupling.gravity_nm_rad)
-        pushed += slope * moved - inertia * acceleration
-    return pushed
-
-
-def _smoothed(values: np.ndarray, dt_s: float) -> np.ndarray:
-    """``values`` (on steps ``dt_s`` apart) through a Gaussian of NEIGHBOUR_SMOOTHING_S: a
-    position read is whole units (0.24°), whose steps would be spikes in its acceleration."""
-    sigma = NEIGHBOUR_SMOOTHING_S / dt_s
-    half = int(np.ceil(3 * sigma))
-    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
-    kernel /= kernel.sum()
-    padded = np.pad(values, half, mode="edge")
-    return np.convolve(padded, kernel, mode="valid")
+def push_of_neighbours(trial: Trial, load: JointLoad, dt_s: float) -> NeighbourPush:
+    """What the neighbours read in ``trial`` do to the joint, on steps of ``dt_s``
+    (``neighbours.neighbour_push``; their servos at the supply read)."""
+    n_steps = int(np.ceil(trial.duration_s / dt_s)) + 2
+    supply_v = float(np.median(trial.supply.volts)) if trial.supply else None
+    return neighbour_push(
+        trial.neighbours, load, trial.read_s, trial.read_deg, dt_s, n_steps, supply_v
+    )
 
 
 def _aims(

@@ -18,8 +18,9 @@ import numpy as np
 
 from choreo.bus.servo_bus import ServoBus
 from choreo.errors import BusError
-from choreo.identify.joint_model import NeighbourReads, SentMove, SupplyReads, Trial, Unload
+from choreo.identify.joint_model import SentMove, SupplyReads, Trial, Unload
 from choreo.identify.moves import MovePlan
+from choreo.identify.neighbours import NeighbourReads
 from choreo.robot.types import Joint
 
 SLOW_READ_S = 0.5  # supply and temperature: they change slowly

@@ -11,12 +11,12 @@ the whole robot.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from choreo.preview.actuator import actuator_params
+from choreo.preview.actuator import ActuatorParams, actuator_params
 from choreo.preview.model import JointIndex, apply_servo_models, index_joints, load_model
 from choreo.preview.start import start_state
 from choreo.robot.types import Robot
@@ -35,11 +35,14 @@ SLOPE_STEP_RAD = np.radians(0.5)  # the gravity slope's finite difference
 class Coupling:
     """How neighbour ``joint`` moving pushes on the loaded joint, over the loaded joint's grid:
     the mass matrix between them (its acceleration times this is a torque against the joint)
-    and the change of the gravity torque on the joint per radian of the neighbour."""
+    and the change of the gravity torque on the joint per radian of the neighbour; the gravity
+    torque on the neighbour where it holds, over the same grid; and the servo that holds it."""
 
     joint: str
     inertia_kg_m2: np.ndarray
     gravity_nm_rad: np.ndarray
+    held_gravity_nm: np.ndarray
+    servo: ActuatorParams
 
 
 @dataclass(frozen=True)
@@ -76,8 +79,15 @@ class JointLoad:
     gravity_nm: np.ndarray
     timestep_s: float  # the model's physics step
     friction: SoftFriction  # how MuJoCo's dry friction on it holds
-    # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS)
+    # its neighbours in the chain that push on it when they yield (at most MAX_NEIGHBOURS);
+    # among them and those they carry (``carried``), over the grid (grid, n, n): their mass
+    # matrix, and the change of the gravity torque on each (row) per radian of each (column)
     neighbours: tuple[Coupling, ...] = ()
+    neighbour_inertia_kg_m2: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    neighbour_gravity_nm_rad: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    # the neighbours' own neighbours that move with them (not read: the matrices above take
+    # them after the neighbours), e.g. the shoulder's elbow carrying the wrist_pitch
+    carried: tuple[Coupling, ...] = ()
 
     def gravity_at(self, angle_rad: np.ndarray) -> np.ndarray:
         return np.interp(np.degrees(angle_rad), self.angles_deg, self.gravity_nm)
@@ -97,36 +107,69 @@ def joint_load(
     chain neighbours push on it."""
     model = load_model(robot)
     index = index_joints(model, robot)
-    apply_servo_models(model, index, actuator_params(robot, overrides), robot)
+    params = actuator_params(robot, overrides)
+    apply_servo_models(model, index, params, robot)
     j = robot.joint_names.index(joint)
     limits = robot.joints[j].limits
     angles = np.arange(limits.min_deg, limits.max_deg + GRID_STEP_DEG / 2, GRID_STEP_DEG)
     data = start_state(model, index, np.asarray(pose_deg, dtype=float))
     dof, address = int(index.dof[j]), int(index.qpos[j])
     near = _chain_neighbours(model, index, j)
-    inertia, gravity = np.empty(len(angles)), np.empty(len(angles))
-    coupling, slope = np.empty((len(near), len(angles))), np.empty((len(near), len(angles)))
-    # M·e_dof: the joint's own inertia at dof, its coupling with each neighbour at theirs.
-    # mj_mulM takes the same arguments in every MuJoCo choreo allows, where mj_fullM's changed
-    # in 4.0 (data in place of its qM).
-    unit, column = np.zeros(model.nv), np.zeros(model.nv)
-    unit[dof] = 1.0
+    beyond = sorted({b for n in near for b in _chain_neighbours(model, index, n)} - {j, *near})
+    others = near + beyond
+    # the joint first, then its neighbours and theirs: mass matrix, gravity and its slopes
+    dofs = [dof] + [int(index.dof[n]) for n in others]
+    mass = np.empty((len(angles), len(dofs), len(dofs)))
+    gravity = np.empty((len(angles), len(dofs)))
+    slopes = np.empty((len(angles), len(dofs), len(others)))
+    # M·e: mj_mulM takes the same arguments in every MuJoCo choreo allows, where mj_fullM's
+    # changed in 4.0 (data in place of its qM)
+    units, column = np.eye(model.nv), np.zeros(model.nv)
     for k, angle in enumerate(angles):
         data.qpos[address] = np.radians(angle)
         data.qvel[:] = 0.0
         mujoco.mj_forward(model, data)
-        mujoco.mj_mulM(model, data, column, unit)
-        inertia[k] = column[dof]
-        gravity[k] = -data.qfrc_bias[dof]  # at rest the bias is gravity alone
-        for n, other in enumerate(near):
-            coupling[n, k] = column[index.dof[other]]
-            slope[n, k] = _gravity_slope(model, data, dof, int(index.qpos[other]))
-    data.qpos[address] = np.radians(pose_deg[j])  # the neighbours' own inertia, at the pose
-    kept = _strongly_coupled(near, coupling, inertia, model, data, index)
-    neighbours = tuple(Coupling(robot.joint_names[near[n]], coupling[n], slope[n]) for n in kept)
+        gravity[k] = -data.qfrc_bias[dofs]  # at rest the bias is gravity alone
+        for a, row in enumerate(dofs):
+            mujoco.mj_mulM(model, data, column, units[row])
+            mass[k, a] = column[dofs]
+        for n, other in enumerate(others):  # each moves the neighbour and steps forward
+            slopes[k, :, n] = _gravity_slopes(model, data, dofs, int(index.qpos[other]))
+    inertia = mass[:, 0, 0]
+    own_at_pose = np.array(
+        [np.interp(pose_deg[j], angles, mass[:, n, n]) for n in range(1, len(near) + 1)]
+    )
+    kept = _strongly_coupled(mass[:, 0, 1 : len(near) + 1].T, inertia, own_at_pose)
+    carried = [
+        len(near) + b
+        for b in range(len(beyond))
+        if any(_coupling_of(mass, 1 + n, 1 + len(near) + b) >= MIN_COUPLING for n in kept)
+    ]
+
+    def coupling(n: int) -> Coupling:
+        return Coupling(
+            robot.joint_names[others[n]],
+            mass[:, 0, 1 + n],
+            slopes[:, 0, n],
+            gravity[:, 1 + n],
+            params[others[n]],
+        )
+
+    among = np.array(kept + carried, dtype=int)
+    among_mass = mass[:, 1:, 1:][:, among][:, :, among]
+    among_slopes = slopes[:, 1:, :][:, among][:, :, among]
     friction = SoftFriction.of(model, dof)
     return JointLoad(
-        joint, angles, inertia, gravity, float(model.opt.timestep), friction, neighbours
+        joint,
+        angles,
+        inertia,
+        gravity[:, 0],
+        float(model.opt.timestep),
+        friction,
+        tuple(coupling(n) for n in kept),
+        among_mass,
+        among_slopes,
+        tuple(coupling(n) for n in carried),
     )
 
 
@@ -145,36 +188,30 @@ def _chain_neighbours(model: mujoco.MjModel, index: JointIndex, j: int) -> list[
     return ([] if up is None else [up]) + [n for n in robot_of_dof.values() if parent(n) == j]
 
 
-def _gravity_slope(model: mujoco.MjModel, data: mujoco.MjData, dof: int, address: int) -> float:
-    """d(gravity torque on ``dof``)/d(the angle at qpos ``address``), at rest, N·m/rad."""
+def _gravity_slopes(
+    model: mujoco.MjModel, data: mujoco.MjData, dofs: list[int], address: int
+) -> np.ndarray:
+    """d(gravity torque on each of ``dofs``)/d(the angle at qpos ``address``), at rest,
+    N·m/rad."""
     torque = []
     held = float(data.qpos[address])
     for shift in (SLOPE_STEP_RAD, -SLOPE_STEP_RAD):
         data.qpos[address] = held + shift
         mujoco.mj_forward(model, data)
-        torque.append(-data.qfrc_bias[dof])
+        torque.append(-data.qfrc_bias[dofs])
     data.qpos[address] = held
-    return float((torque[0] - torque[1]) / (2 * SLOPE_STEP_RAD))
+    return (torque[0] - torque[1]) / (2 * SLOPE_STEP_RAD)
 
 
-def _strongly_coupled(
-    near: list[int],
-    coupling: np.ndarray,
-    inertia: np.ndarray,
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    index: JointIndex,
-) -> list[int]:
-    """Of ``near`` (rows of ``coupling``), the MAX_NEIGHBOURS most strongly coupled to the
-    joint, weaker than MIN_COUPLING left out."""
-    own = np.empty(len(near))
-    diagonal = np.zeros(model.nv)
-    mujoco.mj_forward(model, data)
-    for n, other in enumerate(near):  # each neighbour's own inertia
-        unit = np.zeros(model.nv)
-        unit[index.dof[other]] = 1.0
-        mujoco.mj_mulM(model, data, diagonal, unit)
-        own[n] = diagonal[index.dof[other]]
+def _coupling_of(mass: np.ndarray, a: int, b: int) -> float:
+    """How strongly two of ``mass``'s dofs are coupled over the grid: at most their mass
+    matrix entry over the geometric mean of their own inertias."""
+    return float(np.max(np.abs(mass[:, a, b]) / np.sqrt(mass[:, a, a] * mass[:, b, b])))
+
+
+def _strongly_coupled(coupling: np.ndarray, inertia: np.ndarray, own: np.ndarray) -> list[int]:
+    """Of the neighbours (rows of ``coupling``; ``own``: their own inertia where they hold),
+    the MAX_NEIGHBOURS most strongly coupled to the joint, weaker than MIN_COUPLING left out."""
     strength = np.abs(coupling).max(axis=1, initial=0.0) / np.sqrt(own * inertia.max())
-    ranked = sorted(range(len(near)), key=lambda n: -strength[n])
+    ranked = sorted(range(len(own)), key=lambda n: -strength[n])
     return sorted(n for n in ranked[:MAX_NEIGHBOURS] if strength[n] >= MIN_COUPLING)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from choreo.preview.actuator import actuator_params
 from choreo.preview.joint_load import joint_load
 from choreo.robot.robot_file import load_robot
 
@@ -45,3 +46,31 @@ def test_a_neighbour_on_a_crossed_axis_is_not_one():
     # the shoulder pitches, the base turns about the vertical: neither pushes on the other
     assert joint_load(ARM6, "base_yaw", [0.0] * 6).neighbours == ()
     assert [c.joint for c in joint_load(ARM6, "shoulder", [0.0] * 6).neighbours] == ["elbow"]
+
+
+def test_a_neighbour_carries_its_own_neighbours_on_parallel_axes():
+    """The shoulder's elbow swings the wrist_pitch with it (not read: the shoulder's
+    neighbours are read, not theirs); the elbow's neighbours carry nothing more in pitch."""
+    shoulder = joint_load(ARM6, "shoulder", [0.0] * 6)
+    assert [c.joint for c in shoulder.carried] == ["wrist_pitch"]
+    assert shoulder.neighbour_inertia_kg_m2.shape[1:] == (2, 2)
+    assert joint_load(ARM6, "elbow", [0.0] * 6).carried == ()
+
+
+def test_the_neighbours_as_joints_of_their_own_their_mass_matrix_gravity_and_servos():
+    load = joint_load(ARM6, "elbow", [0.0] * 6)
+    upright = int(np.searchsorted(load.angles_deg, 0.0))
+    mass = load.neighbour_inertia_kg_m2[upright]
+    slopes = load.neighbour_gravity_nm_rad[upright]
+    shoulder, wrist = load.neighbours
+    # the shoulder carries the whole arm, the wrist_pitch only the hand; both more than the
+    # armature of their servos, which holds them at the robot file's figures
+    assert mass[0, 0] > mass[1, 1] > shoulder.servo.armature_kg_m2
+    assert mass[0, 1] == pytest.approx(mass[1, 0]) and 0 < mass[0, 1] < mass[1, 1]
+    # gravity's slopes are a potential's second derivatives: symmetric, the wrist's on the
+    # shoulder as the shoulder's on the wrist
+    assert slopes[0, 1] == pytest.approx(slopes[1, 0], rel=0.02)
+    assert abs(shoulder.held_gravity_nm[upright]) < 0.02  # upright: nothing to hold
+    bent = int(np.searchsorted(load.angles_deg, 60.0))
+    assert shoulder.held_gravity_nm[bent] > 0.1  # the forearm leaning out pulls the shoulder on
+    assert shoulder.servo == actuator_params(ARM6)[1]
