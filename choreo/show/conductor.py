@@ -153,7 +153,7 @@ class Conductor:
             return self._run(called_at, on_progress, cue_song, on_armed)
         finally:
             self._beating.set()
-            beat.join()
+            joined(beat)
 
     def _beat(self) -> None:
         """The heartbeat, every BEAT_PERIOD_S until the run ends (its own thread)."""
@@ -199,15 +199,8 @@ class Conductor:
                 self.send_stop("the show was called off before GO")
                 raise
             clocks = self.measure_clocks()  # again: the wait for GO may have been long
-        start_s = self.start_instant(readiness)
-        interrupted = False
-        try:
-            self.go(start_s, clocks)
-            if cue_song is not None:
-                cue_song(start_s)
-        except KeyboardInterrupt:  # some performers may have the start already: stop them too
-            interrupted = True
-        return self.follow(start_s, clocks, readiness, called_at, interrupted)
+        return self.start_and_follow(self.start_instant(readiness), clocks, readiness, called_at,
+                                     cue_song)  # fmt: skip
 
     # --- before the start ----------------------------------------------------------------------
     def armed(self, clocks: dict[str, ClockOffset], readiness: dict[str, Readiness]) -> list[Armed]:
@@ -376,36 +369,43 @@ class Conductor:
         self.network.publish(f"{self.key}/stop", encode(Stop(self.show_id, reason, signed)))
         return time.time()
 
-    def follow(
+    def start_and_follow(
         self,
         start_s: float,
         clocks: dict[str, ClockOffset],
         readiness: dict[str, Readiness],
         called_at: float,
-        interrupted: bool = False,
+        cue_song: Callable[[float], None] | None = None,
     ) -> ShowReport:
-        """Follow the parts to their end; Ctrl-C (now or ``interrupted`` before) stops them.
-        Each clock is measured again meanwhile, in a thread of its own."""
+        """Send GO, then follow the parts to their end; Ctrl-C from GO on stops them all, and the
+        report says so. Each clock is measured again meanwhile, in a thread of its own."""
         end_s = start_s + max(
             p.offset_s + readiness[p.performer].duration_s for p in self.show.parts
         )
         following = _Following(end_s + FINISH_GRACE_S, math.ceil(start_s - time.time()))
         later: dict[str, ClockOffset] = {}  # each clock as measured again during the show
-        watcher = threading.Thread(
-            target=self._measure_again,
-            args=(start_s, following.outcomes, later, following.measuring_done),
-            daemon=True,
-        )
+        watcher: threading.Thread | None = None
+        interrupted = False
+        # one try from GO to the end: a Ctrl-C anywhere between (a stop signal comes as one the
+        # instant a performer says it plays) stops every part, never escapes without a report
         try:
             try:
-                watcher.start()  # waits for the thread to run: long enough for a Ctrl-C to land
-            except KeyboardInterrupt:
-                interrupted = True  # the parts are stopped and reported all the same
+                self.go(start_s, clocks)
+                if cue_song is not None:
+                    cue_song(start_s)
+                watcher = threading.Thread(
+                    target=self._measure_again,
+                    args=(start_s, following.outcomes, later, following.measuring_done),
+                    daemon=True,
+                )
+                watcher.start()
+            except KeyboardInterrupt:  # some performers may have the start already: stop them
+                interrupted = True
             self._await_parts(start_s, following, interrupted)
         finally:
             following.measuring_done.set()
-            if watcher.ident is not None:
-                watcher.join()
+            if watcher is not None:
+                joined(watcher)
         parts = []
         for part in self.show.parts:
             outcome, reason, finished = following.outcomes.get(
@@ -478,7 +478,7 @@ class Conductor:
 
 @dataclass
 class _Following:
-    """What ``Conductor.follow`` has heard so far."""
+    """What ``Conductor.start_and_follow`` has heard so far."""
 
     deadline_s: float  # wall clock: a part not heard of by then counts as lost
     counted: int  # the countdown's last whole second said
@@ -487,3 +487,15 @@ class _Following:
     stop_reason: str = ""
     interrupted: bool = False  # Ctrl-C (or SIGTERM) at the conductor stopped it
     measuring_done: threading.Event = field(default_factory=threading.Event)
+
+
+def joined(thread: threading.Thread, grace_s: float = 2.0) -> None:
+    """``thread`` joined: it has been told to end, and does within a beat. A Ctrl-C meanwhile
+    waits ``grace_s`` more rather than losing the show's report, made or being made, after
+    every part was stopped; a second Ctrl-C in that wait is not held back."""
+    if thread.ident is None:  # never started
+        return
+    try:
+        thread.join()
+    except KeyboardInterrupt:
+        thread.join(grace_s)

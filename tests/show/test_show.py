@@ -4,7 +4,10 @@ one session that cannot open)."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import signal
+import threading
 import time
 from importlib import resources
 from pathlib import Path
@@ -28,6 +31,7 @@ from choreo.show.clock_offset import (
     measure,
 )
 from choreo.show.messages import (
+    Answer,
     ClockReading,
     Finished,
     PartOutcome,
@@ -318,3 +322,56 @@ def test_a_session_that_cannot_open_for_a_cause_choreo_cannot_tell_says_so_in_on
     message = str(raised.value)
     assert message.startswith("cannot open the Zenoh session: ")  # then Zenoh's reason
     assert ".rs:" not in message and "\n" not in message
+
+
+class AnsweringPerformers:
+    """Takes every start at once and records what is published (the stops); says nothing else."""
+
+    realm = zenoh_network.Realm()
+
+    def __init__(self):
+        self.published: list[str] = []
+
+    def ask_all(self, requests: dict[str, bytes], timeout_s: float) -> dict[str, bytes | None]:
+        return {key: encode(Answer(key.split("/")[-2])) for key in requests}
+
+    def publish(self, key: str, payload: bytes) -> None:
+        self.published.append(key)
+
+
+class InterruptedThread(threading.Thread):
+    """A Ctrl-C landing as the conductor sets up its clock watcher, just after GO (any other
+    thread is made as ever)."""
+
+    def __init__(self, *args, target=None, **kwargs):
+        if getattr(target, "__name__", "") == "_measure_again":
+            raise KeyboardInterrupt
+        super().__init__(*args, target=target, **kwargs)
+
+
+def test_a_ctrl_c_just_after_go_stops_every_part_and_still_gives_a_report(monkeypatch):
+    from choreo.show import conductor as conducting
+
+    monkeypatch.setattr(conducting, "STOP_REPLIES_S", 0.05)  # no performer here to answer
+    monkeypatch.setattr(conducting.threading, "Thread", InterruptedThread)
+    show = load_show(SHOWS / "trio.yaml")
+    network = AnsweringPerformers()
+    conductor = conducting.Conductor(network, show, lambda _line: None)  # type: ignore[arg-type]
+    clocks = {p.performer: ClockOffset(0.0, 0.0005, 8) for p in show.parts}
+    readiness = {p.performer: Readiness(p.performer, "arm6", (), 0.5, 1.0) for p in show.parts}
+    report = conductor.start_and_follow(time.time() + 0.5, clocks, readiness, time.time())
+    assert report.interrupted
+    assert report.stop_reason == conducting.INTERRUPTED
+    assert [key.rsplit("/", 1)[-1] for key in network.published] == ["stop"]
+
+
+def test_a_thread_is_joined_through_a_ctrl_c_that_comes_while_it_ends():
+    from choreo.show.conductor import joined
+
+    ending = threading.Event()
+    thread = threading.Thread(target=ending.wait, args=(5.0,))
+    thread.start()
+    threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+    threading.Timer(0.2, ending.set).start()
+    joined(thread)
+    assert not thread.is_alive()
