@@ -6,13 +6,25 @@ timeouts) takes a clock, so tests run on a ``VirtualClock``: deterministic and i
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Protocol
 
 from choreo.core.arguments import NON_NEGATIVE, NUMBER, Range, check_number
+from choreo.errors import OptionError
 
 SPIN_S = Range(at_least=0, at_most=0.1, unit=" s")  # a busy wait longer than this wastes a core
+LONGEST_SLEEP_S = 86400.0  # one sleep at most: the OS's sleep overflows on a far deadline
+
+
+def reachable_deadline(deadline_s: object) -> float:
+    """``deadline_s`` as a float, if it is a time a clock can reach: a NaN would return at
+    once and an infinity never (minus infinity, long past, returns at once). The common case,
+    a float, costs two comparisons: every wait on the bus passes here."""
+    if isinstance(deadline_s, float) and deadline_s < math.inf:  # numpy's too; False for NaN
+        return deadline_s
+    return check_number("deadline_s", deadline_s)  # a whole number, or refused as it is
 
 
 class Clock(Protocol):
@@ -33,9 +45,9 @@ class RealClock:
         return time.monotonic()
 
     def sleep_until(self, deadline_s: float) -> None:
-        remaining = deadline_s - time.monotonic()
-        if remaining > self.spin_s:
-            time.sleep(remaining - self.spin_s)
+        deadline_s = reachable_deadline(deadline_s)
+        while (remaining := deadline_s - time.monotonic()) > self.spin_s:
+            time.sleep(min(remaining - self.spin_s, LONGEST_SLEEP_S))
         while time.monotonic() < deadline_s:
             pass
 
@@ -51,10 +63,14 @@ class VirtualClock:
         return self._now
 
     def sleep_until(self, deadline_s: float) -> None:
+        deadline_s = reachable_deadline(deadline_s)
         with self._lock:
             self._now = max(self._now, deadline_s)
 
     def advance(self, dt_s: float) -> None:
         check_number("dt_s", dt_s, NON_NEGATIVE)
         with self._lock:
+            if not math.isfinite(self._now + dt_s):
+                past = f"{self._now:g} s + {dt_s:g} s"
+                raise OptionError("dt_s", f"takes the clock past any time it can tell: {past}")
             self._now += dt_s

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pytest
 
 from choreo.core.clock import RealClock, VirtualClock
@@ -62,3 +63,30 @@ def test_the_real_clock_wakes_no_earlier_than_the_deadline_and_never_goes_back()
     assert clock.now() >= later >= before
     clock.sleep_until(before)  # a deadline already passed
     assert clock.now() >= later
+
+
+@pytest.mark.parametrize("clock", [VirtualClock(5.0), RealClock()], ids=["virtual", "real"])
+@pytest.mark.parametrize("deadline", [float("nan"), float("inf"), "1.0", None])
+def test_a_deadline_no_clock_reaches_is_refused_naming_it(clock, deadline):
+    before = clock.now()
+    with pytest.raises(OptionError) as refused:
+        clock.sleep_until(deadline)
+    assert refused.value.option == "deadline_s"
+    assert isinstance(clock, RealClock) or clock.now() == before
+
+
+def test_deadlines_of_every_real_kind_are_waited_for():
+    clock = VirtualClock()
+    clock.sleep_until(2)
+    clock.sleep_until(np.float64(3.5))
+    clock.sleep_until(np.int64(4))
+    clock.sleep_until(-float("inf"))  # long past: at once
+    assert clock.now() == 4.0
+
+
+def test_an_advance_past_any_time_a_float_tells_is_refused_and_the_clock_stays():
+    clock = VirtualClock(1e308)
+    with pytest.raises(OptionError) as refused:
+        clock.advance(1e308)
+    assert refused.value.option == "dt_s"
+    assert clock.now() == 1e308
