@@ -22,6 +22,7 @@ from choreo.identify.joint_model import (
     FIT_STEP_S,
     Trial,
     push_of_neighbours,
+    reading_error_deg,
     simulate,
     supply_sag,
 )
@@ -156,7 +157,7 @@ def read_miss_deg(trial: Trial, predicted_deg: np.ndarray) -> np.ndarray:
     """Each candidate's mean miss of the reads (``predicted_deg``: (reads, k) degrees, as
     ``simulate`` gives): how far its angle lies outside the half unit around each read, 0
     within it."""
-    outside = np.abs(predicted_deg - trial.read_deg[:, None]) - READ_HALF_UNIT_DEG
+    outside = reading_error_deg(trial, predicted_deg) - READ_HALF_UNIT_DEG
     return np.mean(np.maximum(outside, 0.0), axis=0)
 
 
@@ -171,7 +172,7 @@ def validate(
     sagging as the fit took it)."""
     both = {name: np.array([assumed[name], fitted[name]]) for name in FIGURES}
     predicted = simulate(trial, load, both, supply_sag_per_nm=supply_sag_per_nm)
-    errors = np.abs(predicted - trial.read_deg[:, None])
+    errors = reading_error_deg(trial, predicted)
     median, p95 = np.median(errors, axis=0), np.percentile(errors, 95, axis=0)
     return Validation(
         float(median[0]), float(p95[0]), float(median[1]), float(p95[1]), len(trial.read_deg)
