@@ -48,6 +48,9 @@ ENDPOINT_EXAMPLE = "tcp/192.168.1.5:7447"
 _HOST_PORT = re.compile(r"(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]?#]+):(\d{1,5})")
 # Zenoh's messages end with the Rust source line that raised them: not for a user
 _RUST_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
+# Across a cut link, Zenoh's close waits ~10 s for the peer the network lost, then fails
+# (eclipse-zenoh/zenoh#2675); a healthy close takes milliseconds
+CLOSE_WAIT_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -227,8 +230,16 @@ class Network:
         self._keep: list = []  # declared entities live as long as they are referenced
 
     def close(self) -> None:
+        """Close the session, waiting at most ``CLOSE_WAIT_S``. A performer that lost its
+        conductor to a cut cable has stopped its servos long before; making its Ctrl-C wait 10 s
+        more for Zenoh to give up on the lost peer helps no one. The rest of the close goes on
+        in a daemon thread, which ends with the process at the latest."""
         self._keep.clear()
-        self._session.close()
+        closer = threading.Thread(
+            target=_close_quietly, args=(self._session,), name="zenoh-close", daemon=True
+        )
+        closer.start()
+        closer.join(CLOSE_WAIT_S)
 
     def __enter__(self) -> Network:
         return self
@@ -349,6 +360,14 @@ def _interruptible(call: Callable[[], T]) -> T:
     if failure:
         raise failure[0]
     return result[0]
+
+
+def _close_quietly(session: zenoh.Session) -> None:
+    """Zenoh's close; its failure to reach a lost peer has no one left to tell."""
+    try:
+        session.close()
+    except zenoh.ZError as error:
+        log.debug("Zenoh's close failed: %s", _reason(error))
 
 
 def _reason(error: Exception) -> str:

@@ -151,6 +151,37 @@ def test_a_wait_on_zenoh_still_hears_ctrl_c_and_passes_results_and_errors_throug
     released.set()
 
 
+def test_a_close_zenoh_cannot_finish_is_left_to_a_daemon_thread_and_its_failure_unsaid(
+    monkeypatch,
+):
+    """Across a cut link Zenoh's close waits ~10 s for the lost peer, then raises
+    (eclipse-zenoh/zenoh#2675): the network waits CLOSE_WAIT_S at most, and the failure, with no
+    one left to tell, is no traceback."""
+    import threading
+
+    from choreo.show import network as module
+
+    monkeypatch.setattr(module, "CLOSE_WAIT_S", 0.05)
+    unraised: list[object] = []
+    monkeypatch.setattr(threading, "excepthook", unraised.append)
+    network = Network(listen=[f"tcp/127.0.0.1:{_free_port()}"])
+    session, release = network._session, threading.Event()
+
+    class CutLink:
+        def close(self) -> None:
+            release.wait(30)
+            session.close()
+            raise zenoh.ZError("close operation timed out")
+
+    network._session = CutLink()
+    network.close()
+    (closer,) = [thread for thread in threading.enumerate() if thread.name == "zenoh-close"]
+    assert closer.daemon and closer.is_alive()  # returned while Zenoh still closes
+    release.set()
+    closer.join(30)
+    assert not closer.is_alive() and unraised == []
+
+
 def test_an_endpoint_that_cannot_be_listened_on_says_why_naming_listen(tmp_path):
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
