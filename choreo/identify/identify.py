@@ -38,7 +38,7 @@ from choreo.identify.fit import (
 )
 from choreo.identify.joint_model import FIGURES
 from choreo.identify.measure import Measured, Neighbour, run_moves
-from choreo.identify.moves import fit_moves, held_out_moves
+from choreo.identify.moves import fit_moves, held_out_moves, loaded_poses
 from choreo.preview.actuator import ActuatorParams, actuator_params
 from choreo.preview.gait_calibration import calibrated_gait, walks
 from choreo.preview.joint_load import joint_load
@@ -220,7 +220,8 @@ def _identify_joint(
         Neighbour(robot.joint(c.joint), pose[robot.joint_names.index(c.joint)])
         for c in load.neighbours
     ]
-    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, neighbours, progress)
+    loaded = loaded_poses(robot.joints[j], pose[j], load, params[j].stall_torque_nm)
+    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, loaded, neighbours, progress)
     progress("fitting")(0.0)
     supply_v = float(np.median(measured.fit.supply_v + measured.held_out.supply_v))
     assumed = at_supply(assumed_figures(params[j]), params[j].supply_v, supply_v)
@@ -274,16 +275,17 @@ def _measure_joint(
     joint: Joint,
     pose_deg: float,
     drop: bool,
+    loaded: tuple[float, ...],
     neighbours: Sequence[Neighbour],
     progress: Callable[[str], Callable[[float], None]],
 ) -> _JointMeasured:
-    """``joint``'s test moves and held-out moves on the bus, its ``neighbours`` read along,
-    then back to where it stood."""
+    """``joint``'s test moves (with slow triangles at the ``loaded`` poses) and held-out moves
+    on the bus, its ``neighbours`` read along, then back to where it stood."""
     start = bus.clock.now()
     fit_trial = run_moves(
         bus,
         joint,
-        fit_moves(joint, pose_deg, drop),
+        fit_moves(joint, pose_deg, drop, loaded),
         pose_deg,
         progress("test moves"),
         neighbours,
