@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import datetime
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -143,6 +143,9 @@ def identify(
     pose = _hold_where_standing(bus, robot)
     params = actuator_params(robot)
     results: list[JointResult] = []
+    # the figures measured so far (an earlier run's, then this one's): a joint's neighbours
+    # are simulated with them where known, the robot file's otherwise
+    known: dict[str, dict[str, float]] = dict(earlier.get("joints", {}))
     try:
         for index, name in enumerate(todo):
             result = _identify_joint(
@@ -151,12 +154,14 @@ def identify(
                 name,
                 pose,
                 params,
+                {other: figures for other, figures in known.items() if other != name},
                 name in drop,
                 generations,
                 (index, len(todo)),
                 on_progress,
             )
             results.append(result)
+            known[name] = result.figures
             _save(output, robot, bus, earlier, results)
             if on_joint is not None:
                 on_joint(result)
@@ -198,13 +203,15 @@ def _identify_joint(
     name: str,
     pose: list[float],
     params: Sequence[ActuatorParams],
+    known: Mapping[str, Mapping[str, float]],
     drop: bool,
     generations: int,
     place: tuple[int, int],
     on_progress: Callable[[Progress], None] | None,
 ) -> JointResult:
     """Measure joint ``name`` on the bus (its test moves, then the held-out ones), then fit
-    its figures and judge them."""
+    its figures and judge them; its neighbours' servos have the figures ``known`` for
+    them, if any."""
     index, count = place
 
     def progress(stage: str) -> Callable[[float], None]:
@@ -215,7 +222,7 @@ def _identify_joint(
         return tell
 
     j = robot.joint_names.index(name)
-    load = joint_load(robot, name, pose)
+    load = joint_load(robot, name, pose, known)
     neighbours = [
         Neighbour(robot.joint(c.joint), pose[robot.joint_names.index(c.joint)])
         for c in load.neighbours
