@@ -76,7 +76,8 @@ def test_a_joint_whose_tests_carry_too_little_gravity_gets_loaded_triangles_insi
         assert loaded_poses(ARM6.joint(name), 0.0, load, stall[name]) == ()
 
 
-# ~2 s of CPU: one trial each way at the reference 1 ms step, three candidates on each
+# ~3 s of CPU (2026-11-27, a loaded machine): one trial each way at the reference 1 ms step,
+# three candidates on each
 def test_loaded_triangles_tell_friction_from_dead_band_where_the_usual_moves_cannot():
     """Along the line where the dead band plus twice the friction over the gain stays the same
     (all the usual moves show of a light wrist), the truth costs more than a friction 25 % low
