@@ -23,7 +23,7 @@ def make_identify_quick(monkeypatch) -> None:
     ]  # (the package's name is the function)
     monkeypatch.setattr(fit, "GENERATIONS", 2)
 
-    def short(joint, pose_deg, drop=False):
+    def short(joint, pose_deg, drop=False, loaded=()):
         return MovePlan((SentMove(0.0, pose_deg + 2.0, 0.2), SentMove(0.5, pose_deg, 0.2)), 0.9)
 
     monkeypatch.setattr(identify_module, "fit_moves", short)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import datetime
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,7 +38,7 @@ from choreo.identify.fit import (
 )
 from choreo.identify.joint_model import FIGURES
 from choreo.identify.measure import Measured, Neighbour, run_moves
-from choreo.identify.moves import fit_moves, held_out_moves
+from choreo.identify.moves import fit_moves, held_out_moves, loaded_poses
 from choreo.preview.actuator import ActuatorParams, actuator_params
 from choreo.preview.gait_calibration import calibrated_gait, walks
 from choreo.preview.joint_load import joint_load
@@ -143,6 +143,9 @@ def identify(
     pose = _hold_where_standing(bus, robot)
     params = actuator_params(robot)
     results: list[JointResult] = []
+    # the figures measured so far (an earlier run's, then this one's): a joint's neighbours
+    # are simulated with them where known, the robot file's otherwise
+    known: dict[str, dict[str, float]] = dict(earlier.get("joints", {}))
     try:
         for index, name in enumerate(todo):
             result = _identify_joint(
@@ -151,12 +154,14 @@ def identify(
                 name,
                 pose,
                 params,
+                {other: figures for other, figures in known.items() if other != name},
                 name in drop,
                 generations,
                 (index, len(todo)),
                 on_progress,
             )
             results.append(result)
+            known[name] = result.figures
             _save(output, robot, bus, earlier, results)
             if on_joint is not None:
                 on_joint(result)
@@ -198,13 +203,15 @@ def _identify_joint(
     name: str,
     pose: list[float],
     params: Sequence[ActuatorParams],
+    known: Mapping[str, Mapping[str, float]],
     drop: bool,
     generations: int,
     place: tuple[int, int],
     on_progress: Callable[[Progress], None] | None,
 ) -> JointResult:
     """Measure joint ``name`` on the bus (its test moves, then the held-out ones), then fit
-    its figures and judge them."""
+    its figures and judge them; its neighbours' servos have the figures ``known`` for
+    them, if any."""
     index, count = place
 
     def progress(stage: str) -> Callable[[float], None]:
@@ -215,12 +222,13 @@ def _identify_joint(
         return tell
 
     j = robot.joint_names.index(name)
-    load = joint_load(robot, name, pose)
+    load = joint_load(robot, name, pose, known)
     neighbours = [
         Neighbour(robot.joint(c.joint), pose[robot.joint_names.index(c.joint)])
         for c in load.neighbours
     ]
-    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, neighbours, progress)
+    loaded = loaded_poses(robot.joints[j], pose[j], load, params[j].stall_torque_nm)
+    measured = _measure_joint(bus, robot.joints[j], pose[j], drop, loaded, neighbours, progress)
     progress("fitting")(0.0)
     supply_v = float(np.median(measured.fit.supply_v + measured.held_out.supply_v))
     assumed = at_supply(assumed_figures(params[j]), params[j].supply_v, supply_v)
@@ -274,16 +282,17 @@ def _measure_joint(
     joint: Joint,
     pose_deg: float,
     drop: bool,
+    loaded: tuple[float, ...],
     neighbours: Sequence[Neighbour],
     progress: Callable[[str], Callable[[float], None]],
 ) -> _JointMeasured:
-    """``joint``'s test moves and held-out moves on the bus, its ``neighbours`` read along,
-    then back to where it stood."""
+    """``joint``'s test moves (with slow triangles at the ``loaded`` poses) and held-out moves
+    on the bus, its ``neighbours`` read along, then back to where it stood."""
     start = bus.clock.now()
     fit_trial = run_moves(
         bus,
         joint,
-        fit_moves(joint, pose_deg, drop),
+        fit_moves(joint, pose_deg, drop, loaded),
         pose_deg,
         progress("test moves"),
         neighbours,

@@ -10,6 +10,10 @@ chosen for what it shows.
   does not load the joint (a coxa, whose axis is upright: on its own the rest shows only their
   ratios);
 - holds in several poses: the sag under gravity (its gain against the known load);
+- slow triangles where gravity outweighs friction, only on a joint whose tests carry too little
+  of it (``loaded_poses``): there the servo pulls the same way going up and down, so the two
+  ways differ by the play and twice the friction over the gain but not the dead band, which
+  lies in that difference everywhere else: friction and dead band come apart;
 - a torque-off drop, only where the user said the joint can fall: the horn's offset (where
   gravity lets it rest), and friction without the motor.
 
@@ -20,15 +24,29 @@ it tells how well the figures predict moves they were not fitted to.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from choreo.identify.joint_model import SentMove, Unload
 from choreo.robot.types import Joint
+
+if TYPE_CHECKING:
+    from choreo.preview.joint_load import JointLoad
 
 MARGIN_DEG = 5.0  # test moves keep this far inside the joint's limits
 STEP_DEG = 20.0  # the largest step, where the range allows
 HOLD_S = 0.6  # time to settle after a move, read all along
 DROP_S = 0.4  # how long the torque stays off in a drop
 GENTLE_DEG_S = 30.0  # from the pose the robot stands in to where the tests start
+SLOW_DEG_S = 10.0  # the slowest triangles: friction and dead band, not speed
+# the friction a servo may have, as a share of its stall torque (the bench's hidden truths go to
+# 4 %; an LX servo's own is not published): where gravity on the tested range stays below it,
+# holds and triangles show the dead band and twice the friction over the gain only as their sum
+# (arm6's wrist_pitch, 0.026 N·m at its holds: one truth's friction came out +27 %), so loaded
+# triangles are added where gravity reaches it, at most this far from the tests' centre
+LOADED_SHARE = 0.04
+LOADED_REACH_DEG = 60.0
 
 
 @dataclass(frozen=True)
@@ -63,7 +81,8 @@ class _Plan:
 
 
 def _gently(from_deg: float, to_deg: float) -> float:
-    """The time to move to where the tests start: at most GENTLE_DEG_S."""
+    """The time to move to where the tests start (or to a loaded pose): at most
+    GENTLE_DEG_S."""
     return max(0.3, abs(to_deg - from_deg) / GENTLE_DEG_S)
 
 
@@ -76,13 +95,50 @@ def centre_and_reach(joint: Joint, pose_deg: float) -> tuple[float, float]:
     return centre, reach
 
 
-def fit_moves(joint: Joint, pose_deg: float, drop: bool = False) -> MovePlan:
-    """The moves the figures are fitted to."""
+def _side(reach: float) -> float:
+    """How far a hold is approached from, either way (and a loaded triangle goes)."""
+    return min(3.0, reach / 4)
+
+
+def loaded_poses(
+    joint: Joint, pose_deg: float, load: JointLoad, stall_torque_nm: float
+) -> tuple[float, ...]:
+    """Where ``joint`` (its ``load`` and its servo's stall torque) needs slow triangles under
+    gravity: none if gravity somewhere on the tested range already reaches ``LOADED_SHARE`` of
+    the stall torque; else, on each side of the tests' centre within ``LOADED_REACH_DEG`` and
+    the limits, the angle where gravity is largest, if it reaches that (a joint gravity never
+    loads enough, a coxa, pays no bus time for it). The nearer to where the holds end first."""
+    centre, reach = centre_and_reach(joint, pose_deg)
+    needed = LOADED_SHARE * stall_torque_nm
+    angles, gravity = load.angles_deg, np.abs(load.gravity_nm)
+    tested = np.abs(angles - centre) <= reach
+    if gravity[tested].max(initial=0.0) >= needed:
+        return ()
+    side = _side(reach)
+    low = joint.limits.min_deg + MARGIN_DEG + side
+    high = joint.limits.max_deg - MARGIN_DEG - side
+    poses = []
+    for direction in (1.0, -1.0):
+        away = direction * (angles - centre)
+        allowed = (away > 0) & (away <= LOADED_REACH_DEG) & (angles >= low) & (angles <= high)
+        if allowed.any():
+            best = int(np.flatnonzero(allowed)[np.argmax(gravity[allowed])])
+            if gravity[best] >= needed:
+                poses.append(float(angles[best]))
+    holds_end = centre + reach - side
+    return tuple(sorted(poses, key=lambda pose: abs(pose - holds_end)))
+
+
+def fit_moves(
+    joint: Joint, pose_deg: float, drop: bool = False, loaded: tuple[float, ...] = ()
+) -> MovePlan:
+    """The moves the figures are fitted to; ``loaded``: where to add slow triangles under
+    gravity (``loaded_poses``)."""
     centre, reach = centre_and_reach(joint, pose_deg)
     plan = _Plan(centre)
     plan.move(centre, _gently(pose_deg, centre), hold_s=0.3)
     small = min(6.0, reach)
-    for speed in (10.0, 30.0):  # slow triangles
+    for speed in (SLOW_DEG_S, 30.0):  # slow triangles
         plan.ramp(centre + small, speed)
         plan.ramp(centre - small, speed)
         plan.ramp(centre, speed)
@@ -100,12 +156,19 @@ def fit_moves(joint: Joint, pose_deg: float, drop: bool = False) -> MovePlan:
         size = min(size, reach / 2)
         for target in (centre + size, centre, centre - size, centre):
             plan.move(target, 0.0, hold_s=0.3)
-    side = min(3.0, reach / 4)  # holds, from either side
+    side = _side(reach)  # holds, from either side
     for pose in (centre - reach + side, centre, centre + reach - side):
         plan.move(pose - side, 0.2, hold_s=0.1)
         plan.move(pose, 0.1, hold_s=0.3)
         plan.move(pose + side, 0.2, hold_s=0.1)
         plan.move(pose, 0.1, hold_s=0.3)
+    for pose in loaded:  # slow triangles where gravity outweighs friction
+        plan.move(pose - side, _gently(plan.at, pose - side), hold_s=0.1)
+        plan.ramp(pose + side, SLOW_DEG_S)
+        plan.ramp(pose - side, SLOW_DEG_S)
+        plan.ramp(pose, SLOW_DEG_S)
+    if loaded:
+        plan.move(centre, _gently(plan.at, centre), hold_s=0.3)
     if drop:
         plan.move(centre, 0.3)
         plan.drop()

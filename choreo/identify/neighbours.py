@@ -10,8 +10,9 @@ timing (every smoothing of the reads that took the noise away took 7-26 % off th
 
 So the neighbours read are simulated, as the joint moved (its reads): their inertia and the
 mass matrix between them and with the joint (``JointLoad``), the gravity on them (which the
-joint's angle changes, as theirs changes the joint's), and their servos' law holding them (the
-robot file's figures: dead band, gain up to the stall torque, back-EMF damping). Their reads
+joint's angle changes, as theirs changes the joint's), and their servos' law holding them (dead
+band, gain up to the stall torque, back-EMF damping: the figures identify measured for them
+earlier, in this run or in its file, else the robot file's). Their reads
 add what that model cannot know, slowly (over ``SLOW_S``): where they stood, how they sagged,
 whatever their servos' real figures. On the joint, the mass matrix's coupling is eliminated
 exactly (its inertia with them free to move, and what their own torque pushes it with), so the

@@ -63,7 +63,7 @@ def test_a_joint_whose_neighbours_gave_way_under_it_says_so(tmp_path, quick, cap
     from choreo.identify.joint_model import SentMove
     from choreo.identify.moves import MovePlan
 
-    def full_speed(joint, pose_deg, drop=False):  # steps the elbow's stall torque drives
+    def full_speed(joint, pose_deg, drop=False, loaded=()):  # steps the elbow's stall torque drives
         steps = (SentMove(0.0, pose_deg + 20.0, 0.0), SentMove(0.5, pose_deg - 20.0, 0.0))
         return MovePlan(steps, 1.0)
 

@@ -13,6 +13,7 @@ from choreo.bus.servo_bus import ServoBus
 from choreo.bus.settings import BusSettings
 from choreo.errors import SourceError, UnsupportedByTransport
 from choreo.identify import identify
+from choreo.preview.actuator import actuator_params
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import read_servo_figures
 from choreo.robot.types import GaitCompensation
@@ -93,6 +94,35 @@ def test_a_run_keeps_every_joint_done_and_goes_on_from_the_next(tmp_path, quick)
     assert again.already == ("base_yaw",)
     assert [r.joint for r in again.identified] == ["wrist_roll"]
     assert list(yaml.safe_load(output.read_text())["joints"]) == ["base_yaw", "wrist_roll"]
+
+
+def test_a_joints_neighbours_hold_with_the_figures_measured_before_it(tmp_path, quick, monkeypatch):
+    identify_module = sys.modules["choreo.identify.identify"]
+    real_load = identify_module.joint_load
+    neighbours_of = {}  # each joint's neighbours' servos as its fit simulates them
+
+    def spied(robot, joint, pose, overrides=None):
+        load = real_load(robot, joint, pose, overrides)
+        neighbours_of[joint] = {c.joint: c.servo for c in load.neighbours}
+        return load
+
+    monkeypatch.setattr(identify_module, "joint_load", spied)
+    assumed = dict(zip(ARM6.joint_names, actuator_params(ARM6)))
+    output = tmp_path / "figures.yaml"
+    with twin(tmp_path) as bus:
+        report = identify(ARM6, bus, output, joints=["shoulder", "elbow"])
+    shoulder = report.identified[0].figures
+    assert shoulder["kp_nm_rad"] != pytest.approx(assumed["shoulder"].kp_nm_rad)
+    assert neighbours_of["shoulder"]["elbow"] == assumed["elbow"]  # not measured yet
+    held_by = neighbours_of["elbow"]["shoulder"]
+    for name in ("kp_nm_rad", "stall_torque_nm", "deadband_deg", "no_load_speed_deg_s"):
+        assert getattr(held_by, name) == pytest.approx(shoulder[name])
+    assert neighbours_of["elbow"]["wrist_pitch"] == assumed["wrist_pitch"]
+    # a later run takes them from the file the earlier one wrote
+    elbow = report.identified[1].figures
+    with twin(tmp_path) as bus:
+        identify(ARM6, bus, output, joints=["wrist_pitch"])
+    assert neighbours_of["wrist_pitch"]["elbow"].kp_nm_rad == pytest.approx(elbow["kp_nm_rad"])
 
 
 def test_a_board_that_cannot_read_positions_is_refused_before_anything_moves(tmp_path):
