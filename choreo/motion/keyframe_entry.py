@@ -220,7 +220,7 @@ def read_pose(reader: Reader, node: Node, robot: Robot) -> tuple[dict[str, float
             f"joint: degrees, got {describe(node)}",
         )
         return None
-    angles = read_angles(reader, node, "pose", {joint.name: joint for joint in robot.joints})
+    angles = read_angles(reader, node, "pose", robot.joints_by_name)
     if angles is None:
         return None
     accepted = {name: angle for name, angle in angles.items() if angle is not None}

@@ -290,12 +290,13 @@ def _too_many_keyframes(
 def _fill_poses(robot: Robot, steps: list[Step]) -> tuple[Keyframe, ...]:
     """Full target vectors: a joint not named keeps its previous target (home at first)."""
     current = dict(robot.poses[HOME_POSE])
+    names = robot.joint_names
     keyframes = []
     for step in steps:
         current.update(step.angles_deg)
         keyframes.append(
             Keyframe(
-                targets_deg=tuple(current[name] for name in robot.joint_names),
+                targets_deg=tuple(map(current.__getitem__, names)),
                 where=step.where,
                 t_s=step.t_s,
                 after_s=step.after_s,

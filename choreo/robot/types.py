@@ -165,11 +165,13 @@ class Robot:
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints)
 
+    @cached_property
+    def joints_by_name(self) -> Mapping[str, Joint]:
+        """The joints by name (read-only), looked up for every pose of a motion."""
+        return MappingProxyType({j.name: j for j in self.joints})
+
     def joint(self, name: str) -> Joint:
-        for j in self.joints:
-            if j.name == name:
-                return j
-        raise KeyError(name)
+        return self.joints_by_name[name]
 
     def pose_vector(self, pose: str) -> tuple[float, ...]:
         """A named pose as degrees in joint order."""

@@ -58,6 +58,16 @@ def test_poses_cannot_be_changed_through_the_robot():
         robot.poses["home"]["yaw"] = 5
 
 
+def test_the_robot_finds_its_joints_by_name_and_lends_them_read_only():
+    robot = load_robot(TINY)
+    assert list(robot.joints_by_name) == ["yaw", "left", "right"]
+    assert robot.joints_by_name["left"] is robot.joints[1] is robot.joint("left")
+    with pytest.raises(TypeError):
+        robot.joints_by_name["left"] = robot.joints[0]  # type: ignore[index]
+    with pytest.raises(KeyError, match="elbow"):
+        robot.joint("elbow")
+
+
 def test_the_robot_converts_every_joint_at_once():
     robot = load_robot(TINY)  # zero/direction: yaw 500/+1, left 625/-1, right 625/+1
     angles = [[24, 120, -60], [0, 0, 0]]
