@@ -1,5 +1,6 @@
 """Fixtures shared by several test files."""
 
+# ruff: noqa: E402 (OpenBLAS's threads are set before anything imports numpy)
 from __future__ import annotations
 
 import importlib.util
@@ -9,6 +10,14 @@ import signal
 import sys
 import tempfile
 from pathlib import Path
+
+# OpenBLAS's threads wait for work spinning: on the 2 cores the suite shares with its other
+# worker (and the CPU hogs it is measured beside) a small matrix product then took 25 ms of CPU
+# instead of 1.7 (librosa's mel spectrogram, 40 % of a beat detection's CPU). One thread each,
+# in the workers and in the `choreo` processes the tests start (they inherit it): the results
+# differ in their last bits at most, as they do between machines with more or fewer cores. Set
+# before anything imports numpy (nothing above does). A value the user set is kept.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import browser
 import bytecode

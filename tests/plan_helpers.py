@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import ruckig
 from hypothesis import strategies as st
 
 from choreo.core.yaml_source import SourceLocation
-from choreo.motion.motion_file import Keyframe, Motion
+from choreo.motion.motion_file import Keyframe, Motion, load_motion
+from choreo.plan.planner import PlanResult, plan_motion
 from choreo.robot.types import Joint, JointLimits, Robot
 
 MOTION_PATH = Path("test_motion.yaml")
@@ -123,3 +125,12 @@ def ruckig_rest_to_rest(robot, start, target, scale=1.0):
     out = ruckig.Trajectory(n)
     assert ruckig.Ruckig(n).calculate(inp, out) == ruckig.Result.Working
     return out
+
+
+@functools.cache
+def shipped_plan(path: Path) -> tuple[Motion, PlanResult]:
+    """A shipped motion and its plan, once per process for the planner's and the ticks' tests
+    of every shipped motion, which only read them (a walk's gait is solved by IK as it loads:
+    half a second for hexapod18/side_step)."""
+    motion = load_motion(path)
+    return motion, plan_motion(motion)

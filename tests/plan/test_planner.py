@@ -12,7 +12,15 @@ import pytest
 from cli_helpers import WAVE, error_line, motion_file, usage_error_line
 from hypothesis import HealthCheck, given, settings
 from paths import DATA, REPO
-from plan_helpers import POS_EPS, kf, make_motion, make_robot, motions, ruckig_rest_to_rest
+from plan_helpers import (
+    POS_EPS,
+    kf,
+    make_motion,
+    make_robot,
+    motions,
+    ruckig_rest_to_rest,
+    shipped_plan,
+)
 
 from choreo.cli import main
 from choreo.errors import OptionError, PlanningError
@@ -304,8 +312,7 @@ SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_shipped_motions_plan_on_time_within_limits(path):
-    motion = load_motion(path)
-    result = plan_motion(motion)
+    motion, result = shipped_plan(path)
     trajectory = result.trajectory
     times = np.array(trajectory.keyframe_times_s)
     for t, want in zip(times, expected_times(motion, times)):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -11,10 +10,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from paths import REPO
-from plan_helpers import kf, make_motion, make_robot, motions
+from plan_helpers import kf, make_motion, make_robot, motions, shipped_plan
 
 from choreo.errors import PlanningError
-from choreo.motion.motion_file import load_motion
 from choreo.plan import ticks
 from choreo.plan.planner import plan_approach, plan_motion
 from choreo.plan.ticks import (
@@ -244,12 +242,10 @@ def test_random_motions_compile_to_ticks_within_tolerance_bus_floor_and_range(mo
 SHIPPED = sorted((REPO / "motions").glob("*/*.yaml"))
 
 
-@functools.cache
 def planned(path: Path):
-    """A shipped motion and its trajectory, once for the tests below (a walk's gait is solved
-    by IK as it loads: half a second for hexapod18/side_step)."""
-    motion = load_motion(path)
-    return motion, plan_motion(motion).trajectory
+    """A shipped motion and its trajectory (planned once: plan_helpers.shipped_plan)."""
+    motion, result = shipped_plan(path)
+    return motion, result.trajectory
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: f"{p.parent.name}/{p.name}")
