@@ -19,13 +19,25 @@ STUDIO_WAVE = DATA / "studio" / "wave.yaml"  # wave with groove.ogg beside it
 WAVE = (MOTIONS / "arm6" / "wave.yaml").read_text()
 
 
+def body_sway_rise() -> str:
+    """motions/hexapod18/body_sway.yaml up to its first sway: home, the body 20 mm up, swayed
+    one way (1.5 s of its 16). For tests of a walker's body: keyframes in the studio, which
+    simulates all of a motion it loads (1.3 s of CPU for the whole dance, a walker's stance
+    measured at every step)."""
+    text = (MOTIONS / "hexapod18" / "body_sway.yaml").read_text()
+    return text[: text.index("  - body: {z: 20, y: -25, roll: 6}\n")]
+
+
 @contextlib.contextmanager
-def studio_on(tmp_path: Path, motion: str) -> Iterator[Studio]:
-    """A studio on a copy of ``motions/<motion>`` (its song beside it as in motions/);
-    ``studio.said`` is what it printed."""
+def studio_on(tmp_path: Path, motion: str, text: str | None = None) -> Iterator[Studio]:
+    """A studio on a copy of ``motions/<motion>`` (its song beside it as in motions/), or on
+    ``text`` saved in its place; ``studio.said`` is what it printed."""
     path = tmp_path / motion
     path.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copy(MOTIONS / motion, path)
+    if text is None:
+        shutil.copy(MOTIONS / motion, path)
+    else:
+        path.write_text(text)
     shutil.copytree(MOTIONS / "songs", tmp_path / "songs", dirs_exist_ok=True)
     said: list[str] = []
     studio = Studio(path, Address("127.0.0.1", 0), say=said.append)

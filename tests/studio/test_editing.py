@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from studio_helpers import WAVE, refused, studio_on, times
+from studio_helpers import WAVE, body_sway_rise, refused, studio_on, times
 
 from choreo.robot.kinematics import Kinematics
 
@@ -123,7 +123,9 @@ def test_adding_in_an_after_chain_keeps_every_other_keyframe_in_time(tmp_path):
 
 
 def test_a_body_keyframe_added_in_body_sway_keeps_its_length(tmp_path):
-    with studio_on(tmp_path, "hexapod18/body_sway.yaml") as studio:
+    # its first keyframes (the studio simulates a whole motion at each edit): one is added
+    # between home and the body 20 mm up, before the sway
+    with studio_on(tmp_path, "hexapod18/body_sway.yaml", body_sway_rise()) as studio:
         kept = times(studio)
         end_s = studio.session.plan.end_s
         studio.scrub(0.4)
