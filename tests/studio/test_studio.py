@@ -251,6 +251,25 @@ def test_the_watcher_notices_a_save(tmp_path):
         watcher.stop()
 
 
+def test_what_the_studio_writes_itself_is_no_save(tmp_path):
+    """A poll between the studio's write and its noting it would reload (and simulate) the
+    studio's own edit a second time, after the studio's reload."""
+    path = tmp_path / "wave.yaml"
+    path.write_text(TEXT)
+    changed = threading.Event()
+    watcher = FileWatcher(lambda: [path], changed.set)
+    watcher.start()
+    try:
+        with watcher.writing():
+            write_text_atomically(path, TEXT + "# written by the studio\n")
+            time.sleep(0.3)  # the polls due meanwhile wait for the write to be noted
+        assert not changed.wait(0.3)
+        path.write_text(TEXT + "# saved in an editor\n")
+        assert changed.wait(5.0)
+    finally:
+        watcher.stop()
+
+
 def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
     """A save that adds a song (or drops one) changes the set of files watched: that is one
     reload, not two (the second would refuse the page's next edit as made on an older one)."""
