@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import contextlib
 import shutil
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
 from paths import DATA, REPO
 
+from choreo.core.atomic import write_text_atomically
 from choreo.studio.address import Address
+from choreo.studio.journal import Journal
 from choreo.studio.server import Studio
+from choreo.studio.session import file_digest
 
 MOTIONS = REPO / "motions"
 STUDIO_WAVE = DATA / "studio" / "wave.yaml"  # wave with groove.ogg beside it
@@ -47,6 +51,33 @@ def studio_on(tmp_path: Path, motion: str, text: str | None = None) -> Iterator[
         yield studio
     finally:
         studio.close()
+
+
+RELOAD_WAIT_S = 30.0  # a reload after a save, simulated, on a busy machine
+
+
+def as_new(studio: Studio, text: str) -> Studio:
+    """``studio`` (shared by a module's tests: starting one costs more than most edits) as one
+    started on ``text`` would be: its file ``text`` and the plan made from it, simulated;
+    nothing selected, posed or to undo; the timeline at 0; nothing said."""
+    session, path = studio.session, studio.session.motion_path
+    if path.read_text() != text or session.plan_digest != file_digest(path):
+        version = session.version
+        write_text_atomically(path, text)  # the watcher reloads it (a reload of its own would
+        # race the watcher's, whose lines could then come in the next test's)
+        deadline = time.monotonic() + RELOAD_WAIT_S
+        while not any(
+            line.startswith(f"simulated {path}: ") and int(line.rsplit(" ", 1)[1]) > version
+            for line in studio.said  # type: ignore[attr-defined]
+        ):
+            assert time.monotonic() < deadline, f"gave up waiting for {path} to reload"
+            time.sleep(0.02)
+        assert session.plan_digest == file_digest(path) and session.problems == ()
+    studio.select_keyframe(None)
+    studio.scrub(0.0)  # and the plan's pose, not a posed one
+    studio.journal = Journal(path)
+    studio.said.clear()  # type: ignore[attr-defined]
+    return studio
 
 
 def times(studio: Studio) -> list[float]:
