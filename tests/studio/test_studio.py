@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from emulated import home_specs, wait_for
 from paths import DATA
-from studio_helpers import copy_motion
+from studio_helpers import body_sway_rise, copy_motion, studio_on
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
@@ -488,3 +488,15 @@ def test_drag_moves_that_come_while_one_is_solved_are_dropped_but_the_newest():
     assert handled == [1, 4]
     latest(5)
     assert handled == [1, 4, 5]
+
+
+def test_a_save_for_another_robot_drops_the_pose_of_the_one_shown(tmp_path):
+    """The sliders' pose was the robot's shown before: its joints are not the new robot's (the
+    reload failed on it, the page left half shown)."""
+    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
+        studio.move_joint("elbow", -20)
+        assert studio.posing is not None
+        write_text_atomically(studio.session.motion_path, body_sway_rise())
+        studio.reload()
+        assert studio.session.problems == () and studio.posing is None
+        assert studio.view is not None and studio.view.robot.name == "hexapod18"
