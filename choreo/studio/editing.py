@@ -389,12 +389,12 @@ class Editing(StudioParts):
                 self.refuse(f"nothing written: {error}")
                 return False
             try:
-                write_text_atomically(path, change.text)
+                with self._watcher.writing():
+                    write_text_atomically(path, change.text)
             except (ChoreoError, OSError) as error:  # a folder made read-only, a full disk
                 self.refuse(f"nothing written: {error}")
                 return False
             self.journal.record(before, path.read_bytes(), done)
-            self._watcher.seen()
             self._selection = self._selection_after(change)
             if self._selection is None:
                 self.selected = None
@@ -438,10 +438,10 @@ class Editing(StudioParts):
     def _from_journal(self, restore: Callable[[], Step], done: str) -> None:
         with self._lock:
             try:
-                step = restore()
+                with self._watcher.writing():
+                    step = restore()
             except JournalRefused as error:
                 self.refuse(str(error))
                 return
-            self._watcher.seen()
             self.note(f"{done} '{step.what}' in {self.session.motion_path}")
         self.reload()

@@ -130,6 +130,8 @@ class Studio(Timeline, Posing, Editing, Driving):
             done = "simulated" if plan.physics is not None else "planned"
             self._say(f"{done} {motion.path}: {plan.end_s:.2f} s, reload {result.version}")
         if self.view is None or not self.view.matches(motion.robot, motion.props):
+            if self.view is not None and self.view.robot.joint_names != motion.robot.joint_names:
+                self._back_to_the_plan()  # the sliders posed the robot shown before: not this one
             self.server.scene.reset()
             self.view = RobotView(self.server, motion.robot, motion.props)
             self._add_site_handles(plan)

@@ -5,9 +5,10 @@ or a new file renamed over the old); a few stat calls every POLL_S cost nothing.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -33,6 +34,7 @@ class FileWatcher:
         self._on_change = on_change
         self._stop = threading.Event()
         self._stamps: dict[Path, Stamp] = {}
+        self._polling = threading.Lock()  # a poll, or the studio's write: one at a time
         self._thread = threading.Thread(target=self._run, name="studio-watch", daemon=True)
 
     def _read(self) -> dict[Path, Stamp]:
@@ -47,9 +49,14 @@ class FileWatcher:
         if self._thread.is_alive():
             self._thread.join(timeout=2.0)
 
-    def seen(self) -> None:
-        """The files as they are now are known (the studio wrote them itself)."""
-        self._stamps = self._read()
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[None]:
+        """Around the studio's own writes: what it wrote is known when the block ends, and no
+        poll falls between a write and then (it would reload the studio's write a second time,
+        simulating it again, after the studio's own reload)."""
+        with self._polling:
+            yield
+            self._stamps = self._read()
 
     def _saved(self, now: dict[Path, Stamp]) -> bool:
         """Whether a file watched before has changed. A file only the last reload brought in
@@ -60,10 +67,11 @@ class FileWatcher:
 
     def _run(self) -> None:
         while not self._stop.wait(POLL_S):
-            now = self._read()
-            saved = self._saved(now)
-            # stamps from before the reload: a save during it is seen on the next poll
-            self._stamps = now
+            with self._polling:
+                now = self._read()
+                saved = self._saved(now)
+                # stamps from before the reload: a save during it is seen on the next poll
+                self._stamps = now
             if saved:
                 try:
                     self._on_change()

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 import viser
-from studio_helpers import copy_motion, refused, studio_on
+from studio_helpers import body_sway_rise, copy_motion, refused, studio_on
 from viser._messages import (
     SetOrientationMessage,
     SetPositionMessage,
@@ -372,7 +372,8 @@ def test_a_ring_turned_past_its_joints_limit_ends_at_the_limit_in_the_tab_that_t
 
 
 def test_a_body_handle_dragged_out_of_reach_ends_on_the_body_in_the_tab_that_dragged_it(tmp_path):
-    with studio_on(tmp_path, "hexapod18/body_sway.yaml") as studio:
+    # body_sway's rise: a walker's body handle (the studio simulates a whole motion it loads)
+    with studio_on(tmp_path, "hexapod18/body_sway.yaml", body_sway_rise()) as studio:
         view = studio.view
         assert view is not None
         start = view.handle_pose(BODY)

@@ -5,8 +5,9 @@ a walker's body handle puts the handle back on the body.
 
 The mouse goes where the page draws the ring or the handle: the point of the world (the handle's
 pose the studio set, the gizmo's shape as viser draws it) through the camera the tab reported
-(``on_screen``), not pixels found by hand. One studio per robot and one page open at a time (a
-page's first frames cost seconds of software rendering, an open page a share of a core).
+(``on_screen``), not pixels found by hand. One studio and one page serve the module (a page's
+first frames cost seconds of software rendering): the walker's test saves its motion over the
+arm's.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import shutil
 import mujoco
 import numpy as np
 import pytest
-from paths import REPO
 from PIL import Image
 from playwright.sync_api import expect
 from studio_browser_helpers import (
@@ -34,12 +34,13 @@ from studio_browser_helpers import (
     wait_for,
     without_the_floor,
 )
+from studio_helpers import body_sway_rise
 
+from choreo.core.atomic import write_text_atomically
 from choreo.studio.address import Address
 from choreo.studio.scene import BODY, HANDLE_SCALE, JOINT, rotation_of
 from choreo.studio.server import Studio
 
-BODY_SWAY = REPO / "motions" / "hexapod18" / "body_sway.yaml"
 AFTER_THE_LAST_S = 5.2  # wave's last keyframe (home) is at 4.9 s: the arm stands at home
 # viser's gizmo (drei's PivotControls) draws the ring about its x axis as a quarter circle from
 # its y axis to its z axis, 0.65 of its scale out, and its x arrow along x; both #ff2060
@@ -56,68 +57,39 @@ def browser():
     yield from launched_browser()
 
 
-def start_studio(tmp_path_factory, motion):
-    path = tmp_path_factory.mktemp("posing") / motion.name
-    shutil.copy(motion, path)
+@pytest.fixture(scope="module")
+def arm_served(tmp_path_factory):
+    path = tmp_path_factory.mktemp("posing") / ARM_WAVE.name
+    shutil.copy(ARM_WAVE, path)
     said: list[str] = []
     studio = Studio(path, Address("127.0.0.1", free_port()), say=said.append)
     studio.said = said  # type: ignore[attr-defined]
     studio.start()
     without_the_floor(studio)
-    return studio
-
-
-class Tab:
-    """The module's one page, on one studio at a time: showing another studio closes the page
-    on the last (an open page costs a software-rendering browser a share of a core)."""
-
-    def __init__(self, browser):
-        self.browser, self.studio, self.page = browser, None, None
-
-    def showing(self, studio, loaded: str):
-        """The page on ``studio``, opened on it (once it shows ``loaded``) if it is not."""
-        if self.studio is not studio:
-            self.close()
-            self.page = self.browser.new_page(viewport=VIEWPORT)
-            self.page.goto(studio.address.url)
-            # a new page's first frames take a busy machine's software rendering a minute
-            expect(self.page.get_by_text(loaded, exact=False)).to_be_visible(timeout=4 * WAIT_MS)
-            self.page.locator(".mantine-Notification-root button").click()  # "software WebGL"
-            self.studio = studio
-        return self.page
-
-    def close(self) -> None:
-        if self.page is not None:
-            self.page.close()
-        self.studio, self.page = None, None
-
-
-@pytest.fixture(scope="module")
-def tab(browser):
-    one = Tab(browser)
-    yield one
-    one.close()
-
-
-@pytest.fixture(scope="module")
-def arm_served(tmp_path_factory):
-    studio = start_studio(tmp_path_factory, ARM_WAVE)
     yield studio
     studio.close()
 
 
-@pytest.fixture
-def arm_tab(tab, arm_served):
-    return tab.showing(arm_served, "9 keyframes")
+@pytest.fixture(scope="module")
+def tab(browser, arm_served):
+    """The module's one page (a page's first frames cost seconds of software rendering, an open
+    page a share of a core): the walker's test shows its robot in it too."""
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(arm_served.address.url)
+    # a new page's first frames take a busy machine's software rendering a minute
+    expect(page.get_by_text("9 keyframes", exact=False)).to_be_visible(timeout=4 * WAIT_MS)
+    page.locator(".mantine-Notification-root button").click()  # "software WebGL"
+    yield page
+    page.close()
 
 
 @pytest.fixture
-def arm(arm_served, arm_tab):
+def arm(arm_served, tab):
     """The studio on wave.yaml as shipped, the page at 5.2 s: arm6 at home, after the last
     keyframe."""
-    back_to_the_shipped_wave(arm_served, arm_tab)
-    type_number(arm_tab, "t (s)", 0.0)  # a change, whatever the time was: the pose is the plan's
-    type_number(arm_tab, "t (s)", AFTER_THE_LAST_S)
+    back_to_the_shipped_wave(arm_served, tab)
+    type_number(tab, "t (s)", 0.0)  # a change, whatever the time was: the pose is the plan's
+    type_number(tab, "t (s)", AFTER_THE_LAST_S)
     wait_for(lambda: arm_served.time_s == AFTER_THE_LAST_S, "the timeline at 5.2 s")
     arm_served.said.clear()
     return arm_served
@@ -221,8 +193,8 @@ def shows_elbow(page, studio, angle_deg: float) -> bool:
     )
 
 
-def test_dragging_a_joints_ring_turns_it_that_way_and_add_writes_that_joint_alone(arm_tab, arm):
-    page, path = arm_tab, arm.session.motion_path
+def test_dragging_a_joints_ring_turns_it_that_way_and_add_writes_that_joint_alone(tab, arm):
+    page, path = tab, arm.session.motion_path
     (client,) = arm.server.get_clients().values()
     names = arm.view.robot.joint_names
     before = joint_values(page, names)
@@ -251,8 +223,8 @@ def test_dragging_a_joints_ring_turns_it_that_way_and_add_writes_that_joint_alon
     expect(page.get_by_text("10 keyframes", exact=False)).to_be_visible(timeout=WAIT_MS)
 
 
-def test_a_ring_dragged_past_the_joints_limit_stops_there_and_goes_back_on_the_joint(arm_tab, arm):
-    page = arm_tab
+def test_a_ring_dragged_past_the_joints_limit_stops_there_and_goes_back_on_the_joint(tab, arm):
+    page = tab
     (client,) = arm.server.get_clients().values()
     elbow, limits = arm.view.robot.joint_names.index("elbow"), arm.view.robot.joint("elbow").limits
     pick(page, arm, "elbow")
@@ -280,11 +252,27 @@ def test_a_ring_dragged_past_the_joints_limit_stops_there_and_goes_back_on_the_j
     wait_until_drawn(page, client.camera, back, floated, "the ring back on the elbow")
 
 
-@pytest.fixture(scope="module")
-def walker(tmp_path_factory):
-    studio = start_studio(tmp_path_factory, BODY_SWAY)
-    yield studio
-    studio.close()
+@pytest.fixture
+def walker(arm_served, tab):
+    """The module's studio and page on hexapod18 (saved over its file: the studio shows the
+    robot a save names), framed, at t = 0."""
+    arm_served.scrub(0.0)  # the plan's pose, not the arm's sliders'
+    version = arm_served.session.version
+    # body_sway's rise: a walker (the studio simulates all of a motion it loads)
+    write_text_atomically(arm_served.session.motion_path, body_sway_rise())
+    # the robot drawn as simulated, as a studio started on the file draws it
+    session = arm_served.session
+    wait_for(
+        lambda: session.version > version and session.plan and session.plan.physics, "the physics"
+    )
+    plan = session.plan
+    assert plan.motion.robot.name == "hexapod18" and session.problems == ()
+    keyframes = f"{len(plan.motion.keyframes)} keyframes"
+    expect(tab.get_by_text(keyframes, exact=False)).to_be_visible(timeout=WAIT_MS)
+    without_the_floor(arm_served)  # the hexapod's scene has a floor of its own
+    arm_served.frame_robot()
+    arm_served.said.clear()
+    return arm_served
 
 
 def x_arrow(studio, origin_m: np.ndarray, rotation: np.ndarray) -> list[np.ndarray]:
@@ -295,8 +283,7 @@ def x_arrow(studio, origin_m: np.ndarray, rotation: np.ndarray) -> list[np.ndarr
 
 
 def test_a_body_drag_out_of_the_legs_reach_is_refused_and_the_handle_goes_back(tab, walker):
-    assert walker.session.plan is not None
-    page = tab.showing(walker, f"{len(walker.session.plan.motion.keyframes)} keyframes")
+    page = tab
     (client,) = walker.server.get_clients().values()
     position, wxyz = walker.view.handle_pose(BODY)
     rotation = rotation_of(wxyz)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from emulated import home_specs, wait_for
 from paths import DATA
-from studio_helpers import copy_motion
+from studio_helpers import body_sway_rise, copy_motion, studio_on
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
@@ -251,6 +251,25 @@ def test_the_watcher_notices_a_save(tmp_path):
         watcher.stop()
 
 
+def test_what_the_studio_writes_itself_is_no_save(tmp_path):
+    """A poll between the studio's write and its noting it would reload (and simulate) the
+    studio's own edit a second time, after the studio's reload."""
+    path = tmp_path / "wave.yaml"
+    path.write_text(TEXT)
+    changed = threading.Event()
+    watcher = FileWatcher(lambda: [path], changed.set)
+    watcher.start()
+    try:
+        with watcher.writing():
+            write_text_atomically(path, TEXT + "# written by the studio\n")
+            time.sleep(0.3)  # the polls due meanwhile wait for the write to be noted
+        assert not changed.wait(0.3)
+        path.write_text(TEXT + "# saved in an editor\n")
+        assert changed.wait(5.0)
+    finally:
+        watcher.stop()
+
+
 def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
     """A save that adds a song (or drops one) changes the set of files watched: that is one
     reload, not two (the second would refuse the page's next edit as made on an older one)."""
@@ -469,3 +488,15 @@ def test_drag_moves_that_come_while_one_is_solved_are_dropped_but_the_newest():
     assert handled == [1, 4]
     latest(5)
     assert handled == [1, 4, 5]
+
+
+def test_a_save_for_another_robot_drops_the_pose_of_the_one_shown(tmp_path):
+    """The sliders' pose was the robot's shown before: its joints are not the new robot's (the
+    reload failed on it, the page left half shown)."""
+    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
+        studio.move_joint("elbow", -20)
+        assert studio.posing is not None
+        write_text_atomically(studio.session.motion_path, body_sway_rise())
+        studio.reload()
+        assert studio.session.problems == () and studio.posing is None
+        assert studio.view is not None and studio.view.robot.name == "hexapod18"

@@ -4,7 +4,8 @@ The run finds or installs the browser first (tests/browser.py: Playwright's own,
 chromium). Without one these tests fail (they do not skip): the studio is a page, and only a
 browser shows that the page works. One studio and one page serve the whole module (a
 page's first frames cost seconds of software rendering); each test starts from the motion file
-as tests/data/studio/wave.yaml has it.
+as tests/data/studio/wave.yaml has it. The last test closes the page, as a user closes the last
+tab.
 """
 
 from __future__ import annotations
@@ -68,11 +69,29 @@ def served(tmp_path_factory):
     studio.close()
 
 
+class Tab:
+    """The module's one page, kept open from test to test; opened again if a test closed it."""
+
+    def __init__(self, browser, studio):
+        self.browser, self.studio, self.page = browser, studio, None
+
+    def open(self):
+        if self.page is None or self.page.is_closed():
+            self.page = open_page(self.browser, self.studio)
+        return self.page
+
+
 @pytest.fixture(scope="module")
-def first_tab(browser, served):
-    page = open_page(browser, served)
-    yield page
-    page.close()
+def tab(browser, served):
+    one = Tab(browser, served)
+    yield one
+    if one.page is not None:
+        one.page.close()
+
+
+@pytest.fixture
+def first_tab(tab):
+    return tab.open()
 
 
 @pytest.fixture
@@ -320,25 +339,15 @@ def test_update_writes_only_the_joint_moved_and_add_on_a_keyframe_offers_update(
     )
 
 
-def test_playback_stops_when_the_last_tab_closes(browser, tmp_path):
-    motion = tmp_path / "wave.yaml"
-    shutil.copy(ARM_WAVE, motion)
-    studio = Studio(motion, Address("127.0.0.1", 0), say=lambda line: None)
-    studio.start()
-    without_the_floor(studio)
-    try:
-        page = browser.new_page(viewport=VIEWPORT)
-        page.goto(studio.address.url)
-        wait_for(lambda: len(studio.server.get_clients()) == 1, "the tab", 4 * WAIT_MS / 1000)
-        studio.toggle_play()  # as its Play button does
-        wait_for(lambda: studio.playing and studio.time_s > 0.2, "the timeline to play")
-        page.close()
-        wait_for(lambda: not studio.playing, "playback to stop")
-        stopped_at = studio.time_s
-        time.sleep(0.2)  # the player's frames: the timeline stays
-        assert studio.time_s == stopped_at
-    finally:
-        studio.close()
+def test_playback_stops_when_the_last_tab_closes(first_tab, studio):
+    wait_for(lambda: len(studio.server.get_clients()) == 1, "the module's one tab")
+    studio.toggle_play()  # as its Play button does
+    wait_for(lambda: studio.playing and studio.time_s > 0.2, "the timeline to play")
+    first_tab.close()  # the last tab (a later test opens the module's page again)
+    wait_for(lambda: not studio.playing, "playback to stop")
+    stopped_at = studio.time_s
+    time.sleep(0.2)  # the player's frames: the timeline stays
+    assert studio.time_s == stopped_at
 
 
 def screenshot(motion: Path, at_s: float, out: Path) -> None:
