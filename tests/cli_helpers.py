@@ -107,11 +107,11 @@ def signal_noted(signum: int) -> Iterator[list[int]]:
 
 
 def play_here_then_signal(
-    monkeypatch, emulator, port: str, signum: int, playing: Callable[[list], bool]
+    monkeypatch, emulator, port: str, signum: int, playing: Callable[[list], bool], *extra: str
 ) -> tuple[int, str, list]:
     """emulated.play_then_signal, with `choreo play` run here (main_while) and the signal sent
     to this process: the exit code, stderr and the packets logged from the signal on. A signal
-    that reached no handler of the command's fails the test."""
+    that reached no handler of the command's fails the test. ``extra``: more arguments."""
     from emulated import PATIENT_READS, wait_for
 
     logged_before: list[int] = []
@@ -122,7 +122,7 @@ def play_here_then_signal(
         logged_before.append(len(emulator.log.packets))  # the log only grows
         os.kill(os.getpid(), signum)
 
-    argv = ["play", "motions/arm6/dance.yaml", "--port", port, *PATIENT_READS]
+    argv = ["play", "motions/arm6/dance.yaml", "--port", port, *PATIENT_READS, *extra]
     with signal_noted(signum) as unhandled:
         code, _, err = main_while(monkeypatch, signal_once_playing, argv)
     assert unhandled == [], f"no handler of choreo play's took signal {signum}"
