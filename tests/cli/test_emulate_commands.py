@@ -77,9 +77,11 @@ MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_STA
 
 # each board once, each stop signal once (test_play_commands sends both to the raw bus; the CLI
 # treats them alike): Ctrl-C to a `choreo play` process of its own, SIGHUP to this process,
-# playing here (a process costs 0.8 s of CPU to start; the command's own handler must take it)
+# playing here (a process costs 0.8 s of CPU to start; the command's own handler must take it).
+# The LOBOT's holds are checked against where the servos stand once the process is gone: a play
+# here returns before the emulator, on the real clock, has them back where they were read.
 @pytest.mark.parametrize(
-    "board, signum, here", [("rrc", signal.SIGINT, False), ("lobot", signal.SIGHUP, True)]
+    "board, signum, here", [("rrc", signal.SIGHUP, True), ("lobot", signal.SIGINT, False)]
 )
 def test_a_signal_puts_the_boards_stop_on_the_wire_and_nothing_moves_after_it(
     board_on_a_pty, signum, here, monkeypatch
