@@ -1,8 +1,10 @@
 """Helpers for tests that run the command line as a user does: the one error line it prints,
-argparse's refusal, a small motion file, a `choreo` subprocess."""
+argparse's refusal, a small motion file, a `choreo` subprocess, or main(argv) here with
+something done meanwhile (a signal sent, a process killed)."""
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import struct
@@ -10,6 +12,8 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -55,6 +59,76 @@ def choreo_process(*argv: str, stdin=None) -> subprocess.Popen:
     )
 
 
+def main_while(
+    monkeypatch, meanwhile: Callable[[Callable[[], str]], None], argv: list[str]
+) -> tuple[int, str, str]:
+    """main(argv) run here while ``meanwhile`` runs in a thread of its own, reading what the
+    command has said so far on stderr: exit code, stdout, stderr. What ``meanwhile`` raised is
+    raised here once the command is over."""
+    out, said = io.StringIO(), io.StringIO()  # read as written: the GIL keeps each write whole
+    monkeypatch.setattr(sys, "stdout", out)
+    monkeypatch.setattr(sys, "stderr", said)
+    failed: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            meanwhile(said.getvalue)
+        except BaseException as error:  # raised in the test's thread, below
+            failed.append(error)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    code = main(argv)
+    thread.join(timeout=PROCESS_WAIT_S)
+    if failed:
+        raise failed[0]
+    return code, out.getvalue(), said.getvalue()
+
+
+def said_eventually(said: Callable[[], str], text: str) -> None:
+    """Wait until ``said()`` holds ``text`` (as Transcript.wait_for does for a process)."""
+    deadline = time.monotonic() + PROCESS_WAIT_S
+    while text not in said():
+        assert time.monotonic() < deadline, f"{text!r} never came; got:\n{said()}"
+        time.sleep(0.02)
+
+
+@contextmanager
+def signal_noted(signum: int) -> Iterator[list[int]]:
+    """Inside, ``signum`` sent to this process (os.kill) while the command's own handler is not
+    in place is noted in the list given, not acted on (its default would end the test run): a
+    command that failed to take it over then runs on, and the test can tell."""
+    noted: list[int] = []
+    previous = signal.signal(signum, lambda number, _: noted.append(number))
+    try:
+        yield noted
+    finally:
+        signal.signal(signum, previous)
+
+
+def play_here_then_signal(
+    monkeypatch, emulator, port: str, signum: int, playing: Callable[[list], bool], *extra: str
+) -> tuple[int, str, list]:
+    """emulated.play_then_signal, with `choreo play` run here (main_while) and the signal sent
+    to this process: the exit code, stderr and the packets logged from the signal on. A signal
+    that reached no handler of the command's fails the test. ``extra``: more arguments."""
+    from emulated import PATIENT_READS, wait_for
+
+    logged_before: list[int] = []
+
+    def signal_once_playing(_said: Callable[[], str]) -> None:
+        # list() copies at once: the bridge thread appends to the log meanwhile
+        wait_for(lambda: playing(list(emulator.log.packets)), "the motion to be playing")
+        logged_before.append(len(emulator.log.packets))  # the log only grows
+        os.kill(os.getpid(), signum)
+
+    argv = ["play", "motions/arm6/dance.yaml", "--port", port, *PATIENT_READS, *extra]
+    with signal_noted(signum) as unhandled:
+        code, _, err = main_while(monkeypatch, signal_once_playing, argv)
+    assert unhandled == [], f"no handler of choreo play's took signal {signum}"
+    return code, err, list(emulator.log.packets)[logged_before[0] :]
+
+
 def packets(emulator, command: str) -> list:
     """The logged packets of one command (by name), in the order they came."""
     from choreo.bus.protocol import Command
@@ -92,15 +166,50 @@ def mirror(source: Path, out: Path) -> Path:
 PREVIEW_MOTIONS = Path("tests/data/preview/motions")
 
 
-class ChoreoProcess:
+class Transcript:
+    """The lines something said, read page by page: a process that serves several tests (a
+    performer) turns a page for each; ``lines`` and ``wait_for`` then read only the lines said
+    since (``every_line``: all of them). ``wait_for`` gives up once nothing more can come."""
+
+    def __init__(self) -> None:
+        self.every_line: list[str] = []  # on stderr, for a process
+        self._page = 0  # the index in every_line of the first line of this page
+        self._out: list[str] = []  # on stdout, for a process
+
+    @property
+    def lines(self) -> list[str]:
+        """The lines said since the page was turned."""
+        return self.every_line[self._page :]
+
+    def turn_page(self) -> None:
+        """From now on ``lines`` and ``wait_for`` read only the lines said after this."""
+        self._page = len(self.every_line)
+
+    def ended(self) -> bool:
+        """Whether nothing more will be said."""
+        return False
+
+    def wait_for(self, text: str, stream: str = "stderr") -> str:
+        deadline = time.monotonic() + PROCESS_WAIT_S
+        while time.monotonic() < deadline:
+            lines = self.lines if stream == "stderr" else self._out
+            found = [line for line in lines if text in line]
+            if found:
+                return found[0]
+            if self.ended():
+                break
+            time.sleep(0.02)
+        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(self.lines + self._out))
+
+
+class ChoreoProcess(Transcript):
     """A choreo command in the background, its stdout and stderr collected line by line;
-    ``prefix`` runs it through another command (``ip netns exec NS``). A process that serves
-    several tests (a performer) turns a page for each: ``lines`` and ``wait_for`` then read only
-    the stderr lines said since (``every_line``: all of them)."""
+    ``prefix`` runs it through another command (``ip netns exec NS``)."""
 
     def __init__(
         self, *args: str, stdin: int | None = subprocess.DEVNULL, prefix: tuple[str, ...] = ()
     ):
+        super().__init__()
         self.proc = subprocess.Popen(
             [*prefix, sys.executable, "-m", "choreo", *args],
             cwd=REPO,
@@ -110,9 +219,6 @@ class ChoreoProcess:
             stderr=subprocess.PIPE,
             text=True,
         )
-        self.every_line: list[str] = []  # on stderr
-        self._page = 0  # the index in every_line of the first line of this page
-        self._out: list[str] = []
         self._readers = [
             threading.Thread(
                 target=self._read, args=(self.proc.stderr, self.every_line), daemon=True
@@ -127,26 +233,8 @@ class ChoreoProcess:
         for line in stream:
             into.append(line.rstrip("\n"))
 
-    @property
-    def lines(self) -> list[str]:
-        """The stderr lines said since the page was turned."""
-        return self.every_line[self._page :]
-
-    def turn_page(self) -> None:
-        """From now on ``lines`` and ``wait_for`` read only the stderr lines said after this."""
-        self._page = len(self.every_line)
-
-    def wait_for(self, text: str, stream: str = "stderr") -> str:
-        deadline = time.monotonic() + PROCESS_WAIT_S
-        while time.monotonic() < deadline:
-            lines = self.lines if stream == "stderr" else self._out
-            found = [line for line in lines if text in line]
-            if found:
-                return found[0]
-            if self.proc.poll() is not None and not any(r.is_alive() for r in self._readers):
-                break
-            time.sleep(0.02)
-        raise AssertionError(f"{text!r} never came; got:\n" + "\n".join(self.lines + self._out))
+    def ended(self) -> bool:
+        return self.proc.poll() is not None and not any(r.is_alive() for r in self._readers)
 
     def finish(self) -> tuple[int, str]:
         code = self.proc.wait(timeout=PROCESS_WAIT_S)

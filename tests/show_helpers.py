@@ -45,19 +45,29 @@ def eventually(condition: Callable[[], object], what: str) -> None:
 
 
 class Stage:
-    """A performer named ``tony`` serving in a thread, listening on a loopback port."""
+    """A performer (``tony`` unless named) serving in a thread, listening on a loopback port,
+    on the emulated bus ``port``; what it says goes to ``say``, else to ``said``."""
 
-    def __init__(self, max_silence_s: float = PATIENT_SILENCE_S, protocol: str = "tcp", **network):
+    def __init__(
+        self,
+        max_silence_s: float = PATIENT_SILENCE_S,
+        protocol: str = "tcp",
+        *,
+        name: str = "tony",
+        port: str = ARM,
+        say: Callable[[str], None] | None = None,
+        **network,
+    ):
         self.port = free_port()
         self.endpoint = f"{protocol}/127.0.0.1:{self.port}"
         self.said: list[str] = []
         self.network = Network(listen=[self.endpoint], **network)
         self.performer = Performer(
             self.network,
-            "tony",
-            lambda robot: open_robot_bus(robot, ARM),
-            ARM,
-            self.said.append,
+            name,
+            lambda robot: open_robot_bus(robot, port),
+            port,
+            say or self.said.append,
             max_silence_s,
         )
         self.thread = threading.Thread(target=self.performer.serve_forever, daemon=True)

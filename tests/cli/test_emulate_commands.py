@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import pytest
+from cli_helpers import play_here_then_signal
 from emulated import home_specs, play_then_signal, served_on_a_pty
 
 from choreo.bus.protocol import Command, decode_request
@@ -74,21 +75,29 @@ def board_on_a_pty(board, tmp_path):
 MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_START)
 
 
-# each board once, each stop signal once (test_play_cli sends both to the raw bus; the CLI treats
-# them alike): a subprocess on the real clock is the slowest kind of test
-@pytest.mark.parametrize("board, signum", [("rrc", signal.SIGINT), ("lobot", signal.SIGHUP)])
+# each board once, each stop signal once (test_play_commands sends both to the raw bus; the CLI
+# treats them alike): Ctrl-C to a `choreo play` process of its own, SIGHUP to this process,
+# playing here (a process costs 0.8 s of CPU to start; the command's own handler must take it).
+# The LOBOT's holds are checked against where the servos stand once the process is gone: a play
+# here returns before the emulator, on the real clock, has them back where they were read.
+@pytest.mark.parametrize(
+    "board, signum, here", [("rrc", signal.SIGHUP, True), ("lobot", signal.SIGINT, False)]
+)
 def test_a_signal_puts_the_boards_stop_on_the_wire_and_nothing_moves_after_it(
-    board_on_a_pty, signum
+    board_on_a_pty, signum, here, monkeypatch
 ):
     """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     board, emulator, port = board_on_a_pty
-    returncode, stderr, after = play_then_signal(
-        emulator,
-        port,
-        signum,
-        # the approach and two ticks
-        lambda log: sum(p.packet.command == Command.MOVE_TIME_WRITE for p in log) >= 18,
-    )
+
+    def playing(log: list) -> bool:  # the approach and two ticks
+        return sum(p.packet.command == Command.MOVE_TIME_WRITE for p in log) >= 18
+
+    if here:
+        returncode, stderr, after = play_here_then_signal(
+            monkeypatch, emulator, port, signum, playing
+        )
+    else:
+        returncode, stderr, after = play_then_signal(emulator, port, signum, playing)
     assert returncode == 130, stderr
     assert "Traceback" not in stderr
     commands = [(p.packet.command, p.packet.servo_id) for p in after]

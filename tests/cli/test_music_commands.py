@@ -30,8 +30,10 @@ from choreo.music.decode import Audio, encode, ffmpeg_exe
 
 
 def test_cli_json_and_plot(tmp_path, capsys):
-    times = steady_times(100, 0.6, 14.0)
-    song = write_clicks(tmp_path / "clicks.flac", times, 15.0)
+    # 16 beats, four bars: enough for the tempo, the bars and the plot (each second of song
+    # costs some 0.1 s of CPU to analyse)
+    times = steady_times(100, 0.6, 10.0)
+    song = write_clicks(tmp_path / "clicks.flac", times, 11.0)
     plot = tmp_path / "beats.png"
     assert main(["beats", str(song), "--json", "--plot", str(plot)]) == 0
     report = json.loads(capsys.readouterr().out)

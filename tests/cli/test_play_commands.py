@@ -7,7 +7,7 @@ from __future__ import annotations
 import signal
 
 import pytest
-from cli_helpers import WAVE, choreo_process, motion_file, packets
+from cli_helpers import WAVE, choreo_process, motion_file, packets, play_here_then_signal
 from emulated import PATIENT_READS, play_then_signal, wait_for
 
 from choreo.bus.protocol import BROADCAST_ID, Command
@@ -16,17 +16,22 @@ from choreo.cli import main
 MOVES = (Command.MOVE_TIME_WRITE, Command.MOVE_TIME_WAIT_WRITE, Command.MOVE_START)
 
 
-@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGHUP])
-def test_a_signal_puts_move_stop_on_the_wire_and_exits_130(arm_on_a_pty, signum):
+# Ctrl-C to a `choreo play` process of its own; SIGHUP to this process, playing here (a process
+# costs 0.8 s of CPU to start): the command's own handler must take it
+@pytest.mark.parametrize("signum, here", [(signal.SIGINT, False), (signal.SIGHUP, True)])
+def test_a_signal_puts_move_stop_on_the_wire_and_exits_130(arm_on_a_pty, signum, here, monkeypatch):
     """Order and content, not time (benchmarks/bench_stop.py prints how soon the stop comes)."""
     emulator, link = arm_on_a_pty
-    returncode, stderr, logged = play_then_signal(
-        emulator,
-        str(link),
-        signum,
-        # the approach and two ticks
-        lambda log: sum(p.packet.command == Command.MOVE_START for p in log) >= 3,
-    )
+
+    def playing(log: list) -> bool:  # the approach and two ticks
+        return sum(p.packet.command == Command.MOVE_START for p in log) >= 3
+
+    if here:
+        returncode, stderr, logged = play_here_then_signal(
+            monkeypatch, emulator, str(link), signum, playing
+        )
+    else:
+        returncode, stderr, logged = play_then_signal(emulator, str(link), signum, playing)
     assert returncode == 130, stderr
     assert "Traceback" not in stderr
     after = [p.packet for p in logged]

@@ -1,25 +1,30 @@
-"""Shows end to end: `choreo perform` processes on emulated buses and one `choreo show`, all on
-loopback (each performer listens on its own 127.0.0.1 port, the conductor connects to them; no
-scouting), killed and interrupted mid-show. The conductor runs in a process of its own where the
-test signals, kills or feeds it while it runs, else in the test's (main(argv)). Order and content
-only: no timing is asserted."""
+"""Shows end to end: performers on emulated buses and one `choreo show`, all on loopback (each
+performer listens on its own 127.0.0.1 port, the conductor connects to them; no scouting), killed
+and interrupted mid-show. Each `choreo` process costs about 0.8 s of CPU to start, so a process
+is used only where it is what the test is about: a conductor killed, frozen or sent Ctrl-C from
+outside, a performer killed or another's pid; else the conductor runs in the test's process
+(main(argv)) and the performers serve in its threads, saying what `choreo perform` prints
+(perform_helpers). Order and content only: no timing is asserted."""
 
 from __future__ import annotations
 
 import io
 import json
+import os
 import re
 import signal
 import socket
-import subprocess
 import sys
 from collections.abc import Callable
 
 import pytest
 from cli_helpers import ChoreoProcess as Process
+from cli_helpers import main_while, said_eventually, signal_noted
 from paths import DATA
-from perform_helpers import ARM, Troupe, perform, performer_process
+from perform_helpers import ARM, Troupe, performer_here, performer_process
 from show_helpers import free_port
+
+from choreo.show.custody import DEFAULT_MAX_SILENCE_S
 
 SHOWS = DATA / "shows"
 TIME_OF_DAY = r"\d\d:\d\d:\d\d\.\d{6}"  # as a performer says when its MOVE_STOP went
@@ -37,7 +42,7 @@ def troupe():
 def performers(troupe, request):
     """The shared performers by name (Troupe): their endpoints, in the order asked;
     ``performers.started``: this test's, by name. A test that kills a performer, or needs
-    another port or silence bound, starts one of its own (performer_process)."""
+    another port or silence bound, starts one of its own (performer_process, performer_here)."""
     started = troupe.begin_test()
     failed_before = request.session.testsfailed
 
@@ -50,8 +55,8 @@ def performers(troupe, request):
 
 
 def conductor(show: str, endpoints: list[str], *extra: str) -> Process:
-    """`choreo show` in a process of its own: for the tests that signal it, kill it or feed its
-    input, or do something else while it runs."""
+    """`choreo show` in a process of its own: for the tests that kill it, freeze it or send it
+    Ctrl-C from outside."""
     return Process("show", *conducting(show, endpoints, *extra))
 
 
@@ -67,6 +72,18 @@ def conduct(capsys, show: str, endpoints: list[str], *extra: str) -> tuple[int, 
     code = main(["show", *conducting(show, endpoints, *extra)])
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def conduct_while(
+    monkeypatch, meanwhile: Callable[[Callable[[], str]], None], show: str, endpoints: list[str],
+    *extra: str,
+) -> tuple[int, str]:  # fmt: skip
+    """`choreo show` run here while ``meanwhile`` runs (cli_helpers.main_while): exit code,
+    stderr."""
+    code, _, err = main_while(
+        monkeypatch, meanwhile, ["show", *conducting(show, endpoints, *extra)]
+    )
+    return code, err
 
 
 def test_a_show_of_three_performers_runs_and_reports(performers, tmp_path, capsys):
@@ -101,7 +118,7 @@ def test_a_missing_performer_is_named(performers, capsys):
 
 def test_a_failed_preflight_is_listed_and_the_show_refuses_to_start(performers, capsys):
     # right's bus lacks the gripper (ID 6): its preflight fails; left's passes but must not play
-    right, right_endpoint = performer_process("right", port="sim://?ids=1-5")
+    right, right_endpoint = performer_here("right", port="sim://?ids=1-5")
     try:
         code, _, err = conduct(capsys, "duo.yaml", [*performers("left"), right_endpoint])
     finally:
@@ -137,18 +154,21 @@ def test_killing_the_conductor_stops_every_performer(performers):
     show.finish()
 
 
-def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_path):
+def test_killing_a_performer_is_reported_and_stops_the_others(performers, tmp_path, monkeypatch):
     right, right_endpoint = performer_process("right")  # its own: it is killed
     report_path = tmp_path / "show.json"
-    try:
-        show = conductor(
-            "wave_duo.yaml", [*performers("left"), right_endpoint], "--report", str(report_path)
-        )
-        show.wait_for("every performer took the start")  # then right dies: lost, not silent
+    endpoints = [*performers("left"), right_endpoint]
+
+    def kill_right(said: Callable[[], str]) -> None:
+        said_eventually(said, "every performer took the start")  # then right dies: lost
         right.wait_for("playing")
         performers.started["left"][0].wait_for("playing")
         right.proc.kill()
-        code, err = show.finish()
+
+    try:
+        code, err = conduct_while(
+            monkeypatch, kill_right, "wave_duo.yaml", endpoints, "--report", str(report_path)
+        )
     finally:
         right.stop()
     assert code == 1, err
@@ -186,19 +206,24 @@ def test_ctrl_c_at_the_conductor_stops_every_performer(performers, tmp_path):
         process.wait_for("every servo stopped")
 
 
-def test_with_on_abort_continue_the_others_finish_when_one_is_lost(performers, tmp_path):
+def test_with_on_abort_continue_the_others_finish_when_one_is_lost(
+    performers, tmp_path, monkeypatch
+):
     right, right_endpoint = performer_process("right")  # its own: it is killed
     report_path = tmp_path / "show.json"
-    try:
-        show = conductor(
-            "duo_continue.yaml", [*performers("left"), right_endpoint], "--report", str(report_path)
-        )
+    endpoints = [*performers("left"), right_endpoint]
+
+    def kill_right(said: Callable[[], str]) -> None:
         # "playing" comes before right's answer to the start reaches the conductor: killed in
         # between, right never took the start (a busy machine did that)
-        show.wait_for("every performer took the start")
+        said_eventually(said, "every performer took the start")
         right.wait_for("playing")
         right.proc.kill()
-        code, err = show.finish()
+
+    try:
+        code, err = conduct_while(
+            monkeypatch, kill_right, "duo_continue.yaml", endpoints, "--report", str(report_path)
+        )
     finally:
         right.stop()
     assert code == 1, err
@@ -240,44 +265,47 @@ def test_two_performers_of_one_name_are_refused_naming_both(performers, tmp_path
         code, _, err = conduct(capsys, str(solo), [one, two])
         assert code == 1, err
         host = socket.gethostname()
+        here, there = os.getpid(), second.proc.pid  # first serves in this process
         assert (
-            f"2 performers are named left, on {host} (pid {first.proc.pid}, on {ARM}) and "
-            f"{host} (pid {second.proc.pid}, on {ARM}): give each its own --name"
+            f"2 performers are named left, on {host} (pid {here}, on {ARM}) and "
+            f"{host} (pid {there}, on {ARM}): give each its own --name"
         ) in err or (
-            f"2 performers are named left, on {host} (pid {second.proc.pid}, on {ARM}) and "
-            f"{host} (pid {first.proc.pid}, on {ARM}): give each its own --name"
+            f"2 performers are named left, on {host} (pid {there}, on {ARM}) and "
+            f"{host} (pid {here}, on {ARM}): give each its own --name"
         ) in err
         assert not any("staged" in line for line in first.lines + second.lines)
-        # on loopback only: no warning about the network (since each started)
-        assert not any("warning" in line for line in first.every_line + second.every_line)
+        # on loopback only: no warning about the network (since it started)
+        assert not any("warning" in line for line in second.every_line)
     finally:
         second.stop()
 
 
-def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(performers, capsys):
+def test_a_performer_another_show_holds_is_refused_and_its_show_goes_on(
+    performers, capsys, monkeypatch
+):
+    from choreo.cli import main
+
     endpoints = performers("left", "right")
     connects = [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
-    # the first conductor holds both, armed and waiting for its GO
-    first = Process("show", str(SHOWS / "duo.yaml"), "--no-audio", *connects, stdin=subprocess.PIPE)
-    first.wait_for("press Enter for GO")
-    code, _, err = conduct(capsys, "duo.yaml", endpoints)
+    # the first conductor holds both, armed and waiting for its GO: then a second show is tried
+    second = EnterWhenRead(lambda: conduct(capsys, "duo.yaml", endpoints))
+    monkeypatch.setattr(sys, "stdin", second)
+    first_code = main(["show", str(SHOWS / "duo.yaml"), "--no-audio", *connects])
+    first_err = capsys.readouterr().err
+    assert second.seen_before_enter is not None  # the first asked for its GO
+    code, _, err = second.seen_before_enter
     assert code == 1, err
     assert "refusing to start the show:" in err
     for name in ("left", "right"):
         assert re.search(rf"{name} on \S+ is busy with show duo-[0-9a-f]{{8}} \(another", err), err
-    assert first.proc.stdin is not None
-    first.proc.stdin.write("\n")
-    first.proc.stdin.flush()
-    code, err = first.finish()
-    assert code == 0, err  # the first show was not disturbed
+    assert first_code == 0, first_err  # the first show was not disturbed
 
 
 def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound():
     # performers of their own, with the default silence bound: the one under test
-    strict = {name: perform(name, silence_ms=None) for name in ("left", "right")}
+    default_ms = DEFAULT_MAX_SILENCE_S * 1000
+    strict = {name: performer_here(name, silence_ms=default_ms) for name in ("left", "right")}
     try:
-        for process, _ in strict.values():
-            process.wait_for("waiting for a show", stream="stdout")
         show = conductor("wave_duo.yaml", [endpoint for _, endpoint in strict.values()])
         for process, _ in strict.values():
             process.wait_for("playing")
@@ -301,14 +329,23 @@ def test_a_frozen_conductor_stops_every_performer_within_the_silence_bound():
             process.stop()
 
 
-def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path):
+def test_sigterm_at_the_conductor_is_ctrl_c(performers, tmp_path, monkeypatch):
+    """SIGTERM sent to this process while the conductor runs here (Ctrl-C at a conductor in a
+    process of its own is the test above): the conductor's own handler must take it, else
+    the one set here only notes it and the show plays to its end."""
     endpoints = performers("left", "right")
     report_path = tmp_path / "show.json"
-    show = conductor("wave_duo.yaml", endpoints, "--report", str(report_path))
-    for process, _ in performers.started.values():
-        process.wait_for("playing")
-    show.proc.send_signal(signal.SIGTERM)
-    code, err = show.finish()
+
+    def terminate(said: Callable[[], str]) -> None:
+        for process, _ in performers.started.values():
+            process.wait_for("playing")
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    with signal_noted(signal.SIGTERM) as unhandled:
+        code, err = conduct_while(
+            monkeypatch, terminate, "wave_duo.yaml", endpoints, "--report", str(report_path)
+        )
+    assert unhandled == []
     assert code == 130, err
     report = json.loads(report_path.read_text())
     assert report["stop_reason"] == "Ctrl-C at the conductor"
@@ -324,16 +361,21 @@ def test_a_performer_in_another_realm_is_not_found(performers, capsys):
     assert "2 performer(s) did not appear within 1 s: left, right" in err
 
 
-def test_a_performer_reachable_from_the_network_without_authentication_warns():
-    process, _ = performer_process("left", "--listen", f"tcp/0.0.0.0:{free_port()}")
-    try:
-        # stderr is read by a thread of its own: "waiting" on stdout may be read before it
-        process.wait_for("choreo: warning:")
-        warnings = [line for line in process.lines if "warning" in line]
-        assert len(warnings) == 1
-        assert warnings[0].startswith("choreo: warning: this session is reachable beyond this")
-    finally:
-        process.stop()
+def test_a_performer_reachable_from_the_network_without_authentication_warns(capsys, monkeypatch):
+    """As `choreo perform` starts (it serves no show here: what it says first is the subject)."""
+    from choreo.cli import main
+    from choreo.show.performer import Performer
+
+    monkeypatch.setattr(Performer, "serve_forever", lambda self: None)
+    for listen, warned in (("0.0.0.0", True), ("127.0.0.1", False)):
+        argv = ["perform", "--name", "left", "--port", ARM, "--listen"]
+        assert main([*argv, f"tcp/{listen}:{free_port()}"]) == 0
+        out, err = capsys.readouterr()
+        assert out == f"performing as left on {ARM}: waiting for a show\n"
+        warnings = [line for line in err.splitlines() if "warning" in line]
+        assert len(warnings) == warned, (listen, err)
+        if warned:
+            assert warnings[0].startswith("choreo: warning: this session is reachable beyond this")
 
 
 @pytest.mark.parametrize("port", ["sim://?ids=999", "/dev/null"])

@@ -1,4 +1,6 @@
-"""`choreo emulate --pty` from a separate process, driven by a plain pyserial client.
+"""`choreo emulate --pty` from a separate process, driven by a plain pyserial client; a link it
+refuses before serving, with `choreo emulate` run here (main(argv): a process costs 0.2 s of CPU
+to start).
 
 This is the one emulator test on the real clock: the bridge runs in real time by design. It waits
 for output with timeouts, never sleeps for a fixed time.
@@ -18,6 +20,7 @@ import serial
 
 from choreo.bus.protocol import Command as C
 from choreo.bus.protocol import PacketDecoder, decode_reply, encode_request
+from choreo.cli import main
 
 STARTUP_TIMEOUT_S = 20
 
@@ -128,13 +131,11 @@ def test_signals_blocked_by_the_parent_still_stop_it(link):
     assert returncode == 128 + signal.SIGTERM, stderr
 
 
-def test_an_existing_path_is_refused_and_left_alone(link):
+def test_an_existing_path_is_refused_and_left_alone(link, capsys):
     link.write_text("not a tty")
-    process = start_emulator("--pty", str(link))
-    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
-    assert process.returncode == 1
+    assert main(["emulate", "--pty", str(link)]) == 1
     assert f"choreo: error: {link} already exists; remove it or choose another path (--pty)\n" in (
-        stderr
+        capsys.readouterr().err
     )
     assert link.read_text() == "not a tty"
 
@@ -177,15 +178,13 @@ def test_a_link_to_a_pty_no_emulator_serves_is_replaced_with_a_note(link, pty_of
     assert not os.path.lexists(link)
 
 
-def test_the_link_of_a_running_emulator_is_refused_and_left_alone(link):
+def test_the_link_of_a_running_emulator_is_refused_and_left_alone(link, capsys):
     running = start_emulator("--pty", str(link))
     try:
         ready_line(running)
         target = os.readlink(link)
-        second = start_emulator("--pty", str(link))
-        _, stderr = second.communicate(timeout=STARTUP_TIMEOUT_S)
-        assert second.returncode == 1
-        assert stderr == (
+        assert main(["emulate", "--pty", str(link)]) == 1  # the second, here
+        assert capsys.readouterr().err == (
             f"choreo: error: {link} already links to {target}, which another emulator serves; "
             "stop that one, or choose another path (--pty)\n"
         )
@@ -194,22 +193,20 @@ def test_the_link_of_a_running_emulator_is_refused_and_left_alone(link):
         stop(running)
 
 
-def test_a_link_to_anything_but_a_pty_is_refused_and_left_alone(link, tmp_path):
+def test_a_link_to_anything_but_a_pty_is_refused_and_left_alone(link, tmp_path, capsys):
     os.symlink(tmp_path / "gone", link)
-    process = start_emulator("--pty", str(link))
-    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
-    assert process.returncode == 1
-    assert stderr == (
+    assert main(["emulate", "--pty", str(link)]) == 1
+    assert capsys.readouterr().err == (
         f"choreo: error: {link} already exists; remove it or choose another path (--pty)\n"
     )
     assert os.readlink(link) == str(tmp_path / "gone")
 
 
-def test_bad_servo_list_is_a_usage_error(link):
-    process = start_emulator("--pty", str(link), "--servos", "1-x")
-    _, stderr = process.communicate(timeout=STARTUP_TIMEOUT_S)
-    assert process.returncode == 2
-    assert "bad servo IDs" in stderr
+def test_bad_servo_list_is_a_usage_error(link, capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(["emulate", "--pty", str(link), "--servos", "1-x"])
+    assert exited.value.code == 2
+    assert "bad servo IDs" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("option,gap_s", [((), 0.0), (("--start-gap-ms", "1.5"), 0.0015)])

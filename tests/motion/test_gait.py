@@ -58,16 +58,26 @@ def test_feet_on_the_floor_stay_put_and_swings_follow_the_pattern(gait):
     phases = PHASES[gait.pattern]
     swing = len(SWING_SAMPLES)
     assert len(frames) == gait.steps * phases.slots + phases.overhang == gait.keyframes
-    floor = [to_floor(STANCE_FRAME)] + [to_floor(f) for f in frames]
+    floor = np.array([to_floor(STANCE_FRAME)] + [to_floor(f) for f in frames])  # slot, leg, xyz
+    slots = np.arange(1, len(frames) + 1)
+    # every slot of every leg checked at once (one numpy call each, not one per slot: 60 gaits)
     for leg, first in enumerate(phases.lift_off):
-        lift_offs = [step * phases.slots + first for step in range(gait.steps)]
-        for slot in range(1, len(frames) + 1):
-            lift_off = next((k for k in lift_offs if k < slot <= k + swing), None)
-            if lift_off is None:  # planted: same floor point, on the floor
-                np.testing.assert_allclose(floor[slot][leg], floor[slot - 1][leg], atol=1e-9)
-                assert floor[slot][leg][2] == pytest.approx(STANCE[leg][2])
-            elif slot == lift_off + swing // 2:  # the middle sample: the top
-                assert floor[slot][leg][2] == pytest.approx(STANCE[leg][2] + gait.lift_mm)
+        lift_offs = np.array([step * phases.slots + first for step in range(gait.steps)])
+        after = slots[:, None] - lift_offs[None, :]  # each slot's distance past each lift-off
+        swinging = (after > 0) & (after <= swing)
+        planted = slots[~swinging.any(axis=1)]  # planted: same floor point, on the floor
+        np.testing.assert_allclose(
+            floor[planted, leg], floor[planted - 1, leg], atol=1e-9, err_msg=f"leg {leg}"
+        )
+        np.testing.assert_allclose(  # pytest.approx's tolerance
+            floor[planted, leg, 2], STANCE[leg][2], rtol=1e-6, atol=1e-12, err_msg=f"leg {leg}"
+        )
+        lift_off = lift_offs[swinging.argmax(axis=1)]  # the first it swings from, if any
+        tops = slots[swinging.any(axis=1) & (slots == lift_off + swing // 2)]  # the middle sample
+        np.testing.assert_allclose(
+            floor[tops, leg, 2], STANCE[leg][2] + gait.lift_mm, rtol=1e-6, atol=1e-12,
+            err_msg=f"leg {leg}",
+        )  # fmt: skip
 
 
 STANCE_FRAME = type("Frame", (), {"feet_mm": STANCE, "body_mm_deg": (0.0, 0.0, 0.0)})()

@@ -4,6 +4,7 @@ what `choreo validate` and `choreo plan --json` show."""
 
 from __future__ import annotations
 
+import functools
 import json
 import warnings
 from pathlib import Path
@@ -37,6 +38,7 @@ def kinematics(motion) -> Kinematics:
     return _KINEMATICS[name]
 
 
+@functools.cache  # asked at collection, then by the tests: the file is read once (not changed)
 def spatial_items(path: Path) -> list[tuple[int, dict]]:
     """(line, item) of every keyframe list item with sites, body or gait."""
     root = yaml.compose(path.read_text(), Loader=yaml.CSafeLoader)  # at collection: libyaml
@@ -73,9 +75,10 @@ def test_every_ik_keyframe_of_the_shipped_motions_is_reached(path):
     previous = np.array(motion.robot.pose_vector("home"), dtype=float)
     stance = previous
     checked = 0
+    items = dict(spatial_items(path))
     for keyframe in motion.keyframes:
         line = keyframe.where.line
-        item = dict(spatial_items(path)).get(line)
+        item = items.get(line)
         angles = np.array(keyframe.targets_deg)
         assert np.all(angles >= kin.lower_deg) and np.all(angles <= kin.upper_deg)
         if item is None:

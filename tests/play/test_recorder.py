@@ -4,6 +4,7 @@ virtual time; the journal survives a SIGKILL (the one test on the real clock, ov
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import signal
 import subprocess
@@ -12,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 import yaml
-from cli_helpers import choreo_process, packets
+from cli_helpers import main_while, packets, signal_noted
 from emulated import PATIENT_READS, WAIT_S, home_specs, wait_for
 
 from choreo.bus.protocol import Command
@@ -447,7 +448,7 @@ def test_a_slow_stream_ends_at_once_when_q_is_typed(tmp_path):
 # --- a real process, killed --------------------------------------------------------------------
 
 
-def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path):
+def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path, monkeypatch):
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"
     journal = journal_path(out)
@@ -516,24 +517,27 @@ def test_sigkill_loses_no_capture_and_resume_picks_it_up(arm_on_a_pty, tmp_path)
         (0, 24, -24, 0, 0, 0),
     ]
 
-    second = subprocess.Popen(
-        command + ["--resume"],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        wait_for(
-            running(second, lambda: unloads_of_elbow() == 2),
-            "the resumed recorder to unload the elbow",
+    # resumed here (its subject is the journal the killed process left, not a process)
+    read_end, write_end = os.pipe()
+    keyboard = open(write_end, "w")  # closed by the typist, or below
+
+    def type_a_capture_then_q(_said) -> None:
+        try:
+            wait_for(lambda: unloads_of_elbow() == 2, "the resumed recorder to unload the elbow")
+            emulator.servo(2).move_by_hand(700)
+            keyboard.write("\n")
+            keyboard.flush()
+            wait_for(lambda: captures() == 3, "capture 3 in the journal")
+            keyboard.write("q\n")
+        finally:
+            keyboard.close()  # the input ends: a recorder still asking is not left waiting
+
+    with keyboard, open(read_end) as typed:
+        monkeypatch.setattr(sys, "stdin", typed)
+        code, stdout, stderr = main_while(
+            monkeypatch, type_a_capture_then_q, [*command[3:], "--resume"]
         )
-        emulator.servo(2).move_by_hand(700)
-        press_enter(second, 3)
-        stdout, stderr = second.communicate("q\n", timeout=WAIT_S)
-    finally:
-        second.kill()
-    assert second.returncode == 0, stderr
+    assert code == 0, stderr
     assert "resuming" in stdout and "2 capture(s) from" in stdout
     assert [k.targets_deg for k in load_motion(out).keyframes] == [
         (0, 24, 0, 0, 0, 0),
@@ -562,13 +566,14 @@ def test_resume_refuses_a_journal_whose_robot_changed_its_joints(tmp_path):
         Recording.resume(out)
 
 
-def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_path):
-    from emulated import wait_for
-
+def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_path, monkeypatch):
+    """SIGHUP sent to this process while choreo record runs here, at its prompt: its own
+    handler must take it (signal_noted notes a signal no handler of the command's took)."""
     emulator, link = arm_on_a_pty
     out = tmp_path / "taught.yaml"
     argv = ["record", str(out), "--robot", "arm6", "--port", str(link), "--joints", "elbow"]
-    process = choreo_process(*argv, *PATIENT_READS[:2], stdin=subprocess.PIPE)
+    read_end, write_end = os.pipe()
+    keyboard = open(write_end, "w")  # nothing is typed; closed below
 
     def torque_of_elbow() -> list[bytes]:
         return [
@@ -577,19 +582,22 @@ def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_pa
             if p.packet.servo_id == 3
         ]
 
-    try:
+    def hang_up_once_unloaded(_said) -> None:
+        try:
+            wait_for(lambda: torque_of_elbow() == [b"\x00"], "the recorder to unload the elbow")
+            os.kill(os.getpid(), signal.SIGHUP)
+            wait_for(lambda: len(torque_of_elbow()) == 2, "the recorder to load the elbow again")
+        finally:
+            keyboard.close()  # the input ends: a recorder that did not stop is not left waiting
 
-        def unloaded():
-            assert process.poll() is None, process.communicate()
-            return torque_of_elbow() == [b"\x00"]
-
-        wait_for(unloaded, "the recorder to unload the elbow")
-        process.send_signal(signal.SIGHUP)
-        stdout, stderr = process.communicate(timeout=60)
-    finally:
-        process.kill()
+    with signal_noted(signal.SIGHUP) as unhandled, keyboard, open(read_end) as typed:
+        monkeypatch.setattr(sys, "stdin", typed)
+        code, stdout, stderr = main_while(
+            monkeypatch, hang_up_once_unloaded, [*argv, *PATIENT_READS[:2]]
+        )
+    assert unhandled == []
+    assert code == 1, stderr
     # as after Ctrl-C at the prompt: the recording ends (nothing captured here, so exit 1)
-    assert process.returncode == 1, stderr
     assert stdout.splitlines()[-2:] == [
         f"nothing captured: {out} not written",
         "taught joints loaded again, holding where they are",

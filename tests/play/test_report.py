@@ -5,12 +5,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from emulated import PATIENT_READS, wait_for
+from cli_helpers import play_here_then_signal
 
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
@@ -62,31 +60,19 @@ def test_play_writes_a_report_that_reads_back(tmp_path, capsys, virtual_built_in
     assert [p.name for p in tmp_path.iterdir()] == ["wave.json"]  # no temporary left behind
 
 
-def test_an_interrupted_play_on_a_serial_port_reports_it(arm_on_a_pty, tmp_path):
-    # A real port (a pty): kind "serial", nothing to measure the path error with.
+def test_an_interrupted_play_on_a_serial_port_reports_it(arm_on_a_pty, tmp_path, monkeypatch):
+    # A real port (a pty): kind "serial", nothing to measure the path error with. Played here,
+    # stopped by SIGHUP (as Ctrl-C: the signals themselves are tested in tests/cli/)
     emulator, link = arm_on_a_pty
     path = tmp_path / "r.json"
-    command = ["play", "motions/arm6/dance.yaml", "--port", str(link), "--report", str(path)]
-    process = subprocess.Popen(
-        [sys.executable, "-m", "choreo", *command, *PATIENT_READS],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+
+    def playing(packets: list) -> bool:
+        return sum(p.packet.command == Command.MOVE_START for p in packets) >= 5
+
+    code, stderr, _ = play_here_then_signal(
+        monkeypatch, emulator, str(link), signal.SIGHUP, playing, "--report", str(path)
     )
-    try:
-
-        def playing():
-            if process.poll() is not None:
-                raise AssertionError(f"choreo play exited early: {process.communicate()[1]}")
-            packets = list(emulator.log.packets)  # copied at once: the bridge appends meanwhile
-            return sum(p.packet.command == Command.MOVE_START for p in packets) >= 5
-
-        wait_for(playing, "the motion to be playing")
-        process.send_signal(signal.SIGINT)
-        _, stderr = process.communicate(timeout=30)
-    finally:
-        process.kill()
-    assert process.returncode == 130, stderr
+    assert code == 130, stderr
     report = json.loads(path.read_text())
     assert report["outcome"] == "interrupted"
     assert report["transport"] == {

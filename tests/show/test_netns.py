@@ -54,9 +54,10 @@ class Computer:
         return ChoreoProcess(*args, stdin=stdin, prefix=self.prefix)
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 def lan() -> Iterator[tuple[Computer, Computer]]:
-    """Two namespaces on one link: the conductor's and the performer's."""
+    """Two namespaces on one link: the conductor's and the performer's (a test that takes the
+    link down brings it up again)."""
     tag = f"{os.getpid() % 10000}"
     subnet = f"10.203.{os.getpid() % 250}"
     conductor = Computer(f"choreo-c{tag}", f"vc{tag}", f"{subnet}.1")
@@ -96,14 +97,36 @@ def stop(process: ChoreoProcess) -> None:
             process.proc.kill()
 
 
-def test_a_show_across_two_computers_by_explicit_endpoints(lan, tmp_path):
-    conductor, performer = lan
+@pytest.fixture(scope="class")
+def listening(lan) -> Iterator[tuple[ChoreoProcess, str]]:
+    """A `choreo perform` listening on the performer's address, started once for the tests of
+    a class, and its endpoint."""
+    _, performer = lan
     endpoint = f"tcp/{performer.address}:7447"
     left = performer.run("perform", "--name", "left", "--port", ARM, "--listen", endpoint)
     try:
         left.wait_for("waiting for a show", stream="stdout")
-        # reachable from another computer, no authentication: said in one line
-        assert [line for line in left.lines if "warning" in line] == [
+        yield left, endpoint
+    finally:
+        stop(left)
+
+
+@pytest.fixture
+def left(listening) -> tuple[ChoreoProcess, str]:
+    """The class's performer, its page turned: the test reads only what it says meanwhile."""
+    listening[0].turn_page()
+    return listening
+
+
+class TestOnePerformerAtAnExplicitEndpoint:
+    """Two shows for one `choreo perform` listening on the performer's address (each process
+    costs some 0.7 s of CPU to start): one across the link, one cut off by a partition."""
+
+    def test_a_show_across_two_computers_by_explicit_endpoints(self, lan, left, tmp_path):
+        conductor, _ = lan
+        left, endpoint = left
+        # reachable from another computer, no authentication: said in one line, at its start
+        assert [line for line in left.every_line if "warning" in line] == [
             "choreo: warning: this session is reachable beyond this computer with no Zenoh "
             "authentication: anyone on the network can join the show; see docs/shows.md (TLS, "
             "user/password, access control)"
@@ -115,8 +138,30 @@ def test_a_show_across_two_computers_by_explicit_endpoints(lan, tmp_path):
         code, err = show.finish()
         assert code == 0, err
         left.wait_for("left: part completed")
-    finally:
-        stop(left)
+
+    def test_a_partition_mid_show_stops_the_robot(self, lan, left, tmp_path):
+        conductor, _ = lan
+        left, endpoint = left
+        show = conductor.run(
+            "show", str(solo_show(tmp_path, WAVE)), "--no-audio", "--go", "--connect", endpoint
+        )
+        left.wait_for("playing")
+        ip("-n", conductor.namespace, "link", "set", conductor.interface, "down")  # the cable
+        try:
+            line = left.wait_for("left: part stopped: lost the conductor")
+            assert "no heartbeat for" in line or "liveliness token vanished" in line
+            assert left.wait_for("emulated bus:").endswith("every servo stopped")
+            show.proc.kill()
+            show.finish()
+            # Ctrl-C with the cable still cut (the class's last test: the performer is done):
+            # Zenoh's close, which waits ~10 s for the lost conductor, is not waited for, and
+            # its end is no traceback
+            left.proc.send_signal(signal.SIGINT)
+            code, said = left.finish()
+            assert code == 130 and said.endswith("choreo: interrupted"), said
+        finally:
+            # the cable back: the next tests share the link
+            ip("-n", conductor.namespace, "link", "set", conductor.interface, "up")
 
 
 def test_a_show_across_two_computers_found_by_scouting(lan, tmp_path):
@@ -131,31 +176,6 @@ def test_a_show_across_two_computers_found_by_scouting(lan, tmp_path):
         code, err = show.finish()
         assert code == 0, err
         left.wait_for("left: part completed")
-    finally:
-        stop(left)
-
-
-def test_a_partition_mid_show_stops_the_robot(lan, tmp_path):
-    conductor, performer = lan
-    endpoint = f"tcp/{performer.address}:7447"
-    left = performer.run("perform", "--name", "left", "--port", ARM, "--listen", endpoint)
-    try:
-        left.wait_for("waiting for a show", stream="stdout")
-        show = conductor.run(
-            "show", str(solo_show(tmp_path, WAVE)), "--no-audio", "--go", "--connect", endpoint
-        )
-        left.wait_for("playing")
-        ip("-n", conductor.namespace, "link", "set", conductor.interface, "down")  # the cable
-        line = left.wait_for("left: part stopped: lost the conductor")
-        assert "no heartbeat for" in line or "liveliness token vanished" in line
-        assert left.wait_for("emulated bus:").endswith("every servo stopped")
-        show.proc.kill()
-        show.finish()
-        # Ctrl-C with the cable still cut: Zenoh's close, which waits ~10 s for the lost
-        # conductor, is not waited for, and its end is no traceback
-        left.proc.send_signal(signal.SIGINT)
-        code, said = left.finish()
-        assert code == 130 and said.endswith("choreo: interrupted"), said
     finally:
         stop(left)
 
