@@ -78,7 +78,7 @@ def _one_plane(points: np.ndarray) -> bool:
 
 
 def _feet_m(kin: Kinematics, feet: Sequence[str], angles_deg) -> np.ndarray:
-    return np.array([kin.site_pose(foot, angles_deg).position_mm for foot in feet]) / 1000
+    return kin.site_positions_mm(feet, angles_deg) / 1000
 
 
 def planned_stance(

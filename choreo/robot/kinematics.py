@@ -176,6 +176,14 @@ class Kinematics:
         position, axis = self._site_in_base(self._checked_site(site))
         return SitePose(position * 1000, pitch_deg(axis))
 
+    def site_positions_mm(self, sites: Sequence[str], angles_deg: npt.ArrayLike) -> np.ndarray:
+        """Where each of ``sites`` is (mm, base frame; one row each) at ``angles_deg``: the
+        positions ``site_pose`` gives, from one forward kinematics for all of them (a walker's
+        feet are asked at every sample of a motion)."""
+        self._set(np.asarray(angles_deg, dtype=float))
+        ids = [self._checked_site(site) for site in sites]
+        return np.array([self._site_in_base(site)[0] * 1000 for site in ids])
+
     def _checked_site(self, name: str) -> int:
         site = self.site_id(name)
         if site < 0:

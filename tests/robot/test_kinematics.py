@@ -220,3 +220,12 @@ def test_sites_and_feet_of_the_shipped_models(arm6, hexapod, tonypi):
     assert hexapod.feet() == ("lf_foot", "lm_foot", "lr_foot", "rf_foot", "rm_foot", "rr_foot")
     assert {"left_hand", "right_hand", "left_sole", "right_sole"} <= set(tonypi.site_names)
     assert arm6.feet() == ()
+
+
+def test_several_sites_at_once_are_each_where_mujoco_puts_it(hexapod):
+    angles = random_angles(hexapod, 7)
+    feet = hexapod.feet()
+    at_once = hexapod.site_positions_mm(feet, angles)
+    for foot, position in zip(feet, at_once):
+        np.testing.assert_array_equal(position, hexapod.site_pose(foot, angles).position_mm)
+        np.testing.assert_allclose(position, mujoco_site(hexapod, foot, angles)[0], atol=1e-9)
