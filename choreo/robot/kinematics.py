@@ -105,8 +105,10 @@ class Kinematics:
                 f"mjcf: in {robot.path}"
             )
         mj = self._mj = _mujoco()
+        from choreo.robot.compiled_model import compiled_model  # imports mujoco
+
         self.robot = robot
-        self.model = mj.MjModel.from_xml_path(str(robot.mjcf_path))
+        self.model = compiled_model(robot.mjcf_path)
         self.data = mj.MjData(self.model)
         home = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_KEY, "home")
         if home >= 0:
