@@ -138,7 +138,7 @@ class Rejoin:
     checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
 
 
-def _as_slice(indices: np.ndarray) -> slice | np.ndarray:
+def as_slice(indices: np.ndarray) -> slice | np.ndarray:
     """``indices`` as a slice when they are consecutive and ascending (indexing with it takes a
     view), else as they are."""
     first = int(indices[0]) if len(indices) else 0
@@ -192,8 +192,8 @@ class StepLoop:
         # MjData's arrays never move: views of them are taken once, not at every step, and the
         # joints' positions and actuators, when consecutive (as usual), are slices (no copies)
         self._qpos, self._force = data.qpos, data.actuator_force
-        self._joint_qpos = _as_slice(index.qpos)
-        self._actuators = _as_slice(index.actuator)
+        self._joint_qpos = as_slice(index.qpos)
+        self._actuators = as_slice(index.actuator)
         self._ctrl = data.ctrl[self._actuators] if isinstance(self._actuators, slice) else None
 
     def step(self, ctrl_rad: np.ndarray) -> None:

@@ -38,7 +38,7 @@ from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
 from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
 from choreo.preview.start import start_state
-from choreo.preview.step_loop import check_stable, hold_until_still
+from choreo.preview.step_loop import as_slice, check_stable, hold_until_still
 from choreo.robot.poses import HOME_POSE
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import (
@@ -116,7 +116,16 @@ class PhysicsTwin:
         self._sag = 1.0
         self._per_stall = 1 / np.maximum(self._stall_nm, 1e-9)
         self._temp_c = np.full(n, AMBIENT_C)
-        self.trace: deque[TraceStep] = deque(maxlen=TRACE_LIMIT)
+        self._per_step_of_thermal_time = self.dt_s / THERMAL_TIME_S
+        # a step's arrays, kept: each step is a dozen numpy calls on a handful of servos, whose
+        # cost is per call (views and buffers rather than copies, as ``StepLoop`` has them)
+        self._joint_qpos = as_slice(self._index.qpos)
+        self._actuator_at = as_slice(self._index.actuator)
+        self._unloaded = np.zeros(n, dtype=bool)
+        self._loaded_share = np.ones(n)  # 1.0 for a loaded servo: its current counts
+        self._ctrl, self._load, self._heat, self._cooling = np.empty((4, n))
+        self._trace: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque()
+        self._traced = 0  # steps in the trace
         hold = np.radians(home)
         hold_until_still(
             self._data,
@@ -178,6 +187,8 @@ class PhysicsTwin:
         self._velocity[joint] = setpoint.velocity_units_s
         self._end_s[joint] = setpoint.end_s
         self._loaded[joint] = loaded
+        self._unloaded[joint] = not loaded
+        self._loaded_share[joint] = float(loaded)
 
     # --- stepping --------------------------------------------------------------------------
     def advance_to(self, time_s: float) -> None:
@@ -185,18 +196,39 @@ class PhysicsTwin:
         due = math.ceil((time_s - self._origin_s) / self.dt_s - 1e-9)
         if due <= self._steps:
             return
+        qpos, joints = self._data.qpos, self._joint_qpos
         while self._steps < due:
-            for setpoint_rad in self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE)):
+            setpoints = self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE))
+            positions, supply = np.empty_like(setpoints), np.empty(len(setpoints))
+            for row, setpoint_rad in enumerate(setpoints):
                 self._step_physics(setpoint_rad)
-                self._steps += 1
-                self.trace.append(
-                    TraceStep(
-                        self._origin_s + self._steps * self.dt_s,
-                        np.degrees(self._data.qpos[self._index.qpos]),
-                        self._supply_now_v,
-                    )
-                )
+                positions[row] = qpos[joints]
+                supply[row] = self._supply_now_v
+            self._keep_trace(positions, supply)
+            self._steps += len(setpoints)
         check_stable(self._model, self._data)
+
+    @property
+    def trace(self) -> list[TraceStep]:
+        """The last ``TRACE_LIMIT`` physics steps, oldest first."""
+        return [
+            TraceStep(float(time_s), position_deg, float(supply_v))
+            for times, positions, supply in self._trace
+            for time_s, position_deg, supply_v in zip(times, positions, supply)
+        ]
+
+    def _keep_trace(self, positions_rad: np.ndarray, supply_v: np.ndarray) -> None:
+        """The steps after ``self._steps`` in the trace (kept as arrays, a stretch at a time,
+        and made into ``TraceStep`` when asked for), its oldest dropped past the limit."""
+        ends = np.arange(self._steps + 1, self._steps + len(supply_v) + 1)
+        self._trace.append((self._origin_s + ends * self.dt_s, np.degrees(positions_rad), supply_v))
+        self._traced += len(ends)
+        while self._traced - len(self._trace[0][0]) >= TRACE_LIMIT:
+            self._traced -= len(self._trace.popleft()[0])
+        excess = self._traced - TRACE_LIMIT
+        if excess > 0:
+            self._trace[0] = tuple(column[excess:] for column in self._trace[0])  # type: ignore[assignment]
+            self._traced -= excess
 
     def _setpoints_rad(self, end: int) -> np.ndarray:
         """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
@@ -207,20 +239,25 @@ class PhysicsTwin:
         return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 
     def _step_physics(self, setpoint_rad: np.ndarray) -> None:
-        model, data, index = self._model, self._data, self._index
-        position = data.qpos[index.qpos]
-        ctrl = self._drive.ctrl(setpoint_rad, position)
-        data.ctrl[index.actuator] = np.where(self._loaded, ctrl, position)  # unloaded: no torque
+        model, data, actuators = self._model, self._data, self._actuator_at
+        position = data.qpos[self._joint_qpos]
+        ctrl = self._drive.ctrl(setpoint_rad, position, out=self._ctrl)
+        np.copyto(ctrl, position, where=self._unloaded)  # unloaded: no torque
+        data.ctrl[actuators] = ctrl
         sag = self._supply_now_v / self.supply_v if self.supply_v else 1.0
         if abs(sag - self._sag) > SAG_STEP:
             self._set_sag(sag)
         mujoco.mj_step(model, data)
-        load = np.abs(data.actuator_force[index.actuator]) * self._per_stall
-        current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded))
+        load = np.abs(data.actuator_force[actuators], out=self._load)
+        load *= self._per_stall  # each servo's torque as a share of its stall torque
+        current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded_share))
         self._supply_now_v = max(0.0, self.supply_v - self.resistance_ohm * current_a)
-        self._temp_c += (RISE_AT_STALL_C * load * load - (self._temp_c - AMBIENT_C)) * (
-            self.dt_s / THERMAL_TIME_S
-        )
+        # towards RISE_AT_STALL_C * load² above the ambient, by dt / THERMAL_TIME_S of the way
+        heat = np.multiply(load, RISE_AT_STALL_C, out=self._heat)
+        heat *= load
+        heat -= np.subtract(self._temp_c, AMBIENT_C, out=self._cooling)
+        heat *= self._per_step_of_thermal_time
+        self._temp_c += heat
 
     def _set_sag(self, sag: float) -> None:
         """The servos' torque and gain at a supply ``sag`` times the nominal one."""
