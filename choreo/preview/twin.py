@@ -126,11 +126,11 @@ class PhysicsTwin:
         self._ctrl, self._load, self._heat, self._cooling = np.empty((4, n))
         self._trace: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque()
         self._traced = 0  # steps in the trace
-        hold = np.radians(home)
+        hold = np.radians(home)[None]
         hold_until_still(
             self._data,
             self.dt_s,
-            lambda: self._step_physics(hold),
+            lambda: self._step_physics(*(edges[0] for edges in self._drive.play_edges(hold))),
             round(SETTLE_S / self.dt_s),
         )
         self._origin_s = clock.now()  # bus time of the settled state
@@ -200,8 +200,9 @@ class PhysicsTwin:
         while self._steps < due:
             setpoints = self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE))
             positions, supply = np.empty_like(setpoints), np.empty(len(setpoints))
-            for row, setpoint_rad in enumerate(setpoints):
-                self._step_physics(setpoint_rad)
+            edges = self._drive.play_edges(setpoints)
+            for row, (low_rad, high_rad) in enumerate(zip(*edges)):
+                self._step_physics(low_rad, high_rad)
                 positions[row] = qpos[joints]
                 supply[row] = self._supply_now_v
             self._keep_trace(positions, supply)
@@ -238,10 +239,11 @@ class PhysicsTwin:
         setpoint_units = self._start_units + self._velocity * moving
         return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 
-    def _step_physics(self, setpoint_rad: np.ndarray) -> None:
+    def _step_physics(self, low_rad: np.ndarray, high_rad: np.ndarray) -> None:
+        """One physics step, the servos' aims kept within ``ServoDrive.play_edges``."""
         model, data, actuators = self._model, self._data, self._actuator_at
         position = data.qpos[self._joint_qpos]
-        ctrl = self._drive.ctrl(setpoint_rad, position, out=self._ctrl)
+        ctrl = self._drive.follow(low_rad, high_rad, position, out=self._ctrl)
         np.copyto(ctrl, position, where=self._unloaded)  # unloaded: no torque
         data.ctrl[actuators] = ctrl
         sag = self._supply_now_v / self.supply_v if self.supply_v else 1.0
