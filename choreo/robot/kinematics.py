@@ -131,6 +131,7 @@ class Kinematics:
         # per kind of task (its sites, which have a pitch): a motion asks the same ones again
         self._moves: dict[tuple[int, ...], np.ndarray] = {}
         self._constrained_joints: dict[tuple[tuple[int, ...], tuple[bool, ...]], np.ndarray] = {}
+        self._site_ids: dict[str, int] = {}  # the sites asked for by name
 
     # --- names --------------------------------------------------------------------------------
 
@@ -183,13 +184,16 @@ class Kinematics:
         positions ``site_pose`` gives, from one forward kinematics for all of them (a walker's
         feet are asked at every sample of a motion)."""
         self._set(np.asarray(angles_deg, dtype=float))
-        ids = [self._checked_site(site) for site in sites]
-        return np.array([self._site_in_base(site)[0] * 1000 for site in ids])
+        known = self._site_ids
+        ids = [known[site] if site in known else self._checked_site(site) for site in sites]
+        rotation, base, xpos = self._base_rot.T, self._base_pos, self.data.site_xpos
+        return np.array([rotation @ (xpos[site] - base) * 1000 for site in ids])
 
     def _checked_site(self, name: str) -> int:
         site = self.site_id(name)
         if site < 0:
             raise ChoreoError(f"{self.robot.name} has no site {name!r}")
+        self._site_ids[name] = site
         return site
 
     # --- inverse kinematics -------------------------------------------------------------------
