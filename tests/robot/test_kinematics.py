@@ -57,11 +57,18 @@ def mujoco_model(mjcf_path: Path) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_path(str(mjcf_path))
 
 
+@functools.cache
+def mujoco_data(model: mujoco.MjModel) -> mujoco.MjData:
+    """One MjData per model for ``mujoco_site`` (making one costs more than the kinematics)."""
+    return mujoco.MjData(model)
+
+
 def mujoco_site(kin: Kinematics, site: str, angles_deg) -> tuple[np.ndarray, float]:
     """(position mm, pitch deg) of a site in the base body's frame, computed afresh by MuJoCo."""
     robot = kin.robot
     model = mujoco_model(robot.mjcf_path)
-    data = mujoco.MjData(model)
+    data = mujoco_data(model)  # reset below: nothing of the last call is left in it
+    mujoco.mj_resetData(model, data)
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
     if key >= 0:
         mujoco.mj_resetDataKeyframe(model, data, key)
