@@ -25,7 +25,6 @@ Both are modelling choices, not vendor data: the servos' data sheets give neithe
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -124,8 +123,9 @@ class PhysicsTwin:
         self._unloaded = np.zeros(n, dtype=bool)
         self._loaded_share = np.ones(n)  # 1.0 for a loaded servo: its current counts
         self._ctrl, self._load, self._heat, self._cooling = np.empty((4, n))
-        self._trace: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque()
-        self._traced = 0  # steps in the trace
+        # the trace: a ring of the last TRACE_LIMIT steps (grown as they come), step k's row
+        # at (k - 1) % TRACE_LIMIT, made into ``TraceStep`` only when asked for
+        self._trace_rad, self._trace_v = np.empty((0, n)), np.empty(0)
         hold = np.radians(home)[None]
         hold_until_still(
             self._data,
@@ -199,37 +199,33 @@ class PhysicsTwin:
         qpos, joints = self._data.qpos, self._joint_qpos
         while self._steps < due:
             setpoints = self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE))
-            positions, supply = np.empty_like(setpoints), np.empty(len(setpoints))
-            edges = self._drive.play_edges(setpoints)
-            for row, (low_rad, high_rad) in enumerate(zip(*edges)):
+            self._make_room(self._steps + len(setpoints))
+            for low_rad, high_rad in zip(*self._drive.play_edges(setpoints)):
                 self._step_physics(low_rad, high_rad)
-                positions[row] = qpos[joints]
-                supply[row] = self._supply_now_v
-            self._keep_trace(positions, supply)
-            self._steps += len(setpoints)
+                row = self._steps % TRACE_LIMIT
+                self._trace_rad[row] = qpos[joints]
+                self._trace_v[row] = self._supply_now_v
+                self._steps += 1
         check_stable(self._model, self._data)
 
     @property
     def trace(self) -> list[TraceStep]:
         """The last ``TRACE_LIMIT`` physics steps, oldest first."""
-        return [
-            TraceStep(float(time_s), position_deg, float(supply_v))
-            for times, positions, supply in self._trace
-            for time_s, position_deg, supply_v in zip(times, positions, supply)
-        ]
+        steps = np.arange(max(self._steps - TRACE_LIMIT, 0), self._steps) + 1
+        rows = (steps - 1) % TRACE_LIMIT
+        times_s = self._origin_s + steps * self.dt_s
+        positions_deg, supply_v = np.degrees(self._trace_rad[rows]), self._trace_v[rows]
+        kept = zip(times_s, positions_deg, supply_v)
+        return [TraceStep(float(t), p, float(v)) for t, p, v in kept]
 
-    def _keep_trace(self, positions_rad: np.ndarray, supply_v: np.ndarray) -> None:
-        """The steps after ``self._steps`` in the trace (kept as arrays, a stretch at a time,
-        and made into ``TraceStep`` when asked for), its oldest dropped past the limit."""
-        ends = np.arange(self._steps + 1, self._steps + len(supply_v) + 1)
-        self._trace.append((self._origin_s + ends * self.dt_s, np.degrees(positions_rad), supply_v))
-        self._traced += len(ends)
-        while self._traced - len(self._trace[0][0]) >= TRACE_LIMIT:
-            self._traced -= len(self._trace.popleft()[0])
-        excess = self._traced - TRACE_LIMIT
-        if excess > 0:
-            self._trace[0] = tuple(column[excess:] for column in self._trace[0])  # type: ignore[assignment]
-            self._traced -= excess
+    def _make_room(self, steps: int) -> None:
+        """Rows in the trace's ring for ``steps`` steps (twice as many as before at a time)."""
+        rows = len(self._trace_v)
+        if rows >= min(steps, TRACE_LIMIT):
+            return
+        more = min(max(2 * rows, steps, 1024), TRACE_LIMIT) - rows
+        self._trace_rad = np.concatenate((self._trace_rad, np.empty((more, len(self._zero)))))
+        self._trace_v = np.concatenate((self._trace_v, np.empty(more)))
 
     def _setpoints_rad(self, end: int) -> np.ndarray:
         """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
