@@ -71,6 +71,8 @@ LIBROSA_FILES = (
 # then simulates each motion once for all of them (shipped_helpers.simulated_shipped).
 SHIPPED_SIMULATION_FILES = (
     "tests/preview/test_preview_shipped.py",
+    "tests/preview/test_render.py",
+    "tests/preview/test_render_follow.py",
     "tests/preview/test_start.py",
     "tests/preview/test_travel.py",
     "tests/preview/test_walk.py",

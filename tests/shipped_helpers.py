@@ -3,8 +3,9 @@
 Their simulations take seconds each (a hexapod's several), and more than one file checks them:
 tests/preview/test_preview_shipped.py that every one passes every check,
 tests/preview/test_start.py how they start, tests/preview/test_travel.py where the walkers go,
-tests/preview/test_walk.py how their gaits did. Those files run on one worker of a parallel run
-(tests/conftest.py) and share these results; nothing may change a result it is given."""
+tests/preview/test_walk.py how their gaits did, tests/preview/test_render.py and
+test_render_follow.py how the camera frames them. Those files run on one worker of a parallel
+run (tests/conftest.py) and share these results; nothing may change a result it is given."""
 
 from __future__ import annotations
 

@@ -317,7 +317,7 @@ class _Expander:
         return feet
 
     def _feet_mm(self, feet: Sequence[str], angles_deg: np.ndarray) -> np.ndarray:
-        return np.array([self.kin.site_pose(foot, angles_deg).position_mm for foot in feet])
+        return self.kin.site_positions_mm(feet, angles_deg)
 
     def _solve_feet(
         self,

@@ -86,9 +86,8 @@ def holding_torques_nm(
     """Each joint's torque (N·m, robot order) to hold the robot up on its feet down at
     ``angles_deg`` (the body level), and how many feet are down; ``legs``: the joints that
     move each foot (found here if not given)."""
-    feet_m = np.array([kin.site_pose(foot, angles_deg).position_mm for foot in feet]) / 1000
+    feet_m = kin.site_positions_mm(feet, angles_deg) / 1000  # (the bodies posed there too)
     down = feet_m[:, 2] <= feet_m[:, 2].min() + DOWN_MM / 1000
-    kin.site_pose(feet[0], angles_deg)  # the bodies where the stance puts them
     masses = kin.model.body_mass
     centre_world = (masses[:, None] * kin.data.xipos).sum(axis=0) / masses.sum()
     centre_m = kin.world_to_base_mm(centre_world * 1000) / 1000

@@ -282,48 +282,58 @@ class ServoDrive:
         self._delay_part = steps - self.delay_steps
         depth = int((self.delay_steps + (self._delay_part > 0)).max(initial=0)) + 1
         self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
-        self._newest = 0
-        # where in the flattened history each servo's late and older set-points are, for each
-        # slot the newest one may be in (worked out once: ``ctrl`` runs at every physics step)
-        slots = np.arange(depth)[:, None]
-        columns = np.arange(n)
-        self._late_at = list((slots - self.delay_steps) % depth * n + columns)
-        self._older_at = list((slots - self.delay_steps - 1) % depth * n + columns)
+        self._newest = 0  # the row of the history the newest set-point is in
+        self._columns = np.arange(n)
         # without a delay the set-point is acted on as it comes: ``late + (older - late) * 0``
         # is ``late`` but for a zero's sign, which adding an offset of +0.0 (never -0.0) gives
         self._offset_undelayed_rad = self.offset_rad + 0.0
         self.aim_rad = np.asarray(initial_rad, dtype=float) + self.offset_rad
-        self._wanted, self._low, self._high, self._error = np.empty((4, n))
+        self._error = np.empty(n)
 
     def ctrl(
         self, setpoint_rad: np.ndarray, position_rad: np.ndarray, out: np.ndarray | None = None
     ) -> np.ndarray:
         """One step: the actuator's control for the set-points of this step (into ``out`` if
-        given). For a handful of servos numpy's cost is per call, not per element: the law
-        takes as few calls as it allows (no fancy indexing or modulo), into buffers kept."""
-        history, wanted = self._history, self._wanted
-        if len(history) == 1:
-            history[0] = setpoint_rad
-            np.add(setpoint_rad, self._offset_undelayed_rad, out=wanted)
-        else:
-            newest = self._newest + 1
-            if newest == len(history):
-                newest = 0
-            self._newest = newest
-            history[newest] = setpoint_rad
-            flat = history.reshape(-1)  # a view: history is contiguous
-            late, older = flat[self._late_at[newest]], flat[self._older_at[newest]]
-            np.subtract(older, late, out=older)
-            np.multiply(older, self._delay_part, out=older)
-            np.add(late, older, out=late)
-            np.add(late, self.offset_rad, out=wanted)
-        # the aim stays within the half play of where it is wanted (np.minimum/np.maximum
-        # rather than np.clip: this runs at every physics step)
-        aim, low, high = self.aim_rad, self._low, self._high
-        np.subtract(wanted, self.half_play_rad, out=low)
-        np.add(wanted, self.half_play_rad, out=high)
-        np.maximum(aim, low, out=aim)
-        np.minimum(aim, high, out=aim)
+        given)."""
+        low, high = self.play_edges(np.asarray(setpoint_rad, dtype=float)[None])
+        return self.follow(low[0], high[0], position_rad, out)
+
+    def play_edges(self, setpoints_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The set-points of the next steps (one row each) as the servos act on them (late by
+        their delay, through their offset), less and plus the half play: the edges each step's
+        aim is kept within (``follow``). The delay line moves on by those steps. Known ahead
+        for a stretch of steps, as between two STARTs, they are worked out for all at once:
+        for a handful of servos numpy's cost is per call, not per element."""
+        wanted = self._acted_on(setpoints_rad)
+        return wanted - self.half_play_rad, wanted + self.half_play_rad
+
+    def _acted_on(self, setpoints_rad: np.ndarray) -> np.ndarray:
+        history, steps = self._history, len(setpoints_rad)
+        depth = len(history)
+        if depth == 1:
+            history[0] = setpoints_rad[-1]
+            return setpoints_rad + self._offset_undelayed_rad
+        # the set-points oldest first, the history's before the new ones
+        line = np.concatenate((np.roll(history, -(self._newest + 1), axis=0), setpoints_rad))
+        late_at = np.arange(depth, depth + steps)[:, None] - self.delay_steps
+        late, older = line[late_at, self._columns], line[late_at - 1, self._columns]
+        self._newest = (self._newest + steps) % depth
+        self._history = np.roll(line[-depth:], self._newest + 1, axis=0)
+        return late + (older - late) * self._delay_part + self.offset_rad
+
+    def follow(
+        self,
+        low_rad: np.ndarray,
+        high_rad: np.ndarray,
+        position_rad: np.ndarray,
+        out: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One step: the actuator's control (into ``out`` if given), the aim kept within the
+        step's ``play_edges``, for the joints at ``position_rad``. It runs at every physics
+        step: as few numpy calls as the law allows, into buffers kept."""
+        aim = self.aim_rad
+        np.maximum(aim, low_rad, out=aim)
+        np.minimum(aim, high_rad, out=aim)
         error = np.subtract(aim, position_rad, out=self._error)
         np.maximum(error, self._minus_half_band_rad, out=error)
         np.minimum(error, self.half_band_rad, out=error)

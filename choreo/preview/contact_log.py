@@ -46,6 +46,7 @@ class ContactLog:
         # the pair each watched touch belongs to, and where the touch is in the contact list
         self._watched: list[tuple[int, str, str]] = []
         self._watched_at = np.zeros(0, dtype=int)
+        self._all_watched = False  # every touch is watched: no need to pick them out
         self._watched_ids: list[int] | None = None  # their pairs' numbers, once all have one
         self._pair_ids: dict[tuple[int, str, str], int] = {}
         self._named_at: list[int] = []  # per pair: the entry that first named it (ascending)
@@ -54,25 +55,28 @@ class ContactLog:
         self.depths_m: list[float] = []
 
     def see(self, data: mujoco.MjData, step: int) -> None:
-        contact = data.contact
-        geoms = contact.geom[: data.ncon]
+        contact = data.contact  # the step's touches (``data.ncon`` of them)
+        geoms = contact.geom
         pairs = geoms.tobytes()
         if pairs != self._last_pairs:
             self._last_pairs = pairs
             watched = np.flatnonzero(self._kinds[geoms[:, 0], geoms[:, 1]] != NO_CONTACT)
             self._watched = [self._pair_key(*geoms[i]) for i in watched]
             self._watched_at = watched
+            self._all_watched = len(watched) == len(geoms)
             self._watched_ids = None
         if not self._watched:
             return
-        depths = -contact.dist[: data.ncon][self._watched_at]
-        if self._watched_ids is not None and bool((depths > self._min_depth_m).all()):
-            # the usual step: the same touches as the last, every one deep enough and its pair
-            # numbered, logged at once (this runs at every physics step)
+        distances = contact.dist if self._all_watched else contact.dist[self._watched_at]
+        if self._watched_ids is not None and distances.max() < -self._min_depth_m:
+            # the usual step: the same touches as the last, every one deep enough (its depth,
+            # minus its distance, over the minimum) and its pair numbered, logged at once (this
+            # runs at every physics step)
             self.pair_index += self._watched_ids
             self.steps += [step] * len(self._watched_ids)
-            self.depths_m += depths.tolist()
+            self.depths_m += np.negative(distances).tolist()
             return
+        depths = -distances
         minimum = self._min_depth_m
         for key, depth in zip(self._watched, depths.tolist()):
             if depth > minimum:

@@ -17,6 +17,7 @@ from choreo.bus.servo_models import POSITION_RANGE_UNITS
 from choreo.errors import PreviewError
 from choreo.motion.scene import Prop
 from choreo.preview.actuator import ActuatorParams
+from choreo.robot.compiled_model import compiled_model
 from choreo.robot.types import Robot
 
 HOME_KEY = "home"
@@ -52,7 +53,7 @@ def load_model(robot: Robot, props: Sequence[Prop] = ()) -> mujoco.MjModel:
         )
     try:
         if not props:
-            return mujoco.MjModel.from_xml_path(str(path))
+            return compiled_model(path)
         spec = mujoco.MjSpec.from_file(str(path))
         taken = {geom.name for geom in spec.geoms if geom.name}
         for prop in props:

@@ -78,7 +78,7 @@ def _one_plane(points: np.ndarray) -> bool:
 
 
 def _feet_m(kin: Kinematics, feet: Sequence[str], angles_deg) -> np.ndarray:
-    return np.array([kin.site_pose(foot, angles_deg).position_mm for foot in feet]) / 1000
+    return kin.site_positions_mm(feet, angles_deg) / 1000
 
 
 def planned_stance(
@@ -169,12 +169,15 @@ def feet_and_centre(
     sites = [model.site(foot).id for foot in kin.feet()]
     root = model.body(kin.base_body).id
     feet, centre = np.empty((len(qpos), len(sites), 3)), np.empty((len(qpos), 3))
+    # MjData's arrays never move: taken once, not at each of the (thousands of) states
+    positions, site_xpos, subtree_com = data.qpos, data.site_xpos, data.subtree_com
+    kinematics, com = mujoco.mj_kinematics, mujoco.mj_comPos
     for step, state in enumerate(qpos):
-        data.qpos[:] = state
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        feet[step] = data.site_xpos[sites]
-        centre[step] = data.subtree_com[root]
+        positions[:] = state
+        kinematics(model, data)
+        com(model, data)
+        feet[step] = site_xpos[sites]
+        centre[step] = subtree_com[root]
     return feet, centre
 
 

@@ -138,7 +138,7 @@ class Rejoin:
     checkpoints: dict[int, Checkpoint]  # the earlier run's, by step
 
 
-def _as_slice(indices: np.ndarray) -> slice | np.ndarray:
+def as_slice(indices: np.ndarray) -> slice | np.ndarray:
     """``indices`` as a slice when they are consecutive and ascending (indexing with it takes a
     view), else as they are."""
     first = int(indices[0]) if len(indices) else 0
@@ -192,18 +192,24 @@ class StepLoop:
         # MjData's arrays never move: views of them are taken once, not at every step, and the
         # joints' positions and actuators, when consecutive (as usual), are slices (no copies)
         self._qpos, self._force = data.qpos, data.actuator_force
-        self._joint_qpos = _as_slice(index.qpos)
-        self._actuators = _as_slice(index.actuator)
+        self._joint_qpos = as_slice(index.qpos)
+        self._actuators = as_slice(index.actuator)
         self._ctrl = data.ctrl[self._actuators] if isinstance(self._actuators, slice) else None
 
-    def step(self, ctrl_rad: np.ndarray) -> None:
-        """One physics step with the servos' set-points at ``ctrl_rad``, through their law
-        (``ServoDrive``: delay, offset, gear play, dead band)."""
+    def steps(self, ctrl_rad: np.ndarray) -> None:
+        """A physics step for each row of ``ctrl_rad``, the servos' set-points then, through
+        their law (``ServoDrive``: delay, offset, gear play, dead band)."""
+        first = self.log.count
+        self.log.ctrl[first : first + len(ctrl_rad)] = ctrl_rad
+        for low_rad, high_rad in zip(*self.drive.play_edges(ctrl_rad)):
+            self._step(low_rad, high_rad)
+
+    def _step(self, low_rad: np.ndarray, high_rad: np.ndarray) -> None:
+        """One physics step, the servos' aims kept within ``ServoDrive.play_edges``."""
         data, log, k, qpos = self.data, self.log, self.log.count, self._qpos
-        ctrl = self.drive.ctrl(ctrl_rad, qpos[self._joint_qpos], out=self._ctrl)
+        ctrl = self.drive.follow(low_rad, high_rad, qpos[self._joint_qpos], out=self._ctrl)
         if self._ctrl is None:
             data.ctrl[self._actuators] = ctrl
-        log.ctrl[k] = ctrl_rad
         log.qpos[k] = qpos
         mujoco.mj_step(self.model, data)  # its forces and contacts belong to the state at t
         log.torque[k] = self._force[self._actuators]
@@ -215,7 +221,8 @@ class StepLoop:
         """Hold the start pose until every degree of freedom has been still for a while (True)
         or ``max_steps`` have passed (False)."""
         dt = float(self.model.opt.timestep)
-        return hold_until_still(self.data, dt, lambda: self.step(hold_rad), max_steps)
+        hold = np.asarray(hold_rad, dtype=float)[None]
+        return hold_until_still(self.data, dt, lambda: self.steps(hold), max_steps)
 
     def run(
         self,
@@ -251,9 +258,7 @@ class StepLoop:
                 else:
                     position_units = servos.setpoint_units(times[begin])
                 servos.start(stream, tick, times[begin], position_units)
-            ctrl = np.radians(robot.to_deg(servos.setpoint_units(times[begin:end])))
-            for row in ctrl:
-                self.step(row)
+            self.steps(np.radians(robot.to_deg(servos.setpoint_units(times[begin:end]))))
         return checkpoints
 
     def _checkpoint(self, step: int, servos: ServoBank) -> Checkpoint:

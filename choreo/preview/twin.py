@@ -25,7 +25,6 @@ Both are modelling choices, not vendor data: the servos' data sheets give neithe
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,7 +37,7 @@ from choreo.emulator.physics import PhysicalServo, SetPoint
 from choreo.preview.actuator import ActuatorParams, ServoDrive, actuator_params
 from choreo.preview.model import apply_servo_models, free_joint, index_joints, load_model
 from choreo.preview.start import start_state
-from choreo.preview.step_loop import check_stable, hold_until_still
+from choreo.preview.step_loop import as_slice, check_stable, hold_until_still
 from choreo.robot.poses import HOME_POSE
 from choreo.robot.robot_file import load_robot
 from choreo.robot.servo_figures import (
@@ -116,12 +115,22 @@ class PhysicsTwin:
         self._sag = 1.0
         self._per_stall = 1 / np.maximum(self._stall_nm, 1e-9)
         self._temp_c = np.full(n, AMBIENT_C)
-        self.trace: deque[TraceStep] = deque(maxlen=TRACE_LIMIT)
-        hold = np.radians(home)
+        self._per_step_of_thermal_time = self.dt_s / THERMAL_TIME_S
+        # a step's arrays, kept: each step is a dozen numpy calls on a handful of servos, whose
+        # cost is per call (views and buffers rather than copies, as ``StepLoop`` has them)
+        self._joint_qpos = as_slice(self._index.qpos)
+        self._actuator_at = as_slice(self._index.actuator)
+        self._unloaded = np.zeros(n, dtype=bool)
+        self._loaded_share = np.ones(n)  # 1.0 for a loaded servo: its current counts
+        self._ctrl, self._load, self._heat, self._cooling = np.empty((4, n))
+        # the trace: a ring of the last TRACE_LIMIT steps (grown as they come), step k's row
+        # at (k - 1) % TRACE_LIMIT, made into ``TraceStep`` only when asked for
+        self._trace_rad, self._trace_v = np.empty((0, n)), np.empty(0)
+        hold = np.radians(home)[None]
         hold_until_still(
             self._data,
             self.dt_s,
-            lambda: self._step_physics(hold),
+            lambda: self._step_physics(*(edges[0] for edges in self._drive.play_edges(hold))),
             round(SETTLE_S / self.dt_s),
         )
         self._origin_s = clock.now()  # bus time of the settled state
@@ -178,6 +187,8 @@ class PhysicsTwin:
         self._velocity[joint] = setpoint.velocity_units_s
         self._end_s[joint] = setpoint.end_s
         self._loaded[joint] = loaded
+        self._unloaded[joint] = not loaded
+        self._loaded_share[joint] = float(loaded)
 
     # --- stepping --------------------------------------------------------------------------
     def advance_to(self, time_s: float) -> None:
@@ -185,18 +196,36 @@ class PhysicsTwin:
         due = math.ceil((time_s - self._origin_s) / self.dt_s - 1e-9)
         if due <= self._steps:
             return
+        qpos, joints = self._data.qpos, self._joint_qpos
         while self._steps < due:
-            for setpoint_rad in self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE)):
-                self._step_physics(setpoint_rad)
+            setpoints = self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE))
+            self._make_room(self._steps + len(setpoints))
+            for low_rad, high_rad in zip(*self._drive.play_edges(setpoints)):
+                self._step_physics(low_rad, high_rad)
+                row = self._steps % TRACE_LIMIT
+                self._trace_rad[row] = qpos[joints]
+                self._trace_v[row] = self._supply_now_v
                 self._steps += 1
-                self.trace.append(
-                    TraceStep(
-                        self._origin_s + self._steps * self.dt_s,
-                        np.degrees(self._data.qpos[self._index.qpos]),
-                        self._supply_now_v,
-                    )
-                )
         check_stable(self._model, self._data)
+
+    @property
+    def trace(self) -> list[TraceStep]:
+        """The last ``TRACE_LIMIT`` physics steps, oldest first."""
+        steps = np.arange(max(self._steps - TRACE_LIMIT, 0), self._steps) + 1
+        rows = (steps - 1) % TRACE_LIMIT
+        times_s = self._origin_s + steps * self.dt_s
+        positions_deg, supply_v = np.degrees(self._trace_rad[rows]), self._trace_v[rows]
+        kept = zip(times_s, positions_deg, supply_v)
+        return [TraceStep(float(t), p, float(v)) for t, p, v in kept]
+
+    def _make_room(self, steps: int) -> None:
+        """Rows in the trace's ring for ``steps`` steps (twice as many as before at a time)."""
+        rows = len(self._trace_v)
+        if rows >= min(steps, TRACE_LIMIT):
+            return
+        more = min(max(2 * rows, steps, 1024), TRACE_LIMIT) - rows
+        self._trace_rad = np.concatenate((self._trace_rad, np.empty((more, len(self._zero)))))
+        self._trace_v = np.concatenate((self._trace_v, np.empty(more)))
 
     def _setpoints_rad(self, end: int) -> np.ndarray:
         """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
@@ -206,21 +235,27 @@ class PhysicsTwin:
         setpoint_units = self._start_units + self._velocity * moving
         return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 
-    def _step_physics(self, setpoint_rad: np.ndarray) -> None:
-        model, data, index = self._model, self._data, self._index
-        position = data.qpos[index.qpos]
-        ctrl = self._drive.ctrl(setpoint_rad, position)
-        data.ctrl[index.actuator] = np.where(self._loaded, ctrl, position)  # unloaded: no torque
+    def _step_physics(self, low_rad: np.ndarray, high_rad: np.ndarray) -> None:
+        """One physics step, the servos' aims kept within ``ServoDrive.play_edges``."""
+        model, data, actuators = self._model, self._data, self._actuator_at
+        position = data.qpos[self._joint_qpos]
+        ctrl = self._drive.follow(low_rad, high_rad, position, out=self._ctrl)
+        np.copyto(ctrl, position, where=self._unloaded)  # unloaded: no torque
+        data.ctrl[actuators] = ctrl
         sag = self._supply_now_v / self.supply_v if self.supply_v else 1.0
         if abs(sag - self._sag) > SAG_STEP:
             self._set_sag(sag)
         mujoco.mj_step(model, data)
-        load = np.abs(data.actuator_force[index.actuator]) * self._per_stall
-        current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded))
+        load = np.abs(data.actuator_force[actuators], out=self._load)
+        load *= self._per_stall  # each servo's torque as a share of its stall torque
+        current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded_share))
         self._supply_now_v = max(0.0, self.supply_v - self.resistance_ohm * current_a)
-        self._temp_c += (RISE_AT_STALL_C * load * load - (self._temp_c - AMBIENT_C)) * (
-            self.dt_s / THERMAL_TIME_S
-        )
+        # towards RISE_AT_STALL_C * load² above the ambient, by dt / THERMAL_TIME_S of the way
+        heat = np.multiply(load, RISE_AT_STALL_C, out=self._heat)
+        heat *= load
+        heat -= np.subtract(self._temp_c, AMBIENT_C, out=self._cooling)
+        heat *= self._per_step_of_thermal_time
+        self._temp_c += heat
 
     def _set_sag(self, sag: float) -> None:
         """The servos' torque and gain at a supply ``sag`` times the nominal one."""

@@ -105,8 +105,10 @@ class Kinematics:
                 f"mjcf: in {robot.path}"
             )
         mj = self._mj = _mujoco()
+        from choreo.robot.compiled_model import compiled_model  # imports mujoco
+
         self.robot = robot
-        self.model = mj.MjModel.from_xml_path(str(robot.mjcf_path))
+        self.model = compiled_model(robot.mjcf_path)
         self.data = mj.MjData(self.model)
         home = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_KEY, "home")
         if home >= 0:
@@ -129,6 +131,7 @@ class Kinematics:
         # per kind of task (its sites, which have a pitch): a motion asks the same ones again
         self._moves: dict[tuple[int, ...], np.ndarray] = {}
         self._constrained_joints: dict[tuple[tuple[int, ...], tuple[bool, ...]], np.ndarray] = {}
+        self._site_ids: dict[str, int] = {}  # the sites asked for by name
 
     # --- names --------------------------------------------------------------------------------
 
@@ -176,10 +179,21 @@ class Kinematics:
         position, axis = self._site_in_base(self._checked_site(site))
         return SitePose(position * 1000, pitch_deg(axis))
 
+    def site_positions_mm(self, sites: Sequence[str], angles_deg: npt.ArrayLike) -> np.ndarray:
+        """Where each of ``sites`` is (mm, base frame; one row each) at ``angles_deg``: the
+        positions ``site_pose`` gives, from one forward kinematics for all of them (a walker's
+        feet are asked at every sample of a motion)."""
+        self._set(np.asarray(angles_deg, dtype=float))
+        known = self._site_ids
+        ids = [known[site] if site in known else self._checked_site(site) for site in sites]
+        rotation, base, xpos = self._base_rot.T, self._base_pos, self.data.site_xpos
+        return np.array([rotation @ (xpos[site] - base) * 1000 for site in ids])
+
     def _checked_site(self, name: str) -> int:
         site = self.site_id(name)
         if site < 0:
             raise ChoreoError(f"{self.robot.name} has no site {name!r}")
+        self._site_ids[name] = site
         return site
 
     # --- inverse kinematics -------------------------------------------------------------------

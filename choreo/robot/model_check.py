@@ -15,6 +15,7 @@ import mujoco
 import yaml
 
 from choreo.core.yaml_source import Entry, Node, Reader, SourceLocation, did_you_mean, fmt
+from choreo.robot.compiled_model import compiled_model
 from choreo.robot.joint_source import JointSource
 from choreo.robot.poses import HOME_POSE
 
@@ -65,7 +66,7 @@ def check_model(
 
 def _compile(reader: Reader, path: Path) -> mujoco.MjModel | None:
     try:
-        return mujoco.MjModel.from_xml_path(str(path))
+        return compiled_model(path)
     except ValueError as error:
         text = " ".join(str(error).split())
         line = re.search(r"line(?: number=| )(\d+)", text, re.IGNORECASE)

@@ -188,3 +188,30 @@ def test_the_drive_gives_exactly_what_the_plain_law_gives_over_random_set_points
             got = drive.ctrl(setpoint, position)
         assert np.array_equal(got, expected), f"step {step}"
         assert np.array_equal(drive.aim_rad, reference.aim), f"step {step}"
+
+
+def test_set_points_known_for_a_stretch_of_steps_give_what_one_step_at_a_time_gives():
+    """The step loop works out a stretch's delayed set-points and play edges at once
+    (``play_edges``), then follows them step by step: the plain law's controls and aims, and
+    the delay line ``ctrl`` leaves one step at a time, with delays of whole steps and between
+    two."""
+    rng = np.random.default_rng(11)
+    figures = {
+        name: {"response_delay_s": delay, "backlash_deg": 1.0, "offset_deg": 0.5}
+        for name, delay in zip(ARM6.joint_names, (0.0, 0.004, 0.0037, 0.011))
+    }
+    params = list(actuator_params(ARM6, figures)[:4])
+    initial = rng.uniform(-1.0, 1.0, 4)
+    stepped, stretched = ServoDrive(params, DT_S, initial), ServoDrive(params, DT_S, initial)
+    reference = ReferenceDrive(params, initial)
+    setpoints = initial + np.cumsum(rng.normal(0.0, 0.01, (300, 4)), axis=0)
+    positions = setpoints + rng.normal(0.0, 0.01, (300, 4))
+    bounds = [0, 1, 2, 5, 17, 18, 60, 200, 300]  # stretches shorter and longer than the delay
+    for begin, end in zip(bounds[:-1], bounds[1:]):
+        edges = stretched.play_edges(setpoints[begin:end])
+        for k, (low, high) in enumerate(zip(*edges), start=begin):
+            expected = reference.ctrl(setpoints[k], positions[k])
+            assert np.array_equal(stretched.follow(low, high, positions[k]), expected), k
+            stepped.ctrl(setpoints[k], positions[k])
+        assert np.array_equal(stretched.aim_rad, reference.aim)
+        assert stretched.same_as(stepped, 0.0)  # the same set-points waiting out the delay

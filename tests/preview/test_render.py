@@ -22,6 +22,7 @@ from emulated import wait_for
 from paths import REPO
 from PIL import Image
 from render_helpers import mujoco_view
+from shipped_helpers import simulated_shipped
 
 from choreo.errors import PreviewError
 from choreo.motion.motion_file import load_motion
@@ -235,7 +236,7 @@ def swept_geom_points(model, rollout, every: int = 10) -> np.ndarray:
 def test_one_camera_frames_the_whole_motion_and_fills_the_picture(motion_path, fill):
     """Every geom centre over the whole rollout is inside MuJoCo's view of the camera, and
     what the robot sweeps spans most of the picture's width or height."""
-    rollout = simulate_motion(load_motion(REPO / "motions" / motion_path)).rollout
+    rollout = simulated_shipped(REPO / "motions" / motion_path).rollout
     model = load_model(rollout.robot, rollout.props)
     camera = frame_camera(model, rollout, 4 / 3)
     pos, right, up, forward, half_w, half_h = mujoco_view(model, camera, 4 / 3)
@@ -248,7 +249,7 @@ def test_one_camera_frames_the_whole_motion_and_fills_the_picture(motion_path, f
 
 
 def test_the_frames_show_the_settling_and_the_approach_marked():
-    rollout = simulate_motion(load_motion(REPO / "motions" / "tonypi" / "squat.yaml")).rollout
+    rollout = simulated_shipped(REPO / "motions" / "tonypi" / "squat.yaml").rollout
     assert rollout.start_s < rollout.approach_start_s < 0
     assert status_text(rollout, rollout.start_s)[1].splitlines()[1] == "settling"
     assert status_text(rollout, rollout.approach_start_s / 2)[0] == "time\nbefore"

@@ -7,9 +7,8 @@ import mujoco
 import numpy as np
 from paths import REPO
 from render_helpers import mujoco_view
+from shipped_helpers import simulated_shipped
 
-from choreo.motion.motion_file import load_motion
-from choreo.preview import simulate_motion
 from choreo.preview.model import load_model
 from choreo.preview.render import frame_camera, frame_cameras
 
@@ -30,7 +29,7 @@ def test_a_long_walk_is_followed_with_the_robot_filling_the_picture():
     """walk_forward goes 22 cm, half the hexapod's own length: framing the whole path left its
     geoms spanning ~54 % of the picture's width; followed, over 65 % at every frame, in view."""
     walk = REPO / "motions" / "hexapod18" / "walk_forward.yaml"
-    rollout = simulate_motion(load_motion(walk)).rollout
+    rollout = simulated_shipped(walk).rollout
     model = load_model(rollout.robot, rollout.props)
     steps = np.linspace(0, len(rollout.times_s) - 1, 8).astype(int)
     cameras = frame_cameras(model, rollout, 4 / 3, steps)
@@ -45,7 +44,7 @@ def test_a_long_walk_is_followed_with_the_robot_filling_the_picture():
 
 def test_a_robot_that_stays_keeps_one_camera():
     for path in ("arm6/wave.yaml", "hexapod18/stand_up.yaml"):
-        rollout = simulate_motion(load_motion(REPO / "motions" / path)).rollout
+        rollout = simulated_shipped(REPO / "motions" / path).rollout
         model = load_model(rollout.robot, rollout.props)
         steps = np.array([0, len(rollout.times_s) // 2, len(rollout.times_s) - 1])
         assert (

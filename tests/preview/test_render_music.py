@@ -14,19 +14,20 @@ from music_helpers import first_click_s, steady_times, write, write_clicks
 from PIL import Image
 
 from choreo.cli import main
-from choreo.motion.motion_file import load_motion
-from choreo.preview import RenderSettings, render_preview, simulate_motion
+from choreo.motion.motion_file import Motion, load_motion
+from choreo.preview import RenderSettings, SimulatedMotion, render_preview, simulate_motion
 from choreo.preview.render import status_text
 
 RATE_HZ = 22050
 
 
-@pytest.fixture
-def dance(tmp_path):
+@pytest.fixture(scope="module")
+def dance(tmp_path_factory):
     # clicks from 1.0 s; the dance starts 0.8 s into the song: the video's first click is at 0.2 s
-    write_clicks(tmp_path / "song.ogg", steady_times(120, 1.0, 7.0), 7.5)
+    folder = tmp_path_factory.mktemp("dance")
+    write_clicks(folder / "song.ogg", steady_times(120, 1.0, 7.0), 7.5)
     return write(
-        tmp_path,
+        folder,
         "dance.yaml",
         """
         robot: arm6
@@ -39,6 +40,17 @@ def dance(tmp_path):
             bar: 2
         """,
     )
+
+
+@pytest.fixture(scope="module")
+def motion(dance) -> Motion:
+    return load_motion(dance)
+
+
+@pytest.fixture(scope="module")
+def simulated(motion) -> SimulatedMotion:
+    """The dance simulated once, for the tests that only read it."""
+    return simulate_motion(motion)
 
 
 def streams_of(path) -> str:
@@ -57,7 +69,7 @@ def audio_of(path) -> np.ndarray:
     return np.frombuffer(subprocess.run(command, capture_output=True, check=True).stdout, "<f4")
 
 
-def test_the_mp4_carries_the_song_from_its_start(dance, tmp_path, capsys):
+def test_the_mp4_carries_the_song_from_its_start(dance, simulated, tmp_path, capsys):
     video = tmp_path / "dance.mp4"
     assert main(["preview", str(dance), "-o", str(video), "--size", "64x48", "--fps", "10"]) == 0
     streams = streams_of(video)
@@ -69,15 +81,14 @@ def test_the_mp4_carries_the_song_from_its_start(dance, tmp_path, capsys):
     assert abs(len(audio) / RATE_HZ - video_s) <= 0.05  # the track lasts as long as the video
     # the video opens with the settling and the approach (rollout.start_s before t=0); the
     # song's 0.8 s is heard at t=0, so its first click (at 1.0 s) 0.2 s after
-    before_s = -simulate_motion(load_motion(dance)).rollout.start_s
+    before_s = -simulated.rollout.start_s
     assert before_s > 0
     assert first_click_s(audio, RATE_HZ) == pytest.approx(before_s + 0.2, abs=0.01)
     assert not list(tmp_path.glob(".*.mp4"))  # the intermediate file is gone
 
 
-def test_frames_show_the_bar_and_beat(dance):
-    motion = load_motion(dance)
-    rollout = simulate_motion(motion).rollout
+def test_frames_show_the_bar_and_beat(motion, simulated):
+    rollout = simulated.rollout
     grid = motion.music.grid
     names, values = status_text(rollout, 0.0, grid)
     assert names.splitlines()[-1] == "bar / beat" and values.splitlines()[-1] == "1 / 1"
@@ -87,11 +98,10 @@ def test_frames_show_the_bar_and_beat(dance):
     assert "bar" not in names
 
 
-def test_before_the_first_beat_frames_count_in(dance):
+def test_before_the_first_beat_frames_count_in(motion, simulated):
     """Settling and the approach come before beat 1 (the beats are not clamped to "1 / 1"):
     the overlay counts the beats still to come, at the first beats' interval."""
-    motion = load_motion(dance)
-    rollout = simulate_motion(motion).rollout
+    rollout = simulated.rollout
     grid = motion.music.grid
     first, interval = grid.beat_times_s[0], grid.beat_times_s[1] - grid.beat_times_s[0]
     names, values = status_text(rollout, first - 2.5 * interval, grid)
@@ -102,9 +112,7 @@ def test_before_the_first_beat_frames_count_in(dance):
     assert names.splitlines()[-1] == "count-in" and int(values.splitlines()[-1]) >= 1
 
 
-def test_a_contact_sheet_marks_each_frames_beat(dance, tmp_path):
-    motion = load_motion(dance)
-    simulated = simulate_motion(motion)
+def test_a_contact_sheet_marks_each_frames_beat(motion, simulated, tmp_path):
     settings = RenderSettings(width=160, height=120, sheet_frames=4)
     marked = render_preview(simulated, tmp_path / "marked.png", settings, music=motion.music)
     plain = render_preview(simulated.rollout, tmp_path / "plain.png", settings)

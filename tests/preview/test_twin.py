@@ -13,6 +13,7 @@ from choreo.core.clock import RealClock, VirtualClock
 from choreo.emulator import register_url_handler
 from choreo.errors import SourceError
 from choreo.play.play_motion import play_motion
+from choreo.preview import twin as twin_module
 from choreo.preview.pipeline import simulate_motion
 from choreo.preview.twin import PhysicsTwin
 from choreo.robot.robot_file import load_robot
@@ -170,6 +171,24 @@ def test_gear_play_and_dead_band_are_seen_in_small_reversals(tmp_path):
             moved[name] = there - real_deg(bus, twin)[0]
     assert moved["truth"] == pytest.approx(0.0, abs=0.05)
     assert moved["assumed"] > 0.8
+
+
+def test_the_trace_keeps_the_last_steps_each_with_its_time_and_position(monkeypatch):
+    monkeypatch.setattr(twin_module, "TRACE_LIMIT", 250)
+    monkeypatch.setattr(twin_module, "STEPS_AT_ONCE", 100)  # a wait of stretches: the odd one cut
+    bus, twin = open_twin()
+    with bus:
+        bus.move(SHOULDER, units(30), 300)
+        wait(bus, 0.7)  # 350 steps of 2 ms
+        now_deg = real_deg(bus, twin)
+        now_s = bus.clock.now()
+    trace = twin.trace
+    assert len(trace) == 250
+    np.testing.assert_allclose(np.diff([step.time_s for step in trace]), twin.dt_s)
+    assert trace[-1].time_s == pytest.approx(now_s, abs=twin.dt_s)
+    np.testing.assert_array_equal(trace[-1].position_deg, now_deg)
+    assert trace[0].position_deg[1] < trace[-1].position_deg[1] - 10  # the shoulder on its way
+    assert all(step.supply_v < twin.supply_v for step in trace)  # the servos draw current
 
 
 def test_time_is_virtual_unless_asked_for():

@@ -57,11 +57,18 @@ def mujoco_model(mjcf_path: Path) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_path(str(mjcf_path))
 
 
+@functools.cache
+def mujoco_data(model: mujoco.MjModel) -> mujoco.MjData:
+    """One MjData per model for ``mujoco_site`` (making one costs more than the kinematics)."""
+    return mujoco.MjData(model)
+
+
 def mujoco_site(kin: Kinematics, site: str, angles_deg) -> tuple[np.ndarray, float]:
     """(position mm, pitch deg) of a site in the base body's frame, computed afresh by MuJoCo."""
     robot = kin.robot
     model = mujoco_model(robot.mjcf_path)
-    data = mujoco.MjData(model)
+    data = mujoco_data(model)  # reset below: nothing of the last call is left in it
+    mujoco.mj_resetData(model, data)
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
     if key >= 0:
         mujoco.mj_resetDataKeyframe(model, data, key)
@@ -220,3 +227,12 @@ def test_sites_and_feet_of_the_shipped_models(arm6, hexapod, tonypi):
     assert hexapod.feet() == ("lf_foot", "lm_foot", "lr_foot", "rf_foot", "rm_foot", "rr_foot")
     assert {"left_hand", "right_hand", "left_sole", "right_sole"} <= set(tonypi.site_names)
     assert arm6.feet() == ()
+
+
+def test_several_sites_at_once_are_each_where_mujoco_puts_it(hexapod):
+    angles = random_angles(hexapod, 7)
+    feet = hexapod.feet()
+    at_once = hexapod.site_positions_mm(feet, angles)
+    for foot, position in zip(feet, at_once):
+        np.testing.assert_array_equal(position, hexapod.site_pose(foot, angles).position_mm)
+        np.testing.assert_allclose(position, mujoco_site(hexapod, foot, angles)[0], atol=1e-9)
