@@ -8,6 +8,7 @@ Features are computed on ``CHUNK_S`` blocks, so memory stays near the decoded sa
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,7 +99,10 @@ def _bass_chroma(librosa, y: np.ndarray, sr: int) -> np.ndarray:
 
     rate = sr / BASS_DECIMATE
     low = scipy.signal.resample_poly(y, 1, BASS_DECIMATE).astype(np.float32)
-    power = np.abs(librosa.stft(low, n_fft=BASS_FFT, hop_length=COARSE_HOP // BASS_DECIMATE)) ** 2
+    with warnings.catch_warnings():  # a song's last block may be shorter than one window
+        warnings.filterwarnings("ignore", "n_fft=.* is too large", UserWarning)
+        frames = librosa.stft(low, n_fft=BASS_FFT, hop_length=COARSE_HOP // BASS_DECIMATE)
+    power = np.abs(frames) ** 2
     freqs = np.arange(power.shape[0]) * rate / BASS_FFT
     power[(freqs < BASS_HZ[0]) | (freqs > BASS_HZ[1])] = 0.0
     bins = librosa.filters.chroma(sr=rate, n_fft=BASS_FFT, tuning=0.0, octwidth=None, norm=None)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -69,7 +70,9 @@ def test_every_song_format_decodes_with_its_clicks_in_place(tmp_path, suffix):
 def test_a_song_s_path_is_detected_as_its_decoded_samples(tmp_path):
     times = steady_times(120, 0.5, 9.5)
     song = write_clicks(tmp_path / "clicks.ogg", times, 10.0)
-    from_path, from_samples = detect_beats(song), detect_beats(decode_song(song))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # its last block, shorter than a bass window, is no warning
+        from_path, from_samples = detect_beats(song), detect_beats(decode_song(song))
     assert from_path == from_samples
     assert_beats_match(from_path.beats_s, times)
     assert detect_beats(str(song)) == from_path
