@@ -6,6 +6,9 @@ from __future__ import annotations
 import re
 import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -237,18 +240,27 @@ def test_a_save_that_changes_the_first_keyframe_simulates_until_the_arm_is_back_
     assert "floor_contact" in {f.kind.value for f in physics.findings if f.time_s > 9}
 
 
+@contextmanager
+def watching(
+    files: Callable[[], list[Path]], on_change: Callable[[], None]
+) -> Iterator[FileWatcher]:
+    """A FileWatcher polling ``files``, stopped when the block ends."""
+    watcher = FileWatcher(files, on_change)
+    watcher.start()
+    try:
+        yield watcher
+    finally:
+        watcher.stop()
+
+
 def test_the_watcher_notices_a_save(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text(TEXT)
     changed = threading.Event()
-    watcher = FileWatcher(lambda: [path], changed.set)
-    watcher.start()
-    try:
+    with watching(lambda: [path], changed.set):
         assert not changed.wait(0.3)
         path.write_text(TEXT + "# saved again\n")
         assert changed.wait(5.0)
-    finally:
-        watcher.stop()
 
 
 def test_what_the_studio_writes_itself_is_no_save(tmp_path):
@@ -257,17 +269,13 @@ def test_what_the_studio_writes_itself_is_no_save(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text(TEXT)
     changed = threading.Event()
-    watcher = FileWatcher(lambda: [path], changed.set)
-    watcher.start()
-    try:
+    with watching(lambda: [path], changed.set) as watcher:
         with watcher.writing():
             write_text_atomically(path, TEXT + "# written by the studio\n")
             time.sleep(0.3)  # the polls due meanwhile wait for the write to be noted
         assert not changed.wait(0.3)
         path.write_text(TEXT + "# saved in an editor\n")
         assert changed.wait(5.0)
-    finally:
-        watcher.stop()
 
 
 def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
@@ -283,9 +291,7 @@ def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
         files[:] = [path, song] if len(files) == 1 else [path]
         reloads.append(len(files))
 
-    watcher = FileWatcher(lambda: list(files), reload)
-    watcher.start()
-    try:
+    with watching(lambda: list(files), reload):
         write_text_atomically(path, TEXT + "# with its song\n")  # one save, seen once
         wait_for(lambda: reloads == [2], "the reload that brings the song in")
         time.sleep(0.3)  # polls that see the song: no save
@@ -297,8 +303,6 @@ def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
         wait_for(lambda: len(reloads) == 3, "a save of the motion")
         time.sleep(0.3)
         assert reloads == [2, 1, 2]
-    finally:
-        watcher.stop()
 
 
 def test_the_live_robot_follows_the_page_within_the_approach_limits_and_stops(tmp_path):
