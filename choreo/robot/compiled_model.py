@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import re
+import threading
 from collections import OrderedDict
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import mujoco
 KEPT = 8  # compiled models kept (a scene with its skybox is ~5 MB)
 _INCLUDE = re.compile(rb"<include\s+file\s*=\s*[\"']([^\"']+)[\"']")
 _compiled: OrderedDict[tuple[Path, bytes], mujoco.MjModel] = OrderedDict()
+_lock = threading.Lock()  # the studio loads models from more than one thread
 
 
 def compiled_model(path: str | Path) -> mujoco.MjModel:
@@ -35,13 +37,14 @@ def compiled_model(path: str | Path) -> mujoco.MjModel:
         key = (path, _sources_digest(path))
     except OSError:
         return mujoco.MjModel.from_xml_path(str(path))  # MuJoCo's own error for it
-    model = _compiled.get(key)
-    if model is None:
-        model = _compiled[key] = mujoco.MjModel.from_xml_path(str(path))
-        if len(_compiled) > KEPT:
-            _compiled.popitem(last=False)
-    _compiled.move_to_end(key)
-    return copy.copy(model)  # MjModel's copy is a deep one: its arrays are copied
+    with _lock:
+        model = _compiled.get(key)
+        if model is None:
+            model = _compiled[key] = mujoco.MjModel.from_xml_path(str(path))
+            if len(_compiled) > KEPT:
+                _compiled.popitem(last=False)
+        _compiled.move_to_end(key)
+        return copy.copy(model)  # MjModel's copy is a deep one: its arrays are copied
 
 
 def _sources_digest(path: Path) -> bytes:
