@@ -100,3 +100,13 @@ def test_the_high_quality_renderer_keeps_the_infinite_floor():
         assert model.geom("floor").size.tolist() == pytest.approx([0, 0, 0.05])
     with FrameRenderer(model, 32, 32, offscreen_backend()):
         assert min(model.geom("floor").size[:2]) > 0
+
+
+def test_only_the_high_quality_renderer_allocates_a_shadow_map():
+    """A preview draws no shadows: its 4096² map would cost 64 MB and ~0.04 s a context."""
+    model = scene('<geom name="floor" type="plane" size="0 0 0.05" material="metres"/>')
+    assert model.vis.quality.shadowsize == 4096
+    with FrameRenderer(model, 32, 32, offscreen_backend(), high_quality=True):
+        assert model.vis.quality.shadowsize == 4096
+    with FrameRenderer(model, 32, 32, offscreen_backend()):
+        assert model.vis.quality.shadowsize == 1
