@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -52,6 +53,7 @@ _ITERATIONS = 400
 _RESTARTS = 60  # random starts (fewer iterations each) when the seed gets stuck
 _RESTART_ITERATIONS = 30
 _RESTARTS_AT_ONCE = 20  # descended side by side, as arrays
+_MIRRORED = 24  # starts on other branches when every restart ends short (an arm's 4 joints: 10)
 FEET_TEXT = "choreo:feet"  # MJCF <custom><text name=... data="site site ..."/>: a walker's feet
 
 
@@ -227,7 +229,27 @@ class Kinematics:
                 best, best_cost = tried.angles_deg[np.argmin(tried.cost)], tried.cost.min()
         # the best start may only have been slow to converge (folded poses are): polish it
         polished = self._descend(task, best[None], free_mask, _ITERATIONS, POLISH_PROGRESS)
-        return self._measure(goals, sites, polished.angles_deg[0])
+        end = polished.angles_deg[0]
+        mirrored = self._mirrored(end, free_mask)
+        if not polished.reached[0] and len(mirrored):
+            # stopped short by a joint limit on its branch: the same pose with joints turned
+            # the other way (an elbow up for an elbow down) starts the other branches
+            tried = self._descend(task, mirrored, free_mask, _ITERATIONS, POLISH_PROGRESS)
+            if tried.reached.any():
+                distance = np.abs(tried.angles_deg - seed).max(axis=1)
+                nearest = np.flatnonzero(tried.reached)[np.argmin(distance[tried.reached])]
+                return self._measure(goals, sites, tried.angles_deg[nearest])
+        return self._measure(goals, sites, end)
+
+    def _mirrored(self, end_deg: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """``end_deg`` with one free joint turned to the other side of zero, then two (at most
+        ``_MIRRORED`` starts), inside the limits."""
+        joints = np.flatnonzero(free)
+        flips = [*combinations(joints, 1), *combinations(joints, 2)][:_MIRRORED]
+        starts = np.tile(end_deg, (len(flips), 1))
+        for row, flip in enumerate(flips):
+            starts[row, list(flip)] *= -1
+        return np.clip(starts, self.lower_deg, self.upper_deg)
 
     def _task(self, goals: Sequence[SiteGoal], sites: list[int]) -> Task:
         pitched = np.array([goal.pitch_deg is not None for goal in goals])

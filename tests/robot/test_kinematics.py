@@ -128,6 +128,26 @@ def test_arm_held_joints_stay_as_given(arm6, seed):
     assert np.linalg.norm(reached - position) <= POSITION_MM
 
 
+@pytest.mark.parametrize(
+    "target",
+    [(-26.43, 80.23, -24.68, -83.32, 52.06, 35.33), (-4.9, 83.8, -48.6, -69.2, 23.8, 43.1)],
+)
+def test_a_pose_whose_other_branch_a_joint_limit_stops_is_reached_on_its_own(arm6, target):
+    """Shoulder far forward, elbow back: from the ready pose every descent, restarts included,
+    ended on the elbow's other branch with the wrist at its -100° limit, 1.5 and 6 mm short
+    (Hypothesis found the first, a search of ~1,300 table poses the second)."""
+    target = np.array(target)
+    position, pitch = mujoco_site(arm6, "tool", target)
+    seed_deg = np.array(arm6.robot.pose_vector("ready"), dtype=float)
+    held = [name in ("wrist_roll", "gripper") for name in arm6.robot.joint_names]
+    seed_deg[held] = target[held]
+    solution = arm6.solve([SiteGoal("tool", tuple(position), pitch)], seed_deg, np.invert(held))
+    assert solution.ok, solution
+    reached, _ = mujoco_site(arm6, "tool", solution.angles_deg)
+    assert np.linalg.norm(reached - position) <= POSITION_MM
+    assert_inside_limits(arm6, solution.angles_deg)
+
+
 @PROPERTY
 @given(seed=SEEDS)
 def test_hexapod_all_six_feet_at_once(hexapod, seed):
