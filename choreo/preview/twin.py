@@ -109,7 +109,6 @@ class PhysicsTwin:
         self._start_units = np.array(home_units, dtype=float)
         self._velocity = np.zeros(n)
         self._end_s = np.full(n, -math.inf)
-        self._loaded = np.ones(n, dtype=bool)
         self._supply_now_v = self.supply_v
         self._idle_a = IDLE_CURRENT_A * n
         self._sag = 1.0
@@ -186,7 +185,6 @@ class PhysicsTwin:
         self._start_units[joint] = setpoint.start_units
         self._velocity[joint] = setpoint.velocity_units_s
         self._end_s[joint] = setpoint.end_s
-        self._loaded[joint] = loaded
         self._unloaded[joint] = not loaded
         self._loaded_share[joint] = float(loaded)
 

@@ -222,23 +222,19 @@ class Kinematics:
         for starts in np.split(self._restarts(seed, free_mask), _RESTARTS // _RESTARTS_AT_ONCE):
             tried = self._descend(task, starts, free_mask, _RESTART_ITERATIONS)
             if tried.reached.any():  # the arm stays on its branch
-                distance = np.abs(tried.angles_deg - seed).max(axis=1)
-                nearest = np.flatnonzero(tried.reached)[np.argmin(distance[tried.reached])]
-                return self._measure(goals, sites, tried.angles_deg[nearest])
+                return self._measure(goals, sites, _nearest_reached(tried, seed))
             if tried.cost.min() < best_cost:
                 best, best_cost = tried.angles_deg[np.argmin(tried.cost)], tried.cost.min()
         # the best start may only have been slow to converge (folded poses are): polish it
         polished = self._descend(task, best[None], free_mask, _ITERATIONS, POLISH_PROGRESS)
         end = polished.angles_deg[0]
-        mirrored = self._mirrored(end, free_mask)
-        if not polished.reached[0] and len(mirrored):
+        if not polished.reached[0] and free_mask.any():
             # stopped short by a joint limit on its branch: the same pose with joints turned
             # the other way (an elbow up for an elbow down) starts the other branches
+            mirrored = self._mirrored(end, free_mask)
             tried = self._descend(task, mirrored, free_mask, _ITERATIONS, POLISH_PROGRESS)
             if tried.reached.any():
-                distance = np.abs(tried.angles_deg - seed).max(axis=1)
-                nearest = np.flatnonzero(tried.reached)[np.argmin(distance[tried.reached])]
-                return self._measure(goals, sites, tried.angles_deg[nearest])
+                return self._measure(goals, sites, _nearest_reached(tried, seed))
         return self._measure(goals, sites, end)
 
     def _mirrored(self, end_deg: np.ndarray, free: np.ndarray) -> np.ndarray:
@@ -370,3 +366,11 @@ class Kinematics:
                 0.0 if goal.pitch_deg is None else abs(pose.pitch_deg - goal.pitch_deg)
             )
         return Solution(q_deg, tuple(reached), tuple(position_errors), tuple(pitch_errors))
+
+
+def _nearest_reached(attempts: Attempts, seed_deg: np.ndarray) -> np.ndarray:
+    """Of the attempts that reached, the angles nearest the seed's: the arm stays on its
+    branch."""
+    distance = np.abs(attempts.angles_deg - seed_deg).max(axis=1)
+    reached = np.flatnonzero(attempts.reached)
+    return attempts.angles_deg[reached[np.argmin(distance[reached])]]
