@@ -11,7 +11,9 @@ user's second run (choreo.robot.check_cache), so MuJoCo is not loaded.
 choreo's modules are byte-compiled first, as pip does when it installs them: where
 PYTHONDONTWRITEBYTECODE is set (it is in this project's development environment) each run would
 otherwise compile them again, some 0.1-0.2 s that no installed choreo spends.
-Goal: the whole command within 1.0 s (median) on the 2-core development machine.
+Goal: the whole command within 1.0 s (median) on the 2-core development machine. The machine's
+speed is probed beside each run (benchmarks/machine_speed.py), and the median is also given as it
+would be at a calm hour.
 
 Run: python benchmarks/bench_load.py [--runs N]
 """
@@ -30,6 +32,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine_speed import describe, slowness
 from motion_gen import dance
 
 from choreo.cli.plan_commands import print_report
@@ -58,9 +61,11 @@ def write_dance(folder: Path) -> Path:
     return path
 
 
-def time_cli(path: Path) -> tuple[float, float]:
-    """(wall, CPU) seconds of one ``choreo plan`` run; CPU time (user + system of the child)
-    suffers less than wall time when other work shares the machine."""
+def time_cli(path: Path) -> tuple[float, float, float]:
+    """(wall, CPU) seconds of one ``choreo plan`` run, and how slow the machine was around it;
+    CPU time (user + system of the child) suffers less than wall time when other work shares
+    the machine."""
+    slow_before = slowness()
     cpu_before = _children_cpu_s()
     start = time.perf_counter()
     subprocess.run(
@@ -69,7 +74,8 @@ def time_cli(path: Path) -> tuple[float, float]:
         check=True,
         stdout=subprocess.DEVNULL,
     )
-    return time.perf_counter() - start, _children_cpu_s() - cpu_before
+    wall_s, cpu_s = time.perf_counter() - start, _children_cpu_s() - cpu_before
+    return wall_s, cpu_s, (slow_before + slowness()) / 2
 
 
 def _children_cpu_s() -> float:
@@ -119,8 +125,9 @@ def main() -> None:
         stage_times_s(path)  # warm-up
         stages = [stage_times_s(path) for _ in range(args.runs)]
         cli = [time_cli(path) for _ in range(args.runs)]
-    cli_s = [wall for wall, _ in cli]
-    cpu_s = [cpu for _, cpu in cli]
+    cli_s = [wall for wall, _, _ in cli]
+    cpu_s = [cpu for _, cpu, _ in cli]
+    factors = [factor for _, _, factor in cli]
     for name, runs in (("choreo plan (CLI)", cli_s), ("(its CPU time)", cpu_s)):
         print(
             f"{name:>18}: best {min(runs):.3f} s, median {statistics.median(runs):.3f} s "
@@ -137,6 +144,8 @@ def main() -> None:
         f"goal choreo plan <= {GOAL_S:g} s end to end (median): {verdict} (load average "
         f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores while measuring)"
     )
+    calm_s = statistics.median(cpu / factor for cpu, factor in zip(cpu_s, factors, strict=True))
+    print(f"{describe(factors)}; its CPU time's median at a calm hour's speed: {calm_s:.3f} s")
 
 
 if __name__ == "__main__":

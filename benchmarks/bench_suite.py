@@ -3,7 +3,8 @@
 Runs the README's test command (``python -m pytest -q -n auto``) once quiet and once beside two
 busy-looping processes (one per core of a 2-core machine, killed when the suite ends), and prints
 each run's duration, the CPU time the suite's processes used (the same whatever else runs, so
-runs on a shared machine compare), the load average it started at, and pytest's closing line.
+runs on a shared machine compare), the load average it started at, and pytest's closing line;
+then how slow the machine ran (benchmarks/machine_speed.py, probed before and after each run).
 
 Run: python benchmarks/bench_suite.py [--hogs 2] [--skip-quiet]
 """
@@ -19,6 +20,7 @@ import time
 from pathlib import Path
 
 from bench_player import cpu_hogs  # the same hogs as the playback figures
+from machine_speed import describe, slowness
 
 REPO = Path(__file__).resolve().parents[1]
 GOAL_S = 180.0
@@ -59,12 +61,15 @@ def main() -> None:
         runs.insert(0, ("quiet", 0))
     for name, hogs in runs:
         load = os.getloadavg()[0]
+        factors = [slowness()]
         with cpu_hogs(hogs):  # the hogs' CPU is not counted: they end after run_suite
             wall_s, cpu_s, closing = run_suite()
         print(
             f"suite {name}: {wall_s:.0f} s (goal <= {GOAL_S:.0f} s), {cpu_s:.0f} s of CPU, "
             f"load {load:.1f} at the start on {os.cpu_count()} cores: {closing}"
         )
+        factors.append(slowness())
+        print(f"  {describe(factors)}")
 
 
 if __name__ == "__main__":
