@@ -12,13 +12,14 @@ import bisect
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from choreo.core.yaml_source import parse_yaml_file
 from choreo.errors import PlanningError, SourceError
-from choreo.motion.motion_file import Motion, load_motion
+from choreo.motion.motion_file import Motion, motion_of_yaml
 from choreo.motion.music_block import past_song
 from choreo.plan.pipeline import compile_motion
 from choreo.robot.lookup import ROBOT_FILE
 from choreo.robot.robot_file import load_robot
-from choreo.show.showfile import is_show_file, load_show
+from choreo.show.showfile import is_show_yaml, load_show
 
 
 @dataclass(frozen=True)
@@ -44,9 +45,10 @@ def check_file(
     try:
         if path.name == ROBOT_FILE:
             return FileCheck(path, [f"{path}: {p}" for p in load_robot(path).supply_problems()])
-        if is_show_file(path):
+        root = parse_yaml_file(path)  # once: it tells a show from a motion, and is read as one
+        if is_show_yaml(root):
             return _check_show(path, physics=physics, stretch=stretch)
-        motion = load_motion(path, allow_past_song)
+        motion = motion_of_yaml(path, root, allow_past_song)
         compiled = compile_motion(motion, stretch=stretch)
     except SourceError as error:
         return FileCheck(path, list(error.problems))

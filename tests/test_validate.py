@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import yaml
 from cli_helpers import PREVIEW_MOTIONS
 
 from choreo.cli import main
@@ -73,3 +74,19 @@ def test_a_supply_below_the_servos_rated_range_is_told_by_validate_and_preview(t
     robot_file.write_text(text.replace("defaults:", "bus:\n  supply_v: 6.0\ndefaults:"))
     assert main(["validate", str(robot_file), str(motion)]) == 0
     assert "rated" not in capsys.readouterr().out
+
+
+def test_a_motion_is_parsed_once_to_tell_it_from_a_show(tmp_path, monkeypatch):
+    """A long motion's YAML is a good part of validating it: telling a show from a motion
+    reuses the parse instead of reading the file a second time."""
+    composed: list[str] = []
+    compose = yaml.compose
+
+    def counting_compose(text, Loader):  # noqa: N803 (PyYAML's name)
+        composed.append(text)
+        return compose(text, Loader=Loader)
+
+    monkeypatch.setattr(yaml, "compose", counting_compose)
+    motion = write(tmp_path, "  - pose: {shoulder: 10}\n    t: 1.0\n")
+    assert check_file(motion, physics=False).ok
+    assert composed.count(motion.read_text()) == 1

@@ -113,9 +113,16 @@ def load_motion(path: str | os.PathLike[str], allow_past_song: bool = False) -> 
     """
     path = check_path("path", path, "a motion file's path")
     check_flag("allow_past_song", allow_past_song)
+    with collector_paused():
+        return motion_of_yaml(path, parse_yaml_file(path), allow_past_song)
+
+
+def motion_of_yaml(path: Path, root: Node | None, allow_past_song: bool = False) -> Motion:
+    """The motion in ``path``, its YAML already parsed into ``root`` (as by ``parse_yaml_file``),
+    for a caller that looked at the tree first; otherwise as ``load_motion``."""
     problems = Problems()
     with collector_paused():
-        motion = _read_motion(Reader(path, problems), parse_yaml_file(path), allow_past_song)
+        motion = _read_motion(Reader(path, problems), root, allow_past_song)
     if motion is None or problems:
         raise SourceError(problems.messages)
     return motion

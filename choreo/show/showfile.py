@@ -92,6 +92,11 @@ def is_show_file(path: Path) -> bool:
         root = parse_yaml_file(path)
     except SourceError:
         return False  # reported when it is read as a motion
+    return is_show_yaml(root)
+
+
+def is_show_yaml(root: Node | None) -> bool:
+    """Whether a file's parsed YAML is a show's (a mapping with ``performers`` or ``cues``)."""
     return isinstance(root, yaml.MappingNode) and any(
         k.value in ("performers", "cues") for k, _ in root.value
     )
