@@ -142,8 +142,12 @@ def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_ta
 
 
 def test_preview_reports_where_the_body_went(tmp_path, capsys):
+    """turn_in_place's first two steps (20°, one per tripod): the command simulates afresh."""
     report_path = tmp_path / "report.json"
-    motion = HEXAPOD / "turn_in_place.yaml"
+    text = (HEXAPOD / "turn_in_place.yaml").read_text().replace("steps: 6,", "steps: 2,")
+    robot = REPO / "models" / "hexapod18" / "robot.yaml"
+    motion = tmp_path / "turn_a_little.yaml"
+    motion.write_text(text.replace("robot: hexapod18", f"robot: {robot.as_posix()}"))
     assert main(["preview", "--check", "--report", str(report_path), str(motion)]) == 0
     out = capsys.readouterr().out
     travel = json.loads(report_path.read_text())["body_travel"]
