@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from choreo.preview.model import link_name, link_of_body
+from choreo.preview.step_loop import as_slice
 from choreo.robot.kinematics import Kinematics
 
 PLANTED_M = 0.003  # a foot this close above the planned floor is on it
@@ -209,9 +210,10 @@ def feet_and_centre(
     """At every recorded state: each foot site's position (n, feet, 3) and the robot's centre of
     mass (n, 3), in the world (m)."""
     data = mujoco.MjData(model)
-    sites = [model.site(foot).id for foot in kin.feet()]
+    ids = np.array([model.site(foot).id for foot in kin.feet()], dtype=int)
+    sites = as_slice(ids)  # consecutive, as usual: a view per state, not a gather
     root = model.body(kin.base_body).id
-    feet, centre = np.empty((len(qpos), len(sites), 3)), np.empty((len(qpos), 3))
+    feet, centre = np.empty((len(qpos), len(ids), 3)), np.empty((len(qpos), 3))
     # MjData's arrays never move: taken once, not at each of the (thousands of) states
     positions, site_xpos, subtree_com = data.qpos, data.site_xpos, data.subtree_com
     kinematics, com = mujoco.mj_kinematics, mujoco.mj_comPos
