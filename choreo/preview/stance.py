@@ -20,6 +20,7 @@ compare that with the feet really on the ground.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -228,20 +229,23 @@ def feet_and_centre(
 
 def support_margin(feet_xy: np.ndarray, point_xy: np.ndarray) -> float:
     """How far ``point_xy`` lies inside the convex polygon around ``feet_xy`` (negative: outside
-    by that much): its distance to the nearest edge, for three or more feet."""
-    hull = _convex_hull(feet_xy)
-    edges = np.roll(hull, -1, axis=0) - hull
-    lengths = np.linalg.norm(edges, axis=1)
-    keep = lengths > 1e-12
-    to_point = point_xy - hull[keep]
-    edges, lengths = edges[keep], lengths[keep]
-    # counter-clockwise: a point inside is to the left of every edge
-    return float(((edges[:, 0] * to_point[:, 1] - edges[:, 1] * to_point[:, 0]) / lengths).min())
+    by that much): its distance to the nearest edge, for three or more feet. In Python floats,
+    not numpy: it is asked at every sample of a walk, for a handful of feet."""
+    hull = _convex_hull(np.asarray(feet_xy, dtype=float).tolist())
+    x, y = (float(value) for value in point_xy)
+    distances = []
+    for (ax, ay), (bx, by) in zip(hull, hull[1:] + hull[:1]):
+        ex, ey = bx - ax, by - ay
+        length = math.sqrt(ex * ex + ey * ey)
+        if length > 1e-12:
+            # counter-clockwise: a point inside is to the left of every edge
+            distances.append((ex * (y - ay) - ey * (x - ax)) / length)
+    return min(distances)
 
 
-def _convex_hull(points: np.ndarray) -> np.ndarray:
+def _convex_hull(points: list[list[float]]) -> list[tuple[float, ...]]:
     """The hull's corners, counter-clockwise (Andrew's monotone chain)."""
-    ordered = sorted(map(tuple, np.asarray(points, dtype=float)))
+    ordered = sorted(map(tuple, points))
 
     def cross(o, a, b) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
@@ -254,4 +258,4 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
             chain.append(point)
         return chain[:-1]
 
-    return np.array(half(ordered) + half(reversed(ordered)))
+    return half(ordered) + half(reversed(ordered))
