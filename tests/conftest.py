@@ -85,6 +85,7 @@ SHIPPED_SIMULATION_FILES = (
     "tests/preview/test_start.py",
     "tests/preview/test_travel.py",
     "tests/preview/test_walk.py",
+    "tests/robot/test_models.py",  # loads every shipped motion too
 )
 
 # The README's previews each render (its video of the tonypi dance: 11 s of CPU) and need no

@@ -68,17 +68,17 @@ class ContactLog:
         if not self._watched:
             return
         distances = contact.dist if self._all_watched else contact.dist[self._watched_at]
-        if self._watched_ids is not None and distances.max() < -self._min_depth_m:
+        depths = np.negative(distances).tolist()  # a handful: Python's min is quicker than numpy's
+        minimum = self._min_depth_m
+        if self._watched_ids is not None and min(depths) > minimum:
             # the usual step: the same touches as the last, every one deep enough (its depth,
             # minus its distance, over the minimum) and its pair numbered, logged at once (this
             # runs at every physics step)
             self.pair_index += self._watched_ids
             self.steps += [step] * len(self._watched_ids)
-            self.depths_m += np.negative(distances).tolist()
+            self.depths_m += depths
             return
-        depths = -distances
-        minimum = self._min_depth_m
-        for key, depth in zip(self._watched, depths.tolist()):
+        for key, depth in zip(self._watched, depths):
             if depth > minimum:
                 self.pair_index.append(self._pair_id(key))
                 self.steps.append(step)

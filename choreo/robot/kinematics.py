@@ -189,7 +189,8 @@ class Kinematics:
         known = self._site_ids
         ids = [known[site] if site in known else self._checked_site(site) for site in sites]
         rotation, base, xpos = self._base_rot.T, self._base_pos, self.data.site_xpos
-        return np.array([rotation @ (xpos[site] - base) * 1000 for site in ids])
+        # one matrix product per site as ``site_pose`` does (the same numbers), in one call
+        return np.matmul(rotation, (xpos[ids] - base)[:, :, None])[:, :, 0] * 1000
 
     def _checked_site(self, name: str) -> int:
         site = self.site_id(name)

@@ -12,7 +12,7 @@ import numpy as np
 import paths
 import pytest
 from paths import REPO
-from shipped_helpers import SHIPPED_MOTIONS, simulated_shipped
+from shipped_helpers import SHIPPED_MOTIONS, loaded_shipped, simulated_shipped
 
 from choreo.cli import main
 from choreo.motion.motion_file import load_motion
@@ -57,13 +57,13 @@ def walked(name: str, *, ideal: bool = False):
 
 @functools.cache
 def _ideal_servos_simulated(name: str) -> SimulatedMotion:
-    return simulate_motion(load_motion(HEXAPOD / f"{name}.yaml"), ideal_servos(name))
+    return simulate_motion(loaded_shipped(HEXAPOD / f"{name}.yaml"), ideal_servos(name))
 
 
 def ideal_servos(name: str) -> SimSettings:
     """No dead band and no backlash: the gait's own geometry, without the servo model's assumed
     play (docs/servo-models.md)."""
-    robot = load_motion(HEXAPOD / f"{name}.yaml").robot
+    robot = loaded_shipped(HEXAPOD / f"{name}.yaml").robot
     ideal = {"deadband_deg": 0.0, "backlash_deg": 0.0}
     return SimSettings(actuator_overrides={joint.name: ideal for joint in robot.joints})
 
@@ -102,8 +102,9 @@ def test_side_step_goes_left_then_back_right():
 
 @pytest.mark.parametrize("path", [DATA / "body_pose.yaml", HEXAPOD / "body_sway.yaml"])
 def test_body_poses_keep_every_foot_where_it_was_planted(path):
-    motion = load_motion(path)
-    simulated = simulated_shipped(path) if path in SHIPPED_MOTIONS else simulate_motion(motion)
+    shipped = path in SHIPPED_MOTIONS
+    motion = loaded_shipped(path) if shipped else load_motion(path)
+    simulated = simulated_shipped(path) if shipped else simulate_motion(motion)
     rollout = simulated.rollout
     assert [r for r in run_checks(simulated) if r.severity is Severity.ERROR] == []
     travel = body_travel(rollout)
@@ -116,7 +117,7 @@ def test_body_poses_keep_every_foot_where_it_was_planted(path):
 
 def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_target():
     path = REPO / "motions" / "arm6" / "pick_and_place.yaml"
-    motion, simulated = load_motion(path), simulated_shipped(path)
+    motion, simulated = loaded_shipped(path), simulated_shipped(path)
     rollout = simulated.rollout
     assert run_checks(simulated) == []  # no collision, the block neither dropped nor misplaced
     tool = site_path_mm(rollout, motion, "tool", every=1)
@@ -142,8 +143,12 @@ def test_pick_and_place_grips_the_block_lifts_straight_up_and_sets_it_down_on_ta
 
 
 def test_preview_reports_where_the_body_went(tmp_path, capsys):
+    """turn_in_place's first two steps (20°, one per tripod): the command simulates afresh."""
     report_path = tmp_path / "report.json"
-    motion = HEXAPOD / "turn_in_place.yaml"
+    text = (HEXAPOD / "turn_in_place.yaml").read_text().replace("steps: 6,", "steps: 2,")
+    robot = REPO / "models" / "hexapod18" / "robot.yaml"
+    motion = tmp_path / "turn_a_little.yaml"
+    motion.write_text(text.replace("robot: hexapod18", f"robot: {robot.as_posix()}"))
     assert main(["preview", "--check", "--report", str(report_path), str(motion)]) == 0
     out = capsys.readouterr().out
     travel = json.loads(report_path.read_text())["body_travel"]

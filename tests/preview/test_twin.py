@@ -15,7 +15,7 @@ from choreo.errors import SourceError
 from choreo.play.play_motion import play_motion
 from choreo.preview import twin as twin_module
 from choreo.preview.pipeline import simulate_motion
-from choreo.preview.twin import PhysicsTwin
+from choreo.preview.twin import THERMAL_TIME_S, PhysicsTwin
 from choreo.robot.robot_file import load_robot
 
 ARM6 = load_robot("arm6")
@@ -81,10 +81,12 @@ def test_the_supply_sags_under_load_and_a_servo_warms_holding_it():
         bus.move(SHOULDER, units(80), 800)  # the arm nearly straight out (90° is its stop)
         wait(bus, 2.0)
         loaded_mv = bus.read_vin(SHOULDER)
-        wait(bus, 120.0)  # one thermal time constant
+        # a third of the thermal time constant (THERMAL_TIME_S): the shoulder is 2.5 °C warmer
+        # (5.4 after the whole of it), which the servo reads in whole degrees
+        wait(bus, THERMAL_TIME_S / 3)
         warm_c, yaw_c = bus.read_temperature(SHOULDER), bus.read_temperature(1)
     assert loaded_mv < idle_mv - 20
-    assert warm_c > cool_c + 3
+    assert warm_c >= cool_c + 2
     assert yaw_c == cool_c  # the base carries no torque: it stays cool
 
 

@@ -93,7 +93,9 @@ def assert_inside_limits(kin: Kinematics, angles_deg: np.ndarray) -> None:
 
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
-PROPERTY = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 20 poses each: every line of kinematics.py and ik_descent.py that 40 reached is reached, the
+# restarts included (in each test); HYPOTHESIS_PROFILE=explore draws new ones
+PROPERTY = settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 @PROPERTY

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 import yaml
 from paths import REPO
+from shipped_helpers import SHIPPED_MOTIONS, loaded_shipped
 
-from choreo.motion.motion_file import load_motion
 from choreo.robot.robot_file import load_robot
 
 MODEL_DIRS = sorted(path.parent for path in (REPO / "models").glob("*/robot.yaml"))
-MOTION_FILES = sorted((REPO / "motions").glob("*/*.yaml"))
+MOTION_FILES = SHIPPED_MOTIONS
 MIRRORED_DIRS = [
     d for d in MODEL_DIRS if yaml.safe_load((d / "robot.yaml").read_text()).get("mirror")
 ]
@@ -240,7 +240,7 @@ def test_motion_poses_and_paths_are_free_of_collisions(motion_file):
 
     The planner's path between keyframes is close to straight in joint space; this samples it.
     """
-    motion = load_motion(motion_file)
+    motion = loaded_shipped(motion_file)  # loaded once for the preview's tests too
     robot = motion.robot
     model = scene_model(robot.path.parent)
     data = mujoco.MjData(model)
