@@ -229,7 +229,7 @@ class PhysicsTwin:
         """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
         nothing drives the servos in between, so at once rather than one step at a time."""
         now = self._origin_s + np.arange(self._steps, end)[:, None] * self.dt_s
-        moving = np.clip(np.minimum(now, self._end_s) - self._start_s, 0.0, None)
+        moving = np.maximum(np.minimum(now, self._end_s) - self._start_s, 0.0)
         setpoint_units = self._start_units + self._velocity * moving
         return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 
