@@ -45,12 +45,11 @@ def twin(tmp_path, truth: dict | None = None) -> ServoBus:
     return ServoBus.from_settings(BusSettings(port=f"sim://?{query}"))
 
 
-# The full test moves and search: ~11 s of CPU (measured 2026-11-26, 18:10: the emulated bus and
-# its physics 6-7 s for the 26 s of moves, the fit 4 s, 4.6 s since it runs two searches side by
-# side); the minutes it takes on a loaded machine are waiting for a core. A shorter search does
-# not hold what this asserts (20 generations put the backlash 0.14° off this truth's). The fit's
-# joint model now steps in place (15 % less CPU); the emulated bus's share is spread over its
-# byte-by-byte framing and the physics steps (no one function over 10 %), so it was left as it is.
+# The full test moves and search: ~9 s of CPU (2026-11-27, 11:00, beside other work; 12 s on
+# main then): the emulated bus and its physics ~4.5 s for the 24 s of moves (13,000 reads, each
+# a physics step and a request's Python, no one function over 10 %), the fit ~4 s (two searches
+# side by side, its step loop ~20 numpy calls a step). A shorter search does not hold what this
+# asserts (20 generations put the backlash 0.14° off this truth's).
 def test_the_fitted_figures_find_a_hidden_truth_and_predict_held_out_moves(tmp_path):
     with twin(tmp_path, {"elbow": TRUTH}) as bus:
         report = identify(ARM6, bus, tmp_path / "figures.yaml", joints=["elbow"])
