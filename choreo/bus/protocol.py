@@ -14,6 +14,7 @@ the encoding alone, for values checked already). Replies are parsed with
 from __future__ import annotations
 
 import enum
+import functools
 import struct
 from dataclasses import dataclass, field
 
@@ -105,11 +106,12 @@ class CommandSpec:
         None  # (min field, max field) that must satisfy min < max
     )
 
-    @property
+    # worked out once: every request and reply on the bus asks (identify: ~500 a second)
+    @functools.cached_property
     def request_len(self) -> int:
         return MIN_LEN + sum(f.size for f in self.request)
 
-    @property
+    @functools.cached_property
     def reply_len(self) -> int | None:
         return None if self.reply is None else MIN_LEN + sum(f.size for f in self.reply)
 
@@ -219,7 +221,13 @@ def pack_fields(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:
 
 
 def _pack(fields: tuple[Field, ...], values: dict[str, int]) -> bytes:
-    return struct.pack("<" + "".join(f.fmt for f in fields), *(values[f.name] for f in fields))
+    return _layout(fields).pack(*(values[f.name] for f in fields))
+
+
+@functools.cache
+def _layout(fields: tuple[Field, ...]) -> struct.Struct:
+    """The fields' little-endian struct, made once per command's fields."""
+    return struct.Struct("<" + "".join(f.fmt for f in fields))
 
 
 def _check_fields(fields: tuple[Field, ...], values: dict[str, int]) -> None:
@@ -231,7 +239,7 @@ def _check_fields(fields: tuple[Field, ...], values: dict[str, int]) -> None:
 
 
 def unpack_fields(fields: tuple[Field, ...], params: bytes) -> dict[str, int]:
-    values = struct.unpack("<" + "".join(f.fmt for f in fields), params)
+    values = _layout(fields).unpack(params)
     return dict(zip((f.name for f in fields), values))
 
 

@@ -103,10 +103,9 @@ class RrcBoardEmulator(BoardEmulator):
         self._frames = rrc.FrameDecoder()
         self._next_battery_s = self.clock.now() + RRC_BATTERY_PERIOD_S
 
-    # The battery frame, once a second, is an event of its own.
-    def next_event_s(self) -> float:
-        with self._lock:
-            return min(super().next_event_s(), self._next_battery_s)
+    # The battery frame, once a second, is an event of its own (it sends the host a frame).
+    def _next_cause_s(self) -> float:
+        return min(super()._next_cause_s(), self._next_battery_s)
 
     def _advance_to(self, time_s: float) -> None:
         while self._next_battery_s <= time_s:

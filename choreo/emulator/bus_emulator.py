@@ -283,18 +283,32 @@ class BusEmulator:
     def next_event_s(self) -> float:
         """When the next host byte finishes or the next byte reaches the host (inf: nothing due)."""
         with self._lock:
-            tx_s = self._tx[0][0] if self._tx else math.inf
             rx_s = self._in_flight[0][0] if self._in_flight else math.inf
-            return min(tx_s, rx_s)
+            return min(self._next_cause_s(), rx_s)
+
+    def _next_cause_s(self) -> float:
+        """When the next event that may send bytes to the host happens: a host byte finishing
+        (a servo may answer the packet it ends, or echo it)."""
+        return self._tx[0][0] if self._tx else math.inf
 
     def run_until_received(self, count: int, deadline_s: float) -> float:
         """For virtual clocks: run events in time order (without moving the clock) until
-        ``count`` bytes can be read or ``deadline_s``; returns that time (inf: never)."""
+        ``count`` bytes can be read or ``deadline_s``; returns that time (inf: never).
+
+        It stops at every event that may send the host bytes and at the byte in flight that
+        makes ``count``, not at each before it (which cannot make it): a request to a servo
+        and its reply in 7 stops, not 14. Too few in flight, it stops at each, so that they
+        have all arrived when it gives up."""
         with self._lock:
             time_s = self.clock.now()
             self._advance_to(time_s)
             while len(self._arrived) < count:
-                next_s = self.next_event_s()
+                needed, in_flight = count - len(self._arrived), self._in_flight
+                if len(in_flight) >= needed:
+                    arrival_s = heapq.nsmallest(needed, in_flight)[-1][0]
+                else:
+                    arrival_s = in_flight[0][0] if in_flight else math.inf
+                next_s = min(self._next_cause_s(), arrival_s)
                 if next_s > deadline_s or math.isinf(next_s):  # nothing more before the deadline
                     return deadline_s
                 self._advance_to(next_s)

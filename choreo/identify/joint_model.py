@@ -16,6 +16,7 @@ torque pushes it, the same for every candidate.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -23,6 +24,14 @@ import numpy as np
 
 from choreo.identify.neighbours import NeighbourPush, NeighbourReads, neighbour_push
 from choreo.preview.joint_load import JointLoad
+
+# the clip ufunc itself (``np.clip`` reaches it through three Python calls) and interp without
+# its Python wrapper, for the joint model's step loop, where a call's overhead is its cost
+_NUMPY_CORE = importlib.import_module(
+    "numpy._core" if np.lib.NumpyVersion(np.__version__) >= "2.0.0" else "numpy.core"
+)
+_clip: np.ufunc = _NUMPY_CORE.umath.clip
+_interp = _NUMPY_CORE.multiarray.interp
 
 # the joint model's step, 1.5 of the preview's. On a joint whose load is mostly its servo's own
 # armature (arm6's base, wrist_pitch, a coxa), 6 ms strayed 0.04-0.15° on average from a 1 ms
@@ -158,70 +167,132 @@ def _run(
     wanted, loaded, reloads = _aims(trial, figures, n_steps, dt_s)
     times = np.arange(1, n_steps + 1) * dt_s  # each position is the state after its step
     neighbours = pushed or push_of_neighbours(trial, load, dt_s)
-    half_band = np.radians(figures["deadband_deg"]) / 2
     half_play = np.radians(figures["backlash_deg"]) / 2
-    kp, stall = figures["kp_nm_rad"], figures["stall_torque_nm"]
+    stall = figures["stall_torque_nm"]
     damping = stall / np.radians(figures["no_load_speed_deg_s"])  # back-EMF, as the preview has it
     offset = np.radians(figures["offset_deg"])
     # its inertia with the neighbours free to move: it changes with the joint's angle by under
     # 2 % over a trial (arm6, tonypi), so one figure, which keeps the steps below scalar
     inertia = float(np.median(neighbours.joint_inertia_kg_m2))
-    neighbours_nm = neighbours.torque_nm
     per_implicit = dt_s / (inertia + dt_s * damping)  # MuJoCo's implicit damping, per step
-    keep_v = inertia * per_implicit / dt_s
-    # MuJoCo's soft dry friction (``SoftFriction``): below its limit it takes back all but a
-    # share of the torque and aims to stop the joint; it holds no joint dead still
-    friction = figures["friction_nm"]
-    held = -1 / (1 + inertia * load.friction.softness)
-    stopping = inertia * load.friction.damping_per_s - damping
-    grid_rad, gravity_nm = np.radians(load.angles_deg), load.gravity_nm
+    law = _Law(
+        half_band=np.radians(figures["deadband_deg"]) / 2,
+        kp=figures["kp_nm_rad"],
+        stall=stall,
+        friction=figures["friction_nm"],
+        per_implicit=per_implicit,
+        keep_v=inertia * per_implicit / dt_s,
+        # MuJoCo's soft dry friction (``SoftFriction``): below its limit it takes back all
+        # but a share of the torque and aims to stop the joint; it holds no joint dead still
+        held=-1 / (1 + inertia * load.friction.softness),
+        stopping=inertia * load.friction.damping_per_s - damping,
+        grid_rad=np.radians(load.angles_deg),
+        gravity_nm=load.gravity_nm,
+        supply_sag_per_nm=supply_sag_per_nm,
+        dt_s=dt_s,
+    )
     first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
-    q = np.full(k, first_read) + offset
-    v = np.zeros(k)
-    aim = wanted[0].copy()
     positions = np.empty((n_steps, k))
-    # the play's edges around each set-point, for every step at once (the loop is the cost of
-    # the whole fit: each numpy call in it runs ~4,000 times per candidate generation)
-    low_edge, high_edge = wanted - half_play, wanted + half_play
-    band_low, stall_low = -half_band, -stall
-    error, pull, torque, free_v, grip = (np.empty(k) for _ in range(5))
-    friction_low = -friction
     pushing = np.zeros((n_steps if record else 0, k))
-    pushed_nm, sag = np.empty(k), np.ones(k)
-    for step in range(n_steps):
-        if step in reloads:
+    steps = _Steps(wanted - half_play, wanted + half_play, loaded, reloads, neighbours.torque_nm)
+    _step_all(law, steps, np.full(k, first_read) + offset, wanted[0].copy(), positions, pushing)
+    positions -= offset
+    return times, positions, pushing
+
+
+@dataclass(frozen=True)
+class _Law:
+    """The servo's law and the joint's dynamics, one entry per candidate (or one for all)."""
+
+    half_band: np.ndarray
+    kp: np.ndarray
+    stall: np.ndarray
+    friction: np.ndarray
+    per_implicit: np.ndarray
+    keep_v: np.ndarray
+    held: float
+    stopping: np.ndarray
+    grid_rad: np.ndarray
+    gravity_nm: np.ndarray
+    supply_sag_per_nm: float
+    dt_s: float
+
+
+@dataclass(frozen=True)
+class _Steps:
+    """What each step brings, one row per step: the play's edges around the set-point, whether
+    the servo is loaded, the steps it loads again at (``_aims``), the neighbours' push."""
+
+    low_edge: np.ndarray
+    high_edge: np.ndarray
+    loaded: np.ndarray
+    reloads: set[int]
+    neighbours_nm: np.ndarray
+
+
+def _step_all(
+    law: _Law,
+    steps: _Steps,
+    q: np.ndarray,
+    aim: np.ndarray,
+    positions: np.ndarray,
+    pushing: np.ndarray,
+) -> None:
+    """Every step from angle ``q`` and aim ``aim`` (radians, with the offset): each
+    candidate's angle after it into ``positions`` and, if ``pushing`` has rows, its servo's
+    torque. This loop is the cost of the whole fit (it runs ~4,000 times per candidate
+    generation, each numpy call in it on a few dozen candidates, whose cost is per call): so
+    buffers kept, ``clip`` ufunc calls, and products made two at a time, in one call on
+    stacked rows."""
+    k = len(q)
+    error, inside, pull, step_q = np.empty((4, k))
+    # the scalars as arrays: numpy converts a Python float anew at each call, which costs
+    # half as much again as the call
+    one, held, dt_s = np.ones(k), np.full(k, law.held), np.full(k, law.dt_s)
+    # [torque, its size] * [sag, -sag per N·m]: the sagged torque and the next sag less 1
+    torque_and_size = np.empty((2, k))
+    sag_and_per_nm = np.array([one, np.full(k, -law.supply_sag_per_nm)])
+    torque, sag = torque_and_size[0], sag_and_per_nm[0]
+    band_low, stall_low, friction_low = -law.half_band, -law.stall, -law.friction
+    # [kept velocity, grip] = [keep_v, stopping] * v + [per_implicit, 1] * torque
+    of_v_by = np.array([law.keep_v, law.stopping])
+    of_torque_by = np.array([law.per_implicit, one])
+    of_v, of_torque, sums = np.empty((3, 2, k))
+    free_v, grip = sums
+    v = np.zeros(k)
+    sagging, record = law.supply_sag_per_nm, len(pushing) > 0
+    rows = zip(
+        steps.low_edge, steps.high_edge, steps.loaded.tolist(), steps.neighbours_nm, positions
+    )
+    for step, (low, high, loaded, neighbours_nm, after) in enumerate(rows):
+        if step in steps.reloads:
             aim = q.copy()
-        np.minimum(np.maximum(aim, low_edge[step], out=aim), high_edge[step], out=aim)
+        _clip(aim, low, high, out=aim)
         np.subtract(aim, q, out=error)
-        np.subtract(error, np.minimum(np.maximum(error, band_low), half_band), out=pull)
-        if loaded[step]:
-            np.multiply(kp, pull, out=torque)
-            np.minimum(np.maximum(torque, stall_low, out=torque), stall, out=torque)
+        np.subtract(error, _clip(error, band_low, law.half_band, out=inside), out=pull)
+        if loaded:
+            _clip(np.multiply(law.kp, pull, out=torque), stall_low, law.stall, out=torque)
             # torque and gain at the supply the last step's push left (as the physics emulator
             # has it); the back-EMF damping does not sag
-            if supply_sag_per_nm:
-                np.abs(torque, out=pushed_nm)
-                torque *= sag
-                np.multiply(pushed_nm, -supply_sag_per_nm, out=sag)
-                sag += 1.0
+            if sagging:
+                np.abs(torque, out=torque_and_size[1])
+                np.multiply(torque_and_size, sag_and_per_nm, out=torque_and_size)
+                np.add(torque_and_size[1], one, out=sag)
             if record:
                 np.abs(torque, out=pushing[step])
         else:
             torque.fill(0.0)
             sag.fill(1.0)
-        torque += np.interp(q, grid_rad, gravity_nm)
-        torque += neighbours_nm[step]
-        np.multiply(keep_v, v, out=free_v)
-        free_v += per_implicit * torque
-        np.multiply(stopping, v, out=grip)
-        grip += torque
+        torque += _interp(q, law.grid_rad, law.gravity_nm)
+        torque += neighbours_nm
+        np.multiply(of_v_by, v, out=of_v)
+        np.multiply(of_torque_by, torque, out=of_torque)
+        np.add(of_v, of_torque, out=sums)
         grip *= held
-        np.minimum(np.maximum(grip, friction_low, out=grip), friction, out=grip)
-        np.multiply(per_implicit, grip, out=v)
+        _clip(grip, friction_low, law.friction, out=grip)
+        np.multiply(law.per_implicit, grip, out=v)
         v += free_v
-        q = positions[step] = q + dt_s * v
-    positions -= offset
-    return times, positions, pushing
+        q = np.add(q, np.multiply(v, dt_s, out=step_q), out=after)
 
 
 def push_of_neighbours(trial: Trial, load: JointLoad, dt_s: float) -> NeighbourPush:
@@ -275,8 +346,9 @@ def _aims(
     below = np.floor(late).astype(int)
     above = np.minimum(below + 1, n_steps - 1)
     part = late - below
-    columns = np.arange(k)[None, :]
-    delayed = setpoints[below, columns] * (1 - part) + setpoints[above, columns] * part
+    late_setpoints = np.take_along_axis(setpoints, below, axis=0)
+    later_setpoints = np.take_along_axis(setpoints, above, axis=0)
+    delayed = late_setpoints * (1 - part) + later_setpoints * part
     return delayed + np.radians(figures["offset_deg"])[None, :], loaded, reloads
 
 

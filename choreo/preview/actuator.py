@@ -281,8 +281,9 @@ class ServoDrive:
         self.delay_steps = np.floor(steps).astype(int)
         self._delay_part = steps - self.delay_steps
         depth = int((self.delay_steps + (self._delay_part > 0)).max(initial=0)) + 1
+        # the last set-points, oldest first (a copy of the last rows each step: a ring's two
+        # rolls cost the emulated robot's twin, which steps one at a time, more than its step)
         self._history = np.tile(np.asarray(initial_rad, dtype=float), (depth, 1))
-        self._newest = 0  # the row of the history the newest set-point is in
         self._columns = np.arange(n)
         # without a delay the set-point is acted on as it comes: ``late + (older - late) * 0``
         # is ``late`` but for a zero's sign, which adding an offset of +0.0 (never -0.0) gives
@@ -313,12 +314,10 @@ class ServoDrive:
         if depth == 1:
             history[0] = setpoints_rad[-1]
             return setpoints_rad + self._offset_undelayed_rad
-        # the set-points oldest first, the history's before the new ones
-        line = np.concatenate((np.roll(history, -(self._newest + 1), axis=0), setpoints_rad))
+        line = np.concatenate((history, setpoints_rad))  # oldest first
         late_at = np.arange(depth, depth + steps)[:, None] - self.delay_steps
         late, older = line[late_at, self._columns], line[late_at - 1, self._columns]
-        self._newest = (self._newest + steps) % depth
-        self._history = np.roll(line[-depth:], self._newest + 1, axis=0)
+        self._history = line[-depth:].copy()
         return late + (older - late) * self._delay_part + self.offset_rad
 
     def follow(
@@ -344,10 +343,8 @@ class ServoDrive:
         waiting out the delay (but for float rounding), and aims within ``tolerance_rad`` (the
         gear play holds an aim where it was left, as the dead band holds a joint, so a
         tolerance and not equality)."""
-        return (
-            self._newest == other._newest
-            and np.allclose(self._history, other._history, rtol=0.0, atol=ROUNDING)
-            and bool(np.abs(self.aim_rad - other.aim_rad).max(initial=0.0) <= tolerance_rad)
+        return np.allclose(self._history, other._history, rtol=0.0, atol=ROUNDING) and bool(
+            np.abs(self.aim_rad - other.aim_rad).max(initial=0.0) <= tolerance_rad
         )
 
 

@@ -57,6 +57,9 @@ STAND_LIFT_M = 0.08  # a free-floating robot on a stand: its body this far above
 SAG_STEP = 0.002  # the servos' torque follows the supply in steps this fine (a fifth of 1 %)
 TRACE_LIMIT = 200_000  # physics steps kept in the trace (400 s at 2 ms)
 STEPS_AT_ONCE = 4096  # set-points computed together (a long wait needs no more memory)
+# set-points computed ahead of the steps asked for (until a servo is driven anew): a bus read
+# every 2 ms asks for one step at a time, whose set-points cost a dozen numpy calls each
+STEPS_AHEAD = 256
 
 
 @dataclass(frozen=True)
@@ -134,6 +137,8 @@ class PhysicsTwin:
         )
         self._origin_s = clock.now()  # bus time of the settled state
         self._steps = 0
+        # the set-points of steps _ahead_from... worked out ahead (none: rows 0)
+        self._ahead, self._ahead_from = np.empty((0, n)), 0
         self.servos: tuple[PhysicalServo, ...] = tuple(
             PhysicalServo(
                 j.servo_id,
@@ -187,6 +192,7 @@ class PhysicsTwin:
         self._end_s[joint] = setpoint.end_s
         self._unloaded[joint] = not loaded
         self._loaded_share[joint] = float(loaded)
+        self._ahead = self._ahead[:0]  # worked out for the old moves
 
     # --- stepping --------------------------------------------------------------------------
     def advance_to(self, time_s: float) -> None:
@@ -196,7 +202,7 @@ class PhysicsTwin:
             return
         qpos, joints = self._data.qpos, self._joint_qpos
         while self._steps < due:
-            setpoints = self._setpoints_rad(min(due, self._steps + STEPS_AT_ONCE))
+            setpoints = self._setpoints_ahead(min(due, self._steps + STEPS_AT_ONCE))
             self._make_room(self._steps + len(setpoints))
             for low_rad, high_rad in zip(*self._drive.play_edges(setpoints)):
                 self._step_physics(low_rad, high_rad)
@@ -225,11 +231,20 @@ class PhysicsTwin:
         self._trace_rad = np.concatenate((self._trace_rad, np.empty((more, len(self._zero)))))
         self._trace_v = np.concatenate((self._trace_v, np.empty(more)))
 
-    def _setpoints_rad(self, end: int) -> np.ndarray:
-        """Every servo's set-point at each step from the next one to ``end`` (steps, joints):
+    def _setpoints_ahead(self, end: int) -> np.ndarray:
+        """Every servo's set-point at each step from the next one to ``end`` (steps, joints),
+        from those worked out ahead (at least ``STEPS_AHEAD`` at a time)."""
+        first = self._steps - self._ahead_from
+        if first < 0 or end - self._ahead_from > len(self._ahead):
+            self._ahead_from, first = self._steps, 0
+            self._ahead = self._setpoints_rad(self._steps, max(end, self._steps + STEPS_AHEAD))
+        return self._ahead[first : first + end - self._steps]
+
+    def _setpoints_rad(self, start: int, end: int) -> np.ndarray:
+        """Every servo's set-point at each step from ``start`` to ``end`` (steps, joints):
         nothing drives the servos in between, so at once rather than one step at a time."""
-        now = self._origin_s + np.arange(self._steps, end)[:, None] * self.dt_s
-        moving = np.clip(np.minimum(now, self._end_s) - self._start_s, 0.0, None)
+        now = self._origin_s + np.arange(start, end)[:, None] * self.dt_s
+        moving = np.maximum(np.minimum(now, self._end_s) - self._start_s, 0.0)
         setpoint_units = self._start_units + self._velocity * moving
         return np.radians((setpoint_units - self._zero) * self._direction * DEG_PER_UNIT)
 

@@ -45,12 +45,11 @@ def twin(tmp_path, truth: dict | None = None) -> ServoBus:
     return ServoBus.from_settings(BusSettings(port=f"sim://?{query}"))
 
 
-# The full test moves and search: ~11 s of CPU (measured 2026-11-26, 18:10: the emulated bus and
-# its physics 6-7 s for the 26 s of moves, the fit 4 s, 4.6 s since it runs two searches side by
-# side); the minutes it takes on a loaded machine are waiting for a core. A shorter search does
-# not hold what this asserts (20 generations put the backlash 0.14° off this truth's). The fit's
-# joint model now steps in place (15 % less CPU); the emulated bus's share is spread over its
-# byte-by-byte framing and the physics steps (no one function over 10 %), so it was left as it is.
+# The full test moves and search: ~9 s of CPU (2026-11-27, 11:00, beside other work; 12 s on
+# main then): the emulated bus and its physics ~4.5 s for the 24 s of moves (13,000 reads, each
+# a physics step and a request's Python, no one function over 10 %), the fit ~4 s (two searches
+# side by side, its step loop ~20 numpy calls a step). A shorter search does not hold what this
+# asserts (20 generations put the backlash 0.14° off this truth's).
 def test_the_fitted_figures_find_a_hidden_truth_and_predict_held_out_moves(tmp_path):
     with twin(tmp_path, {"elbow": TRUTH}) as bus:
         report = identify(ARM6, bus, tmp_path / "figures.yaml", joints=["elbow"])
@@ -93,6 +92,7 @@ def test_a_run_keeps_every_joint_done_and_goes_on_from_the_next(tmp_path, quick)
         again = identify(ARM6, bus, output, joints=["base_yaw", "wrist_roll"])
     assert again.already == ("base_yaw",)
     assert [r.joint for r in again.identified] == ["wrist_roll"]
+    assert again.gait is None  # an arm does not walk: no gait (a walker's: the test below)
     assert list(yaml.safe_load(output.read_text())["joints"]) == ["base_yaw", "wrist_roll"]
 
 
@@ -165,8 +165,6 @@ def test_a_walkers_gait_is_recalibrated_with_the_measured_figures_and_kept_in_th
     assert report.gait == GaitCompensation(8.0, 1.09, 1.15)
     assert read_servo_figures(output, hexapod).gait == report.gait
     assert output.read_text().startswith("# hexapod18's servos as `choreo identify` measured")
-    with twin(tmp_path) as bus:  # an arm does not walk: no gait
-        assert identify(ARM6, bus, tmp_path / "arm.yaml", joints=["elbow"]).gait is None
 
 
 def test_a_walker_too_heavy_for_its_measured_servos_keeps_no_gait_and_says_why(
