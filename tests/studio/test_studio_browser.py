@@ -223,6 +223,18 @@ def test_a_second_tab_sees_and_changes_the_same_state(browser, first_tab, studio
         second.close()
 
 
+def test_keys_pressed_in_the_3d_view_reach_the_timeline(first_tab, studio):
+    page = first_tab
+    page.mouse.click(300, 200)  # the 3D view
+    page.keyboard.press("End")
+    plan = studio.session.plan
+    assert plan is not None
+    wait_for(lambda: studio.time_s == pytest.approx(plan.end_s, abs=1e-3), "End")
+    timeline = timeline_frame(page, studio)
+    wait_for(lambda: timeline.evaluate("() => window.choreoTimeline.time") == plan.end_s, "End")
+    assert page.title() == "choreo studio"
+
+
 def test_a_click_on_a_link_picks_its_joint_and_frame_the_robot_brings_it_back(first_tab, studio):
     page = first_tab
     (client,) = studio.server.get_clients().values()  # this module's one tab
