@@ -6,9 +6,9 @@ One studio and one page serve the browser tests; each test writes the motion it 
 studio's file and waits for the page to show it. The page is the timeline's own, as large as
 viser's page frames it: these tests are about the timeline, and viser's 3D view beside it would
 cost a software-rendering Chromium seconds to load and a quarter of a second for each change the
-studio draws in it (more than half of this file's CPU, Chromium's included). test_studio_browser.py drives the
-timeline in viser's page: framed there on the one address, and keys passed to it from the 3D
-view.
+studio draws in it (more than half of this file's CPU, Chromium's included).
+test_studio_browser.py drives the timeline in viser's page: framed there on the one address, and
+keys passed to it from the 3D view.
 """
 
 from __future__ import annotations
