@@ -3,13 +3,14 @@ not load or plan is refused with the file byte for byte as it was, a keyframe is
 every reload, other keyframes keep their time, and a write changes only what it must.
 
 Each test edits a copy of a motion of motions/ in tmp_path, as an animator would; the tests on
-arm6's wave share one studio, given to each as a new one on the file as shipped (``as_new``)."""
+arm6's wave share one studio, and those on its dance another, given to each as a new one on the
+file as shipped (``as_new``)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from studio_helpers import WAVE, as_new, body_sway_rise, refused, studio_on, times
+from studio_helpers import MOTIONS, WAVE, as_new, body_sway_rise, refused, studio_on, times
 
 from choreo.robot.kinematics import Kinematics
 
@@ -24,6 +25,21 @@ def wave_studio(tmp_path_factory):
 def studio(wave_studio):
     """A studio on motions/arm6/wave.yaml as shipped, as if just started."""
     return as_new(wave_studio, WAVE)
+
+
+DANCE = (MOTIONS / "arm6" / "dance.yaml").read_text()
+
+
+@pytest.fixture(scope="module")
+def dance_studio(tmp_path_factory):
+    with studio_on(tmp_path_factory.mktemp("editing"), "arm6/dance.yaml") as studio:
+        yield studio
+
+
+@pytest.fixture
+def dance(dance_studio):
+    """A studio on motions/arm6/dance.yaml as shipped, as if just started."""
+    return as_new(dance_studio, DANCE)
 
 
 def test_an_edit_is_refused_while_the_page_shows_a_plan_older_than_the_file(studio):
@@ -96,18 +112,18 @@ def test_a_write_that_would_not_plan_is_refused_with_the_nearest_time_that_works
     assert sorted(p.name for p in path.parent.iterdir()) == ["wave.yaml"]  # no trial left
 
 
-def test_a_dance_keyframe_that_would_not_plan_names_the_beat_that_works(tmp_path):
-    with studio_on(tmp_path, "arm6/dance.yaml") as studio:
-        path = studio.session.motion_path
-        before = path.read_bytes()
-        studio.scrub(10.8)
-        studio.move_joint("shoulder", 80)
-        studio.move_joint("elbow", -100)
-        studio.add_keyframe()
-        line = refused(studio)
-        assert "use bar 6 beat 2 or later (t 11.250)" in line
-        assert line.endswith("the nearest time that works is 11.25 s")
-        assert path.read_bytes() == before
+def test_a_dance_keyframe_that_would_not_plan_names_the_beat_that_works(dance):
+    studio = dance
+    path = studio.session.motion_path
+    before = path.read_bytes()
+    studio.scrub(10.8)
+    studio.move_joint("shoulder", 80)
+    studio.move_joint("elbow", -100)
+    studio.add_keyframe()
+    line = refused(studio)
+    assert "use bar 6 beat 2 or later (t 11.250)" in line
+    assert line.endswith("the nearest time that works is 11.25 s")
+    assert path.read_bytes() == before
 
 
 def test_adding_in_an_after_chain_keeps_every_other_keyframe_in_time(studio):
@@ -191,18 +207,18 @@ def test_update_writes_only_the_joints_that_changed(studio):
     )
 
 
-def test_a_no_op_move_keeps_bar_and_beat_and_writes_nothing(tmp_path):
-    with studio_on(tmp_path, "arm6/dance.yaml") as studio:
-        path = studio.session.motion_path
-        before = path.read_bytes()
-        studio.select_keyframe(5)  # bar: 2, beat: 3
-        studio.retime_keyframe()
-        assert refused(studio) == f"⛔ nothing written: {path} says this already"
-        studio.scrub(studio.time_s + 0.1)
-        studio.retime_keyframe()
-        assert path.read_text() == before.decode().replace(
-            "    bar: 2\n    beat: 3\n", "    bar: 2\n    beat: 3.187\n", 1
-        )
+def test_a_no_op_move_keeps_bar_and_beat_and_writes_nothing(dance):
+    studio = dance
+    path = studio.session.motion_path
+    before = path.read_bytes()
+    studio.select_keyframe(5)  # bar: 2, beat: 3
+    studio.retime_keyframe()
+    assert refused(studio) == f"⛔ nothing written: {path} says this already"
+    studio.scrub(studio.time_s + 0.1)
+    studio.retime_keyframe()
+    assert path.read_text() == before.decode().replace(
+        "    bar: 2\n    beat: 3\n", "    bar: 2\n    beat: 3.187\n", 1
+    )
 
 
 def test_a_site_keyframe_keeps_its_pitch(tmp_path):

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 import viser
-from studio_helpers import body_sway_rise, copy_motion, refused, studio_on
+from studio_helpers import WAVE, as_new, body_sway_rise, copy_motion, refused, studio_on
 from viser._messages import (
     SetOrientationMessage,
     SetPositionMessage,
@@ -45,6 +45,19 @@ keyframes:
   - pose: squat
     t: 1.5
 """
+
+
+@pytest.fixture(scope="module")
+def wave_studio(tmp_path_factory):
+    with studio_on(tmp_path_factory.mktemp("posing"), "arm6/wave.yaml") as studio:
+        yield studio
+
+
+@pytest.fixture
+def studio(wave_studio):
+    """A studio on motions/arm6/wave.yaml as shipped, as if just started (one for the module's
+    tests on it: a start costs more than their drags)."""
+    return as_new(wave_studio, WAVE)
 
 
 def posed_data(view: RobotView) -> mujoco.MjData:
@@ -126,28 +139,27 @@ def test_a_click_on_a_link_picks_its_joint_and_its_ring_turns_it_within_its_limi
         studio.close()
 
 
-def test_a_ring_dragged_on_reads_the_same_turn_once_the_robot_shown_is_the_posed_one(tmp_path):
+def test_a_ring_dragged_on_reads_the_same_turn_once_the_robot_shown_is_the_posed_one(studio):
     """A drag's moves all turn the ring from where it stood when the drag began. After the first,
     the robot shown is the posed one, not the simulation, whose joint axes lean a hair: the ring
     is read in the frame it was drawn in, not one a quarter turn round (a drag of -20° took the
     elbow to -105°)."""
-    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
-        view = studio.view
-        assert view is not None
-        elbow = view.robot.joint_names.index("elbow")
-        joint = view.model.joint(view.robot.joints[elbow].mjcf_joint)
-        studio.scrub(5.2)  # after the last keyframe: the simulated arm settles at home
-        body = view.model.body(int(joint.bodyid[0])).name
-        studio.pick_joint(*ray_to_body(view, body, np.array([0.0, -1.0, 0.0])))
-        shown_deg = float(np.degrees(view.qpos[joint.qposadr[0]]))
-        _, start = view.handle_pose(JOINT)
-        for turn_deg in (-5.0, -10.0, -20.0):
-            turned = quaternion_of(rotation_of(start) @ about_x(np.radians(turn_deg)))
-            studio.turn_joint("elbow", turned)
-            assert studio.posing is not None
-            # within the lean of the links above: posed, they leave the simulation's angles
-            # (a few tenths of a degree off the plan's) for the plan's
-            assert studio.posing[elbow] == pytest.approx(shown_deg + turn_deg, abs=0.5)
+    view = studio.view
+    assert view is not None
+    elbow = view.robot.joint_names.index("elbow")
+    joint = view.model.joint(view.robot.joints[elbow].mjcf_joint)
+    studio.scrub(5.2)  # after the last keyframe: the simulated arm settles at home
+    body = view.model.body(int(joint.bodyid[0])).name
+    studio.pick_joint(*ray_to_body(view, body, np.array([0.0, -1.0, 0.0])))
+    shown_deg = float(np.degrees(view.qpos[joint.qposadr[0]]))
+    _, start = view.handle_pose(JOINT)
+    for turn_deg in (-5.0, -10.0, -20.0):
+        turned = quaternion_of(rotation_of(start) @ about_x(np.radians(turn_deg)))
+        studio.turn_joint("elbow", turned)
+        assert studio.posing is not None
+        # within the lean of the links above: posed, they leave the simulation's angles
+        # (a few tenths of a degree off the plan's) for the plan's
+        assert studio.posing[elbow] == pytest.approx(shown_deg + turn_deg, abs=0.5)
 
 
 def test_the_ring_of_a_joint_reads_its_angle_whatever_way_its_axis_points():
@@ -287,23 +299,28 @@ class RunLater(ThreadPoolExecutor):
 def drag_in_a_tab(studio: Studio, name: str, moves, threads=RunAtOnce) -> None:
     """Drag handle ``name`` in tab ``TAB`` through ``moves`` ((position m, quaternion w x y z)
     each) and let go, through viser's own handlers of the tab's messages, on its event loop,
-    the work handed to threads done by ``threads``."""
+    the work handed to threads done by ``threads`` (viser's own threads again afterwards: the
+    studio may serve another test)."""
     server = studio.server
     loop = server._event_loop
+    scene = server.scene
     executor = threads()
-    server.scene._thread_executor = executor  # viser's, for plain callbacks
+    own = scene._thread_executor, loop._default_executor
+    scene._thread_executor = executor  # viser's, for plain callbacks
     loop.set_default_executor(executor)
 
     def handle(handler, message) -> None:
         asyncio.run_coroutine_threadsafe(handler(TAB, message), loop).result()
 
-    scene = server.scene
-    handle(scene._handle_transform_controls_drag_start, TransformControlsDragStartMessage(name))
-    for position, wxyz in moves:
-        update = TransformControlsUpdateMessage(name, tuple(wxyz), tuple(position))
-        handle(scene._handle_transform_controls_updates, update)
-    handle(scene._handle_transform_controls_drag_end, TransformControlsDragEndMessage(name))
-    executor.run_held()
+    try:
+        handle(scene._handle_transform_controls_drag_start, TransformControlsDragStartMessage(name))
+        for position, wxyz in moves:
+            update = TransformControlsUpdateMessage(name, tuple(wxyz), tuple(position))
+            handle(scene._handle_transform_controls_updates, update)
+        handle(scene._handle_transform_controls_drag_end, TransformControlsDragEndMessage(name))
+        executor.run_held()
+    finally:
+        scene._thread_executor, loop._default_executor = own
 
 
 def shown_in_the_tab(studio: Studio, name: str, dragged) -> tuple[np.ndarray, np.ndarray]:
@@ -326,49 +343,45 @@ def shown_in_the_tab(studio: Studio, name: str, dragged) -> tuple[np.ndarray, np
 
 @pytest.mark.parametrize("threads", [RunAtOnce, RunLater])
 def test_a_site_handle_dragged_out_of_reach_ends_on_the_site_in_the_tab_that_dragged_it(
-    tmp_path, threads
+    studio, threads
 ):
     """Whenever the studio's threads answer the moves: during the drag or after it."""
-    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
-        view = studio.view
-        assert view is not None
-        name = "/sites/tool"
-        start = view.handle_pose("tool")
-        reach = (start[0] + np.array([0.0, 0.0, -0.05]), start[1])  # down 5 cm: within reach
-        away = (start[0] + np.array([0.0, 0.0, 1.0]), start[1])  # a metre up: out of reach
-        drag_in_a_tab(studio, name, [reach, away], threads)
-        assert refused(studio).startswith("⛔ refused: tool cannot reach there: ")
-        site_m = posed_data(view).site("tool").xpos
-        assert np.allclose(site_m, reach[0], atol=0.002)  # the last move that worked
-        shown, _ = shown_in_the_tab(studio, name, away)
-        assert np.allclose(shown, site_m)
+    view = studio.view
+    assert view is not None
+    name = "/sites/tool"
+    start = view.handle_pose("tool")
+    reach = (start[0] + np.array([0.0, 0.0, -0.05]), start[1])  # down 5 cm: within reach
+    away = (start[0] + np.array([0.0, 0.0, 1.0]), start[1])  # a metre up: out of reach
+    drag_in_a_tab(studio, name, [reach, away], threads)
+    assert refused(studio).startswith("⛔ refused: tool cannot reach there: ")
+    site_m = posed_data(view).site("tool").xpos
+    assert np.allclose(site_m, reach[0], atol=0.002)  # the last move that worked
+    shown, _ = shown_in_the_tab(studio, name, away)
+    assert np.allclose(shown, site_m)
 
 
-def test_a_ring_turned_past_its_joints_limit_ends_at_the_limit_in_the_tab_that_turned_it(tmp_path):
-    with studio_on(tmp_path, "arm6/wave.yaml") as studio:
-        view = studio.view
-        assert view is not None
-        robot = view.robot
-        elbow, limits = robot.joint_names.index("elbow"), robot.joint("elbow").limits
-        joint = view.model.joint(robot.joints[elbow].mjcf_joint)
-        studio.pick_joint(
-            *ray_to_body(view, view.model.body(int(joint.bodyid[0])).name, [0, -1, 0])
-        )
-        position, wxyz = view.handle_pose(JOINT)
-        # 10° short of the limit (taken), then 20° past it: the elbow stops at the limit
-        start = studio._pose()[elbow]
-        short, past = (
-            quaternion_of(rotation_of(wxyz) @ about_x(np.radians(limits.max_deg + d - start)))
-            for d in (-10, 20)
-        )
-        drag_in_a_tab(studio, JOINT, [(position, short), (position, past)])
-        assert studio.said[-1] == (  # type: ignore[attr-defined]
-            f"elbow stops at its limit {limits.max_deg:g}° "
-            f"(the ring was turned to {limits.max_deg + 20:g}°)"
-        )
-        assert studio.posing is not None and studio.posing[elbow] == limits.max_deg
-        _, shown = shown_in_the_tab(studio, JOINT, (position, past))
-        assert view.turned_deg(elbow, shown) == pytest.approx(limits.max_deg, abs=0.05)
+def test_a_ring_turned_past_its_joints_limit_ends_at_the_limit_in_the_tab_that_turned_it(studio):
+    view = studio.view
+    assert view is not None
+    robot = view.robot
+    elbow, limits = robot.joint_names.index("elbow"), robot.joint("elbow").limits
+    joint = view.model.joint(robot.joints[elbow].mjcf_joint)
+    studio.pick_joint(*ray_to_body(view, view.model.body(int(joint.bodyid[0])).name, [0, -1, 0]))
+    position, wxyz = view.handle_pose(JOINT)
+    # 10° short of the limit (taken), then 20° past it: the elbow stops at the limit
+    start = studio._pose()[elbow]
+    short, past = (
+        quaternion_of(rotation_of(wxyz) @ about_x(np.radians(limits.max_deg + d - start)))
+        for d in (-10, 20)
+    )
+    drag_in_a_tab(studio, JOINT, [(position, short), (position, past)])
+    assert studio.said[-1] == (  # type: ignore[attr-defined]
+        f"elbow stops at its limit {limits.max_deg:g}° "
+        f"(the ring was turned to {limits.max_deg + 20:g}°)"
+    )
+    assert studio.posing is not None and studio.posing[elbow] == limits.max_deg
+    _, shown = shown_in_the_tab(studio, JOINT, (position, past))
+    assert view.turned_deg(elbow, shown) == pytest.approx(limits.max_deg, abs=0.05)
 
 
 def test_a_body_handle_dragged_out_of_reach_ends_on_the_body_in_the_tab_that_dragged_it(tmp_path):
