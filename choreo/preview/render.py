@@ -27,7 +27,7 @@ from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
 from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.floor import draw_infinite_planes_finite
-from choreo.preview.gl import context_class, forget_remembered, offscreen_backend
+from choreo.preview.gl import forget_remembered, give_back, offscreen_backend, take_context
 from choreo.preview.model import load_model
 from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
@@ -323,7 +323,8 @@ def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarra
 
 
 class FrameRenderer:
-    """An offscreen GL context and MuJoCo render context for one model and image size. It
+    """An offscreen GL context (given back for this thread's next render on ``close``) and a
+    MuJoCo render context for one model and image size. It
     sets the model's offscreen size and quality and, but for ``high_quality``, draws its infinite
     floor finite (floor.py)."""
 
@@ -344,8 +345,7 @@ class FrameRenderer:
             model.vis.quality.shadowsize = 1
             draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
         try:
-            self._gl = context_class(backend)(width, height)
-            self._gl.make_current()
+            self._gl = take_context(backend, width, height)
         except Exception as error:  # the GL libraries raise their own types
             forget_remembered()  # a back-end remembered from an earlier run: tried afresh next time
             if isinstance(error, PreviewError):
@@ -423,7 +423,7 @@ class FrameRenderer:
             self._gl.make_current()
             self._context.free()
             self._context = None
-            self._gl.free()
+            give_back(self._gl)  # for the next render: see gl.py
 
     def __enter__(self) -> FrameRenderer:
         return self
