@@ -25,6 +25,7 @@ import numpy as np
 from choreo.errors import PreviewError
 from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
+from choreo.preview.backdrop import Backdrop
 from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.floor import draw_infinite_planes_finite
 from choreo.preview.gl import forget_remembered, give_back, offscreen_backend, take_context
@@ -339,11 +340,16 @@ class FrameRenderer:
         self._model = model
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        # the still geoms drawn once (backdrop.py); not with shadows or reflections, which
+        # fall across what moves and what does not
+        self._backdrop: Backdrop | None = None
+        self._last_camera: CameraPose | None = None
         if not high_quality:
             model.vis.quality.offsamples = 0
             # shadows are off (below): no 4096² shadow map, 64 MB and ~0.04 s of CPU a context
             model.vis.quality.shadowsize = 1
             draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
+            self._backdrop = Backdrop(width, height)
         try:
             self._gl = take_context(backend, width, height)
         except Exception as error:  # the GL libraries raise their own types
@@ -390,16 +396,25 @@ class FrameRenderer:
         self._camera.distance = camera.distance
         self._camera.azimuth = camera.azimuth
         self._camera.elevation = camera.elevation
-        mujoco.mjv_updateScene(
-            self._model,
-            data,
-            self._option,
-            self._perturb,
-            self._camera,
-            mujoco.mjtCatBit.mjCAT_ALL,
-            self._scene,
-        )
-        mujoco.mjr_render(self._viewport, self._scene, self._context)
+        still = camera == self._last_camera  # a camera that stays put: its backdrop pays off
+        self._last_camera = camera
+
+        def draw(categories: int, sky: bool) -> mujoco.MjvScene:
+            mujoco.mjv_updateScene(
+                self._model,
+                data,
+                self._option,
+                self._perturb,
+                self._camera,
+                categories,
+                self._scene,
+            )
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = sky
+            mujoco.mjr_render(self._viewport, self._scene, self._context)
+            return self._scene
+
+        if not (still and self._backdrop and self._backdrop.draw_over(draw, camera)):
+            draw(mujoco.mjtCatBit.mjCAT_ALL, True)
         mujoco.mjr_overlay(
             mujoco.mjtFont.mjFONT_NORMAL,
             mujoco.mjtGridPos.mjGRID_TOPLEFT,
