@@ -13,6 +13,7 @@ reflects (the renderer's high quality, which draws every frame whole).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import mujoco
@@ -34,31 +35,36 @@ class Backdrop:
 
     def __init__(self, width: int, height: int):
         self.camera: object = None  # the camera the backdrop was drawn from
-        # colours read as RGBA (a pixel is laid over as one uint32), which GL draws into its
-        # RGBA framebuffer without converting: RGB took 4x the CPU
-        self._colour = np.empty((height, width, 4), np.uint8)
-        self._depth = np.empty((height, width), np.float32)
-        self._moving_colour = np.empty_like(self._colour)
-        self._moving_depth = np.empty_like(self._depth)
+        self._size = (height, width)
+
+    @functools.cached_property
+    def _buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The backdrop's colours and depths, and a frame's: made when first drawn (a camera
+        that follows the robot never is). Colours are read as RGBA (a pixel is laid over as
+        one uint32), which GL draws into its RGBA framebuffer without converting: RGB took 4x
+        the CPU."""
+        colours = [np.empty((*self._size, 4), np.uint8) for _ in range(2)]
+        depths = [np.empty(self._size, np.float32) for _ in range(2)]
+        return colours[0], depths[0], colours[1], depths[1]
 
     def draw_over(self, draw: Draw, camera: object) -> bool:
         """Draw the frame into the GL framebuffer as ``draw`` would draw it whole: what moves,
         laid over the backdrop (drawn first if ``camera`` is another). False, with nothing
         drawn that counts, when something that moves is transparent."""
+        still_colour, still_depth, colour, depth = self._buffers
         if camera != self.camera:
             draw(STILL, True)
-            _read(self._colour, self._depth)
+            _read(still_colour, still_depth)
             self.camera = camera
         scene = draw(MOVING, False)
         if any(scene.geoms[i].rgba[3] < OPAQUE_ALPHA for i in range(scene.ngeom)):
             return False
-        colour, depth = self._moving_colour, self._moving_depth
         _read(colour, depth)
         # the backdrop where it is nearer than what moves (MuJoCo's GEQUAL lets the later, what
         # moves, win a tie); where nothing moving was drawn its depth is the cleared 0, which
         # wins only over a backdrop as empty, of the same cleared colour
-        nearer = (depth < self._depth)[..., None]
-        np.copyto(colour.view(np.uint32), self._colour.view(np.uint32), where=nearer)
+        nearer = (depth < still_depth)[..., None]
+        np.copyto(colour.view(np.uint32), still_colour.view(np.uint32), where=nearer)
         from OpenGL import GL  # imported by the GL back-end, which fixed its platform
 
         GL.glDisable(GL.GL_DEPTH_TEST)  # mjr_render enables it again
