@@ -123,7 +123,10 @@ def add_song_to_video(video: Path, song: Path, song_at_start_s: float, duration_
     skip_s, delay_ms = max(0.0, song_at_start_s), round(max(0.0, -song_at_start_s) * 1000)
     command = [ffmpeg_exe(), "-v", "error", "-nostdin", "-y", "-i", str(video)]
     command += ["-ss", f"{skip_s:.6f}", "-i", str(song)]
-    command += ["-map", "0:v", "-map", "1:a", "-c:v", "copy", "-c:a", "aac", "-b:a", "128k"]
+    # AAC's fast coder: ffmpeg's default (twoloop) spends 0.6 s of CPU on an 18 s song, 2.5x
+    # the fast one's, for a difference no preview's listener hears at 128 kbit/s
+    command += ["-map", "0:v", "-map", "1:a", "-c:v", "copy"]
+    command += ["-c:a", "aac", "-aac_coder", "fast", "-b:a", "128k"]
     if delay_ms:
         command += ["-af", f"adelay={delay_ms}:all=1"]
     command += ["-t", f"{duration_s:.6f}", str(muxed)]

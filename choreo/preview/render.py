@@ -25,9 +25,10 @@ import numpy as np
 from choreo.errors import PreviewError
 from choreo.motion.music_block import BeatGrid, Music
 from choreo.music.decode import add_song_to_video
+from choreo.preview.backdrop import Backdrop
 from choreo.preview.findings import CheckKind, CheckResult
 from choreo.preview.floor import draw_infinite_planes_finite
-from choreo.preview.gl import context_class, forget_remembered, offscreen_backend
+from choreo.preview.gl import forget_remembered, give_back, offscreen_backend, take_context
 from choreo.preview.model import load_model
 from choreo.preview.rollout import Rollout
 from choreo.preview.simulated import SimulatedMotion, rollout_of
@@ -323,7 +324,8 @@ def _geom_corners(model, data, geoms: np.ndarray, unit: np.ndarray) -> np.ndarra
 
 
 class FrameRenderer:
-    """An offscreen GL context and MuJoCo render context for one model and image size. It
+    """An offscreen GL context (given back for this thread's next render on ``close``) and a
+    MuJoCo render context for one model and image size. It
     sets the model's offscreen size and quality and, but for ``high_quality``, draws its infinite
     floor finite (floor.py)."""
 
@@ -338,14 +340,18 @@ class FrameRenderer:
         self._model = model
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        # the still geoms drawn once (backdrop.py); not with shadows or reflections, which
+        # fall across what moves and what does not
+        self._backdrop: Backdrop | None = None
+        self._last_camera: CameraPose | None = None
         if not high_quality:
             model.vis.quality.offsamples = 0
             # shadows are off (below): no 4096² shadow map, 64 MB and ~0.04 s of CPU a context
             model.vis.quality.shadowsize = 1
             draw_infinite_planes_finite(model)  # half the frame's CPU otherwise: see floor.py
+            self._backdrop = Backdrop(width, height)
         try:
-            self._gl = context_class(backend)(width, height)
-            self._gl.make_current()
+            self._gl = take_context(backend, width, height)
         except Exception as error:  # the GL libraries raise their own types
             forget_remembered()  # a back-end remembered from an earlier run: tried afresh next time
             if isinstance(error, PreviewError):
@@ -390,16 +396,25 @@ class FrameRenderer:
         self._camera.distance = camera.distance
         self._camera.azimuth = camera.azimuth
         self._camera.elevation = camera.elevation
-        mujoco.mjv_updateScene(
-            self._model,
-            data,
-            self._option,
-            self._perturb,
-            self._camera,
-            mujoco.mjtCatBit.mjCAT_ALL,
-            self._scene,
-        )
-        mujoco.mjr_render(self._viewport, self._scene, self._context)
+        still = camera == self._last_camera  # a camera that stays put: its backdrop pays off
+        self._last_camera = camera
+
+        def draw(categories: int, sky: bool) -> mujoco.MjvScene:
+            mujoco.mjv_updateScene(
+                self._model,
+                data,
+                self._option,
+                self._perturb,
+                self._camera,
+                categories,
+                self._scene,
+            )
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = sky
+            mujoco.mjr_render(self._viewport, self._scene, self._context)
+            return self._scene
+
+        if not (still and self._backdrop and self._backdrop.draw_over(draw, camera)):
+            draw(mujoco.mjtCatBit.mjCAT_ALL, True)
         mujoco.mjr_overlay(
             mujoco.mjtFont.mjFONT_NORMAL,
             mujoco.mjtGridPos.mjGRID_TOPLEFT,
@@ -423,7 +438,7 @@ class FrameRenderer:
             self._gl.make_current()
             self._context.free()
             self._context = None
-            self._gl.free()
+            give_back(self._gl)  # for the next render: see gl.py
 
     def __enter__(self) -> FrameRenderer:
         return self

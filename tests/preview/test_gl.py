@@ -3,6 +3,8 @@ worked so that the next process need not try them again."""
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import mujoco
 import pytest
 
@@ -19,6 +21,12 @@ def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("CHOREO_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
     return tmp_path / "cache" / gl.REMEMBERED
+
+
+def in_a_new_thread(function, *args):
+    """``function(*args)`` in a thread that has no GL context kept from an earlier render."""
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(function, *args).result()
 
 
 def trials(monkeypatch, works: tuple[str, ...]) -> list[str]:
@@ -207,9 +215,49 @@ def test_a_remembered_backend_that_fails_to_render_is_forgotten(monkeypatch, cac
         def __init__(self, width, height):
             raise RuntimeError("eglInitialize failed")
 
-    monkeypatch.setattr("choreo.preview.render.context_class", lambda backend: Broken)
+    monkeypatch.setattr(gl, "context_class", lambda backend: Broken)
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     with pytest.raises(PreviewError, match="cannot create an offscreen egl context: eglInit"):
-        FrameRenderer(model, 16, 16, "egl")
+        in_a_new_thread(FrameRenderer, model, 16, 16, "egl")
     assert not (cache / gl.machine_key()).exists()
     assert check_cache.recall(gl.REMEMBERED, gl.machine_key()) is None
+
+
+class FakeContext:
+    """A GL context that only records what is done with it."""
+
+    made: list[FakeContext] = []
+
+    def __init__(self, width, height):
+        self.size, self.current, self.freed = (width, height), 0, False
+        FakeContext.made.append(self)
+
+    def make_current(self):
+        self.current += 1
+
+    def free(self):
+        self.freed = True
+
+
+def test_a_context_given_back_is_taken_again_by_its_thread_for_frames_it_fits(monkeypatch):
+    monkeypatch.setattr(gl, "context_class", lambda backend: FakeContext)
+    monkeypatch.setattr(FakeContext, "made", [])
+
+    def renders():
+        first = gl.take_context("egl", 320, 240)
+        gl.give_back(first)
+        smaller = gl.take_context("egl", 160, 120)  # the kept one fits
+        assert smaller is first and first.context.current == 2
+        larger = gl.take_context("egl", 640, 480)  # none kept fits: a new one
+        other_backend = gl.take_context("osmesa", 16, 16)
+        assert len({id(c) for c in (first, larger, other_backend)}) == 3
+        for offscreen in (larger, other_backend, smaller):
+            gl.give_back(offscreen)
+        return first
+
+    first = in_a_new_thread(renders)
+    assert len(FakeContext.made) == 3
+    # two are kept: the oldest given back beyond them is freed
+    assert [c.freed for c in FakeContext.made] == [False, True, False]
+    # another thread has none of them
+    assert in_a_new_thread(gl.take_context, "egl", 320, 240).context is not first.context
