@@ -4,10 +4,9 @@ reach it, and how the planner's ruckig profiles are assembled into one (``assemb
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
+from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
@@ -250,7 +249,7 @@ def _integrate(
     phase_s = _phase_major([s.phase_s for s in segments], n)
     jerk = _phase_major([s.jerk for s in segments], n)
     p = start_deg
-    v = _float_array(s.v0 for s in segments).reshape(len(segments), n)
+    v = np.array([s.v0 for s in segments])  # (S, n)
     a = np.zeros_like(p)
     t = np.repeat(leave_s[:, None], n, axis=1)
     knots = np.empty((PHASES, len(segments), n))
@@ -268,15 +267,6 @@ def _integrate(
 
 def _phase_major(per_segment: list[list[float]], n: int) -> np.ndarray:
     """Lists of ``[joint * 7 + phase]`` values, one per segment, as one (7, S, n) array."""
-    flat = _float_array(per_segment).reshape(len(per_segment), n, PHASES)
-    return np.ascontiguousarray(flat.transpose(2, 0, 1))
-
-
-def _float_array(rows: Iterable[list[float]]) -> np.ndarray:
-    """Lists of Python floats (ruckig's, the planner's) joined into one flat float64 array. The
-    doubles are packed by struct: numpy's converters (np.array, np.fromiter) take twice the work
-    for each float, and the planner's segments bring half a million of them."""
-    flat: list[float] = []
-    for row in rows:
-        flat += row
-    return np.frombuffer(struct.pack(f"{len(flat)}d", *flat))
+    size = len(per_segment) * n * PHASES
+    flat = np.fromiter(chain.from_iterable(per_segment), float, size)
+    return np.ascontiguousarray(flat.reshape(len(per_segment), n, PHASES).transpose(2, 0, 1))
