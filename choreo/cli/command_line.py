@@ -19,7 +19,6 @@ import logging
 import os
 import signal
 import sys
-import tempfile
 import traceback
 import warnings
 from collections.abc import Iterator, Sequence
@@ -247,6 +246,8 @@ EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE (sysexits.h): an internal software error
 
 def report_bug(error: BaseException, verbose: int) -> int:
     """A bug: one line that says so, the traceback on stderr with -v, else in a file."""
+    import tempfile  # (with shutil and random) only for a bug: not on every command's start
+
     trace = "".join(traceback.format_exception(error))
     where = "above"
     if verbose:

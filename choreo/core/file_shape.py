@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from functools import cache
-from importlib import resources
+from pathlib import Path
 from typing import Any
 
 
@@ -23,9 +23,16 @@ class Shape:
     required: tuple[str, ...]
 
 
+# Beside the package's modules, as pyproject ships them. Read by path: importlib.resources
+# brings zipfile and tempfile into every command's start (with the lazy imports of tempfile,
+# difflib and decimal, some 30 million instructions of a `choreo plan`) for a package that is
+# never run from a zip.
+SCHEMA_FOLDER = Path(__file__).resolve().parents[1] / "schema"
+
+
 @cache
 def _schema(name: str) -> dict[str, Any]:
-    text = (resources.files("choreo") / "schema" / f"{name}.schema.json").read_text()
+    text = (SCHEMA_FOLDER / f"{name}.schema.json").read_text(encoding="utf-8")
     return json.loads(text)
 
 

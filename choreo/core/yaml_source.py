@@ -9,12 +9,10 @@ caller raises one ``SourceError`` with everything at the end.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from decimal import Context, Decimal
 from pathlib import Path
 from typing import NamedTuple
 
@@ -91,6 +89,8 @@ _PREFIX = re.compile(r"^(.+?):(\d+):(\d+): ")
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
     """`` (did you mean 'x'?)`` for the closest of ``choices``, or ``""`` when none is close."""
+    import difflib  # only for a message: not on every load
+
     close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
@@ -128,6 +128,8 @@ def fmt(value: float) -> str:
     if isinstance(value, int) and not isinstance(value, bool):
         if abs(value) < 10**16:
             return str(value)
+        from decimal import Context, Decimal  # only for a message: not on every load
+
         return f"{Decimal(value).normalize(Context(prec=6)):g}"
     return f"{value:g}"
 
