@@ -4,10 +4,12 @@ MuJoCo (some 0.2 s of every ``choreo plan``) to check a model that has not chang
 A passed check is remembered under a digest of everything it depends on: the robot file, every
 file in the model's and the scene's folders (the XML and YAML files by content, the others,
 meshes and textures, by size and time of change), the code that reads robot files and checks
-models, and the installed MuJoCo. Only passes are remembered, so a problem is found and reported
-again every time; a model that names a file outside its folders is never remembered (its files
-are not all known here). The cache is ``$CHOREO_CACHE_DIR``, else ``$XDG_CACHE_HOME/choreo``,
-else ``~/.cache/choreo``; where it cannot be read or written, the check simply runs.
+models, and the installed MuJoCo. Files are named from the robot file's folder, so the same
+files elsewhere find the check passed (a performer stages each part's robot in a new folder).
+Only passes are remembered, so a problem is found and reported again every time; a model that
+names a file outside its folders is never remembered (its files are not all known here). The
+cache is ``$CHOREO_CACHE_DIR``, else ``$XDG_CACHE_HOME/choreo``, else ``~/.cache/choreo``; where
+it cannot be read or written, the check simply runs.
 """
 
 from __future__ import annotations
@@ -36,13 +38,14 @@ def check_key(robot_path: Path, model_paths: list[Path]) -> str | None:
     remembered under; None if it cannot be remembered (a file named outside the folders, a
     folder too big to be a model's, no MuJoCo, a file that cannot be read)."""
     digest = hashlib.sha256(CACHE_VERSION)
+    robot_path = Path(robot_path).resolve()
     try:
         _add_mujoco(digest)
-        _add_content(digest, Path(robot_path))
+        _add_content(digest, robot_path, robot_path.parent)
         for code in sorted(_CODE.glob("*.py")):
-            _add_content(digest, code)
+            _add_content(digest, code, _CODE)
         for folder in sorted({Path(p).parent.resolve() for p in model_paths}):
-            if not _add_folder(digest, folder):
+            if not _add_folder(digest, folder, robot_path.parent):
                 return None
     except (OSError, LookupError) as error:
         log.debug("model check not remembered: %s", error)
@@ -108,28 +111,40 @@ def _add_mujoco(digest: hashlib._Hash) -> None:
     digest.update(f"{spec.origin}\0{stat.st_size}\0{stat.st_mtime_ns}\0".encode())
 
 
-def _add_content(digest: hashlib._Hash, path: Path) -> None:
-    digest.update(f"{path}\0".encode())
+def _add_content(digest: hashlib._Hash, path: Path, base: Path) -> None:
+    digest.update(f"{_relative(path, base)}\0".encode())
     digest.update(hashlib.sha256(path.read_bytes()).digest())
 
 
-def _add_folder(digest: hashlib._Hash, folder: Path) -> bool:
-    """Every file in ``folder`` and below; False if one of its models names a file outside it
-    or it holds too many files to be a model's folder."""
+def _add_folder(digest: hashlib._Hash, folder: Path, base: Path) -> bool:
+    """Every file in ``folder`` and below, named from ``base`` (the robot file's folder); False
+    if one of its models names a file outside it or it holds too many files to be a model's
+    folder."""
     files = sorted(p for p in folder.rglob("*") if p.is_file())
     if len(files) > MAX_FOLDER_FILES:
         return False
     for path in files:
+        name = _relative(path, base)
         if path.suffix.lower() not in _CONTENT_SUFFIXES:
             stat = path.stat()
-            digest.update(f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}\0".encode())
+            digest.update(f"{name}\0{stat.st_size}\0{stat.st_mtime_ns}\0".encode())
             continue
         data = path.read_bytes()
         if path.suffix.lower() == ".xml" and _names_outside(data):
             return False
-        digest.update(f"{path}\0".encode())
+        digest.update(f"{name}\0".encode())
         digest.update(hashlib.sha256(data).digest())
     return True
+
+
+def _relative(path: Path, base: Path) -> str:
+    """``path`` as named from ``base``: the key does not change with where the robot's files
+    are, only with what they hold and how they lie to each other (a performer stages each part's
+    robot in a new folder, and so finds the check its copy of the same files passed before)."""
+    try:
+        return Path(os.path.relpath(path, base)).as_posix()
+    except ValueError:  # on another drive (Windows): named in full
+        return str(path)
 
 
 def _names_outside(xml: bytes) -> bool:

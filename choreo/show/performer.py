@@ -38,10 +38,6 @@ from choreo.play.player import Player
 from choreo.play.preflight import ServoLimits, preflight, unchecked
 from choreo.play.realtime import PLAY_PRIORITY, how_to_allow
 from choreo.play.report import Outcome, PlayProgress, StreamReport
-
-# Loading a robot checks its MJCF with MuJoCo, slow to import (a second on a Pi): import it when
-# the performer starts, not while it stages a part during the show's countdown.
-from choreo.robot import model_check  # noqa: F401
 from choreo.robot.types import Robot
 from choreo.show.custody import (
     DEFAULT_MAX_SILENCE_S,
@@ -320,6 +316,8 @@ class Performer:
             raise _Refusal("", f"no conductor holds show {part.show_id} (no liveliness token): "
                            "a part is taken only from a running `choreo show`")  # fmt: skip
         try:
+            # its robot's model check (MuJoCo, a second to import on a Pi) runs only the first
+            # time these robot files are staged here: passed, it is remembered (check_cache)
             motion = unpack(part, Path(folder.name))
             compiled = compile_motion(motion)
         except SourceError as error:

@@ -22,10 +22,28 @@ RATE_HZ = 22050
 FRAME_RATE_HZ = RATE_HZ / COARSE_HOP
 
 
-def librosas(envelope: np.ndarray, bpm) -> np.ndarray:
-    import librosa.beat
+@functools.cache
+def librosa_beat():
+    """librosa.beat, its one numba function librosa leaves uncached (``__beat_local_score``,
+    compiled at every import: 2 to 3.5 s of CPU) cached like the others, in the NUMBA_CACHE_DIR
+    conftest.py sets (not in librosa's site-packages): librosa's own code, compiled once per
+    machine instead of once per run."""
+    import numba
 
-    _, frames = librosa.beat.beat_track(
+    guvectorize = numba.guvectorize
+
+    def cached(*args, **kwargs):
+        return guvectorize(*args, **{**kwargs, "cache": True})
+
+    numba.guvectorize = cached  # read as librosa.beat's decorators run, at its import
+    try:
+        return importlib.import_module("librosa.beat")
+    finally:
+        numba.guvectorize = guvectorize
+
+
+def librosas(envelope: np.ndarray, bpm) -> np.ndarray:
+    _, frames = librosa_beat().beat_track(
         onset_envelope=envelope, sr=RATE_HZ, hop_length=COARSE_HOP, trim=False, bpm=bpm
     )
     return frames

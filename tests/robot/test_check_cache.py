@@ -55,6 +55,13 @@ def test_a_passed_check_is_not_run_again_and_gives_the_same_robot(cache, checks)
     assert len(list((cache / "model-checks").iterdir())) == 2
 
 
+def test_the_same_files_in_another_folder_find_the_check_passed(cache, checks, tmp_path):
+    """As a performer finds it, staging each part's robot in a folder of its own."""
+    first = load_robot(copy_of("arm6", tmp_path / "one"))
+    again = load_robot(copy_of("arm6", tmp_path / "two"))
+    assert len(checks) == 1 and again.free_floating is first.free_floating is False
+
+
 def test_a_changed_model_is_checked_again_and_its_problem_reported(cache, checks, tmp_path):
     path = copy_of("arm6", tmp_path)
     load_robot(path)
