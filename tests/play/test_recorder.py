@@ -19,6 +19,7 @@ from emulated import PATIENT_READS, WAIT_S, home_specs, wait_for
 from choreo.bus.protocol import Command
 from choreo.bus.servo_bus import ServoBus
 from choreo.cli import main
+from choreo.cli.record_commands import KEYS
 from choreo.core.clock import VirtualClock
 from choreo.emulator import BusEmulator, connection
 from choreo.errors import BusError, ChoreoError, OptionError
@@ -582,9 +583,13 @@ def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_pa
             if p.packet.servo_id == 3
         ]
 
-    def hang_up_once_unloaded(_said) -> None:
+    def hang_up_at_the_prompt(_said) -> None:
         try:
-            wait_for(lambda: torque_of_elbow() == [b"\x00"], "the recorder to unload the elbow")
+            # the keys are printed (to the command's stdout: sys.stdout here too) just before the
+            # prompt reads; a SIGHUP sent as soon as the elbow was unloaded could come before
+            # them, on a busy machine, and end the command as interrupted (130), not at the prompt
+            wait_for(lambda: KEYS in sys.stdout.getvalue(), "the recorder's prompt")
+            assert torque_of_elbow() == [b"\x00"]  # unloaded to be posed by hand
             os.kill(os.getpid(), signal.SIGHUP)
             wait_for(lambda: len(torque_of_elbow()) == 2, "the recorder to load the elbow again")
         finally:
@@ -593,7 +598,7 @@ def test_sighup_during_record_loads_the_taught_joints_again(arm_on_a_pty, tmp_pa
     with signal_noted(signal.SIGHUP) as unhandled, keyboard, open(read_end) as typed:
         monkeypatch.setattr(sys, "stdin", typed)
         code, stdout, stderr = main_while(
-            monkeypatch, hang_up_once_unloaded, [*argv, *PATIENT_READS[:2]]
+            monkeypatch, hang_up_at_the_prompt, [*argv, *PATIENT_READS[:2]]
         )
     assert unhandled == []
     assert code == 1, stderr
