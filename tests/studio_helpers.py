@@ -8,6 +8,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import pytest
 from paths import DATA, REPO
 
 from choreo.core.atomic import write_text_atomically
@@ -54,6 +55,25 @@ def studio_on(tmp_path: Path, motion: str, text: str | None = None) -> Iterator[
 
 
 RELOAD_WAIT_S = 30.0  # a reload after a save, simulated, on a busy machine
+
+
+def shared_studio(motion: str, name: str):
+    """Two fixtures, for a module's tests on ``motions/<motion>`` as shipped: ``name``, a studio
+    on it as if just started (``as_new``), and behind it the module's one studio, started once
+    (a start costs more than most tests' edits). Both go to module names, where pytest finds
+    them: ``_wave, studio = shared_studio("arm6/wave.yaml", "studio")``."""
+    text = (MOTIONS / motion).read_text()
+
+    @pytest.fixture(scope="module", name=f"{name}_shared")
+    def started(tmp_path_factory):
+        with studio_on(tmp_path_factory.mktemp(name), motion) as studio:
+            yield studio
+
+    @pytest.fixture(name=name)
+    def fresh(request):
+        return as_new(request.getfixturevalue(f"{name}_shared"), text)
+
+    return started, fresh
 
 
 def as_new(studio: Studio, text: str) -> Studio:

@@ -10,36 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from studio_helpers import MOTIONS, WAVE, as_new, body_sway_rise, refused, studio_on, times
+from studio_helpers import WAVE, body_sway_rise, refused, shared_studio, studio_on, times
 
 from choreo.robot.kinematics import Kinematics
 
-
-@pytest.fixture(scope="module")
-def wave_studio(tmp_path_factory):
-    with studio_on(tmp_path_factory.mktemp("editing"), "arm6/wave.yaml") as studio:
-        yield studio
-
-
-@pytest.fixture
-def studio(wave_studio):
-    """A studio on motions/arm6/wave.yaml as shipped, as if just started."""
-    return as_new(wave_studio, WAVE)
-
-
-DANCE = (MOTIONS / "arm6" / "dance.yaml").read_text()
-
-
-@pytest.fixture(scope="module")
-def dance_studio(tmp_path_factory):
-    with studio_on(tmp_path_factory.mktemp("editing"), "arm6/dance.yaml") as studio:
-        yield studio
-
-
-@pytest.fixture
-def dance(dance_studio):
-    """A studio on motions/arm6/dance.yaml as shipped, as if just started."""
-    return as_new(dance_studio, DANCE)
+_wave, studio = shared_studio("arm6/wave.yaml", "studio")
+_dance, dance = shared_studio("arm6/dance.yaml", "dance")
 
 
 def test_an_edit_is_refused_while_the_page_shows_a_plan_older_than_the_file(studio):

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 import viser
-from studio_helpers import WAVE, as_new, body_sway_rise, copy_motion, refused, studio_on
+from studio_helpers import body_sway_rise, copy_motion, refused, shared_studio, studio_on
 from viser._messages import (
     SetOrientationMessage,
     SetPositionMessage,
@@ -47,17 +47,8 @@ keyframes:
 """
 
 
-@pytest.fixture(scope="module")
-def wave_studio(tmp_path_factory):
-    with studio_on(tmp_path_factory.mktemp("posing"), "arm6/wave.yaml") as studio:
-        yield studio
-
-
-@pytest.fixture
-def studio(wave_studio):
-    """A studio on motions/arm6/wave.yaml as shipped, as if just started (one for the module's
-    tests on it: a start costs more than their drags)."""
-    return as_new(wave_studio, WAVE)
+# one studio for the module's tests on arm6's wave: a start costs more than their drags
+_wave, studio = shared_studio("arm6/wave.yaml", "studio")
 
 
 def posed_data(view: RobotView) -> mujoco.MjData:
