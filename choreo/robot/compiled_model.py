@@ -10,12 +10,18 @@ What a file compiles to is known by its text and the text of the MJCF files it i
 (``<include file=...>``, each found from the first file's folder as MuJoCo finds it): an edit
 to any of them is compiled afresh. Meshes and textures read from files are not watched (the
 studio, which reloads a robot when its files change, watches the MJCF and the scene alone too).
+
+MuJoCo's warnings go to choreo's log from the moment this module is imported (every model choreo
+simulates or draws is compiled here). Left to itself, MuJoCo prints each one on stderr and adds
+it to a MUJOCO_LOG.TXT in whatever folder the user is in; choreo reports what matters of them in
+its own words (an unstable simulation is an error naming the joint, from MuJoCo's counters).
 """
 
 from __future__ import annotations
 
 import copy
 import hashlib
+import logging
 import re
 import threading
 from collections import OrderedDict
@@ -27,6 +33,14 @@ KEPT = 8  # compiled models kept (a scene with its skybox is ~5 MB)
 _INCLUDE = re.compile(rb"<include\s+file\s*=\s*[\"']([^\"']+)[\"']")
 _compiled: OrderedDict[tuple[Path, bytes], mujoco.MjModel] = OrderedDict()
 _lock = threading.Lock()  # the studio loads models from more than one thread
+log = logging.getLogger(__name__)
+
+
+def _log_mujoco_warning(message: str) -> None:
+    log.debug("MuJoCo: %s", message)
+
+
+mujoco.set_mju_user_warning(_log_mujoco_warning)
 
 
 def compiled_model(path: str | Path) -> mujoco.MjModel:

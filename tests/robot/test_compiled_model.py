@@ -61,3 +61,19 @@ def test_a_file_mujoco_cannot_compile_raises_its_error_every_time(tmp_path):
         compiled_model(tmp_path / "scene.xml")
     with pytest.raises(ValueError):
         compiled_model(tmp_path / "absent.xml")
+
+
+def test_mujocos_warnings_go_to_the_log_not_to_stderr_or_a_file_in_the_users_folder(
+    tmp_path, monkeypatch, capfd, caplog
+):
+    (tmp_path / "robot.xml").write_text(ROBOT.format(name="r", size=0.05))
+    model = compiled_model(tmp_path / "robot.xml")
+    monkeypatch.chdir(tmp_path)
+    data = mujoco.MjData(model)
+    data.qvel[:] = 1e30  # MuJoCo warns of it, and resets the state
+    with caplog.at_level("DEBUG", logger="choreo.robot.compiled_model"):
+        mujoco.mj_step(model, data)
+    assert data.warning[mujoco.mjtWarning.mjWARN_BADQVEL].number == 1  # still counted
+    assert "huge value in QVEL" in caplog.text
+    assert capfd.readouterr().err == ""
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
