@@ -190,11 +190,14 @@ def _run(
         supply_sag_per_nm=supply_sag_per_nm,
         dt_s=dt_s,
     )
-    first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
+    aim = wanted[0].copy()
+    first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else aim
     positions = np.empty((n_steps, k))
     pushing = np.zeros((n_steps if record else 0, k))
-    steps = _Steps(wanted - half_play, wanted + half_play, loaded, reloads, neighbours.torque_nm)
-    _step_all(law, steps, np.full(k, first_read) + offset, wanted[0].copy(), positions, pushing)
+    low_edge = wanted - half_play
+    high_edge = np.add(wanted, half_play, wanted)  # (wanted's buffer: it is not read again)
+    steps = _Steps(low_edge, high_edge, loaded, reloads, neighbours.torque_nm)
+    _step_all(law, steps, np.full(k, first_read) + offset, aim, positions, pushing)
     positions -= offset
     return times, positions, pushing
 
@@ -355,15 +358,23 @@ def _aims(
         setpoints[begin:end] = here + delta * np.minimum(elapsed / np.maximum(duration, 1e-9), 1.0)
         moved = np.minimum(max(until_s - command.at_s, 0.0) / np.maximum(duration, 1e-9), 1.0)
         here = here + delta * moved  # where the next command finds the set-point
+    # each step's set-point late by the delay: between two steps' (the flat array's rows), in
+    # buffers kept over the (steps, k) arrays, which are a fit's largest (a fresh one's pages
+    # cost as much as filling it)
     late = np.arange(n_steps)[:, None] - figures["response_delay_s"][None, :] / dt_s
-    late = np.clip(late, 0, n_steps - 1)
-    below = np.floor(late).astype(int)
-    above = np.minimum(below + 1, n_steps - 1)
-    part = late - below
-    late_setpoints = np.take_along_axis(setpoints, below, axis=0)
-    later_setpoints = np.take_along_axis(setpoints, above, axis=0)
-    delayed = late_setpoints * (1 - part) + later_setpoints * part
-    return delayed + np.radians(figures["offset_deg"])[None, :], loaded, reloads
+    _clip(late, 0, n_steps - 1, late)
+    part = np.floor(late)
+    below = part.astype(np.intp)
+    np.subtract(late, part, part)  # the share of the later step's
+    below *= k  # where each candidate's earlier step is in the flat set-points
+    below += np.arange(k)
+    delayed = setpoints.take(below)
+    np.minimum(below + k, setpoints.size - k + np.arange(k), below)  # its later one (or last)
+    later = setpoints.take(below)
+    np.multiply(delayed, np.subtract(1, part, late), delayed)
+    delayed += np.multiply(later, part, later)
+    delayed += np.radians(figures["offset_deg"])[None, :]
+    return delayed, loaded, reloads
 
 
 def reading_error_deg(trial: Trial, predicted_deg: np.ndarray) -> np.ndarray:
