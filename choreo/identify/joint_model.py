@@ -21,16 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.identify.compiled import clip as _clip
+from choreo.identify.compiled import interp as _interp
 from choreo.identify.neighbours import NeighbourPush, NeighbourReads, neighbour_push
 from choreo.preview.joint_load import JointLoad
-
-# the clip ufunc itself (``np.clip`` reaches it through three Python calls) and interp without
-# its Python wrapper, for the joint model's step loop, where a call's overhead is its cost. They
-# live in numpy's private modules (numpy._core from 2.0, numpy.core before): a numpy that moves
-# them gets the public functions, the same numbers a little slower.
-_NUMPY_CORE = getattr(np, "_core", None) or getattr(np, "core", None)
-_clip = getattr(getattr(_NUMPY_CORE, "umath", None), "clip", np.clip)
-_interp = getattr(getattr(_NUMPY_CORE, "multiarray", None), "interp", np.interp)
 
 # the joint model's step, 1.5 of the preview's. On a joint whose load is mostly its servo's own
 # armature (arm6's base, wrist_pitch, a coxa), 6 ms strayed 0.04-0.15° on average from a 1 ms
