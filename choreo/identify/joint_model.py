@@ -363,7 +363,7 @@ def _aims(
     below *= k  # where each candidate's earlier step is in the flat set-points
     below += np.arange(k)
     delayed = setpoints.take(below)
-    np.minimum(below + k, setpoints.size - k + np.arange(k), below)  # its later one (or last)
+    np.minimum(below + k, setpoints.size - k + np.arange(k), out=below)  # the later (or last)
     later = setpoints.take(below)
     np.multiply(delayed, np.subtract(1, part, late), delayed)
     delayed += np.multiply(later, part, later)
