@@ -45,7 +45,7 @@ def twin(tmp_path, truth: dict | None = None) -> ServoBus:
     return ServoBus.from_settings(BusSettings(port=f"sim://?{query}"))
 
 
-# The full test moves, and 30 of the search's 45 generations: ~3.5 s of CPU (2026-11-27, 14:10,
+# The full test moves, and 30 of the search's 45 generations: ~3.5 s of CPU (2026-11-27, 13:40,
 # beside other work): the emulated bus and its physics ~1.9 s for the 24 s of moves (13,000
 # reads, each a physics step and a request's Python), the fit ~1.6 s (two searches side by
 # side). The default search's convergence on a hidden truth is test_fit.py's (its whole fit);
