@@ -5,6 +5,7 @@
 - :mod:`~choreo.identify.measure`: running them with reads as fast as the bus allows;
 - :mod:`~choreo.identify.joint_model`: the servo on its joint, simulated for many candidates;
 - :mod:`~choreo.identify.neighbours`: the joint's neighbours, yielding under it as servos do;
+- :mod:`~choreo.identify.compiled`: numpy's clip and interp without their wrappers;
 - :mod:`~choreo.identify.fit`: the fit (CMA-ES, :mod:`~choreo.identify.search`) and the
   validation on held-out moves.
 """

@@ -21,16 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.identify.compiled import clip as _clip
+from choreo.identify.compiled import interp as _interp
 from choreo.identify.neighbours import NeighbourPush, NeighbourReads, neighbour_push
 from choreo.preview.joint_load import JointLoad
-
-# the clip ufunc itself (``np.clip`` reaches it through three Python calls) and interp without
-# its Python wrapper, for the joint model's step loop, where a call's overhead is its cost. They
-# live in numpy's private modules (numpy._core from 2.0, numpy.core before): a numpy that moves
-# them gets the public functions, the same numbers a little slower.
-_NUMPY_CORE = getattr(np, "_core", None) or getattr(np, "core", None)
-_clip = getattr(getattr(_NUMPY_CORE, "umath", None), "clip", np.clip)
-_interp = getattr(getattr(_NUMPY_CORE, "multiarray", None), "interp", np.interp)
 
 # the joint model's step, 1.5 of the preview's. On a joint whose load is mostly its servo's own
 # armature (arm6's base, wrist_pitch, a coxa), 6 ms strayed 0.04-0.15° on average from a 1 ms
@@ -190,11 +184,14 @@ def _run(
         supply_sag_per_nm=supply_sag_per_nm,
         dt_s=dt_s,
     )
-    first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else wanted[0]
+    aim = wanted[0].copy()
+    first_read = np.radians(trial.read_deg[0]) if len(trial.read_deg) else aim
     positions = np.empty((n_steps, k))
     pushing = np.zeros((n_steps if record else 0, k))
-    steps = _Steps(wanted - half_play, wanted + half_play, loaded, reloads, neighbours.torque_nm)
-    _step_all(law, steps, np.full(k, first_read) + offset, wanted[0].copy(), positions, pushing)
+    low_edge = wanted - half_play
+    high_edge = np.add(wanted, half_play, wanted)  # (wanted's buffer: it is not read again)
+    steps = _Steps(low_edge, high_edge, loaded, reloads, neighbours.torque_nm)
+    _step_all(law, steps, np.full(k, first_read) + offset, aim, positions, pushing)
     positions -= offset
     return times, positions, pushing
 
@@ -240,58 +237,73 @@ def _step_all(
     """Every step from angle ``q`` and aim ``aim`` (radians, with the offset): each
     candidate's angle after it into ``positions`` and, if ``pushing`` has rows, its servo's
     torque. This loop is the cost of the whole fit (it runs ~4,000 times per candidate
-    generation, each numpy call in it on a few dozen candidates, whose cost is per call): so
-    buffers kept, ``clip`` ufunc calls, and products made two at a time, in one call on
-    stacked rows."""
+    generation, each numpy call in it on a few dozen candidates, whose cost is per call, not
+    per element): so buffers kept, ``clip`` ufunc calls, products made several at a time in one
+    call on stacked rows, and the ufuncs called as local names with their output passed by
+    position (a keyword and a module attribute cost 15 % of a call more)."""
     k = len(q)
-    error, inside, pull, step_q = np.empty((4, k))
+    add, subtract, multiply, absolute, clip, interp = (
+        np.add,
+        np.subtract,
+        np.multiply,
+        np.absolute,
+        _clip,
+        _interp,
+    )
+    error, inside, pull = np.empty((3, k))
     # the scalars as arrays: numpy converts a Python float anew at each call, which costs
     # half as much again as the call
-    one, held, dt_s = np.ones(k), np.full(k, law.held), np.full(k, law.dt_s)
+    one, held = np.ones(k), np.full(k, law.held)
     # [torque, its size] * [sag, -sag per N·m]: the sagged torque and the next sag less 1
     torque_and_size = np.empty((2, k))
     sag_and_per_nm = np.array([one, np.full(k, -law.supply_sag_per_nm)])
-    torque, sag = torque_and_size[0], sag_and_per_nm[0]
+    torque, size, sag = torque_and_size[0], torque_and_size[1], sag_and_per_nm[0]
     band_low, stall_low, friction_low = -law.half_band, -law.stall, -law.friction
-    # [kept velocity, grip] = [keep_v, stopping] * v + [per_implicit, 1] * torque
-    of_v_by = np.array([law.keep_v, law.stopping])
-    of_torque_by = np.array([law.per_implicit, one])
-    of_v, of_torque, sums = np.empty((3, 2, k))
-    free_v, grip = sums
+    half_band, kp, stall, friction = law.half_band, law.kp, law.stall, law.friction
+    grid_rad, gravity_nm, per_implicit = law.grid_rad, law.gravity_nm, law.per_implicit
+    # [step, kept velocity, grip] = [dt, keep_v, stopping] * v + [0, per_implicit, 1] * torque:
+    # the products with v made at the end of a step, for its step and the next one's sums
     v = np.zeros(k)
+    of_v_by = np.array([np.full(k, law.dt_s), law.keep_v, law.stopping])
+    of_v = np.multiply(of_v_by, v)
+    step_q, kept_and_grip = of_v[0], of_v[1:]
+    of_torque_by = np.array([per_implicit, one])
+    of_torque, sums = np.empty((2, 2, k))
+    free_v, grip = sums
     sagging, record = law.supply_sag_per_nm, len(pushing) > 0
-    rows = zip(
-        steps.low_edge, steps.high_edge, steps.loaded.tolist(), steps.neighbours_nm, positions
-    )
-    for step, (low, high, loaded, neighbours_nm, after) in enumerate(rows):
-        if step in steps.reloads:
+    reloads = steps.reloads
+    # the neighbours' push a row of candidates a step (a scalar costs a conversion each call)
+    neighbours_nm = np.broadcast_to(steps.neighbours_nm[:, None], (len(steps.neighbours_nm), k))
+    rows = zip(steps.low_edge, steps.high_edge, steps.loaded.tolist(), neighbours_nm, positions)
+    for step, (low, high, loaded, pushed_nm, after) in enumerate(rows):
+        if step in reloads:
             aim = q.copy()
-        _clip(aim, low, high, out=aim)
-        np.subtract(aim, q, out=error)
-        np.subtract(error, _clip(error, band_low, law.half_band, out=inside), out=pull)
+        clip(aim, low, high, aim)
+        subtract(aim, q, error)
+        subtract(error, clip(error, band_low, half_band, inside), pull)
         if loaded:
-            _clip(np.multiply(law.kp, pull, out=torque), stall_low, law.stall, out=torque)
+            clip(multiply(kp, pull, torque), stall_low, stall, torque)
             # torque and gain at the supply the last step's push left (as the physics emulator
             # has it); the back-EMF damping does not sag
             if sagging:
-                np.abs(torque, out=torque_and_size[1])
-                np.multiply(torque_and_size, sag_and_per_nm, out=torque_and_size)
-                np.add(torque_and_size[1], one, out=sag)
+                absolute(torque, size)
+                multiply(torque_and_size, sag_and_per_nm, torque_and_size)
+                add(size, one, sag)
             if record:
-                np.abs(torque, out=pushing[step])
+                absolute(torque, pushing[step])
         else:
             torque.fill(0.0)
             sag.fill(1.0)
-        torque += _interp(q, law.grid_rad, law.gravity_nm)
-        torque += neighbours_nm
-        np.multiply(of_v_by, v, out=of_v)
-        np.multiply(of_torque_by, torque, out=of_torque)
-        np.add(of_v, of_torque, out=sums)
-        grip *= held
-        _clip(grip, friction_low, law.friction, out=grip)
-        np.multiply(law.per_implicit, grip, out=v)
-        v += free_v
-        q = np.add(q, np.multiply(v, dt_s, out=step_q), out=after)
+        add(torque, interp(q, grid_rad, gravity_nm), torque)
+        add(torque, pushed_nm, torque)
+        multiply(of_torque_by, torque, of_torque)
+        add(kept_and_grip, of_torque, sums)
+        multiply(grip, held, grip)
+        clip(grip, friction_low, friction, grip)
+        multiply(per_implicit, grip, v)
+        add(v, free_v, v)
+        multiply(of_v_by, v, of_v)
+        q = add(q, step_q, after)
 
 
 def push_of_neighbours(trial: Trial, load: JointLoad, dt_s: float) -> NeighbourPush:
@@ -340,15 +352,23 @@ def _aims(
         setpoints[begin:end] = here + delta * np.minimum(elapsed / np.maximum(duration, 1e-9), 1.0)
         moved = np.minimum(max(until_s - command.at_s, 0.0) / np.maximum(duration, 1e-9), 1.0)
         here = here + delta * moved  # where the next command finds the set-point
+    # each step's set-point late by the delay: between two steps' (the flat array's rows), in
+    # buffers kept over the (steps, k) arrays, which are a fit's largest (a fresh one's pages
+    # cost as much as filling it)
     late = np.arange(n_steps)[:, None] - figures["response_delay_s"][None, :] / dt_s
-    late = np.clip(late, 0, n_steps - 1)
-    below = np.floor(late).astype(int)
-    above = np.minimum(below + 1, n_steps - 1)
-    part = late - below
-    late_setpoints = np.take_along_axis(setpoints, below, axis=0)
-    later_setpoints = np.take_along_axis(setpoints, above, axis=0)
-    delayed = late_setpoints * (1 - part) + later_setpoints * part
-    return delayed + np.radians(figures["offset_deg"])[None, :], loaded, reloads
+    _clip(late, 0, n_steps - 1, late)
+    part = np.floor(late)
+    below = part.astype(np.intp)
+    np.subtract(late, part, part)  # the share of the later step's
+    below *= k  # where each candidate's earlier step is in the flat set-points
+    below += np.arange(k)
+    delayed = setpoints.take(below)
+    np.minimum(below + k, setpoints.size - k + np.arange(k), out=below)  # the later (or last)
+    later = setpoints.take(below)
+    np.multiply(delayed, np.subtract(1, part, late), delayed)
+    delayed += np.multiply(later, part, later)
+    delayed += np.radians(figures["offset_deg"])[None, :]
+    return delayed, loaded, reloads
 
 
 def reading_error_deg(trial: Trial, predicted_deg: np.ndarray) -> np.ndarray:

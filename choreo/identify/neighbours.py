@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from choreo.identify.compiled import clip
 from choreo.preview.actuator import ActuatorParams
 from choreo.preview.joint_load import JointLoad
 
@@ -130,9 +131,11 @@ def neighbour_push(
     moved = np.concatenate([moved, _sagged(steady[0], per_rad[0], half_band, kp)[len(used) :]])
     velocity = np.zeros(len(rows))
     pushed, modelled = np.empty(n_steps), np.empty((n_steps, len(rows)))
+    # (the bounds negated once, and the clip ufunc itself: np.clip's wrappers cost more than it)
+    band_low, minus_kp, stall_low = -half_band, -kp, -stall
     for step in range(n_steps):
-        pull = moved - np.clip(moved, -half_band, half_band)
-        torque = np.clip(-kp * pull, -stall, stall) + steady[step] + per_rad[step] @ moved
+        pull = moved - clip(moved, band_low, half_band)
+        torque = clip(minus_kp * pull, stall_low, stall) + steady[step] + per_rad[step] @ moved
         torque -= damping * velocity
         pushed[step] = joint_per_rad[step] @ moved - through[step] @ torque
         velocity += per_implicit[step] @ torque - through[step] * joint_change[step]

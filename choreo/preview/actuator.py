@@ -308,6 +308,18 @@ class ServoDrive:
         wanted = self._acted_on(setpoints_rad)
         return wanted - self.half_play_rad, wanted + self.half_play_rad
 
+    def edges_ahead(self, setpoints_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``play_edges`` of set-points that may not all be reached (a servo driven anew cuts
+        them short), the delay line left where it is; with the line, for ``move_on``."""
+        line = np.concatenate((self._history, setpoints_rad))  # oldest first
+        wanted = self._delayed(line, len(setpoints_rad))
+        return wanted - self.half_play_rad, wanted + self.half_play_rad, line
+
+    def move_on(self, line: np.ndarray, steps: int) -> None:
+        """The delay line moved on by the first ``steps`` set-points of ``line`` (from
+        ``edges_ahead``), as ``play_edges`` of those would have moved it."""
+        self._history = line[steps : steps + len(self._history)].copy()
+
     def _acted_on(self, setpoints_rad: np.ndarray) -> np.ndarray:
         history, steps = self._history, len(setpoints_rad)
         depth = len(history)
@@ -315,9 +327,17 @@ class ServoDrive:
             history[0] = setpoints_rad[-1]
             return setpoints_rad + self._offset_undelayed_rad
         line = np.concatenate((history, setpoints_rad))  # oldest first
+        self._history = line[-depth:].copy()
+        return self._delayed(line, steps)
+
+    def _delayed(self, line: np.ndarray, steps: int) -> np.ndarray:
+        """The last ``steps`` rows of ``line`` (the delay line, then the new set-points) as
+        the servos act on them."""
+        depth = len(line) - steps
+        if depth == 1:
+            return line[1:] + self._offset_undelayed_rad
         late_at = np.arange(depth, depth + steps)[:, None] - self.delay_steps
         late, older = line[late_at, self._columns], line[late_at - 1, self._columns]
-        self._history = line[-depth:].copy()
         return late + (older - late) * self._delay_part + self.offset_rad
 
     def follow(

@@ -117,14 +117,18 @@ class PhysicsTwin:
         self._sag = 1.0
         self._per_stall = 1 / np.maximum(self._stall_nm, 1e-9)
         self._temp_c = np.full(n, AMBIENT_C)
-        self._per_step_of_thermal_time = self.dt_s / THERMAL_TIME_S
         # a step's arrays, kept: each step is a dozen numpy calls on a handful of servos, whose
         # cost is per call (views and buffers rather than copies, as ``StepLoop`` has them)
         self._joint_qpos = as_slice(self._index.qpos)
         self._actuator_at = as_slice(self._index.actuator)
         self._unloaded = np.zeros(n, dtype=bool)
+        self._any_unloaded = False
         self._loaded_share = np.ones(n)  # 1.0 for a loaded servo: its current counts
         self._ctrl, self._load, self._heat, self._cooling = np.empty((4, n))
+        # the thermal law's figures as arrays (numpy converts a Python float at each call)
+        self._rise_c = np.full(n, RISE_AT_STALL_C)
+        self._ambient_c = np.full(n, AMBIENT_C)
+        self._per_step_of_thermal_time = np.full(n, self.dt_s / THERMAL_TIME_S)
         # the trace: a ring of the last TRACE_LIMIT steps (grown as they come), step k's row
         # at (k - 1) % TRACE_LIMIT, made into ``TraceStep`` only when asked for
         self._trace_rad, self._trace_v = np.empty((0, n)), np.empty(0)
@@ -137,8 +141,11 @@ class PhysicsTwin:
         )
         self._origin_s = clock.now()  # bus time of the settled state
         self._steps = 0
-        # the set-points of steps _ahead_from... worked out ahead (none: rows 0)
-        self._ahead, self._ahead_from = np.empty((0, n)), 0
+        # the play edges of steps _ahead_from... worked out ahead (none: rows 0), and the delay
+        # line they were worked out on (``ServoDrive.edges_ahead``; None: moved on)
+        self._ahead_low = self._ahead_high = np.empty((0, n))
+        self._ahead_from = 0
+        self._ahead_line: np.ndarray | None = None
         self.servos: tuple[PhysicalServo, ...] = tuple(
             PhysicalServo(
                 j.servo_id,
@@ -157,7 +164,7 @@ class PhysicsTwin:
     def position_deg(self, time_s: float) -> np.ndarray:
         """Where the joints really are at bus time ``time_s`` (robot order)."""
         self.advance_to(time_s)
-        return np.degrees(self._data.qpos[self._index.qpos])
+        return np.degrees(self._data.qpos[self._joint_qpos])
 
     def body_position_m(self, time_s: float) -> np.ndarray | None:
         """Where a free-floating robot's body is at bus time ``time_s`` (world frame, m): how
@@ -191,8 +198,9 @@ class PhysicsTwin:
         self._velocity[joint] = setpoint.velocity_units_s
         self._end_s[joint] = setpoint.end_s
         self._unloaded[joint] = not loaded
+        self._any_unloaded = bool(self._unloaded.any())
         self._loaded_share[joint] = float(loaded)
-        self._ahead = self._ahead[:0]  # worked out for the old moves
+        self._stop_ahead()  # worked out for the old moves
 
     # --- stepping --------------------------------------------------------------------------
     def advance_to(self, time_s: float) -> None:
@@ -202,9 +210,9 @@ class PhysicsTwin:
             return
         qpos, joints = self._data.qpos, self._joint_qpos
         while self._steps < due:
-            setpoints = self._setpoints_ahead(min(due, self._steps + STEPS_AT_ONCE))
-            self._make_room(self._steps + len(setpoints))
-            for low_rad, high_rad in zip(*self._drive.play_edges(setpoints)):
+            low, high = self._edges_ahead(min(due, self._steps + STEPS_AT_ONCE))
+            self._make_room(self._steps + len(low))
+            for low_rad, high_rad in zip(low, high):
                 self._step_physics(low_rad, high_rad)
                 row = self._steps % TRACE_LIMIT
                 self._trace_rad[row] = qpos[joints]
@@ -231,14 +239,27 @@ class PhysicsTwin:
         self._trace_rad = np.concatenate((self._trace_rad, np.empty((more, len(self._zero)))))
         self._trace_v = np.concatenate((self._trace_v, np.empty(more)))
 
-    def _setpoints_ahead(self, end: int) -> np.ndarray:
-        """Every servo's set-point at each step from the next one to ``end`` (steps, joints),
-        from those worked out ahead (at least ``STEPS_AHEAD`` at a time)."""
+    def _edges_ahead(self, end: int) -> tuple[np.ndarray, np.ndarray]:
+        """The servos' play edges (``ServoDrive.play_edges``) at each step from the next one to
+        ``end`` (steps, joints), from those worked out ahead: at least ``STEPS_AHEAD`` steps'
+        set-points at a time, and their edges with them (a bus read every 2 ms asks for one
+        step at a time, whose set-points and edges cost two dozen numpy calls each)."""
         first = self._steps - self._ahead_from
-        if first < 0 or end - self._ahead_from > len(self._ahead):
+        if first < 0 or end - self._ahead_from > len(self._ahead_low):
+            self._stop_ahead()
             self._ahead_from, first = self._steps, 0
-            self._ahead = self._setpoints_rad(self._steps, max(end, self._steps + STEPS_AHEAD))
-        return self._ahead[first : first + end - self._steps]
+            setpoints = self._setpoints_rad(self._steps, max(end, self._steps + STEPS_AHEAD))
+            self._ahead_low, self._ahead_high, self._ahead_line = self._drive.edges_ahead(setpoints)
+        rows = slice(first, first + end - self._steps)
+        return self._ahead_low[rows], self._ahead_high[rows]
+
+    def _stop_ahead(self) -> None:
+        """The servos' delay line moved on to the step reached, the edges worked out ahead of
+        it dropped (a servo driven anew, or all of them used)."""
+        if self._ahead_line is not None:
+            self._drive.move_on(self._ahead_line, self._steps - self._ahead_from)
+            self._ahead_line = None
+        self._ahead_low = self._ahead_high = self._ahead_low[:0]
 
     def _setpoints_rad(self, start: int, end: int) -> np.ndarray:
         """Every servo's set-point at each step from ``start`` to ``end`` (steps, joints):
@@ -253,7 +274,8 @@ class PhysicsTwin:
         model, data, actuators = self._model, self._data, self._actuator_at
         position = data.qpos[self._joint_qpos]
         ctrl = self._drive.follow(low_rad, high_rad, position, out=self._ctrl)
-        np.copyto(ctrl, position, where=self._unloaded)  # unloaded: no torque
+        if self._any_unloaded:
+            np.copyto(ctrl, position, where=self._unloaded)  # unloaded: no torque
         data.ctrl[actuators] = ctrl
         sag = self._supply_now_v / self.supply_v if self.supply_v else 1.0
         if abs(sag - self._sag) > SAG_STEP:
@@ -264,9 +286,9 @@ class PhysicsTwin:
         current_a = self._idle_a + STALL_CURRENT_A * float(np.dot(load, self._loaded_share))
         self._supply_now_v = max(0.0, self.supply_v - self.resistance_ohm * current_a)
         # towards RISE_AT_STALL_C * load² above the ambient, by dt / THERMAL_TIME_S of the way
-        heat = np.multiply(load, RISE_AT_STALL_C, out=self._heat)
+        heat = np.multiply(load, self._rise_c, out=self._heat)
         heat *= load
-        heat -= np.subtract(self._temp_c, AMBIENT_C, out=self._cooling)
+        heat -= np.subtract(self._temp_c, self._ambient_c, out=self._cooling)
         heat *= self._per_step_of_thermal_time
         self._temp_c += heat
 

@@ -215,3 +215,27 @@ def test_set_points_known_for_a_stretch_of_steps_give_what_one_step_at_a_time_gi
             stepped.ctrl(setpoints[k], positions[k])
         assert np.array_equal(stretched.aim_rad, reference.aim)
         assert stretched.same_as(stepped, 0.0)  # the same set-points waiting out the delay
+
+
+def test_edges_worked_out_ahead_and_cut_short_are_what_play_edges_gives():
+    """The emulated robot works a stretch's play edges out ahead (``edges_ahead``) and, when
+    a servo is driven anew, moves the delay line on by the steps it took (``move_on``): the
+    edges ``play_edges`` gives for those steps, and after them the same delay line (the next
+    stretch's edges equal), with delays of whole steps and between two."""
+    rng = np.random.default_rng(13)
+    figures = {
+        name: {"response_delay_s": delay, "backlash_deg": 1.0, "offset_deg": 0.5}
+        for name, delay in zip(ARM6.joint_names, (0.0, 0.004, 0.0037, 0.011))
+    }
+    params = list(actuator_params(ARM6, figures)[:4])
+    initial = rng.uniform(-1.0, 1.0, 4)
+    played, ahead = ServoDrive(params, DT_S, initial), ServoDrive(params, DT_S, initial)
+    setpoints = initial + np.cumsum(rng.normal(0.0, 0.01, (400, 4)), axis=0)
+    begin = 0
+    for used in (3, 0, 1, 20, 64, 150):  # of 64 or more worked out ahead
+        low, high, line = ahead.edges_ahead(setpoints[begin : begin + max(used, 64)])
+        expected_low, expected_high = played.play_edges(setpoints[begin : begin + used])
+        assert np.array_equal(low[:used], expected_low), begin
+        assert np.array_equal(high[:used], expected_high), begin
+        ahead.move_on(line, used)
+        begin += used
