@@ -1,9 +1,9 @@
 """``choreo perform`` (on each robot's computer) and ``choreo show`` (the conductor).
 
 Zenoh (``choreo[show]``) is imported only when one of them runs, so every other command works
-without it. What only one of them uses is imported there too: a performer never loads rich, the
-song's decoder or the show file's reader (some 0.05 s of CPU at each start), and ``choreo
---help`` none of it.
+without it. What only one of them uses is imported by its handler (``loads``): a performer never
+loads rich, the song's decoder or the show file's reader (some 0.05 s of CPU at each start),
+and ``choreo --help`` none of it.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from choreo.cli.arguments import (
     bus_settings,
     file_path,
     float_in,
+    loads,
     say_built_in_emulator,
     stop_signals_as_ctrl_c,
 )
@@ -146,6 +147,9 @@ def _say(text: str) -> None:
 
 
 # --- choreo perform --------------------------------------------------------------------------
+@loads(
+    "choreo.bus.servo_bus", "choreo.show.performer", "choreo.show.network", "choreo.play.robot_bus"
+)
 def run_perform(args: argparse.Namespace) -> int:
     from choreo.bus.servo_bus import ServoBus
     from choreo.show.performer import Performer
@@ -187,6 +191,18 @@ def _open_bus(args: argparse.Namespace, robot: Robot) -> ServoBus:
 
 
 # --- choreo show -----------------------------------------------------------------------------
+@loads(
+    "rich.console",
+    "rich.progress",
+    "rich.table",
+    "choreo.show.conductor",
+    "choreo.show.network",
+    "choreo.show.showfile",
+    "choreo.validate",
+    "choreo.play.report",
+    "choreo.music.decode",
+    "choreo.play.soundtrack",
+)
 def run_show(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn
