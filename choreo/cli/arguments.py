@@ -113,6 +113,28 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
             signal.signal(signum, handler)
 
 
+# The modules each handler imports where it runs (see loads)
+_HANDLER_MODULES: dict[Callable[[argparse.Namespace], int], tuple[str, ...]] = {}
+
+
+def loads(*modules: str) -> Callable[[Callable[[argparse.Namespace], int]], Callable]:
+    """A command's handler that imports ``modules`` inside, not at its module's top, so that
+    ``choreo --help`` (which imports every command module to list them) does not load them.
+    ``main`` loads them before it calls the handler, as it loads the command's module: the
+    collector paused, Ctrl-C, SIGTERM and SIGHUP deferred (see :func:`handler_modules`)."""
+
+    def mark(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+        _HANDLER_MODULES[handler] = modules
+        return handler
+
+    return mark
+
+
+def handler_modules(handler: Callable[[argparse.Namespace], int]) -> tuple[str, ...]:
+    """The modules ``handler`` was marked as importing where it runs (:func:`loads`)."""
+    return _HANDLER_MODULES.get(handler, ())
+
+
 @contextlib.contextmanager
 def ctrl_c_deferred() -> Iterator[None]:
     """Inside, Ctrl-C, SIGTERM and SIGHUP wait for the block to end, then raise

@@ -116,10 +116,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         # meanwhile end the command as they do once it runs, once the modules are loaded
         # (interrupted inside a compiled module's initialisation, Python would end by the
         # signal, not with 130)
-        from choreo.cli.arguments import ctrl_c_deferred
+        from choreo.cli.arguments import ctrl_c_deferred, handler_modules
 
         with ctrl_c_deferred(), collector_paused():
             args = build_parser(argv).parse_args(argv)
+            for module in handler_modules(args.handler):  # what it imports where it runs
+                importlib.import_module(module)
             # The modules' functions, classes and tables (some 100,000 objects, no garbage)
             # stay to the end: the collector was paused while they loaded, and passes over
             # them until the command is done (0.02 s of a `choreo plan`)

@@ -281,8 +281,14 @@ class BusEmulator:
             self._arrived.clear()
 
     def next_event_s(self) -> float:
-        """When the next host byte finishes or the next byte reaches the host (inf: nothing due)."""
+        """When the next host byte finishes or the next byte reaches the host (inf: nothing due);
+        now if bytes have reached it and wait to be taken: another thread (a test reading the
+        ``log``) may have caught up since the reader's last ``take_received``. Without that, a
+        pty's bridge waited for the host's next write, and the host timed out on a reply that
+        had arrived (seconds at a time, on a busy machine)."""
         with self._lock:
+            if self._arrived:
+                return self.clock.now()
             rx_s = self._in_flight[0][0] if self._in_flight else math.inf
             return min(self._next_cause_s(), rx_s)
 

@@ -3,6 +3,7 @@ rest, 130 for a signal), and a closed pipe into a quiet exit."""
 
 from __future__ import annotations
 
+import importlib
 import io
 import json
 import os
@@ -281,6 +282,53 @@ def test_the_collector_passes_over_the_loaded_modules_only_while_a_command_runs(
     assert main(["plan", str(missing)]) == 1  # a command that fails gives them back too
     capsys.readouterr()
     assert (gc.isenabled(), gc.get_freeze_count()) == (True, 0)
+
+
+def test_the_modules_a_handler_imports_load_with_the_command_s_modules(monkeypatch, capsys):
+    """A handler's own imports (``loads``) happen before it runs, as its command module's do:
+    the collector paused, and a SIGTERM taken as Ctrl-C once they are loaded, not the end of
+    the process (a performer loading its planner once exited by the signal, without a word)."""
+    import gc
+    import importlib
+
+    real_import = importlib.import_module
+    seen = []
+
+    def watched(name: str, package: str | None = None):
+        if name == "choreo.show.performer":
+            seen.append((gc.isenabled(), signal.getsignal(signal.SIGTERM) is signal.SIG_DFL))
+        return real_import(name, package)
+
+    monkeypatch.setattr(importlib, "import_module", watched)
+    assert main(["perform", "--port", "/dev/null", "--listen", "tcp/127.0.0.1:0"]) == 1
+    assert "cannot open /dev/null" in capsys.readouterr().err  # refused in the handler, after
+    assert seen == [(False, False)]
+
+
+def test_a_handler_s_own_imports_are_the_modules_it_loads_first():
+    """What a handler marked with ``loads`` imports in its body, it names there: otherwise that
+    import runs with the collector on and a SIGTERM not yet taken as Ctrl-C. (Its helpers may
+    import more only when needed, as plan's report table imports rich only for the table.)"""
+    import ast
+    import inspect
+    import textwrap
+
+    from choreo.cli.arguments import handler_modules
+
+    marked = 0
+    for name in sorted(set(command_line.COMMAND_MODULES.values())):
+        module = importlib.import_module(f"choreo.cli.{name}")
+        for handler in [f for f in vars(module).values() if callable(f) and handler_modules(f)]:
+            marked += 1
+            tree = ast.parse(textwrap.dedent(inspect.getsource(handler)))
+            imported = {
+                node.module
+                for node in ast.walk(tree)
+                if isinstance(node, ast.ImportFrom) and node.module
+            }
+            missing = imported - set(handler_modules(handler))
+            assert not missing, (handler.__qualname__, sorted(missing))
+    assert marked >= 2  # choreo perform's and choreo show's, at least
 
 
 def test_numpy_gets_one_blas_thread_unless_the_user_chose_a_number(monkeypatch):

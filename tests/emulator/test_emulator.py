@@ -384,6 +384,22 @@ def test_log_records_packets_with_arrival_times_and_moves(bus):
     assert (move.servo_id, move.from_units, move.to_units, move.duration_s) == (1, 500, 600, 0.4)
 
 
+def test_bytes_another_thread_brought_in_are_due_now_not_never():
+    """Reading the log delivers what is due, as every public method does: from another thread
+    (a test watching the wire), between a pty bridge's take_received and its wait for the next
+    event. The bridge must see those bytes due now: an infinite wait left them unsent until the
+    host wrote again, after its read had timed out."""
+    clock = VirtualClock()
+    emulator = BusEmulator(clock=clock)
+    emulator.write(encode_request(C.POS_READ, 1))
+    assert emulator.take_received() == b""  # the bridge's take: nothing has arrived yet
+    clock.advance(1.0)  # the request and its reply are over
+    assert emulator.log.packets  # another thread's read: the reply's bytes now wait to be taken
+    assert emulator.next_event_s() <= clock.now()
+    assert emulator.take_received() == hexbytes("55 55 01 05 1C F4 01 E8")
+    assert emulator.next_event_s() == float("inf")  # nothing more to come
+
+
 @pytest.mark.parametrize(
     "option, value, words",
     [
