@@ -82,11 +82,10 @@ def provide(say: Callable[[str], None]) -> Choice:
 
 def _find_or_install(say: Callable[[str], None]) -> Choice:
     playwrights_own = Choice(None)
-    if _starts(playwrights_own):
-        return playwrights_own
     debian = _debian_chromium()
-    if debian is not None and _starts(debian):
-        return debian
+    found = _first_that_starts([playwrights_own] + ([debian] if debian is not None else []))
+    if found is not None:
+        return found
     say("installing Playwright's Chromium for the studio's browser tests")
     if _run([sys.executable, "-m", "playwright", "install", "chromium"]) and _starts(
         playwrights_own
@@ -109,12 +108,29 @@ def _debian_chromium() -> Choice | None:
 
 def _starts(choice: Choice) -> bool:
     """Whether the browser starts headless here (it may be missing, or lack system libraries)."""
+    return _first_that_starts([choice]) is not None
+
+
+def _first_that_starts(choices: list[Choice]) -> Choice | None:
+    """The first of ``choices`` that starts headless here, tried by one Playwright driver (each
+    driver started costs ~0.4 s of CPU and wall, before any test runs). Playwright's own is
+    launched only if it is installed: a launch that fails still costs a driver's round trips."""
     try:
         with sync_playwright() as playwright:
-            choice.launch(playwright).close()
-    except Exception:  # Playwright's own errors: a missing executable, a library, a crash
-        return False
-    return True
+            for choice in choices:
+                if (
+                    choice.executable is None
+                    and not Path(playwright.chromium.executable_path).is_file()
+                ):
+                    continue
+                try:
+                    choice.launch(playwright).close()
+                except Exception:  # Playwright's errors: a missing library, a crash
+                    continue
+                return choice
+    except Exception:  # the driver itself did not start
+        return None
+    return None
 
 
 def _run(argv: list[str]) -> bool:
