@@ -70,7 +70,7 @@ def make_motion(robot: Robot, keyframes, *, speed: float = 1.0, repeat: int = 1)
 ROBOTS = {6: make_robot(6), 18: make_robot(18, acc=2500, jerk=20000, vel=250)}
 
 # What ``motions`` draws, each strategy made once: made anew at every draw, hypothesis checked
-# each one again (validation, emptiness) for every angle of every keyframe, half of the CPU of
+# each one again (validation, emptiness) for every angle of every keyframe: a quarter of the CPU of
 # the planner's random-motion test. The same strategies drawn in the same order: the same motions.
 _ROBOT_SIZE = st.sampled_from(sorted(ROBOTS))
 _COUNT = st.integers(1, 7)
