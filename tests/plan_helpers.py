@@ -69,24 +69,39 @@ def make_motion(robot: Robot, keyframes, *, speed: float = 1.0, repeat: int = 1)
 
 ROBOTS = {6: make_robot(6), 18: make_robot(18, acc=2500, jerk=20000, vel=250)}
 
+# What ``motions`` draws, each strategy made once: made anew at every draw, hypothesis checked
+# each one again (validation, emptiness) for every angle of every keyframe: a quarter of the CPU of
+# the planner's random-motion test. The same strategies drawn in the same order: the same motions.
+_ROBOT_SIZE = st.sampled_from(sorted(ROBOTS))
+_COUNT = st.integers(1, 7)
+_TARGET = st.one_of(
+    st.floats(-90, 90, allow_nan=False).map(lambda a: round(a, 2)),  # anywhere in the limits
+    st.sampled_from([-90.0, -88.0, 89.5, 90.0]),  # at them or near
+)
+_TIMING = st.sampled_from(["t", "after", "asap"])
+_GAP = st.floats(0.05, 1.2)
+_HOLD = st.sampled_from([0.0, 0.0, 0.0, 0.2])
+_STOP = st.booleans()
+_VELOCITY = st.sampled_from([1.0, 1.0, 0.5])
+_SPEED = st.sampled_from([1.0, 1.0, 0.5, 2.0])
+_REPEAT = st.sampled_from([1, 1, 2])
+
 
 @st.composite
 def motions(draw):
     """Random keyframe sets on a 6-joint arm-like or an 18-joint robot: angles anywhere in the
     limits and often at them, every kind of timing (some infeasible), holds, stops, velocity
     scales, speeds and repeats."""
-    robot = ROBOTS[draw(st.sampled_from(sorted(ROBOTS)))]
+    robot = ROBOTS[draw(_ROBOT_SIZE)]
     n = len(robot.joints)
-    count = draw(st.integers(1, 7))
-    angle = st.floats(-90, 90, allow_nan=False).map(lambda a: round(a, 2))
-    near_limit = st.sampled_from([-90.0, -88.0, 89.5, 90.0])
+    count = draw(_COUNT)
     t = 0.0
     keyframes = []
     for line in range(1, count + 1):
-        targets = [draw(st.one_of(angle, near_limit)) for _ in range(n)]
-        timing = draw(st.sampled_from(["t", "after", "asap"]))
-        gap = draw(st.floats(0.05, 1.2))
-        hold = draw(st.sampled_from([0.0, 0.0, 0.0, 0.2]))
+        targets = [draw(_TARGET) for _ in range(n)]
+        timing = draw(_TIMING)
+        gap = draw(_GAP)
+        hold = draw(_HOLD)
         extra = {}
         if timing == "t" and line > 1:
             t += gap
@@ -94,19 +109,10 @@ def motions(draw):
         elif timing == "after" and line > 1:
             extra["after"] = round(gap, 3)
         keyframes.append(
-            kf(
-                targets,
-                line,
-                hold=hold,
-                stop=draw(st.booleans()),
-                velocity=draw(st.sampled_from([1.0, 1.0, 0.5])),
-                **extra,
-            )
+            kf(targets, line, hold=hold, stop=draw(_STOP), velocity=draw(_VELOCITY), **extra)
         )
         t += hold + 1.0  # leave room for untimed keyframes before the next t
-    speed = draw(st.sampled_from([1.0, 1.0, 0.5, 2.0]))
-    repeat = draw(st.sampled_from([1, 1, 2]))
-    return make_motion(robot, keyframes, speed=speed, repeat=repeat)
+    return make_motion(robot, keyframes, speed=draw(_SPEED), repeat=draw(_REPEAT))
 
 
 POS_EPS = 1e-6

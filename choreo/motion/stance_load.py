@@ -60,11 +60,14 @@ def worst_overload(
     stall = np.array([stall_torque_nm(robot, joint) for joint in robot.joints])
     mass_kg = float(kin.model.body_mass.sum())
     worst: Overload | None = None
-    legs = None
+    legs, apart = None, None
     for index, angles in enumerate(stances_deg):
         angles = np.asarray(angles, dtype=float)
-        legs = legs or {foot: _leg_of(kin, foot, angles) for foot in feet}
-        needed, down = holding_torques_nm(kin, feet, angles, mass_kg, legs)
+        if legs is None:
+            legs = _legs_of(kin, feet, angles)
+            # all the legs apart: so are those of the feet down in any stance (else see there)
+            apart = _apart(kin, feet, [legs[foot] for foot in feet]) or None
+        needed, down = holding_torques_nm(kin, feet, angles, mass_kg, legs, apart=apart)
         over = np.abs(needed) / stall
         j = int(np.argmax(over))
         if over[j] > 1 and (worst is None or over[j] > worst.needed_nm / worst.stall_nm):
@@ -82,10 +85,13 @@ def holding_torques_nm(
     angles_deg: np.ndarray,
     mass_kg: float,
     legs: dict[str, np.ndarray] | None = None,
+    *,
+    apart: bool | None = None,
 ) -> tuple[np.ndarray, int]:
     """Each joint's torque (N·m, robot order) to hold the robot up on its feet down at
     ``angles_deg`` (the body level), and how many feet are down; ``legs``: the joints that
-    move each foot (found here if not given)."""
+    move each foot (found here if not given); ``apart``: whether the legs of the feet down
+    hang apart (see ``_lifts_per_rad``; found here if not given)."""
     feet_m = kin.site_positions_mm(feet, angles_deg) / 1000  # (the bodies posed there too)
     down = feet_m[:, 2] <= feet_m[:, 2].min() + DOWN_MM / 1000
     masses = kin.model.body_mass
@@ -95,29 +101,85 @@ def holding_torques_nm(
     balance = np.vstack([np.ones(int(down.sum())), feet_m[down, 0], feet_m[down, 1]])
     weight = mass_kg * GRAVITY_M_S2
     forces = np.linalg.lstsq(balance, weight * np.array([1.0, *centre_m[:2]]), rcond=None)[0]
+    standing = [feet[int(foot)] for foot in np.flatnonzero(down)]
+    if legs is None:
+        legs = _legs_of(kin, standing, angles_deg)
+    joints = [legs[foot] for foot in standing]
+    if apart is None:
+        apart = _apart(kin, standing, joints)
+    lifts = _lifts_per_rad(kin, angles_deg, standing, feet_m[down, 2], joints, apart)
     torques = np.zeros(len(angles_deg))
-    for foot, force in zip(np.flatnonzero(down), forces):
-        name = feet[int(foot)]
-        leg = legs[name] if legs is not None else _leg_of(kin, name, angles_deg)
-        torques += _lift_per_rad(kin, name, angles_deg, leg) * force
+    for lift, force in zip(lifts, forces):
+        torques += lift * force
     return torques, int(down.sum())
 
 
-def _leg_of(kin: Kinematics, foot: str, angles_deg: np.ndarray) -> np.ndarray:
-    """The joints (robot order) that move ``foot``: its leg's."""
-    return np.flatnonzero(_lift_per_rad(kin, foot, angles_deg, np.arange(len(angles_deg))) != 0)
+def _legs_of(kin: Kinematics, feet: Sequence[str], angles_deg: np.ndarray) -> dict[str, np.ndarray]:
+    """The joints (robot order) that move each of ``feet``: its leg's (each joint turned alone,
+    every foot read from the same pose)."""
+    base_m = kin.site_positions_mm(feet, angles_deg)[:, 2] / 1000
+    rows = np.zeros((len(feet), len(angles_deg)))
+    for j in range(len(angles_deg)):
+        rows[:, j] = _lifted_m(kin, feet, angles_deg, [j], base_m)
+    return {foot: np.flatnonzero(row != 0) for foot, row in zip(feet, rows)}
 
 
-def _lift_per_rad(
-    kin: Kinematics, foot: str, angles_deg: np.ndarray, joints: np.ndarray
+def _lifts_per_rad(
+    kin: Kinematics,
+    angles_deg: np.ndarray,
+    feet: Sequence[str],
+    base_m: np.ndarray,
+    joints: list[np.ndarray],
+    apart: bool,
 ) -> np.ndarray:
-    """How far each of ``joints`` raises the foot per radian (m/rad; 0 for the others): the
-    vertical row of its Jacobian, which times the floor's push on the foot is the torque the
-    joint holds."""
-    base = kin.site_pose(foot, angles_deg).position_mm[2] / 1000
-    rows = np.zeros(len(angles_deg))
-    for j in joints:
-        moved = angles_deg.copy()
-        moved[j] += np.degrees(STEP_RAD)
-        rows[j] = (kin.site_pose(foot, moved).position_mm[2] / 1000 - base) / STEP_RAD
+    """How far each joint of each foot's leg raises that foot per radian (m/rad; one row per
+    foot, 0 for the joints of other legs): the vertical row of the foot's Jacobian, which times
+    the floor's push on the foot is the torque the joint holds.
+
+    Legs that hang apart (no joint of one moves another's foot) have their first joints turned
+    together, then their second and so on: each foot moves by its own joint as if turned alone
+    (MuJoCo poses a body from its own joints and its parents' only), for a few forward
+    kinematics per stance instead of one per joint; others each joint alone."""
+    rows = np.zeros((len(feet), len(angles_deg)))
+    if apart:
+        rounds = [
+            [(f, leg[k]) for f, leg in enumerate(joints) if k < len(leg)]
+            for k in range(max(map(len, joints), default=0))
+        ]
+    else:
+        rounds = [[(f, j)] for f, leg in enumerate(joints) for j in leg]
+    for turned in rounds:
+        lifted = _lifted_m(kin, feet, angles_deg, [j for _, j in turned], base_m)
+        for f, j in turned:
+            rows[f, j] = lifted[f]
     return rows
+
+
+def _lifted_m(
+    kin: Kinematics,
+    feet: Sequence[str],
+    angles_deg: np.ndarray,
+    turned: list[int],
+    base_m: np.ndarray,
+) -> np.ndarray:
+    """How far every foot rises per radian with the ``turned`` joints each turned STEP_RAD."""
+    moved = angles_deg.copy()
+    moved[turned] += np.degrees(STEP_RAD)
+    return (kin.site_positions_mm(feet, moved)[:, 2] / 1000 - base_m) / STEP_RAD
+
+
+def _apart(kin: Kinematics, feet: Sequence[str], legs: list[np.ndarray]) -> bool:
+    """No joint of one foot's leg is on another foot's chain of bodies."""
+    model = kin.model
+    chains = []
+    for foot in feet:
+        body, chain = int(model.site_bodyid[kin.site_id(foot)]), set()
+        while body > 0:
+            chain.add(body)
+            body = int(model.body_parentid[body])
+        chains.append(chain)
+    joints = kin.robot.joints
+    bodies = [{int(model.joint(joints[j].mjcf_joint).bodyid[0]) for j in leg} for leg in legs]
+    return not any(
+        bodies[a] & chains[b] for a in range(len(feet)) for b in range(len(feet)) if a != b
+    )

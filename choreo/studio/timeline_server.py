@@ -29,6 +29,9 @@ log = logging.getLogger(__name__)
 
 MAX_REQUEST_BYTES = 1_000_000
 KEEP_ALIVE_S = 15.0
+# how often the server's loop looks whether it is to stop: closing the studio waits for that
+# look (http.server's default, 0.5 s, was a quarter of a second of every close on average)
+SHUTDOWN_POLL_S = 0.05
 ROOT = "/timeline/"  # every path served, on the studio's address; viser's are all others
 FILES = {  # what the component's server serves from web/: path -> (file, content type)
     ROOT: ("timeline.html", "text/html; charset=utf-8"),
@@ -84,7 +87,10 @@ class TimelineServer:
         self._http.daemon_threads = True
         self.port = int(self._http.server_address[1])
         self._thread = threading.Thread(
-            target=self._http.serve_forever, name="studio-timeline", daemon=True
+            target=self._http.serve_forever,
+            args=(SHUTDOWN_POLL_S,),
+            name="studio-timeline",
+            daemon=True,
         )
         # the page's requests are handled one at a time in the order they came (an edit
         # reloads and simulates: seconds, while the page goes on asking)

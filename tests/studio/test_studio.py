@@ -8,6 +8,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -240,25 +241,45 @@ def test_a_save_that_changes_the_first_keyframe_simulates_until_the_arm_is_back_
     assert "floor_contact" in {f.kind.value for f in physics.findings if f.time_s > 9}
 
 
+@dataclass(frozen=True)
+class Watching:
+    """A FileWatcher, and how many times it has read its files (once at each poll)."""
+
+    watcher: FileWatcher
+    reads: list[int]
+
+    def polls_done(self, count: int = 2) -> None:
+        """Until ``count`` more polls have run to their end (the one after them has begun):
+        whatever they would call, they have called. Not a fixed sleep: on a busy machine one
+        saw fewer polls than it allowed for."""
+        since = self.reads[0]
+        wait_for(lambda: self.reads[0] > since + count, f"{count} polls of the watcher")
+
+
 @contextmanager
-def watching(
-    files: Callable[[], list[Path]], on_change: Callable[[], None]
-) -> Iterator[FileWatcher]:
+def watching(files: Callable[[], list[Path]], on_change: Callable[[], None]) -> Iterator[Watching]:
     """A FileWatcher polling ``files``, stopped when the block ends."""
-    watcher = FileWatcher(files, on_change)
-    watcher.start()
+    reads = [0]
+
+    def read() -> list[Path]:
+        reads[0] += 1
+        return files()
+
+    watched = Watching(FileWatcher(read, on_change), reads)
+    watched.watcher.start()
     try:
-        yield watcher
+        yield watched
     finally:
-        watcher.stop()
+        watched.watcher.stop()
 
 
 def test_the_watcher_notices_a_save(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text(TEXT)
     changed = threading.Event()
-    with watching(lambda: [path], changed.set):
-        assert not changed.wait(0.3)
+    with watching(lambda: [path], changed.set) as watched:
+        watched.polls_done()
+        assert not changed.is_set()
         path.write_text(TEXT + "# saved again\n")
         assert changed.wait(5.0)
 
@@ -269,11 +290,12 @@ def test_what_the_studio_writes_itself_is_no_save(tmp_path):
     path = tmp_path / "wave.yaml"
     path.write_text(TEXT)
     changed = threading.Event()
-    with watching(lambda: [path], changed.set) as watcher:
-        with watcher.writing():
+    with watching(lambda: [path], changed.set) as watched:
+        with watched.watcher.writing():
             write_text_atomically(path, TEXT + "# written by the studio\n")
             time.sleep(0.3)  # the polls due meanwhile wait for the write to be noted
-        assert not changed.wait(0.3)
+        watched.polls_done()
+        assert not changed.is_set()
         path.write_text(TEXT + "# saved in an editor\n")
         assert changed.wait(5.0)
 
@@ -291,17 +313,18 @@ def test_a_file_the_reload_brought_in_or_dropped_is_no_save(tmp_path):
         files[:] = [path, song] if len(files) == 1 else [path]
         reloads.append(len(files))
 
-    with watching(lambda: list(files), reload):
+    with watching(lambda: list(files), reload) as watched:
         write_text_atomically(path, TEXT + "# with its song\n")  # one save, seen once
         wait_for(lambda: reloads == [2], "the reload that brings the song in")
-        time.sleep(0.3)  # polls that see the song: no save
+        watched.polls_done()  # polls that see the song: no save
+        assert reloads == [2]
         write_text_atomically(path, TEXT + "# without it\n")
         wait_for(lambda: reloads == [2, 1], "the reload that drops it")
-        time.sleep(0.3)
+        watched.polls_done()
         song.write_bytes(b"no longer watched")
         write_text_atomically(path, TEXT)
         wait_for(lambda: len(reloads) == 3, "a save of the motion")
-        time.sleep(0.3)
+        watched.polls_done()
         assert reloads == [2, 1, 2]
 
 
