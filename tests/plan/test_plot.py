@@ -29,6 +29,24 @@ def test_plan_plot_draws_a_time_window(tmp_path, capsys):
     capsys.readouterr()
 
 
+def test_a_window_draws_its_stretch_not_the_whole_motion(tmp_path):
+    # the same title on both: the command's title names the window, which alone would differ
+    motion = load_motion(SIMPLE)
+    compiled = compile_motion(motion)
+    drawn = {}
+    for name, window_s in (("whole", None), ("window", (0.5, 1.5))):
+        drawn[name] = tmp_path / f"{name}.png"
+        plot_plan(
+            compiled.trajectory,
+            compiled.ticks,
+            motion.robot,
+            drawn[name],
+            title="the same",
+            window_s=window_s,
+        )
+    assert drawn["window"].read_bytes() != drawn["whole"].read_bytes()
+
+
 @pytest.mark.parametrize(
     "extra, line",
     [
