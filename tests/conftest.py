@@ -18,6 +18,14 @@ from pathlib import Path
 # differ in their last bits at most, as they do between machines with more or fewer cores. Set
 # before anything imports numpy (nothing above does). A value the user set is kept.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# Mesa's software renderer (llvmpipe) hands each frame's tiles to threads of its own, a thread a
+# core: for a preview's small frames, most of them the backdrop laid over (backdrop.py), handing
+# over costs more than it saves, and its threads only compete with the other worker here. Drawn
+# in the rendering thread, the README's dance preview took ~20 % less CPU to render (2.6 -> 2.2 s),
+# every frame the same bytes (llvmpipe draws each tile alike whichever thread draws it). For the
+# workers and the `choreo` processes the tests start; read when Mesa starts, so set before any
+# test renders. A value the user set is kept.
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 import browser
 import bytecode

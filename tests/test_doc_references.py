@@ -99,6 +99,7 @@ def entry_point_groups() -> frozenset[str]:
     return frozenset(project.get("entry-points", {}))
 
 
+@cache
 def stale_dotted(name: str) -> str | None:
     """Why ``choreo.a.b.Name`` points nowhere (None if it resolves): the longest prefix that is a
     module must define the first name after it (as a function, class, assignment or import), or
@@ -148,9 +149,21 @@ def folders() -> dict[str, list[Path]]:
     return by_folder
 
 
+def stale_in_prose(path: Path) -> list[str]:
+    """The stale pointers in what ``path`` says to a reader (``prose``). A Python file is read
+    whole first: its comments and docstrings are pieces of it, so where nothing in all of it
+    points nowhere (its code's paths and names included), nothing in them does, and parsing it
+    for them (four fifths of this test's CPU) is skipped. Each pointer is found alike in a piece
+    and in the whole: none spans a line, and what the patterns look at either side of one (the
+    comment's "#", a docstring's quotes or the line joining the pieces) is no word character."""
+    if path.suffix == ".py" and not stale_pointers(path.read_text(encoding="utf-8")):
+        return []
+    return stale_pointers(prose(path))
+
+
 @pytest.mark.parametrize(("folder", "paths"), folders().items(), ids=list(folders()))
 def test_every_pointer_in_a_file_points_to_something(folder, paths):
-    stale = {str(path.relative_to(REPO)): stale_pointers(prose(path)) for path in paths}
+    stale = {str(path.relative_to(REPO)): stale_in_prose(path) for path in paths}
     assert {path: pointers for path, pointers in stale.items() if pointers} == {}
 
 

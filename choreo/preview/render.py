@@ -413,7 +413,8 @@ class FrameRenderer:
             mujoco.mjr_render(self._viewport, self._scene, self._context)
             return self._scene
 
-        if not (still and self._backdrop and self._backdrop.draw_over(draw, camera)):
+        laid = still and self._backdrop and self._backdrop.draw_over(draw, camera, self._context)
+        if not laid:
             draw(mujoco.mjtCatBit.mjCAT_ALL, True)
         mujoco.mjr_overlay(
             mujoco.mjtFont.mjFONT_NORMAL,
@@ -436,6 +437,8 @@ class FrameRenderer:
     def close(self) -> None:
         if self._context is not None:
             self._gl.make_current()
+            if self._backdrop is not None:
+                self._backdrop.free()
             self._context.free()
             self._context = None
             give_back(self._gl)  # for the next render: see gl.py

@@ -97,3 +97,21 @@ def test_what_moves_wins_a_tie_with_the_backdrop_as_in_mujocos_depth_test():
     box = whole[..., 2] > 2 * whole[..., 0]  # blue over red
     assert box.sum() > 200
     assert np.array_equal(laid_over, whole)
+
+
+def test_the_frames_gl_copy_is_freed_with_the_renderer(rollout):
+    """The texture and framebuffer a frame laid over is copied through (backdrop.py) go with
+    the renderer: the GL context is kept for the thread's next render (gl.py), they would not."""
+    from OpenGL import GL
+
+    model = load_model(rollout.robot, rollout.props)
+    camera = frame_camera(model, rollout, SIZE[0] / SIZE[1])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with FrameRenderer(model, *SIZE, gl.offscreen_backend()) as renderer:
+        for _ in range(2):  # the second laid over the backdrop
+            renderer.render(data, camera, ("t", "0"), ("", ""))
+        texture, framebuffer = renderer._backdrop._layer
+        assert GL.glIsTexture(texture) and GL.glIsFramebuffer(framebuffer)
+    renderer._gl.make_current()  # the kept context, given back
+    assert not GL.glIsTexture(texture) and not GL.glIsFramebuffer(framebuffer)
