@@ -101,7 +101,7 @@ def test_the_page_and_the_timeline_are_all_on_the_one_address_and_close_with_the
             socket.create_connection(("127.0.0.1", port), timeout=2.0).close()
 
 
-def test_a_message_the_server_cannot_read_is_one_line_not_a_traceback(tmp_path, capfd):
+def test_a_message_the_server_cannot_read_is_one_line_not_a_traceback(tmp_path, capfd, caplog):
     motion = tmp_path / "wave.yaml"
     shutil.copy(WAVE, motion)
     said: list[str] = []
@@ -143,3 +143,5 @@ def test_a_message_the_server_cannot_read_is_one_line_not_a_traceback(tmp_path, 
     assert len(ignored()) == len(frames), said
     assert all("\n" not in line for line in ignored())
     assert "Traceback" not in "".join(capfd.readouterr())
+    # a traceback logged goes to pytest's log capture here, to the terminal in `choreo studio`
+    assert [record.getMessage() for record in caplog.records if record.exc_info] == []
