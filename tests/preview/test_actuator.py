@@ -190,18 +190,23 @@ def test_the_drive_gives_exactly_what_the_plain_law_gives_over_random_set_points
         assert np.array_equal(drive.aim_rad, reference.aim), f"step {step}"
 
 
+def delayed_servos_with_play(rng):
+    """Four of arm6's servos with gear play and offsets, delayed by no step, two whole steps,
+    1.85 steps and 5.5 steps: their parameters and random start angles (rad)."""
+    figures = {
+        name: {"response_delay_s": delay, "backlash_deg": 1.0, "offset_deg": 0.5}
+        for name, delay in zip(ARM6.joint_names, (0.0, 0.004, 0.0037, 0.011))
+    }
+    return list(actuator_params(ARM6, figures)[:4]), rng.uniform(-1.0, 1.0, 4)
+
+
 def test_set_points_known_for_a_stretch_of_steps_give_what_one_step_at_a_time_gives():
     """The step loop works out a stretch's delayed set-points and play edges at once
     (``play_edges``), then follows them step by step: the plain law's controls and aims, and
     the delay line ``ctrl`` leaves one step at a time, with delays of whole steps and between
     two."""
     rng = np.random.default_rng(11)
-    figures = {
-        name: {"response_delay_s": delay, "backlash_deg": 1.0, "offset_deg": 0.5}
-        for name, delay in zip(ARM6.joint_names, (0.0, 0.004, 0.0037, 0.011))
-    }
-    params = list(actuator_params(ARM6, figures)[:4])
-    initial = rng.uniform(-1.0, 1.0, 4)
+    params, initial = delayed_servos_with_play(rng)
     stepped, stretched = ServoDrive(params, DT_S, initial), ServoDrive(params, DT_S, initial)
     reference = ReferenceDrive(params, initial)
     setpoints = initial + np.cumsum(rng.normal(0.0, 0.01, (300, 4)), axis=0)
@@ -223,12 +228,7 @@ def test_edges_worked_out_ahead_and_cut_short_are_what_play_edges_gives():
     edges ``play_edges`` gives for those steps, and after them the same delay line (the next
     stretch's edges equal), with delays of whole steps and between two."""
     rng = np.random.default_rng(13)
-    figures = {
-        name: {"response_delay_s": delay, "backlash_deg": 1.0, "offset_deg": 0.5}
-        for name, delay in zip(ARM6.joint_names, (0.0, 0.004, 0.0037, 0.011))
-    }
-    params = list(actuator_params(ARM6, figures)[:4])
-    initial = rng.uniform(-1.0, 1.0, 4)
+    params, initial = delayed_servos_with_play(rng)
     played, ahead = ServoDrive(params, DT_S, initial), ServoDrive(params, DT_S, initial)
     setpoints = initial + np.cumsum(rng.normal(0.0, 0.01, (400, 4)), axis=0)
     begin = 0
